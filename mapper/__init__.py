@@ -1,0 +1,30 @@
+"""Floor and obstacle height map (Gutmann, Fukuchi, Fujita) as a library; no MuJoCo dependency."""
+
+from mapper.averaging import AveragingMap
+from mapper.elevation import ElevationFilterParams, RobotElevationFilter
+from mapper.errors import InvalidInputError, InvalidParameterError, MapperError
+from mapper.grid import AffectedArea, CellType, GridGeometry, UpdateResult
+from mapper.intrinsics import PinholeIntrinsics
+from mapper.mapper import FloorObstacleMapper
+from mapper.params import MapperParams
+from mapper.zmatch import ZDecision, ZMatch, apply_z_shift, frame_decision
+
+__all__ = [
+    "AffectedArea",
+    "AveragingMap",
+    "CellType",
+    "ElevationFilterParams",
+    "FloorObstacleMapper",
+    "GridGeometry",
+    "InvalidInputError",
+    "InvalidParameterError",
+    "MapperError",
+    "MapperParams",
+    "PinholeIntrinsics",
+    "RobotElevationFilter",
+    "UpdateResult",
+    "ZDecision",
+    "ZMatch",
+    "apply_z_shift",
+    "frame_decision",
+]

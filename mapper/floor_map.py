@@ -1,0 +1,114 @@
+"""2.5D floor height map: verification (eq. 8) and update (eq. 9), inside the affected area.
+
+Invalid floor heights are stored as NaN (the paper's −∞). The cell of a height ``h`` in column
+``(ix, iy)`` is layer ``floor((h - z_min) / layer)``; a height outside the grid's z range has no
+cell, so it is treated as unsupported (``OG = 0.5`` outside the grid, eq. 4).
+
+Eq. 9 as the paper's sentences describe it (its typeset form is garbled), for a point with floor
+height ``h`` whose cell passes eq. 7 (``OG(x, y, h) > p_occ``):
+
+- stored floor invalid → ``h``;
+- ``h > Floor + ε`` → ``h`` (a higher surface replaces the lower one);
+- ``h < Floor − ε`` → unchanged (lower surfaces are ignored);
+- otherwise → ``ν·Floor + (1 − ν)·h``.
+
+Points are applied one after the other in input order (deterministic).
+"""
+
+from __future__ import annotations
+
+import numba
+import numpy as np
+from numpy.typing import NDArray
+
+
+@numba.njit(cache=True, inline="always")
+def _layer_of(h: float, z_min: float, layer: float, nz: int) -> int:
+    k = int(np.floor((h - z_min) / layer))
+    if k < 0 or k >= nz:
+        return -1
+    return k
+
+
+@numba.njit(cache=True)
+def verify_floor(
+    floor: NDArray[np.float64],
+    og: NDArray[np.uint8],
+    occ_level: int,
+    z_min: float,
+    layer: float,
+    ix0: int,
+    ix1: int,
+    iy0: int,
+    iy1: int,
+) -> int:
+    """Eq. 8 in ``[ix0, ix1) × [iy0, iy1)``: invalidate floors whose cell is not above p_occ.
+
+    Returns:
+        How many floor heights were invalidated.
+    """
+    nz = og.shape[2]
+    removed = 0
+    for ix in range(ix0, ix1):
+        for iy in range(iy0, iy1):
+            h = floor[ix, iy]
+            if np.isnan(h):
+                continue
+            k = _layer_of(h, z_min, layer, nz)
+            if k < 0 or og[ix, iy, k] <= occ_level:
+                floor[ix, iy] = np.nan
+                removed += 1
+    return removed
+
+
+@numba.njit(cache=True)
+def update_floor(
+    floor: NDArray[np.float64],
+    og: NDArray[np.uint8],
+    point_cell: NDArray[np.int64],
+    floor_heights: NDArray[np.float64],
+    occ_level: int,
+    z_min: float,
+    layer: float,
+    eps: float,
+    nu: float,
+) -> tuple[int, int]:
+    """Eq. 9 for every inserted point with a finite floor height.
+
+    Args:
+        floor: (nx, ny) floor heights [m], NaN = invalid; updated in place.
+        og: (nx, ny, nz) occupancy levels (already updated with this frame).
+        point_cell: (N,) column index ``ix*ny + iy`` of each point, negative if dropped.
+        floor_heights: (N,) height ``h`` of each point's horizontal plane [m]; non-finite =
+            not floor.
+        occ_level: Occupied iff level > occ_level (eq. 7).
+        z_min: World z of the grid's lowest face [m].
+        layer: Layer height [m].
+        eps: Gate of eq. 9 [m].
+        nu: Smoothing factor of eq. 9.
+
+    Returns:
+        (floor points used, floor points rejected by eq. 7).
+    """
+    ny = og.shape[1]
+    nz = og.shape[2]
+    used = 0
+    rejected = 0
+    for i in range(point_cell.shape[0]):
+        col = point_cell[i]
+        h = floor_heights[i]
+        if col < 0 or not np.isfinite(h):
+            continue
+        ix = col // ny
+        iy = col - ix * ny
+        k = _layer_of(h, z_min, layer, nz)
+        if k < 0 or og[ix, iy, k] <= occ_level:
+            rejected += 1
+            continue
+        used += 1
+        f = floor[ix, iy]
+        if np.isnan(f) or h > f + eps:
+            floor[ix, iy] = h
+        elif h >= f - eps:
+            floor[ix, iy] = nu * f + (1.0 - nu) * h
+    return used, rejected

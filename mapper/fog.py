@@ -1,0 +1,97 @@
+"""Obstacle height (eq. 10), floor and obstacle grid (eq. 11) and ceiling map (Sec. VI).
+
+Conventions (heights in world metres, NaN = invalid):
+
+- ``Obstacle(x, y)`` is the *top face* of the highest occupied cell of the column,
+  ``z_min + (k + 1)·layer`` — the coarse upper bound of what is there.
+- FOG: obstacle if ``h_o > h_f + δ`` (with an invalid floor every valid ``h_o`` counts), else
+  floor if ``h_f`` is valid, else unknown. Obstacles below the floor surface are ignored; an
+  occupied cell hanging above a floor (curtain, table top) makes the cell an obstacle.
+- ``Ceiling(x, y)`` is the *bottom face* of the lowest occupied cell above the free space a
+  robot could use: where the floor is valid, the lowest occupied cell whose top is above
+  ``h_f + δ`` (the cells the FOG counts as obstacle); where it is not, the lowest occupied cell
+  with a cell observed free (``OG < 0.5``) somewhere below it in its column (something seen
+  overhanging). NaN where there is none. ``ceiling − floor`` is the clearance to crawl under.
+"""
+
+from __future__ import annotations
+
+import numba
+import numpy as np
+from numpy.typing import NDArray
+
+from mapper.grid import CellType
+from mapper.params import LEVEL_UNKNOWN
+
+_UNKNOWN = np.int8(CellType.UNKNOWN)
+_FLOOR = np.int8(CellType.FLOOR)
+_OBSTACLE = np.int8(CellType.OBSTACLE)
+
+
+@numba.njit(cache=True)
+def update_fog_area(
+    og: NDArray[np.uint8],
+    floor: NDArray[np.float64],
+    obstacle: NDArray[np.float64],
+    fog_types: NDArray[np.int8],
+    fog_heights: NDArray[np.float64],
+    occ_level: int,
+    z_min: float,
+    layer: float,
+    delta: float,
+    ix0: int,
+    ix1: int,
+    iy0: int,
+    iy1: int,
+) -> None:
+    """Recompute ``obstacle`` (eq. 10) and the FOG (eq. 11) in ``[ix0, ix1) × [iy0, iy1)``."""
+    nz = og.shape[2]
+    for ix in range(ix0, ix1):
+        for iy in range(iy0, iy1):
+            top = np.nan
+            for k in range(nz - 1, -1, -1):
+                if og[ix, iy, k] > occ_level:
+                    top = z_min + (k + 1) * layer
+                    break
+            obstacle[ix, iy] = top
+            hf = floor[ix, iy]
+            if not np.isnan(top) and (np.isnan(hf) or top > hf + delta):
+                fog_types[ix, iy] = _OBSTACLE
+                fog_heights[ix, iy] = top
+            elif not np.isnan(hf):
+                fog_types[ix, iy] = _FLOOR
+                fog_heights[ix, iy] = hf
+            else:
+                fog_types[ix, iy] = _UNKNOWN
+                fog_heights[ix, iy] = np.nan
+
+
+@numba.njit(cache=True)
+def ceiling_map(
+    og: NDArray[np.uint8],
+    floor: NDArray[np.float64],
+    occ_level: int,
+    z_min: float,
+    layer: float,
+    delta: float,
+) -> NDArray[np.float64]:
+    """(nx, ny) ceiling heights [m] as defined in the module docstring, NaN where none."""
+    nx, ny, nz = og.shape
+    out = np.full((nx, ny), np.nan)
+    for ix in range(nx):
+        for iy in range(ny):
+            hf = floor[ix, iy]
+            seen_free = False
+            for k in range(nz):
+                level = og[ix, iy, k]
+                if level > occ_level:
+                    if np.isnan(hf):
+                        if seen_free:
+                            out[ix, iy] = z_min + k * layer
+                            break
+                    elif z_min + (k + 1) * layer > hf + delta:
+                        out[ix, iy] = z_min + k * layer
+                        break
+                elif level < LEVEL_UNKNOWN:
+                    seen_free = True
+    return out

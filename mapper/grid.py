@@ -1,0 +1,244 @@
+"""Grid geometry and the small types every map shares (cell labels, affected area, update result).
+
+Cell convention (world frame, metres): cell ``(ix, iy, iz)`` covers
+``origin_x + ix·cell_m <= x < origin_x + (ix+1)·cell_m`` (same in y) and
+``z_min_m + iz·layer_m <= z < z_min_m + (iz+1)·layer_m``. The x/y origin is always a whole
+multiple of ``cell_m`` (cell boundaries are world-anchored at ``k·cell_m``) and moves in whole
+cells when the maps are recentred; z is absolute and never moves.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+from enum import IntEnum
+
+import numpy as np
+from numpy.typing import ArrayLike, NDArray
+
+from mapper.errors import InvalidInputError
+from mapper.params import MapperParams
+
+
+class CellType(IntEnum):
+    """Label of a FOG cell (eq. 11); also the labels of ground-truth grids."""
+
+    UNKNOWN = 0
+    FLOOR = 1
+    OBSTACLE = 2
+
+
+@dataclass(frozen=True)
+class GridGeometry:
+    """Where the grid lies in the world.
+
+    Attributes:
+        nx: Cells along x.
+        ny: Cells along y.
+        nz: Layers along z.
+        cell_m: Cell side in x and y [m].
+        layer_m: Layer height [m].
+        z_min_m: World z of the lowest layer's bottom face [m].
+        origin_ix: World lattice index of the grid's corner cell along x: the corner (lowest
+            x, y) is at ``origin_ix·cell_m``. Integer so that recentring never drifts.
+        origin_iy: Same along y.
+    """
+
+    nx: int
+    ny: int
+    nz: int
+    cell_m: float
+    layer_m: float
+    z_min_m: float
+    origin_ix: int = 0
+    origin_iy: int = 0
+
+    @classmethod
+    def from_params(cls, params: MapperParams, center_xy_m: ArrayLike = (0.0, 0.0)) -> GridGeometry:
+        """Geometry of ``params``' grid placed so that ``center_xy_m`` lies in the central cell.
+
+        The central cell is ``(nx // 2, ny // 2)``.
+        """
+        cx, cy = (float(v) for v in np.asarray(center_xy_m, dtype=np.float64).reshape(2))
+        return cls(
+            params.nx,
+            params.ny,
+            params.nz,
+            params.cell_m,
+            params.layer_m,
+            params.z_min_m,
+            math.floor(cx / params.cell_m) - params.nx // 2,
+            math.floor(cy / params.cell_m) - params.ny // 2,
+        )
+
+    @property
+    def origin_xy_m(self) -> tuple[float, float]:
+        """World (x, y) of the grid's corner (lowest x and y) [m]."""
+        return (self.origin_ix * self.cell_m, self.origin_iy * self.cell_m)
+
+    @property
+    def z_max_m(self) -> float:
+        """World z of the top layer's upper face [m]."""
+        return self.z_min_m + self.nz * self.layer_m
+
+    def shift_to(self, x_m: float, y_m: float) -> tuple[int, int]:
+        """Whole-cell shift (sx, sy) that puts world (x, y) into the central cell."""
+        return (
+            math.floor(x_m / self.cell_m) - self.nx // 2 - self.origin_ix,
+            math.floor(y_m / self.cell_m) - self.ny // 2 - self.origin_iy,
+        )
+
+    def shifted(self, sx: int, sy: int) -> GridGeometry:
+        """This geometry moved by (sx, sy) whole cells."""
+        return GridGeometry(
+            self.nx,
+            self.ny,
+            self.nz,
+            self.cell_m,
+            self.layer_m,
+            self.z_min_m,
+            self.origin_ix + sx,
+            self.origin_iy + sy,
+        )
+
+    def cell_of(self, points_world: ArrayLike) -> tuple[NDArray[np.int64], NDArray[np.bool_]]:
+        """Cell indices of world points.
+
+        Args:
+            points_world: (N, 3) world points [m] (or (N, 2) for x, y only).
+
+        Returns:
+            (indices (N, 3) or (N, 2) int64, valid (N,) bool: finite and inside the grid).
+            Indices of invalid points are -1.
+        """
+        p = np.asarray(points_world, dtype=np.float64)
+        if p.ndim != 2 or p.shape[1] not in (2, 3):
+            raise InvalidInputError(f"points_world must have shape (N, 3) or (N, 2), got {p.shape}")
+        ox, oy = self.origin_xy_m
+        with np.errstate(invalid="ignore"):
+            g = np.empty_like(p)
+            g[:, 0] = np.floor((p[:, 0] - ox) / self.cell_m)
+            g[:, 1] = np.floor((p[:, 1] - oy) / self.cell_m)
+            upper = [self.nx, self.ny]
+            if p.shape[1] == 3:
+                g[:, 2] = np.floor((p[:, 2] - self.z_min_m) / self.layer_m)
+                upper.append(self.nz)
+            valid = np.all(np.isfinite(g) & (g >= 0) & (g < np.array(upper)), axis=1)
+        idx = np.full(p.shape, -1, dtype=np.int64)
+        idx[valid] = g[valid].astype(np.int64)
+        return idx, valid
+
+    def cell_center(
+        self, ix: ArrayLike, iy: ArrayLike, iz: ArrayLike | None = None
+    ) -> NDArray[np.float64]:
+        """World centre [m] of cells: (..., 2) for (ix, iy), (..., 3) when ``iz`` is given."""
+        ox, oy = self.origin_xy_m
+        x = ox + (np.asarray(ix, dtype=np.float64) + 0.5) * self.cell_m
+        y = oy + (np.asarray(iy, dtype=np.float64) + 0.5) * self.cell_m
+        if iz is None:
+            return np.stack(np.broadcast_arrays(x, y), axis=-1)
+        z = self.z_min_m + (np.asarray(iz, dtype=np.float64) + 0.5) * self.layer_m
+        return np.stack(np.broadcast_arrays(x, y, z), axis=-1)
+
+    def cell_centers_xy(self) -> NDArray[np.float64]:
+        """(nx, ny, 2) world (x, y) of every cell centre [m]."""
+        ix, iy = np.meshgrid(np.arange(self.nx), np.arange(self.ny), indexing="ij")
+        return self.cell_center(ix, iy)
+
+    def layer_bottom_m(self, iz: ArrayLike) -> NDArray[np.float64]:
+        """World z [m] of the bottom face of layer(s) ``iz``."""
+        return self.z_min_m + np.asarray(iz, dtype=np.float64) * self.layer_m
+
+
+@dataclass(frozen=True)
+class AffectedArea:
+    """Bounding box of the (x, y) cells an update changed, half-open ``[ix0, ix1) × [iy0, iy1)``."""
+
+    ix0: int
+    ix1: int
+    iy0: int
+    iy1: int
+
+    @property
+    def slices(self) -> tuple[slice, slice]:
+        """Index the (nx, ny) maps with these to get the area."""
+        return (slice(self.ix0, self.ix1), slice(self.iy0, self.iy1))
+
+    @property
+    def cell_count(self) -> int:
+        """Columns in the area."""
+        return (self.ix1 - self.ix0) * (self.iy1 - self.iy0)
+
+
+@dataclass(frozen=True)
+class UpdateResult:
+    """What one ``update`` did.
+
+    Attributes:
+        affected_area: Columns whose 3D cells changed (steps 2–4 ran only there), None if none.
+        points_used: Points inserted (finite and inside the grid).
+        points_dropped_nonfinite: Points with a NaN/inf coordinate, ignored.
+        points_dropped_outside: Finite points outside the grid in x, y or z, ignored.
+        floor_points_used: Floor-labelled points that passed eq. 7 and updated the floor map.
+        floor_points_rejected: Floor-labelled points that failed eq. 7 (cell at ``h`` not
+            occupied, or ``h`` outside the grid's z range).
+        cells_updated: 3D cells that received a (hit or miss) update this frame.
+    """
+
+    affected_area: AffectedArea | None
+    points_used: int
+    points_dropped_nonfinite: int
+    points_dropped_outside: int
+    floor_points_used: int
+    floor_points_rejected: int
+    cells_updated: int = 0
+
+
+def validate_frame(
+    points: ArrayLike, floor_heights: ArrayLike, sensor_origin: ArrayLike
+) -> tuple[NDArray[np.float64], NDArray[np.float64], NDArray[np.float64]]:
+    """Check and convert the inputs of ``update`` (C-contiguous float64).
+
+    Raises:
+        InvalidInputError: (a ValueError) naming the expected shape, or a non-finite origin.
+    """
+    p = np.ascontiguousarray(points, dtype=np.float64)
+    if p.ndim != 2 or p.shape[1] != 3:
+        raise InvalidInputError(f"points must have shape (N, 3) [m, world frame], got {p.shape}")
+    h = np.ascontiguousarray(floor_heights, dtype=np.float64)
+    if h.shape != (p.shape[0],):
+        raise InvalidInputError(
+            f"floor_heights must have shape (N,) = ({p.shape[0]},) matching points, got {h.shape}"
+        )
+    o = np.ascontiguousarray(sensor_origin, dtype=np.float64)
+    if o.shape != (3,):
+        raise InvalidInputError(f"sensor_origin must have shape (3,), got {o.shape}")
+    if not np.all(np.isfinite(o)):
+        raise InvalidInputError(f"sensor_origin must be finite, got {o.tolist()}")
+    return p, h, o
+
+
+def scroll_xy(array: NDArray, sx: int, sy: int, fill: float | int) -> None:
+    """Scroll an (nx, ny, ...) array in place by whole cells: ``new[i, j] = old[i + sx, j + sy]``.
+
+    Cells entering the array get ``fill``. Cost is one copy of the array at most, whatever the
+    shift (no allocation beyond numpy's overlap buffer).
+    """
+    nx, ny = array.shape[:2]
+    if abs(sx) >= nx or abs(sy) >= ny:
+        array[...] = fill
+        return
+    if sx or sy:
+        dst_x = slice(max(0, -sx), nx - max(0, sx))
+        src_x = slice(max(0, sx), nx - max(0, -sx))
+        dst_y = slice(max(0, -sy), ny - max(0, sy))
+        src_y = slice(max(0, sy), ny - max(0, -sy))
+        array[dst_x, dst_y] = array[src_x, src_y]
+    if sx > 0:
+        array[nx - sx :] = fill
+    elif sx < 0:
+        array[:-sx] = fill
+    if sy > 0:
+        array[:, ny - sy :] = fill
+    elif sy < 0:
+        array[:, :-sy] = fill

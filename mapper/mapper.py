@@ -1,0 +1,222 @@
+"""FloorObstacleMapper: the paper's 3D occupancy grid + floor height map + FOG, kept up to date.
+
+One ``update`` is the paper's Fig. 2 after the (optional, caller-side) z matching:
+insert the points into the 3D grid (rays, eqs. 6, 12, 13), verify the floor map in the affected
+area (eq. 8), update it with the floor points (eqs. 7, 9), recompute obstacle heights and the
+FOG in the affected area (eqs. 10, 11). All grids are world-anchored in x, y (see
+`mapper.grid`) and scroll by whole cells with ``recenter``; z is absolute.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+from numpy.typing import ArrayLike, NDArray
+
+from mapper.floor_map import update_floor, verify_floor
+from mapper.fog import ceiling_map, update_fog_area
+from mapper.grid import (
+    AffectedArea,
+    CellType,
+    GridGeometry,
+    UpdateResult,
+    scroll_xy,
+    validate_frame,
+)
+from mapper.occupancy import insert_frame, lookup_tables
+from mapper.params import LEVEL_UNKNOWN, LEVELS, MapperParams
+from mapper.zmatch import ZMatch, match_z
+
+
+class FloorObstacleMapper:
+    """The floor and obstacle height map of Gutmann, Fukuchi and Fujita.
+
+    All heights handed out are world z [m] with NaN for invalid. The first ``update`` compiles
+    the numba kernels (about a second, once per machine thanks to numba's cache).
+
+    Args:
+        params: Grid geometry and thresholds (defaults: the paper's grid).
+        center_xy_m: World (x, y) [m] that lies in the central cell initially.
+    """
+
+    def __init__(
+        self, params: MapperParams | None = None, center_xy_m: ArrayLike = (0.0, 0.0)
+    ) -> None:
+        self.params = params if params is not None else MapperParams()
+        p = self.params
+        self._geometry = GridGeometry.from_params(p, center_xy_m)
+        self._hit_table, self._miss_table = lookup_tables(p)
+        self._occ_level = p.occ_threshold_level
+        self._og = np.full((p.nx, p.ny, p.nz), LEVEL_UNKNOWN, dtype=np.uint8)
+        self._floor = np.full((p.nx, p.ny), np.nan)
+        self._obstacle = np.full((p.nx, p.ny), np.nan)
+        self._fog_types = np.full((p.nx, p.ny), CellType.UNKNOWN, dtype=np.int8)
+        self._fog_heights = np.full((p.nx, p.ny), np.nan)
+        self._mark = np.zeros(p.cell_count, dtype=np.uint8)
+        self._touched = np.empty(p.cell_count, dtype=np.int64)
+
+    # ------------------------------------------------------------------ geometry
+    @property
+    def geometry(self) -> GridGeometry:
+        """Where the grids currently lie in the world."""
+        return self._geometry
+
+    @property
+    def origin_xy_m(self) -> tuple[float, float]:
+        """World (x, y) of the grid's corner [m]."""
+        return self._geometry.origin_xy_m
+
+    def cell_of(self, points_world: ArrayLike) -> tuple[NDArray[np.int64], NDArray[np.bool_]]:
+        """Cell indices (N, 3) (or (N, 2)) of world points and their validity; see GridGeometry."""
+        return self._geometry.cell_of(points_world)
+
+    def cell_center(self, ix: ArrayLike, iy: ArrayLike, iz: ArrayLike | None = None):
+        """World centre [m] of cells; see `GridGeometry.cell_center`."""
+        return self._geometry.cell_center(ix, iy, iz)
+
+    # ------------------------------------------------------------------ update
+    def update(
+        self, points: ArrayLike, floor_heights: ArrayLike, sensor_origin: ArrayLike
+    ) -> UpdateResult:
+        """Insert one frame of labelled points.
+
+        Args:
+            points: (N, 3) points in the world frame [m]; rows with NaN/inf are dropped and
+                counted, rows outside the grid (x, y or z) are dropped and counted.
+            floor_heights: (N,) height [m] of the horizontal plane each point belongs to, NaN
+                (or any non-finite value) for "not floor".
+            sensor_origin: (3,) camera position in the world [m]; may lie outside the grid.
+
+        Returns:
+            What was done (see `UpdateResult`). An empty or all-invalid frame changes nothing.
+
+        Raises:
+            InvalidInputError: (ValueError) wrong shapes or a non-finite sensor origin.
+        """
+        pts, heights, origin = validate_frame(points, floor_heights, sensor_origin)
+        g = self._geometry
+        ox, oy = g.origin_xy_m
+        point_cell = np.empty(pts.shape[0], dtype=np.int64)
+        used, nonfinite, outside, cells, ix0, ix1, iy0, iy1 = insert_frame(
+            pts,
+            origin,
+            ox,
+            oy,
+            g.z_min_m,
+            g.cell_m,
+            g.layer_m,
+            self._og,
+            self._mark,
+            self._touched,
+            self._hit_table,
+            self._miss_table,
+            point_cell,
+        )
+        if cells == 0:
+            return UpdateResult(None, used, nonfinite, outside, 0, 0, 0)
+        p = self.params
+        verify_floor(
+            self._floor, self._og, self._occ_level, g.z_min_m, g.layer_m, ix0, ix1, iy0, iy1
+        )
+        floor_used, floor_rejected = update_floor(
+            self._floor,
+            self._og,
+            point_cell,
+            heights,
+            self._occ_level,
+            g.z_min_m,
+            g.layer_m,
+            p.eps_m,
+            p.nu,
+        )
+        update_fog_area(
+            self._og,
+            self._floor,
+            self._obstacle,
+            self._fog_types,
+            self._fog_heights,
+            self._occ_level,
+            g.z_min_m,
+            g.layer_m,
+            p.delta_m,
+            ix0,
+            ix1,
+            iy0,
+            iy1,
+        )
+        return UpdateResult(
+            AffectedArea(int(ix0), int(ix1), int(iy0), int(iy1)),
+            used,
+            nonfinite,
+            outside,
+            floor_used,
+            floor_rejected,
+            cells,
+        )
+
+    # ------------------------------------------------------------------ read-out
+    def occupancy(self) -> NDArray[np.float64]:
+        """(nx, ny, nz) occupancy probabilities (level / 256), a copy."""
+        return self._og / float(LEVELS)
+
+    def occupancy_levels(self) -> NDArray[np.uint8]:
+        """(nx, ny, nz) raw 8-bit levels (probability = level / 256), a copy."""
+        return self._og.copy()
+
+    def floor(self) -> NDArray[np.float64]:
+        """(nx, ny) floor heights [m], NaN where invalid (a copy)."""
+        return self._floor.copy()
+
+    def obstacle(self) -> NDArray[np.float64]:
+        """(nx, ny) coarse obstacle heights (eq. 10: top of highest occupied cell) [m], NaN."""
+        return self._obstacle.copy()
+
+    def ceiling(self) -> NDArray[np.float64]:
+        """(nx, ny) ceiling heights [m], NaN where none.
+
+        The bottom of the lowest occupied cell above the free space (see `mapper.fog`).
+        """
+        g = self._geometry
+        return ceiling_map(
+            self._og, self._floor, self._occ_level, g.z_min_m, g.layer_m, self.params.delta_m
+        )
+
+    def fog(self) -> tuple[NDArray[np.int8], NDArray[np.float64]]:
+        """The FOG (eq. 11): (types (nx, ny) int8 `CellType` values, heights [m] NaN=unknown)."""
+        return self._fog_types.copy(), self._fog_heights.copy()
+
+    def floor_at(self, x_m: float, y_m: float) -> float:
+        """Floor height [m] of the cell holding world (x, y); NaN if invalid or off the grid."""
+        idx, valid = self._geometry.cell_of(np.array([[x_m, y_m]]))
+        return float(self._floor[idx[0, 0], idx[0, 1]]) if valid[0] else float("nan")
+
+    # ------------------------------------------------------------------ z matching
+    def match_z(self, points: ArrayLike, floor_heights: ArrayLike) -> ZMatch:
+        """The z shift (Sec. IV) of this frame's floor points onto the floor map (`mapper.zmatch`).
+
+        Args:
+            points: (N, 3) world points [m].
+            floor_heights: (N,) floor heights [m], NaN = not floor.
+        """
+        pts, heights, _ = validate_frame(points, floor_heights, np.zeros(3))
+        return match_z(pts, heights, self._floor, self._geometry, self.params)
+
+    # ------------------------------------------------------------------ scrolling
+    def recenter(self, x_m: float, y_m: float) -> tuple[int, int]:
+        """Scroll all grids by whole cells so world (x, y) lies in the central cell.
+
+        Entering cells start unknown (0.5, invalid floor). Cost: one copy of each grid at
+        most, independent of the distance moved.
+
+        Returns:
+            The shift (sx, sy) in cells that was applied (0, 0 if none was needed).
+        """
+        sx, sy = self._geometry.shift_to(float(x_m), float(y_m))
+        if sx == 0 and sy == 0:
+            return (0, 0)
+        scroll_xy(self._og, sx, sy, LEVEL_UNKNOWN)
+        scroll_xy(self._floor, sx, sy, np.nan)
+        scroll_xy(self._obstacle, sx, sy, np.nan)
+        scroll_xy(self._fog_types, sx, sy, CellType.UNKNOWN)
+        scroll_xy(self._fog_heights, sx, sy, np.nan)
+        self._geometry = self._geometry.shifted(sx, sy)
+        return (sx, sy)

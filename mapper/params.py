@@ -1,0 +1,166 @@
+"""Parameters of the floor and obstacle height map (Gutmann et al.), validated on construction.
+
+The paper gives the grid size (100 × 100 cells of 4 cm, 16 layers of 4 cm) but no values for the
+probabilities and thresholds; the defaults below are ours and each is justified in
+`MapperParams`'s docstring. The required behaviours they are chosen for (DESIGN.md item 4) are
+tested in ``tests/test_fog.py``.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+from mapper.errors import InvalidParameterError
+
+#: Number of 8-bit occupancy levels; level ``L`` means probability ``L / LEVELS`` (128 ↔ 0.5).
+LEVELS = 256
+#: The level of an unknown cell (probability exactly 0.5).
+LEVEL_UNKNOWN = 128
+
+
+def _require(ok: bool, name: str, value: object, allowed: str) -> None:
+    if not ok:
+        raise InvalidParameterError(f"MapperParams.{name} must be {allowed}, got {value!r}")
+
+
+@dataclass(frozen=True)
+class MapperParams:
+    """Grid geometry, sensor model and thresholds of the mapper.
+
+    Attributes:
+        nx: Cells along world x (robot-centred, scrolled in whole cells).
+        ny: Cells along world y.
+        nz: Layers of the 3D occupancy grid along z (absolute, never scrolled).
+        cell_m: Side of a cell in x and y [m] (paper: 0.04).
+        layer_m: Height of a layer [m] (paper: 0.04).
+        z_min_m: World z of the grid's lower face [m]. Default -0.06 puts the ground (z = 0) in
+            the middle of layer 1, so ±20 mm of noise or elevation drift stay in one cell, and
+            leaves one layer below the ground for holes and negative drift; with 16 layers the
+            grid reaches 0.58 m, enough for surfaces up to ~0.5 m (the paper's stage tops out
+            at 0.126 m).
+        p_sense: Sharp sensor model constant of eqs. 12–13 (hit likelihood). 0.7: two frames
+            of hits take an unknown cell from 0.5 to 0.84 (> p_occ), three frames of misses
+            take a saturated cell below p_occ — fast enough for Fig. 5, yet one frame of
+            outliers (0.5 → 0.70) never reaches p_occ.
+        p_occ: Occupancy threshold of eqs. 7, 8, 10 (``OG > p_occ`` is occupied). 0.75: above
+            the single-hit value 0.70 so a one-frame outlier is not trusted.
+        p_min: Lower clamp of cell probabilities (0.12, as OctoMap's default): a free cell
+            becomes occupied again after four frames of hits.
+        p_max: Upper clamp (0.97, as OctoMap's default): a saturated cell drops below p_occ
+            after three frames of misses, so a removed object vanishes in bounded time.
+        eps_m: Gate of eq. 9 [m]: measurements within ±eps_m of the stored floor refer to the
+            same surface. 0.02: four times the ±5 mm stereo noise, below the 31 mm smallest
+            step height of the paper's staircase.
+        nu: Smoothing factor of eq. 9 (weight of the stored floor per point). 0.9.
+        delta_m: Obstacle threshold of eq. 11 [m]: ``h_o > h_f + delta_m`` is an obstacle,
+            where ``h_o`` is the top of the highest occupied cell. 0.05 = one layer + 10 mm:
+            a floor's own cells end at most one layer + its noise above it, so a flat floor
+            anywhere in a cell with up to ±10 mm noise never becomes an obstacle, while any
+            occupied cell lying one layer or more above the floor (its top ≥ h_f + 2 layers)
+            always does, as does anything whose top is ≥ h_f + delta_m.
+        zmatch_min_pairs: Matched floor points needed before a z shift is trusted (Sec. IV).
+        zmatch_max_shift_m: Largest z shift [m] accepted; larger ones are reported but not
+            accepted (they would mean the frame matched the wrong floor level).
+    """
+
+    nx: int = 100
+    ny: int = 100
+    nz: int = 16
+    cell_m: float = 0.04
+    layer_m: float = 0.04
+    z_min_m: float = -0.06
+    p_sense: float = 0.7
+    p_occ: float = 0.75
+    p_min: float = 0.12
+    p_max: float = 0.97
+    eps_m: float = 0.02
+    nu: float = 0.9
+    delta_m: float = 0.05
+    zmatch_min_pairs: int = 30
+    zmatch_max_shift_m: float = 0.08
+
+    def __post_init__(self) -> None:
+        for name in ("nx", "ny", "nz", "zmatch_min_pairs"):
+            value = getattr(self, name)
+            _require(
+                isinstance(value, int) and not isinstance(value, bool) and value > 0,
+                name,
+                value,
+                "a positive int",
+            )
+        _require(
+            self.nx * self.ny * self.nz < 2**31,
+            "nx*ny*nz",
+            self.nx * self.ny * self.nz,
+            "below 2**31 cells",
+        )
+        for name in ("cell_m", "layer_m", "zmatch_max_shift_m"):
+            value = getattr(self, name)
+            _require(math.isfinite(value) and value > 0, name, value, "a finite float > 0")
+        _require(math.isfinite(self.z_min_m), "z_min_m", self.z_min_m, "a finite float [m]")
+        _require(0.5 < self.p_occ < 1.0, "p_occ", self.p_occ, "in (0.5, 1)")
+        _require(0.5 < self.p_sense < 1.0, "p_sense", self.p_sense, "in (0.5, 1)")
+        _require(0.0 < self.p_min < 0.5, "p_min", self.p_min, "in (0, 0.5)")
+        _require(0.5 < self.p_max < 1.0, "p_max", self.p_max, "in (0.5, 1)")
+        _require(0.0 <= self.nu <= 1.0, "nu", self.nu, "in [0, 1]")
+        _require(math.isfinite(self.eps_m) and self.eps_m >= 0, "eps_m", self.eps_m, ">= 0 [m]")
+        _require(
+            math.isfinite(self.delta_m) and self.delta_m >= 0, "delta_m", self.delta_m, ">= 0 [m]"
+        )
+        _require(
+            self.occ_threshold_level < self.level_max,
+            "p_occ",
+            self.p_occ,
+            f"below p_max={self.p_max} after 8-bit quantisation",
+        )
+
+    @property
+    def extent_x_m(self) -> float:
+        """Side of the grid along x [m]."""
+        return self.nx * self.cell_m
+
+    @property
+    def extent_y_m(self) -> float:
+        """Side of the grid along y [m]."""
+        return self.ny * self.cell_m
+
+    @property
+    def z_max_m(self) -> float:
+        """World z of the grid's upper face [m]."""
+        return self.z_min_m + self.nz * self.layer_m
+
+    @property
+    def cell_count(self) -> int:
+        """Cells of the 3D grid."""
+        return self.nx * self.ny * self.nz
+
+    @property
+    def level_min(self) -> int:
+        """Lowest 8-bit level a cell can reach: the smallest ``L`` with ``L/256 >= p_min``."""
+        return math.ceil(self.p_min * LEVELS)
+
+    @property
+    def level_max(self) -> int:
+        """Highest 8-bit level: the largest ``L <= 255`` with ``L/256 <= p_max``."""
+        return min(LEVELS - 1, math.floor(self.p_max * LEVELS))
+
+    @property
+    def occ_threshold_level(self) -> int:
+        """A cell is occupied (``p > p_occ``) iff its level is strictly above this one."""
+        return math.floor(self.p_occ * LEVELS)
+
+    def with_overrides(self, **changes: float) -> MapperParams:
+        """Copy with some fields replaced (validated); unknown names raise a ValueError."""
+        fields = set(self.__dataclass_fields__)
+        unknown = sorted(set(changes) - fields)
+        if unknown:
+            raise InvalidParameterError(
+                f"unknown MapperParams field(s) {unknown}; allowed: {sorted(fields)}"
+            )
+        values = {name: getattr(self, name) for name in fields}
+        for name, value in changes.items():
+            if name in ("nx", "ny", "nz", "zmatch_min_pairs") and float(value).is_integer():
+                value = int(value)
+            values[name] = value
+        return MapperParams(**values)

@@ -1,0 +1,91 @@
+"""z-shift matching of new floor points against the floor map (paper Fig. 2 and Sec. IV).
+
+The shift ``s`` minimises ``Σ (Floor(x_i, y_i) − (h_i + s))²`` over the matched pairs: floor
+points (finite ``h``) whose column has a valid floor height. Gating keeps outliers from
+dominating: the residuals ``r_i = Floor − h_i`` are first centred on their median and only pairs
+within ``eps_m`` of it (the same surface, eq. 9's gate) are kept; the least-squares shift over
+them is their mean. Points on a surface the map does not hold yet (a new box) or on a wrongly
+segmented plane thus drop out.
+
+What the caller does with the result (the paper's rule, see `frame_decision`): apply the shift
+when it is accepted (enough pairs, plausible size); otherwise keep the frame unshifted only if
+segmentation found the ground plane; with few matches and no ground plane, withdraw the frame.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from enum import IntEnum
+
+import numpy as np
+from numpy.typing import ArrayLike, NDArray
+
+from mapper.grid import GridGeometry
+from mapper.params import MapperParams
+
+
+@dataclass(frozen=True)
+class ZMatch:
+    """Result of matching one frame's floor points to the floor map.
+
+    Attributes:
+        shift_m: z shift to add to the points' z and h [m] (0 when nothing matched).
+        pairs: Matched pairs kept after gating.
+        rms_m: RMS of the kept residuals after the shift [m] (NaN when no pairs).
+        accepted: ``pairs >= zmatch_min_pairs`` and ``|shift_m| <= zmatch_max_shift_m``.
+    """
+
+    shift_m: float
+    pairs: int
+    rms_m: float
+    accepted: bool
+
+
+class ZDecision(IntEnum):
+    """What to do with a frame after z matching."""
+
+    APPLY_SHIFT = 0
+    KEEP_UNSHIFTED = 1
+    WITHDRAW = 2
+
+
+def match_z(
+    points_world: NDArray[np.float64],
+    floor_heights: NDArray[np.float64],
+    floor_map: NDArray[np.float64],
+    geometry: GridGeometry,
+    params: MapperParams,
+) -> ZMatch:
+    """Least-squares z shift of floor points onto ``floor_map`` (nx, ny) [m, NaN = invalid]."""
+    h = np.asarray(floor_heights, dtype=np.float64)
+    idx, valid = geometry.cell_of(np.asarray(points_world, dtype=np.float64)[:, :2])
+    valid &= np.isfinite(h)
+    if not np.any(valid):
+        return ZMatch(0.0, 0, float("nan"), False)
+    stored = floor_map[idx[valid, 0], idx[valid, 1]]
+    residual = stored - h[valid]
+    residual = residual[np.isfinite(residual)]
+    if residual.size == 0:
+        return ZMatch(0.0, 0, float("nan"), False)
+    centre = float(np.median(residual))
+    kept = residual[np.abs(residual - centre) <= params.eps_m]
+    shift = float(np.mean(kept))
+    rms = float(np.sqrt(np.mean((kept - shift) ** 2)))
+    accepted = kept.size >= params.zmatch_min_pairs and abs(shift) <= params.zmatch_max_shift_m
+    return ZMatch(shift, int(kept.size), rms, bool(accepted))
+
+
+def frame_decision(match: ZMatch, ground_plane_found: bool) -> ZDecision:
+    """The paper's rule: shift if the match is trusted; else keep only with a ground plane."""
+    if match.accepted:
+        return ZDecision.APPLY_SHIFT
+    return ZDecision.KEEP_UNSHIFTED if ground_plane_found else ZDecision.WITHDRAW
+
+
+def apply_z_shift(
+    points_world: ArrayLike, floor_heights: ArrayLike, shift_m: float
+) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+    """Copies of the points and floor heights with ``shift_m`` added to z and h (NaN stays)."""
+    p = np.array(points_world, dtype=np.float64)
+    p[:, 2] += shift_m
+    return p, np.asarray(floor_heights, dtype=np.float64) + shift_m
