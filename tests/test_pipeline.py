@@ -1,0 +1,124 @@
+"""The pipeline on synthetic frames (ray-cast depth of boxes, known truth), no MuJoCo."""
+
+import numpy as np
+import pytest
+from synthetic_depth import Box, add_depth_noise, look_down_camera, render_boxes
+
+from fogsim.errors import FogsimError
+from fogsim.frames import Frame
+from fogsim.ground_truth import ObjectState, SceneTruth
+from fogsim.pipeline import RunParams, replay_report, resolve_params, run_frames
+from fogsim.recording import Recording
+from fogsim.scenario import load_scenario
+from mapper.intrinsics import PinholeIntrinsics
+
+INTR = PinholeIntrinsics.from_fov(88, 72, 47.0, 39.0)
+RATE_HZ = 12.5
+CAMERA_IN_ROBOT = look_down_camera((0.0, 0.0, 0.9), pitch_down_deg=35.0)
+ROBOT_POSE = np.array([0.3, 0.5, 0.0, 0.0])
+BOX = Box((1.35, 0.5), (0.3, 0.4, 0.05))
+BOX_STATE = ObjectState("flat_box", (1.35, 0.5), (0.3, 0.4, 0.05), 0.0, 0.0, True)
+NAMES = ("ground", "flat_box")
+HEIGHTS = {"ground": 0.0, "flat_box": 0.05}
+
+
+def camera_in_world():
+    t = np.eye(4)
+    t[:3, :3] = [[1, 0, 0], [0, 1, 0], [0, 0, 1]]
+    t[:3, 3] = ROBOT_POSE[:3]
+    return t @ CAMERA_IN_ROBOT
+
+
+def make_frames(n, box_until_frame=None, noise=0.0, seed=0):
+    """Standing robot looking at a flat box; the box vanishes at ``box_until_frame``."""
+    rng = np.random.default_rng(seed)
+    world = camera_in_world()
+    frames = []
+    for i in range(n):
+        boxes = [BOX] if box_until_frame is None or i < box_until_frame else []
+        depth = render_boxes(INTR, world, boxes)
+        if noise:
+            depth = add_depth_noise(depth, noise, rng)
+        frames.append(
+            Frame(
+                index=i,
+                time_s=i / RATE_HZ,
+                depth_m=depth.astype(np.float32),
+                intrinsics=INTR,
+                transform_camera_to_robot_believed=CAMERA_IN_ROBOT,
+                robot_pose_believed=ROBOT_POSE,
+                transform_camera_to_world_true=world,
+                robot_pose_true=ROBOT_POSE,
+            )
+        )
+    return frames
+
+
+def provider_removed_at(time_s):
+    with_box = SceneTruth(0.0, (BOX_STATE,), NAMES, HEIGHTS)
+    without = SceneTruth(time_s, (), NAMES, HEIGHTS)
+    return lambda t: with_box if t < time_s else without
+
+
+def test_static_box_table1_within_3mm_and_cells_right():
+    frames = make_frames(12, noise=0.002)
+    result = run_frames(frames, provider_removed_at(1e9), None)
+    rows = {r["name"]: r for r in result.scores["table1"]["fog"]}
+    for name in NAMES:
+        assert rows[name]["cells"] > 10, rows[name]
+        assert abs(rows[name]["error_mm"]) <= 3.0, rows[name]
+    cells = result.scores["cells"]["fog"]
+    assert cells["accuracy"] >= 0.97, cells
+    assert result.frames == 12 and result.withdrawn == 0
+    assert np.isfinite(result.update_ms).all()
+    assert result.pose_error["camera_in_robot"]["rotation_deg"]["max"] == pytest.approx(0, abs=1e-6)
+
+
+def test_box_removal_fog_clears_within_25_frames_averaging_never():
+    scenario = load_scenario("box_removal")  # event: remove flat_box at 4.0 s
+    removal_frame = int(round(4.0 * RATE_HZ))
+    frames = make_frames(removal_frame + 40, box_until_frame=removal_frame)
+    result = run_frames(frames, provider_removed_at(4.0), scenario)
+    (event,) = result.events
+    assert event["object"] == "flat_box" and event["start_frame"] == removal_frame
+    assert event["footprint_cells"] > 20
+    assert event["fog_frames"] is not None and event["fog_frames"] <= 25, event
+    assert event["averaging_frames"] is None, event
+    assert [s.label for s in result.snapshots] == ["before", "after"]
+    assert result.snapshots[0].frame_index == removal_frame - 1
+
+
+def test_same_frames_same_result_bit_for_bit():
+    frames = make_frames(6, noise=0.003, seed=4)
+    a = run_frames(frames, None, None)
+    b = run_frames(frames, None, None)
+    assert a.scores is None and a.events == []
+    np.testing.assert_array_equal(a.archive.fog_heights_m, b.archive.fog_heights_m)
+    np.testing.assert_array_equal(a.archive.fog_types, b.archive.fog_types)
+
+
+def test_resolve_params_layers_scenario_and_overrides():
+    scenario = load_scenario("box_removal")
+    params = resolve_params(
+        scenario, {"p_occ": 0.8, "mapper.eps_m": 0.01, "seg.min_plane_pixels": 30.0}
+    )
+    assert isinstance(params, RunParams)
+    assert params.mapper.p_occ == 0.8 and params.mapper.eps_m == 0.01
+    assert params.segmentation.min_plane_pixels == 30
+    assert isinstance(params.segmentation.min_plane_pixels, int)
+    assert params.to_dict()["elevation"]["gain"] == params.elevation.gain
+    with pytest.raises(FogsimError, match=r"unknown mapper parameter\(s\) \['p_oc'\]; allowed"):
+        resolve_params(None, {"p_oc": 0.7})
+    with pytest.raises(FogsimError, match="p_occ"):
+        resolve_params(None, {"p_occ": 1.5})
+
+
+def test_replay_report_uses_overrides():
+    frames = make_frames(5)
+    truths = [provider_removed_at(1e9)(f.time_s) for f in frames]
+    rec = Recording(frames=frames, scenario=None, truths=truths, intrinsics=INTR)
+    report = replay_report(rec, {"p_occ": 0.8})
+    assert report["params"]["mapper"]["p_occ"] == 0.8
+    assert report["source"] == "replay"
+    assert report["timing"]["frames"] == 5
+    assert {r["name"] for r in report["table1"]["fog"]} == set(NAMES)
