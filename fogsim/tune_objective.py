@@ -1,0 +1,277 @@
+"""The tuning objective: one number (lower is better) from the report of a replayed run.
+
+``fogsim tune`` scores a parameter set by replaying every recording of a suite with those
+parameters (:func:`fogsim.pipeline.replay_report`) and reducing each report to three terms:
+
+* ``table1_mm`` -- mean absolute Table I error of the FOG over the walkable surfaces and the
+  ground [mm]; a row the FOG never estimated is charged ``missing_row_mm``;
+* ``cell_error_pct`` -- share of the seen cells labelled wrong (floor vs obstacle) [%];
+* ``clearing_s`` -- mean time until a removed or moved object's old footprint is floor again
+  [s]; a footprint that never clears is charged ``never_cleared_s``. Recordings without events
+  contribute no clearing term.
+
+The objective of one recording is ``w_table1 * table1_mm + w_cells * cell_error_pct +
+w_clearing * clearing_s``; a trial's objective is the mean over the suite's recordings. With
+the default weights (all 1) one millimetre of Table I error, one percent of wrong cells and one
+second of clearing time cost the same.
+"""
+
+from __future__ import annotations
+
+import math
+import time
+from collections.abc import Callable, Mapping, Sequence
+from dataclasses import asdict, dataclass, fields
+from typing import Any
+
+from fogsim.errors import FogsimError
+
+ReportFunction = Callable[[Any, Mapping[str, float]], Mapping[str, Any]]
+"""``(recording, overrides) -> report dict``; :func:`fogsim.pipeline.replay_report`."""
+
+
+@dataclass(frozen=True)
+class ObjectiveWeights:
+    """Weights and penalties of the tuning objective (see the module docstring).
+
+    Attributes:
+        table1_mm: Weight per millimetre of mean absolute Table I error.
+        cell_error_pct: Weight per percent of seen cells labelled wrong.
+        clearing_s: Weight per second of event clearing time.
+        missing_row_mm: Error charged for a Table I row without an estimate [mm].
+        never_cleared_s: Clearing time charged when a footprint never clears [s].
+    """
+
+    table1_mm: float = 1.0
+    cell_error_pct: float = 1.0
+    clearing_s: float = 1.0
+    missing_row_mm: float = 50.0
+    never_cleared_s: float = 10.0
+
+    def __post_init__(self) -> None:
+        for f in fields(self):
+            value = getattr(self, f.name)
+            if isinstance(value, bool) or not isinstance(value, int | float):
+                raise FogsimError(f"objective weight {f.name} must be a number, got {value!r}")
+            if not math.isfinite(value) or value < 0:
+                raise FogsimError(
+                    f"objective weight {f.name} must be finite and >= 0, got {value!r}"
+                )
+        if self.table1_mm == self.cell_error_pct == self.clearing_s == 0:
+            raise FogsimError(
+                "objective weights table1_mm, cell_error_pct and clearing_s are all 0; "
+                "at least one must be > 0"
+            )
+
+    @classmethod
+    def from_assignments(cls, assignments: Sequence[str]) -> ObjectiveWeights:
+        """Weights from ``name=value`` strings (``--weight table1_mm=2``), defaults otherwise.
+
+        Raises:
+            FogsimError: a malformed assignment, an unknown name (the message lists the
+                allowed ones) or an invalid value.
+        """
+        allowed = [f.name for f in fields(cls)]
+        values: dict[str, float] = {}
+        for assignment in assignments:
+            name, sep, text = assignment.partition("=")
+            name = name.strip()
+            if not sep:
+                raise FogsimError(f"weight {assignment!r} must look like name=value")
+            if name not in allowed:
+                raise FogsimError(f"unknown objective weight {name!r}; allowed: {allowed}")
+            try:
+                values[name] = float(text)
+            except ValueError:
+                raise FogsimError(
+                    f"objective weight {name} must be a number, got {text!r}"
+                ) from None
+        return cls(**values)
+
+    def to_dict(self) -> dict[str, float]:
+        """The weights as a plain dict."""
+        return asdict(self)
+
+
+@dataclass(frozen=True)
+class ObjectiveTerms:
+    """The objective's terms for one recording.
+
+    Attributes:
+        table1_mm: Mean absolute Table I error of the FOG [mm] (missing rows charged).
+        cell_error_pct: Seen cells labelled wrong [%].
+        clearing_s: Mean event clearing time [s] (never-cleared charged), None without events.
+        table1_rows: Number of Table I rows.
+        seen_cells: Number of seen cells the cell accuracy is over.
+    """
+
+    table1_mm: float
+    cell_error_pct: float
+    clearing_s: float | None
+    table1_rows: int
+    seen_cells: int
+
+    def value(self, weights: ObjectiveWeights) -> float:
+        """The weighted objective of this recording (lower is better)."""
+        total = weights.table1_mm * self.table1_mm + weights.cell_error_pct * self.cell_error_pct
+        if self.clearing_s is not None:
+            total += weights.clearing_s * self.clearing_s
+        return float(total)
+
+    def to_dict(self) -> dict[str, Any]:
+        """The terms as a plain (JSON-able) dict."""
+        return asdict(self)
+
+
+def _number(value: Any) -> float | None:
+    """``value`` as a finite float, or None (missing, null, NaN)."""
+    if value is None or isinstance(value, bool):
+        return None
+    try:
+        out = float(value)
+    except (TypeError, ValueError):
+        return None
+    return out if math.isfinite(out) else None
+
+
+def _fog_rows(report: Mapping[str, Any]) -> list[Mapping[str, Any]]:
+    """The FOG's Table I rows of a report."""
+    table = report.get("table1")
+    if isinstance(table, Mapping):
+        rows = table.get("fog", [])
+    elif isinstance(table, list):
+        rows = table
+    else:
+        raise FogsimError("report has no 'table1' (a dict with a 'fog' list of rows)")
+    return [row for row in rows if isinstance(row, Mapping)]
+
+
+def _fog_cells(report: Mapping[str, Any]) -> Mapping[str, Any]:
+    """The FOG's cell statistics of a report."""
+    cells = report.get("cells")
+    if not isinstance(cells, Mapping):
+        raise FogsimError("report has no 'cells' table")
+    fog = cells.get("fog", cells)
+    if not isinstance(fog, Mapping):
+        raise FogsimError("report 'cells.fog' is not a table")
+    return fog
+
+
+def objective_terms(
+    report: Mapping[str, Any], weights: ObjectiveWeights, frame_rate_hz: float
+) -> ObjectiveTerms:
+    """Reduce one report (DESIGN.md "Results") to the objective's terms.
+
+    Args:
+        report: A report dict as :func:`fogsim.pipeline.replay_report` returns it.
+        weights: Supplies the penalties for missing rows and never-cleared footprints.
+        frame_rate_hz: Frame rate of the recording, to turn clearing frames into seconds.
+
+    Raises:
+        FogsimError: the report lacks the tables the objective needs.
+    """
+    if not frame_rate_hz > 0:
+        raise FogsimError(f"frame_rate_hz must be > 0, got {frame_rate_hz!r}")
+    rows = _fog_rows(report)
+    errors = []
+    for row in rows:
+        error = _number(row.get("error_mm"))
+        errors.append(weights.missing_row_mm if error is None else abs(error))
+    table1_mm = sum(errors) / len(errors) if errors else 0.0
+
+    cells = _fog_cells(report)
+    seen = int(_number(cells.get("seen")) or 0)
+    correct = _number(cells.get("correct"))
+    if seen > 0 and correct is not None:
+        cell_error_pct = 100.0 * (1.0 - correct / seen)
+    else:
+        accuracy = _number(cells.get("accuracy"))
+        cell_error_pct = 100.0 if accuracy is None else 100.0 * (1.0 - accuracy)
+
+    clearing: list[float] = []
+    for event in report.get("events") or []:
+        if not isinstance(event, Mapping):
+            continue
+        frames = _number(event.get("fog_frames"))
+        clearing.append(weights.never_cleared_s if frames is None else frames / frame_rate_hz)
+    clearing_s = sum(clearing) / len(clearing) if clearing else None
+    return ObjectiveTerms(
+        table1_mm=float(table1_mm),
+        cell_error_pct=float(cell_error_pct),
+        clearing_s=None if clearing_s is None else float(clearing_s),
+        table1_rows=len(rows),
+        seen_cells=seen,
+    )
+
+
+@dataclass(frozen=True)
+class SuiteEntry:
+    """One recording of a tuning suite.
+
+    Attributes:
+        name: Display name (the scenario's name or the file stem).
+        recording: A :class:`fogsim.recording.Recording` (anything the report function takes).
+        frame_rate_hz: Frame rate of the recording [Hz].
+    """
+
+    name: str
+    recording: Any
+    frame_rate_hz: float
+
+
+@dataclass(frozen=True)
+class TrialScore:
+    """A parameter set's score over a suite.
+
+    Attributes:
+        objective: Mean of the recordings' objectives (lower is better).
+        terms: Per recording name, its :class:`ObjectiveTerms` as a dict plus ``objective``.
+        replay_s: Wall time spent replaying (report function: segmentation, mapper, scoring
+            against the truth inside the pipeline) [s].
+        scoring_s: Wall time spent reducing reports to the objective [s].
+    """
+
+    objective: float
+    terms: dict[str, dict[str, Any]]
+    replay_s: float
+    scoring_s: float
+
+
+def score_parameters(
+    suite: Sequence[SuiteEntry],
+    overrides: Mapping[str, float],
+    weights: ObjectiveWeights,
+    report_function: ReportFunction,
+) -> TrialScore:
+    """Replay every recording with ``overrides`` and combine the reports into one objective.
+
+    Args:
+        suite: The recordings.
+        overrides: Parameter values by name (``p_occ``, ``seg.<name>``).
+        weights: Objective weights.
+        report_function: ``(recording, overrides) -> report``.
+
+    Returns:
+        The trial's score with per-recording terms and the time split.
+    """
+    if not suite:
+        raise FogsimError("cannot score parameters over an empty suite")
+    replay_s = scoring_s = 0.0
+    terms: dict[str, dict[str, Any]] = {}
+    values = []
+    for entry in suite:
+        start = time.perf_counter()
+        report = report_function(entry.recording, dict(overrides))
+        middle = time.perf_counter()
+        entry_terms = objective_terms(report, weights, entry.frame_rate_hz)
+        value = entry_terms.value(weights)
+        scoring_s += time.perf_counter() - middle
+        replay_s += middle - start
+        terms[entry.name] = {**entry_terms.to_dict(), "objective": value}
+        values.append(value)
+    return TrialScore(
+        objective=float(sum(values) / len(values)),
+        terms=terms,
+        replay_s=replay_s,
+        scoring_s=scoring_s,
+    )

@@ -1,0 +1,427 @@
+"""Tests of fogsim tune: search space, objective, the study loop, resume, pool vs Ray."""
+
+from __future__ import annotations
+
+import math
+import os
+import signal
+import sqlite3
+import subprocess
+import sys
+import textwrap
+import time
+import tomllib
+from dataclasses import dataclass
+from pathlib import Path
+
+import pytest
+
+from fogsim.errors import FogsimError
+from fogsim.tune import (
+    ParamSpec,
+    SamplerKind,
+    TuneConfig,
+    best_params_toml,
+    tune,
+)
+from fogsim.tune_objective import (
+    ObjectiveTerms,
+    ObjectiveWeights,
+    SuiteEntry,
+    objective_terms,
+    score_parameters,
+)
+
+NAMES = ("p_occ", "eps_m", "nu", "seg.min_points")
+DEFAULTS = {"p_occ": 0.6, "eps_m": 0.03, "seg.min_points": 20}
+TESTS_DIR = Path(__file__).resolve().parent
+
+# ----------------------------------------------------------------------------- stand-ins
+
+
+@dataclass(frozen=True)
+class FakeRecording:
+    """Stands in for fogsim.recording.Recording: the report function reads ``offset_mm``."""
+
+    offset_mm: float
+    delay_s: float = 0.0
+    frames: tuple[int, ...] = (0, 1, 2)
+    has_truth: bool = True
+
+
+def fake_report(recording, overrides):
+    """A report whose objective is known: Table I error minimal at p_occ=0.8, eps_m=0.01."""
+    if recording.delay_s:
+        time.sleep(recording.delay_s)
+    p_occ = overrides["p_occ"]
+    eps_m = overrides["eps_m"]
+    min_points = overrides.get("seg.min_points", 20)
+    error_mm = 100.0 * (p_occ - 0.8) ** 2 + 1000.0 * abs(eps_m - 0.01) + recording.offset_mm
+    correct = 100 - abs(min_points - 30) // 5
+    return {
+        "table1": {"fog": [{"name": "ground", "error_mm": error_mm}], "averaging": []},
+        "cells": {"fog": {"seen": 100, "correct": correct}},
+        "events": [{"name": "box", "fog_frames": 25 if p_occ < 0.9 else None}],
+    }
+
+
+def fake_suite(delay_s: float = 0.0) -> list[SuiteEntry]:
+    return [
+        SuiteEntry("stage", FakeRecording(1.0, delay_s), frame_rate_hz=12.5),
+        SuiteEntry("box_removal", FakeRecording(2.0, delay_s), frame_rate_hz=12.5),
+    ]
+
+
+def specs() -> tuple[ParamSpec, ...]:
+    return (
+        ParamSpec.parse("p_occ=0.55:0.95", NAMES),
+        ParamSpec.parse("eps_m=0.005:0.05:log", NAMES),
+        ParamSpec.parse("seg.min_points=10:50", NAMES),
+    )
+
+
+def config(out: Path, trials: int = 12, **kwargs) -> TuneConfig:
+    return TuneConfig(params=specs(), trials=trials, out_dir=out, progress=False, **kwargs)
+
+
+def expected_objective(p_occ: float, eps_m: float, min_points: int) -> float:
+    """Hand-computed objective of fake_report, mean over the suite (offsets 1 and 2 mm)."""
+    wrong_pct = float(abs(min_points - 30) // 5)
+    clearing_s = 2.0 if p_occ < 0.9 else 10.0
+    base = 100.0 * (p_occ - 0.8) ** 2 + 1000.0 * abs(eps_m - 0.01)
+    return base + 1.5 + wrong_pct + clearing_s
+
+
+# ----------------------------------------------------------------------------- search space
+
+
+def test_param_spec_parses_float_log_and_int_ranges():
+    p = ParamSpec.parse("p_occ=0.55:0.95", NAMES)
+    assert (p.name, p.low, p.high, p.log, p.integer) == ("p_occ", 0.55, 0.95, False, False)
+    e = ParamSpec.parse("eps_m=0.005:0.05:log", NAMES)
+    assert e.log and not e.integer
+    n = ParamSpec.parse("seg.min_points=10:50", NAMES)
+    assert n.integer and (n.low, n.high) == (10, 50)
+    assert ParamSpec.parse(n.to_text(), NAMES) == n
+    assert ParamSpec.parse(e.to_text(), NAMES) == e
+    assert e.grid(3) == pytest.approx([0.005, math.sqrt(0.005 * 0.05), 0.05], rel=1e-12)
+    assert n.grid(3) == [10, 30, 50]
+
+
+@pytest.mark.parametrize(
+    ("text", "message"),
+    [
+        ("p_occ", "must look like name=lo:hi"),
+        ("p_occ=0.5", "must look like name=lo:hi"),
+        ("p_occ=0.5:0.9:lin", "must look like name=lo:hi"),
+        ("bogus=0:1", "unknown parameter 'bogus'"),
+        ("p_occ=a:0.9", "lower bound 'a' is not a number"),
+        ("p_occ=0.9:0.5", "low < high"),
+        ("eps_m=0:0.05:log", "log range needs low > 0"),
+        ("p_occ=0.5:inf", "must be finite"),
+    ],
+)
+def test_param_spec_rejects_bad_input_naming_the_problem(text, message):
+    with pytest.raises(FogsimError, match=message):
+        ParamSpec.parse(text, NAMES)
+
+
+def test_param_names_come_from_the_mapper_parameter_classes():
+    mapper = pytest.importorskip("mapper")
+    if not hasattr(mapper, "MapperParams") or not hasattr(mapper, "SegmentationParams"):
+        pytest.skip("mapper.MapperParams / SegmentationParams not available yet")
+    from fogsim.tune import parameter_defaults, tunable_parameter_names
+
+    names = tunable_parameter_names()
+    for name in ("p_occ", "eps_m", "nu", "delta_m", "p_sense", "p_min", "p_max"):
+        assert name in names
+    assert any(n.startswith("seg.") for n in names)
+    assert parameter_defaults(["p_occ"])["p_occ"] == mapper.MapperParams().p_occ
+    with pytest.raises(FogsimError, match="unknown parameter 'p_ooc'"):
+        ParamSpec.parse("p_ooc=0.5:0.9")
+
+
+def test_config_rejects_duplicates_and_bad_counts(tmp_path):
+    p = ParamSpec.parse("p_occ=0.55:0.95", NAMES)
+    with pytest.raises(FogsimError, match="more than once"):
+        TuneConfig(params=(p, p), trials=3, out_dir=tmp_path)
+    with pytest.raises(FogsimError, match="trials must be >= 1"):
+        TuneConfig(params=(p,), trials=0, out_dir=tmp_path)
+    with pytest.raises(FogsimError, match="at least one --param"):
+        TuneConfig(params=(), trials=3, out_dir=tmp_path)
+    with pytest.raises(ValueError, match="'anneal' is not a valid SamplerKind"):
+        TuneConfig(params=(p,), trials=3, out_dir=tmp_path, sampler="anneal")
+
+
+# ----------------------------------------------------------------------------- objective
+
+
+def test_objective_terms_of_a_hand_made_report():
+    report = {
+        "table1": {
+            "fog": [
+                {"name": "ground", "error_mm": -1.0},
+                {"name": "sill", "error_mm": 3.0},
+                {"name": "step_3", "error_mm": None},  # never estimated: charged 50 mm
+            ]
+        },
+        "cells": {"fog": {"seen": 400, "correct": 390}},
+        "events": [{"name": "a", "fog_frames": 25}, {"name": "b", "fog_frames": None}],
+    }
+    weights = ObjectiveWeights()
+    terms = objective_terms(report, weights, frame_rate_hz=12.5)
+    assert terms.table1_mm == pytest.approx((1 + 3 + 50) / 3, abs=1e-12)
+    assert terms.cell_error_pct == pytest.approx(2.5, abs=1e-12)
+    assert terms.clearing_s == pytest.approx((2.0 + 10.0) / 2, abs=1e-12)
+    assert terms.table1_rows == 3 and terms.seen_cells == 400
+    assert terms.value(weights) == pytest.approx(18.0 + 2.5 + 6.0, abs=1e-12)
+    heavy = ObjectiveWeights(table1_mm=2.0, cell_error_pct=0.0, clearing_s=0.5)
+    assert terms.value(heavy) == pytest.approx(36.0 + 3.0, abs=1e-12)
+
+
+def test_objective_without_events_has_no_clearing_term():
+    terms = ObjectiveTerms(2.0, 1.0, None, 1, 10)
+    assert terms.value(ObjectiveWeights(clearing_s=100.0)) == 3.0
+
+
+def test_weights_from_assignments_and_their_errors():
+    weights = ObjectiveWeights.from_assignments(["table1_mm=2", "clearing_s=0.5"])
+    assert (weights.table1_mm, weights.cell_error_pct, weights.clearing_s) == (2.0, 1.0, 0.5)
+    with pytest.raises(FogsimError, match="unknown objective weight 'speed'"):
+        ObjectiveWeights.from_assignments(["speed=1"])
+    with pytest.raises(FogsimError, match="must be finite and >= 0"):
+        ObjectiveWeights(table1_mm=-1.0)
+    with pytest.raises(FogsimError, match="all 0"):
+        ObjectiveWeights(table1_mm=0, cell_error_pct=0, clearing_s=0)
+    with pytest.raises(FogsimError, match="must look like name=value"):
+        ObjectiveWeights.from_assignments(["table1_mm"])
+
+
+def test_score_parameters_is_the_mean_over_the_suite():
+    score = score_parameters(
+        fake_suite(),
+        {"p_occ": 0.7, "eps_m": 0.02, "seg.min_points": 40},
+        ObjectiveWeights(),
+        fake_report,
+    )
+    assert score.objective == pytest.approx(expected_objective(0.7, 0.02, 40), abs=1e-9)
+    assert set(score.terms) == {"stage", "box_removal"}
+    assert score.terms["box_removal"]["table1_mm"] - score.terms["stage"]["table1_mm"] == (
+        pytest.approx(1.0, abs=1e-12)
+    )
+    assert score.replay_s >= 0 and score.scoring_s >= 0
+
+
+# ----------------------------------------------------------------------------- the study
+
+
+def read_trials(db: Path) -> list[tuple[int, str]]:
+    with sqlite3.connect(db) as con:
+        return con.execute("SELECT number, state FROM trials ORDER BY number").fetchall()
+
+
+def test_tune_beats_defaults_and_writes_results(tmp_path):
+    result = tune(
+        config(tmp_path, trials=25, seed=3),
+        fake_suite(),
+        report_function=fake_report,
+        defaults=DEFAULTS,
+    )
+    defaults_value = expected_objective(0.6, 0.03, 20)
+    assert result.defaults_value == pytest.approx(defaults_value, abs=1e-9)
+    assert result.best_value <= result.defaults_value
+    assert result.best_value < defaults_value - 10.0  # the search really improved on them
+    assert result.complete == 25
+    p = result.best_params
+    assert result.best_value == pytest.approx(
+        expected_objective(p["p_occ"], p["eps_m"], p["seg.min_points"]), abs=1e-9
+    )
+    # Results: a pasteable TOML block, the table, one picture per parameter, a summary.
+    block = tomllib.loads((tmp_path / "best_params.toml").read_text())
+    assert block["mapper"] == {"p_occ": p["p_occ"], "eps_m": p["eps_m"]}
+    assert block["segmentation"] == {"min_points": p["seg.min_points"]}
+    assert isinstance(block["segmentation"]["min_points"], int)
+    table = (tmp_path / "trials.md").read_text()
+    assert "(defaults)" in table or "defaults" in (tmp_path / "summary.json").read_text()
+    assert len([ln for ln in table.splitlines() if ln.startswith("| ")]) == 1 + 10
+    for name in ("p_occ", "eps_m", "seg.min_points"):
+        png = tmp_path / f"objective_{name}.png"
+        assert png.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
+    assert [n for n, _ in read_trials(tmp_path / "tune.db")] == list(range(25))
+
+
+def test_same_seed_same_trials_bit_for_bit(tmp_path):
+    runs = []
+    for name in ("a", "b"):
+        tune(
+            config(tmp_path / name, trials=15, seed=7),
+            fake_suite(),
+            report_function=fake_report,
+            defaults=DEFAULTS,
+        )
+        import optuna
+
+        study = optuna.load_study(
+            study_name="fogsim-tune", storage=f"sqlite:///{tmp_path / name / 'tune.db'}"
+        )
+        runs.append([(t.number, t.params, t.value) for t in study.trials])
+    assert runs[0] == runs[1]
+    assert runs[0][0][1] == DEFAULTS  # the defaults are trial 0
+
+
+def test_grid_sampler_covers_the_grid_and_the_defaults(tmp_path):
+    cfg = TuneConfig(
+        params=specs()[:2],
+        trials=100,
+        out_dir=tmp_path,
+        sampler=SamplerKind.GRID,
+        grid_points=3,
+        progress=False,
+    )
+    result = tune(cfg, fake_suite(), report_function=fake_report, defaults=DEFAULTS)
+    assert result.complete == 16  # (3 grid values + the default) per axis, squared
+    assert result.best_params == pytest.approx({"p_occ": 0.75, "eps_m": 0.005}, rel=1e-12)
+
+
+def test_best_params_toml_block():
+    text = best_params_toml({"p_occ": 0.7, "seg.min_points": 12.0}, specs(), "tuned\nsecond line")
+    assert text.splitlines()[:2] == ["# tuned", "# second line"]
+    assert tomllib.loads(text) == {"mapper": {"p_occ": 0.7}, "segmentation": {"min_points": 12}}
+
+
+def test_resume_refuses_a_study_made_with_other_settings(tmp_path):
+    tune(config(tmp_path, trials=3), fake_suite(), report_function=fake_report, defaults=DEFAULTS)
+    other = TuneConfig(
+        params=specs(),
+        trials=3,
+        out_dir=tmp_path,
+        progress=False,
+        weights=ObjectiveWeights(table1_mm=2.0),
+    )
+    with pytest.raises(FogsimError, match="made with other weights"):
+        tune(other, fake_suite(), report_function=fake_report, defaults=DEFAULTS)
+
+
+def test_failing_trials_are_recorded_and_counted(tmp_path):
+    def broken(recording, overrides):
+        if overrides["p_occ"] > 0.75:
+            raise RuntimeError("mapper exploded")
+        return fake_report(recording, overrides)
+
+    result = tune(
+        config(tmp_path, trials=10, seed=1), fake_suite(), report_function=broken, defaults=DEFAULTS
+    )
+    assert result.trials == 10 and 1 <= result.complete < 10
+    states = [s for _, s in read_trials(tmp_path / "tune.db")]
+    assert states.count("FAIL") == 10 - result.complete
+
+
+KILL_SCRIPT = textwrap.dedent(
+    """
+    import sys
+    sys.path[:0] = [{root!r}, {tests!r}]
+    from pathlib import Path
+    from fogsim.tune import TuneConfig, tune
+    import test_tune as t
+    cfg = TuneConfig(params=t.specs(), trials=40, out_dir=Path({out!r}), progress=False,
+                     heartbeat_s=1, grace_s=2)
+    tune(cfg, t.fake_suite(delay_s=0.1), report_function=t.fake_report, defaults=t.DEFAULTS)
+    """
+)
+
+
+def test_resume_after_kill_continues_the_trial_count(tmp_path):
+    out = tmp_path / "run"
+    script = KILL_SCRIPT.format(root=str(TESTS_DIR.parent), tests=str(TESTS_DIR), out=str(out))
+    env = {**os.environ, "PYTHONHASHSEED": "0"}
+    proc = subprocess.Popen([sys.executable, "-c", script], env=env)
+    try:
+        deadline = time.monotonic() + 60
+        while time.monotonic() < deadline:
+            db = out / "tune.db"
+            if db.exists():
+                try:
+                    states = [s for _, s in read_trials(db)]
+                except sqlite3.OperationalError:
+                    states = []
+                if states.count("COMPLETE") >= 4:
+                    break
+            assert proc.poll() is None, "the tune ended before it could be killed"
+            time.sleep(0.05)
+        else:
+            pytest.fail("the tune made no progress in 60 s")
+        proc.send_signal(signal.SIGKILL)
+        proc.wait(timeout=10)
+    finally:
+        if proc.poll() is None:
+            proc.kill()
+    before = read_trials(out / "tune.db")
+    done_before = [n for n, s in before if s == "COMPLETE"]
+    assert 4 <= len(done_before) < 40
+    time.sleep(3.5)  # the killed trial's heartbeat goes stale (grace 2 s, 1 s resolution)
+    cfg = TuneConfig(
+        params=specs(), trials=10, out_dir=out, progress=False, heartbeat_s=1, grace_s=2
+    )
+    result = tune(cfg, fake_suite(), report_function=fake_report, defaults=DEFAULTS)
+    after = read_trials(out / "tune.db")
+    assert result.complete == max(10, len(done_before))
+    # The old trials are kept as they were; numbering continues after them.
+    assert after[: len(before)][: len(done_before)] == before[: len(done_before)]
+    assert [n for n, _ in after] == list(range(len(after)))
+    # A trial killed while running is failed and its parameters tried again (not lost).
+    running_before = [n for n, s in before if s == "RUNNING"]
+    import optuna
+
+    study = optuna.load_study(study_name="fogsim-tune", storage=f"sqlite:///{out / 'tune.db'}")
+    for number in running_before:
+        assert study.trials[number].state.name == "FAIL"
+        retried = [
+            t
+            for t in study.trials
+            if t.system_attrs.get("failed_trial") == number and t.state.name == "COMPLETE"
+        ]
+        assert len(retried) == 1 and retried[0].params == study.trials[number].params
+    assert study.trials[0].params == DEFAULTS
+
+
+# ----------------------------------------------------------------------------- pool and Ray
+
+
+def test_process_pool_and_ray_give_the_same_trials(tmp_path):
+    ray = pytest.importorskip("ray", reason="ray is not installed (optional extra 'ray')")
+    from ray import cloudpickle
+
+    pool = tune(
+        config(tmp_path / "pool", trials=6, seed=5, workers=2),
+        fake_suite(),
+        report_function=fake_report,
+        defaults=DEFAULTS,
+    )
+    cloudpickle.register_pickle_by_value(sys.modules[__name__])
+    ray.init(num_cpus=2, include_dashboard=False, log_to_driver=False)
+    try:
+        on_ray = tune(
+            config(tmp_path / "ray", trials=6, seed=5, workers=2, ray_address="auto"),
+            fake_suite(),
+            report_function=fake_report,
+            defaults=DEFAULTS,
+        )
+    finally:
+        ray.shutdown()
+        cloudpickle.unregister_pickle_by_value(sys.modules[__name__])
+    assert on_ray.complete == pool.complete == 6
+    assert on_ray.best_params == pool.best_params
+    assert on_ray.best_value == pool.best_value
+    assert on_ray.defaults_value == pool.defaults_value
+    import optuna
+
+    trials = [
+        [
+            (t.number, t.params, t.value)
+            for t in optuna.load_study(
+                study_name="fogsim-tune", storage=f"sqlite:///{tmp_path / name / 'tune.db'}"
+            ).trials
+        ]
+        for name in ("pool", "ray")
+    ]
+    assert trials[0] == trials[1]
