@@ -66,7 +66,7 @@ def _floor_int(v: float) -> int:
     return int(np.floor(v))
 
 
-@numba.njit(cache=True)
+@numba.njit(cache=True, error_model="numpy")
 def insert_frame(
     points: NDArray[np.float64],
     sensor_origin: NDArray[np.float64],

@@ -1,0 +1,70 @@
+import dataclasses
+
+import pytest
+
+from mapper import InvalidParameterError, MapperParams
+
+
+def test_defaults_are_the_papers_grid():
+    p = MapperParams()
+    assert (p.nx, p.ny, p.nz) == (100, 100, 16)
+    assert p.cell_m == pytest.approx(0.04) and p.layer_m == pytest.approx(0.04)
+    assert p.extent_x_m == pytest.approx(4.0) and p.extent_y_m == pytest.approx(4.0)
+    # ground z=0 in the middle of layer 1, top of the grid at 0.58 m
+    assert p.z_min_m == pytest.approx(-0.06)
+    assert p.z_max_m == pytest.approx(0.58)
+    assert p.cell_count == 160_000
+
+
+def test_levels_follow_the_8bit_mapping():
+    p = MapperParams()
+    # probability = level / 256: p_min=0.12 -> 31 (0.121), p_max=0.97 -> 248 (0.969)
+    assert p.level_min == 31 and p.level_max == 248
+    # p_occ = 0.75 -> occupied iff level > 192
+    assert p.occ_threshold_level == 192
+
+
+def test_frozen():
+    with pytest.raises(dataclasses.FrozenInstanceError):
+        MapperParams().p_occ = 0.8  # type: ignore[misc]
+
+
+@pytest.mark.parametrize(
+    ("field", "value", "allowed"),
+    [
+        ("p_occ", 0.5, "(0.5, 1)"),
+        ("p_occ", 1.0, "(0.5, 1)"),
+        ("p_sense", 0.4, "(0.5, 1)"),
+        ("p_min", 0.5, "(0, 0.5)"),
+        ("p_min", 0.0, "(0, 0.5)"),
+        ("p_max", 0.5, "(0.5, 1)"),
+        ("p_max", 1.0, "(0.5, 1)"),
+        ("nu", 1.1, "[0, 1]"),
+        ("nu", -0.1, "[0, 1]"),
+        ("eps_m", -0.001, ">= 0"),
+        ("delta_m", -0.01, ">= 0"),
+        ("delta_m", float("nan"), ">= 0"),
+        ("nx", 0, "positive int"),
+        ("nz", 2.5, "positive int"),
+        ("cell_m", 0.0, "> 0"),
+        ("layer_m", -0.04, "> 0"),
+        ("z_min_m", float("inf"), "finite"),
+    ],
+)
+def test_invalid_values_name_field_and_range(field, value, allowed):
+    with pytest.raises(ValueError, match=field) as info:
+        MapperParams(**{field: value})
+    assert allowed in str(info.value)
+    assert isinstance(info.value, InvalidParameterError)
+
+
+def test_p_occ_must_stay_below_p_max_after_quantisation():
+    with pytest.raises(ValueError, match="p_occ"):
+        MapperParams(p_occ=0.975, p_max=0.97)
+
+
+def test_with_overrides():
+    p = MapperParams().with_overrides(p_occ=0.8, nx=50.0)
+    assert p.p_occ == 0.8 and p.nx == 50 and isinstance(p.nx, int)
+    with pytest.raises(ValueError, match="unknown MapperParams field"):
+        MapperParams().with_overrides(p_occupied=0.8)
