@@ -76,7 +76,7 @@ def test_static_box_table1_within_3mm_and_cells_right():
 
 def test_box_removal_fog_clears_within_25_frames_averaging_never():
     scenario = load_scenario("box_removal")  # event: remove flat_box at 4.0 s
-    removal_frame = int(round(4.0 * RATE_HZ))
+    removal_frame = round(4.0 * RATE_HZ)
     frames = make_frames(removal_frame + 40, box_until_frame=removal_frame)
     result = run_frames(frames, provider_removed_at(4.0), scenario)
     (event,) = result.events

@@ -1,0 +1,244 @@
+"""The ``fogsim`` command line: ``list``, ``run``, ``record``, ``suite``.
+
+Exit codes: 0 success, 1 a ``--check`` found worse metrics or a suite scenario failed,
+2 bad input (unknown scenario, invalid ``--set``, unreadable recording).
+"""
+
+from __future__ import annotations
+
+import argparse
+import os
+import sys
+import time
+from collections.abc import Sequence
+from pathlib import Path
+
+from fogsim.errors import FogsimError
+from mapper.errors import MapperError
+
+CAMERA_MODES = ("ideal", "depth", "stereo")
+
+
+def _parser() -> argparse.ArgumentParser:
+    parser = argparse.ArgumentParser(
+        prog="fogsim",
+        description="Floor and obstacle height map (Gutmann et al.) on a simulated humanoid.",
+    )
+    sub = parser.add_subparsers(dest="command", required=True, metavar="COMMAND")
+
+    sub.add_parser("list", help="list the scenarios")
+
+    def scenario_options(p: argparse.ArgumentParser) -> None:
+        p.add_argument(
+            "--set",
+            dest="assignments",
+            action="append",
+            default=[],
+            metavar="KEY=VALUE",
+            help="override a scenario value, e.g. mapper.p_occ=0.7 (repeatable)",
+        )
+        p.add_argument("--seed", type=int, help="random seed (overrides the scenario's)")
+        p.add_argument("--camera-mode", choices=CAMERA_MODES, help="camera mode to simulate")
+        p.add_argument(
+            "--depth-backend",
+            choices=("renderer", "raycast"),
+            default="renderer",
+            help="depth by mujoco.Renderer (EGL) or by mj_multiRay (no OpenGL)",
+        )
+
+    run = sub.add_parser("run", help="run a scenario and write report.json + pictures")
+    run.add_argument("scenario", nargs="?", help="scenario name or TOML path")
+    run.add_argument("--out", type=Path, help="output folder (default runs/<scenario>)")
+    scenario_options(run)
+    run.add_argument("--replay", type=Path, metavar="FILE", help="feed a recording instead")
+    run.add_argument("--video", action="store_true", help="also write run.mp4")
+    run.add_argument("--no-pictures", action="store_true", help="skip the PNGs")
+    run.add_argument("--quiet", action="store_true", help="no progress bar")
+
+    record = sub.add_parser("record", help="simulate a scenario and save every frame to FILE")
+    record.add_argument("scenario", help="scenario name or TOML path")
+    record.add_argument("--out", type=Path, required=True, metavar="FILE", help="recording file")
+    scenario_options(record)
+    record.add_argument("--quiet", action="store_true", help="no progress bar")
+
+    suite = sub.add_parser("suite", help="run every scenario in parallel and summarise")
+    suite.add_argument("directory", nargs="?", type=Path, help="scenario folder")
+    suite.add_argument("--out", type=Path, required=True, help="output folder")
+    suite.add_argument("--workers", type=int, default=2, help="parallel processes (default 2)")
+    suite.add_argument("--check", type=Path, metavar="BASELINE.json", help="compare metrics")
+    suite.add_argument("--quick", action="store_true", help="quick subset (short runs)")
+    suite.add_argument(
+        "--write-baseline", type=Path, metavar="FILE", help="store the metrics as a baseline"
+    )
+    suite.add_argument(
+        "--set",
+        dest="assignments",
+        action="append",
+        default=[],
+        metavar="KEY=VALUE",
+        help="override a value in every scenario",
+    )
+    return parser
+
+
+def _load(name_or_path: str, args: argparse.Namespace):
+    """Load a scenario and apply ``--set``, ``--seed`` and ``--camera-mode``."""
+    from fogsim.scenario import load_scenario
+
+    scenario = load_scenario(name_or_path)
+    return _with_options(scenario, args)
+
+
+def _with_options(scenario, args: argparse.Namespace):
+    assignments = list(args.assignments)
+    if args.seed is not None:
+        assignments.append(f"seed={args.seed}")
+    if getattr(args, "camera_mode", None):
+        assignments.append(f"camera.mode={args.camera_mode}")
+    return scenario.with_overrides(assignments) if assignments else scenario
+
+
+def _cmd_list() -> int:
+    from fogsim.scenario import list_scenarios, load_scenario
+
+    for path in list_scenarios():
+        try:
+            scenario = load_scenario(path)
+            print(f"{scenario.name:<18} {scenario.description}")
+        except FogsimError as exc:
+            print(f"{path.stem:<18} (invalid: {exc})")
+    return 0
+
+
+def _cmd_run(args: argparse.Namespace) -> int:
+    from fogsim.report import format_table1
+    from fogsim.suite import run_scenario
+
+    replay = None
+    if args.replay is not None:
+        from fogsim.recording import load_recording
+
+        replay = load_recording(args.replay)
+        scenario = replay.scenario
+        if args.scenario is not None:
+            from fogsim.scenario import load_scenario
+
+            scenario = load_scenario(args.scenario)
+        if scenario is not None:
+            scenario = _with_options(scenario, args)
+        elif args.assignments:
+            raise FogsimError(
+                "--set needs a scenario: this recording has none (real data); name one, e.g. "
+                "`fogsim run flat_floor --replay FILE --set mapper.p_occ=0.7`"
+            )
+    elif args.scenario is None:
+        raise FogsimError("run needs a SCENARIO (see `fogsim list`) or --replay FILE")
+    else:
+        scenario = _load(args.scenario, args)
+    name = scenario.name if scenario is not None else Path(args.replay).stem
+    out = args.out if args.out is not None else Path("runs") / name
+    report = run_scenario(
+        scenario,
+        out,
+        replay=replay,
+        pictures=not args.no_pictures,
+        video=args.video,
+        progress=not args.quiet,
+        depth_backend=args.depth_backend,
+    )
+    print(format_table1(report))
+    timing = report["timing"]
+    print(
+        f"{timing['frames']} frames, mapper update {timing['update_ms']['median']} ms median, "
+        f"wall {timing['wall_s']} s -> {out / 'report.json'}"
+    )
+    return 0
+
+
+def _cmd_record(args: argparse.Namespace) -> int:
+    from fogsim.recording import save_recording
+    from fogsim.simulation import Simulation
+
+    start = time.perf_counter()
+    scenario = _load(args.scenario, args)
+    simulation = Simulation(scenario, depth_backend=args.depth_backend)
+    frames = simulation.frames()
+    if not args.quiet:
+        from tqdm import tqdm
+
+        frames = tqdm(frames, total=simulation.frame_count, unit="frame", desc=scenario.name)
+    frames = list(frames)
+    truths = [simulation.truth_at(f.time_s) for f in frames]
+    path = save_recording(args.out, frames, scenario=scenario, truths=truths)
+    size_mb = os.path.getsize(path) / 1e6
+    print(
+        f"recorded {len(frames)} frames of {scenario.name} to {path} "
+        f"({size_mb:.1f} MB, {time.perf_counter() - start:.1f} s)"
+    )
+    return 0
+
+
+def _cmd_suite(args: argparse.Namespace) -> int:
+    import json
+
+    from fogsim.atomic import write_text_atomic
+    from fogsim.suite import (
+        check_against_baseline,
+        load_json,
+        run_suite,
+        summary_markdown,
+        update_baseline,
+    )
+
+    baseline = load_json(args.check, "baseline") if args.check is not None else None
+    summary = run_suite(
+        args.directory,
+        args.out,
+        workers=args.workers,
+        quick=args.quick,
+        overrides=args.assignments,
+    )
+    failed = [n for n, e in summary["scenarios"].items() if e.get("error")]
+    for name in failed:
+        print(f"FAILED {name}: {summary['scenarios'][name]['error']}", file=sys.stderr)
+    problems: list[str] = []
+    if baseline is not None:
+        problems = check_against_baseline(summary, baseline)
+        write_text_atomic(args.out / "summary.md", summary_markdown(summary, problems))
+        for line in problems:
+            print(f"WORSE {line}", file=sys.stderr)
+    if args.write_baseline is not None:
+        existing = None
+        if args.write_baseline.exists():
+            existing = load_json(args.write_baseline, "baseline")
+        body = update_baseline(existing, summary)
+        write_text_atomic(args.write_baseline, json.dumps(body, indent=2, sort_keys=True) + "\n")
+    print(
+        f"{len(summary['scenarios'])} scenarios in {summary['wall_s']} s; "
+        f"{len(failed)} failed; {len(problems)} metrics worse than the baseline -> "
+        f"{args.out / 'summary.md'}"
+    )
+    return 1 if failed or problems else 0
+
+
+def main(argv: Sequence[str] | None = None) -> int:
+    """Entry point of the ``fogsim`` command; returns the exit code."""
+    os.environ.setdefault("MUJOCO_GL", "egl")
+    os.environ.setdefault("PYOPENGL_PLATFORM", "egl")
+    os.environ.setdefault("MESA_SHADER_CACHE_DISABLE", "true")
+    args = _parser().parse_args(argv)
+    try:
+        if args.command == "list":
+            return _cmd_list()
+        if args.command == "run":
+            return _cmd_run(args)
+        if args.command == "record":
+            return _cmd_record(args)
+        return _cmd_suite(args)
+    except (FogsimError, MapperError) as exc:
+        print(f"fogsim: error: {exc}", file=sys.stderr)
+        return 2
+
+
+if __name__ == "__main__":
+    sys.exit(main())
