@@ -1,0 +1,227 @@
+"""Head camera: rendered depth == ray-cast depth, known geometry, error model, stereo."""
+
+from __future__ import annotations
+
+import dataclasses
+import math
+
+import numpy as np
+import pytest
+
+from fogsim.camera import (
+    HeadCamera,
+    RaycastDepth,
+    RendererDepth,
+    StereoErrorModel,
+    camera_intrinsics,
+)
+from fogsim.errors import FogsimError
+from fogsim.scenario import CameraConfig, load_scenario, scenario_from_dict
+from fogsim.scene import Scene
+from mapper.transforms import apply_transform
+
+
+def look_transform(position, yaw_deg: float, pitch_down_deg: float) -> np.ndarray:
+    """OpenCV camera pose in the world: at ``position``, heading yaw, pitched down."""
+    yaw, pitch = math.radians(yaw_deg), math.radians(pitch_down_deg)
+    forward = np.array(
+        [math.cos(pitch) * math.cos(yaw), math.cos(pitch) * math.sin(yaw), -math.sin(pitch)]
+    )
+    right = np.array([math.sin(yaw), -math.cos(yaw), 0.0])
+    down = np.cross(forward, right)
+    t = np.eye(4)
+    t[:3, :3] = np.stack([right, down, forward], axis=1)
+    t[:3, 3] = position
+    return t
+
+
+@pytest.fixture(scope="module")
+def stage_scene():
+    return Scene(load_scenario("stage"))
+
+
+@pytest.fixture(scope="module")
+def cameras(stage_scene):
+    intrinsics = camera_intrinsics(CameraConfig())
+    for cam in stage_scene.camera_ids.values():
+        from fogsim.camera import set_model_intrinsics
+
+        set_model_intrinsics(stage_scene.model, cam, intrinsics)
+    renderer = RendererDepth(stage_scene.model, intrinsics)
+    raycast = RaycastDepth(stage_scene.model, intrinsics)
+    yield renderer, raycast
+    renderer.close()
+
+
+@pytest.mark.parametrize(
+    "pose",
+    [
+        ((0.3, 0.5, 0.9), 0.0, 30.0),  # the start view over the stage
+        ((1.0, 0.2, 0.7), 35.0, 45.0),  # oblique, boxes and the sill
+        ((2.4, 0.6, 0.95), -10.0, 25.0),  # the staircase and the platform
+        ((0.5, 0.5, 0.9), 0.0, -5.0),  # nearly horizontal: far pixels without a hit
+    ],
+)
+def test_rendered_depth_equals_raycast_depth(stage_scene, cameras, pose):
+    renderer, raycast = cameras
+    stage_scene.set_camera_rig_pose(look_transform(*pose))
+    stage_scene.forward()
+    cam = stage_scene.camera_ids["head_camera"]
+    rendered = renderer.render(stage_scene.data, cam)
+    cast = raycast.render(stage_scene.data, cam)
+    assert rendered.shape == cast.shape == (72, 88)
+    assert rendered.dtype == np.float32
+    np.testing.assert_array_equal(np.isnan(rendered), np.isnan(cast))
+    assert np.isfinite(rendered).sum() > 1000
+    # Depth buffer precision: a few micrometres at 5 m; 0.1 mm tolerance, except single
+    # pixels grazing an edge where the two methods may see different surfaces.
+    close = np.abs(rendered - cast) <= 1e-4
+    assert close[np.isfinite(cast)].mean() > 0.995
+
+
+def test_depth_is_along_the_optical_axis(stage_scene, cameras):
+    """Looking straight down from 1.3 m at the floor: every pixel reads 1.3 m (not ray length)."""
+    renderer, raycast = cameras
+    t = np.eye(4)
+    t[:3, :3] = np.diag([1.0, -1.0, -1.0])  # optical z down, x along world x
+    t[:3, 3] = (0.2, -0.5, 1.3)
+    stage_scene.set_camera_rig_pose(t)
+    stage_scene.forward()
+    cam = stage_scene.camera_ids["head_camera"]
+    for source in (renderer, raycast):
+        depth = source.render(stage_scene.data, cam)
+        assert np.all(np.abs(depth - 1.3) < 2e-5)
+
+
+def test_back_projected_floor_pixels_lie_on_the_floor(stage_scene, cameras):
+    renderer, _ = cameras
+    pose = look_transform((0.0, -0.6, 0.9), 200.0, 40.0)  # away from the stage: floor only
+    stage_scene.set_camera_rig_pose(pose)
+    stage_scene.forward()
+    np.testing.assert_allclose(stage_scene.camera_to_world(), pose, atol=1e-12)
+    depth = renderer.render(stage_scene.data, stage_scene.camera_ids["head_camera"])
+    points = renderer.intrinsics.depth_to_points_camera(depth).reshape(-1, 3)
+    world = apply_transform(pose, points[np.isfinite(points[:, 2])])
+    assert world.shape[0] > 0.9 * depth.size
+    assert np.abs(world[:, 2]).max() < 1e-4
+
+
+def test_nothing_hit_is_nan(stage_scene, cameras):
+    renderer, raycast = cameras
+    stage_scene.set_camera_rig_pose(look_transform((0.3, 0.5, 0.9), 0.0, -60.0))  # the sky
+    stage_scene.forward()
+    cam = stage_scene.camera_ids["head_camera"]
+    assert np.isnan(renderer.render(stage_scene.data, cam)).all()
+    assert np.isnan(raycast.render(stage_scene.data, cam)).all()
+
+
+def test_rough_tops_render_like_raycast():
+    scene = Scene(load_scenario("simulated_world"))
+    intrinsics = camera_intrinsics(CameraConfig())
+    cam = HeadCamera(scene.model, scene.camera_ids, CameraConfig(mode="ideal"))
+    cast = RaycastDepth(scene.model, intrinsics)
+    scene.set_camera_rig_pose(look_transform((0.45, 0.5, 0.8), 0.0, 50.0))
+    scene.forward()
+    rendered = cam.capture(scene.data, np.random.default_rng(0))
+    ray = cast.render(scene.data, scene.camera_ids["head_camera"])
+    ok = np.abs(rendered - ray) <= 1e-4
+    assert ok[np.isfinite(ray)].mean() > 0.99
+    cam.close()
+
+
+def test_error_model_statistics_known_answers():
+    model = StereoErrorModel(
+        focal_px=100.0,
+        baseline_m=0.1,
+        disparity_noise_px=0.1,
+        disparity_step_px=0.0,
+        dropout=0.0,
+        range_m=(0.1, 10.0),
+    )
+    depth = np.full((400, 500), 2.0, dtype=np.float32)
+    noisy = model.apply(depth, np.random.default_rng(7))
+    # d = f b / z = 5 px; sigma_z ~ z^2 sigma_d / (f b) = 4 * 0.1 / 10 = 0.04 m.
+    assert model.depth_sigma_m(2.0) == pytest.approx(0.04)
+    assert np.std(noisy) == pytest.approx(0.04, rel=0.05)
+    assert np.median(noisy) == pytest.approx(2.0, abs=0.002)
+    # Same seed, same result bit for bit; another seed differs.
+    np.testing.assert_array_equal(noisy, model.apply(depth, np.random.default_rng(7)))
+    assert not np.array_equal(noisy, model.apply(depth, np.random.default_rng(8)))
+
+
+def test_error_model_quantisation_range_and_dropout():
+    step = 0.25
+    model = StereoErrorModel(100.0, 0.1, 0.0, step, dropout=0.1, range_m=(0.5, 3.0))
+    depth = np.linspace(0.2, 5.0, 200_000, dtype=np.float32).reshape(400, 500)
+    noisy = model.apply(depth, np.random.default_rng(1))
+    valid = np.isfinite(noisy)
+    disparity = 10.0 / noisy[valid].astype(np.float64)
+    np.testing.assert_allclose(disparity / step, np.round(disparity / step), atol=1e-4)
+    assert noisy[valid].min() >= 0.5 and noisy[valid].max() <= 3.0
+    in_range = (10.0 / (np.round(10.0 / depth / step) * step) >= 0.5) & (
+        10.0 / (np.round(10.0 / depth / step) * step) <= 3.0
+    )
+    assert (~valid[in_range]).mean() == pytest.approx(0.1, abs=0.005)
+    exact = StereoErrorModel(100.0, 0.1, 0.0, 0.0, 0.0, (0.1, 10.0))
+    np.testing.assert_allclose(
+        exact.apply(depth, np.random.default_rng(0))[depth >= 0.1], depth[depth >= 0.1], rtol=1e-6
+    )
+
+
+def test_depth_mode_error_grows_with_distance(stage_scene):
+    config = load_scenario("stage").camera
+    camera = HeadCamera(stage_scene.model, stage_scene.camera_ids, config)
+    stage_scene.set_camera_rig_pose(look_transform((0.0, -0.6, 0.9), 200.0, 30.0))
+    stage_scene.forward()
+    exact = camera.exact_depth(stage_scene.data)
+    noisy = camera.capture(stage_scene.data, np.random.default_rng(3))
+    error = noisy - exact
+    near, far = exact < 1.5, exact > 2.5
+    assert np.nanstd(error[near]) < np.nanstd(error[far])
+    assert np.nanmedian(np.abs(error[near])) < 0.01
+    in_range = exact < 0.9 * config.range_m[1]
+    assert np.isnan(noisy[in_range]).mean() == pytest.approx(config.dropout, abs=0.01)
+    assert np.isnan(noisy[exact > 1.1 * config.range_m[1]]).all()
+    camera.close()
+
+
+def test_stereo_mode_matches_rendered_images(stage_scene):
+    stereo_config = dataclasses.replace(load_scenario("stage").camera, mode="stereo")
+    camera = HeadCamera(stage_scene.model, stage_scene.camera_ids, stereo_config)
+    exact = HeadCamera(stage_scene.model, stage_scene.camera_ids, CameraConfig(mode="ideal"))
+    stage_scene.set_camera_rig_pose(look_transform((0.3, 0.5, 0.9), 0.0, 35.0))
+    stage_scene.forward()
+    assert camera.depth_camera == "head_camera_left"
+    depth = camera.capture(stage_scene.data, np.random.default_rng(0))
+    assert depth.shape == (72, 88) and depth.dtype == np.float32
+    truth_left = RendererDepth(stage_scene.model, camera.intrinsics)
+    reference = truth_left.render(stage_scene.data, stage_scene.camera_ids["head_camera_left"])
+    relative = np.abs(depth - reference) / reference
+    assert np.isfinite(depth).mean() > 0.5
+    assert np.nanmedian(relative) < 0.03
+    for c in (camera, exact, truth_left):
+        c.close()
+
+
+def test_bad_camera_requests_raise(stage_scene):
+    with pytest.raises(FogsimError, match="renderer, raycast"):
+        HeadCamera(stage_scene.model, stage_scene.camera_ids, CameraConfig(), backend="opengl")
+    with pytest.raises(FogsimError, match="stereo"):
+        HeadCamera(
+            stage_scene.model,
+            stage_scene.camera_ids,
+            CameraConfig(mode="stereo"),
+            backend="raycast",
+        )
+    with pytest.raises(FogsimError, match="dropout"):
+        StereoErrorModel(100.0, 0.1, dropout=1.5)
+
+
+def test_intrinsics_follow_the_scenario():
+    scenario = scenario_from_dict(
+        {"name": "w", "camera": {"width": 64, "height": 48, "fov_deg": [60.0, 45.0]}}
+    )
+    intrinsics = camera_intrinsics(scenario.camera)
+    assert intrinsics.hfov_deg == pytest.approx(60.0)
+    assert intrinsics.vfov_deg == pytest.approx(45.0)
+    assert intrinsics.shape == (48, 64)

@@ -1,0 +1,142 @@
+"""Scenes from scenarios: named elements, events, rough tops, the attached robot."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from fogsim.errors import FogsimError
+from fogsim.ground_truth import SceneTruth, object_center_at
+from fogsim.scenario import load_scenario
+from fogsim.scene import CAMERA_NAMES, Scene, rough_elevation
+
+
+def ray_down(scene: Scene, xy) -> np.ndarray:
+    """Height [m] of the first surface hit by vertical rays cast from 5 m down at points xy."""
+    import mujoco
+
+    heights = []
+    geomid = np.zeros(1, dtype=np.int32)
+    groups = np.array([1, 1, 1, 0, 0, 0], dtype=np.uint8)
+    for x, y in xy:
+        dist = mujoco.mj_ray(
+            scene.model,
+            scene.data,
+            np.array([x, y, 5.0]),
+            np.array([0.0, 0.0, -1.0]),
+            groups,
+            1,
+            -1,
+            geomid,
+        )
+        heights.append(5.0 - dist)
+    return np.array(heights)
+
+
+def test_every_object_is_named_and_placed():
+    scenario = load_scenario("stage")
+    scene = Scene(scenario)
+    named = scene.physics.named
+    for obj in scenario.objects:
+        assert scene.model.body(f"obj_{obj.name}").id > 0
+        np.testing.assert_allclose(
+            named.data.geom_xpos[f"geom_{obj.name}"],
+            [*obj.center, obj.base + obj.size[2] / 2],
+            atol=1e-12,
+        )
+    assert scene.model.geom("floor").id >= 0
+    assert set(scene.camera_ids) == set(CAMERA_NAMES)
+    assert not scene.has_robot
+    # Tops seen from above are the scenario's heights (the stage's Table I surfaces).
+    xy = [[1.2, 0.5], [2.7, 0.5], [2.9, 0.5], [3.1, 0.5], [3.6, 0.5], [0.3, 0.5]]
+    np.testing.assert_allclose(
+        ray_down(scene, xy), [0.038, 0.031, 0.061, 0.092, 0.122, 0.0], atol=1e-9
+    )
+    truth = SceneTruth.from_scenario(scenario, 0.0)
+    np.testing.assert_allclose(ray_down(scene, xy), truth.support_height_m(xy), atol=1e-9)
+
+
+def test_events_remove_and_move_objects():
+    removal = load_scenario("box_removal")
+    scene = Scene(removal)
+    at = removal.events[0].at
+    center = removal.object("flat_box").center
+    scene.set_time(at - 0.1)
+    scene.forward()
+    assert ray_down(scene, [center])[0] == pytest.approx(0.05, abs=1e-9)
+    scene.set_time(at)
+    scene.forward()
+    assert ray_down(scene, [center])[0] == pytest.approx(0.0, abs=1e-9)
+
+    moving = load_scenario("moving_box")
+    scene = Scene(moving)
+    for t in (0.0, 3.0, 7.5, 30.0):
+        scene.set_time(t)
+        scene.forward()
+        expected = object_center_at(moving, "flat_box", t)
+        np.testing.assert_allclose(
+            scene.physics.named.data.geom_xpos["geom_flat_box"][:2], expected, atol=1e-12
+        )
+
+
+def test_rough_tops_are_bumpy_deterministic_and_bounded():
+    world = load_scenario("simulated_world")
+    rough = [o for o in world.objects if o.surface == "rough"]
+    a = rough_elevation(rough[0], world.seed, 2)
+    np.testing.assert_array_equal(a, rough_elevation(rough[0], world.seed, 2))
+    assert not np.array_equal(a, rough_elevation(rough[0], world.seed + 1, 2))
+    assert a.min() == 0.0 and a.max() == 1.0
+    scene = Scene(world)
+    obj = rough[0]
+    xs = np.linspace(-0.4, 0.4, 21) * obj.size[0] + obj.center[0]
+    ys = np.linspace(-0.4, 0.4, 21) * obj.size[1] + obj.center[1]
+    grid = np.stack(np.meshgrid(xs, ys), -1).reshape(-1, 2)
+    tops = ray_down(scene, grid)
+    assert tops.max() <= obj.top_m + 1e-9
+    assert tops.min() >= obj.top_m - obj.roughness_m - 1e-9
+    assert tops.std() > 0.15 * obj.roughness_m  # no plane: iid bumps, bilinear in between
+    assert np.ptp(tops) > 0.5 * obj.roughness_m
+
+
+def test_camera_rig_pose_round_trip():
+    scene = Scene(load_scenario("flat_floor"))
+    t = np.eye(4)
+    t[:3, :3] = np.array([[0.0, 0.0, 1.0], [-1.0, 0.0, 0.0], [0.0, -1.0, 0.0]])
+    t[:3, 3] = [0.3, 0.5, 0.9]
+    scene.set_camera_rig_pose(t)
+    scene.forward()
+    np.testing.assert_allclose(scene.camera_to_world(), t, atol=1e-12)
+    rel = scene.transform_between_cameras("head_camera_left", "head_camera")
+    np.testing.assert_allclose(rel[:3, 3], [-0.035, 0.0, 0.0], atol=1e-12)
+    with pytest.raises(FogsimError, match="no robot"):
+        scene.set_robot_qpos(np.zeros(7))
+
+
+@pytest.fixture(scope="module")
+def robot():
+    robot_module = pytest.importorskip("fogsim.robot")
+    return robot_module.load_robot("icub")
+
+
+def test_attached_robot_cameras_match_pinocchio(robot):
+    scene = Scene(load_scenario("stage"), robot)
+    assert scene.has_robot
+    rng = np.random.default_rng(4)
+    for _ in range(3):
+        q = robot.neutral()
+        q[:3] = rng.uniform([0, 0, 0.5], [3, 1, 0.7])
+        q[7:] = rng.uniform(-0.3, 0.3, robot.n_joints)
+        scene.set_robot_qpos(robot.qpos_mujoco(q))
+        scene.forward()
+        for name in CAMERA_NAMES:
+            np.testing.assert_allclose(
+                scene.camera_to_world(name), robot.transform_camera_to_world(q, name), atol=1e-9
+            )
+    # The robot's own meshes are in a rendered group, so the camera can see its body.
+    robot_geoms = [
+        g for g in range(scene.model.ngeom) if scene.model.geom(g).name.startswith("icub/")
+    ]
+    assert robot_geoms
+    assert set(scene.model.geom_group[robot_geoms]) <= set(scene.render_geomgroups)
+    with pytest.raises(FogsimError, match="has a robot"):
+        scene.set_camera_rig_pose(np.eye(4))
