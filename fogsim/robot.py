@@ -152,7 +152,7 @@ _ICUB = RobotConfig(
     stereo_baseline_m=0.068,
     fix_y_up_meshes=True,
     use_collision_meshes_for_visuals=False,
-    nominal_pelvis_height_m=0.55,
+    nominal_pelvis_height_m=0.575,
     arm_pose_rad={
         "l_shoulder_roll": 0.35,
         "r_shoulder_roll": 0.35,

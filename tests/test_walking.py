@@ -1,0 +1,163 @@
+import math
+
+import numpy as np
+import pytest
+
+from fogsim.robot import Stance, load_robot
+from fogsim.walking import GaitParams, RouteError, plan_route
+
+PLATFORM_M = 0.122
+
+
+def stage_support(xy):
+    """The paper's stage along x: sill 38 mm, three 0.2 m treads, platform 122 mm."""
+    x = np.asarray(xy, dtype=float)[:, 0]
+    h = np.zeros(x.size)
+    h = np.where((x >= 1.15) & (x <= 1.25), 0.038, h)
+    for k, z in enumerate((0.031, 0.061, 0.092)):
+        h = np.where((x >= 2.6 + 0.2 * k) & (x < 2.8 + 0.2 * k), z, h)
+    return np.where((x >= 3.2) & (x <= 4.0), PLATFORM_M, h)
+
+
+STAGE_ROUTE = [
+    {"walk_to": (2.0, 0.5)},
+    {"look": (20.0, -25.0)},
+    {"walk_to": (3.6, 0.5)},
+    {"turn_to": 90.0},
+    {"wait": 1.0},
+]
+
+
+@pytest.fixture(scope="module")
+def icub():
+    return load_robot("icub")
+
+
+@pytest.fixture(scope="module")
+def stage(icub):
+    return plan_route(icub, (0.3, 0.5, 0.0), STAGE_ROUTE, stage_support, 12.5)
+
+
+def _soles(robot, q):
+    return robot.frame_transforms(q, (robot.config.left_sole, robot.config.right_sole))
+
+
+def test_stage_route_ends_on_the_platform(icub, stage):
+    soles = _soles(icub, stage.q[-1])
+    for sole in soles:
+        assert sole[2, 3] == pytest.approx(PLATFORM_M, abs=0.005)
+        assert 3.2 < sole[0, 3] < 4.0
+    pose = stage.robot_pose_true[-1]
+    assert pose[2] == pytest.approx(PLATFORM_M, abs=0.005)
+    assert pose[3] == pytest.approx(math.pi / 2, abs=1e-3)
+    np.testing.assert_allclose(pose[:2], (3.6, 0.5), atol=0.01)
+    # every surface was stood on: ground, each step, platform (not the sill: stepped over)
+    heights = sorted({round(f.pose[2], 3) for f in stage.footsteps})
+    assert heights == [0.0, 0.031, 0.061, 0.092, PLATFORM_M]
+
+
+def test_stance_feet_stand_flat_on_the_surface(icub, stage):
+    worst = 0.0
+    for q, stance in zip(stage.q, stage.stance, strict=True):
+        soles = _soles(icub, q)
+        feet = (0, 1) if stance == Stance.DOUBLE else (int(stance),)
+        for foot in feet:
+            sole = soles[foot]
+            # footprint corners at the sole's height vs. the surface under them
+            back, front = icub.config.foot_length_m
+            hw = icub.config.foot_half_width_m
+            corners = np.array([[back, -hw, 0], [back, hw, 0], [front, -hw, 0], [front, hw, 0]])
+            world = corners @ sole[:3, :3].T + sole[:3, 3]
+            error = np.abs(world[:, 2] - stage_support(world[:, :2]))
+            worst = max(worst, float(error.max()))
+    assert worst < 0.005
+    assert stage.ik_residual_m.max() < 1e-3
+
+
+def test_footsteps_are_flat_and_never_straddle_an_edge(icub, stage):
+    back, front = icub.config.foot_length_m
+    hw = icub.config.foot_half_width_m
+    xs, ys = np.meshgrid(np.linspace(back, front, 17), np.linspace(-hw, hw, 5))
+    for step in stage.footsteps:
+        x, y, z, yaw = step.pose
+        c, s = math.cos(yaw), math.sin(yaw)
+        pts = np.column_stack(
+            [x + c * xs.ravel() - s * ys.ravel(), y + s * xs.ravel() + c * ys.ravel()]
+        )
+        assert np.ptp(stage_support(pts)) == 0.0
+        assert stage_support(pts)[0] == pytest.approx(z)
+
+
+def test_body_sways_and_bobs_while_walking(icub, stage):
+    walking = (stage.times_s > 1.0) & (stage.times_s < 6.0)  # flat ground, straight
+    pelvis = stage.q[walking, :3]
+    assert 0.003 < np.ptp(pelvis[:, 2]) < 0.03  # bob [m]
+    assert 0.02 < np.ptp(pelvis[:, 1]) < 0.08  # lateral sway around y = 0.5 [m]
+    assert np.all(np.diff(pelvis[:, 0]) > -1e-9)  # always moving forward or still
+    assert set(np.unique(stage.stance[walking])) == {Stance.LEFT, Stance.RIGHT, Stance.DOUBLE}
+
+
+def test_head_look_sets_camera_direction(icub, stage):
+    # first frame: default look (0, -30): camera pitched 30° down, sees the floor ahead
+    camera = icub.transform_camera_to_world(stage.q[0])
+    assert math.degrees(math.asin(-camera[2, 2])) == pytest.approx(30.0, abs=0.1)
+    hit = camera[:3, 3] - camera[:3, 2] * camera[2, 3] / camera[2, 2]
+    assert 1.0 < hit[0] - 0.3 < 3.0
+    # after the look command (20, -25): head yawed 20° left of the body, pitched 25° down
+    i = int(np.argmax((stage.head_look_deg[:, 0] == 20.0) & (stage.stance == Stance.DOUBLE)))
+    camera = icub.transform_camera_to_world(stage.q[i])
+    yaw = math.degrees(math.atan2(camera[1, 2], camera[0, 2])) - math.degrees(
+        stage.robot_pose_true[i, 3]
+    )
+    # the neck yaws about the pitched head axis: direction = R_pitch(25°) R_yaw(20°) x
+    y, p = math.radians(20.0), math.radians(25.0)
+    assert yaw == pytest.approx(
+        math.degrees(math.atan2(math.sin(y), math.cos(y) * math.cos(p))), abs=0.5
+    )
+    down = math.degrees(math.asin(-camera[2, 2]))
+    assert down == pytest.approx(math.degrees(math.asin(math.cos(y) * math.sin(p))), abs=0.5)
+
+
+def test_same_inputs_same_trajectory_bit_for_bit(icub, stage):
+    again = plan_route(icub, (0.3, 0.5, 0.0), STAGE_ROUTE, stage_support, 12.5)
+    np.testing.assert_array_equal(again.q, stage.q)
+    np.testing.assert_array_equal(again.robot_pose_true, stage.robot_pose_true)
+    assert stage.times_s[1] == pytest.approx(0.08)
+
+
+def test_robot_pose_is_consistent_with_camera_kinematics(icub, stage):
+    from mapper.transforms import planar_pose_to_matrix
+
+    for i in range(0, stage.frame_count, 37):
+        believed = planar_pose_to_matrix(stage.robot_pose_true[i]) @ icub.transform_camera_to_robot(
+            stage.q[i, 7:], int(stage.reference_foot[i])
+        )
+        np.testing.assert_allclose(believed, icub.transform_camera_to_world(stage.q[i]), atol=1e-4)
+
+
+@pytest.mark.parametrize(
+    ("route", "message"),
+    [
+        ([{"walk_to": (1, 0), "wait": 1}], "exactly one"),
+        ([{}], "exactly one"),
+        ([{"wait": -1}], "wait must be > 0"),
+        ([{"look": (1,)}], "malformed"),
+    ],
+)
+def test_bad_route_steps_are_rejected(icub, route, message):
+    with pytest.raises(RouteError, match=message):
+        plan_route(icub, (0.0, 0.0, 0.0), route, lambda xy: np.zeros(len(xy)), 12.5)
+
+
+def test_bad_parameters_are_rejected():
+    with pytest.raises(RouteError, match="step_period_s"):
+        GaitParams(step_period_s=0.0)
+
+
+def test_talos_walks_a_short_route():
+    talos = load_robot("talos")
+    traj = plan_route(
+        talos, (0.0, 0.0, 0.0), [{"walk_to": (0.5, 0.0)}], lambda xy: np.zeros(len(xy)), 12.5
+    )
+    assert traj.ik_residual_m.max() < 1e-3
+    assert traj.robot_pose_true[-1, 0] == pytest.approx(0.5, abs=0.01)
