@@ -1,0 +1,281 @@
+"""Pictures of a run (matplotlib, Agg backend) and the optional MP4 (OpenCV).
+
+* ``fog_map.png`` — the paper's Fig. 7: the FOG over everything the robot mapped (each cell's
+  last value while it was inside the robot-centred grid): floor height in colour, obstacles
+  black with a cross coloured by their coarse height, unknown grey, a colour bar in mm.
+* ``fig3_panels.png`` — Fig. 3's four panels on the final grid: (a) the world (true floor and
+  obstacle heights), (b) the floor height map, (c) the 3-D occupancy grid (occupied cells),
+  (d) the FOG.
+* ``fig5_comparison.png`` — Fig. 5 for scenarios with events: camera image, averaging map and
+  FOG just before the first event and at the end of the run.
+
+Maps are arrays indexed ``[ix, iy]``; they are drawn with x to the right and y up, world
+metres on the axes.
+"""
+
+from __future__ import annotations
+
+import os
+from pathlib import Path
+from typing import Any
+
+import matplotlib
+
+matplotlib.use("Agg")
+
+import matplotlib.pyplot as plt
+import numpy as np
+from matplotlib.colors import Normalize
+from numpy.typing import NDArray
+
+from mapper.grid import CellType
+
+CMAP = "viridis"
+UNKNOWN_RGB = (0.62, 0.62, 0.62)
+OBSTACLE_RGB = (0.0, 0.0, 0.0)
+
+
+def _extent(centers: NDArray[np.float64], cell_m: float) -> tuple[float, float, float, float]:
+    return (
+        float(centers[0, 0, 0] - cell_m / 2),
+        float(centers[-1, 0, 0] + cell_m / 2),
+        float(centers[0, 0, 1] - cell_m / 2),
+        float(centers[0, -1, 1] + cell_m / 2),
+    )
+
+
+def _height_norm(*heights_m: NDArray[np.floating]) -> Normalize:
+    values = np.concatenate([np.asarray(h, dtype=np.float64).ravel() for h in heights_m])
+    values = values[np.isfinite(values)] * 1000.0
+    if not values.size:
+        return Normalize(0.0, 100.0)
+    low, high = float(np.min(values)), float(np.max(values))
+    return Normalize(low, max(high, low + 20.0))
+
+
+def fog_rgb(
+    types: NDArray[np.integer], heights_m: NDArray[np.floating], norm: Normalize
+) -> NDArray[np.float64]:
+    """(ny, nx, 3) image of a FOG: floor in colour (mm), obstacles black, unknown grey."""
+    t = np.asarray(types).T
+    h = np.asarray(heights_m, dtype=np.float64).T * 1000.0
+    rgb = np.empty((*t.shape, 3))
+    rgb[:] = UNKNOWN_RGB
+    floor = t == CellType.FLOOR
+    rgb[floor] = plt.get_cmap(CMAP)(norm(h[floor]))[:, :3]
+    rgb[t == CellType.OBSTACLE] = OBSTACLE_RGB
+    return rgb
+
+
+def heights_rgb(heights_m: NDArray[np.floating], norm: Normalize) -> NDArray[np.float64]:
+    """(ny, nx, 3) image of a height map [m] (NaN grey)."""
+    h = np.asarray(heights_m, dtype=np.float64).T * 1000.0
+    rgb = np.empty((*h.shape, 3))
+    rgb[:] = UNKNOWN_RGB
+    known = np.isfinite(h)
+    rgb[known] = plt.get_cmap(CMAP)(norm(h[known]))[:, :3]
+    return rgb
+
+
+def _draw_fog(ax: Any, types, heights, centers, cell_m: float, norm: Normalize) -> None:
+    ax.imshow(fog_rgb(types, heights, norm), origin="lower", extent=_extent(centers, cell_m))
+    obstacle = np.asarray(types) == CellType.OBSTACLE
+    if obstacle.any():
+        xy = centers[obstacle]
+        ax.scatter(
+            xy[:, 0],
+            xy[:, 1],
+            c=np.asarray(heights)[obstacle] * 1000.0,
+            cmap=CMAP,
+            norm=norm,
+            marker="x",
+            s=max(4.0, 600.0 / max(centers.shape[:2])),
+            linewidths=0.8,
+        )
+    ax.set_xlabel("x [m]")
+    ax.set_ylabel("y [m]")
+    ax.set_aspect("equal")
+
+
+def _colorbar(fig: Any, ax: Any, norm: Normalize, label: str = "height [mm]") -> None:
+    fig.colorbar(plt.cm.ScalarMappable(norm=norm, cmap=CMAP), ax=ax, label=label, shrink=0.85)
+
+
+def _save(fig: Any, path: Path) -> Path:
+    from fogsim.atomic import write_atomic
+
+    write_atomic(path, lambda handle: fig.savefig(handle, format="png", dpi=110))
+    plt.close(fig)
+    return path
+
+
+def _crop_to_visited(archive: Any) -> tuple[slice, slice]:
+    visited = archive.visited & (archive.fog_types != CellType.UNKNOWN)
+    if not visited.any():
+        return slice(None), slice(None)
+    ix, iy = np.nonzero(visited)
+    pad = 3
+    return (
+        slice(max(0, ix.min() - pad), ix.max() + pad + 1),
+        slice(max(0, iy.min() - pad), iy.max() + pad + 1),
+    )
+
+
+def draw_fog_map(result: Any, title: str, path: Path) -> Path:
+    """Fig. 7: the archived FOG of the run."""
+    archive = result.archive
+    sx, sy = _crop_to_visited(archive)
+    centers = archive.cell_centers_xy()[sx, sy]
+    types = archive.fog_types[sx, sy]
+    heights = archive.fog_heights_m[sx, sy]
+    floor_heights = np.where(types == CellType.FLOOR, heights, np.nan)
+    norm = _height_norm(floor_heights, np.where(types == CellType.OBSTACLE, heights, np.nan))
+    fig, ax = plt.subplots(figsize=(8, 6))
+    _draw_fog(ax, types, heights, centers, archive.cell_m, norm)
+    _colorbar(fig, ax, norm)
+    ax.set_title(f"{title}: floor and obstacle grid (grey unknown, black obstacle)")
+    return _save(fig, path)
+
+
+def draw_fig3(result: Any, title: str, path: Path) -> Path:
+    """Fig. 3: world, floor map, 3-D occupancy grid, FOG on the final grid."""
+    mapper = result.mapper
+    g = mapper.geometry
+    centers = g.cell_centers_xy()
+    cell_m = g.cell_m
+    floor = mapper.floor()
+    types, heights = mapper.fog()
+    truth = result.final_truth
+    norm = _height_norm(floor, heights)
+    fig = plt.figure(figsize=(12, 10))
+    ax_a = fig.add_subplot(2, 2, 1)
+    if truth is not None:
+        world = np.where(np.isfinite(truth.floor_m), truth.floor_m, truth.obstacle_top_m)
+        norm = _height_norm(floor, heights, world)
+        ax_a.imshow(heights_rgb(world, norm), origin="lower", extent=_extent(centers, cell_m))
+        ax_a.set_title("(a) world: true floor / obstacle tops")
+    elif result.last_depth_m is not None:
+        ax_a.imshow(result.last_depth_m, cmap="magma")
+        ax_a.set_title("(a) last depth image")
+    ax_b = fig.add_subplot(2, 2, 2)
+    ax_b.imshow(heights_rgb(floor, norm), origin="lower", extent=_extent(centers, cell_m))
+    ax_b.set_title("(b) floor height map (grey invalid)")
+    ax_c = fig.add_subplot(2, 2, 3, projection="3d")
+    occupied = mapper.occupancy() > mapper.params.p_occ
+    ix, iy, iz = np.nonzero(occupied)
+    if ix.size:
+        z = g.z_min_m + (iz + 0.5) * g.layer_m
+        ax_c.scatter(
+            centers[ix, iy, 0],
+            centers[ix, iy, 1],
+            z,
+            c=z * 1000.0,
+            cmap=CMAP,
+            norm=norm,
+            marker="s",
+            s=4,
+            depthshade=False,
+        )
+    ax_c.set_title("(c) 3-D occupancy grid (occupied cells)")
+    ax_c.set_xlabel("x [m]")
+    ax_c.set_ylabel("y [m]")
+    ax_c.set_zlabel("z [m]")
+    ax_d = fig.add_subplot(2, 2, 4)
+    _draw_fog(ax_d, types, heights, centers, cell_m, norm)
+    ax_d.set_title("(d) floor and obstacle grid")
+    for ax in (ax_a, ax_b):
+        ax.set_xlabel("x [m]")
+        ax.set_ylabel("y [m]")
+    _colorbar(fig, [ax_b, ax_d], norm)
+    fig.suptitle(f"{title}: Fig. 3 panels")
+    return _save(fig, path)
+
+
+def draw_fig5(result: Any, title: str, path: Path, cell_m: float) -> Path:
+    """Fig. 5: camera, averaging baseline and FOG before the first event and at the end."""
+    snaps = result.snapshots
+    all_heights = [s.baseline_heights_m for s in snaps] + [s.fog_heights_m for s in snaps]
+    norm = _height_norm(*all_heights)
+    fig, axes = plt.subplots(len(snaps), 3, figsize=(14, 4.6 * len(snaps)), squeeze=False)
+    for row, snap in zip(axes, snaps, strict=True):
+        row[0].imshow(snap.depth_m, cmap="magma")
+        row[0].set_title(f"{snap.label}: depth image, frame {snap.frame_index}")
+        row[0].axis("off")
+        extent = _extent(snap.cell_centers_xy, cell_m)
+        row[1].imshow(heights_rgb(snap.baseline_heights_m, norm), origin="lower", extent=extent)
+        row[1].set_title(f"{snap.label}: averaging (Kagami)")
+        _draw_fog(row[2], snap.fog_types, snap.fog_heights_m, snap.cell_centers_xy, cell_m, norm)
+        row[2].set_title(f"{snap.label}: FOG (ours)")
+    _colorbar(fig, axes[:, 1:].ravel().tolist(), norm)
+    fig.suptitle(f"{title}: averaging vs FOG (Fig. 5)")
+    return _save(fig, path)
+
+
+def write_pictures(result: Any, scenario: Any | None, out_dir: str | os.PathLike[str]) -> list:
+    """Write the run's PNGs into ``out_dir``; returns their paths."""
+    out = Path(out_dir)
+    title = getattr(scenario, "name", None) or "run"
+    paths = [
+        draw_fog_map(result, title, out / "fog_map.png"),
+        draw_fig3(result, title, out / "fig3_panels.png"),
+    ]
+    if result.snapshots:
+        paths.append(draw_fig5(result, title, out / "fig5_comparison.png", result.archive.cell_m))
+    return paths
+
+
+class RunVideoWriter:
+    """MP4 of a run: the depth image beside the growing FOG, one video frame per camera frame.
+
+    Use as the pipeline's ``on_frame`` callback (:meth:`add`), then :meth:`close`.
+    """
+
+    def __init__(self, path: str | os.PathLike[str], fps: float, height_px: int = 360) -> None:
+        self.path = Path(path)
+        self.fps = float(fps)
+        self.height_px = int(height_px)
+        self._writer: Any = None
+        self._tmp = self.path.with_name(f".{self.path.name}.tmp.mp4")
+        self._norm: Normalize | None = None
+
+    def _to_bgr(self, rgb: NDArray[np.float64], height: int) -> NDArray[np.uint8]:
+        import cv2
+
+        img = (np.clip(rgb, 0.0, 1.0) * 255).astype(np.uint8)[::-1, :, ::-1]  # y up, RGB→BGR
+        width = max(1, round(img.shape[1] * height / img.shape[0]))
+        return cv2.resize(img, (width, height), interpolation=cv2.INTER_NEAREST)
+
+    def add(self, frame: Any, pipeline: Any) -> None:
+        """Append the frame's depth image and the pipeline's current FOG."""
+        import cv2
+
+        depth = np.asarray(frame.depth_m, dtype=np.float64)
+        finite = np.isfinite(depth)
+        scaled = np.zeros(depth.shape, dtype=np.uint8)
+        if finite.any():
+            scaled[finite] = np.clip(255 * (1 - depth[finite] / 4.0), 0, 255).astype(np.uint8)
+        left = cv2.applyColorMap(scaled, cv2.COLORMAP_MAGMA)
+        left[~finite] = 0
+        width = round(depth.shape[1] * self.height_px / depth.shape[0])
+        left = cv2.resize(left, (width, self.height_px), interpolation=cv2.INTER_NEAREST)
+        types, heights, _ = pipeline.maps()
+        if self._norm is None:
+            self._norm = Normalize(-20.0, 150.0)
+        right = self._to_bgr(fog_rgb(types, heights, self._norm), self.height_px)
+        image = np.concatenate([left, right], axis=1)
+        if self._writer is None:
+            self.path.parent.mkdir(parents=True, exist_ok=True)
+            fourcc = cv2.VideoWriter_fourcc(*"mp4v")
+            self._writer = cv2.VideoWriter(
+                str(self._tmp), fourcc, self.fps, (image.shape[1], image.shape[0])
+            )
+            if not self._writer.isOpened():
+                raise OSError(f"OpenCV cannot write an MP4 video to {self._tmp}")
+        self._writer.write(image)
+
+    def close(self) -> None:
+        """Finish the file and move it into place (atomic: complete or absent)."""
+        if self._writer is not None:
+            self._writer.release()
+            self._writer = None
+            os.replace(self._tmp, self.path)
