@@ -1,0 +1,114 @@
+"""The fogsim command line: list, run (replay, no MuJoCo), record, errors with exit codes."""
+
+import json
+
+import numpy as np
+import pytest
+from test_pipeline import make_frames, provider_removed_at
+
+from fogsim.cli import main
+from fogsim.recording import load_recording, save_recording
+from fogsim.scenario import load_scenario
+
+
+@pytest.fixture(scope="module")
+def removal_recording(tmp_path_factory):
+    frames = make_frames(60, box_until_frame=50)
+    truths = [provider_removed_at(4.0)(f.time_s) for f in frames]
+    path = tmp_path_factory.mktemp("rec") / "box_removal.npz"
+    return save_recording(path, frames, scenario=load_scenario("box_removal"), truths=truths)
+
+
+def test_list_names_every_scenario(capsys):
+    assert main(["list"]) == 0
+    out = capsys.readouterr().out
+    for name in ("stage", "box_removal", "moving_box", "simulated_world"):
+        assert name in out
+
+
+def test_run_replay_writes_report_pictures_video_and_prints_table1(
+    removal_recording, tmp_path, capsys
+):
+    out = tmp_path / "run"
+    code = main(
+        [
+            "run",
+            "--replay",
+            str(removal_recording),
+            "--out",
+            str(out),
+            "--quiet",
+            "--video",
+            "--set",
+            "mapper.p_occ=0.8",
+        ]
+    )
+    assert code == 0, capsys.readouterr().err
+    text = capsys.readouterr().out
+    assert "ground" in text and "footprint cleared after FOG" in text
+    report = json.loads((out / "report.json").read_text())
+    assert report["source"] == "replay" and report["scenario"] == "box_removal"
+    assert report["params"]["mapper"]["p_occ"] == 0.8
+    assert report["events"][0]["fog_frames"] <= 25
+    assert report["events"][0]["averaging_frames"] is None
+    for name in ("fog_map.png", "fig3_panels.png", "fig5_comparison.png", "run.mp4"):
+        assert (out / name).stat().st_size > 1000, name
+    assert report["pictures"] == ["fog_map.png", "fig3_panels.png", "fig5_comparison.png"]
+
+
+def test_replay_is_deterministic(removal_recording, tmp_path):
+    for name in ("a", "b"):
+        assert (
+            main(
+                [
+                    "run",
+                    "--replay",
+                    str(removal_recording),
+                    "--out",
+                    str(tmp_path / name),
+                    "--quiet",
+                    "--no-pictures",
+                ]
+            )
+            == 0
+        )
+    a, b = (json.loads((tmp_path / n / "report.json").read_text()) for n in ("a", "b"))
+    assert a["table1"] == b["table1"] and a["cells"] == b["cells"] and a["events"] == b["events"]
+
+
+def test_bad_input_exits_2_with_a_clear_message(removal_recording, tmp_path, capsys):
+    assert main(["run", "no_such_scenario", "--out", str(tmp_path)]) == 2
+    assert "no_such_scenario" in capsys.readouterr().err
+    assert main(["run", "--replay", str(tmp_path / "missing.npz")]) == 2
+    assert "recording file not found" in capsys.readouterr().err
+    assert (
+        main(
+            [
+                "run",
+                "--replay",
+                str(removal_recording),
+                "--quiet",
+                "--no-pictures",
+                "--out",
+                str(tmp_path / "x"),
+                "--set",
+                "mapper.p_occ=2",
+            ]
+        )
+        == 2
+    )
+    assert "p_occ" in capsys.readouterr().err
+    assert main(["run"]) == 2
+    assert "needs a SCENARIO" in capsys.readouterr().err
+    with pytest.raises(SystemExit):
+        main(["run", "stage", "--camera-mode", "lidar"])
+
+
+def test_real_data_recording_runs_unscored(tmp_path, capsys):
+    path = save_recording(tmp_path / "real.npz", make_frames(4))
+    assert load_recording(path).scenario is None
+    assert main(["run", "--replay", str(path), "--out", str(tmp_path / "o"), "--quiet"]) == 0
+    assert "no ground truth" in capsys.readouterr().out
+    report = json.loads((tmp_path / "o" / "report.json").read_text())
+    assert report["table1"] is None and report["scenario"] is None
+    assert np.isfinite(report["timing"]["update_ms"]["median"])
