@@ -365,20 +365,43 @@ class Robot:
         Assumes the reference sole stands flat (zero roll and pitch); this is how the robot
         computes its camera pose from its encoders.
         """
-        q = self.full_configuration(q_pin_or_readings)
-        if q.size == self.nq:
-            q = q.copy()
-            q[:7] = self.neutral()[:7]
+        q = self._joints_only(q_pin_or_readings)
+        t_sole_robot = self.transform_robot_to_sole(q, stance_foot)
+        reference, _ = self._reference_and_other(stance_foot)
+        t_ref, t_cam = self.frame_transforms(q, (reference, camera))
+        return np.linalg.inv(t_sole_robot) @ np.linalg.inv(t_ref) @ t_cam
+
+    def _joints_only(self, q_pin_or_readings: ArrayLike) -> NDArray[np.float64]:
+        """Full configuration with the root at the origin (joint angles only matter)."""
+        q = self.full_configuration(q_pin_or_readings).copy()
+        q[:7] = self.neutral()[:7]
+        return q
+
+    def transform_robot_to_sole(
+        self, q_pin_or_readings: ArrayLike, stance_foot: Stance | int = Stance.LEFT
+    ) -> NDArray[np.float64]:
+        """4×4 pose of R in the reference sole frame, from joint angles alone.
+
+        The reference sole is taken as flat and level, so R's z axis is the sole's z axis.
+        """
+        q = self._joints_only(q_pin_or_readings)
         reference, other = self._reference_and_other(stance_foot)
-        t_ref, t_other, t_cam = self.frame_transforms(q, (reference, other, camera))
-        # Ground frame G: the reference sole, taken as flat and level.
-        t_ground = np.linalg.inv(t_ref)
-        pose = self._robot_frame_from_soles(np.eye(4), t_ground @ t_other)
+        t_ref, t_other = self.frame_transforms(q, (reference, other))
+        pose = self._robot_frame_from_soles(np.eye(4), np.linalg.inv(t_ref) @ t_other)
         c, s = math.cos(pose[3]), math.sin(pose[3])
-        t_robot_in_ground = np.array(
+        return np.array(
             [[c, -s, 0.0, pose[0]], [s, c, 0.0, pose[1]], [0.0, 0.0, 1.0, 0.0], [0, 0, 0, 1.0]]
         )
-        return np.linalg.inv(t_robot_in_ground) @ t_ground @ t_cam
+
+    def transform_sole_to_sole(
+        self, q_pin_or_readings: ArrayLike, from_foot: Stance, to_foot: Stance
+    ) -> NDArray[np.float64]:
+        """4×4 pose of ``to_foot``'s sole in ``from_foot``'s sole frame (joint angles alone)."""
+        q = self._joints_only(q_pin_or_readings)
+        t_from, t_to = self.frame_transforms(
+            q, (self.sole_frame(Stance(from_foot)), self.sole_frame(Stance(to_foot)))
+        )
+        return np.linalg.inv(t_from) @ t_to
 
     def transform_camera_to_world(
         self, q_pin: ArrayLike, camera: str = "head_camera"

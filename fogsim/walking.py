@@ -77,7 +77,7 @@ class GaitParams:
     leg_reach_margin_m: float = 0.012
     look_default_deg: tuple[float, float] = (0.0, -30.0)
     look_transition_s: float = 0.5
-    ik_tolerance_m: float = 1e-4
+    ik_tolerance_m: float = 1e-6
     ik_max_iterations: int = 50
 
     def __post_init__(self) -> None:
@@ -453,7 +453,7 @@ class LegIK:
             error_m = float(np.linalg.norm(i_m_d.translation))
             rotation_error = float(np.linalg.norm(err[3:]))
             if error_m < self.params.ik_tolerance_m and (
-                rotation_error < 1e-4 or orientation_weight < 1.0
+                rotation_error < 1e-6 or orientation_weight < 1.0
             ):
                 break
             jac = pin.computeFrameJacobian(model, data, q, self.frame_id, pin.LOCAL)[:, self.idx_v]

@@ -1,0 +1,165 @@
+"""Joint-encoder errors, the camera pose the robot believes, and kinematic odometry.
+
+Every joint reading = true angle + a per-run bias (drawn once, N(0, bias_deg²) per joint) +
+per-frame noise (N(0, noise_deg²)). The believed camera pose in the robot frame R is pinocchio's
+forward kinematics of the readings (`fogsim.robot.Robot.transform_camera_to_robot`). The
+believed pose of R in the world comes from foot-to-foot odometry: when the support switches, the
+new reference sole's pose = old reference sole's pose ∘ FK(readings, old sole → new sole),
+projected to a level pose (x, y, z, yaw), using readings taken while both feet were down.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+from numpy.typing import ArrayLike, NDArray
+
+from fogsim.errors import FogsimError
+from fogsim.robot import Robot, Stance
+from mapper.transforms import planar_pose_to_matrix, rotation_angle_deg
+
+
+class EncoderError(FogsimError, ValueError):
+    """Invalid encoder parameters or readings."""
+
+
+class EncoderModel:
+    """Noisy joint encoders: reading = truth + per-run bias + per-frame noise.
+
+    Args:
+        bias_deg: Standard deviation of the per-joint bias, drawn once per run [deg].
+        noise_deg: Standard deviation of the per-reading noise [deg].
+        rng: Random generator (seeded by the scenario): the same seed gives the same readings.
+        n_joints: Number of joints; if None it is taken from the first reading.
+    """
+
+    def __init__(
+        self,
+        bias_deg: float,
+        noise_deg: float,
+        rng: np.random.Generator,
+        n_joints: int | None = None,
+    ) -> None:
+        for name, value in (("bias_deg", bias_deg), ("noise_deg", noise_deg)):
+            if not (math.isfinite(value) and value >= 0.0):
+                raise EncoderError(f"{name} must be a finite number >= 0, got {value}")
+        if not isinstance(rng, np.random.Generator):
+            raise EncoderError(f"rng must be a numpy.random.Generator, got {type(rng).__name__}")
+        self.bias_deg = float(bias_deg)
+        self.noise_deg = float(noise_deg)
+        self.rng = rng
+        self.bias_rad: NDArray[np.float64] | None = None
+        if n_joints is not None:
+            self._draw_bias(n_joints)
+
+    def _draw_bias(self, n_joints: int) -> None:
+        self.bias_rad = np.radians(self.bias_deg) * self.rng.standard_normal(n_joints)
+
+    def read(self, q_true: ArrayLike, n_free_flyer: int = 7) -> NDArray[np.float64]:
+        """Joint readings [rad] for a true configuration.
+
+        Args:
+            q_true: Either a full pinocchio configuration (free flyer first, its first
+                ``n_free_flyer`` entries are dropped) or joint angles only.
+            n_free_flyer: Length of the free-flyer part in a full configuration.
+
+        Returns:
+            (n_joints,) readings; exactly the true angles when both errors are 0.
+        """
+        q = np.asarray(q_true, dtype=np.float64).reshape(-1)
+        if self.bias_rad is None:
+            self._draw_bias(q.size - n_free_flyer)
+        assert self.bias_rad is not None
+        n = self.bias_rad.size
+        if q.size == n + n_free_flyer:
+            joints = q[n_free_flyer:]
+        elif q.size == n:
+            joints = q
+        else:
+            raise EncoderError(
+                f"q_true must have {n} joint angles or {n + n_free_flyer} entries, got {q.size}"
+            )
+        if self.bias_deg == 0.0 and self.noise_deg == 0.0:
+            return joints.copy()
+        noise = np.radians(self.noise_deg) * self.rng.standard_normal(n)
+        return joints + self.bias_rad + noise
+
+
+class Odometry:
+    """Believed pose of the robot frame R from foot-to-foot kinematics of the readings.
+
+    Args:
+        robot: The humanoid.
+        initial_robot_pose: (x, y, z [m], yaw [rad]) of R at the start (taken as known).
+        readings: Joint readings at the start.
+        stance: Stance at the start.
+    """
+
+    def __init__(
+        self,
+        robot: Robot,
+        initial_robot_pose: ArrayLike,
+        readings: ArrayLike,
+        stance: Stance | int,
+    ) -> None:
+        self.robot = robot
+        stance = Stance(int(stance))
+        self.reference = Stance.RIGHT if stance == Stance.RIGHT else Stance.LEFT
+        t_world_robot = planar_pose_to_matrix(initial_robot_pose)
+        t_sole_robot = robot.transform_robot_to_sole(readings, self.reference)
+        self.sole_world = _level(t_world_robot @ np.linalg.inv(t_sole_robot))
+        self.readings_both_down = np.asarray(readings, dtype=np.float64).copy()
+        self.pose = np.asarray(initial_robot_pose, dtype=np.float64).copy()
+
+    def update(self, readings: ArrayLike, stance: Stance | int) -> NDArray[np.float64]:
+        """Advance by one frame; returns the believed R pose (x, y, z [m], yaw [rad])."""
+        stance = Stance(int(stance))
+        readings = np.asarray(readings, dtype=np.float64)
+        if stance == Stance.DOUBLE:
+            self.readings_both_down = readings.copy()
+        reference = Stance.RIGHT if stance == Stance.RIGHT else Stance.LEFT
+        if reference != self.reference:
+            step = self.robot.transform_sole_to_sole(
+                self.readings_both_down, self.reference, reference
+            )
+            self.sole_world = _level(self.sole_world @ step)
+            self.reference = reference
+        t_world_robot = self.sole_world @ self.robot.transform_robot_to_sole(readings, reference)
+        self.pose = _planar(t_world_robot)
+        return self.pose.copy()
+
+
+def _planar(transform: NDArray[np.float64]) -> NDArray[np.float64]:
+    return np.array(
+        [
+            transform[0, 3],
+            transform[1, 3],
+            transform[2, 3],
+            math.atan2(transform[1, 0], transform[0, 0]),
+        ]
+    )
+
+
+def _level(transform: NDArray[np.float64]) -> NDArray[np.float64]:
+    """Drop roll and pitch: keep x, y, z and the yaw of the x axis."""
+    return planar_pose_to_matrix(_planar(transform))
+
+
+@dataclass(frozen=True)
+class PoseError:
+    """Difference between a believed and a true pose."""
+
+    rotation_deg: float
+    translation_mm: float
+
+
+def pose_error(believed: ArrayLike, true: ArrayLike) -> PoseError:
+    """Rotation [deg] and translation [mm] between two 4×4 poses."""
+    a = np.asarray(believed, dtype=np.float64)
+    b = np.asarray(true, dtype=np.float64)
+    return PoseError(
+        rotation_angle_deg(a[:3, :3].T @ b[:3, :3]),
+        1000.0 * float(np.linalg.norm(a[:3, 3] - b[:3, 3])),
+    )
