@@ -1,0 +1,78 @@
+"""Wall time of whole runs: simulate + map + score a scenario, and replay the same frames.
+
+Usage:
+    .venv/bin/python bench/bench_run.py [SCENARIO] [--repeats N] [--backend renderer|raycast]
+
+Prints, side by side in one process: the full run (setup included: robot loading, scene
+building, rendering, segmentation, mapping, scoring; pictures excluded) and the replay of the
+recorded frames (pipeline + scoring only), each as the median of N repeats, plus the
+per-frame pipeline times from the report. The first repeat also pays numba's compile (or cache
+load); the median hides it for N >= 3.
+"""
+
+import argparse
+import os
+import statistics
+import sys
+import tempfile
+import time
+from pathlib import Path
+
+os.environ.setdefault("MUJOCO_GL", "egl")
+os.environ.setdefault("PYOPENGL_PLATFORM", "egl")
+os.environ.setdefault("MESA_SHADER_CACHE_DISABLE", "true")
+sys.path.insert(0, str(Path(__file__).resolve().parent.parent))
+
+from fogsim.recording import load_recording, save_recording  # noqa: E402
+from fogsim.scenario import load_scenario  # noqa: E402
+from fogsim.simulation import Simulation  # noqa: E402
+from fogsim.suite import run_scenario  # noqa: E402
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser()
+    parser.add_argument("scenario", nargs="?", default="stage")
+    parser.add_argument("--repeats", type=int, default=3)
+    parser.add_argument("--backend", default="renderer", choices=("renderer", "raycast"))
+    args = parser.parse_args()
+    scenario = load_scenario(args.scenario)
+
+    full, reports = [], []
+    for _ in range(args.repeats):
+        start = time.perf_counter()
+        reports.append(run_scenario(scenario, None, depth_backend=args.backend))
+        full.append(time.perf_counter() - start)
+
+    with tempfile.TemporaryDirectory() as tmp:
+        sim = Simulation(scenario, depth_backend=args.backend)
+        frames = list(sim.frames())
+        truths = [sim.truth_at(f.time_s) for f in frames]
+        path = save_recording(Path(tmp) / "rec.npz", frames, scenario=scenario, truths=truths)
+        replay = []
+        for _ in range(args.repeats):
+            start = time.perf_counter()
+            rec = load_recording(path)
+            run_scenario(scenario, None, replay=rec)
+            replay.append(time.perf_counter() - start)
+
+    timing = reports[-1]["timing"]
+    duration = timing["frames"] / scenario.frame_rate_hz
+    print(
+        f"scenario {scenario.name}: {timing['frames']} frames = {duration:.1f} s simulated, "
+        f"camera {scenario.camera.mode}, backend {args.backend}, {args.repeats} repeats"
+    )
+    print(
+        f"  full run (setup incl.)   median {statistics.median(full):7.2f} s   "
+        f"all {[round(t, 2) for t in full]}"
+    )
+    print(
+        f"  replay (load + pipeline) median {statistics.median(replay):7.2f} s   "
+        f"all {[round(t, 2) for t in replay]}"
+    )
+    for key in ("segmentation_ms", "update_ms", "frame_ms"):
+        s = timing[key]
+        print(f"  {key:<16} median {s['median']:.2f} ms  p99 {s['p99']:.2f} ms  max {s['max']:.2f}")
+
+
+if __name__ == "__main__":
+    main()
