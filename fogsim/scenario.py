@@ -458,7 +458,7 @@ def _route_step(v: _Validator, d: Any, i: int) -> RouteStep:
     if kind == "look":
         look = v.vector(d, kind, ctx, 2, low=-90.0, high=90.0)
         return RouteStep(look=look)  # type: ignore[arg-type]
-    return RouteStep(wait=v.number(d, kind, ctx, low=0.0, high=3600.0))
+    return RouteStep(wait=v.number(d, kind, ctx, low=0.001, high=3600.0))
 
 
 def _event(v: _Validator, d: Any, i: int, names: Sequence[str]) -> Event:
