@@ -94,6 +94,7 @@ class FloorObstacleMapper:
         """
         pts, heights, origin = validate_frame(points, floor_heights, sensor_origin)
         g = self._geometry
+        p = self.params
         ox, oy = g.origin_xy_m
         point_cell = np.empty(pts.shape[0], dtype=np.int64)
         used, nonfinite, outside, cells, ix0, ix1, iy0, iy1 = insert_frame(
@@ -110,10 +111,10 @@ class FloorObstacleMapper:
             self._hit_table,
             self._miss_table,
             point_cell,
+            p.free_margin_m,
         )
         if cells == 0:
             return UpdateResult(None, used, nonfinite, outside, 0, 0, 0)
-        p = self.params
         verify_floor(
             self._floor, self._og, self._occ_level, g.z_min_m, g.layer_m, ix0, ix1, iy0, iy1
         )

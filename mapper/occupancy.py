@@ -12,8 +12,10 @@ how fast a removed object is forgotten depend on how many rays happen to cross i
 
 Ray traversal: Amanatides & Woo (1987), in grid units, the segment from the sensor to the point
 clipped to the grid box first, so a sensor above or beside the grid still clears the cells its
-rays cross. The traversal takes exactly ``|Δix| + |Δiy| + |Δiz|`` steps from the entry cell
-to the end cell, so it always ends in the point's cell.
+rays cross. With ``free_margin_m > 0`` a ray clears cells only up to the cell holding the point
+``free_margin_m`` before its end (see `MapperParams.free_margin_m` for why). The traversal takes
+exactly ``|Δix| + |Δiy| + |Δiz|`` steps from the entry cell
+to the end (or stop) cell, so it always ends there.
 """
 
 from __future__ import annotations
@@ -81,6 +83,7 @@ def insert_frame(
     hit_table: NDArray[np.uint8],
     miss_table: NDArray[np.uint8],
     point_cell: NDArray[np.int64],
+    free_margin: float = 0.0,
 ):
     """Insert one frame of points into the 3D grid ``og`` (nx, ny, nz) in place.
 
@@ -99,6 +102,8 @@ def insert_frame(
         miss_table: Miss table from ``lookup_tables``.
         point_cell: (N,) out: the point's (ix, iy) column index ``ix*ny + iy``, -1 if dropped
             (-2 for non-finite).
+        free_margin: Rays stop clearing this far [m] before their end point (0: every cell
+            before the end cell is cleared, the paper's model).
 
     Returns:
         (used, dropped_nonfinite, dropped_outside, cells_updated, ix0, ix1, iy0, iy1) with the
@@ -150,7 +155,7 @@ def insert_frame(
             mark[idx] = MARK_HIT
             touched[n_touched] = idx
             n_touched += 1
-    # Pass 2: rays, clipped to the grid box, from the entry cell up to (excluding) the end cell.
+    # Pass 2: rays, clipped to the grid box, from the entry cell to the end (or stop) cell.
     upper = np.array([float(nx), float(ny), float(nz)])
     start = np.empty(3)
     d = np.empty(3)
@@ -174,15 +179,30 @@ def insert_frame(
                 t0 = 2.0  # parallel to this slab and outside it: cannot happen for an inside end
         if t0 >= 1.0:
             continue  # sensor is in the end cell's plane outside the box: nothing to clear
+        extra_visit = 0
+        if free_margin > 0.0:
+            length = np.sqrt(
+                (points[i, 0] - sensor_origin[0]) ** 2
+                + (points[i, 1] - sensor_origin[1]) ** 2
+                + (points[i, 2] - sensor_origin[2]) ** 2
+            )
+            t_stop = 1.0 - free_margin / length
+            if t_stop <= t0:
+                continue
+            ex = min(max(_floor_int(start[0] + t_stop * d[0]), 0), nx - 1)
+            ey = min(max(_floor_int(start[1] + t_stop * d[1]), 0), ny - 1)
+            ez = min(max(_floor_int(start[2] + t_stop * d[2]), 0), nz - 1)
+            extra_visit = 1  # the cell holding the stop point is cleared too
+        else:
+            ex = end_i[i, 0]
+            ey = end_i[i, 1]
+            ez = end_i[i, 2]
         sx = start[0] + t0 * d[0]
         sy = start[1] + t0 * d[1]
         sz = start[2] + t0 * d[2]
         cx = min(max(_floor_int(sx), 0), nx - 1)
         cy = min(max(_floor_int(sy), 0), ny - 1)
         cz = min(max(_floor_int(sz), 0), nz - 1)
-        ex = end_i[i, 0]
-        ey = end_i[i, 1]
-        ez = end_i[i, 2]
         rem_x = abs(ex - cx)
         rem_y = abs(ey - cy)
         rem_z = abs(ez - cz)
@@ -242,6 +262,10 @@ def insert_frame(
                 idx += diz
                 rem_z -= 1
                 tmz = tmz + tdz if rem_z > 0 else inf
+        if extra_visit and mark[idx] == MARK_NONE:
+            mark[idx] = MARK_MISS
+            touched[n_touched] = idx
+            n_touched += 1
     # Pass 3: apply the table lookups, clear the marks, find the affected area.
     ix0 = nx
     ix1 = -1
@@ -269,6 +293,7 @@ def traversed_cells(
     sensor_origin: NDArray[np.float64],
     geometry_args: tuple[float, float, float, float, float],
     shape: tuple[int, int, int],
+    free_margin_m: float = 0.0,
 ) -> tuple[NDArray[np.int64], NDArray[np.int64]]:
     """Cells (flat indices) a frame marks as miss and as hit — for tests and inspection.
 
@@ -291,6 +316,7 @@ def traversed_cells(
         hit,
         miss,
         np.empty(pts.shape[0], dtype=np.int64),
+        free_margin_m,
     )
     flat = og.reshape(-1)
     return np.flatnonzero(flat == 1), np.flatnonzero(flat == 2)

@@ -39,9 +39,12 @@ def test_bayes_update_matches_eq6():
     assert bayes_update(0.7, 0.7) == pytest.approx(0.49 / (0.49 + 0.09))
 
 
-def _one_ray_mapper():
+PAPER = MapperParams(free_margin_m=0.0)  # rays clear every cell before the end cell
+
+
+def _one_ray_mapper(params=PAPER):
     # Grid origin (-2, -2); sensor at the centre of cell (50, 50, 2), point in cell (60, 50, 2).
-    m = FloorObstacleMapper(MapperParams())
+    m = FloorObstacleMapper(params)
     sensor = np.array([0.02, 0.02, 0.04])
     point = np.array([[0.42, 0.02, 0.04]])
     return m, sensor, point
@@ -82,8 +85,17 @@ def test_many_points_in_one_cell_are_one_hit():
     assert m.occupancy_levels()[60, 50, 2] == 179
 
 
+def test_free_margin_stops_clearing_before_the_end():
+    m, sensor, point = _one_ray_mapper(MapperParams(free_margin_m=0.08))
+    m.update(point, [np.nan], sensor)
+    levels = m.occupancy_levels()[:, 50, 2]
+    # end at x=0.42 (cell 60); clearing stops at x=0.34 (cell 58, cleared too); 59 untouched
+    assert np.all(levels[50:59] == 77)
+    assert levels[59] == 128 and levels[60] == 179
+
+
 def test_sensor_above_grid_clears_top_layers():
-    m = FloorObstacleMapper(MapperParams())
+    m = FloorObstacleMapper(PAPER)
     sensor = np.array([0.02, 0.02, 1.0])  # 0.42 m above the grid's top (0.58 m)
     point = np.array([[0.02, 0.02, 0.0]])  # straight down, cell (50, 50, 1)
     m.update(point, [np.nan], sensor)
@@ -110,10 +122,12 @@ def _reference(sensor, end):
     with np.errstate(divide="ignore", invalid="ignore"):
         ta = (lo - sensor) / d
         tb = (hi - sensor) / d
-    t_in = np.where(d == 0, np.where((sensor >= lo) & (sensor < hi), -np.inf, np.inf),
-                    np.minimum(ta, tb))
-    t_out = np.where(d == 0, np.where((sensor >= lo) & (sensor < hi), np.inf, -np.inf),
-                     np.maximum(ta, tb))
+    t_in = np.where(
+        d == 0, np.where((sensor >= lo) & (sensor < hi), -np.inf, np.inf), np.minimum(ta, tb)
+    )
+    t_out = np.where(
+        d == 0, np.where((sensor >= lo) & (sensor < hi), np.inf, -np.inf), np.maximum(ta, tb)
+    )
     t0 = np.maximum(t_in.max(axis=1), 0.0)
     t1 = np.minimum(t_out.min(axis=1), 1.0)
     length = (t1 - t0) * np.linalg.norm(d)
