@@ -150,8 +150,8 @@ def test_table_top_ceiling_and_obstacle():
     # coarse: bottom of the layer holding the underside (0.22) or the top face (0.26)
     assert np.all((ceiling >= 0.22 - 1e-9) & (ceiling <= 0.26 + 1e-9))
     assert np.any(np.isclose(ceiling, 0.22))  # the front edge sees the underside layer
-    # in front of the table: ground, no ceiling
-    ix_front = g.cell_of([[0.6, 0.0]])[0][0, 0]
+    # behind the table: ground, no ceiling
+    ix_front = g.cell_of([[1.4, 0.0]])[0][0, 0]
     assert np.isnan(m.ceiling()[ix_front, 50])
     assert m.fog()[0][ix_front, 50] == CellType.FLOOR
 
