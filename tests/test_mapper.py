@@ -61,7 +61,7 @@ def test_fig5_box_removed_fog_forgets_averaging_keeps():
     assert frames_to_ground is not None and frames_to_ground <= 4
     assert np.all(np.abs(fog.floor()[area]) < 0.006)
     # (c) after as many frames without the box as with it the averages sit halfway
-    avg_types, avg_heights = avg.fog()
+    _, avg_heights = avg.fog()
     assert np.all(avg_heights[area] > 0.03)
     assert np.all(avg.floor()[area] > 0.03)
 
@@ -92,7 +92,7 @@ def test_scroll_10m_content_stays_put_and_memory_flat():
         m.update(*frame(rng, boxes))
     ix, iy = m.geometry.cell_of([[1.0, 0.2]])[0][0]
     assert m.fog()[0][ix, iy] == CellType.OBSTACLE
-    arrays_before = [m._og, m._floor, m._fog_types]  # noqa: SLF001 - identity check only
+    arrays_before = [m._og, m._floor, m._fog_types]
     tracemalloc.start()
     robot_x = 0.0
     seen_landmark_at = []
@@ -116,7 +116,7 @@ def test_scroll_10m_content_stays_put_and_memory_flat():
             m.update(*frame(rng, [], cam))
     _, peak = tracemalloc.get_traced_memory()
     tracemalloc.stop()
-    assert m._og is arrays_before[0] and m._floor is arrays_before[1]  # noqa: SLF001
+    assert m._og is arrays_before[0] and m._floor is arrays_before[1]
     assert peak < 2_000_000  # one grid copy at most (160 kB) plus per-frame buffers
     assert all(t == CellType.OBSTACLE for t in seen_landmark_at)  # until it left the grid
     assert 110 < len(seen_landmark_at) < 125  # it leaves the grid when the robot passes x≈3 m
