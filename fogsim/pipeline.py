@@ -113,7 +113,7 @@ class RunResult:
             ground truth.
         events: Per-event results of :class:`fogsim.scoring.EventTracker`.
         pose_error: Believed-vs-true camera pose error statistics.
-        params: ``{"mapper", "segmentation", "pipeline"}`` parameters used (plain dicts).
+        params: ``{"mapper", "segmentation", "elevation", "pipeline"}`` parameters used.
         snapshots: Snapshots for Fig. 5 (event scenarios only).
         final_truth: ``GroundTruthGrid`` of the final world on the final grid, or None.
         last_depth_m: Depth image of the last frame.

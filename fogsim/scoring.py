@@ -255,6 +255,53 @@ class WorldArchive:
         return self._anchor_xy + self.cell_m * np.stack([gx, gy], axis=-1)
 
 
+def obstacle_objects(
+    truth: Any,
+    centers: NDArray[np.float64],
+    fog_types: NDArray[np.integer],
+    fog_heights_m: NDArray[np.floating],
+    region: NDArray[np.bool_],
+    cell_m: float,
+) -> list[dict]:
+    """Per obstacle object (not walkable, or hanging): how much of it the FOG marks obstacle.
+
+    Args:
+        truth: ``SceneTruth`` (its ``objects``).
+        centers: (nx, ny, 2) cell centres [m].
+        fog_types: (nx, ny) CellType values.
+        fog_heights_m: (nx, ny) FOG heights [m].
+        region: (nx, ny) cells to look at.
+        cell_m: Cell side [m].
+
+    Returns:
+        One dict per object: ``name``, ``cells`` (cells whose centre lies inside its footprint,
+        0.5 cell in from the edge), ``seen`` (of those, labelled floor or obstacle),
+        ``obstacle_fraction`` (of the seen ones, labelled obstacle; null if none seen),
+        ``top_mm`` (true top), ``median_top_error_mm`` (FOG obstacle height − true top).
+    """
+    rows = []
+    for obj in getattr(truth, "objects", ()):
+        if obj.walkable and obj.base_m <= 1e-3:
+            continue
+        inside = obj.contains(centers, -0.5 * cell_m)
+        cells = inside & region
+        types = np.asarray(fog_types)[cells]
+        seen = types != CellType.UNKNOWN
+        obstacle = types == CellType.OBSTACLE
+        errors = np.asarray(fog_heights_m)[cells][obstacle] - obj.top_m
+        rows.append(
+            {
+                "name": obj.name,
+                "cells": int(cells.sum()),
+                "seen": int(seen.sum()),
+                "obstacle_fraction": _fraction(int(obstacle.sum()), int(seen.sum())),
+                "top_mm": _mm(obj.top_m),
+                "median_top_error_mm": _mm(np.median(errors)) if errors.size else None,
+            }
+        )
+    return rows
+
+
 def score_archive(archive: WorldArchive, truth: Any, cell_z_m: float) -> dict:
     """Table I (FOG and averaging baseline) and cell scores of an archive against a truth.
 
@@ -266,9 +313,11 @@ def score_archive(archive: WorldArchive, truth: Any, cell_z_m: float) -> dict:
 
     Returns:
         ``{"table1": {"fog": rows, "averaging": rows}, "cells": {"fog": cell_scores(...),
-        "averaging": {"seen", "floor_height"}}}`` (the baseline has no cell labels).
+        "obstacles": obstacle_objects(...), "averaging": {"seen", "floor_height"}}}`` (the
+        baseline has no cell labels).
     """
-    grid = truth.rasterize(archive.cell_centers_xy(), archive.cell_m)
+    centers = archive.cell_centers_xy()
+    grid = truth.rasterize(centers, archive.cell_m)
     visited = archive.visited
     fog_rows = table1_rows(
         grid, archive.fog_heights_m, visited & (archive.fog_types == CellType.FLOOR)
@@ -278,6 +327,9 @@ def score_archive(archive: WorldArchive, truth: Any, cell_z_m: float) -> dict:
         "table1": {"fog": fog_rows, "averaging": avg_rows},
         "cells": {
             "fog": cell_scores(grid, archive.fog_types, archive.fog_heights_m, visited, cell_z_m),
+            "obstacles": obstacle_objects(
+                truth, centers, archive.fog_types, archive.fog_heights_m, visited, archive.cell_m
+            ),
             "averaging": {
                 "seen": int((visited & np.isfinite(archive.baseline_heights_m)).sum()),
                 "floor_height": floor_height_errors(grid, archive.baseline_heights_m, visited),

@@ -106,6 +106,16 @@ def test_score_archive_perfect_map_scores_exactly():
         assert row["error_mm"] == pytest.approx(0.0, abs=1e-9)
     assert scores["cells"]["fog"]["accuracy"] == 1.0
     assert scores["cells"]["averaging"]["seen"] == 900
+    (post,) = scores["cells"]["obstacles"]
+    # Post spans [0.82, 0.98]; centres at least half a cell inside: 0.86, 0.90, 0.94.
+    assert post == {
+        "name": "post",
+        "cells": 9,
+        "seen": 9,
+        "obstacle_fraction": 1.0,
+        "top_mm": 200.0,
+        "median_top_error_mm": 0.0,
+    }
 
 
 def _fog_of(grid):
