@@ -1,0 +1,76 @@
+"""z-shift matching (Sec. IV): least squares with gating, acceptance and the withdraw rule."""
+
+import numpy as np
+import pytest
+
+from mapper import MapperParams, ZDecision, ZMatch, apply_z_shift, frame_decision
+from mapper.grid import GridGeometry
+from mapper.zmatch import match_z
+
+P = MapperParams()
+G = GridGeometry.from_params(P)
+
+
+def floor_map():
+    f = np.full((P.nx, P.ny), np.nan)
+    f[60:80, 40:60] = 0.0
+    f[80:90, 40:60] = 0.061  # a step
+    return f
+
+
+def points_on(rng, n, x, y, h):
+    pts = np.column_stack([rng.uniform(*x, n), rng.uniform(*y, n), np.full(n, h)])
+    return pts, np.full(n, h)
+
+
+def test_shift_is_least_squares_over_gated_pairs():
+    rng = np.random.default_rng(1)
+    # ground points measured 13 mm low, step points 13 mm low, outliers 0.2 m high
+    g_pts, g_h = points_on(rng, 200, (0.41, 1.19), (-0.39, 0.39), -0.013)
+    s_pts, s_h = points_on(rng, 50, (1.21, 1.59), (-0.39, 0.39), 0.061 - 0.013)
+    o_pts, o_h = points_on(rng, 100, (0.41, 1.19), (-0.39, 0.39), 0.2)
+    noise = rng.normal(0, 0.002, 250)
+    pts = np.vstack([g_pts, s_pts, o_pts])
+    h = np.concatenate([g_h, s_h, o_h])
+    h[:250] += noise
+    z = match_z(pts, h, floor_map(), G, P)
+    assert z.pairs == 250  # outliers gated out
+    assert z.shift_m == pytest.approx(0.013 - noise.mean(), abs=1e-12)
+    assert z.rms_m == pytest.approx(noise.std(), abs=1e-12)
+    assert z.accepted
+
+
+def test_not_floor_and_unmapped_points_do_not_match():
+    rng = np.random.default_rng(2)
+    pts, h = points_on(rng, 100, (-1.0, -0.5), (0.0, 0.5), 0.0)  # no floor there
+    z = match_z(pts, h, floor_map(), G, P)
+    assert z == ZMatch(0.0, 0, z.rms_m, False) and np.isnan(z.rms_m)
+    pts, h = points_on(rng, 100, (0.41, 1.19), (-0.39, 0.39), 0.0)
+    z = match_z(pts, np.full(100, np.nan), floor_map(), G, P)
+    assert z.pairs == 0 and not z.accepted
+
+
+def test_acceptance_needs_pairs_and_a_plausible_shift():
+    rng = np.random.default_rng(3)
+    few = points_on(rng, P.zmatch_min_pairs - 1, (0.41, 1.19), (-0.39, 0.39), 0.01)
+    z = match_z(*few, floor_map(), G, P)
+    assert z.pairs == P.zmatch_min_pairs - 1 and not z.accepted
+    far = points_on(rng, 100, (0.41, 1.19), (-0.39, 0.39), -0.1)
+    z = match_z(*far, floor_map(), G, P)
+    assert z.shift_m == pytest.approx(0.1) and not z.accepted
+
+
+def test_frame_decision_rule():
+    ok = ZMatch(0.01, 100, 0.002, True)
+    bad = ZMatch(0.0, 3, 0.01, False)
+    assert frame_decision(ok, ground_plane_found=False) == ZDecision.APPLY_SHIFT
+    assert frame_decision(ok, ground_plane_found=True) == ZDecision.APPLY_SHIFT
+    assert frame_decision(bad, ground_plane_found=True) == ZDecision.KEEP_UNSHIFTED
+    assert frame_decision(bad, ground_plane_found=False) == ZDecision.WITHDRAW
+
+
+def test_apply_z_shift():
+    pts = np.array([[1.0, 2.0, 3.0]])
+    p2, h2 = apply_z_shift(pts, [np.nan], 0.5)
+    assert p2.tolist() == [[1.0, 2.0, 3.5]] and np.isnan(h2[0])
+    assert pts[0, 2] == 3.0  # input untouched
