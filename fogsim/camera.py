@@ -233,7 +233,7 @@ class StereoMatcher:
         intrinsics: PinholeIntrinsics,
         baseline_m: float,
         scale: int = 2,
-        num_disparities: int = 48,
+        num_disparities: int = 32,
         block_size: int = 5,
         geomgroups: tuple[int, ...] = (0, 1, 2),
     ) -> None:

@@ -1,0 +1,115 @@
+"""Per-frame cost of the head camera on the stage (88 × 72), peers side by side.
+
+Run: MUJOCO_GL=egl .venv/bin/python bench/bench_camera.py [--frames 60] [--repeats 5]
+
+Reports the median over repeats of the per-frame median [ms] of:
+  kinematics     scene.set_time + set_robot_qpos + mj_kinematics/comPos/camlight
+  render_gl      mujoco.Renderer depth (EGL)           -- the default depth backend
+  render_ray     mujoco.mj_multiRay depth (no OpenGL)  -- the other backend
+  render_dmc     dm_control Physics.render(depth=True) -- peer; also its depth error vs ours
+  noise          stereo error model (depth mode)
+  stereo         two RGB renders at 176 × 144 + SGBM + pooling (stereo mode capture)
+  frame_depth    whole Simulation.frames() step in depth mode (render, noise, encoders,
+                 believed FK, odometry, self-filter if present)
+"""
+
+from __future__ import annotations
+
+import argparse
+import dataclasses
+import os
+import time
+
+os.environ.setdefault("MUJOCO_GL", "egl")
+os.environ.setdefault("MESA_SHADER_CACHE_DISABLE", "true")
+
+import numpy as np
+
+from fogsim.camera import HeadCamera, RaycastDepth, RendererDepth
+from fogsim.scenario import load_scenario
+from fogsim.simulation import Simulation
+
+
+def timed(fn, *args, **kwargs):
+    """(elapsed [ms], result) of one call."""
+    start = time.perf_counter()
+    result = fn(*args, **kwargs)
+    return (time.perf_counter() - start) * 1e3, result
+
+
+def kinematics(scene, robot, trajectory, i: int) -> None:
+    """Set the world and the robot for frame i and compute positions."""
+    scene.set_time(float(trajectory.times_s[i]))
+    scene.set_robot_qpos(robot.qpos_mujoco(trajectory.q[i]))
+    scene.forward()
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--frames", type=int, default=60)
+    parser.add_argument("--repeats", type=int, default=5)
+    parser.add_argument("--scenario", default="stage")
+    args = parser.parse_args()
+
+    scenario = load_scenario(args.scenario)
+    start = time.perf_counter()
+    sim = Simulation(scenario)
+    setup_s = time.perf_counter() - start
+    scene, robot, trajectory = sim.scene, sim.robot, sim.trajectory
+    cam_id = scene.camera_ids["head_camera"]
+    renderer = RendererDepth(scene.model, sim.intrinsics, scene.render_geomgroups)
+    raycast = RaycastDepth(scene.model, sim.intrinsics, scene.render_geomgroups)
+    stereo_config = dataclasses.replace(scenario.camera, mode="stereo")
+    stereo = HeadCamera(
+        scene.model, dict(scene.camera_ids), stereo_config, baseline_m=robot.stereo_baseline_m
+    )
+    # The stereo camera wrote 2x intrinsics into the left/right cameras; head_camera unchanged.
+    h, w = sim.intrinsics.shape
+    # Spread the sampled frames over the whole walk.
+    indices = np.linspace(0, trajectory.frame_count - 1, args.frames).astype(int)
+    rng = np.random.default_rng(0)
+    results: dict[str, list[float]] = {}
+    dmc_error_mm: list[float] = []
+    for _ in range(args.repeats):
+        per: dict[str, list[float]] = {}
+        for i in indices:
+            ms, _ = timed(kinematics, scene, robot, trajectory, i)
+            per.setdefault("kinematics", []).append(ms)
+            ms, depth_gl = timed(renderer.render, scene.data, cam_id)
+            per.setdefault("render_gl", []).append(ms)
+            ms, _ = timed(raycast.render, scene.data, cam_id)
+            per.setdefault("render_ray", []).append(ms)
+            ms, depth_dmc = timed(scene.physics.render, h, w, camera_id=cam_id, depth=True)
+            per.setdefault("render_dmc", []).append(ms)
+            ms, _ = timed(sim.camera.noise.apply, depth_gl, rng)
+            per.setdefault("noise", []).append(ms)
+            ms, _ = timed(stereo.capture, scene.data, rng)
+            per.setdefault("stereo", []).append(ms)
+            both = np.isfinite(depth_gl) & (depth_dmc < 15.0)
+            dmc_error_mm.extend((1e3 * (depth_dmc[both] - depth_gl[both])).tolist())
+        frame_iterator = sim.frames()
+        next(frame_iterator)
+        per["frame_depth"] = [timed(next, frame_iterator)[0] for _ in range(args.frames)]
+        for key, values in per.items():
+            results.setdefault(key, []).append(float(np.median(values)))
+    print(
+        f"scenario {scenario.name}, {w}x{h}, setup {setup_s:.2f} s, "
+        f"{args.frames} frames x {args.repeats} repeats"
+    )
+    for key, medians in results.items():
+        print(
+            f"  {key:12s} {np.median(medians):7.3f} ms  (repeat medians "
+            f"{min(medians):.3f}..{max(medians):.3f})"
+        )
+    errors = np.asarray(dmc_error_mm)
+    print(
+        f"  dm_control depth minus mujoco.Renderer depth: median {np.median(errors):.2f} mm, "
+        f"p5 {np.percentile(errors, 5):.2f} mm, p95 {np.percentile(errors, 95):.2f} mm"
+    )
+    for part in (renderer, stereo):
+        part.close()
+    sim.close()
+
+
+if __name__ == "__main__":
+    main()
