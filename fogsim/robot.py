@@ -218,6 +218,23 @@ def _mean_angle(a: float, b: float) -> float:
     return a + 0.5 * math.atan2(math.sin(b - a), math.cos(b - a))
 
 
+@dataclass(frozen=True)
+class BodyBox:
+    """A box bounding one geometry of the robot, fixed to a pinocchio joint frame.
+
+    Attributes:
+        joint_id: Pinocchio joint the geometry moves with.
+        name: Geometry name.
+        transform_box_to_joint: 4×4 box centre and axes in the joint frame.
+        half_extents_m: (3,) half sizes along the box axes [m].
+    """
+
+    joint_id: int
+    name: str
+    transform_box_to_joint: NDArray[np.float64]
+    half_extents_m: NDArray[np.float64]
+
+
 @dataclass(frozen=True, eq=False)
 class Robot:
     """A humanoid loaded into pinocchio and MuJoCo (see the module docstring for frames).
@@ -232,6 +249,7 @@ class Robot:
         joint_names: Actuated joints in pinocchio order (q[7:] order).
         mujoco_joint_names: Joints of the MuJoCo model in qpos order, "root" first.
         stereo_baseline_m: Distance between the left and right cameras [m].
+        body_boxes: Boxes bounding every geometry (in joint frames), for the self-filter.
     """
 
     name: str
@@ -242,6 +260,7 @@ class Robot:
     joint_names: tuple[str, ...]
     mujoco_joint_names: tuple[str, ...]
     stereo_baseline_m: float
+    body_boxes: tuple[BodyBox, ...]
     _qpos_index: NDArray[np.intp]
 
     # ------------------------------------------------------------------ sizes and indices
@@ -556,6 +575,38 @@ def _add_geometry(
         raise RobotModelError(f"unsupported geometry {type(geometry).__name__} in {name}")
 
 
+def _geometry_box(geometry_object, config: RobotConfig) -> BodyBox:
+    """Axis-aligned (in the joint frame) box around one geometry object."""
+    import coal
+
+    geometry = geometry_object.geometry
+    if isinstance(geometry, coal.BVHModelBase):
+        vertices = np.asarray(geometry.vertices(), dtype=np.float64)
+        if config.fix_y_up_meshes:
+            vertices = vertices @ _Y_UP_TO_Z_UP.T
+        vertices = vertices * np.asarray(geometry_object.meshScale, dtype=float)
+    else:
+        if isinstance(geometry, coal.Box):
+            half = np.asarray(geometry.halfSide, dtype=float)
+        elif isinstance(geometry, coal.Cylinder | coal.Capsule):
+            extra = geometry.radius if isinstance(geometry, coal.Capsule) else 0.0
+            half = np.array([geometry.radius, geometry.radius, geometry.halfLength + extra])
+        elif isinstance(geometry, coal.Sphere):
+            half = np.full(3, geometry.radius)
+        else:
+            raise RobotModelError(f"unsupported geometry {type(geometry).__name__}")
+        signs = np.array(np.meshgrid([-1, 1], [-1, 1], [-1, 1])).reshape(3, -1).T
+        vertices = signs * half
+    placement = geometry_object.placement
+    in_joint = vertices @ placement.rotation.T + placement.translation
+    low, high = in_joint.min(axis=0), in_joint.max(axis=0)
+    transform = np.eye(4)
+    transform[:3, 3] = 0.5 * (low + high)
+    return BodyBox(
+        int(geometry_object.parentJoint), geometry_object.name, transform, 0.5 * (high - low)
+    )
+
+
 def _body_names(model: pin.Model) -> list[str]:
     """MuJoCo body name of each pinocchio joint: its first BODY frame (the URDF child link)."""
     names = ["world"]
@@ -691,5 +742,6 @@ def load_robot(name: str = "icub") -> Robot:
         joint_names=joint_names,
         mujoco_joint_names=mujoco_joint_names,
         stereo_baseline_m=config.stereo_baseline_m,
+        body_boxes=tuple(_geometry_box(g, config) for g in geometry_model.geometryObjects),
         _qpos_index=qpos_index,
     )
