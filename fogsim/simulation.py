@@ -141,7 +141,7 @@ class Simulation:
         robot, scene, trajectory = self.robot, self.scene, self.trajectory
         encoders = self._encoder_reader()
         odometry = _make_odometry(robot, trajectory)
-        self_filter = _make_self_filter(robot)
+        self_filter = _make_self_filter(robot, self.depth_camera)
         errors: dict[str, list[list[float]]] = {"camera_in_robot": [], "camera_in_world": []}
         self._pose_errors = errors
         for index, time_s in enumerate(trajectory.times_s):
@@ -251,10 +251,10 @@ def _make_odometry(robot: Any, trajectory: Any) -> Any:
     return update
 
 
-def _make_self_filter(robot: Any) -> Any:
-    """The robot helper's self-filter, None if unavailable."""
+def _make_self_filter(robot: Any, camera: str) -> Any:
+    """The robot helper's self-filter for the depth camera, None if unavailable."""
     try:
         from fogsim.self_filter import SelfFilter
     except ImportError:
         return None
-    return SelfFilter(robot)
+    return SelfFilter(robot, camera=camera)
