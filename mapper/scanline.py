@@ -1,0 +1,605 @@
+"""Numba kernels of scan-line grouping (after Jiang & Bunke) on a depth image.
+
+Everything here works in the image: a plane ``n·p = h`` seen by a pinhole camera has an inverse
+depth that is affine in the normalised pixel coordinates, ``1/d = A·x + B·y + C`` with
+``(A, B, C) = n/h`` (camera frame), and a straight 3D line on it has ``1/d = a + b·x`` along an
+image row. Fitting these linear models by least squares puts the error where a depth camera
+has it (along the viewing ray), so fitted planes are not tilted towards the rays as a 3D
+total-least-squares fit of ray-smeared points is; every tolerance is a depth difference [m].
+
+1. `local_noise_depth_m`: noise-adaptive part. On a plane the second difference of inverse
+   depth along a row is pure noise; a clipped box mean of it gives the local depth noise.
+2. `split_rows`: every row is cut into runs of valid pixels and each run recursively split
+   until a weighted line fits every pixel within ``split_factor·sigma + floor``, its RMS
+   residual is within ``rms_factor·sigma`` and no depth step shows in its residuals (mean
+   residuals in windows either side of a pixel boundary differ by at most ``edge_factor``
+   standard errors). Splits go to the step, else the outlier, else the residuals' CUSUM peak.
+3. `grow_planes`: seeds are three overlapping segments in adjacent rows that fit one plane;
+   planes grow breadth-first into adjacent segments (rows above, below, same row) whose end
+   points and RMS fit the current plane within tolerances made of the segment's noise and the
+   plane's prediction uncertainty; the plane is refit after every accepted segment.
+4. `fill_pixels`: leftover pixels next to a plane join it if they lie on it within tolerance.
+5. `plane_fits`: final inverse-depth plane parameters per label.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numba
+import numpy as np
+
+# E[min(|X|, 2.5·E|X|)] = 0.7807·s for X ~ N(0, s²); a second difference has s = sqrt(6)·sigma.
+_CLIPPED_MEAN_TO_SIGMA = 1.0 / (0.7807 * math.sqrt(6.0))
+_N_SUMS = 10  # n, sx, sy, sxx, sxy, syy, sz, sxz, syz, szz (z = inverse depth)
+
+
+@numba.njit(cache=True)
+def _box_mean(values, clip, half_rows, half_cols):
+    """Mean of min(values, clip) over a (2·half_rows+1)×(2·half_cols+1) box; NaN = absent."""
+    height, width = values.shape
+    row_sum = np.zeros((height, width))
+    row_cnt = np.zeros((height, width))
+    for r in range(height):
+        s = 0.0
+        k = 0.0
+        # Running sums over columns [c - half_cols, c + half_cols].
+        for c in range(-half_cols, width):
+            add = c + half_cols
+            if add < width:
+                v = values[r, add]
+                if v == v:
+                    s += min(v, clip[r, add]) if clip.shape[0] > 0 else v
+                    k += 1.0
+            drop = c - half_cols - 1
+            if drop >= 0:
+                v = values[r, drop]
+                if v == v:
+                    s -= min(v, clip[r, drop]) if clip.shape[0] > 0 else v
+                    k -= 1.0
+            if c >= 0:
+                row_sum[r, c] = s
+                row_cnt[r, c] = k
+    out = np.full((height, width), np.nan)
+    for r in range(height):
+        for c in range(width):
+            s = 0.0
+            k = 0.0
+            for rr in range(max(0, r - half_rows), min(height, r + half_rows + 1)):
+                s += row_sum[rr, c]
+                k += row_cnt[rr, c]
+            if k >= 3.0:
+                out[r, c] = s / k
+    return out
+
+
+@numba.njit(cache=True)
+def local_noise_depth_m(inv_depth, window, min_noise_m):
+    """Per-pixel standard deviation of the depth [m], estimated from the data.
+
+    On a plane the second difference of the inverse depth along a row is pure noise
+    (std sqrt(6)·sigma_inv). Its absolute value is averaged over a box of 3 rows ×
+    (2·window + 1) columns, twice more with the values clipped at 2.5× the previous mean so
+    that depth edges in the box barely count.
+
+    Args:
+        inv_depth: (H, W) inverse depth [1/m], NaN where invalid.
+        window: half width [px] of the averaging box along the row.
+        min_noise_m: lower bound of the returned noise [m].
+
+    Returns:
+        (H, W) depth noise [m]; NaN where the depth is invalid.
+    """
+    height, width = inv_depth.shape
+    second = np.full((height, width), np.nan)
+    for r in range(height):
+        for c in range(1, width - 1):
+            second[r, c] = abs(inv_depth[r, c - 1] - 2.0 * inv_depth[r, c] + inv_depth[r, c + 1])
+    no_clip = np.empty((0, 0))
+    mean = _box_mean(second, no_clip, 1, window)
+    for _ in range(2):
+        mean = _box_mean(second, 2.5 * mean, 1, window)
+    # Pixels whose box had too few samples: image-wide median of the box means.
+    flat = mean.ravel()
+    finite = flat[np.isfinite(flat)]
+    fallback = np.median(finite) if finite.size > 0 else 0.0
+    out = np.full((height, width), np.nan)
+    for r in range(height):
+        for c in range(width):
+            z = inv_depth[r, c]
+            if not z > 0.0:
+                continue
+            m = mean[r, c]
+            if not m == m:
+                m = fallback
+            out[r, c] = max(m * _CLIPPED_MEAN_TO_SIGMA / (z * z), min_noise_m)
+    return out
+
+
+@numba.njit(cache=True)
+def _line_from_sums(w, wx, wxx, wz, wxz, wzz):
+    """Weighted least squares ``z = p + q·x`` from sums; returns (p, q, weighted RSS)."""
+    det = w * wxx - wx * wx
+    if det <= 1e-12 * w * wxx:
+        p = wz / w
+        return p, 0.0, max(wzz - p * wz, 0.0)
+    q = (w * wxz - wx * wz) / det
+    p = (wz - q * wx) / w
+    return p, q, max(wzz - p * wz - q * wxz, 0.0)
+
+
+@numba.njit(cache=True)
+def _depth_gap(inv_a, inv_b):
+    """|1/inv_a − 1/inv_b| [m] for inverse depths."""
+    return abs(inv_a - inv_b) / (inv_a * inv_b)
+
+
+@numba.njit(cache=True)
+def split_rows(
+    inv_depth,
+    x,
+    sigma,
+    split_factor,
+    rms_factor,
+    edge_window,
+    edge_factor,
+    tolerance_floor_m,
+    min_pixels,
+):
+    """Split every image row into straight segments.
+
+    Args:
+        inv_depth: (H, W) inverse depth [1/m], NaN where invalid.
+        x: (W,) normalised image x of the columns, (u − cx)/fx.
+        sigma: (H, W) depth noise [m].
+        split_factor: a pixel deviating more than this many sigma (+ floor) splits its piece.
+        rms_factor: a piece whose weighted RMS residual exceeds this many sigma is split.
+        edge_window: pixels on each side of a boundary for the step statistic.
+        edge_factor: a piece with a step statistic above this (in sigma units) is split there.
+        tolerance_floor_m: constant added to every tolerance [m].
+        min_pixels: shorter pieces are not segments (their pixels stay unassigned).
+
+    Returns:
+        rows, starts, stops (stop exclusive) int64 arrays sorted by row then column, and a
+        (S, 3) float table: line offset p, slope q (``1/d = p + q·x``), mean sigma [m].
+    """
+    height, width = inv_depth.shape
+    cap = height * (width // max(min_pixels, 1) + 1)
+    rows = np.empty(cap, np.int64)
+    starts = np.empty(cap, np.int64)
+    stops = np.empty(cap, np.int64)
+    table = np.empty((cap, 3))
+    count = 0
+    stack = np.empty((width + 2, 2), np.int64)
+    pre = np.zeros((width + 1, 6))
+    res_pre = np.zeros(width + 1)
+    for r in range(height):
+        inv_row = inv_depth[r]
+        c = 0
+        while c < width:
+            if not inv_row[c] > 0.0:
+                c += 1
+                continue
+            run_start = c
+            while c < width and inv_row[c] > 0.0:
+                c += 1
+            stack[0, 0] = run_start
+            stack[0, 1] = c
+            top = 1
+            while top > 0:  # depth first, left piece on top: segments come out left to right
+                top -= 1
+                a = stack[top, 0]
+                b = stack[top, 1]
+                if b - a < min_pixels:
+                    continue
+                # Prefix sums of the weighted line fit (weights 1/sigma² of inverse depth).
+                for k in range(a, b):
+                    z = inv_row[k]
+                    wk = 1.0 / (z * z * sigma[r, k]) ** 2
+                    i = k - a + 1
+                    pre[i, 0] = pre[i - 1, 0] + wk
+                    pre[i, 1] = pre[i - 1, 1] + wk * x[k]
+                    pre[i, 2] = pre[i - 1, 2] + wk * x[k] * x[k]
+                    pre[i, 3] = pre[i - 1, 3] + wk * z
+                    pre[i, 4] = pre[i - 1, 4] + wk * x[k] * z
+                    pre[i, 5] = pre[i - 1, 5] + wk * z * z
+                n = b - a
+                p, q, rss = _line_from_sums(
+                    pre[n, 0], pre[n, 1], pre[n, 2], pre[n, 3], pre[n, 4], pre[n, 5]
+                )
+                worst = 0.0
+                worst_at = a
+                s_sum = 0.0
+                for k in range(a, b):
+                    ratio = _depth_gap(inv_row[k], p + q * x[k]) / (
+                        split_factor * sigma[r, k] + tolerance_floor_m
+                    )
+                    s_sum += sigma[r, k]
+                    if ratio > worst:
+                        worst = ratio
+                        worst_at = k
+                # Weighted RMS in sigma units, with the floor tolerance as extra allowance.
+                chi = math.sqrt(rss / max(n - 2, 1))
+                sigma_mean = s_sum / n
+                chi_limit = rms_factor * (1.0 + tolerance_floor_m / sigma_mean)
+                # Step statistic: difference of mean normalised residuals in windows left and
+                # right of each pixel boundary (a depth step the line fit half absorbed).
+                res_pre[0] = 0.0
+                for k in range(a, b):
+                    z = inv_row[k]
+                    res_pre[k - a + 1] = res_pre[k - a] + (z - (p + q * x[k])) / (
+                        z * z * sigma[r, k] + tolerance_floor_m * z * z
+                    )
+                edge = 0.0
+                edge_at = a
+                for m in range(2, n - 1):  # boundary between pixels a+m-1 and a+m
+                    kl = min(edge_window, m)
+                    kr = min(edge_window, n - m)
+                    if kl < 2 or kr < 2:
+                        continue
+                    mean_l = (res_pre[m] - res_pre[m - kl]) / kl
+                    mean_r = (res_pre[m + kr] - res_pre[m]) / kr
+                    t = abs(mean_r - mean_l) / math.sqrt(1.0 / kl + 1.0 / kr)
+                    if t > edge:
+                        edge = t
+                        edge_at = a + m
+                if worst <= 1.0 and edge <= edge_factor and (n <= 3 or chi <= chi_limit):
+                    rows[count] = r
+                    starts[count] = a
+                    stops[count] = b
+                    table[count, 0] = p
+                    table[count, 1] = q
+                    table[count, 2] = sigma_mean
+                    count += 1
+                    continue
+                if edge > edge_factor:
+                    split = edge_at
+                elif worst > 1.0 and chi <= chi_limit:
+                    split = worst_at if worst_at > a else a + 1  # cut off one outlying pixel
+                else:
+                    # The CUSUM peak of the residuals: at a step edge for steps, else it cuts
+                    # off a straight part.
+                    split = a + n // 2
+                    best = -1.0
+                    for m in range(1, n):
+                        if abs(res_pre[m]) > best:
+                            best = abs(res_pre[m])
+                            split = a + m
+                split = min(max(split, a + 1), b - 1)
+                stack[top, 0] = split
+                stack[top, 1] = b
+                stack[top + 1, 0] = a
+                stack[top + 1, 1] = split
+                top += 2
+    return rows[:count].copy(), starts[:count].copy(), stops[:count].copy(), table[:count].copy()
+
+
+@numba.njit(cache=True)
+def _accumulate(sums, x, yv, z):
+    sums[0] += 1.0
+    sums[1] += x
+    sums[2] += yv
+    sums[3] += x * x
+    sums[4] += x * yv
+    sums[5] += yv * yv
+    sums[6] += z
+    sums[7] += x * z
+    sums[8] += yv * z
+    sums[9] += z * z
+
+
+@numba.njit(cache=True)
+def _solve_plane(sums, out):
+    """Inverse-depth plane from sums: out = [A, B, C, s², inv(M) as 9 values]; False if singular.
+
+    s² is the residual variance of the inverse depth [1/m²].
+    """
+    n = sums[0]
+    m00 = sums[3]
+    m01 = sums[4]
+    m02 = sums[1]
+    m11 = sums[5]
+    m12 = sums[2]
+    m22 = n
+    c00 = m11 * m22 - m12 * m12
+    c01 = m02 * m12 - m01 * m22
+    c02 = m01 * m12 - m02 * m11
+    det = m00 * c00 + m01 * c01 + m02 * c02
+    scale = m00 * m11 * m22
+    if n < 3.0 or not det > 1e-12 * scale:
+        return False
+    c11 = m00 * m22 - m02 * m02
+    c12 = m01 * m02 - m00 * m12
+    c22 = m00 * m11 - m01 * m01
+    i00 = c00 / det
+    i01 = c01 / det
+    i02 = c02 / det
+    i11 = c11 / det
+    i12 = c12 / det
+    i22 = c22 / det
+    v0 = sums[7]
+    v1 = sums[8]
+    v2 = sums[6]
+    a = i00 * v0 + i01 * v1 + i02 * v2
+    b = i01 * v0 + i11 * v1 + i12 * v2
+    c = i02 * v0 + i12 * v1 + i22 * v2
+    rss = sums[9] - (a * v0 + b * v1 + c * v2)
+    out[0] = a
+    out[1] = b
+    out[2] = c
+    out[3] = max(rss, 0.0) / max(n - 3.0, 1.0)
+    out[4] = i00
+    out[5] = i01
+    out[6] = i02
+    out[7] = i01
+    out[8] = i11
+    out[9] = i12
+    out[10] = i02
+    out[11] = i12
+    out[12] = i22
+    return True
+
+
+@numba.njit(cache=True)
+def _predict_sigma_depth(plane, x, yv, inv_pred):
+    """Standard deviation [m] of the plane's predicted depth at (x, y)."""
+    g0 = x
+    g1 = yv
+    quad = (
+        g0 * (plane[4] * g0 + plane[5] * g1 + plane[6])
+        + g1 * (plane[7] * g0 + plane[8] * g1 + plane[9])
+        + (plane[10] * g0 + plane[11] * g1 + plane[12])
+    )
+    return math.sqrt(max(plane[3] * quad, 0.0)) / (inv_pred * inv_pred)
+
+
+@numba.njit(cache=True)
+def _segment_fits(plane, inv_row, x, yv, a, b, seg, grow_factor, rms_factor, tol0):
+    """Whether the segment (columns a:b of a row at image y = yv) lies on the plane."""
+    n = b - a
+    sigma_seg = seg[2]
+    for k in (a, b - 1):
+        inv_plane = plane[0] * x[k] + plane[1] * yv + plane[2]
+        if not inv_plane > 0.0:
+            return False
+        inv_seg = seg[0] + seg[1] * x[k]
+        sigma_pred = _predict_sigma_depth(plane, x[k], yv, inv_plane)
+        tol = grow_factor * math.sqrt(4.0 * sigma_seg * sigma_seg / n + sigma_pred**2) + tol0
+        if _depth_gap(inv_seg, inv_plane) > tol:
+            return False
+    sq = 0.0
+    for k in range(a, b):
+        inv_plane = plane[0] * x[k] + plane[1] * yv + plane[2]
+        if not inv_plane > 0.0:
+            return False
+        gap = _depth_gap(inv_row[k], inv_plane)
+        sq += gap * gap
+    mid = (a + b - 1) // 2
+    inv_mid = plane[0] * x[mid] + plane[1] * yv + plane[2]
+    sigma_pred = _predict_sigma_depth(plane, x[mid], yv, inv_mid)
+    limit = rms_factor * math.sqrt(sigma_seg * sigma_seg + sigma_pred * sigma_pred) + tol0
+    return math.sqrt(sq / n) <= limit
+
+
+@numba.njit(cache=True)
+def _add_segment(sums, inv_row, x, yv, a, b):
+    for k in range(a, b):
+        _accumulate(sums, x[k], yv, inv_row[k])
+
+
+@numba.njit(cache=True)
+def _overlap(a0, a1, b0, b1, gap):
+    return a0 < b1 + gap and b0 < a1 + gap
+
+
+@numba.njit(cache=True)
+def grow_planes(
+    inv_depth,
+    x,
+    y,
+    seg_rows,
+    seg_starts,
+    seg_stops,
+    seg_table,
+    grow_factor,
+    rms_factor,
+    tolerance_floor_m,
+    seed_min_pixels,
+):
+    """Region growing of planes over row segments.
+
+    Args:
+        inv_depth: (H, W) inverse depth [1/m].
+        x, y: normalised image coordinates of columns (W,) and rows (H,).
+        seg_rows, seg_starts, seg_stops, seg_table: output of `split_rows`.
+        grow_factor: end points must agree within this many sigma.
+        rms_factor: the RMS depth residual must be within this many sigma.
+        tolerance_floor_m: constant added to every tolerance [m].
+        seed_min_pixels: minimum length of each seed segment.
+
+    Returns:
+        (S,) int64 plane index of every segment, -1 for none; planes numbered in creation order.
+    """
+    height = inv_depth.shape[0]
+    n_seg = seg_rows.shape[0]
+    plane_of = np.full(n_seg, -1, np.int64)
+    if n_seg == 0:
+        return plane_of
+    row_first = np.full(height + 1, n_seg, np.int64)
+    for i in range(n_seg - 1, -1, -1):
+        row_first[seg_rows[i]] = i
+    for r in range(height - 1, -1, -1):
+        if row_first[r] > row_first[r + 1]:
+            row_first[r] = row_first[r + 1]
+    lengths = seg_stops - seg_starts
+    order = np.argsort(-lengths, kind="mergesort")
+    queue = np.empty(n_seg, np.int64)
+    sums = np.zeros(_N_SUMS)
+    plane = np.zeros(13)
+    chosen = np.full(3, -1, np.int64)
+    n_planes = 0
+    for s in order:
+        if plane_of[s] >= 0 or lengths[s] < seed_min_pixels:
+            continue
+        r = seg_rows[s]
+        found = False
+        # Seed row triples containing s: (r, r+1, r+2), (r-1, r, r+1), (r-2, r-1, r).
+        for offset in (0, -1, -2):
+            if r + offset < 0 or r + offset + 2 >= height:
+                continue
+            chosen[:] = -1
+            chosen[-offset] = s
+            ok = True
+            for direction in (1, -1):
+                k = -offset + direction
+                while 0 <= k <= 2:
+                    prev = chosen[k - direction]
+                    best = -1
+                    best_len = 0
+                    rr = r + offset + k
+                    for t in range(row_first[rr], row_first[rr + 1]):
+                        if plane_of[t] >= 0 or lengths[t] < seed_min_pixels:
+                            continue
+                        if _overlap(
+                            seg_starts[prev], seg_stops[prev], seg_starts[t], seg_stops[t], 0
+                        ):
+                            if lengths[t] > best_len:
+                                best = t
+                                best_len = lengths[t]
+                    if best < 0:
+                        ok = False
+                        break
+                    chosen[k] = best
+                    k += direction
+                if not ok:
+                    break
+            if not ok:
+                continue
+            sums[:] = 0.0
+            for k in range(3):
+                t = chosen[k]
+                rr = seg_rows[t]
+                _add_segment(sums, inv_depth[rr], x, y[rr], seg_starts[t], seg_stops[t])
+            if not _solve_plane(sums, plane):
+                continue
+            fits = True
+            for k in range(3):
+                t = chosen[k]
+                rr = seg_rows[t]
+                if not _segment_fits(
+                    plane,
+                    inv_depth[rr],
+                    x,
+                    y[rr],
+                    seg_starts[t],
+                    seg_stops[t],
+                    seg_table[t],
+                    grow_factor,
+                    rms_factor,
+                    tolerance_floor_m,
+                ):
+                    fits = False
+                    break
+            if fits:
+                found = True
+                break
+        if not found:
+            continue
+        label = n_planes
+        n_planes += 1
+        head = 0
+        tail = 0
+        for k in range(3):
+            plane_of[chosen[k]] = label
+            queue[tail] = chosen[k]
+            tail += 1
+        while head < tail:
+            q = queue[head]
+            head += 1
+            rq = seg_rows[q]
+            for rr in (rq - 1, rq, rq + 1):
+                if rr < 0 or rr >= height:
+                    continue
+                gap = 1 if rr == rq else 0
+                for t in range(row_first[rr], row_first[rr + 1]):
+                    if plane_of[t] >= 0:
+                        continue
+                    if not _overlap(seg_starts[q], seg_stops[q], seg_starts[t], seg_stops[t], gap):
+                        continue
+                    if _segment_fits(
+                        plane,
+                        inv_depth[rr],
+                        x,
+                        y[rr],
+                        seg_starts[t],
+                        seg_stops[t],
+                        seg_table[t],
+                        grow_factor,
+                        rms_factor,
+                        tolerance_floor_m,
+                    ):
+                        plane_of[t] = label
+                        queue[tail] = t
+                        tail += 1
+                        _add_segment(sums, inv_depth[rr], x, y[rr], seg_starts[t], seg_stops[t])
+                        _solve_plane(sums, plane)
+    return plane_of
+
+
+@numba.njit(cache=True)
+def plane_fits(inv_depth, x, y, labels, n_planes):
+    """Inverse-depth plane (A, B, C) per label ``1/d = A·x + B·y + C`` and pixel counts.
+
+    Returns:
+        (P, 13) plane table (A, B, C, residual variance [1/m²], inverse normal matrix) and
+        (P,) int64 pixel counts. Degenerate planes have NaN parameters.
+    """
+    height, width = labels.shape
+    sums = np.zeros((n_planes, _N_SUMS))
+    for r in range(height):
+        for c in range(width):
+            p = labels[r, c]
+            if p >= 0:
+                _accumulate(sums[p], x[c], y[r], inv_depth[r, c])
+    planes = np.full((n_planes, 13), np.nan)
+    counts = np.zeros(n_planes, np.int64)
+    for p in range(n_planes):
+        counts[p] = int(sums[p, 0])
+        _solve_plane(sums[p], planes[p])
+    return planes, counts
+
+
+@numba.njit(cache=True)
+def fill_pixels(inv_depth, x, y, labels, sigma, planes, factor, tolerance_floor_m, passes):
+    """Let unassigned pixels join a 4-neighbour's plane if they lie on it within tolerance.
+
+    Each pass looks only at the labels of the previous pass, so a plane spreads by at most
+    ``passes`` pixels. ``labels`` (H, W) int64 (-1 = none, -2 = invalid) is updated in place.
+    """
+    height, width = labels.shape
+    for _ in range(passes):
+        before = labels.copy()
+        for r in range(height):
+            for c in range(width):
+                if before[r, c] != -1:
+                    continue
+                best = -1
+                best_gap = 1e30
+                tol = factor * sigma[r, c] + tolerance_floor_m
+                for dr, dc in ((-1, 0), (1, 0), (0, -1), (0, 1)):
+                    rr = r + dr
+                    cc = c + dc
+                    if rr < 0 or rr >= height or cc < 0 or cc >= width:
+                        continue
+                    p = before[rr, cc]
+                    if p < 0:
+                        continue
+                    inv_plane = planes[p, 0] * x[c] + planes[p, 1] * y[r] + planes[p, 2]
+                    if not inv_plane > 0.0:
+                        continue
+                    gap = _depth_gap(inv_depth[r, c], inv_plane)
+                    if gap <= tol and gap < best_gap:
+                        best = p
+                        best_gap = gap
+                if best >= 0:
+                    labels[r, c] = best

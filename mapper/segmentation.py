@@ -1,0 +1,587 @@
+"""Plane segmentation of depth images into floor (with height) and obstacle points.
+
+Implements the paper's segmentation step (Gutmann et al., Sec. III-A and IV): range points are
+grouped into planes by scan-line grouping (Jiang & Bunke, with a noise-adaptive tolerance, see
+`mapper.scanline`), then
+
+1. rotated about the camera centre so that the near-horizontal planes become exactly horizontal
+   (area-weighted mean normal; absorbs camera rotation errors of the joint encoders), and
+2. shifted in z so that the plane nearest the expected ground plane lies on it.
+
+A plane is floor when its normal is within `floor_max_normal_angle_deg` of vertical, it has at
+least `min_plane_pixels` pixels and its footprint is at least `min_plane_extent_m` wide in
+every direction (room for a foot). Every point of a floor plane is labelled with the plane's
+height (mean corrected z of its points); all other points are obstacle (``NaN``).
+
+Frames: camera = OpenCV optical frame (x right, y down, z forward); robot frame R = z up,
+origin on the ground below the robot.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Mapping
+from dataclasses import dataclass, fields
+
+import numpy as np
+from numpy.typing import NDArray
+
+from mapper import scanline
+from mapper.errors import InvalidInputError, InvalidParameterError
+from mapper.intrinsics import PinholeIntrinsics
+
+__all__ = ["PoseCorrection", "SegmentationParams", "SegmentationResult", "segment_depth"]
+
+
+@dataclass(frozen=True)
+class SegmentationParams:
+    """Parameters of `segment_depth` (lengths in metres, angles in degrees).
+
+    Attributes:
+        min_depth_m: depths below this are no measurement [m].
+        max_depth_m: depths above this are no measurement [m].
+        noise_window_px: half width of the box (3 rows high) estimating local noise [px].
+        min_noise_m: lower bound of the per-pixel noise along the ray [m].
+        tolerance_floor_m: constant added to every distance tolerance [m] (for exact data).
+        split_sigma_factor: a row pixel farther than this many sigma from its line splits it.
+        split_rms_sigma_factor: a row piece whose RMS residual exceeds this many sigma is split.
+        edge_window_px: pixels either side of a boundary for the depth-step test in rows.
+        edge_sigma_factor: a depth step of more than this many standard errors splits a row.
+        grow_sigma_factor: segment end points must lie within this many sigma of the plane
+            (sigma of the fitted line end, i.e. 2·sigma/sqrt(n)).
+        rms_sigma_factor: a segment's RMS distance to the plane must be within this many sigma.
+        fill_sigma_factor: leftover pixels join a neighbouring plane within this many sigma.
+        fill_passes: how many pixels deep leftover pixels may join a plane.
+        min_segment_pixels: shorter row pieces are no segments.
+        seed_min_pixels: minimum length of each of the three segments of a plane seed.
+        min_plane_pixels: planes with fewer pixels are dissolved (their pixels: no plane).
+        min_plane_extent_m: a floor plane's footprint must be at least this wide in every
+            direction (sqrt(12)·std of its points along the minor in-plane axis) [m].
+        floor_max_normal_angle_deg: a floor plane's normal is within this angle of vertical
+            after the tilt correction [deg].
+        max_tilt_correction_deg: planes whose normal is within this angle of vertical (before
+            correction) steer the tilt correction, which is at most this large [deg].
+        expected_ground_z_m: z of the ground plane in the robot frame [m].
+        ground_search_window_m: the ground plane is searched within this distance of
+            `expected_ground_z_m` [m] (after the tilt correction).
+        correct_tilt: apply the rotation correction.
+        correct_ground_shift: apply the z shift to the ground plane.
+    """
+
+    min_depth_m: float = 0.05
+    max_depth_m: float = 10.0
+    noise_window_px: int = 6
+    min_noise_m: float = 0.0005
+    tolerance_floor_m: float = 0.003
+    split_sigma_factor: float = 4.0
+    split_rms_sigma_factor: float = 1.3
+    edge_window_px: int = 5
+    edge_sigma_factor: float = 4.0
+    grow_sigma_factor: float = 3.0
+    rms_sigma_factor: float = 1.5
+    fill_sigma_factor: float = 2.5
+    fill_passes: int = 2
+    min_segment_pixels: int = 3
+    seed_min_pixels: int = 4
+    min_plane_pixels: int = 20
+    min_plane_extent_m: float = 0.08
+    floor_max_normal_angle_deg: float = 5.0
+    max_tilt_correction_deg: float = 10.0
+    expected_ground_z_m: float = 0.0
+    ground_search_window_m: float = 0.05
+    correct_tilt: bool = True
+    correct_ground_shift: bool = True
+
+    def __post_init__(self) -> None:
+        positive = (
+            "max_depth_m",
+            "min_noise_m",
+            "split_sigma_factor",
+            "split_rms_sigma_factor",
+            "edge_sigma_factor",
+            "grow_sigma_factor",
+            "rms_sigma_factor",
+            "ground_search_window_m",
+        )
+        for name in positive:
+            value = getattr(self, name)
+            if not (isinstance(value, int | float) and math.isfinite(value) and value > 0):
+                raise InvalidParameterError(f"SegmentationParams.{name} must be > 0, got {value!r}")
+        non_negative = (
+            "min_depth_m",
+            "tolerance_floor_m",
+            "fill_sigma_factor",
+            "min_plane_extent_m",
+        )
+        for name in non_negative:
+            value = getattr(self, name)
+            if not (isinstance(value, int | float) and math.isfinite(value) and value >= 0):
+                raise InvalidParameterError(
+                    f"SegmentationParams.{name} must be >= 0, got {value!r}"
+                )
+        integers = {
+            "noise_window_px": 1,
+            "edge_window_px": 2,
+            "fill_passes": 0,
+            "min_segment_pixels": 2,
+            "seed_min_pixels": 2,
+            "min_plane_pixels": 3,
+        }
+        for name, lowest in integers.items():
+            value = getattr(self, name)
+            if isinstance(value, bool) or not isinstance(value, int) or value < lowest:
+                raise InvalidParameterError(
+                    f"SegmentationParams.{name} must be an integer >= {lowest}, got {value!r}"
+                )
+        if self.min_depth_m >= self.max_depth_m:
+            raise InvalidParameterError(
+                f"SegmentationParams.min_depth_m ({self.min_depth_m}) must be < max_depth_m "
+                f"({self.max_depth_m})"
+            )
+        for name in ("floor_max_normal_angle_deg", "max_tilt_correction_deg"):
+            value = getattr(self, name)
+            if not (isinstance(value, int | float) and 0.0 <= value < 90.0):
+                raise InvalidParameterError(
+                    f"SegmentationParams.{name} must be in [0, 90) degrees, got {value!r}"
+                )
+        if not math.isfinite(self.expected_ground_z_m):
+            raise InvalidParameterError(
+                f"SegmentationParams.expected_ground_z_m must be finite, "
+                f"got {self.expected_ground_z_m!r}"
+            )
+        for name in ("correct_tilt", "correct_ground_shift"):
+            if not isinstance(getattr(self, name), bool):
+                raise InvalidParameterError(f"SegmentationParams.{name} must be a bool")
+
+    @classmethod
+    def from_mapping(cls, values: Mapping[str, float | int | bool]) -> SegmentationParams:
+        """Parameters from a mapping (e.g. a scenario's ``[segmentation]`` table).
+
+        Integral floats are accepted for integer fields; unknown keys are an error naming the
+        allowed ones.
+        """
+        known = {f.name: f for f in fields(cls)}
+        kwargs: dict[str, float | int | bool] = {}
+        for key, value in values.items():
+            if key not in known:
+                raise InvalidParameterError(
+                    f"unknown segmentation parameter {key!r}; allowed: {', '.join(sorted(known))}"
+                )
+            default = known[key].default
+            if isinstance(default, bool):
+                kwargs[key] = value
+            elif isinstance(default, int) and isinstance(value, float) and value.is_integer():
+                kwargs[key] = int(value)
+            elif (
+                isinstance(default, float)
+                and isinstance(value, int)
+                and not isinstance(value, bool)
+            ):
+                kwargs[key] = float(value)
+            else:
+                kwargs[key] = value
+        return cls(**kwargs)
+
+
+@dataclass(frozen=True)
+class PoseCorrection:
+    """The correction `segment_depth` applied to the believed robot-frame data.
+
+    Corrected point = pivot + rotation·(point − pivot) + (0, 0, z_shift_m).
+
+    Attributes:
+        rotation: 3×3 rotation (tilt only, no yaw component beyond the minimal rotation).
+        pivot_m: (3,) rotation centre [m], the believed camera centre in the robot frame.
+        z_shift_m: shift added to z after the rotation [m] (0 if no ground plane was found).
+        ground_plane_found: a floor plane was found within the ground search window.
+        tilt_planes: how many near-horizontal planes steered the rotation (0: none applied).
+    """
+
+    rotation: NDArray[np.float64]
+    pivot_m: NDArray[np.float64]
+    z_shift_m: float
+    ground_plane_found: bool
+    tilt_planes: int
+
+    @property
+    def rotation_deg(self) -> float:
+        """Angle of the rotation [deg]."""
+        c = (np.trace(self.rotation) - 1.0) / 2.0
+        return math.degrees(math.acos(min(1.0, max(-1.0, c))))
+
+    @property
+    def transform(self) -> NDArray[np.float64]:
+        """4×4 map from believed robot-frame points to corrected ones."""
+        out = np.eye(4)
+        out[:3, :3] = self.rotation
+        out[:3, 3] = self.pivot_m - self.rotation @ self.pivot_m
+        out[2, 3] += self.z_shift_m
+        return out
+
+    @staticmethod
+    def identity(pivot_m: NDArray[np.float64]) -> PoseCorrection:
+        """No correction."""
+        return PoseCorrection(np.eye(3), np.asarray(pivot_m, dtype=np.float64), 0.0, False, 0)
+
+
+@dataclass(frozen=True)
+class PlaneTable:
+    """Per-plane results (index = plane id).
+
+    Attributes:
+        pixel_counts: (P,) pixels of each plane.
+        heights_m: (P,) mean corrected z of the plane's points [m].
+        normals: (P, 3) unit normals in the corrected robot frame (z >= 0).
+        extents_m: (P, 2) footprint widths along the two in-plane axes, minor first [m].
+        areas_m2: (P,) footprint area of the plane's pixels [m²].
+        rms_m: (P,) RMS depth residual of the plane's pixels [m] (along the optical axis).
+        is_floor: (P,) the plane is floor.
+    """
+
+    pixel_counts: NDArray[np.int64]
+    heights_m: NDArray[np.float64]
+    normals: NDArray[np.float64]
+    extents_m: NDArray[np.float64]
+    areas_m2: NDArray[np.float64]
+    rms_m: NDArray[np.float64]
+    is_floor: NDArray[np.bool_]
+
+    def __len__(self) -> int:
+        return int(self.pixel_counts.shape[0])
+
+
+@dataclass(frozen=True)
+class SegmentationResult:
+    """Labelled range points of one depth image.
+
+    Attributes:
+        points: (N, 3) corrected robot-frame points [m] of all valid pixels, row-major order.
+        floor_heights: (N,) height of the floor plane of each point [m], NaN = not floor.
+        plane_ids: (N,) plane index of each point, -1 for none.
+        pixel_index: (N,) index of each point into the flattened (height·width) image.
+        correction: the tilt rotation and z shift applied.
+        planes: per-plane table.
+        image_shape: (height, width) of the depth image.
+        transform_camera_to_robot: 4×4 corrected camera pose in the robot frame.
+    """
+
+    points: NDArray[np.float64]
+    floor_heights: NDArray[np.float64]
+    plane_ids: NDArray[np.int64]
+    pixel_index: NDArray[np.int64]
+    correction: PoseCorrection
+    planes: PlaneTable
+    image_shape: tuple[int, int]
+    transform_camera_to_robot: NDArray[np.float64]
+
+    def labels_image(self, kind: str = "plane") -> NDArray:
+        """An (H, W) picture of the result.
+
+        Args:
+            kind: "plane" → plane id per pixel (int64, -1 none, -2 no measurement);
+                "floor" → floor height per pixel [m] (float, NaN elsewhere).
+
+        Raises:
+            InvalidParameterError: for another kind.
+        """
+        size = self.image_shape[0] * self.image_shape[1]
+        if kind == "plane":
+            image = np.full(size, -2, dtype=np.int64)
+            image[self.pixel_index] = self.plane_ids
+        elif kind == "floor":
+            image = np.full(size, np.nan)
+            image[self.pixel_index] = self.floor_heights
+        else:
+            raise InvalidParameterError(
+                f"labels_image kind must be 'plane' or 'floor', got {kind!r}"
+            )
+        return image.reshape(self.image_shape)
+
+
+_DEFAULT_PARAMS = SegmentationParams()
+
+
+def segment_depth(
+    depth_m: NDArray[np.floating],
+    intrinsics: PinholeIntrinsics,
+    transform_camera_to_robot: NDArray[np.floating],
+    params: SegmentationParams | None = None,
+) -> SegmentationResult:
+    """Segment a depth image into planes and label floor points with their plane's height.
+
+    Args:
+        depth_m: (height, width) depth along the optical axis [m]; NaN, 0 or out of
+            [min_depth_m, max_depth_m] = no measurement.
+        intrinsics: pinhole intrinsics of the image.
+        transform_camera_to_robot: 4×4 believed camera pose in the robot frame (OpenCV camera).
+        params: segmentation parameters (defaults if None).
+
+    Returns:
+        The `SegmentationResult`; an image without measurements gives an empty result.
+
+    Raises:
+        InvalidInputError: wrong shapes or a transform that is not a rigid 4×4 matrix.
+    """
+    params = _DEFAULT_PARAMS if params is None else params
+    depth = np.asarray(depth_m, dtype=np.float64)
+    if depth.shape != intrinsics.shape:
+        raise InvalidInputError(
+            f"depth_m must have shape (height, width) = {intrinsics.shape}, got {depth.shape}"
+        )
+    transform = _check_transform(transform_camera_to_robot)
+    height, width = depth.shape
+    pivot = transform[:3, 3].copy()
+
+    valid = (depth >= params.min_depth_m) & (depth <= params.max_depth_m)  # NaN → False
+    depth = np.where(valid, depth, np.nan)
+    pixel_index = np.flatnonzero(valid)
+    if pixel_index.size == 0:
+        return _empty_result(pivot, transform, (height, width))
+
+    x = (np.arange(width) - intrinsics.cx) / intrinsics.fx
+    y = (np.arange(height) - intrinsics.cy) / intrinsics.fy
+    inv_depth = 1.0 / depth
+    sigma = scanline.local_noise_depth_m(inv_depth, params.noise_window_px, params.min_noise_m)
+    seg_rows, seg_starts, seg_stops, seg_table = scanline.split_rows(
+        inv_depth,
+        x,
+        sigma,
+        params.split_sigma_factor,
+        params.split_rms_sigma_factor,
+        params.edge_window_px,
+        params.edge_sigma_factor,
+        params.tolerance_floor_m,
+        params.min_segment_pixels,
+    )
+    plane_of_segment = scanline.grow_planes(
+        inv_depth,
+        x,
+        y,
+        seg_rows,
+        seg_starts,
+        seg_stops,
+        seg_table,
+        params.grow_sigma_factor,
+        params.rms_sigma_factor,
+        params.tolerance_floor_m,
+        params.seed_min_pixels,
+    )
+    labels = _segment_labels(valid, seg_rows, seg_starts, seg_stops, plane_of_segment)
+    n_planes = int(plane_of_segment.max(initial=-1)) + 1
+    plane_table, counts = scanline.plane_fits(inv_depth, x, y, labels, n_planes)
+    # Plane parameters come from the grown segments only; the pixel fill adds labels.
+    grown_labels = labels.copy()
+    if n_planes > 0 and params.fill_passes > 0:
+        scanline.fill_pixels(
+            inv_depth,
+            x,
+            y,
+            labels,
+            sigma,
+            plane_table,
+            params.fill_sigma_factor,
+            params.tolerance_floor_m,
+            params.fill_passes,
+        )
+    # Dissolve small or degenerate planes and renumber the rest in creation order.
+    keep = (counts >= params.min_plane_pixels) & np.isfinite(plane_table[:, 0])
+    new_id = np.full(n_planes + 2, -1, dtype=np.int64)
+    new_id[:n_planes][keep] = np.arange(int(keep.sum()))
+    new_id[-2] = -2  # label -2: no measurement
+    labels = new_id[labels]
+    grown_ids = new_id[grown_labels].reshape(-1)[pixel_index]
+    plane_table, counts = plane_table[keep], counts[keep]
+
+    plane_ids = labels.reshape(-1)[pixel_index]
+    rays_camera = np.stack(np.broadcast_arrays(x[None, :], y[:, None], 1.0), axis=-1)
+    points_camera = rays_camera.reshape(-1, 3)[pixel_index] * depth.reshape(-1)[pixel_index, None]
+    points = points_camera @ transform[:3, :3].T + pivot
+    normals_camera = plane_table[:, :3] / np.linalg.norm(plane_table[:, :3], axis=1)[:, None]
+    normals = normals_camera @ transform[:3, :3].T
+    normals *= np.where(normals[:, 2] < 0.0, -1.0, 1.0)[:, None]
+    centroids, eigen, areas, rms = _plane_moments(
+        points, points_camera, grown_ids, normals_camera, plane_table, intrinsics, len(counts)
+    )
+
+    correction = _estimate_correction(normals, areas, centroids, eigen, counts, pivot, params)
+    centroids_c = (centroids - pivot) @ correction.rotation.T + pivot
+    normals_c = normals @ correction.rotation.T
+    is_floor_shape = _floor_shape(normals_c, eigen, counts, params)
+    correction = _ground_shift(correction, centroids_c[:, 2], is_floor_shape, params)
+    heights = centroids_c[:, 2] + correction.z_shift_m
+
+    corrected = (points - pivot) @ correction.rotation.T + pivot
+    corrected[:, 2] += correction.z_shift_m
+    floor_of_plane = np.append(np.where(is_floor_shape, heights, np.nan), np.nan)
+    floor_heights = floor_of_plane[plane_ids]  # id -1 → the appended NaN
+
+    planes = PlaneTable(
+        pixel_counts=counts,
+        heights_m=heights,
+        normals=normals_c,
+        extents_m=np.sqrt(12.0 * np.maximum(eigen[:, 1:], 0.0)),
+        areas_m2=areas,
+        rms_m=rms,
+        is_floor=is_floor_shape,
+    )
+    return SegmentationResult(
+        points=corrected,
+        floor_heights=floor_heights,
+        plane_ids=plane_ids,
+        pixel_index=pixel_index,
+        correction=correction,
+        planes=planes,
+        image_shape=(height, width),
+        transform_camera_to_robot=correction.transform @ transform,
+    )
+
+
+def _check_transform(transform: NDArray[np.floating]) -> NDArray[np.float64]:
+    t = np.asarray(transform, dtype=np.float64)
+    if t.shape != (4, 4) or not np.all(np.isfinite(t)):
+        raise InvalidInputError(
+            f"transform_camera_to_robot must be a finite 4×4 matrix, got shape {t.shape}"
+        )
+    r = t[:3, :3]
+    if not np.allclose(r @ r.T, np.eye(3), atol=1e-6) or not np.allclose(t[3], [0, 0, 0, 1]):
+        raise InvalidInputError(
+            "transform_camera_to_robot must be a rigid transform (orthonormal rotation, "
+            "last row 0 0 0 1)"
+        )
+    return t
+
+
+def _segment_labels(valid, seg_rows, seg_starts, seg_stops, plane_of_segment):
+    """(H, W) int64 plane id per pixel from segment assignments: -1 none, -2 invalid."""
+    labels = np.where(valid, -1, -2).astype(np.int64)
+    assigned = plane_of_segment >= 0
+    if assigned.any():
+        lengths = (seg_stops - seg_starts)[assigned]
+        rows = np.repeat(seg_rows[assigned], lengths)
+        starts = np.repeat(seg_starts[assigned], lengths)
+        offsets = np.arange(lengths.sum()) - np.repeat(np.cumsum(lengths) - lengths, lengths)
+        labels[rows, starts + offsets] = np.repeat(plane_of_segment[assigned], lengths)
+    return labels
+
+
+def _plane_moments(points, points_camera, plane_ids, normals_camera, plane_table, intr, n):
+    """Per-plane centroid (3,), covariance eigenvalues (3,) ascending, footprint area, RMS.
+
+    Points are in the (uncorrected) robot frame; eigenvalues are rotation invariant.
+    """
+    on = plane_ids >= 0
+    ids = plane_ids[on]
+    p = points[on]
+    counts = np.maximum(np.bincount(ids, minlength=n), 1)
+    centroids = np.stack([np.bincount(ids, p[:, k], n) for k in range(3)], axis=1) / counts[:, None]
+    d = p - centroids[ids]
+    cov = np.empty((n, 3, 3))
+    for i in range(3):
+        for j in range(i, 3):
+            cov[:, i, j] = cov[:, j, i] = np.bincount(ids, d[:, i] * d[:, j], n) / counts
+    eigen = np.linalg.eigvalsh(cov) if n > 0 else np.zeros((0, 3))
+    pc = points_camera[on]
+    depth = pc[:, 2]
+    ray_length = np.linalg.norm(pc, axis=1) / depth
+    cos_inc = np.abs(np.einsum("ij,ij->i", pc, normals_camera[ids])) / (depth * ray_length)
+    pixel_area = depth**2 / (intr.fx * intr.fy * ray_length * np.maximum(cos_inc, 0.1))
+    areas = np.bincount(ids, pixel_area, n)
+    inv_plane = np.einsum("ij,ij->i", pc / depth[:, None], plane_table[ids, :3])
+    residual = depth - 1.0 / inv_plane
+    rms = np.sqrt(np.bincount(ids, residual**2, n) / counts)
+    return centroids, eigen, areas, rms
+
+
+def _tilt_angle_deg(normals: NDArray[np.float64]) -> NDArray[np.float64]:
+    return np.degrees(np.arccos(np.clip(np.abs(normals[:, 2]), -1.0, 1.0)))
+
+
+def _floor_shape(normals, eigen, counts, params: SegmentationParams) -> NDArray[np.bool_]:
+    """Planes that are horizontal, large and wide enough to be floor."""
+    minor_extent = np.sqrt(12.0 * np.maximum(eigen[:, 1], 0.0))
+    return (
+        (_tilt_angle_deg(normals) <= params.floor_max_normal_angle_deg)
+        & (counts >= params.min_plane_pixels)
+        & (minor_extent >= params.min_plane_extent_m)
+    )
+
+
+def _estimate_correction(normals, areas, centroids, eigen, counts, pivot, params):
+    """Rotation that makes the area-weighted mean normal of near-horizontal planes vertical."""
+    identity = PoseCorrection.identity(pivot)
+    if not params.correct_tilt or normals.shape[0] == 0:
+        return identity
+    minor_extent = np.sqrt(12.0 * np.maximum(eigen[:, 1], 0.0))
+    candidates = (
+        (_tilt_angle_deg(normals) <= params.max_tilt_correction_deg)
+        & (counts >= params.min_plane_pixels)
+        & (minor_extent >= params.min_plane_extent_m)
+    )
+    if not candidates.any():
+        return identity
+    mean = (normals[candidates] * areas[candidates, None]).sum(axis=0)
+    mean /= np.linalg.norm(mean)
+    # Drop planes far from the consensus (ramps), then re-average.
+    agree = candidates & (np.degrees(np.arccos(np.clip(normals @ mean, -1.0, 1.0))) <= 3.0)
+    if agree.any():
+        mean = (normals[agree] * areas[agree, None]).sum(axis=0)
+        mean /= np.linalg.norm(mean)
+        candidates = agree
+    angle = math.acos(min(1.0, max(-1.0, float(mean[2]))))
+    if math.degrees(angle) > params.max_tilt_correction_deg:
+        return identity
+    return PoseCorrection(
+        rotation=_rotation_between(mean, np.array([0.0, 0.0, 1.0])),
+        pivot_m=pivot,
+        z_shift_m=0.0,
+        ground_plane_found=False,
+        tilt_planes=int(candidates.sum()),
+    )
+
+
+def _ground_shift(correction, heights, is_floor, params) -> PoseCorrection:
+    """Shift so the floor plane nearest the expected ground plane lies on it."""
+    offsets = np.where(is_floor, heights - params.expected_ground_z_m, np.inf)
+    if offsets.size == 0:
+        return correction
+    nearest = int(np.argmin(np.abs(offsets)))
+    if not abs(offsets[nearest]) <= params.ground_search_window_m:
+        return correction
+    shift = -float(offsets[nearest]) if params.correct_ground_shift else 0.0
+    return PoseCorrection(
+        correction.rotation, correction.pivot_m, shift, True, correction.tilt_planes
+    )
+
+
+def _rotation_between(a: NDArray[np.float64], b: NDArray[np.float64]) -> NDArray[np.float64]:
+    """Smallest rotation taking unit vector a to unit vector b (Rodrigues)."""
+    axis = np.cross(a, b)
+    s = float(np.linalg.norm(axis))
+    c = float(np.dot(a, b))
+    if s < 1e-12:
+        return np.eye(3)
+    k = axis / s
+    kx = np.array([[0.0, -k[2], k[1]], [k[2], 0.0, -k[0]], [-k[1], k[0], 0.0]])
+    return np.eye(3) + s * kx + (1.0 - c) * (kx @ kx)
+
+
+def _empty_result(pivot, transform, shape) -> SegmentationResult:
+    empty_planes = PlaneTable(
+        pixel_counts=np.zeros(0, dtype=np.int64),
+        heights_m=np.zeros(0),
+        normals=np.zeros((0, 3)),
+        extents_m=np.zeros((0, 2)),
+        areas_m2=np.zeros(0),
+        rms_m=np.zeros(0),
+        is_floor=np.zeros(0, dtype=bool),
+    )
+    return SegmentationResult(
+        points=np.zeros((0, 3)),
+        floor_heights=np.zeros(0),
+        plane_ids=np.zeros(0, dtype=np.int64),
+        pixel_index=np.zeros(0, dtype=np.int64),
+        correction=PoseCorrection.identity(pivot),
+        planes=empty_planes,
+        image_shape=shape,
+        transform_camera_to_robot=transform.copy(),
+    )
