@@ -22,7 +22,7 @@ from mapper.grid import (
     scroll_xy,
     validate_frame,
 )
-from mapper.occupancy import insert_frame, lookup_tables
+from mapper.occupancy import insert_frame, lookup_tables, mark_buffer_size
 from mapper.params import LEVEL_UNKNOWN, LEVELS, MapperParams
 from mapper.zmatch import ZMatch, match_z
 
@@ -51,7 +51,7 @@ class FloorObstacleMapper:
         self._obstacle = np.full((p.nx, p.ny), np.nan)
         self._fog_types = np.full((p.nx, p.ny), CellType.UNKNOWN, dtype=np.int8)
         self._fog_heights = np.full((p.nx, p.ny), np.nan)
-        self._mark = np.zeros(p.cell_count, dtype=np.uint8)
+        self._mark = np.zeros(mark_buffer_size(p.cell_count), dtype=np.uint8)
         self._touched = np.empty(p.cell_count, dtype=np.int64)
 
     # ------------------------------------------------------------------ geometry

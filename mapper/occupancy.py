@@ -26,9 +26,10 @@ from numpy.typing import NDArray
 
 from mapper.params import LEVELS, MapperParams
 
-MARK_NONE = 0
-MARK_MISS = 1
-MARK_HIT = 2
+
+def mark_buffer_size(cell_count: int) -> int:
+    """Bytes of the ``mark`` scratch of `insert_frame`: a hit and a miss bitset."""
+    return 2 * ((cell_count + 7) // 8)
 
 
 def bayes_update(p_cell: NDArray[np.float64] | float, likelihood_occupied: float):
@@ -96,7 +97,9 @@ def insert_frame(
         cell: Cell side [m].
         layer: Layer height [m].
         og: (nx, ny, nz) uint8 levels, updated in place.
-        mark: (nx*ny*nz,) uint8 scratch, all zero on entry and on return.
+        mark: ``mark_buffer_size(nx*ny*nz)`` uint8 scratch, all zero on entry and on return:
+            two bitsets (hit, miss) of one bit per cell — 40 kB for the default grid, so the
+            per-visit "already updated this frame?" test stays in the L1 cache.
         touched: (nx*ny*nz,) int64 scratch.
         hit_table: Hit table from ``lookup_tables``.
         miss_table: Miss table from ``lookup_tables``.
@@ -111,6 +114,7 @@ def insert_frame(
     """
     nx, ny, nz = og.shape
     flat = og.reshape(-1)
+    miss_base = mark.shape[0] // 2
     n_points = points.shape[0]
     stride_x = ny * nz
     stride_y = nz
@@ -151,8 +155,10 @@ def insert_frame(
         end_i[i, 2] = iz
         used += 1
         idx = ix * stride_x + iy * stride_y + iz
-        if mark[idx] != MARK_HIT:
-            mark[idx] = MARK_HIT
+        byte = idx >> 3
+        bit = np.uint8(1 << (idx & 7))
+        if not mark[byte] & bit:
+            mark[byte] |= bit
             touched[n_touched] = idx
             n_touched += 1
     # Pass 2: rays, clipped to the grid box, from the entry cell to the end (or stop) cell.
@@ -246,10 +252,13 @@ def insert_frame(
         diz = step_z
         n_steps = rem_x + rem_y + rem_z
         for _ in range(n_steps):
-            if mark[idx] == MARK_NONE:
-                mark[idx] = MARK_MISS
-                touched[n_touched] = idx
-                n_touched += 1
+            byte = miss_base + (idx >> 3)
+            bit = np.uint8(1 << (idx & 7))
+            if not mark[byte] & bit:
+                mark[byte] |= bit
+                if not mark[idx >> 3] & bit:  # not already listed as a hit
+                    touched[n_touched] = idx
+                    n_touched += 1
             if tmx <= tmy and tmx <= tmz:
                 idx += dix
                 rem_x -= 1
@@ -262,10 +271,14 @@ def insert_frame(
                 idx += diz
                 rem_z -= 1
                 tmz = tmz + tdz if rem_z > 0 else inf
-        if extra_visit and mark[idx] == MARK_NONE:
-            mark[idx] = MARK_MISS
-            touched[n_touched] = idx
-            n_touched += 1
+        if extra_visit:
+            byte = miss_base + (idx >> 3)
+            bit = np.uint8(1 << (idx & 7))
+            if not mark[byte] & bit:
+                mark[byte] |= bit
+                if not mark[idx >> 3] & bit:  # not already listed as a hit
+                    touched[n_touched] = idx
+                    n_touched += 1
     # Pass 3: apply the table lookups, clear the marks, find the affected area.
     ix0 = nx
     ix1 = -1
@@ -273,11 +286,10 @@ def insert_frame(
     iy1 = -1
     for t in range(n_touched):
         idx = touched[t]
-        if mark[idx] == MARK_HIT:
+        if mark[idx >> 3] & np.uint8(1 << (idx & 7)):  # hit this frame: the hit wins
             flat[idx] = hit_table[flat[idx]]
         else:
             flat[idx] = miss_table[flat[idx]]
-        mark[idx] = MARK_NONE
         col = idx // nz
         cxx = col // ny
         cyy = col - cxx * ny
@@ -285,6 +297,7 @@ def insert_frame(
         ix1 = max(ix1, cxx)
         iy0 = min(iy0, cyy)
         iy1 = max(iy1, cyy)
+    mark[:] = 0
     return used, dropped_nonfinite, dropped_outside, n_touched, ix0, ix1 + 1, iy0, iy1 + 1
 
 
@@ -301,7 +314,7 @@ def traversed_cells(
     """
     og = np.full(shape, 128, dtype=np.uint8)
     size = int(np.prod(shape))
-    mark = np.zeros(size, dtype=np.uint8)
+    mark = np.zeros(mark_buffer_size(size), dtype=np.uint8)
     touched = np.zeros(size, dtype=np.int64)
     hit = np.full(256, 2, dtype=np.uint8)
     miss = np.full(256, 1, dtype=np.uint8)

@@ -35,7 +35,7 @@ class Box:
 
     @property
     def top_m(self) -> float:
-        """z of the top face [m]."""
+        """World z of the top face [m]."""
         return self.base_m + self.size_xyz[2]
 
     @property
