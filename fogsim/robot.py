@@ -262,6 +262,8 @@ class Robot:
     stereo_baseline_m: float
     body_boxes: tuple[BodyBox, ...]
     _qpos_index: NDArray[np.intp]
+    _frame_ids: dict[str, int]
+    _neutral: NDArray[np.float64]
 
     # ------------------------------------------------------------------ sizes and indices
     @property
@@ -285,9 +287,10 @@ class Robot:
 
     def frame_id(self, name: str) -> int:
         """Pinocchio frame index of ``name``."""
-        if not self.pin_model.existFrame(name):
-            raise RobotModelError(f"{self.name} has no frame {name!r}")
-        return int(self.pin_model.getFrameId(name))
+        try:
+            return self._frame_ids[name]
+        except KeyError:
+            raise RobotModelError(f"{self.name} has no frame {name!r}") from None
 
     def sole_frame(self, foot: Stance) -> str:
         """Name of the sole frame of a foot (LEFT or RIGHT)."""
@@ -296,7 +299,7 @@ class Robot:
     # ------------------------------------------------------------------ configurations
     def neutral(self) -> NDArray[np.float64]:
         """Pinocchio neutral configuration (root at the origin, all joints zero)."""
-        return np.asarray(pin.neutral(self.pin_model), dtype=np.float64)
+        return self._neutral.copy()
 
     def full_configuration(self, q_pin_or_joints: ArrayLike) -> NDArray[np.float64]:
         """A full pinocchio configuration from either a full one or joint angles only.
@@ -336,13 +339,13 @@ class Robot:
         self, q_pin_or_joints: ArrayLike, frames: tuple[str, ...]
     ) -> list[NDArray[np.float64]]:
         """4×4 poses of named frames in the root's world (pinocchio forward kinematics)."""
+        return [_se3_to_matrix(p) for p in self._placements(q_pin_or_joints, frames)]
+
+    def _placements(self, q_pin_or_joints: ArrayLike, frames: tuple[str, ...]) -> list[pin.SE3]:
         q = self.full_configuration(q_pin_or_joints)
-        pin.forwardKinematics(self.pin_model, self.pin_data, q)
-        out = []
-        for name in frames:
-            fid = self.frame_id(name)
-            out.append(_se3_to_matrix(pin.updateFramePlacement(self.pin_model, self.pin_data, fid)))
-        return out
+        model, data = self.pin_model, self.pin_data
+        pin.forwardKinematics(model, data, q)
+        return [pin.SE3(pin.updateFramePlacement(model, data, self.frame_id(n))) for n in frames]
 
     def _foot_centre(self, sole: NDArray[np.float64]) -> NDArray[np.float64]:
         return sole[:3, 3] + self.config.sole_center_offset_m * sole[:3, 0]
@@ -384,17 +387,37 @@ class Robot:
         Assumes the reference sole stands flat (zero roll and pitch); this is how the robot
         computes its camera pose from its encoders.
         """
-        q = self._joints_only(q_pin_or_readings)
-        t_sole_robot = self.transform_robot_to_sole(q, stance_foot)
-        reference, _ = self._reference_and_other(stance_foot)
-        t_ref, t_cam = self.frame_transforms(q, (reference, camera))
-        return np.linalg.inv(t_sole_robot) @ np.linalg.inv(t_ref) @ t_cam
+        reference, other = self._reference_and_other(stance_foot)
+        t_ref, t_other, t_cam = self._placements(
+            self._joints_only(q_pin_or_readings), (reference, other, camera)
+        )
+        t_robot_in_sole = self._robot_in_sole(t_ref.actInv(t_other))
+        return t_robot_in_sole.actInv(t_ref.actInv(t_cam)).homogeneous
 
     def _joints_only(self, q_pin_or_readings: ArrayLike) -> NDArray[np.float64]:
         """Full configuration with the root at the origin (joint angles only matter)."""
-        q = self.full_configuration(q_pin_or_readings).copy()
-        q[:7] = self.neutral()[:7]
+        q = np.asarray(q_pin_or_readings, dtype=np.float64).reshape(-1)
+        if q.size == self.n_joints:
+            full = self._neutral.copy()
+            full[7:] = q
+            return full
+        q = self.full_configuration(q).copy()
+        q[:7] = self._neutral[:7]
         return q
+
+    def _robot_in_sole(self, other_in_reference: pin.SE3) -> pin.SE3:
+        """R in the reference sole frame (level), given the other sole in that frame."""
+        offset = self.config.sole_center_offset_m
+        rotation = other_in_reference.rotation
+        centre = 0.5 * (
+            np.array([offset, 0.0, 0.0]) + other_in_reference.translation + offset * rotation[:, 0]
+        )
+        yaw = 0.5 * math.atan2(rotation[1, 0], rotation[0, 0])
+        c, s = math.cos(yaw), math.sin(yaw)
+        return pin.SE3(
+            np.array([[c, -s, 0.0], [s, c, 0.0], [0.0, 0.0, 1.0]]),
+            np.array([centre[0], centre[1], 0.0]),
+        )
 
     def transform_robot_to_sole(
         self, q_pin_or_readings: ArrayLike, stance_foot: Stance | int = Stance.LEFT
@@ -403,24 +426,19 @@ class Robot:
 
         The reference sole is taken as flat and level, so R's z axis is the sole's z axis.
         """
-        q = self._joints_only(q_pin_or_readings)
         reference, other = self._reference_and_other(stance_foot)
-        t_ref, t_other = self.frame_transforms(q, (reference, other))
-        pose = self._robot_frame_from_soles(np.eye(4), np.linalg.inv(t_ref) @ t_other)
-        c, s = math.cos(pose[3]), math.sin(pose[3])
-        return np.array(
-            [[c, -s, 0.0, pose[0]], [s, c, 0.0, pose[1]], [0.0, 0.0, 1.0, 0.0], [0, 0, 0, 1.0]]
-        )
+        t_ref, t_other = self._placements(self._joints_only(q_pin_or_readings), (reference, other))
+        return self._robot_in_sole(t_ref.actInv(t_other)).homogeneous
 
     def transform_sole_to_sole(
         self, q_pin_or_readings: ArrayLike, from_foot: Stance, to_foot: Stance
     ) -> NDArray[np.float64]:
         """4×4 pose of ``to_foot``'s sole in ``from_foot``'s sole frame (joint angles alone)."""
-        q = self._joints_only(q_pin_or_readings)
-        t_from, t_to = self.frame_transforms(
-            q, (self.sole_frame(Stance(from_foot)), self.sole_frame(Stance(to_foot)))
+        t_from, t_to = self._placements(
+            self._joints_only(q_pin_or_readings),
+            (self.sole_frame(Stance(from_foot)), self.sole_frame(Stance(to_foot))),
         )
-        return np.linalg.inv(t_from) @ t_to
+        return t_from.actInv(t_to).homogeneous
 
     def transform_camera_to_world(
         self, q_pin: ArrayLike, camera: str = "head_camera"
@@ -744,4 +762,6 @@ def load_robot(name: str = "icub") -> Robot:
         stereo_baseline_m=config.stereo_baseline_m,
         body_boxes=tuple(_geometry_box(g, config) for g in geometry_model.geometryObjects),
         _qpos_index=qpos_index,
+        _frame_ids={name: int(model.getFrameId(name)) for name in {f.name for f in model.frames}},
+        _neutral=np.asarray(pin.neutral(model), dtype=np.float64),
     )

@@ -65,7 +65,7 @@ def looking_at_feet(icub, standing):
 
 
 def test_exact_readings_remove_every_robot_point_and_no_floor(icub, looking_at_feet):
-    q, depth, robot, robot_above_floor, floor = looking_at_feet
+    q, depth, _robot, robot_above_floor, floor = looking_at_feet
     assert robot_above_floor.sum() > 300  # the feet and legs are in view
     self_filter = SelfFilter(icub)
     mask = self_filter.mask(
