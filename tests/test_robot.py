@@ -154,3 +154,11 @@ def test_every_robot_loads_with_cameras(name):
     assert camera[2, 3] > sole[2, 3] + 0.5
     model = mujoco.MjModel.from_xml_path(str(robot.mjcf_path))
     assert model.nq == robot.nq
+
+
+def test_model_is_built_into_the_cache_dir_given_by_fogsim_cache(tmp_path, monkeypatch):
+    monkeypatch.setenv("FOGSIM_CACHE", str(tmp_path))
+    robot = load_robot.__wrapped__("icub")  # bypass the per-process cache
+    assert robot.mjcf_path.parent == tmp_path / "robots" / "icub"
+    model = mujoco.MjModel.from_xml_path(str(robot.mjcf_path))  # standalone, no asset files
+    assert model.nmesh > 0 and model.njnt == 33
