@@ -11,7 +11,8 @@ intrinsics are written into the model (``cam_resolution``, ``cam_sensorsize``,
 ``cam_intrinsic``) so the renderer uses exactly ``PinholeIntrinsics.from_fov(...)``, fx ≠ fy
 allowed; ray casting (``mujoco.mj_multiRay``, no OpenGL) shoots one ray per pixel centre with
 unit optical-z direction, so its hit distance *is* the depth along the axis. Both agree to
-micrometres.
+micrometres. The ray caster ignores the body the camera is mounted on: a camera inside its
+head mesh sees through it in OpenGL (back faces are culled) and must do so when ray casting.
 
 Modes:
     ``ideal``: exact depth.
@@ -139,7 +140,7 @@ class RaycastDepth:
             np.ascontiguousarray(directions_world).ravel(),
             self._geomgroup,
             1,
-            -1,
+            int(self._model.cam_bodyid[camera_id]),  # never the camera's own mount
             self._geomid,
             self._dist,
             None,

@@ -225,3 +225,25 @@ def test_intrinsics_follow_the_scenario():
     assert intrinsics.hfov_deg == pytest.approx(60.0)
     assert intrinsics.vfov_deg == pytest.approx(45.0)
     assert intrinsics.shape == (48, 64)
+
+
+def test_camera_inside_its_mount_sees_through_it_in_both_backends():
+    import mujoco
+
+    from fogsim.camera import set_model_intrinsics
+
+    xml = """<mujoco><statistic extent="10"/><visual><map znear="0.005" zfar="2"/>
+    <quality offsamples="0"/></visual><worldbody><geom name="floor" type="plane" size="5 5 .1"/>
+    <body name="head" pos="0 0 1.2"><geom name="shell" type="box" size=".1 .1 .1"/>
+    <camera name="cam" euler="0.3 0 0"/></body></worldbody></mujoco>"""
+    model = mujoco.MjModel.from_xml_string(xml)
+    data = mujoco.MjData(model)
+    mujoco.mj_forward(model, data)
+    intrinsics = camera_intrinsics(CameraConfig())
+    set_model_intrinsics(model, 0, intrinsics)
+    renderer = RendererDepth(model, intrinsics)
+    rendered = renderer.render(data, 0)
+    cast = RaycastDepth(model, intrinsics).render(data, 0)
+    renderer.close()
+    assert np.isfinite(cast).all() and np.nanmin(cast) > 1.0  # the floor, not the shell
+    np.testing.assert_allclose(rendered, cast, atol=1e-4)
