@@ -489,13 +489,19 @@ def _event(v: _Validator, d: Any, i: int, names: Sequence[str]) -> Event:
 def _params(
     v: _Validator, d: Mapping[str, Any], ctx: str, allowed: tuple[str, ...] | None
 ) -> dict[str, float]:
+    """Parameter overrides, names checked against the parameter dataclass if importable.
+
+    Values are numbers (an int stays an int) or booleans, as written.
+    """
     out: dict[str, float] = {}
     for key, value in d.items():
         if allowed is not None and key not in allowed:
             raise v.error(f"{ctx}.{key}", f"unknown parameter; allowed: {', '.join(allowed)}")
-        if isinstance(value, bool) or not isinstance(value, int | float):
-            raise v.error(f"{ctx}.{key}", f"must be a number, got {value!r}")
-        out[key] = float(value)
+        if not isinstance(value, bool | int | float) or (
+            isinstance(value, float) and math.isnan(value)
+        ):
+            raise v.error(f"{ctx}.{key}", f"must be a number (or true/false), got {value!r}")
+        out[key] = value
     return out
 
 
@@ -513,7 +519,7 @@ def _mapper_param_names() -> tuple[str, ...] | None:
 
 
 def _segmentation_param_names() -> tuple[str, ...] | None:
-    return _dataclass_field_names("mapper", "SegmentationParams")
+    return _dataclass_field_names("mapper.segmentation", "SegmentationParams")
 
 
 class _Validator:

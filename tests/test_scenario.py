@@ -156,3 +156,19 @@ def test_defaults_fill_missing_sections():
     assert isinstance(scenario, Scenario)
     assert scenario.camera.mode == "depth" and scenario.frame_rate_hz == 12.5
     assert scenario.robot.model == "icub" and scenario.objects == ()
+
+
+def test_parameter_tables_are_checked_against_the_parameter_classes():
+    mapper = pytest.importorskip("mapper")
+    segmentation = pytest.importorskip("mapper.segmentation")
+    stage = load_scenario("stage")
+    changed = stage.with_overrides(["mapper.p_occ=0.7", "mapper.nx=120"])
+    assert changed.mapper == {"p_occ": 0.7, "nx": 120}
+    assert isinstance(changed.mapper["nx"], int)
+    with pytest.raises(ScenarioError, match=r"mapper\.p_ocx: unknown parameter; allowed: .*p_occ"):
+        stage.with_overrides(["mapper.p_ocx=0.7"])
+    seg_field = next(iter(segmentation.SegmentationParams.__dataclass_fields__))
+    assert stage.with_overrides([f"segmentation.{seg_field}=0.1"]).segmentation
+    with pytest.raises(ScenarioError, match=r"segmentation\.nonsense: unknown parameter"):
+        stage.with_overrides(["segmentation.nonsense=1"])
+    assert mapper.MapperParams
