@@ -9,8 +9,17 @@ from pathlib import Path
 from typing import IO
 
 
+def _umask() -> int:
+    mask = os.umask(0)
+    os.umask(mask)
+    return mask
+
+
 def write_atomic(path: str | os.PathLike[str], writer: Callable[[IO[bytes]], None]) -> Path:
-    """Write a file through ``writer`` into a temporary sibling, then rename it into place."""
+    """Write a file through ``writer`` into a temporary sibling, then rename it into place.
+
+    The file gets the permissions a plain ``open(path, "w")`` would give it (0666 less umask).
+    """
     target = Path(path)
     target.parent.mkdir(parents=True, exist_ok=True)
     fd, tmp_name = tempfile.mkstemp(prefix=f".{target.name}.", suffix=".tmp", dir=target.parent)
@@ -19,6 +28,7 @@ def write_atomic(path: str | os.PathLike[str], writer: Callable[[IO[bytes]], Non
             writer(handle)
             handle.flush()
             os.fsync(handle.fileno())
+        os.chmod(tmp_name, 0o666 & ~_umask())
         os.replace(tmp_name, target)
     except BaseException:
         Path(tmp_name).unlink(missing_ok=True)
