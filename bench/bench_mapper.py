@@ -7,7 +7,10 @@ so that every ray ends inside the default 4 m × 4 m × 0.64 m grid at a range o
 ±5 mm z noise; the camera sways by a few millimetres per frame so the points differ. The same
 points go to every implementation (OctoMap: ``OcTree(0.04).insertPointCloud(points, origin)``,
 which also updates each voxel once per cloud, occupied winning).
-Run: ``.venv/bin/python bench/bench_mapper.py [--frames 300]``.
+Scene "centre" (``--scene centre``): the robot-centred case, the same camera and scene but the
+camera at the grid's centre; points beyond the grid's ±2 m are dropped (counted) by the mapper but
+still given to OctoMap, whose map is unbounded.
+Run: ``.venv/bin/python bench/bench_mapper.py [--frames 300] [--scene edge|centre]``.
 """
 
 from __future__ import annotations
@@ -15,6 +18,7 @@ from __future__ import annotations
 import argparse
 import sys
 import time
+from dataclasses import replace
 from pathlib import Path
 
 import numpy as np
@@ -28,22 +32,29 @@ from mapper import (
 )
 from mapper.synthetic import Box, camera_rays_world, cast_frame
 
-CAMERA = np.array([-1.9, 0.0, 0.70])
 BOXES = (
     Box((-0.6, 0.3), (0.4, 0.4, 0.07)),
     Box((0.0, -0.5), (0.3, 0.3, 0.25), walkable=False),
     Box((1.35, 0.0), (0.1, 4.0, 1.0), walkable=False),
 )
+# scene name -> (camera position [m], pitch down [deg]); see the module docstring
+SCENES = {
+    "edge": (np.array([-1.9, 0.0, 0.70]), 22.0),
+    "centre": (np.array([0.0, 0.0, 0.70]), 22.0),
+}
 
 
-def make_frames(width: int, height: int, count: int, seed: int = 0):
+def make_frames(width: int, height: int, count: int, seed: int = 0, scene: str = "edge"):
     rng = np.random.default_rng(seed)
     intrinsics = PinholeIntrinsics.from_fov(width, height, 47.0, 39.0)
-    rays = camera_rays_world(intrinsics, yaw_deg=0.0, pitch_down_deg=22.0)
+    camera0, pitch_deg = SCENES[scene]
+    rays = camera_rays_world(intrinsics, yaw_deg=0.0, pitch_down_deg=pitch_deg)
+    dx = camera0[0] - SCENES["edge"][0][0]  # the same boxes, at the same place ahead
+    boxes = [replace(b, center_xy=(b.center_xy[0] + dx, b.center_xy[1])) for b in BOXES]
     frames = []
     for i in range(count):
-        camera = CAMERA + np.array([0.002 * (i % 20), 0.001 * (i % 7), 0.003 * (i % 3)])
-        points, heights = cast_frame(camera, rays, BOXES, max_range_m=3.5, noise_z_m=0.005, rng=rng)
+        camera = camera0 + np.array([0.002 * (i % 20), 0.001 * (i % 7), 0.003 * (i % 3)])
+        points, heights = cast_frame(camera, rays, boxes, max_range_m=3.5, noise_z_m=0.005, rng=rng)
         frames.append((points, heights, camera))
     return frames
 
@@ -61,11 +72,12 @@ def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__)
     parser.add_argument("--frames", type=int, default=300)
     parser.add_argument("--no-octomap", action="store_true")
+    parser.add_argument("--scene", choices=sorted(SCENES), default="edge")
     args = parser.parse_args()
     params = MapperParams()
     rows = []
     for width, height in ((88, 72), (176, 144)):
-        frames = make_frames(width, height, args.frames)
+        frames = make_frames(width, height, args.frames, scene=args.scene)
         points0, _, camera0 = frames[0]
         valid = np.count_nonzero(np.all(np.isfinite(points0), axis=1))
         ranges = np.linalg.norm(points0 - camera0, axis=1)

@@ -12,6 +12,7 @@ of the floor-labelled points, NaN where none.
 
 from __future__ import annotations
 
+import numba
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
@@ -24,6 +25,48 @@ from mapper.grid import (
     validate_frame,
 )
 from mapper.params import MapperParams
+
+
+@numba.njit(cache=True)
+def _accumulate(
+    points, heights, origin_x, origin_y, z_min, cell, layer, nz, sum_z, count, sum_h, floor_count
+):
+    """Add points to the per-cell sums; returns (used, nonfinite, outside, floor, ix0..iy1)."""
+    nx, ny = count.shape
+    used = 0
+    nonfinite = 0
+    outside = 0
+    n_floor = 0
+    ix0 = nx
+    ix1 = -1
+    iy0 = ny
+    iy1 = -1
+    for i in range(points.shape[0]):
+        x = points[i, 0]
+        y = points[i, 1]
+        z = points[i, 2]
+        if not (np.isfinite(x) and np.isfinite(y) and np.isfinite(z)):
+            nonfinite += 1
+            continue
+        ix = int(np.floor((x - origin_x) / cell))
+        iy = int(np.floor((y - origin_y) / cell))
+        iz = int(np.floor((z - z_min) / layer))
+        if ix < 0 or ix >= nx or iy < 0 or iy >= ny or iz < 0 or iz >= nz:
+            outside += 1
+            continue
+        used += 1
+        sum_z[ix, iy] += z
+        count[ix, iy] += 1
+        h = heights[i]
+        if np.isfinite(h):
+            sum_h[ix, iy] += h
+            floor_count[ix, iy] += 1
+            n_floor += 1
+        ix0 = min(ix0, ix)
+        ix1 = max(ix1, ix)
+        iy0 = min(iy0, iy)
+        iy1 = max(iy1, iy)
+    return used, nonfinite, outside, n_floor, ix0, ix1 + 1, iy0, iy1 + 1
 
 
 class AveragingMap:
@@ -55,33 +98,29 @@ class AveragingMap:
     ) -> UpdateResult:
         """Add one frame of points to the running means (``sensor_origin`` is only validated).
 
+        ``cells_updated`` of the result counts the points added (there is no 3D grid).
+
         Points outside the grid's x, y or z range are dropped and counted, as in the FOG mapper.
         """
         pts, heights, _ = validate_frame(points, floor_heights, sensor_origin)
-        finite = np.all(np.isfinite(pts), axis=1)
-        idx, inside = self._geometry.cell_of(pts)
-        n_nonfinite = int(np.count_nonzero(~finite))
-        n_outside = int(np.count_nonzero(finite & ~inside))
-        if not np.any(inside):
-            return UpdateResult(None, 0, n_nonfinite, n_outside, 0, 0, 0)
-        p = self.params
-        col = idx[inside, 0] * p.ny + idx[inside, 1]
-        size = p.nx * p.ny
-        self._sum_z += np.bincount(col, weights=pts[inside, 2], minlength=size).reshape(p.nx, p.ny)
-        counts = np.bincount(col, minlength=size)
-        self._count += counts.reshape(p.nx, p.ny)
-        h = heights[inside]
-        is_floor = np.isfinite(h)
-        self._sum_h += np.bincount(col[is_floor], weights=h[is_floor], minlength=size).reshape(
-            p.nx, p.ny
+        g = self._geometry
+        ox, oy = g.origin_xy_m
+        used, nonfinite, outside, n_floor, ix0, ix1, iy0, iy1 = _accumulate(
+            pts,
+            heights,
+            ox,
+            oy,
+            g.z_min_m,
+            g.cell_m,
+            g.layer_m,
+            g.nz,
+            self._sum_z,
+            self._count,
+            self._sum_h,
+            self._floor_count,
         )
-        self._floor_count += np.bincount(col[is_floor], minlength=size).reshape(p.nx, p.ny)
-        ix, iy = idx[inside, 0], idx[inside, 1]
-        area = AffectedArea(int(ix.min()), int(ix.max()) + 1, int(iy.min()), int(iy.max()) + 1)
-        n_floor = int(np.count_nonzero(is_floor))
-        return UpdateResult(
-            area, int(col.size), n_nonfinite, n_outside, n_floor, 0, int(np.count_nonzero(counts))
-        )
+        area = AffectedArea(int(ix0), int(ix1), int(iy0), int(iy1)) if used else None
+        return UpdateResult(area, used, nonfinite, outside, n_floor, 0, used)
 
     def heights(self) -> NDArray[np.float64]:
         """(nx, ny) mean z of all points per cell [m], NaN where none."""
