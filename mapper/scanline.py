@@ -275,6 +275,119 @@ def split_rows(
 
 
 @numba.njit(cache=True)
+def _weighted_line(inv_row, x, sigma_row, a, b):
+    """Weighted line ``1/d = p + q·x`` over columns a:b and the mean sigma [m]."""
+    w = wx = wxx = wz = wxz = wzz = 0.0
+    s = 0.0
+    for k in range(a, b):
+        z = inv_row[k]
+        wk = 1.0 / (z * z * sigma_row[k]) ** 2
+        w += wk
+        wx += wk * x[k]
+        wxx += wk * x[k] * x[k]
+        wz += wk * z
+        wxz += wk * x[k] * z
+        wzz += wk * z * z
+        s += sigma_row[k]
+    p, q, _ = _line_from_sums(w, wx, wxx, wz, wxz, wzz)
+    return p, q, s / (b - a)
+
+
+@numba.njit(cache=True)
+def propagate_breaks(
+    inv_depth,
+    x,
+    sigma,
+    rows,
+    starts,
+    stops,
+    table,
+    edge_window,
+    edge_factor,
+    tolerance_floor_m,
+    min_pixels,
+):
+    """Split segments where the rows above or below break, if a (weaker) step shows there.
+
+    A depth edge running across rows (e.g. the side of a low step) breaks most rows; in a noisy
+    row its step statistic may stay under the threshold of `split_rows`. Knowing where the
+    neighbouring rows break, a step statistic above ``edge_factor`` at one of those columns
+    (±1) is enough to split. Returns new arrays in the format of `split_rows`.
+    """
+    height, width = inv_depth.shape
+    n = rows.shape[0]
+    is_break = np.zeros((height, width + 1), np.bool_)
+    for i in range(n):
+        is_break[rows[i], starts[i]] = True
+        is_break[rows[i], stops[i]] = True
+    cap = 2 * n + 1
+    out_rows = np.empty(cap, np.int64)
+    out_starts = np.empty(cap, np.int64)
+    out_stops = np.empty(cap, np.int64)
+    out_table = np.empty((cap, 3))
+    count = 0
+    res_pre = np.zeros(width + 1)
+    for i in range(n):
+        r = rows[i]
+        a = starts[i]
+        b = stops[i]
+        length = b - a
+        best = 0.0
+        split = -1
+        if length >= 2 * min_pixels:
+            p = table[i, 0]
+            q = table[i, 1]
+            inv_row = inv_depth[r]
+            for k in range(a, b):
+                z = inv_row[k]
+                res_pre[k - a + 1] = res_pre[k - a] + (z - (p + q * x[k])) / (
+                    z * z * (sigma[r, k] + tolerance_floor_m)
+                )
+            for m in range(min_pixels, length - min_pixels + 1):
+                c = a + m
+                hint = False
+                for rr in (r - 1, r + 1):
+                    if 0 <= rr < height:
+                        for cc in (c - 1, c, c + 1):
+                            if is_break[rr, cc]:
+                                hint = True
+                if not hint:
+                    continue
+                kl = min(edge_window, m)
+                kr = min(edge_window, length - m)
+                mean_l = (res_pre[m] - res_pre[m - kl]) / kl
+                mean_r = (res_pre[m + kr] - res_pre[m]) / kr
+                t = abs(mean_r - mean_l) / math.sqrt(1.0 / kl + 1.0 / kr)
+                if t > best:
+                    best = t
+                    split = c
+        if split > 0 and best > edge_factor:
+            for lo, hi in ((a, split), (split, b)):
+                pp, qq, ss = _weighted_line(inv_depth[r], x, sigma[r], lo, hi)
+                out_rows[count] = r
+                out_starts[count] = lo
+                out_stops[count] = hi
+                out_table[count, 0] = pp
+                out_table[count, 1] = qq
+                out_table[count, 2] = ss
+                count += 1
+        else:
+            out_rows[count] = r
+            out_starts[count] = a
+            out_stops[count] = b
+            out_table[count, 0] = table[i, 0]
+            out_table[count, 1] = table[i, 1]
+            out_table[count, 2] = table[i, 2]
+            count += 1
+    return (
+        out_rows[:count].copy(),
+        out_starts[:count].copy(),
+        out_stops[:count].copy(),
+        out_table[:count].copy(),
+    )
+
+
+@numba.njit(cache=True)
 def _accumulate(sums, x, yv, z):
     sums[0] += 1.0
     sums[1] += x
@@ -354,31 +467,46 @@ def _predict_sigma_depth(plane, x, yv, inv_pred):
 
 
 @numba.njit(cache=True)
-def _segment_fits(plane, inv_row, x, yv, a, b, seg, grow_factor, rms_factor, tol0):
-    """Whether the segment (columns a:b of a row at image y = yv) lies on the plane."""
+def _segment_misfit(plane, inv_row, x, yv, a, b, seg, grow_factor, rms_factor, tol0, use_pred):
+    """How badly a segment (columns a:b of the row at image y = yv) fits a plane.
+
+    Returns the largest ratio of deviation to tolerance over the two end points of the
+    segment's line and its RMS residual (≤ 1: fits; inf: plane behind the camera). With
+    ``use_pred`` the plane's own prediction uncertainty widens the tolerances (growing);
+    without, only the segment's noise counts (testing a seed against the plane fit to it).
+    """
     n = b - a
     sigma_seg = seg[2]
+    worst = 0.0
     for k in (a, b - 1):
         inv_plane = plane[0] * x[k] + plane[1] * yv + plane[2]
         if not inv_plane > 0.0:
-            return False
+            return np.inf
         inv_seg = seg[0] + seg[1] * x[k]
-        sigma_pred = _predict_sigma_depth(plane, x[k], yv, inv_plane)
+        sigma_pred = _predict_sigma_depth(plane, x[k], yv, inv_plane) if use_pred else 0.0
         tol = grow_factor * math.sqrt(4.0 * sigma_seg * sigma_seg / n + sigma_pred**2) + tol0
-        if _depth_gap(inv_seg, inv_plane) > tol:
-            return False
+        worst = max(worst, _depth_gap(inv_seg, inv_plane) / tol)
     sq = 0.0
     for k in range(a, b):
         inv_plane = plane[0] * x[k] + plane[1] * yv + plane[2]
         if not inv_plane > 0.0:
-            return False
+            return np.inf
         gap = _depth_gap(inv_row[k], inv_plane)
         sq += gap * gap
     mid = (a + b - 1) // 2
     inv_mid = plane[0] * x[mid] + plane[1] * yv + plane[2]
-    sigma_pred = _predict_sigma_depth(plane, x[mid], yv, inv_mid)
+    sigma_pred = _predict_sigma_depth(plane, x[mid], yv, inv_mid) if use_pred else 0.0
     limit = rms_factor * math.sqrt(sigma_seg * sigma_seg + sigma_pred * sigma_pred) + tol0
-    return math.sqrt(sq / n) <= limit
+    return max(worst, math.sqrt(sq / n) / limit)
+
+
+@numba.njit(cache=True)
+def _segment_fits(plane, inv_row, x, yv, a, b, seg, grow_factor, rms_factor, tol0):
+    """Whether a segment lies on a growing plane (see `_segment_misfit`)."""
+    return (
+        _segment_misfit(plane, inv_row, x, yv, a, b, seg, grow_factor, rms_factor, tol0, True)
+        <= 1.0
+    )
 
 
 @numba.njit(cache=True)
@@ -390,6 +518,114 @@ def _add_segment(sums, inv_row, x, yv, a, b):
 @numba.njit(cache=True)
 def _overlap(a0, a1, b0, b1, gap):
     return a0 < b1 + gap and b0 < a1 + gap
+
+
+@numba.njit(cache=True)
+def _row_index(seg_rows, height):
+    """row_first (H+1,): segments of row r are row_first[r]:row_first[r+1]."""
+    n_seg = seg_rows.shape[0]
+    row_first = np.full(height + 1, n_seg, np.int64)
+    for i in range(n_seg - 1, -1, -1):
+        row_first[seg_rows[i]] = i
+    for r in range(height - 1, -1, -1):
+        if row_first[r] > row_first[r + 1]:
+            row_first[r] = row_first[r + 1]
+    return row_first
+
+
+@numba.njit(cache=True)
+def _best_seed(
+    s,
+    inv_depth,
+    x,
+    y,
+    seg_rows,
+    seg_starts,
+    seg_stops,
+    seg_table,
+    row_first,
+    plane_of,
+    grow_factor,
+    rms_factor,
+    tol0,
+    seed_min_pixels,
+    members,
+    sums,
+    plane,
+):
+    """Best seed triple containing segment s among free segments.
+
+    Tries rows (r, r+1, r+2), (r-1, r, r+1), (r-2, r-1, r), in each picking row by row away
+    from s the longest free segment overlapping the previous one. Writes the best triple to
+    ``members`` and returns its misfit (≤ 1: valid seed; inf: none).
+    """
+    height = inv_depth.shape[0]
+    lengths_s = seg_stops[s] - seg_starts[s]
+    best_score = np.inf
+    if lengths_s < seed_min_pixels:
+        return best_score
+    r = seg_rows[s]
+    chosen = np.full(3, -1, np.int64)
+    for offset in (0, -1, -2):
+        if r + offset < 0 or r + offset + 2 >= height:
+            continue
+        chosen[:] = -1
+        chosen[-offset] = s
+        ok = True
+        for direction in (1, -1):
+            k = -offset + direction
+            while 0 <= k <= 2:
+                prev = chosen[k - direction]
+                pick = -1
+                pick_len = 0
+                rr = r + offset + k
+                for t in range(row_first[rr], row_first[rr + 1]):
+                    length = seg_stops[t] - seg_starts[t]
+                    if plane_of[t] >= 0 or length < seed_min_pixels or length <= pick_len:
+                        continue
+                    if _overlap(seg_starts[prev], seg_stops[prev], seg_starts[t], seg_stops[t], 0):
+                        pick = t
+                        pick_len = length
+                if pick < 0:
+                    ok = False
+                    break
+                chosen[k] = pick
+                k += direction
+            if not ok:
+                break
+        if not ok:
+            continue
+        sums[:] = 0.0
+        for k in range(3):
+            t = chosen[k]
+            rr = seg_rows[t]
+            _add_segment(sums, inv_depth[rr], x, y[rr], seg_starts[t], seg_stops[t])
+        if not _solve_plane(sums, plane):
+            continue
+        score = 0.0
+        for k in range(3):
+            t = chosen[k]
+            rr = seg_rows[t]
+            score = max(
+                score,
+                _segment_misfit(
+                    plane,
+                    inv_depth[rr],
+                    x,
+                    y[rr],
+                    seg_starts[t],
+                    seg_stops[t],
+                    seg_table[t],
+                    grow_factor,
+                    rms_factor,
+                    tol0,
+                    False,
+                ),
+            )
+        if score < best_score:
+            best_score = score
+            members[:] = chosen
+    return best_score
 
 
 @numba.njit(cache=True)
@@ -408,6 +644,11 @@ def grow_planes(
 ):
     """Region growing of planes over row segments.
 
+    Every segment's best seed triple is scored first (misfit to the plane through it, see
+    `_segment_misfit`); planes are then seeded best-first, so seeds in the interior of surfaces
+    win over seeds straddling an edge (e.g. tread, tread, riser of a low step), and grow
+    breadth-first into touching segments that fit the current plane, refit after each one.
+
     Args:
         inv_depth: (H, W) inverse depth [1/m].
         x, y: normalised image coordinates of columns (W,) and rows (H,).
@@ -425,94 +666,74 @@ def grow_planes(
     plane_of = np.full(n_seg, -1, np.int64)
     if n_seg == 0:
         return plane_of
-    row_first = np.full(height + 1, n_seg, np.int64)
-    for i in range(n_seg - 1, -1, -1):
-        row_first[seg_rows[i]] = i
-    for r in range(height - 1, -1, -1):
-        if row_first[r] > row_first[r + 1]:
-            row_first[r] = row_first[r + 1]
-    lengths = seg_stops - seg_starts
-    order = np.argsort(-lengths, kind="mergesort")
-    queue = np.empty(n_seg, np.int64)
+    row_first = _row_index(seg_rows, height)
     sums = np.zeros(_N_SUMS)
     plane = np.zeros(13)
-    chosen = np.full(3, -1, np.int64)
+    members = np.full(3, -1, np.int64)
+    scores = np.full(n_seg, np.inf)
+    for s in range(n_seg):
+        scores[s] = _best_seed(
+            s,
+            inv_depth,
+            x,
+            y,
+            seg_rows,
+            seg_starts,
+            seg_stops,
+            seg_table,
+            row_first,
+            plane_of,
+            grow_factor,
+            rms_factor,
+            tolerance_floor_m,
+            seed_min_pixels,
+            members,
+            sums,
+            plane,
+        )
+    order = np.argsort(scores, kind="mergesort")
+    queue = np.empty(n_seg, np.int64)
     n_planes = 0
     for s in order:
-        if plane_of[s] >= 0 or lengths[s] < seed_min_pixels:
+        if scores[s] > 1.0:
+            break
+        if plane_of[s] >= 0:
             continue
-        r = seg_rows[s]
-        found = False
-        # Seed row triples containing s: (r, r+1, r+2), (r-1, r, r+1), (r-2, r-1, r).
-        for offset in (0, -1, -2):
-            if r + offset < 0 or r + offset + 2 >= height:
-                continue
-            chosen[:] = -1
-            chosen[-offset] = s
-            ok = True
-            for direction in (1, -1):
-                k = -offset + direction
-                while 0 <= k <= 2:
-                    prev = chosen[k - direction]
-                    best = -1
-                    best_len = 0
-                    rr = r + offset + k
-                    for t in range(row_first[rr], row_first[rr + 1]):
-                        if plane_of[t] >= 0 or lengths[t] < seed_min_pixels:
-                            continue
-                        if _overlap(
-                            seg_starts[prev], seg_stops[prev], seg_starts[t], seg_stops[t], 0
-                        ):
-                            if lengths[t] > best_len:
-                                best = t
-                                best_len = lengths[t]
-                    if best < 0:
-                        ok = False
-                        break
-                    chosen[k] = best
-                    k += direction
-                if not ok:
-                    break
-            if not ok:
-                continue
-            sums[:] = 0.0
-            for k in range(3):
-                t = chosen[k]
-                rr = seg_rows[t]
-                _add_segment(sums, inv_depth[rr], x, y[rr], seg_starts[t], seg_stops[t])
-            if not _solve_plane(sums, plane):
-                continue
-            fits = True
-            for k in range(3):
-                t = chosen[k]
-                rr = seg_rows[t]
-                if not _segment_fits(
-                    plane,
-                    inv_depth[rr],
-                    x,
-                    y[rr],
-                    seg_starts[t],
-                    seg_stops[t],
-                    seg_table[t],
-                    grow_factor,
-                    rms_factor,
-                    tolerance_floor_m,
-                ):
-                    fits = False
-                    break
-            if fits:
-                found = True
-                break
-        if not found:
+        score = _best_seed(
+            s,
+            inv_depth,
+            x,
+            y,
+            seg_rows,
+            seg_starts,
+            seg_stops,
+            seg_table,
+            row_first,
+            plane_of,
+            grow_factor,
+            rms_factor,
+            tolerance_floor_m,
+            seed_min_pixels,
+            members,
+            sums,
+            plane,
+        )
+        if score > 1.0:
             continue
         label = n_planes
         n_planes += 1
         head = 0
         tail = 0
+        sums[:] = 0.0
         for k in range(3):
-            plane_of[chosen[k]] = label
-            queue[tail] = chosen[k]
+            t = members[k]
+            plane_of[t] = label
+            queue[tail] = t
             tail += 1
+            _add_segment(
+                sums, inv_depth[seg_rows[t]], x, y[seg_rows[t]], seg_starts[t], seg_stops[t]
+            )
+        _solve_plane(sums, plane)
         while head < tail:
             q = queue[head]
             head += 1
@@ -603,3 +824,107 @@ def fill_pixels(inv_depth, x, y, labels, sigma, planes, factor, tolerance_floor_
                         best_gap = gap
                 if best >= 0:
                     labels[r, c] = best
+
+
+@numba.njit(cache=True)
+def _segment_rms(plane, inv_row, x, yv, a, b):
+    """RMS depth residual [m] of a segment's pixels against a plane (inf if behind)."""
+    sq = 0.0
+    for k in range(a, b):
+        inv_plane = plane[0] * x[k] + plane[1] * yv + plane[2]
+        if not inv_plane > 0.0:
+            return np.inf
+        gap = _depth_gap(inv_row[k], inv_plane)
+        sq += gap * gap
+    return math.sqrt(sq / (b - a))
+
+
+@numba.njit(cache=True)
+def reassign_segments(
+    inv_depth,
+    x,
+    y,
+    seg_rows,
+    seg_starts,
+    seg_stops,
+    seg_table,
+    plane_of,
+    grow_factor,
+    rms_factor,
+    tolerance_floor_m,
+    passes,
+):
+    """Move segments to a neighbouring plane that fits them clearly better, then refit.
+
+    Region growing is greedy: a plane grown early (e.g. a tilted one seeded across a step
+    edge) may hold segments that belong to a neighbour grown later. Each pass compares every
+    assigned segment with the planes of the segments touching it (rows above, below, same
+    row) and moves it when another plane accepts it and its RMS residual there is below
+    0.8× the current one. ``plane_of`` is updated in place.
+
+    Returns:
+        How many segments moved in total.
+    """
+    height = inv_depth.shape[0]
+    n_seg = seg_rows.shape[0]
+    n_planes = 0
+    for i in range(n_seg):
+        n_planes = max(n_planes, plane_of[i] + 1)
+    if n_planes == 0:
+        return 0
+    row_first = _row_index(seg_rows, height)
+    moved_total = 0
+    sums = np.zeros((n_planes, _N_SUMS))
+    planes = np.full((n_planes, 13), np.nan)
+    valid = np.zeros(n_planes, np.bool_)
+    for _ in range(passes):
+        sums[:] = 0.0
+        for i in range(n_seg):
+            if plane_of[i] >= 0:
+                r = seg_rows[i]
+                _add_segment(sums[plane_of[i]], inv_depth[r], x, y[r], seg_starts[i], seg_stops[i])
+        for p in range(n_planes):
+            valid[p] = _solve_plane(sums[p], planes[p])
+        before = plane_of.copy()
+        moved = 0
+        for i in range(n_seg):
+            own = before[i]
+            if own < 0 or not valid[own]:
+                continue
+            r = seg_rows[i]
+            a = seg_starts[i]
+            b = seg_stops[i]
+            best_rms = 0.8 * _segment_rms(planes[own], inv_depth[r], x, y[r], a, b)
+            best = own
+            for rr in (r - 1, r, r + 1):
+                if rr < 0 or rr >= height:
+                    continue
+                gap = 1 if rr == r else 0
+                for t in range(row_first[rr], row_first[rr + 1]):
+                    q = before[t]
+                    if q < 0 or q == own or q == best or not valid[q]:
+                        continue
+                    if not _overlap(a, b, seg_starts[t], seg_stops[t], gap):
+                        continue
+                    rms_q = _segment_rms(planes[q], inv_depth[r], x, y[r], a, b)
+                    if rms_q < best_rms and _segment_fits(
+                        planes[q],
+                        inv_depth[r],
+                        x,
+                        y[r],
+                        a,
+                        b,
+                        seg_table[i],
+                        grow_factor,
+                        rms_factor,
+                        tolerance_floor_m,
+                    ):
+                        best = q
+                        best_rms = rms_q
+            if best != own:
+                plane_of[i] = best
+                moved += 1
+        moved_total += moved
+        if moved == 0:
+            break
+    return moved_total

@@ -47,6 +47,9 @@ class SegmentationParams:
         split_rms_sigma_factor: a row piece whose RMS residual exceeds this many sigma is split.
         edge_window_px: pixels either side of a boundary for the depth-step test in rows.
         edge_sigma_factor: a depth step of more than this many standard errors splits a row.
+        break_sigma_factor: the same, at columns where the row above or below breaks.
+        break_passes: rounds of propagating row breaks up and down.
+        reassign_passes: rounds of moving segments to a neighbouring plane that fits better.
         grow_sigma_factor: segment end points must lie within this many sigma of the plane
             (sigma of the fitted line end, i.e. 2·sigma/sqrt(n)).
         rms_sigma_factor: a segment's RMS distance to the plane must be within this many sigma.
@@ -77,6 +80,9 @@ class SegmentationParams:
     split_rms_sigma_factor: float = 1.3
     edge_window_px: int = 5
     edge_sigma_factor: float = 4.0
+    break_sigma_factor: float = 2.0
+    break_passes: int = 3
+    reassign_passes: int = 3
     grow_sigma_factor: float = 3.0
     rms_sigma_factor: float = 1.5
     fill_sigma_factor: float = 2.5
@@ -87,6 +93,7 @@ class SegmentationParams:
     min_plane_extent_m: float = 0.08
     floor_max_normal_angle_deg: float = 5.0
     max_tilt_correction_deg: float = 10.0
+    tilt_consensus_deg: float = 1.5
     expected_ground_z_m: float = 0.0
     ground_search_window_m: float = 0.05
     correct_tilt: bool = True
@@ -99,6 +106,7 @@ class SegmentationParams:
             "split_sigma_factor",
             "split_rms_sigma_factor",
             "edge_sigma_factor",
+            "break_sigma_factor",
             "grow_sigma_factor",
             "rms_sigma_factor",
             "ground_search_window_m",
@@ -123,6 +131,8 @@ class SegmentationParams:
             "noise_window_px": 1,
             "edge_window_px": 2,
             "fill_passes": 0,
+            "break_passes": 0,
+            "reassign_passes": 0,
             "min_segment_pixels": 2,
             "seed_min_pixels": 2,
             "min_plane_pixels": 3,
@@ -138,7 +148,7 @@ class SegmentationParams:
                 f"SegmentationParams.min_depth_m ({self.min_depth_m}) must be < max_depth_m "
                 f"({self.max_depth_m})"
             )
-        for name in ("floor_max_normal_angle_deg", "max_tilt_correction_deg"):
+        for name in ("floor_max_normal_angle_deg", "max_tilt_correction_deg", "tilt_consensus_deg"):
             value = getattr(self, name)
             if not (isinstance(value, int | float) and 0.0 <= value < 90.0):
                 raise InvalidParameterError(
@@ -353,6 +363,23 @@ def segment_depth(
         params.tolerance_floor_m,
         params.min_segment_pixels,
     )
+    for _ in range(params.break_passes):
+        n_before = seg_rows.size
+        seg_rows, seg_starts, seg_stops, seg_table = scanline.propagate_breaks(
+            inv_depth,
+            x,
+            sigma,
+            seg_rows,
+            seg_starts,
+            seg_stops,
+            seg_table,
+            params.edge_window_px,
+            params.break_sigma_factor,
+            params.tolerance_floor_m,
+            params.min_segment_pixels,
+        )
+        if seg_rows.size == n_before:
+            break
     plane_of_segment = scanline.grow_planes(
         inv_depth,
         x,
@@ -365,6 +392,20 @@ def segment_depth(
         params.rms_sigma_factor,
         params.tolerance_floor_m,
         params.seed_min_pixels,
+    )
+    scanline.reassign_segments(
+        inv_depth,
+        x,
+        y,
+        seg_rows,
+        seg_starts,
+        seg_stops,
+        seg_table,
+        plane_of_segment,
+        params.grow_sigma_factor,
+        params.rms_sigma_factor,
+        params.tolerance_floor_m,
+        params.reassign_passes,
     )
     labels = _segment_labels(valid, seg_rows, seg_starts, seg_stops, plane_of_segment)
     n_planes = int(plane_of_segment.max(initial=-1)) + 1
@@ -403,11 +444,11 @@ def segment_depth(
         points, points_camera, grown_ids, normals_camera, plane_table, intrinsics, len(counts)
     )
 
-    correction = _estimate_correction(normals, areas, centroids, eigen, counts, pivot, params)
+    correction = _estimate_correction(normals, areas, eigen, counts, pivot, params)
     centroids_c = (centroids - pivot) @ correction.rotation.T + pivot
     normals_c = normals @ correction.rotation.T
     is_floor_shape = _floor_shape(normals_c, eigen, counts, params)
-    correction = _ground_shift(correction, centroids_c[:, 2], is_floor_shape, params)
+    correction = _ground_shift(correction, centroids_c[:, 2], areas, is_floor_shape, params)
     heights = centroids_c[:, 2] + correction.z_shift_m
 
     corrected = (points - pivot) @ correction.rotation.T + pivot
@@ -506,8 +547,14 @@ def _floor_shape(normals, eigen, counts, params: SegmentationParams) -> NDArray[
     )
 
 
-def _estimate_correction(normals, areas, centroids, eigen, counts, pivot, params):
-    """Rotation that makes the area-weighted mean normal of near-horizontal planes vertical."""
+def _estimate_correction(normals, areas, eigen, counts, pivot, params) -> PoseCorrection:
+    """Rotation that makes the near-horizontal planes' mean normal vertical.
+
+    Candidates: planes large enough to be floor whose normal is within
+    `max_tilt_correction_deg` of vertical. The largest-area candidate is the reference; the
+    candidates whose normal agrees with it within `tilt_consensus_deg` are averaged, weighted
+    by their footprint area (small, noisy or contaminated planes barely count).
+    """
     identity = PoseCorrection.identity(pivot)
     if not params.correct_tilt or normals.shape[0] == 0:
         return identity
@@ -519,16 +566,12 @@ def _estimate_correction(normals, areas, centroids, eigen, counts, pivot, params
     )
     if not candidates.any():
         return identity
+    reference = normals[int(np.argmax(np.where(candidates, areas, -1.0)))]
+    agree_deg = np.degrees(np.arccos(np.clip(normals @ reference, -1.0, 1.0)))
+    candidates &= agree_deg <= params.tilt_consensus_deg
     mean = (normals[candidates] * areas[candidates, None]).sum(axis=0)
     mean /= np.linalg.norm(mean)
-    # Drop planes far from the consensus (ramps), then re-average.
-    agree = candidates & (np.degrees(np.arccos(np.clip(normals @ mean, -1.0, 1.0))) <= 3.0)
-    if agree.any():
-        mean = (normals[agree] * areas[agree, None]).sum(axis=0)
-        mean /= np.linalg.norm(mean)
-        candidates = agree
-    angle = math.acos(min(1.0, max(-1.0, float(mean[2]))))
-    if math.degrees(angle) > params.max_tilt_correction_deg:
+    if _tilt_angle_deg(mean[None])[0] > params.max_tilt_correction_deg:
         return identity
     return PoseCorrection(
         rotation=_rotation_between(mean, np.array([0.0, 0.0, 1.0])),
@@ -539,14 +582,19 @@ def _estimate_correction(normals, areas, centroids, eigen, counts, pivot, params
     )
 
 
-def _ground_shift(correction, heights, is_floor, params) -> PoseCorrection:
-    """Shift so the floor plane nearest the expected ground plane lies on it."""
-    offsets = np.where(is_floor, heights - params.expected_ground_z_m, np.inf)
-    if offsets.size == 0:
+def _ground_shift(correction, heights, areas, is_floor, params) -> PoseCorrection:
+    """Shift so the floor plane nearest the expected ground plane lies on it.
+
+    Only floor planes within `ground_search_window_m` of `expected_ground_z_m` and with at
+    least a quarter of the largest such plane's area compete (a sliver of ground next to a
+    step must not outvote the ground itself).
+    """
+    offsets = heights - params.expected_ground_z_m
+    near = is_floor & (np.abs(offsets) <= params.ground_search_window_m)
+    if not near.any():
         return correction
-    nearest = int(np.argmin(np.abs(offsets)))
-    if not abs(offsets[nearest]) <= params.ground_search_window_m:
-        return correction
+    near &= areas >= 0.25 * areas[near].max()
+    nearest = int(np.argmin(np.where(near, np.abs(offsets), np.inf)))
     shift = -float(offsets[nearest]) if params.correct_ground_shift else 0.0
     return PoseCorrection(
         correction.rotation, correction.pivot_m, shift, True, correction.tilt_planes
