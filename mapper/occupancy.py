@@ -69,6 +69,20 @@ def _floor_int(v: float) -> int:
     return int(np.floor(v))
 
 
+@numba.njit(cache=True)
+def _first_crossing(remaining: int, d: float, s: float, c: int) -> tuple[float, float]:
+    """Ray parameter of the first cell-boundary crossing along one axis and its increment.
+
+    ``s`` is the start coordinate in cell units, ``c`` its cell, ``d`` the segment's extent
+    along the axis; axes without crossings (``remaining == 0``) never step (inf).
+    """
+    if remaining == 0 or d == 0.0:
+        return np.inf, np.inf
+    if d > 0.0:
+        return (c + 1.0 - s) / d, 1.0 / d
+    return (s - c) / -d, 1.0 / -d
+
+
 @numba.njit(cache=True, error_model="numpy")
 def insert_frame(
     points: NDArray[np.float64],
@@ -212,46 +226,21 @@ def insert_frame(
         rem_x = abs(ex - cx)
         rem_y = abs(ey - cy)
         rem_z = abs(ez - cz)
-        dx = d[0]
-        dy = d[1]
-        dz = d[2]
+        tmx, tdx = _first_crossing(rem_x, d[0], sx, cx)
+        tmy, tdy = _first_crossing(rem_y, d[1], sy, cy)
+        tmz, tdz = _first_crossing(rem_z, d[2], sz, cz)
         inf = np.inf
         step_x = 1 if ex > cx else -1
         step_y = 1 if ey > cy else -1
         step_z = 1 if ez > cz else -1
-        if rem_x == 0:
-            tmx = inf
-            tdx = inf
-        elif dx > 0.0:
-            tmx = (cx + 1.0 - sx) / dx
-            tdx = 1.0 / dx
-        else:
-            tmx = (sx - cx) / -dx if dx != 0.0 else 0.0
-            tdx = 1.0 / -dx if dx != 0.0 else 0.0
-        if rem_y == 0:
-            tmy = inf
-            tdy = inf
-        elif dy > 0.0:
-            tmy = (cy + 1.0 - sy) / dy
-            tdy = 1.0 / dy
-        else:
-            tmy = (sy - cy) / -dy if dy != 0.0 else 0.0
-            tdy = 1.0 / -dy if dy != 0.0 else 0.0
-        if rem_z == 0:
-            tmz = inf
-            tdz = inf
-        elif dz > 0.0:
-            tmz = (cz + 1.0 - sz) / dz
-            tdz = 1.0 / dz
-        else:
-            tmz = (sz - cz) / -dz if dz != 0.0 else 0.0
-            tdz = 1.0 / -dz if dz != 0.0 else 0.0
         idx = cx * stride_x + cy * stride_y + cz
         dix = step_x * stride_x
         diy = step_y * stride_y
         diz = step_z
         n_steps = rem_x + rem_y + rem_z
         for _ in range(n_steps):
+            # Written out, not a helper call: passing the arrays to an njit helper in this loop
+            # costs reference counting per cell (measured 2.5x slower).
             byte = miss_base + (idx >> 3)
             bit = np.uint8(1 << (idx & 7))
             if not mark[byte] & bit:
@@ -271,7 +260,7 @@ def insert_frame(
                 idx += diz
                 rem_z -= 1
                 tmz = tmz + tdz if rem_z > 0 else inf
-        if extra_visit:
+        if extra_visit:  # the stop cell (same test as in the loop above)
             byte = miss_base + (idx >> 3)
             bit = np.uint8(1 << (idx & 7))
             if not mark[byte] & bit:
