@@ -928,3 +928,93 @@ def reassign_segments(
         if moved == 0:
             break
     return moved_total
+
+
+@numba.njit(cache=True)
+def plane_moments(points_camera, ids, normals_camera, n_planes, fx, fy):
+    """Per-plane geometry of labelled points.
+
+    Args:
+        points_camera: (N, 3) points in the camera frame [m].
+        ids: (N,) plane id per point (-1: none).
+        normals_camera: (P, 3) unit plane normals in the camera frame.
+        n_planes: P.
+        fx, fy: focal lengths [px].
+
+    Returns:
+        centroids (P, 3) camera frame [m], covariance eigenvalues (P, 3) ascending [m²], footprint areas
+        (P,) [m²] (pixel footprints on the plane, incidence capped at cos 0.1).
+    """
+    sums = np.zeros((n_planes, _N_SUMS + 3))
+    areas = np.zeros(n_planes)
+    for i in range(ids.shape[0]):
+        p = ids[i]
+        if p < 0:
+            continue
+        row = sums[p]
+        if row[0] == 0.0:
+            row[10] = points_camera[i, 0]
+            row[11] = points_camera[i, 1]
+            row[12] = points_camera[i, 2]
+        px = points_camera[i, 0] - row[10]
+        py = points_camera[i, 1] - row[11]
+        pz = points_camera[i, 2] - row[12]
+        row[0] += 1.0
+        row[1] += px
+        row[2] += py
+        row[3] += pz
+        row[4] += px * px
+        row[5] += px * py
+        row[6] += px * pz
+        row[7] += py * py
+        row[8] += py * pz
+        row[9] += pz * pz
+        cx = points_camera[i, 0]
+        cy = points_camera[i, 1]
+        cz = points_camera[i, 2]
+        rng = math.sqrt(cx * cx + cy * cy + cz * cz)
+        cos_inc = (
+            abs(cx * normals_camera[p, 0] + cy * normals_camera[p, 1] + cz * normals_camera[p, 2])
+            / rng
+        )
+        # Solid angle of a pixel (depth²/(fx·fy)·cos³ of the off-axis angle) times range² …
+        areas[p] += cz * cz * cz / (rng * fx * fy * max(cos_inc, 0.1))
+    centroids = np.zeros((n_planes, 3))
+    eigen = np.zeros((n_planes, 3))
+    cov = np.empty((3, 3))
+    for p in range(n_planes):
+        row = sums[p]
+        n = row[0]
+        if n == 0.0:
+            continue
+        mx = row[1] / n
+        my = row[2] / n
+        mz = row[3] / n
+        centroids[p, 0] = mx + row[10]
+        centroids[p, 1] = my + row[11]
+        centroids[p, 2] = mz + row[12]
+        cov[0, 0] = row[4] / n - mx * mx
+        cov[0, 1] = cov[1, 0] = row[5] / n - mx * my
+        cov[0, 2] = cov[2, 0] = row[6] / n - mx * mz
+        cov[1, 1] = row[7] / n - my * my
+        cov[1, 2] = cov[2, 1] = row[8] / n - my * mz
+        cov[2, 2] = row[9] / n - mz * mz
+        eigen[p] = np.linalg.eigvalsh(cov)
+    return centroids, eigen, areas
+
+
+@numba.njit(cache=True)
+def segment_labels(valid, seg_rows, seg_starts, seg_stops, plane_of):
+    """(H, W) int64 plane id per pixel from segment assignments: -1 none, -2 invalid."""
+    height, width = valid.shape
+    labels = np.full((height, width), -2, np.int64)
+    for r in range(height):
+        for c in range(width):
+            if valid[r, c]:
+                labels[r, c] = -1
+    for i in range(seg_rows.shape[0]):
+        p = plane_of[i]
+        if p >= 0:
+            for c in range(seg_starts[i], seg_stops[i]):
+                labels[seg_rows[i], c] = p
+    return labels

@@ -19,6 +19,7 @@ origin on the ground below the robot.
 
 from __future__ import annotations
 
+import functools
 import math
 from collections.abc import Mapping
 from dataclasses import dataclass, fields
@@ -407,7 +408,7 @@ def segment_depth(
         params.tolerance_floor_m,
         params.reassign_passes,
     )
-    labels = _segment_labels(valid, seg_rows, seg_starts, seg_stops, plane_of_segment)
+    labels = scanline.segment_labels(valid, seg_rows, seg_starts, seg_stops, plane_of_segment)
     n_planes = int(plane_of_segment.max(initial=-1)) + 1
     plane_table, counts = scanline.plane_fits(inv_depth, x, y, labels, n_planes)
     # Plane parameters come from the grown segments only; the pixel fill adds labels.
@@ -434,15 +435,18 @@ def segment_depth(
     plane_table, counts = plane_table[keep], counts[keep]
 
     plane_ids = labels.reshape(-1)[pixel_index]
-    rays_camera = np.stack(np.broadcast_arrays(x[None, :], y[:, None], 1.0), axis=-1)
-    points_camera = rays_camera.reshape(-1, 3)[pixel_index] * depth.reshape(-1)[pixel_index, None]
-    points = points_camera @ transform[:3, :3].T + pivot
+    counts = np.bincount(plane_ids + 1, minlength=len(counts) + 1)[1:]
+    rotation = transform[:3, :3]
+    points_camera = _unit_z_rays(intrinsics)[pixel_index] * depth.reshape(-1)[pixel_index, None]
     normals_camera = plane_table[:, :3] / np.linalg.norm(plane_table[:, :3], axis=1)[:, None]
-    normals = normals_camera @ transform[:3, :3].T
+    normals = normals_camera @ rotation.T
     normals *= np.where(normals[:, 2] < 0.0, -1.0, 1.0)[:, None]
-    centroids, eigen, areas, rms = _plane_moments(
-        points, points_camera, grown_ids, normals_camera, plane_table, intrinsics, len(counts)
+    centroids_camera, eigen, areas = scanline.plane_moments(
+        points_camera, grown_ids, normals_camera, len(counts), intrinsics.fx, intrinsics.fy
     )
+    centroids = centroids_camera @ rotation.T + pivot
+    # RMS depth residual of the plane fit (inverse-depth residual scaled at the centroid).
+    rms = np.sqrt(plane_table[:, 3]) * centroids_camera[:, 2] ** 2
 
     correction = _estimate_correction(normals, areas, eigen, counts, pivot, params)
     centroids_c = (centroids - pivot) @ correction.rotation.T + pivot
@@ -451,8 +455,8 @@ def segment_depth(
     correction = _ground_shift(correction, centroids_c[:, 2], areas, is_floor_shape, params)
     heights = centroids_c[:, 2] + correction.z_shift_m
 
-    corrected = (points - pivot) @ correction.rotation.T + pivot
-    corrected[:, 2] += correction.z_shift_m
+    transform_corrected = correction.transform @ transform
+    corrected = points_camera @ transform_corrected[:3, :3].T + transform_corrected[:3, 3]
     floor_of_plane = np.append(np.where(is_floor_shape, heights, np.nan), np.nan)
     floor_heights = floor_of_plane[plane_ids]  # id -1 → the appended NaN
 
@@ -473,8 +477,16 @@ def segment_depth(
         correction=correction,
         planes=planes,
         image_shape=(height, width),
-        transform_camera_to_robot=correction.transform @ transform,
+        transform_camera_to_robot=transform_corrected,
     )
+
+
+@functools.lru_cache(maxsize=8)
+def _unit_z_rays(intrinsics: PinholeIntrinsics) -> NDArray[np.float64]:
+    """(H·W, 3) camera-frame rays with unit z, row-major (read-only, cached)."""
+    rays = intrinsics.ray_directions_camera().reshape(-1, 3)
+    rays.flags.writeable = False
+    return rays
 
 
 def _check_transform(transform: NDArray[np.floating]) -> NDArray[np.float64]:
@@ -484,53 +496,13 @@ def _check_transform(transform: NDArray[np.floating]) -> NDArray[np.float64]:
             f"transform_camera_to_robot must be a finite 4×4 matrix, got shape {t.shape}"
         )
     r = t[:3, :3]
-    if not np.allclose(r @ r.T, np.eye(3), atol=1e-6) or not np.allclose(t[3], [0, 0, 0, 1]):
+    orthonormal = np.abs(r @ r.T - np.eye(3)).max() <= 1e-6
+    if not orthonormal or np.abs(t[3] - (0.0, 0.0, 0.0, 1.0)).max() > 1e-12:
         raise InvalidInputError(
             "transform_camera_to_robot must be a rigid transform (orthonormal rotation, "
             "last row 0 0 0 1)"
         )
     return t
-
-
-def _segment_labels(valid, seg_rows, seg_starts, seg_stops, plane_of_segment):
-    """(H, W) int64 plane id per pixel from segment assignments: -1 none, -2 invalid."""
-    labels = np.where(valid, -1, -2).astype(np.int64)
-    assigned = plane_of_segment >= 0
-    if assigned.any():
-        lengths = (seg_stops - seg_starts)[assigned]
-        rows = np.repeat(seg_rows[assigned], lengths)
-        starts = np.repeat(seg_starts[assigned], lengths)
-        offsets = np.arange(lengths.sum()) - np.repeat(np.cumsum(lengths) - lengths, lengths)
-        labels[rows, starts + offsets] = np.repeat(plane_of_segment[assigned], lengths)
-    return labels
-
-
-def _plane_moments(points, points_camera, plane_ids, normals_camera, plane_table, intr, n):
-    """Per-plane centroid (3,), covariance eigenvalues (3,) ascending, footprint area, RMS.
-
-    Points are in the (uncorrected) robot frame; eigenvalues are rotation invariant.
-    """
-    on = plane_ids >= 0
-    ids = plane_ids[on]
-    p = points[on]
-    counts = np.maximum(np.bincount(ids, minlength=n), 1)
-    centroids = np.stack([np.bincount(ids, p[:, k], n) for k in range(3)], axis=1) / counts[:, None]
-    d = p - centroids[ids]
-    cov = np.empty((n, 3, 3))
-    for i in range(3):
-        for j in range(i, 3):
-            cov[:, i, j] = cov[:, j, i] = np.bincount(ids, d[:, i] * d[:, j], n) / counts
-    eigen = np.linalg.eigvalsh(cov) if n > 0 else np.zeros((0, 3))
-    pc = points_camera[on]
-    depth = pc[:, 2]
-    ray_length = np.linalg.norm(pc, axis=1) / depth
-    cos_inc = np.abs(np.einsum("ij,ij->i", pc, normals_camera[ids])) / (depth * ray_length)
-    pixel_area = depth**2 / (intr.fx * intr.fy * ray_length * np.maximum(cos_inc, 0.1))
-    areas = np.bincount(ids, pixel_area, n)
-    inv_plane = np.einsum("ij,ij->i", pc / depth[:, None], plane_table[ids, :3])
-    residual = depth - 1.0 / inv_plane
-    rms = np.sqrt(np.bincount(ids, residual**2, n) / counts)
-    return centroids, eigen, areas, rms
 
 
 def _tilt_angle_deg(normals: NDArray[np.float64]) -> NDArray[np.float64]:
