@@ -35,6 +35,7 @@ from __future__ import annotations
 import argparse
 import concurrent.futures
 import dataclasses
+import datetime
 import hashlib
 import itertools
 import json
@@ -53,6 +54,7 @@ from typing import Any
 
 import numpy as np
 import optuna
+import sqlalchemy
 from optuna.distributions import BaseDistribution, FloatDistribution, IntDistribution
 from optuna.trial import FrozenTrial, TrialState
 
@@ -70,6 +72,9 @@ SEGMENTATION_PREFIX = "seg."
 STUDY_FILE = "tune.db"
 RECORDINGS_DIR = "recordings"
 _CONFIG_ATTR = "fogsim_config"
+_HEARTBEAT_TRIALS_SQL = "SELECT trial_id FROM trial_heartbeats"
+"""Trials that have a heartbeat (Optuna's RDB schema, table ``trial_heartbeats``)."""
+TERM_COLUMNS = ("table1_mm", "cell_error_pct", "unknown_pct", "clearing_s")
 
 
 class SamplerKind(StrEnum):
@@ -83,46 +88,39 @@ class SamplerKind(StrEnum):
 # ----------------------------------------------------------------------------- search space
 
 
-def _field_names(class_name: str) -> tuple[str, ...]:
-    """Field names of ``mapper.<class_name>`` (a parameter dataclass)."""
-    import mapper
+def _numeric_defaults() -> dict[str, int | float]:
+    """Defaults of every numeric (not bool) MapperParams and ``seg.`` SegmentationParams field."""
+    from mapper.params import MapperParams
+    from mapper.segmentation import SegmentationParams
 
-    try:
-        return tuple(f.name for f in dataclasses.fields(getattr(mapper, class_name)))
-    except AttributeError as exc:
-        raise FogsimError(f"mapper.{class_name} is not available: {exc}") from exc
+    out: dict[str, int | float] = {}
+    for prefix, params in (("", MapperParams()), (SEGMENTATION_PREFIX, SegmentationParams())):
+        for f in dataclasses.fields(params):
+            value = getattr(params, f.name)
+            if isinstance(value, int | float) and not isinstance(value, bool):
+                out[prefix + f.name] = value
+    return out
 
 
 def tunable_parameter_names() -> tuple[str, ...]:
-    """Every name ``--param`` accepts: MapperParams fields and ``seg.`` + SegmentationParams."""
-    mapper_names = _field_names("MapperParams")
-    seg_names = tuple(SEGMENTATION_PREFIX + n for n in _field_names("SegmentationParams"))
-    return mapper_names + seg_names
+    """Every name ``--param`` accepts (keys of a scenario's ``[mapper]``/``[segmentation]``).
+
+    Numeric MapperParams fields, and ``seg.`` + numeric SegmentationParams fields.
+    """
+    return tuple(_numeric_defaults())
 
 
-def parameter_defaults(names: Sequence[str]) -> dict[str, float]:
+def parameter_defaults(names: Sequence[str]) -> dict[str, int | float]:
     """Library defaults (``MapperParams()``, ``SegmentationParams()``) of the named parameters.
 
     Raises:
         FogsimError: a name is not a tunable parameter (the message lists the allowed ones).
     """
-    import mapper
-
-    mapper_defaults = dataclasses.asdict(mapper.MapperParams())
-    seg_defaults = dataclasses.asdict(mapper.SegmentationParams())
-    out: dict[str, float] = {}
-    for name in names:
-        if name.startswith(SEGMENTATION_PREFIX):
-            value = seg_defaults.get(name[len(SEGMENTATION_PREFIX) :])
-        else:
-            value = mapper_defaults.get(name)
-        if value is None or isinstance(value, bool) or not isinstance(value, int | float):
-            raise FogsimError(
-                f"parameter {name!r} has no numeric default; tunable: "
-                f"{', '.join(tunable_parameter_names())}"
-            )
-        out[name] = value
-    return out
+    defaults = _numeric_defaults()
+    unknown = [n for n in names if n not in defaults]
+    if unknown:
+        raise FogsimError(f"not tunable parameters: {unknown}; tunable: {', '.join(defaults)}")
+    return {n: defaults[n] for n in names}
 
 
 def _parse_bound(text: str, what: str, spec: str) -> int | float:
@@ -248,6 +246,7 @@ class TuneConfig:
         heartbeat_s: Heartbeat interval of running trials [s].
         grace_s: A running trial without heartbeat for this long is stale (its run died) [s].
         progress: Show a progress bar.
+        pictures: Write the per-parameter pictures.
     """
 
     params: tuple[ParamSpec, ...]
@@ -264,6 +263,7 @@ class TuneConfig:
     heartbeat_s: int = 10
     grace_s: int = 30
     progress: bool = True
+    pictures: bool = True
 
     def __post_init__(self) -> None:
         if not self.params:
@@ -307,20 +307,24 @@ def scenario_hash(scenario: Any) -> str:
     return hashlib.sha256(scenario.to_toml().encode("utf-8")).hexdigest()[:16]
 
 
-def _record_scenario(scenario: Any, path: Path) -> None:
-    """Simulate a scenario once and save every frame with its ground truth."""
-    from fogsim import recording
-
-    record = getattr(recording, "record_scenario", None)
-    if record is not None:
-        record(scenario, path)
-        return
+def _record_scenario(scenario: Any, path: Path, max_frames: int | None) -> None:
+    """Simulate a scenario once (its first ``max_frames`` frames) and save them with the truth."""
+    from fogsim.recording import save_recording
     from fogsim.simulation import Simulation
 
     simulation = Simulation(scenario)
-    frames = list(simulation.frames())
+    frames = list(itertools.islice(simulation.frames(), max_frames))
     truths = [simulation.truth_at(frame.time_s) for frame in frames]
-    recording.save_recording(path, frames, scenario=scenario, truths=truths)
+    save_recording(path, frames, scenario=scenario, truths=truths)
+
+
+def _first_frames(recording: Any, max_frames: int | None) -> Any:
+    """The recording cut after ``max_frames`` frames (unchanged if shorter or None)."""
+    if max_frames is None or len(recording.frames) <= max_frames:
+        return recording
+    return dataclasses.replace(
+        recording, frames=recording.frames[:max_frames], truths=recording.truths[:max_frames]
+    )
 
 
 def _frame_rate_hz(recording: Any) -> float:
@@ -342,42 +346,75 @@ def _entry(name: str, recording: Any) -> SuiteEntry:
     return SuiteEntry(name=name, recording=recording, frame_rate_hz=_frame_rate_hz(recording))
 
 
-def load_suite(
-    suite: str | os.PathLike[str], cache_dir: str | os.PathLike[str]
-) -> list[SuiteEntry]:
-    """The recordings of a suite: a directory of scenario files and/or recordings, or one file.
+def _suite_files(source: str | os.PathLike[str]) -> list[Path]:
+    """Scenario files and recordings named by one suite argument."""
+    from fogsim.scenario import load_scenario
 
-    Scenario files (``*.toml``) are simulated once and cached as
-    ``cache_dir/<name>-<scenario hash>.npz``; recordings (``*.npz``) are read as they are.
+    path = Path(source)
+    if path.is_dir():
+        files = sorted([*path.glob("*.toml"), *path.glob("*.npz")])
+        if not files:
+            raise FogsimError(f"suite directory {path} holds no *.toml or *.npz files")
+        return files
+    if path.is_file() and path.suffix in (".toml", ".npz"):
+        return [path]
+    if path.suffix == "" and not path.exists():
+        scenario = load_scenario(str(source))  # a scenario name; ScenarioError lists the known
+        return [scenario.source_path]
+    raise FogsimError(
+        f"suite {str(source)!r} must be a directory of scenario files (*.toml) and/or "
+        "recordings (*.npz), one such file, or a scenario name"
+    )
+
+
+def load_suite(
+    sources: str | os.PathLike[str] | Sequence[str | os.PathLike[str]],
+    cache_dir: str | os.PathLike[str],
+    *,
+    quick: bool = False,
+) -> list[SuiteEntry]:
+    """The recordings of a suite.
+
+    Args:
+        sources: Directories of scenario files and/or recordings, single files, or scenario
+            names (``stage``).
+        cache_dir: Where recordings made from scenario files are kept, as
+            ``<name>-<scenario hash>[-<frames>f].npz``: made once, reused while the scenario
+            is unchanged.
+        quick: Only the suite's quick subset (:data:`fogsim.suite.QUICK_SCENARIOS`, cut after
+            :data:`fogsim.suite.QUICK_MAX_FRAMES` frames), as ``fogsim suite --quick`` runs it.
 
     Raises:
-        FogsimError: the suite is missing, empty, or a recording has no ground truth.
+        FogsimError: a source is missing or empty, no file is left, names repeat, or a
+            recording has no ground truth.
     """
     from fogsim.recording import load_recording
     from fogsim.scenario import load_scenario
+    from fogsim.suite import QUICK_MAX_FRAMES, QUICK_SCENARIOS
 
-    source = Path(suite)
-    if source.is_dir():
-        files = sorted([*source.glob("*.toml"), *source.glob("*.npz")])
-    elif source.is_file() and source.suffix in (".toml", ".npz"):
-        files = [source]
-    else:
-        raise FogsimError(
-            f"suite {str(source)!r} must be a directory of scenario files (*.toml) and/or "
-            "recordings (*.npz), or one such file"
-        )
-    if not files:
-        raise FogsimError(f"suite directory {source} holds no *.toml or *.npz files")
+    if isinstance(sources, str | os.PathLike):
+        sources = [sources]
+    files = [f for source in sources for f in _suite_files(source)]
+    max_frames = QUICK_MAX_FRAMES if quick else None
     entries = []
     for path in files:
         if path.suffix == ".npz":
-            entries.append(_entry(path.stem, load_recording(path)))
+            recording = load_recording(path)
+            name = getattr(recording.scenario, "name", path.stem)
+            if not quick or name in QUICK_SCENARIOS:
+                entries.append(_entry(path.stem, _first_frames(recording, max_frames)))
             continue
         scenario = load_scenario(path)
-        cached = Path(cache_dir) / f"{scenario.name}-{scenario_hash(scenario)}.npz"
+        if quick and scenario.name not in QUICK_SCENARIOS:
+            continue
+        suffix = "" if max_frames is None else f"-{max_frames}f"
+        cached = Path(cache_dir) / f"{scenario.name}-{scenario_hash(scenario)}{suffix}.npz"
         if not cached.is_file():
-            _record_scenario(scenario, cached)
+            print(f"fogsim tune: recording {scenario.name} once into {cached}", file=sys.stderr)
+            _record_scenario(scenario, cached, max_frames)
         entries.append(_entry(scenario.name, load_recording(cached)))
+    if not entries:
+        raise FogsimError(f"the quick subset {list(QUICK_SCENARIOS)} is not in the suite")
     names = [e.name for e in entries]
     if len(set(names)) != len(names):
         raise FogsimError(f"suite names must be distinct, got {names}")
@@ -637,6 +674,38 @@ def _open_study(
     return study, storage, target
 
 
+def _fail_dead_trials(
+    study: optuna.Study, storage: optuna.storages.RDBStorage, grace_s: float
+) -> None:
+    """Fail the trials of dead runs and queue their parameters again.
+
+    Stale trials (heartbeat older than ``grace_s``) are Optuna's. A run killed between creating
+    a trial and its first heartbeat leaves a RUNNING trial without any heartbeat, which Optuna
+    never calls stale; such a trial older than ``grace_s`` is failed and retried here too (a
+    live run heartbeats its trials milliseconds after creating them).
+    """
+    optuna.storages.fail_stale_trials(study)
+    now = datetime.datetime.now()  # Optuna stamps datetime_start with local naive time
+    old = [
+        t
+        for t in study.get_trials(deepcopy=False, states=(TrialState.RUNNING,))
+        if t.datetime_start is not None and (now - t.datetime_start).total_seconds() > grace_s
+    ]
+    if not old:
+        return
+    with storage.engine.connect() as connection:
+        beating = {row[0] for row in connection.execute(sqlalchemy.text(_HEARTBEAT_TRIALS_SQL))}
+    retry = optuna.storages.RetryHeartbeatStaleTrialCallback()
+    for trial in old:
+        if trial._trial_id in beating:
+            continue
+        try:
+            storage.set_trial_state_values(trial._trial_id, state=TrialState.FAIL)
+        except optuna.exceptions.UpdateFinishedTrialError:
+            continue  # another run got there first
+        retry(study, storage.get_trial(trial._trial_id))
+
+
 def _finished(study: optuna.Study) -> int:
     """Scored trials: complete, or failed because scoring raised (not stale ones)."""
     trials = study.get_trials(deepcopy=False, states=(TrialState.COMPLETE, TrialState.FAIL))
@@ -741,12 +810,12 @@ def _tune(
 
             progress = tqdm(total=target, initial=min(done, target), desc="tune", unit="trial")
         while done < target:
-            optuna.storages.fail_stale_trials(study)
+            _fail_dead_trials(study, storage, config.grace_s)
             batch = {}
             for _ in range(min(slots, target - done)):
                 trial = study.ask()
+                heartbeat.add(trial._trial_id)  # at once: a trial without heartbeat never stales
                 overrides = {p.name: p.suggest(trial) for p in config.params}
-                heartbeat.add(trial._trial_id)
                 batch[trial.number] = (trial, overrides)
             for number, outcome in executor.run([(n, o) for n, (_, o) in batch.items()]):
                 trial = batch[number][0]
@@ -770,7 +839,7 @@ def _mean_terms(trial: FrozenTrial) -> dict[str, float | None]:
     """Mean of each objective term over the trial's recordings (None where no recording has it)."""
     per_recording = trial.user_attrs.get("terms", {})
     out: dict[str, float | None] = {}
-    for key in ("table1_mm", "cell_error_pct", "clearing_s"):
+    for key in TERM_COLUMNS:
         values = [t[key] for t in per_recording.values() if t.get(key) is not None]
         out[key] = float(statistics.fmean(values)) if values else None
     return out
@@ -805,7 +874,8 @@ def _cell(value: float | None) -> str:
 
 def top_trials_markdown(trials: Sequence[FrozenTrial], specs: Sequence[ParamSpec]) -> str:
     """A Markdown table of trials (best first): objective, mean terms, parameters."""
-    header = ["rank", "trial", "objective", "table1 mm", "wrong cells %", "clearing s"]
+    header = ["rank", "trial", "objective", "table1 mm", "wrong cells %", "unknown %"]
+    header += ["clearing s"]
     header += [s.name for s in specs]
     lines = ["| " + " | ".join(header) + " |", "|" + "---|" * len(header)]
     for rank, trial in enumerate(trials, start=1):
@@ -814,7 +884,7 @@ def top_trials_markdown(trials: Sequence[FrozenTrial], specs: Sequence[ParamSpec
             f"{trial.number} (defaults)" if trial.user_attrs.get("defaults") else str(trial.number)
         )
         row = [str(rank), label, f"{trial.value:.4f}"]
-        row += [_cell(terms[k]) for k in ("table1_mm", "cell_error_pct", "clearing_s")]
+        row += [_cell(terms[k]) for k in TERM_COLUMNS]
         row += [_format_value(trial.params[s.name], s.integer) for s in specs]
         lines.append("| " + " | ".join(row) + " |")
     return "\n".join(lines) + "\n"
@@ -823,48 +893,38 @@ def top_trials_markdown(trials: Sequence[FrozenTrial], specs: Sequence[ParamSpec
 def plot_parameter(
     trials: Sequence[FrozenTrial], spec: ParamSpec, path: Path, best: FrozenTrial
 ) -> Path:
-    """Scatter of the objective against one parameter's value (defaults and best marked)."""
-    import matplotlib
+    """Scatter of the objective against one parameter's value (defaults and best marked).
 
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
+    Uses matplotlib's object API with the Agg canvas (no pyplot state, no display needed).
+    """
+    from matplotlib.backends.backend_agg import FigureCanvasAgg
+    from matplotlib.figure import Figure
 
-    figure, axes = plt.subplots(figsize=(5.0, 3.6), dpi=100)
-    try:
-        x = [t.params[spec.name] for t in trials]
-        y = [t.value for t in trials]
-        axes.scatter(x, y, s=14, c=[t.number for t in trials], cmap="viridis", label="trials")
-        for trial in trials:
-            if trial.user_attrs.get("defaults"):
-                axes.scatter(
-                    [trial.params[spec.name]],
-                    [trial.value],
-                    marker="s",
-                    s=60,
-                    facecolors="none",
-                    edgecolors="tab:red",
-                    label="defaults",
-                )
-        axes.scatter(
-            [best.params[spec.name]],
-            [best.value],
-            marker="*",
-            s=140,
-            c="tab:orange",
-            edgecolors="black",
-            label="best",
-        )
-        if spec.log:
-            axes.set_xscale("log")
-        axes.set_xlabel(spec.name)
-        axes.set_ylabel("objective (lower is better)")
-        axes.set_title(f"objective vs {spec.name} ({len(trials)} trials)")
-        axes.legend(fontsize=7, loc="best")
-        figure.tight_layout()
-        write_atomic(path, lambda handle: figure.savefig(handle, format="png"))
-    finally:
-        plt.close(figure)
-    return path
+    figure = Figure(figsize=(5.0, 3.6), dpi=100)
+    FigureCanvasAgg(figure)
+    axes = figure.add_subplot()
+    x = [t.params[spec.name] for t in trials]
+    y = [t.value for t in trials]
+    dots = axes.scatter(x, y, s=14, c=[t.number for t in trials], cmap="viridis", label="trials")
+    figure.colorbar(dots, ax=axes, label="trial number")
+    for trial in trials:
+        if trial.user_attrs.get("defaults"):
+            axes.scatter(
+                [trial.params[spec.name]], [trial.value], marker="s", s=60,
+                facecolors="none", edgecolors="tab:red", label="defaults",
+            )  # fmt: skip
+    axes.scatter(
+        [best.params[spec.name]], [best.value], marker="*", s=140, c="tab:orange",
+        edgecolors="black", label="best",
+    )  # fmt: skip
+    if spec.log:
+        axes.set_xscale("log")
+    axes.set_xlabel(spec.name)
+    axes.set_ylabel("objective (lower is better)")
+    axes.set_title(f"objective vs {spec.name} ({len(trials)} trials)")
+    axes.legend(fontsize=7, loc="best")
+    figure.tight_layout()
+    return write_atomic(path, lambda handle: figure.savefig(handle, format="png"))
 
 
 def _median_attr(trials: Sequence[FrozenTrial], key: str) -> float | None:
@@ -899,8 +959,9 @@ def write_results(study: optuna.Study, config: TuneConfig) -> TuneResult:
     table = top_trials_markdown(complete[: config.top], specs)
     title = f"# fogsim tune: top {min(config.top, len(complete))} of {len(complete)} trials\n\n"
     write_text_atomic(out / "trials.md", title + table)
-    for spec in specs:
-        plot_parameter(complete, spec, out / f"objective_{spec.name}.png", best)
+    if config.pictures:
+        for spec in specs:
+            plot_parameter(complete, spec, out / f"objective_{spec.name}.png", best)
     summary = {
         "study": config.study_name,
         "best": {"trial": best.number, "objective": best.value, "params": best.params},
@@ -943,7 +1004,15 @@ def add_tune_arguments(subparsers: Any) -> argparse.ArgumentParser:
         help="tune mapper/segmentation thresholds over a suite of recordings",
         description=__doc__.split("\n\n")[0],
     )
-    parser.add_argument("suite", help="directory of scenarios (*.toml) / recordings (*.npz)")
+    parser.add_argument(
+        "suite",
+        nargs="+",
+        help="directories of scenarios (*.toml) / recordings (*.npz), such files, or "
+        "scenario names",
+    )
+    parser.add_argument(
+        "--quick", action="store_true", help="only the suite's quick subset, cut short"
+    )
     parser.add_argument(
         "--param",
         action="append",
@@ -976,6 +1045,7 @@ def add_tune_arguments(subparsers: Any) -> argparse.ArgumentParser:
     parser.add_argument("--study-name", default="fogsim-tune")
     parser.add_argument("--top", type=int, default=10, help="rows of the top-trials table")
     parser.add_argument("--no-progress", action="store_true", help="no progress bar")
+    parser.add_argument("--no-pictures", action="store_true", help="no per-parameter PNGs")
     parser.set_defaults(func=run_tune)
     return parser
 
@@ -996,8 +1066,9 @@ def run_tune(args: argparse.Namespace) -> int:
         study_name=args.study_name,
         top=args.top,
         progress=not args.no_progress,
+        pictures=not args.no_pictures,
     )
-    suite = load_suite(args.suite, config.out_dir / RECORDINGS_DIR)
+    suite = load_suite(args.suite, config.out_dir / RECORDINGS_DIR, quick=args.quick)
     result = tune(config, suite)
     print((result.out_dir / "best_params.toml").read_text(encoding="utf-8"))
     print((result.out_dir / "trials.md").read_text(encoding="utf-8"))

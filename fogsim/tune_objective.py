@@ -6,14 +6,17 @@ parameters (:func:`fogsim.pipeline.replay_report`) and reducing each report to t
 * ``table1_mm`` -- mean absolute Table I error of the FOG over the walkable surfaces and the
   ground [mm]; a row the FOG never estimated is charged ``missing_row_mm``;
 * ``cell_error_pct`` -- share of the seen cells labelled wrong (floor vs obstacle) [%];
+* ``unknown_pct`` -- share of the scored area (cells that were inside the map) the FOG left
+  unknown [%], so that labelling fewer cells does not pass for accuracy;
 * ``clearing_s`` -- mean time until a removed or moved object's old footprint is floor again
   [s]; a footprint that never clears is charged ``never_cleared_s``. Recordings without events
   contribute no clearing term.
 
-The objective of one recording is ``w_table1 * table1_mm + w_cells * cell_error_pct +
-w_clearing * clearing_s``; a trial's objective is the mean over the suite's recordings. With
-the default weights (all 1) one millimetre of Table I error, one percent of wrong cells and one
-second of clearing time cost the same.
+The objective of one recording is ``table1_mm * w.table1_mm + cell_error_pct *
+w.cell_error_pct + unknown_pct * w.unknown_pct + clearing_s * w.clearing_s``; a trial's
+objective is the mean over the suite's recordings. With the default weights one millimetre of
+Table I error, one percent of wrong cells, ten percent of unknown cells and one second of
+clearing time cost the same.
 """
 
 from __future__ import annotations
@@ -37,6 +40,8 @@ class ObjectiveWeights:
     Attributes:
         table1_mm: Weight per millimetre of mean absolute Table I error.
         cell_error_pct: Weight per percent of seen cells labelled wrong.
+        unknown_pct: Weight per percent of the scored area left unknown (keeps the search from
+            buying accuracy by labelling less).
         clearing_s: Weight per second of event clearing time.
         missing_row_mm: Error charged for a Table I row without an estimate [mm].
         never_cleared_s: Clearing time charged when a footprint never clears [s].
@@ -44,6 +49,7 @@ class ObjectiveWeights:
 
     table1_mm: float = 1.0
     cell_error_pct: float = 1.0
+    unknown_pct: float = 0.1
     clearing_s: float = 1.0
     missing_row_mm: float = 50.0
     never_cleared_s: float = 10.0
@@ -57,10 +63,10 @@ class ObjectiveWeights:
                 raise FogsimError(
                     f"objective weight {f.name} must be finite and >= 0, got {value!r}"
                 )
-        if self.table1_mm == self.cell_error_pct == self.clearing_s == 0:
+        if self.table1_mm == self.cell_error_pct == self.unknown_pct == self.clearing_s == 0:
             raise FogsimError(
-                "objective weights table1_mm, cell_error_pct and clearing_s are all 0; "
-                "at least one must be > 0"
+                "objective weights table1_mm, cell_error_pct, unknown_pct and clearing_s are "
+                "all 0; at least one must be > 0"
             )
 
     @classmethod
@@ -99,7 +105,8 @@ class ObjectiveTerms:
 
     Attributes:
         table1_mm: Mean absolute Table I error of the FOG [mm] (missing rows charged).
-        cell_error_pct: Seen cells labelled wrong [%].
+        cell_error_pct: Seen cells labelled wrong [%] (100 if none was seen).
+        unknown_pct: Cells of the scored area the FOG left unknown [%].
         clearing_s: Mean event clearing time [s] (never-cleared charged), None without events.
         table1_rows: Number of Table I rows.
         seen_cells: Number of seen cells the cell accuracy is over.
@@ -107,6 +114,7 @@ class ObjectiveTerms:
 
     table1_mm: float
     cell_error_pct: float
+    unknown_pct: float
     clearing_s: float | None
     table1_rows: int
     seen_cells: int
@@ -114,6 +122,7 @@ class ObjectiveTerms:
     def value(self, weights: ObjectiveWeights) -> float:
         """The weighted objective of this recording (lower is better)."""
         total = weights.table1_mm * self.table1_mm + weights.cell_error_pct * self.cell_error_pct
+        total += weights.unknown_pct * self.unknown_pct
         if self.clearing_s is not None:
             total += weights.clearing_s * self.clearing_s
         return float(total)
@@ -134,33 +143,27 @@ def _number(value: Any) -> float | None:
     return out if math.isfinite(out) else None
 
 
-def _fog_rows(report: Mapping[str, Any]) -> list[Mapping[str, Any]]:
-    """The FOG's Table I rows of a report."""
-    table = report.get("table1")
-    if isinstance(table, Mapping):
-        rows = table.get("fog", [])
-    elif isinstance(table, list):
-        rows = table
-    else:
-        raise FogsimError("report has no 'table1' (a dict with a 'fog' list of rows)")
-    return [row for row in rows if isinstance(row, Mapping)]
-
-
-def _fog_cells(report: Mapping[str, Any]) -> Mapping[str, Any]:
-    """The FOG's cell statistics of a report."""
-    cells = report.get("cells")
-    if not isinstance(cells, Mapping):
-        raise FogsimError("report has no 'cells' table")
-    fog = cells.get("fog", cells)
-    if not isinstance(fog, Mapping):
-        raise FogsimError("report 'cells.fog' is not a table")
+def _fog_table(report: Mapping[str, Any], key: str, kind: type) -> Any:
+    """``report[key]["fog"]``, checked to be of ``kind``."""
+    table = report.get(key)
+    fog = table.get("fog") if isinstance(table, Mapping) else None
+    if not isinstance(fog, kind):
+        raise FogsimError(
+            f"report has no '{key}.fog' table (a report of a run with ground truth is needed); "
+            f"got {key}={table!r:.80}"
+        )
     return fog
 
 
 def objective_terms(
     report: Mapping[str, Any], weights: ObjectiveWeights, frame_rate_hz: float
 ) -> ObjectiveTerms:
-    """Reduce one report (DESIGN.md "Results") to the objective's terms.
+    """Reduce one report (DESIGN.md "Results", :func:`fogsim.report.build_report`) to terms.
+
+    Reads ``table1.fog`` rows (``error_mm``; rows whose surface has no interior cell in the
+    scored area, ``surface_cells == 0``, are left out), ``cells.fog`` (``region``, ``seen``,
+    ``correct``) and ``events`` (``fog_frames``: frames until the old footprint is cleared,
+    null = never).
 
     Args:
         report: A report dict as :func:`fogsim.pipeline.replay_report` returns it.
@@ -172,21 +175,23 @@ def objective_terms(
     """
     if not frame_rate_hz > 0:
         raise FogsimError(f"frame_rate_hz must be > 0, got {frame_rate_hz!r}")
-    rows = _fog_rows(report)
+    rows = [
+        row
+        for row in _fog_table(report, "table1", list)
+        if isinstance(row, Mapping) and row.get("surface_cells", 1) != 0
+    ]
     errors = []
     for row in rows:
         error = _number(row.get("error_mm"))
         errors.append(weights.missing_row_mm if error is None else abs(error))
     table1_mm = sum(errors) / len(errors) if errors else 0.0
 
-    cells = _fog_cells(report)
+    cells = _fog_table(report, "cells", Mapping)
+    region = int(_number(cells.get("region")) or 0)
     seen = int(_number(cells.get("seen")) or 0)
-    correct = _number(cells.get("correct"))
-    if seen > 0 and correct is not None:
-        cell_error_pct = 100.0 * (1.0 - correct / seen)
-    else:
-        accuracy = _number(cells.get("accuracy"))
-        cell_error_pct = 100.0 if accuracy is None else 100.0 * (1.0 - accuracy)
+    correct = int(_number(cells.get("correct")) or 0)
+    cell_error_pct = 100.0 * (1.0 - correct / seen) if seen else 100.0
+    unknown_pct = 100.0 * (1.0 - seen / region) if region else 100.0
 
     clearing: list[float] = []
     for event in report.get("events") or []:
@@ -198,6 +203,7 @@ def objective_terms(
     return ObjectiveTerms(
         table1_mm=float(table1_mm),
         cell_error_pct=float(cell_error_pct),
+        unknown_pct=float(unknown_pct),
         clearing_s=None if clearing_s is None else float(clearing_s),
         table1_rows=len(rows),
         seen_cells=seen,
