@@ -81,14 +81,26 @@ def test_support_height_on_route(stage_grid):
     assert truth.support_height_m([[1.15, 0.5], [1.1499, 0.5]]) == pytest.approx([0.038, 0.0])
 
 
-def test_hanging_table_is_an_obstacle_above_floor():
+def test_hanging_objects_are_obstacles_above_floor():
     truth = SceneTruth.from_scenario(load_scenario("table"), 0.0)
-    grid = truth.rasterize(cell_centers(0.98, 0.08, 16, 21), CELL_M)
+    grid = truth.rasterize(cell_centers(1.18, 0.18, 16, 21), CELL_M)
     under = grid.labels == TruthLabel.OBSTACLE
     assert under.sum() == 10 * 15  # 0.4 x 0.6 m table = 10 x 15 cells, aligned
     assert np.all(grid.obstacle_top_m[under] == pytest.approx(0.38, abs=1e-12))
+    assert np.all(np.isnan(grid.floor_m[under]))
     # The table is no support: the robot stands on the ground under it.
-    assert truth.support_height_m([[1.3, 0.5]]) == pytest.approx([0.0])
+    assert truth.support_height_m([[1.5, 0.6]]) == pytest.approx([0.0])
+    # The curtain (x 0.95..1.05, y 0.1..0.6, 0.2..1.2 m): cells with centres 0.96, 1.0, 1.04.
+    grid = truth.rasterize(cell_centers(0.9, 0.0, 5, 20), CELL_M)
+    curtain = grid.labels == TruthLabel.OBSTACLE
+    assert curtain.any(axis=1).tolist() == [False, True, True, True, False]
+    assert curtain[2].sum() == 13  # cell centres 0.1..0.58 lie on y 0.1..0.6 (edges included)
+    assert np.all(grid.obstacle_top_m[curtain] == pytest.approx(1.2))
+    # Only the middle column (x 0.98..1.02) lies wholly under the curtain.
+    assert (
+        grid.interior[curtain].sum() == 12
+    )  # y 0.1..0.6 wholly holds cells 0.12..0.16 to 0.56..0.60
+    assert np.all(np.nonzero(grid.interior & curtain)[0] == 2)
 
 
 def test_stacked_and_rotated_objects():
