@@ -14,6 +14,7 @@ from collections.abc import Sequence
 from pathlib import Path
 
 from fogsim.errors import FogsimError
+from fogsim.tune import add_tune_arguments
 from mapper.errors import MapperError
 
 CAMERA_MODES = ("ideal", "depth", "stereo")
@@ -78,6 +79,7 @@ def _parser() -> argparse.ArgumentParser:
         metavar="KEY=VALUE",
         help="override a value in every scenario",
     )
+    add_tune_arguments(sub)
     return parser
 
 
@@ -234,6 +236,8 @@ def main(argv: Sequence[str] | None = None) -> int:
             return _cmd_run(args)
         if args.command == "record":
             return _cmd_record(args)
+        if args.command == "tune":
+            return args.func(args)
         return _cmd_suite(args)
     except (FogsimError, MapperError) as exc:
         print(f"fogsim: error: {exc}", file=sys.stderr)

@@ -50,13 +50,9 @@ from collections.abc import Iterator, Mapping, Sequence
 from dataclasses import dataclass, field
 from enum import StrEnum
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
-import optuna
-import sqlalchemy
-from optuna.distributions import BaseDistribution, FloatDistribution, IntDistribution
-from optuna.trial import FrozenTrial, TrialState
 
 from fogsim.atomic import write_atomic, write_text_atomic
 from fogsim.errors import FogsimError
@@ -67,6 +63,11 @@ from fogsim.tune_objective import (
     TrialScore,
     score_parameters,
 )
+
+if TYPE_CHECKING:  # optuna and sqlalchemy are imported where used: `fogsim --help` stays fast
+    import optuna
+    from optuna.distributions import BaseDistribution
+    from optuna.trial import FrozenTrial
 
 SEGMENTATION_PREFIX = "seg."
 STUDY_FILE = "tune.db"
@@ -198,6 +199,8 @@ class ParamSpec:
 
     def distribution(self) -> BaseDistribution:
         """The Optuna distribution of this range."""
+        from optuna.distributions import FloatDistribution, IntDistribution
+
         if self.integer:
             return IntDistribution(int(self.low), int(self.high), log=self.log)
         return FloatDistribution(self.low, self.high, log=self.log)
@@ -599,6 +602,8 @@ class _Heartbeat:
 
 
 def _storage(config: TuneConfig) -> optuna.storages.RDBStorage:
+    import optuna
+
     config.out_dir.mkdir(parents=True, exist_ok=True)
     return optuna.storages.RDBStorage(
         f"sqlite:///{config.study_path.resolve()}",
@@ -610,6 +615,8 @@ def _storage(config: TuneConfig) -> optuna.storages.RDBStorage:
 
 
 def _sampler(config: TuneConfig) -> optuna.samplers.BaseSampler:
+    import optuna
+
     if config.sampler is SamplerKind.TPE:
         return optuna.samplers.TPESampler(seed=config.seed, multivariate=True)
     # Random, and the grid (whose points are queued as fixed trials; see _queue_first_trials).
@@ -645,6 +652,8 @@ def _open_study(
     config: TuneConfig, suite: Sequence[SuiteEntry], defaults: Mapping[str, float]
 ) -> tuple[optuna.Study, optuna.storages.RDBStorage, int]:
     """Create or resume the study; returns it, its storage and the number of trials to reach."""
+    import optuna
+
     storage = _storage(config)
     study = optuna.create_study(
         storage=storage,
@@ -684,6 +693,10 @@ def _fail_dead_trials(
     never calls stale; such a trial older than ``grace_s`` is failed and retried here too (a
     live run heartbeats its trials milliseconds after creating them).
     """
+    import optuna
+    import sqlalchemy
+    from optuna.trial import TrialState
+
     optuna.storages.fail_stale_trials(study)
     now = datetime.datetime.now()  # Optuna stamps datetime_start with local naive time
     old = [
@@ -708,11 +721,15 @@ def _fail_dead_trials(
 
 def _finished(study: optuna.Study) -> int:
     """Scored trials: complete, or failed because scoring raised (not stale ones)."""
+    from optuna.trial import TrialState
+
     trials = study.get_trials(deepcopy=False, states=(TrialState.COMPLETE, TrialState.FAIL))
     return sum(t.state == TrialState.COMPLETE or "error" in t.user_attrs for t in trials)
 
 
 def _tell(study: optuna.Study, trial: optuna.Trial, outcome: Outcome) -> None:
+    from optuna.trial import TrialState
+
     if isinstance(outcome, BaseException):
         trial.set_user_attr("error", f"{type(outcome).__name__}: {outcome}")
         study.tell(trial, state=TrialState.FAIL)
@@ -776,6 +793,8 @@ def tune(
     Raises:
         FogsimError: invalid setup, a study made with other settings, or no trial scored.
     """
+    import optuna
+
     if not suite:
         raise FogsimError("the suite is empty")
     report = report_function or default_report_function()
@@ -938,6 +957,8 @@ def write_results(study: optuna.Study, config: TuneConfig) -> TuneResult:
     Raises:
         FogsimError: no trial completed (the message quotes the first scoring error).
     """
+    from optuna.trial import TrialState
+
     trials = study.get_trials(deepcopy=False)
     complete = sorted(
         (t for t in trials if t.state == TrialState.COMPLETE), key=lambda t: (t.value, t.number)
@@ -1002,7 +1023,11 @@ def add_tune_arguments(subparsers: Any) -> argparse.ArgumentParser:
     parser = subparsers.add_parser(
         "tune",
         help="tune mapper/segmentation thresholds over a suite of recordings",
-        description=__doc__.split("\n\n")[0],
+        description="Search mapper and segmentation thresholds (Optuna TPE, random or grid) "
+        "by replaying a suite's recordings; results and the study database go to --out, and "
+        "running the same command again resumes the study.",
+        epilog="example: fogsim tune scenarios --quick --param p_occ=0.55:0.95 "
+        "--param eps_m=0.005:0.05:log --trials 40 --workers 2 --out runs/tune",
     )
     parser.add_argument(
         "suite",
@@ -1039,7 +1064,8 @@ def add_tune_arguments(subparsers: Any) -> argparse.ArgumentParser:
         action="append",
         default=[],
         metavar="NAME=VALUE",
-        help="objective weight, e.g. table1_mm=1 cell_error_pct=1 clearing_s=1",
+        help="objective weight (repeatable): table1_mm, cell_error_pct, unknown_pct, "
+        "clearing_s, missing_row_mm, never_cleared_s; see fogsim.tune_objective",
     )
     parser.add_argument("--out", required=True, type=Path, help="output directory")
     parser.add_argument("--study-name", default="fogsim-tune")
