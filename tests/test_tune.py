@@ -517,3 +517,38 @@ def test_small_tune_on_replayed_recordings_is_at_least_as_good_as_the_defaults(t
     tuned = load_scenario(pasted)
     assert tuned.mapper["p_occ"] == result.best_params["p_occ"]
     assert tuned.segmentation["min_plane_pixels"] == result.best_params["seg.min_plane_pixels"]
+
+
+def test_cli_tune_from_a_recording_file_and_resume(tmp_path, capsys):
+    from fogsim.cli import main
+    from fogsim.recording import save_recording
+
+    (entry,) = synthetic_box_removal_suite(frames=60)
+    rec = entry.recording
+    suite_dir = tmp_path / "suite"
+    save_recording(
+        suite_dir / "box_removal.npz", rec.frames, scenario=rec.scenario, truths=rec.truths
+    )
+    argv = [
+        "tune",
+        str(suite_dir),
+        "--param",
+        "p_occ=0.55:0.95",
+        "--trials",
+        "2",
+        "--out",
+        str(tmp_path / "out"),
+        "--no-progress",
+        "--no-pictures",
+        "--seed",
+        "1",
+    ]
+    assert main(argv) == 0
+    printed = capsys.readouterr().out
+    assert "[mapper]" in printed and "| rank | trial | objective" in printed
+    argv[argv.index("--trials") + 1] = "3"
+    assert main(argv) == 0  # resumes: one more trial
+    assert [n for n, s in read_trials(tmp_path / "out" / "tune.db")] == [0, 1, 2]
+    assert main([*argv, "--weight", "table1_mm=5"]) == 2  # other weights: refused
+    assert "made with other weights" in capsys.readouterr().err
+    assert main(["tune", str(suite_dir), "--param", "p_occ=0.9:0.5", "--out", "x"]) == 2
