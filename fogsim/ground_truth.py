@@ -281,7 +281,8 @@ class SceneTruth:
         keys = self._labels_of(samples.reshape(-1, 2))["owner_key"]
         interior = np.ones(flat.shape[0], dtype=bool)
         interior[near_edge] = np.all(
-            keys.reshape(candidates.shape[0], -1) == at_center["owner_key"][near_edge, None],
+            keys.reshape(candidates.shape[0], _INTERIOR_SAMPLES**2)
+            == at_center["owner_key"][near_edge, None],
             axis=1,
         )
 

@@ -165,3 +165,12 @@ def test_object_state_contains_rotated_footprint():
     ]
     corners = obj.footprint_corners_xy()
     assert np.abs(corners).max(axis=0) == pytest.approx([0.1, 0.2])
+
+
+def test_grid_far_from_every_object_and_empty_scene():
+    truth = SceneTruth.from_scenario(load_scenario("stage"), 0.0)
+    grid = truth.rasterize(cell_centers(10.0, 10.0, 4, 3), CELL_M)  # no edge nearby
+    assert np.all(grid.labels == TruthLabel.FLOOR) and np.all(grid.interior)
+    assert np.all(grid.floor_m == 0.0) and np.all(grid.surface_id == 0)
+    empty = SceneTruth.from_scenario(load_scenario("flat_floor"), 0.0)
+    assert empty.rasterize(cell_centers(0.0, 0.0, 2, 2), CELL_M).interior.all()
