@@ -139,6 +139,12 @@ def insert_frame(
     ox = (sensor_origin[0] - origin_x) / cell
     oy = (sensor_origin[1] - origin_y) / cell
     oz = (sensor_origin[2] - z_min) / layer
+    # Affected area: each ray's cells lie between its first and last cell in x and y (the
+    # traversal is monotonic), so the box comes from the ends, without decoding cell indices.
+    ix0 = nx
+    ix1 = -1
+    iy0 = ny
+    iy1 = -1
     end_g = np.empty((n_points, 3))
     end_i = np.empty((n_points, 3), dtype=np.int64)
     # Pass 1: end cells get the hit mark first, so they win over any miss this frame.
@@ -168,6 +174,10 @@ def insert_frame(
         end_i[i, 1] = iy
         end_i[i, 2] = iz
         used += 1
+        ix0 = min(ix0, ix)
+        ix1 = max(ix1, ix)
+        iy0 = min(iy0, iy)
+        iy1 = max(iy1, iy)
         idx = ix * stride_x + iy * stride_y + iz
         byte = idx >> 3
         bit = np.uint8(1 << (idx & 7))
@@ -223,6 +233,10 @@ def insert_frame(
         cx = min(max(_floor_int(sx), 0), nx - 1)
         cy = min(max(_floor_int(sy), 0), ny - 1)
         cz = min(max(_floor_int(sz), 0), nz - 1)
+        ix0 = min(ix0, cx)
+        ix1 = max(ix1, cx)
+        iy0 = min(iy0, cy)
+        iy1 = max(iy1, cy)
         rem_x = abs(ex - cx)
         rem_y = abs(ey - cy)
         rem_z = abs(ez - cz)
@@ -268,24 +282,13 @@ def insert_frame(
                 if not mark[idx >> 3] & bit:  # not already listed as a hit
                     touched[n_touched] = idx
                     n_touched += 1
-    # Pass 3: apply the table lookups, clear the marks, find the affected area.
-    ix0 = nx
-    ix1 = -1
-    iy0 = ny
-    iy1 = -1
+    # Pass 3: apply the table lookups, clear the marks.
     for t in range(n_touched):
         idx = touched[t]
         if mark[idx >> 3] & np.uint8(1 << (idx & 7)):  # hit this frame: the hit wins
             flat[idx] = hit_table[flat[idx]]
         else:
             flat[idx] = miss_table[flat[idx]]
-        col = idx // nz
-        cxx = col // ny
-        cyy = col - cxx * ny
-        ix0 = min(ix0, cxx)
-        ix1 = max(ix1, cxx)
-        iy0 = min(iy0, cyy)
-        iy1 = max(iy1, cyy)
     mark[:] = 0
     return used, dropped_nonfinite, dropped_outside, n_touched, ix0, ix1 + 1, iy0, iy1 + 1
 
