@@ -74,7 +74,7 @@ def _box_mean(values, clip, half_rows, half_cols):
 
 
 @numba.njit(cache=True)
-def local_noise_depth_m(inv_depth, window, min_noise_m):
+def local_noise_depth_m(inv_depth, window, min_noise_m, cap_factor):
     """Per-pixel standard deviation of the depth [m], estimated from the data.
 
     On a plane the second difference of the inverse depth along a row is pure noise
@@ -86,6 +86,8 @@ def local_noise_depth_m(inv_depth, window, min_noise_m):
         inv_depth: (H, W) inverse depth [1/m], NaN where invalid.
         window: half width [px] of the averaging box along the row.
         min_noise_m: lower bound of the returned noise [m].
+        cap_factor: if > 0, cap every estimate at this multiple of the image's typical noise
+            at the same depth (see `_cap_by_range_profile`).
 
     Returns:
         (H, W) depth noise [m]; NaN where the depth is invalid.
@@ -110,10 +112,69 @@ def local_noise_depth_m(inv_depth, window, min_noise_m):
             if not z > 0.0:
                 continue
             m = mean[r, c]
-            if not m == m:
+            if m != m:  # NaN
                 m = fallback
             out[r, c] = max(m * _CLIPPED_MEAN_TO_SIGMA / (z * z), min_noise_m)
+    if cap_factor > 0.0:
+        _cap_by_range_profile(out, inv_depth, cap_factor, min_noise_m)
     return out
+
+
+@numba.njit(cache=True)
+def _cap_by_range_profile(sigma, inv_depth, cap_factor, min_noise_m):
+    """Cap local noise at ``cap_factor`` × the image's typical noise at the same depth.
+
+    The typical noise is a robust (twice clipped) mean of the local estimates in 16 depth bins,
+    interpolated linearly in depth. A rough surface raises its own local estimate (its bumps
+    look like noise at the pixel scale); the cap keeps it from widening its tolerances beyond
+    what the sensor shows elsewhere at that range. Works in place.
+    """
+    height, width = sigma.shape
+    n_bins = 16
+    d_min = np.inf
+    d_max = 0.0
+    for r in range(height):
+        for c in range(width):
+            z = inv_depth[r, c]
+            if z > 0.0:
+                d_min = min(d_min, 1.0 / z)
+                d_max = max(d_max, 1.0 / z)
+    if not d_max > d_min:
+        return
+    step = (d_max - d_min) / n_bins
+    level = np.full(n_bins, np.inf)
+    for _ in range(3):
+        total = np.zeros(n_bins)
+        count = np.zeros(n_bins)
+        for r in range(height):
+            for c in range(width):
+                z = inv_depth[r, c]
+                if z > 0.0:
+                    b = min(int((1.0 / z - d_min) / step), n_bins - 1)
+                    total[b] += min(sigma[r, c], 2.0 * level[b])
+                    count[b] += 1.0
+        for b in range(n_bins):
+            level[b] = total[b] / count[b] if count[b] >= 20.0 else np.inf
+    for r in range(height):
+        for c in range(width):
+            z = inv_depth[r, c]
+            if not z > 0.0:
+                continue
+            pos = (1.0 / z - d_min) / step - 0.5
+            b0 = min(max(math.floor(pos), 0), n_bins - 1)
+            b1 = min(b0 + 1, n_bins - 1)
+            t = min(max(pos - b0, 0.0), 1.0)
+            lo = level[b0]
+            hi = level[b1]
+            if lo == np.inf and hi == np.inf:
+                continue
+            if lo == np.inf:
+                typical = hi
+            elif hi == np.inf:
+                typical = lo
+            else:
+                typical = (1.0 - t) * lo + t * hi
+            sigma[r, c] = max(min(sigma[r, c], cap_factor * typical), min_noise_m)
 
 
 @numba.njit(cache=True)
@@ -651,8 +712,12 @@ def grow_planes(
 
     Args:
         inv_depth: (H, W) inverse depth [1/m].
-        x, y: normalised image coordinates of columns (W,) and rows (H,).
-        seg_rows, seg_starts, seg_stops, seg_table: output of `split_rows`.
+        x: (W,) normalised image x of the columns.
+        y: (H,) normalised image y of the rows.
+        seg_rows: (S,) row of each segment (output of `split_rows`).
+        seg_starts: (S,) first column of each segment.
+        seg_stops: (S,) column after the last of each segment.
+        seg_table: (S, 3) line parameters and mean sigma of each segment.
         grow_factor: end points must agree within this many sigma.
         rms_factor: the RMS depth residual must be within this many sigma.
         tolerance_floor_m: constant added to every tolerance [m].
@@ -902,7 +967,7 @@ def reassign_segments(
                 gap = 1 if rr == r else 0
                 for t in range(row_first[rr], row_first[rr + 1]):
                     q = before[t]
-                    if q < 0 or q == own or q == best or not valid[q]:
+                    if q < 0 or q in (own, best) or not valid[q]:
                         continue
                     if not _overlap(a, b, seg_starts[t], seg_stops[t], gap):
                         continue
@@ -939,11 +1004,12 @@ def plane_moments(points_camera, ids, normals_camera, n_planes, fx, fy):
         ids: (N,) plane id per point (-1: none).
         normals_camera: (P, 3) unit plane normals in the camera frame.
         n_planes: P.
-        fx, fy: focal lengths [px].
+        fx: focal length along x [px].
+        fy: focal length along y [px].
 
     Returns:
-        centroids (P, 3) camera frame [m], covariance eigenvalues (P, 3) ascending [m²], footprint areas
-        (P,) [m²] (pixel footprints on the plane, incidence capped at cos 0.1).
+        centroids (P, 3) camera frame [m], covariance eigenvalues (P, 3) ascending [m²],
+        footprint areas (P,) [m²] (pixel footprints on the plane, incidence capped at cos 0.1).
     """
     sums = np.zeros((n_planes, _N_SUMS + 3))
     areas = np.zeros(n_planes)

@@ -42,7 +42,9 @@ class SegmentationParams:
         min_depth_m: depths below this are no measurement [m].
         max_depth_m: depths above this are no measurement [m].
         noise_window_px: half width of the box (3 rows high) estimating local noise [px].
-        min_noise_m: lower bound of the per-pixel noise along the ray [m].
+        min_noise_m: lower bound of the per-pixel depth noise [m].
+        noise_cap_factor: the local noise is capped at this multiple of the image's typical
+            noise at the same depth (rough surfaces can't widen their own tolerances); 0: off.
         tolerance_floor_m: constant added to every distance tolerance [m] (for exact data).
         split_sigma_factor: a row pixel farther than this many sigma from its line splits it.
         split_rms_sigma_factor: a row piece whose RMS residual exceeds this many sigma is split.
@@ -76,7 +78,8 @@ class SegmentationParams:
     max_depth_m: float = 10.0
     noise_window_px: int = 6
     min_noise_m: float = 0.0005
-    tolerance_floor_m: float = 0.003
+    noise_cap_factor: float = 1.5
+    tolerance_floor_m: float = 0.001
     split_sigma_factor: float = 4.0
     split_rms_sigma_factor: float = 1.3
     edge_window_px: int = 5
@@ -93,7 +96,7 @@ class SegmentationParams:
     min_plane_pixels: int = 20
     min_plane_extent_m: float = 0.08
     floor_max_normal_angle_deg: float = 5.0
-    max_tilt_correction_deg: float = 10.0
+    max_tilt_correction_deg: float = 12.0
     tilt_consensus_deg: float = 1.5
     expected_ground_z_m: float = 0.0
     ground_search_window_m: float = 0.05
@@ -352,7 +355,9 @@ def segment_depth(
     x = (np.arange(width) - intrinsics.cx) / intrinsics.fx
     y = (np.arange(height) - intrinsics.cy) / intrinsics.fy
     inv_depth = 1.0 / depth
-    sigma = scanline.local_noise_depth_m(inv_depth, params.noise_window_px, params.min_noise_m)
+    sigma = scanline.local_noise_depth_m(
+        inv_depth, params.noise_window_px, params.min_noise_m, params.noise_cap_factor
+    )
     seg_rows, seg_starts, seg_stops, seg_table = scanline.split_rows(
         inv_depth,
         x,

@@ -1,0 +1,247 @@
+"""Plane segmentation on synthetic depth images with exact ground truth (tests/synthetic_depth)."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+from synthetic_depth import (
+    GROUND,
+    Box,
+    add_depth_noise,
+    floor_label_quality,
+    look_down_camera,
+    render_scene,
+    staircase,
+)
+
+from mapper.errors import InvalidInputError, InvalidParameterError
+from mapper.intrinsics import PinholeIntrinsics
+from mapper.segmentation import SegmentationParams, SegmentationResult, segment_depth
+
+SMALL = PinholeIntrinsics.from_fov(88, 72, 47.0, 39.0)
+LARGE = PinholeIntrinsics.from_fov(176, 144, 47.0, 39.0)
+CAMERA = look_down_camera((0.0, 0.0, 0.9), pitch_down_deg=30.0)
+STAIRS = staircase()  # the paper's Table I: steps at 31, 61, 94 mm, platform at 122 mm
+
+
+def _rotation(axis: str, angle_deg: float) -> np.ndarray:
+    c, s = math.cos(math.radians(angle_deg)), math.sin(math.radians(angle_deg))
+    if axis == "x":
+        return np.array([[1.0, 0.0, 0.0], [0.0, c, -s], [0.0, s, c]])
+    return np.array([[c, 0.0, s], [0.0, 1.0, 0.0], [-s, 0.0, c]])
+
+
+def _floor_heights_image(result: SegmentationResult) -> np.ndarray:
+    return result.labels_image("floor")
+
+
+# --- parameters and inputs -------------------------------------------------------------------
+
+
+@pytest.mark.parametrize(
+    ("field", "value"),
+    [
+        ("grow_sigma_factor", 0.0),
+        ("min_plane_extent_m", -0.1),
+        ("min_plane_pixels", 2),
+        ("noise_window_px", 2.5),
+        ("floor_max_normal_angle_deg", 95.0),
+        ("max_depth_m", math.nan),
+        ("correct_tilt", 1),
+    ],
+)
+def test_invalid_params_name_the_field(field, value):
+    with pytest.raises(InvalidParameterError, match=field):
+        SegmentationParams(**{field: value})
+
+
+def test_params_from_mapping_converts_integral_floats_and_rejects_unknown_keys():
+    params = SegmentationParams.from_mapping({"min_plane_pixels": 30.0, "grow_sigma_factor": 2})
+    assert params.min_plane_pixels == 30 and isinstance(params.min_plane_pixels, int)
+    assert params.grow_sigma_factor == 2.0
+    with pytest.raises(InvalidParameterError, match=r"allowed: .*min_plane_pixels"):
+        SegmentationParams.from_mapping({"min_plane_pixel": 30})
+
+
+def test_wrong_depth_shape_and_non_rigid_transform_are_rejected():
+    with pytest.raises(InvalidInputError, match=r"\(72, 88\)"):
+        segment_depth(np.ones((72, 87)), SMALL, CAMERA)
+    sheared = CAMERA.copy()
+    sheared[0, 1] += 0.1
+    with pytest.raises(InvalidInputError, match="rigid"):
+        segment_depth(np.ones((72, 88)), SMALL, sheared)
+    with pytest.raises(InvalidInputError, match="4×4"):
+        segment_depth(np.ones((72, 88)), SMALL, np.eye(3))
+
+
+@pytest.mark.parametrize("fill", [np.nan, 0.0])
+def test_image_without_measurements_gives_empty_result(fill):
+    result = segment_depth(np.full((72, 88), fill), SMALL, CAMERA)
+    assert result.points.shape == (0, 3)
+    assert result.floor_heights.shape == result.plane_ids.shape == result.pixel_index.shape == (0,)
+    assert len(result.planes) == 0
+    assert not result.correction.ground_plane_found
+    assert result.correction.z_shift_m == 0.0
+    np.testing.assert_array_equal(result.correction.rotation, np.eye(3))
+    assert (result.labels_image() == -2).all()
+
+
+# --- known scenes, exact depth -----------------------------------------------------------------
+
+
+def test_flat_floor_every_pixel_is_floor_at_zero():
+    scene = render_scene(SMALL, CAMERA)
+    result = segment_depth(scene.depth_m, SMALL, CAMERA)
+    valid = np.flatnonzero(np.isfinite(scene.depth_m))
+    np.testing.assert_array_equal(result.pixel_index, valid)  # all valid pixels, row-major
+    np.testing.assert_allclose(result.points, scene.points_world.reshape(-1, 3)[valid], atol=1e-6)
+    assert len(result.planes) == 1 and result.planes.is_floor[0]
+    np.testing.assert_allclose(result.floor_heights, 0.0, atol=1e-4)
+    assert result.correction.ground_plane_found
+    assert result.correction.rotation_deg < 1e-3
+    assert abs(result.correction.z_shift_m) < 1e-4
+    assert abs(result.planes.normals[0, 2] - 1.0) < 1e-9
+
+
+def test_box_top_is_floor_at_its_height_and_its_sides_are_not():
+    box = Box(center_xy_m=(1.5, 0.1), size_m=(0.4, 0.4, 0.15), yaw_deg=20.0)
+    scene = render_scene(SMALL, CAMERA, [box])
+    result = segment_depth(scene.depth_m, SMALL, CAMERA)
+    heights = _floor_heights_image(result)
+    top = (scene.box_index == 0) & scene.on_top
+    sides = (scene.box_index == 0) & ~scene.on_top
+    ground = scene.box_index == GROUND
+    assert top.sum() > 100 and sides.sum() > 50
+    assert np.isfinite(heights[top]).mean() > 0.97  # corner pixels on the edge may stay out
+    np.testing.assert_allclose(heights[top & np.isfinite(heights)], 0.15, atol=1e-3)
+    # A few side pixels at the top or bottom edge may join the top or the ground plane, but
+    # only where their own height matches.
+    assert np.isnan(heights[sides]).mean() > 0.95
+    side_labelled = sides & np.isfinite(heights)
+    assert np.all(np.abs(heights[side_labelled] - scene.points_world[side_labelled][:, 2]) < 0.01)
+    np.testing.assert_allclose(heights[ground], 0.0, atol=1e-3)
+
+
+@pytest.mark.parametrize("intrinsics", [SMALL, LARGE], ids=["88x72", "176x144"])
+def test_staircase_each_tread_at_its_height(intrinsics):
+    scene = render_scene(intrinsics, CAMERA, STAIRS)
+    result = segment_depth(scene.depth_m, intrinsics, CAMERA)
+    heights = _floor_heights_image(result)
+    for i, box in enumerate(STAIRS):
+        tread = (scene.box_index == i) & scene.on_top
+        assert tread.sum() > 50
+        np.testing.assert_allclose(heights[tread], box.top_z_m, atol=1e-3)
+    quality = floor_label_quality(scene, STAIRS, result.labels_image(), heights)
+    assert quality.right_plane_fraction >= 0.99
+    assert quality.worst_merge_share < 0.02
+    floor_planes = np.sort(result.planes.heights_m[result.planes.is_floor])
+    np.testing.assert_allclose(floor_planes, [0.0, 0.031, 0.061, 0.094, 0.122], atol=1e-3)
+
+
+def test_rough_top_gets_no_floor_labels():
+    rough = Box((1.3, 0.0), (0.5, 0.5, 0.12), rough_amplitude_m=0.02, rough_wavelength_m=0.12)
+    camera = look_down_camera((0.0, 0.0, 0.9), pitch_down_deg=35.0)
+    scene = render_scene(SMALL, camera, [rough])
+    result = segment_depth(scene.depth_m, SMALL, camera)
+    heights = _floor_heights_image(result)
+    top = (scene.box_index == 0) & scene.on_top
+    assert top.sum() > 300
+    assert np.isnan(heights[top]).all()
+    assert np.isfinite(heights[scene.box_index == GROUND]).mean() > 0.99
+
+
+def test_tall_vertical_wall_is_a_plane_but_not_floor():
+    wall = Box((1.6, 0.0), (0.1, 3.0, 1.5))
+    scene = render_scene(SMALL, CAMERA, [wall])
+    result = segment_depth(scene.depth_m, SMALL, CAMERA)
+    face = (scene.box_index == 0) & ~scene.on_top
+    plane_image = result.labels_image()
+    wall_planes = np.unique(plane_image[face & (plane_image >= 0)])
+    assert face.sum() > 500 and wall_planes.size >= 1
+    assert not result.planes.is_floor[wall_planes].any()
+    assert abs(result.planes.normals[wall_planes[0], 2]) < 0.01
+    assert np.isnan(_floor_heights_image(result)[face]).mean() > 0.97
+
+
+# --- noise and pose errors -------------------------------------------------------------------
+
+
+@pytest.mark.parametrize("pitch_deg", [25.0, 30.0, 35.0])
+@pytest.mark.parametrize("seed", [0, 1])
+def test_noisy_staircase_quality(pitch_deg, seed):
+    """1 % depth noise: ≥ 95 % right plane, median error ≤ 3 mm, no floor plane merges two."""
+    camera = look_down_camera((0.0, 0.0, 0.9), pitch_down_deg=pitch_deg)
+    scene = render_scene(SMALL, camera, STAIRS)
+    depth = add_depth_noise(scene.depth_m, 0.01, np.random.default_rng(seed))
+    result = segment_depth(depth, SMALL, camera)
+    heights = _floor_heights_image(result)
+    plane_image = result.labels_image()
+    floor_plane_image = np.where(
+        plane_image >= 0, np.where(result.planes.is_floor[plane_image], plane_image, -1), -1
+    )
+    quality = floor_label_quality(scene, STAIRS, floor_plane_image, heights)
+    assert quality.right_plane_fraction >= 0.95
+    assert quality.median_height_error_m <= 0.003
+    assert quality.worst_merge_share < 0.05
+    for i, box in enumerate(STAIRS):  # every tread found, its height within 5 mm
+        tread = (scene.box_index == i) & scene.on_top
+        assert abs(np.nanmedian(heights[tread]) - box.top_z_m) < 0.005
+
+
+@pytest.mark.parametrize(
+    ("roll_deg", "pitch_deg", "offset_m"),
+    [(7.0, 7.0, 0.01), (-7.0, 7.0, -0.01), (7.0, -7.0, -0.01), (-7.0, -7.0, 0.01), (0, 0, 0)],
+)
+def test_believed_pose_error_is_corrected(roll_deg, pitch_deg, offset_m):
+    boxes = [*STAIRS, Box((1.0, -0.7), (0.3, 0.3, 0.15))]
+    scene = render_scene(SMALL, CAMERA, boxes)
+    believed = CAMERA.copy()
+    believed[:3, :3] = _rotation("x", roll_deg) @ _rotation("y", pitch_deg) @ CAMERA[:3, :3]
+    believed[:3, 3] += (offset_m, -offset_m, offset_m)
+    result = segment_depth(scene.depth_m, SMALL, believed)
+
+    tilt_deg = math.degrees(
+        math.acos(math.cos(math.radians(roll_deg)) * math.cos(math.radians(pitch_deg)))
+    )
+    assert result.correction.ground_plane_found
+    assert abs(result.correction.rotation_deg - tilt_deg) < 0.05
+    assert abs(result.correction.z_shift_m + offset_m) < 0.001
+    labelled = np.isfinite(result.floor_heights)
+    truth = scene.true_floor_height_m(boxes).reshape(-1)[result.pixel_index]
+    true_z = scene.points_world.reshape(-1, 3)[result.pixel_index, 2]
+    reference = np.where(np.isfinite(truth), truth, true_z)  # off-surface labels: their own z
+    assert labelled.sum() > 0.9 * np.isfinite(truth).sum()
+    assert np.abs(result.floor_heights[labelled] - reference[labelled]).max() <= 0.005
+
+
+def test_ground_not_in_window_means_no_shift():
+    platform = Box((1.5, 0.0), (4.0, 4.0, 0.3))  # everything seen is 0.3 m above the ground
+    camera = look_down_camera((0.0, 0.0, 0.9), pitch_down_deg=40.0)
+    scene = render_scene(SMALL, camera, [platform])
+    assert (scene.box_index == 0).all()
+    result = segment_depth(scene.depth_m, SMALL, camera)
+    assert not result.correction.ground_plane_found
+    assert result.correction.z_shift_m == 0.0
+    np.testing.assert_allclose(result.floor_heights, 0.3, atol=1e-3)
+
+
+def test_same_input_gives_bitwise_same_result():
+    scene = render_scene(SMALL, CAMERA, STAIRS)
+    depth = add_depth_noise(scene.depth_m, 0.01, np.random.default_rng(3))
+    first = segment_depth(depth, SMALL, CAMERA)
+    second = segment_depth(depth.copy(), SMALL, CAMERA)
+    for name in ("points", "floor_heights", "plane_ids", "pixel_index"):
+        np.testing.assert_array_equal(getattr(first, name), getattr(second, name))
+    np.testing.assert_array_equal(first.correction.rotation, second.correction.rotation)
+
+
+def test_out_of_range_depths_are_no_measurement():
+    scene = render_scene(SMALL, CAMERA)
+    depth = scene.depth_m.copy()
+    depth[:10] = 50.0  # beyond max_depth_m
+    depth[10:12] = 0.0
+    result = segment_depth(depth, SMALL, CAMERA)
+    assert result.pixel_index.min() == 12 * 88
+    assert result.labels_image()[:12].max() == -2
