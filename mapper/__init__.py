@@ -7,6 +7,12 @@ from mapper.grid import AffectedArea, CellType, GridGeometry, UpdateResult
 from mapper.intrinsics import PinholeIntrinsics
 from mapper.mapper import FloorObstacleMapper
 from mapper.params import MapperParams
+from mapper.segmentation import (
+    PoseCorrection,
+    SegmentationParams,
+    SegmentationResult,
+    segment_depth,
+)
 from mapper.zmatch import ZDecision, ZMatch, apply_z_shift, frame_decision
 
 __all__ = [
@@ -21,10 +27,14 @@ __all__ = [
     "MapperError",
     "MapperParams",
     "PinholeIntrinsics",
+    "PoseCorrection",
     "RobotElevationFilter",
+    "SegmentationParams",
+    "SegmentationResult",
     "UpdateResult",
     "ZDecision",
     "ZMatch",
     "apply_z_shift",
     "frame_decision",
+    "segment_depth",
 ]
