@@ -27,6 +27,7 @@ Modes:
 from __future__ import annotations
 
 import math
+import weakref
 from dataclasses import dataclass
 
 import cv2
@@ -92,6 +93,8 @@ class RendererDepth:
     ) -> None:
         self.intrinsics = intrinsics
         self._renderer = mujoco.Renderer(model, intrinsics.height, intrinsics.width)
+        # Free the GL context when collected or at exit, before EGL itself is torn down.
+        self._finalizer = weakref.finalize(self, self._renderer.close)
         self._renderer.enable_depth_rendering()
         self._option = _scene_option(geomgroups)
         self._far_m = float(model.vis.map.zfar * model.stat.extent)
@@ -104,8 +107,8 @@ class RendererDepth:
         return depth
 
     def close(self) -> None:
-        """Free the OpenGL context."""
-        self._renderer.close()
+        """Free the OpenGL context (idempotent)."""
+        self._finalizer()
 
 
 class RaycastDepth:
@@ -250,6 +253,7 @@ class StereoMatcher:
         self._renderer = mujoco.Renderer(
             model, self.intrinsics_render.height, self.intrinsics_render.width
         )
+        self._finalizer = weakref.finalize(self, self._renderer.close)
         self._option = _scene_option(geomgroups)
         self._matcher = cv2.StereoSGBM_create(
             minDisparity=0,
@@ -294,8 +298,8 @@ class StereoMatcher:
         return out.astype(np.float32)
 
     def close(self) -> None:
-        """Free the OpenGL context."""
-        self._renderer.close()
+        """Free the OpenGL context (idempotent)."""
+        self._finalizer()
 
 
 class HeadCamera:
