@@ -14,6 +14,7 @@ from fogsim.camera import (
     RendererDepth,
     StereoErrorModel,
     camera_intrinsics,
+    set_model_intrinsics,
 )
 from fogsim.errors import FogsimError
 from fogsim.scenario import CameraConfig, load_scenario, scenario_from_dict
@@ -44,8 +45,6 @@ def stage_scene():
 def cameras(stage_scene):
     intrinsics = camera_intrinsics(CameraConfig())
     for cam in stage_scene.camera_ids.values():
-        from fogsim.camera import set_model_intrinsics
-
         set_model_intrinsics(stage_scene.model, cam, intrinsics)
     renderer = RendererDepth(stage_scene.model, intrinsics)
     raycast = RaycastDepth(stage_scene.model, intrinsics)
@@ -230,8 +229,6 @@ def test_intrinsics_follow_the_scenario():
 def test_camera_inside_its_mount_sees_through_it_in_both_backends():
     import mujoco
 
-    from fogsim.camera import set_model_intrinsics
-
     xml = """<mujoco><statistic extent="10"/><visual><map znear="0.005" zfar="2"/>
     <quality offsamples="0"/></visual><worldbody><geom name="floor" type="plane" size="5 5 .1"/>
     <body name="head" pos="0 0 1.2"><geom name="shell" type="box" size=".1 .1 .1"/>
@@ -247,3 +244,28 @@ def test_camera_inside_its_mount_sees_through_it_in_both_backends():
     renderer.close()
     assert np.isfinite(cast).all() and np.nanmin(cast) > 1.0  # the floor, not the shell
     np.testing.assert_allclose(rendered, cast, atol=1e-4)
+
+
+def test_the_twenty_metre_reading_is_the_far_plane_of_a_small_model():
+    """The early probe's 20.0: extent 0.4 m x zfar 50 = 20 m far plane, where no-hit pixels land."""
+    import mujoco
+
+    xml = """<mujoco><statistic extent="0.4"/><worldbody>
+    <geom name="floor" type="plane" size="0 0 .1"/>
+    <body name="cam" pos="0 0 1" euler="90 0 0"><camera name="c" fovy="39"/></body>
+    </worldbody></mujoco>"""  # camera looking horizontally: the upper half sees nothing
+    model = mujoco.MjModel.from_xml_string(xml)
+    data = mujoco.MjData(model)
+    mujoco.mj_forward(model, data)
+    raw = mujoco.Renderer(model, 72, 88)
+    raw.enable_depth_rendering()
+    raw.update_scene(data, camera=0)
+    raw_depth = raw.render()
+    raw.close()
+    assert raw_depth[0, 0] == pytest.approx(0.4 * 50.0, rel=1e-4)
+    ours = RendererDepth(model, camera_intrinsics(CameraConfig()))
+    set_model_intrinsics(model, 0, ours.intrinsics)
+    depth = ours.render(data, 0)
+    ours.close()
+    assert np.isnan(depth[:30]).all()  # no hit above the horizon
+    assert np.isfinite(depth[-10:]).all()  # the floor below it
