@@ -528,7 +528,33 @@ def _predict_sigma_depth(plane, x, yv, inv_pred):
 
 
 @numba.njit(cache=True)
-def _segment_misfit(plane, inv_row, x, yv, a, b, seg, grow_factor, rms_factor, tol0, use_pred):
+def _residual_square_sum(plane, sums):
+    """Σ (z − A·x − B·y − C)² from a segment's (weighted) moment sums (10 values)."""
+    pa = plane[0]
+    pb = plane[1]
+    pc = plane[2]
+    total = (
+        sums[9]
+        - 2.0 * (pa * sums[7] + pb * sums[8] + pc * sums[6])
+        + pa * pa * sums[3]
+        + pb * pb * sums[5]
+        + pc * pc * sums[0]
+        + 2.0 * (pa * pb * sums[4] + pa * pc * sums[1] + pb * pc * sums[2])
+    )
+    return max(total, 0.0)
+
+
+@numba.njit(cache=True)
+def _segment_rms(plane, seg_sums_row):
+    """RMS depth residual [m] of a segment against a plane, from its sums (see `segment_sums`).
+
+    Uses the depth-weighted sums: (Δ inverse depth)·d² is the depth residual to first order.
+    """
+    return math.sqrt(_residual_square_sum(plane, seg_sums_row[_N_SUMS:]) / seg_sums_row[0])
+
+
+@numba.njit(cache=True)
+def _segment_misfit(plane, seg_sums_row, x, yv, a, b, seg, grow_factor, rms_factor, tol0, use_pred):
     """How badly a segment (columns a:b of the row at image y = yv) fits a plane.
 
     Returns the largest ratio of deviation to tolerance over the two end points of the
@@ -547,33 +573,58 @@ def _segment_misfit(plane, inv_row, x, yv, a, b, seg, grow_factor, rms_factor, t
         sigma_pred = _predict_sigma_depth(plane, x[k], yv, inv_plane) if use_pred else 0.0
         tol = grow_factor * math.sqrt(4.0 * sigma_seg * sigma_seg / n + sigma_pred**2) + tol0
         worst = max(worst, _depth_gap(inv_seg, inv_plane) / tol)
-    sq = 0.0
-    for k in range(a, b):
-        inv_plane = plane[0] * x[k] + plane[1] * yv + plane[2]
-        if not inv_plane > 0.0:
-            return np.inf
-        gap = _depth_gap(inv_row[k], inv_plane)
-        sq += gap * gap
     mid = (a + b - 1) // 2
     inv_mid = plane[0] * x[mid] + plane[1] * yv + plane[2]
     sigma_pred = _predict_sigma_depth(plane, x[mid], yv, inv_mid) if use_pred else 0.0
     limit = rms_factor * math.sqrt(sigma_seg * sigma_seg + sigma_pred * sigma_pred) + tol0
-    return max(worst, math.sqrt(sq / n) / limit)
+    return max(worst, _segment_rms(plane, seg_sums_row) / limit)
 
 
 @numba.njit(cache=True)
-def _segment_fits(plane, inv_row, x, yv, a, b, seg, grow_factor, rms_factor, tol0):
+def _segment_fits(plane, seg_sums_row, x, yv, a, b, seg, grow_factor, rms_factor, tol0):
     """Whether a segment lies on a growing plane (see `_segment_misfit`)."""
     return (
-        _segment_misfit(plane, inv_row, x, yv, a, b, seg, grow_factor, rms_factor, tol0, True)
+        _segment_misfit(plane, seg_sums_row, x, yv, a, b, seg, grow_factor, rms_factor, tol0, True)
         <= 1.0
     )
 
 
 @numba.njit(cache=True)
-def _add_segment(sums, inv_row, x, yv, a, b):
-    for k in range(a, b):
-        _accumulate(sums, x[k], yv, inv_row[k])
+def _add_segment(sums, seg_sums_row):
+    for k in range(_N_SUMS):
+        sums[k] += seg_sums_row[k]
+
+
+@numba.njit(cache=True)
+def segment_sums(inv_depth, x, y, seg_rows, seg_starts, seg_stops):
+    """(S, 20) moment sums of every segment for the inverse-depth plane model.
+
+    Columns 0-9: n, Σx, Σy, Σx², Σxy, Σy², Σz, Σxz, Σyz, Σz² (z = inverse depth); columns
+    10-19: the same weighted by depth⁴, so that weighted inverse-depth residuals are depth
+    residuals to first order.
+    """
+    n_seg = seg_rows.shape[0]
+    out = np.zeros((n_seg, 2 * _N_SUMS))
+    for i in range(n_seg):
+        r = seg_rows[i]
+        yv = y[r]
+        row = out[i]
+        for c in range(seg_starts[i], seg_stops[i]):
+            z = inv_depth[r, c]
+            xv = x[c]
+            _accumulate(row, xv, yv, z)
+            w = 1.0 / (z * z * z * z)
+            row[10] += w
+            row[11] += w * xv
+            row[12] += w * yv
+            row[13] += w * xv * xv
+            row[14] += w * xv * yv
+            row[15] += w * yv * yv
+            row[16] += w * z
+            row[17] += w * xv * z
+            row[18] += w * yv * z
+            row[19] += w * z * z
+    return out
 
 
 @numba.njit(cache=True)
@@ -597,7 +648,7 @@ def _row_index(seg_rows, height):
 @numba.njit(cache=True)
 def _best_seed(
     s,
-    inv_depth,
+    seg_sums,
     x,
     y,
     seg_rows,
@@ -620,7 +671,7 @@ def _best_seed(
     from s the longest free segment overlapping the previous one. Writes the best triple to
     ``members`` and returns its misfit (≤ 1: valid seed; inf: none).
     """
-    height = inv_depth.shape[0]
+    height = row_first.shape[0] - 1
     lengths_s = seg_stops[s] - seg_starts[s]
     best_score = np.inf
     if lengths_s < seed_min_pixels:
@@ -660,7 +711,7 @@ def _best_seed(
         for k in range(3):
             t = chosen[k]
             rr = seg_rows[t]
-            _add_segment(sums, inv_depth[rr], x, y[rr], seg_starts[t], seg_stops[t])
+            _add_segment(sums, seg_sums[t])
         if not _solve_plane(sums, plane):
             continue
         score = 0.0
@@ -671,7 +722,7 @@ def _best_seed(
                 score,
                 _segment_misfit(
                     plane,
-                    inv_depth[rr],
+                    seg_sums[t],
                     x,
                     y[rr],
                     seg_starts[t],
@@ -698,6 +749,7 @@ def grow_planes(
     seg_starts,
     seg_stops,
     seg_table,
+    seg_sums,
     grow_factor,
     rms_factor,
     tolerance_floor_m,
@@ -718,6 +770,7 @@ def grow_planes(
         seg_starts: (S,) first column of each segment.
         seg_stops: (S,) column after the last of each segment.
         seg_table: (S, 3) line parameters and mean sigma of each segment.
+        seg_sums: (S, 20) moment sums of each segment (`segment_sums`).
         grow_factor: end points must agree within this many sigma.
         rms_factor: the RMS depth residual must be within this many sigma.
         tolerance_floor_m: constant added to every tolerance [m].
@@ -739,7 +792,7 @@ def grow_planes(
     for s in range(n_seg):
         scores[s] = _best_seed(
             s,
-            inv_depth,
+            seg_sums,
             x,
             y,
             seg_rows,
@@ -766,7 +819,7 @@ def grow_planes(
             continue
         score = _best_seed(
             s,
-            inv_depth,
+            seg_sums,
             x,
             y,
             seg_rows,
@@ -795,9 +848,7 @@ def grow_planes(
             plane_of[t] = label
             queue[tail] = t
             tail += 1
-            _add_segment(
-                sums, inv_depth[seg_rows[t]], x, y[seg_rows[t]], seg_starts[t], seg_stops[t]
-            )
+            _add_segment(sums, seg_sums[t])
         _solve_plane(sums, plane)
         while head < tail:
             q = queue[head]
@@ -814,7 +865,7 @@ def grow_planes(
                         continue
                     if _segment_fits(
                         plane,
-                        inv_depth[rr],
+                        seg_sums[t],
                         x,
                         y[rr],
                         seg_starts[t],
@@ -827,7 +878,7 @@ def grow_planes(
                         plane_of[t] = label
                         queue[tail] = t
                         tail += 1
-                        _add_segment(sums, inv_depth[rr], x, y[rr], seg_starts[t], seg_stops[t])
+                        _add_segment(sums, seg_sums[t])
                         _solve_plane(sums, plane)
     return plane_of
 
@@ -892,19 +943,6 @@ def fill_pixels(inv_depth, x, y, labels, sigma, planes, factor, tolerance_floor_
 
 
 @numba.njit(cache=True)
-def _segment_rms(plane, inv_row, x, yv, a, b):
-    """RMS depth residual [m] of a segment's pixels against a plane (inf if behind)."""
-    sq = 0.0
-    for k in range(a, b):
-        inv_plane = plane[0] * x[k] + plane[1] * yv + plane[2]
-        if not inv_plane > 0.0:
-            return np.inf
-        gap = _depth_gap(inv_row[k], inv_plane)
-        sq += gap * gap
-    return math.sqrt(sq / (b - a))
-
-
-@numba.njit(cache=True)
 def reassign_segments(
     inv_depth,
     x,
@@ -913,6 +951,7 @@ def reassign_segments(
     seg_starts,
     seg_stops,
     seg_table,
+    seg_sums,
     plane_of,
     grow_factor,
     rms_factor,
@@ -947,7 +986,7 @@ def reassign_segments(
         for i in range(n_seg):
             if plane_of[i] >= 0:
                 r = seg_rows[i]
-                _add_segment(sums[plane_of[i]], inv_depth[r], x, y[r], seg_starts[i], seg_stops[i])
+                _add_segment(sums[plane_of[i]], seg_sums[i])
         for p in range(n_planes):
             valid[p] = _solve_plane(sums[p], planes[p])
         before = plane_of.copy()
@@ -959,7 +998,7 @@ def reassign_segments(
             r = seg_rows[i]
             a = seg_starts[i]
             b = seg_stops[i]
-            best_rms = 0.8 * _segment_rms(planes[own], inv_depth[r], x, y[r], a, b)
+            best_rms = 0.8 * _segment_rms(planes[own], seg_sums[i])
             best = own
             for rr in (r - 1, r, r + 1):
                 if rr < 0 or rr >= height:
@@ -971,10 +1010,10 @@ def reassign_segments(
                         continue
                     if not _overlap(a, b, seg_starts[t], seg_stops[t], gap):
                         continue
-                    rms_q = _segment_rms(planes[q], inv_depth[r], x, y[r], a, b)
+                    rms_q = _segment_rms(planes[q], seg_sums[i])
                     if rms_q < best_rms and _segment_fits(
                         planes[q],
-                        inv_depth[r],
+                        seg_sums[i],
                         x,
                         y[r],
                         a,

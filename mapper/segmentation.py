@@ -386,6 +386,7 @@ def segment_depth(
         )
         if seg_rows.size == n_before:
             break
+    seg_sums = scanline.segment_sums(inv_depth, x, y, seg_rows, seg_starts, seg_stops)
     plane_of_segment = scanline.grow_planes(
         inv_depth,
         x,
@@ -394,6 +395,7 @@ def segment_depth(
         seg_starts,
         seg_stops,
         seg_table,
+        seg_sums,
         params.grow_sigma_factor,
         params.rms_sigma_factor,
         params.tolerance_floor_m,
@@ -407,6 +409,7 @@ def segment_depth(
         seg_starts,
         seg_stops,
         seg_table,
+        seg_sums,
         plane_of_segment,
         params.grow_sigma_factor,
         params.rms_sigma_factor,
