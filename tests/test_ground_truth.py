@@ -86,7 +86,7 @@ def test_hanging_objects_are_obstacles_above_floor():
     grid = truth.rasterize(cell_centers(1.18, 0.18, 16, 21), CELL_M)
     under = grid.labels == TruthLabel.OBSTACLE
     assert under.sum() == 10 * 15  # 0.4 x 0.6 m table = 10 x 15 cells, aligned
-    assert np.all(grid.obstacle_top_m[under] == pytest.approx(0.38, abs=1e-12))
+    assert np.all(grid.obstacle_top_m[under] == pytest.approx(0.35 + 0.08, abs=1e-12))
     assert np.all(np.isnan(grid.floor_m[under]))
     # The table is no support: the robot stands on the ground under it.
     assert truth.support_height_m([[1.5, 0.6]]) == pytest.approx([0.0])

@@ -39,9 +39,11 @@ def test_every_object_is_named_and_placed():
     named = scene.physics.named
     for obj in scenario.objects:
         assert scene.model.body(f"obj_{obj.name}").id > 0
+        # A box geom sits at the box centre; a rough top's height field at the base of its bumps.
+        z_geom = obj.size[2] - obj.roughness_m if obj.surface == "rough" else obj.size[2] / 2
         np.testing.assert_allclose(
             named.data.geom_xpos[f"geom_{obj.name}"],
-            [*obj.center, obj.base + obj.size[2] / 2],
+            [*obj.center, obj.base + z_geom],
             atol=1e-12,
         )
     assert scene.model.geom("floor").id >= 0
