@@ -73,6 +73,8 @@ SEGMENTATION_PREFIX = "seg."
 STUDY_FILE = "tune.db"
 RECORDINGS_DIR = "recordings"
 _CONFIG_ATTR = "fogsim_config"
+_ABORT_AFTER_FAILURES = 4
+"""A run stops when this many trials failed before any trial of it was scored."""
 _HEARTBEAT_TRIALS_SQL = "SELECT trial_id FROM trial_heartbeats"
 """Trials that have a heartbeat (Optuna's RDB schema, table ``trial_heartbeats``)."""
 TERM_COLUMNS = ("table1_mm", "cell_error_pct", "unknown_pct", "clearing_s")
@@ -735,8 +737,8 @@ def _tell(study: optuna.Study, trial: optuna.Trial, outcome: Outcome) -> None:
         study.tell(trial, state=TrialState.FAIL)
         return
     trial.set_user_attr("terms", outcome.terms)
-    trial.set_user_attr("replay_s", outcome.replay_s)
-    trial.set_user_attr("scoring_s", outcome.scoring_s)
+    trial.set_user_attr("report_s", outcome.report_s)
+    trial.set_user_attr("objective_s", outcome.objective_s)
     study.tell(trial, outcome.objective)
 
 
@@ -828,6 +830,8 @@ def _tune(
             from tqdm import tqdm
 
             progress = tqdm(total=target, initial=min(done, target), desc="tune", unit="trial")
+        failures: list[str] = []
+        scored = 0
         while done < target:
             _fail_dead_trials(study, storage, config.grace_s)
             batch = {}
@@ -842,6 +846,15 @@ def _tune(
                 heartbeat.remove(trial._trial_id)
                 if progress is not None:
                     progress.update(1)
+                if isinstance(outcome, BaseException):
+                    failures.append(f"trial {number}: {type(outcome).__name__}: {outcome}")
+                else:
+                    scored += 1
+            if not scored and len(failures) >= _ABORT_AFTER_FAILURES:
+                raise FogsimError(
+                    f"the first {len(failures)} trials of this run all failed, stopping; "
+                    f"first error: {failures[0]}"
+                )
             done = _finished(study)
     finally:
         heartbeat.close()
@@ -938,9 +951,18 @@ def plot_parameter(
     )  # fmt: skip
     if spec.log:
         axes.set_xscale("log")
+    # Keep the interesting range readable: trials far worse than most are left off the top.
+    q1, q3 = np.quantile(y, [0.25, 0.75])
+    top = q3 + 3.0 * max(q3 - q1, 1e-9 * max(abs(q3), 1.0))
+    off_top = sum(value > top for value in y)
+    title = f"objective vs {spec.name} ({len(trials)} trials"
+    if off_top:
+        low = min(y)
+        axes.set_ylim(low - 0.05 * (top - low), top + 0.05 * (top - low))
+        title += f", {off_top} above the plot"
     axes.set_xlabel(spec.name)
     axes.set_ylabel("objective (lower is better)")
-    axes.set_title(f"objective vs {spec.name} ({len(trials)} trials)")
+    axes.set_title(title + ")", fontsize=10)
     axes.legend(fontsize=7, loc="best")
     figure.tight_layout()
     return write_atomic(path, lambda handle: figure.savefig(handle, format="png"))
@@ -992,8 +1014,8 @@ def write_results(study: optuna.Study, config: TuneConfig) -> TuneResult:
         "best_terms": best.user_attrs.get("terms"),
         "trials": {"complete": len(complete), "failed": len(errors)},
         "timing": {
-            "median_replay_s": _median_attr(complete, "replay_s"),
-            "median_scoring_s": _median_attr(complete, "scoring_s"),
+            "median_report_s": _median_attr(complete, "report_s"),
+            "median_objective_s": _median_attr(complete, "objective_s"),
         },
         "config": {
             "params": [p.to_text() for p in specs],
