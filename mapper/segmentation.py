@@ -513,15 +513,16 @@ def _check_transform(transform: NDArray[np.floating]) -> NDArray[np.float64]:
     return t
 
 
-def _tilt_angle_deg(normals: NDArray[np.float64]) -> NDArray[np.float64]:
-    return np.degrees(np.arccos(np.clip(np.abs(normals[:, 2]), -1.0, 1.0)))
+def _within_deg_of_vertical(normals: NDArray[np.float64], angle_deg: float) -> NDArray[np.bool_]:
+    """Unit normals (P, 3) within ``angle_deg`` of ±z."""
+    return np.abs(normals[:, 2]) >= math.cos(math.radians(angle_deg))
 
 
 def _floor_shape(normals, eigen, counts, params: SegmentationParams) -> NDArray[np.bool_]:
     """Planes that are horizontal, large and wide enough to be floor."""
     minor_extent = np.sqrt(12.0 * np.maximum(eigen[:, 1], 0.0))
     return (
-        (_tilt_angle_deg(normals) <= params.floor_max_normal_angle_deg)
+        _within_deg_of_vertical(normals, params.floor_max_normal_angle_deg)
         & (counts >= params.min_plane_pixels)
         & (minor_extent >= params.min_plane_extent_m)
     )
@@ -540,21 +541,20 @@ def _estimate_correction(normals, areas, eigen, counts, pivot, params) -> PoseCo
         return identity
     minor_extent = np.sqrt(12.0 * np.maximum(eigen[:, 1], 0.0))
     candidates = (
-        (_tilt_angle_deg(normals) <= params.max_tilt_correction_deg)
+        _within_deg_of_vertical(normals, params.max_tilt_correction_deg)
         & (counts >= params.min_plane_pixels)
         & (minor_extent >= params.min_plane_extent_m)
     )
     if not candidates.any():
         return identity
     reference = normals[int(np.argmax(np.where(candidates, areas, -1.0)))]
-    agree_deg = np.degrees(np.arccos(np.clip(normals @ reference, -1.0, 1.0)))
-    candidates &= agree_deg <= params.tilt_consensus_deg
+    candidates &= normals @ reference >= math.cos(math.radians(params.tilt_consensus_deg))
     mean = (normals[candidates] * areas[candidates, None]).sum(axis=0)
     mean /= np.linalg.norm(mean)
-    if _tilt_angle_deg(mean[None])[0] > params.max_tilt_correction_deg:
+    if not _within_deg_of_vertical(mean[None], params.max_tilt_correction_deg)[0]:
         return identity
     return PoseCorrection(
-        rotation=_rotation_between(mean, np.array([0.0, 0.0, 1.0])),
+        rotation=_rotation_to_vertical(mean),
         pivot_m=pivot,
         z_shift_m=0.0,
         ground_plane_found=False,
@@ -581,16 +581,21 @@ def _ground_shift(correction, heights, areas, is_floor, params) -> PoseCorrectio
     )
 
 
-def _rotation_between(a: NDArray[np.float64], b: NDArray[np.float64]) -> NDArray[np.float64]:
-    """Smallest rotation taking unit vector a to unit vector b (Rodrigues)."""
-    axis = np.cross(a, b)
-    s = float(np.linalg.norm(axis))
-    c = float(np.dot(a, b))
+def _rotation_to_vertical(normal: NDArray[np.float64]) -> NDArray[np.float64]:
+    """Smallest rotation taking the unit vector ``normal`` (z > 0) to +z (Rodrigues)."""
+    nx, ny, nz = (float(v) for v in normal)
+    s = math.hypot(nx, ny)  # sin of the angle; axis = normal × z = (ny, -nx, 0) / s
     if s < 1e-12:
         return np.eye(3)
-    k = axis / s
-    kx = np.array([[0.0, -k[2], k[1]], [k[2], 0.0, -k[0]], [-k[1], k[0], 0.0]])
-    return np.eye(3) + s * kx + (1.0 - c) * (kx @ kx)
+    kx, ky = ny / s, -nx / s
+    one_c = 1.0 - nz
+    return np.array(
+        [
+            [1.0 - one_c * ky * ky, one_c * kx * ky, s * ky],
+            [one_c * kx * ky, 1.0 - one_c * kx * kx, -s * kx],
+            [-s * ky, s * kx, nz],
+        ]
+    )
 
 
 def _empty_result(pivot, transform, shape) -> SegmentationResult:
