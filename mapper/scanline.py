@@ -367,13 +367,15 @@ def propagate_breaks(
     edge_factor,
     tolerance_floor_m,
     min_pixels,
+    reach,
 ):
     """Split segments where the rows above or below break, if a (weaker) step shows there.
 
     A depth edge running across rows (e.g. the side of a low step) breaks most rows; in a noisy
     row its step statistic may stay under the threshold of `split_rows`. Knowing where the
-    neighbouring rows break, a step statistic above ``edge_factor`` at one of those columns
-    (±1) is enough to split. Returns new arrays in the format of `split_rows`.
+    neighbouring rows break, a step statistic above ``edge_factor`` within ``reach`` columns
+    of one of those breaks (edges run diagonally in the image) is enough to split. Returns new
+    arrays in the format of `split_rows`.
     """
     height, width = inv_depth.shape
     n = rows.shape[0]
@@ -409,7 +411,7 @@ def propagate_breaks(
                 hint = False
                 for rr in (r - 1, r + 1):
                     if 0 <= rr < height:
-                        for cc in (c - 1, c, c + 1):
+                        for cc in range(max(c - reach, 0), min(c + reach + 1, width + 1)):
                             if is_break[rr, cc]:
                                 hint = True
                 if not hint:

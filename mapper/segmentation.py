@@ -52,6 +52,7 @@ class SegmentationParams:
         edge_sigma_factor: a depth step of more than this many standard errors splits a row.
         break_sigma_factor: the same, at columns where the row above or below breaks.
         break_passes: rounds of propagating row breaks up and down.
+        break_reach_px: columns either side of a neighbouring row's break searched for a step.
         reassign_passes: rounds of moving segments to a neighbouring plane that fits better.
         grow_sigma_factor: segment end points must lie within this many sigma of the plane
             (sigma of the fitted line end, i.e. 2·sigma/sqrt(n)).
@@ -86,6 +87,7 @@ class SegmentationParams:
     edge_sigma_factor: float = 4.0
     break_sigma_factor: float = 2.0
     break_passes: int = 3
+    break_reach_px: int = 3
     reassign_passes: int = 3
     grow_sigma_factor: float = 3.0
     rms_sigma_factor: float = 1.5
@@ -136,6 +138,7 @@ class SegmentationParams:
             "edge_window_px": 2,
             "fill_passes": 0,
             "break_passes": 0,
+            "break_reach_px": 0,
             "reassign_passes": 0,
             "min_segment_pixels": 2,
             "seed_min_pixels": 2,
@@ -383,6 +386,7 @@ def segment_depth(
             params.break_sigma_factor,
             params.tolerance_floor_m,
             params.min_segment_pixels,
+            params.break_reach_px,
         )
         if seg_rows.size == n_before:
             break
