@@ -332,7 +332,8 @@ class FloorLabelQuality:
         max_height_error_m: the largest such error [m].
         false_floor_pixels: pixels labelled floor that see no flat surface (sides, rough).
         worst_merge_share: over planes, the largest share of a plane's floor-surface pixels
-            that belong to its second surface (0: no plane spans two surfaces).
+            that belong to its second surface, if that has at least 5 pixels (0: no plane
+            spans two surfaces).
     """
 
     floor_pixels: int
@@ -368,7 +369,10 @@ def floor_label_quality(
     errors = np.abs(floor_height_image - true_height)[on_floor & labelled]
     sorted_counts = np.sort(table, axis=1)
     totals = np.maximum(table.sum(axis=1), 1)
-    second = sorted_counts[:, -2] / totals if n_surfaces > 1 else np.zeros(len(table))
+    if n_surfaces > 1:  # a second surface counts from 5 pixels on (not a stray edge pixel)
+        second = np.where(sorted_counts[:, -2] >= 5, sorted_counts[:, -2], 0) / totals
+    else:
+        second = np.zeros(len(table))
     return FloorLabelQuality(
         floor_pixels=int(on_floor.sum()),
         right_plane_fraction=float(right.sum() / max(on_floor.sum(), 1)),
