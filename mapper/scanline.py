@@ -101,10 +101,15 @@ def local_noise_depth_m(inv_depth, window, min_noise_m, cap_factor):
     mean = _box_mean(second, no_clip, 1, window)
     for _ in range(2):
         mean = _box_mean(second, 2.5 * mean, 1, window)
-    # Pixels whose box had too few samples: image-wide median of the box means.
-    flat = mean.ravel()
-    finite = flat[np.isfinite(flat)]
-    fallback = np.median(finite) if finite.size > 0 else 0.0
+    # Pixels whose box had too few samples: the image-wide mean of the box means.
+    fallback = 0.0
+    n_finite = 0
+    for r in range(height):
+        for c in range(width):
+            if mean[r, c] == mean[r, c]:
+                fallback += mean[r, c]
+                n_finite += 1
+    fallback = fallback / n_finite if n_finite > 0 else 0.0
     out = np.full((height, width), np.nan)
     for r in range(height):
         for c in range(width):
@@ -379,10 +384,12 @@ def propagate_breaks(
     """
     height, width = inv_depth.shape
     n = rows.shape[0]
-    is_break = np.zeros((height, width + 1), np.bool_)
+    # near_break[r, c]: row r breaks within `reach` columns of boundary c.
+    near_break = np.zeros((height, width + 1), np.bool_)
     for i in range(n):
-        is_break[rows[i], starts[i]] = True
-        is_break[rows[i], stops[i]] = True
+        for boundary in (starts[i], stops[i]):
+            for cc in range(max(boundary - reach, 0), min(boundary + reach + 1, width + 1)):
+                near_break[rows[i], cc] = True
     cap = 2 * n + 1
     out_rows = np.empty(cap, np.int64)
     out_starts = np.empty(cap, np.int64)
@@ -408,13 +415,9 @@ def propagate_breaks(
                 )
             for m in range(min_pixels, length - min_pixels + 1):
                 c = a + m
-                hint = False
-                for rr in (r - 1, r + 1):
-                    if 0 <= rr < height:
-                        for cc in range(max(c - reach, 0), min(c + reach + 1, width + 1)):
-                            if is_break[rr, cc]:
-                                hint = True
-                if not hint:
+                above = r > 0 and near_break[r - 1, c]
+                below = r + 1 < height and near_break[r + 1, c]
+                if not (above or below):
                     continue
                 kl = min(edge_window, m)
                 kr = min(edge_window, length - m)
