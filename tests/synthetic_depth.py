@@ -350,11 +350,18 @@ def floor_label_quality(
     plane_image: NDArray[np.integer],
     floor_height_image: NDArray[np.floating],
     ground_z_m: float = 0.0,
+    measured: NDArray[np.bool_] | None = None,
 ) -> FloorLabelQuality:
-    """Score (H, W) plane ids (-1 none) and floor heights (NaN = not floor) against the truth."""
+    """Score (H, W) plane ids (-1 none) and floor heights (NaN = not floor) against the truth.
+
+    Only pixels in ``measured`` count (default: every pixel that sees something), so that
+    pixels dropped from the depth image before segmentation are not counted as misses.
+    """
     true_height = rendering.true_floor_height_m(boxes, ground_z_m)
     surface = np.where(rendering.box_index == GROUND, 0, rendering.box_index + 1)
     surface = np.where(np.isfinite(true_height), surface, -1)
+    if measured is not None:
+        surface = np.where(measured, surface, -1)
     on_floor = surface >= 0
     labelled = np.isfinite(floor_height_image)
     planes = np.where(plane_image >= 0, plane_image, -1)

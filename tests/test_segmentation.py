@@ -245,3 +245,34 @@ def test_out_of_range_depths_are_no_measurement():
     result = segment_depth(depth, SMALL, CAMERA)
     assert result.pixel_index.min() == 12 * 88
     assert result.labels_image()[:12].max() == -2
+
+
+def test_random_dropouts_with_noise_keep_floor_quality():
+    """10 % of pixels missing at random plus 1 % noise: the rest still segments well."""
+    scene = render_scene(SMALL, CAMERA, STAIRS)
+    rng = np.random.default_rng(5)
+    depth = add_depth_noise(scene.depth_m, 0.01, rng)
+    depth[rng.random(depth.shape) < 0.1] = np.nan
+    result = segment_depth(depth, SMALL, CAMERA)
+    plane_image = result.labels_image()
+    floor_planes = np.where(
+        plane_image >= 0, np.where(result.planes.is_floor[plane_image], plane_image, -1), -1
+    )
+    quality = floor_label_quality(
+        scene, STAIRS, floor_planes, _floor_heights_image(result), measured=np.isfinite(depth)
+    )
+    assert quality.right_plane_fraction >= 0.95
+    assert quality.worst_merge_share < 0.05
+
+
+@pytest.mark.parametrize(("yaw_deg", "roll_deg"), [(20.0, 0.0), (-30.0, -3.0), (0.0, 5.0)])
+def test_oblique_and_rolled_views_of_the_staircase(yaw_deg, roll_deg):
+    camera = look_down_camera((0.1, 0.2, 0.9), 30.0, yaw_deg=yaw_deg, roll_deg=roll_deg)
+    scene = render_scene(SMALL, camera, STAIRS)
+    result = segment_depth(scene.depth_m, SMALL, camera)
+    quality = floor_label_quality(
+        scene, STAIRS, result.labels_image(), result.labels_image("floor")
+    )
+    assert quality.right_plane_fraction >= 0.99
+    assert quality.max_height_error_m < 0.001
+    assert quality.worst_merge_share == 0.0
