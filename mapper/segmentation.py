@@ -1,12 +1,24 @@
 """Plane segmentation of depth images into floor (with height) and obstacle points.
 
 Implements the paper's segmentation step (Gutmann et al., Sec. III-A and IV): range points are
-grouped into planes by scan-line grouping (Jiang & Bunke, with a noise-adaptive tolerance, see
-`mapper.scanline`), then
+grouped into planes by scan-line grouping (Jiang & Bunke; details in `mapper.scanline`):
+
+- the depth noise is estimated per pixel from the data (second differences of inverse depth,
+  capped by the image's typical noise at that depth), and every tolerance scales with it;
+- each image row is split into straight pieces (no outlier, no excess RMS, no depth step);
+- planes are seeded from the best-fitting triples of overlapping pieces in adjacent rows and
+  grown breadth-first, then pieces move to a neighbouring plane that fits them clearly better
+  and leftover pixels next to a plane join it if they fit.
+
+Planes are fitted as inverse depth affine in the image coordinates, so errors are measured
+along the viewing ray, where a depth camera has them. The labelled points are then
 
 1. rotated about the camera centre so that the near-horizontal planes become exactly horizontal
-   (area-weighted mean normal; absorbs camera rotation errors of the joint encoders), and
-2. shifted in z so that the plane nearest the expected ground plane lies on it.
+   (area-weighted mean normal of the planes agreeing with the largest one; absorbs camera
+   rotation errors of the joint encoders), and
+2. shifted in z so that the floor plane nearest the expected ground plane (among those with
+   at least a quarter of the largest candidate's area) lies on it; if none is within the
+   search window, nothing is shifted and `PoseCorrection.ground_plane_found` is False.
 
 A plane is floor when its normal is within `floor_max_normal_angle_deg` of vertical, it has at
 least `min_plane_pixels` pixels and its footprint is at least `min_plane_extent_m` wide in
@@ -68,6 +80,8 @@ class SegmentationParams:
             after the tilt correction [deg].
         max_tilt_correction_deg: planes whose normal is within this angle of vertical (before
             correction) steer the tilt correction, which is at most this large [deg].
+        tilt_consensus_deg: of those, only planes whose normal is within this angle of the
+            largest one's normal are averaged [deg].
         expected_ground_z_m: z of the ground plane in the robot frame [m].
         ground_search_window_m: the ground plane is searched within this distance of
             `expected_ground_z_m` [m] (after the tilt correction).
@@ -126,6 +140,7 @@ class SegmentationParams:
             "tolerance_floor_m",
             "fill_sigma_factor",
             "min_plane_extent_m",
+            "noise_cap_factor",
         )
         for name in non_negative:
             value = getattr(self, name)
