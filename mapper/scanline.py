@@ -8,18 +8,23 @@ has it (along the viewing ray), so fitted planes are not tilted towards the rays
 total-least-squares fit of ray-smeared points is; every tolerance is a depth difference [m].
 
 1. `local_noise_depth_m`: noise-adaptive part. On a plane the second difference of inverse
-   depth along a row is pure noise; a clipped box mean of it gives the local depth noise.
+   depth along a row is pure noise; a clipped box mean of it gives the local depth noise,
+   capped at 1.5× the image's typical noise at the same depth (so a rough surface, whose bumps
+   look like noise, cannot widen its own tolerances).
 2. `split_rows`: every row is cut into runs of valid pixels and each run recursively split
    until a weighted line fits every pixel within ``split_factor·sigma + floor``, its RMS
    residual is within ``rms_factor·sigma`` and no depth step shows in its residuals (mean
    residuals in windows either side of a pixel boundary differ by at most ``edge_factor``
    standard errors). Splits go to the step, else the outlier, else the residuals' CUSUM peak.
-3. `grow_planes`: seeds are three overlapping segments in adjacent rows that fit one plane;
-   planes grow breadth-first into adjacent segments (rows above, below, same row) whose end
-   points and RMS fit the current plane within tolerances made of the segment's noise and the
-   plane's prediction uncertainty; the plane is refit after every accepted segment.
-4. `fill_pixels`: leftover pixels next to a plane join it if they lie on it within tolerance.
-5. `plane_fits`: final inverse-depth plane parameters per label.
+   `propagate_breaks` then splits, at a lower threshold, where the rows above or below break.
+3. `segment_sums` / `grow_planes`: seeds are three overlapping segments in adjacent rows that
+   fit one plane, taken best-fitting first; planes grow breadth-first into touching segments
+   (rows above, below, same row) whose end points and RMS fit the current plane within
+   tolerances made of the segment's noise and the plane's prediction uncertainty; the plane
+   is refit (from per-segment moment sums) after every accepted segment.
+4. `reassign_segments`: segments move to a touching plane that fits them clearly better.
+5. `fill_pixels`: leftover pixels next to a plane join it if they lie on it within tolerance.
+6. `plane_fits`, `plane_moments`, `segment_labels`: per-plane parameters and geometry.
 """
 
 from __future__ import annotations
