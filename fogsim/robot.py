@@ -74,6 +74,7 @@ class RobotConfig:
         foot_half_width_m: Half the footprint width [m].
         left_leg_joints: The six left-leg joints, hip to ankle.
         right_leg_joints: The six right-leg joints.
+        neck_joints: Every joint between the torso and the head (the encoders' NECK group).
         neck_yaw_joint: Joint that turns the head left (+) / right.
         neck_pitch_joint: Joint that tilts the head.
         neck_pitch_sign: +1 if a positive neck_pitch angle looks up, -1 if it looks down.
@@ -99,6 +100,7 @@ class RobotConfig:
     foot_half_width_m: float
     left_leg_joints: tuple[str, ...]
     right_leg_joints: tuple[str, ...]
+    neck_joints: tuple[str, ...]
     neck_yaw_joint: str
     neck_pitch_joint: str
     neck_pitch_sign: float
@@ -141,6 +143,7 @@ _ICUB = RobotConfig(
         "r_ankle_pitch",
         "r_ankle_roll",
     ),
+    neck_joints=("neck_pitch", "neck_roll", "neck_yaw"),
     neck_yaw_joint="neck_yaw",
     neck_pitch_joint="neck_pitch",
     neck_pitch_sign=1.0,
@@ -173,6 +176,7 @@ _TALOS = RobotConfig(
     foot_half_width_m=0.065,
     left_leg_joints=tuple(f"leg_left_{i}_joint" for i in range(1, 7)),
     right_leg_joints=tuple(f"leg_right_{i}_joint" for i in range(1, 7)),
+    neck_joints=("head_1_joint", "head_2_joint"),
     neck_yaw_joint="head_1_joint",
     neck_pitch_joint="head_2_joint",
     neck_pitch_sign=-1.0,

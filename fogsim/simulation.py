@@ -134,7 +134,15 @@ class Simulation:
         except ImportError:
             return None
         rng = np.random.default_rng([self.scenario.seed, _ENCODER_STREAM])
-        return EncoderModel(self.scenario.encoders.bias_deg, self.scenario.encoders.noise_deg, rng)
+        config = self.scenario.encoders
+        return EncoderModel.for_robot(
+            self.robot,
+            config.bias_deg,
+            config.noise_deg,
+            rng,
+            head_bias_deg=config.head_bias_deg,
+            head_noise_deg=config.head_noise_deg,
+        )
 
     def frames(self) -> Iterator[Frame]:
         """Run the scenario from the start and yield one :class:`Frame` per camera frame."""

@@ -3,7 +3,14 @@ import math
 import numpy as np
 import pytest
 
-from fogsim.encoders import EncoderError, EncoderModel, Odometry, pose_error
+from fogsim.encoders import (
+    EncoderError,
+    EncoderModel,
+    JointGroup,
+    Odometry,
+    joint_groups,
+    pose_error,
+)
 from fogsim.robot import Stance, load_robot
 from fogsim.walking import plan_route
 from tests.test_walking import stage_support
@@ -123,3 +130,120 @@ def test_bad_parameters_are_rejected():
     encoders = EncoderModel(0.5, 0.2, np.random.default_rng(0), n_joints=32)
     with pytest.raises(EncoderError, match="32 joint angles"):
         encoders.read(np.zeros(5))
+
+
+def test_joint_groups_of_both_robots(icub):
+    groups = joint_groups(icub)
+    by_name = dict(zip(icub.joint_names, groups.tolist(), strict=True))
+    assert by_name["l_knee"] == JointGroup.LEG and by_name["r_ankle_roll"] == JointGroup.LEG
+    assert {n for n, g in by_name.items() if g == JointGroup.TORSO} == {
+        "torso_pitch",
+        "torso_roll",
+        "torso_yaw",
+    }
+    assert {n for n, g in by_name.items() if g == JointGroup.NECK} == {
+        "neck_pitch",
+        "neck_roll",
+        "neck_yaw",
+    }
+    assert by_name["l_elbow"] == JointGroup.OTHER
+    talos = load_robot("talos")
+    talos_groups = dict(zip(talos.joint_names, joint_groups(talos).tolist(), strict=True))
+    assert {n for n, g in talos_groups.items() if g == JointGroup.NECK} == {
+        "head_1_joint",
+        "head_2_joint",
+    }
+    assert talos_groups["torso_2_joint"] == JointGroup.TORSO
+
+
+def test_per_group_statistics_match_the_injected_errors(icub):
+    """Body joints get bias/noise std (0.05°, 0.02°), neck joints (4°, 0.3°), seeded."""
+    neck = joint_groups(icub) == JointGroup.NECK
+    n_reads = 3000
+    truth = np.zeros(icub.n_joints)
+    encoders = EncoderModel.for_robot(
+        icub, 0.05, 0.02, np.random.default_rng(5), head_bias_deg=4.0, head_noise_deg=0.3
+    )
+    np.testing.assert_array_equal(encoders.bias_std_deg, np.where(neck, 4.0, 0.05))
+    np.testing.assert_array_equal(encoders.noise_std_deg, np.where(neck, 0.3, 0.02))
+    errors = np.degrees(np.stack([encoders.read(truth) for _ in range(n_reads)]))
+    noise_std = np.where(neck, 0.3, 0.02)
+    np.testing.assert_allclose(errors.std(axis=0), noise_std, rtol=0.1)
+    np.testing.assert_allclose(
+        errors.mean(axis=0), np.degrees(encoders.bias_rad), atol=4 * 0.3 / math.sqrt(n_reads)
+    )
+    # bias spread per group over many seeded runs
+    biases = np.stack(
+        [
+            np.degrees(
+                EncoderModel.for_robot(
+                    icub, 0.05, 0.02, np.random.default_rng(s), head_bias_deg=4.0
+                ).bias_rad
+            )
+            for s in range(400)
+        ]
+    )
+    assert biases[:, neck].std() == pytest.approx(4.0, rel=0.06)
+    assert biases[:, ~neck].std() == pytest.approx(0.05, rel=0.03)
+
+
+def test_equal_levels_reproduce_the_single_level_model_bit_for_bit(icub, walk):
+    single = EncoderModel(0.5, 0.2, np.random.default_rng(3))
+    grouped = EncoderModel.for_robot(
+        icub, 0.5, 0.2, np.random.default_rng(3), head_bias_deg=0.5, head_noise_deg=0.2
+    )
+    for q in walk.q[:10]:
+        np.testing.assert_array_equal(single.read(q), grouped.read(q))
+
+
+def test_paper_defaults_give_degrees_at_the_neck_and_millimetres(icub, walk):
+    """Scenario defaults: camera-in-robot error of several degrees and about 10 mm (seeded)."""
+    from fogsim.scenario import EncoderConfig
+
+    config = EncoderConfig()
+    rotations, translations = [], []
+    for seed in range(3):
+        encoders = EncoderModel.for_robot(
+            icub,
+            config.bias_deg,
+            config.noise_deg,
+            np.random.default_rng(seed),
+            head_bias_deg=config.head_bias_deg,
+            head_noise_deg=config.head_noise_deg,
+        )
+        for i in range(0, walk.frame_count, 10):
+            ref = walk.reference_foot[i]
+            e = pose_error(
+                icub.transform_camera_to_robot(encoders.read(walk.q[i]), ref),
+                icub.transform_camera_to_robot(walk.q[i], ref),
+            )
+            rotations.append(e.rotation_deg)
+            translations.append(e.translation_mm)
+    # rotation: the neck's 4° std over three joints (about 1.6 × 4° typical, 13° on seed 2)
+    assert 3.0 < np.median(rotations) < 8.0 and 5.0 < np.max(rotations) < 15.0
+    # translation: about 2 mm per degree of neck error plus a few mm from the legs
+    assert 5.0 < np.median(translations) < 15.0 and np.max(translations) < 30.0
+
+
+def test_bad_group_parameters_are_rejected():
+    with pytest.raises(EncoderError, match="head_bias_deg"):
+        EncoderModel(0.5, 0.2, np.random.default_rng(0), head_bias_deg=-1.0)
+    with pytest.raises(EncoderError, match="head_joints"):
+        EncoderModel(0.5, 0.2, np.random.default_rng(0), 5, head_joints=[7])
+
+
+def test_scenario_head_levels_default_to_the_body_levels_a_file_gives():
+    from fogsim.scenario import EncoderConfig, load_scenario
+
+    legacy = load_scenario("box_removal").encoders  # bias_deg/noise_deg only: one level
+    assert (legacy.head_bias_deg, legacy.head_noise_deg) == (legacy.bias_deg, legacy.noise_deg)
+    assert load_scenario("flat_floor").encoders == EncoderConfig()  # no [encoders] table
+    stage = load_scenario("stage").encoders
+    assert (stage.bias_deg, stage.noise_deg, stage.head_bias_deg, stage.head_noise_deg) == (
+        0.05,
+        0.02,
+        4.0,
+        0.3,
+    )
+    zero = load_scenario("stage").with_overrides(["encoders.head_bias_deg=0"]).encoders
+    assert zero.head_bias_deg == 0.0 and zero.bias_deg == 0.05
