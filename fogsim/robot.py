@@ -89,6 +89,10 @@ class RobotConfig:
         use_collision_meshes_for_visuals: Use the (lighter) collision model for MuJoCo geoms.
         nominal_pelvis_height_m: Root height above the stance surface when walking [m].
         arm_pose_rad: Joint name → angle for a relaxed arm pose.
+        camera_ahead_m: Move the cameras this far along their view axis from
+            ``camera_frame`` (or ``camera_position_in_parent``) [m], to put them in front of
+            the head geometry MuJoCo renders (a convex collision hull can enclose the real
+            lens position).
     """
 
     name: str
@@ -114,6 +118,7 @@ class RobotConfig:
     use_collision_meshes_for_visuals: bool
     nominal_pelvis_height_m: float
     arm_pose_rad: dict[str, float] = field(default_factory=dict)
+    camera_ahead_m: float = 0.0
 
 
 # iCub: root_link has x backward, y to the robot's right, z up; the head (neck_yaw) frame has
@@ -177,8 +182,8 @@ _TALOS = RobotConfig(
     left_leg_joints=tuple(f"leg_left_{i}_joint" for i in range(1, 7)),
     right_leg_joints=tuple(f"leg_right_{i}_joint" for i in range(1, 7)),
     neck_joints=("head_1_joint", "head_2_joint"),
-    neck_yaw_joint="head_1_joint",
-    neck_pitch_joint="head_2_joint",
+    neck_yaw_joint="head_2_joint",  # about z of head_1_link: + turns left
+    neck_pitch_joint="head_1_joint",  # about y of torso_2_link: + looks down
     neck_pitch_sign=-1.0,
     camera_parent_joint="head_2_joint",
     camera_frame="rgbd_optical_frame",
@@ -195,6 +200,9 @@ _TALOS = RobotConfig(
         "arm_left_4_joint": -0.5,
         "arm_right_4_joint": -0.5,
     },
+    # rgbd_optical_frame sits 66 mm in front of the head axis, but the head's collision hull
+    # (what MuJoCo renders) reaches 105 mm: the camera moves 50 mm ahead, out of the hull.
+    camera_ahead_m=0.05,
 )
 
 ROBOT_CONFIGS: dict[str, RobotConfig] = {"icub": _ICUB, "talos": _TALOS}
@@ -492,6 +500,7 @@ def _add_camera_frames(model: pin.Model, config: RobotConfig) -> dict[str, pin.S
     else:
         rotation = _camera_rotation(config.camera_forward_in_parent, config.camera_up_in_parent)
         centre = pin.SE3(rotation, np.asarray(config.camera_position_in_parent, dtype=float))
+    centre = centre * pin.SE3(np.eye(3), np.array([0.0, 0.0, config.camera_ahead_m]))
     half = 0.5 * config.stereo_baseline_m
     placements = {
         "head_camera": centre,

@@ -161,3 +161,58 @@ def test_talos_walks_a_short_route():
     )
     assert traj.ik_residual_m.max() < 1e-3
     assert traj.robot_pose_true[-1, 0] == pytest.approx(0.5, abs=0.01)
+
+
+def flat_support(xy):
+    return np.zeros(np.asarray(xy).shape[0])
+
+
+@pytest.fixture(scope="module")
+def talos():
+    return load_robot("talos")
+
+
+def _camera_yaw_and_down_deg(camera, robot_yaw_rad):
+    yaw = math.degrees(math.atan2(camera[1, 2], camera[0, 2]) - robot_yaw_rad)
+    return yaw, math.degrees(math.asin(-camera[2, 2]))
+
+
+def test_talos_look_maps_to_pan_and_tilt(talos):
+    """look = (0, -30): 30° down, straight ahead; (20, -25) as iCub (yaw about the tilted head)."""
+    route = [{"wait": 0.5}, {"look": (20.0, -25.0)}, {"wait": 0.5}]
+    walk = plan_route(talos, (0.3, 0.5, 40.0), route, flat_support, 12.5)
+    yaw, down = _camera_yaw_and_down_deg(
+        talos.transform_camera_to_world(walk.q[0]), walk.robot_pose_true[0, 3]
+    )
+    assert yaw == pytest.approx(0.0, abs=0.1) and down == pytest.approx(30.0, abs=0.1)
+    yaw, down = _camera_yaw_and_down_deg(
+        talos.transform_camera_to_world(walk.q[-1]), walk.robot_pose_true[-1, 3]
+    )
+    y, p = math.radians(20.0), math.radians(25.0)
+    assert yaw == pytest.approx(
+        math.degrees(math.atan2(math.sin(y), math.cos(y) * math.cos(p))), abs=0.1
+    )
+    assert down == pytest.approx(math.degrees(math.asin(math.cos(y) * math.sin(p))), abs=0.1)
+
+
+def test_talos_camera_is_outside_its_head(talos):
+    """Rays over the whole field of view from the depth camera hit no robot geometry nearby."""
+    import mujoco
+
+    walk = plan_route(talos, (0.0, 0.0, 0.0), [{"wait": 0.2}], flat_support, 12.5)
+    model = mujoco.MjModel.from_xml_path(str(talos.mjcf_path))
+    data = mujoco.MjData(model)
+    data.qpos[:] = talos.qpos_mujoco(walk.q[0])
+    mujoco.mj_kinematics(model, data)
+    camera = talos.transform_camera_to_world(walk.q[0])
+    u, v = np.meshgrid(np.linspace(-1, 1, 9), np.linspace(-1, 1, 9))
+    half_w, half_h = math.tan(math.radians(23.5)), math.tan(math.radians(19.5))
+    rays_camera = np.stack([u * half_w, v * half_h, np.ones_like(u)], -1).reshape(-1, 3)
+    rays_world = rays_camera @ camera[:3, :3].T
+    rays_world /= np.linalg.norm(rays_world, axis=1, keepdims=True)
+    geom = np.zeros(1, np.int32)
+    distances = np.array(
+        [mujoco.mj_ray(model, data, camera[:3, 3], ray, None, 1, -1, geom) for ray in rays_world]
+    )
+    hits = distances[distances >= 0.0]  # -1: the ray meets no robot geometry
+    assert hits.size == 0 or hits.min() > 0.3, hits.min()
