@@ -37,7 +37,7 @@ ZNEAR_M = 0.05  # depth buffer near plane [m]
 ZFAR_M = 20.0  # depth buffer far plane [m]; pixels at the far plane have no measurement
 FLOOR_HALF_SIZE_M = 12.0
 ROUGH_SAMPLE_M = (
-    0.04  # spacing of the height-field samples of rough tops [m]: bumps of several pixels
+    0.08  # spacing of the height-field samples of rough tops [m]: bumps several pixels wide at 2 m
 )
 PARKED_Z_M = -50.0  # where removed objects go (below the opaque floor, out of every view)
 _MJ_FROM_CV = np.diag([1.0, -1.0, -1.0])  # R_cv = R_mj @ diag(1, -1, -1) and back
