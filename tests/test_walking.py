@@ -216,3 +216,24 @@ def test_talos_camera_is_outside_its_head(talos):
     )
     hits = distances[distances >= 0.0]  # -1: the ray meets no robot geometry
     assert hits.size == 0 or hits.min() > 0.3, hits.min()
+
+
+def test_stage_scenario_route_is_a_minute_and_ends_on_the_platform(icub):
+    from fogsim.ground_truth import SceneTruth
+    from fogsim.scenario import load_scenario
+
+    scenario = load_scenario("stage")
+    walk = plan_route(
+        icub,
+        scenario.robot.start,
+        scenario.route,
+        SceneTruth.from_scenario(scenario, 0.0).support_height_m,
+        scenario.frame_rate_hz,
+    )
+    assert 55.0 < walk.duration_s < 65.0
+    soles = icub.frame_transforms(walk.q[-1], (icub.config.left_sole, icub.config.right_sole))
+    for sole in soles:
+        assert sole[2, 3] == pytest.approx(PLATFORM_M, abs=0.005)
+    assert walk.robot_pose_true[-1, 0] > 3.2  # on the platform (x from 3.2 to 4.0 m)
+    # it looked back over the stage: facing -x at the end
+    assert abs(math.cos(walk.robot_pose_true[-1, 3]) + 1.0) < 1e-3
