@@ -22,7 +22,16 @@ from mapper.grid import (
     scroll_xy,
     validate_frame,
 )
-from mapper.occupancy import insert_frame, lookup_tables, mark_buffer_size
+from mapper.occupancy import (
+    MAX_COLUMN_LAYERS,
+    column_mask_dtype,
+    insert_frame,
+    insert_frame_columns,
+    layer_range_masks,
+    lookup_tables,
+    mark_buffer_size,
+    update_table,
+)
 from mapper.params import LEVEL_UNKNOWN, LEVELS, MapperParams
 from mapper.zmatch import ZMatch, match_z
 
@@ -51,8 +60,18 @@ class FloorObstacleMapper:
         self._obstacle = np.full((p.nx, p.ny), np.nan)
         self._fog_types = np.full((p.nx, p.ny), CellType.UNKNOWN, dtype=np.int8)
         self._fog_heights = np.full((p.nx, p.ny), np.nan)
-        self._mark = np.zeros(mark_buffer_size(p.cell_count), dtype=np.uint8)
-        self._touched = np.empty(p.cell_count, dtype=np.int64)
+        # Once-per-frame marks: one bit per layer in a word per column when the column fits one
+        # word (`insert_frame_columns`, the fast path), else one bit per cell (`insert_frame`).
+        self._columns = p.nz <= MAX_COLUMN_LAYERS
+        if self._columns:
+            dtype = column_mask_dtype(p.nz)
+            self._hit_cols = np.zeros(p.nx * p.ny, dtype=dtype)
+            self._miss_cols = np.zeros(p.nx * p.ny, dtype=dtype)
+            self._range_masks = layer_range_masks(p.nz)
+            self._update_table = update_table(self._hit_table, self._miss_table)
+        else:
+            self._mark = np.zeros(mark_buffer_size(p.cell_count), dtype=np.uint8)
+            self._touched = np.empty(p.cell_count, dtype=np.int64)
 
     # ------------------------------------------------------------------ geometry
     @property
@@ -97,22 +116,34 @@ class FloorObstacleMapper:
         p = self.params
         ox, oy = g.origin_xy_m
         point_cell = np.empty(pts.shape[0], dtype=np.int64)
-        used, nonfinite, outside, cells, ix0, ix1, iy0, iy1 = insert_frame(
-            pts,
-            origin,
-            ox,
-            oy,
-            g.z_min_m,
-            g.cell_m,
-            g.layer_m,
-            self._og,
-            self._mark,
-            self._touched,
-            self._hit_table,
-            self._miss_table,
-            point_cell,
-            p.free_margin_m,
-        )
+        geometry_args = (ox, oy, g.z_min_m, g.cell_m, g.layer_m)
+        if self._columns:
+            inserted = insert_frame_columns(
+                pts,
+                origin,
+                *geometry_args,
+                self._og,
+                self._hit_cols,
+                self._miss_cols,
+                self._range_masks,
+                self._update_table,
+                point_cell,
+                p.free_margin_m,
+            )
+        else:
+            inserted = insert_frame(
+                pts,
+                origin,
+                *geometry_args,
+                self._og,
+                self._mark,
+                self._touched,
+                self._hit_table,
+                self._miss_table,
+                point_cell,
+                p.free_margin_m,
+            )
+        used, nonfinite, outside, cells, ix0, ix1, iy0, iy1 = inserted
         if cells == 0:
             return UpdateResult(None, used, nonfinite, outside, 0, 0, 0)
         verify_floor(

@@ -83,6 +83,58 @@ def _first_crossing(remaining: int, d: float, s: float, c: int) -> tuple[float, 
     return (s - c) / -d, 1.0 / -d
 
 
+@numba.njit(cache=True, inline="always")
+def _slab_enter(t0: float, s: float, d: float, upper: float) -> float:
+    """Raise ``t0`` to where the segment ``s + t·d`` enters the slab ``[0, upper]`` (2: never)."""
+    if d != 0.0:
+        ta = (0.0 - s) / d
+        tb = (upper - s) / d
+        if ta > tb:
+            ta, tb = tb, ta
+        return max(t0, ta)
+    if s < 0.0 or s > upper:
+        return 2.0  # parallel to this slab and outside it: cannot happen for an inside end
+    return t0
+
+
+@numba.njit(cache=True, inline="always")
+def _clip_ray(ox, oy, oz, gx, gy, gz, ix, iy, iz, nx, ny, nz, free_margin, length_m):
+    """The part of the ray from the sensor ``o`` to the end ``g`` (grid units) to walk.
+
+    The segment is clipped to the grid box; with ``free_margin > 0`` it stops ``free_margin``
+    before the end (``length_m`` is the ray's length [m]) and the stop cell is cleared too.
+
+    Returns:
+        (walk, sx, sy, sz, dx, dy, dz, cx, cy, cz, ex, ey, ez, stop_cleared): ``walk`` False
+        if nothing is cleared; else the entry point ``s`` and the cell ``c`` holding it, the
+        segment's direction ``d`` (the full segment, grid units), and the last cell ``e``.
+    """
+    dx = gx - ox
+    dy = gy - oy
+    dz = gz - oz
+    t0 = _slab_enter(0.0, ox, dx, float(nx))
+    t0 = _slab_enter(t0, oy, dy, float(ny))
+    t0 = _slab_enter(t0, oz, dz, float(nz))
+    walk = t0 < 1.0  # else the sensor is in the end cell's plane outside the box
+    stop_cleared = free_margin > 0.0
+    ex = ix
+    ey = iy
+    ez = iz
+    if walk and stop_cleared:
+        t_stop = 1.0 - free_margin / length_m
+        walk = t_stop > t0
+        ex = min(max(_floor_int(ox + t_stop * dx), 0), nx - 1)
+        ey = min(max(_floor_int(oy + t_stop * dy), 0), ny - 1)
+        ez = min(max(_floor_int(oz + t_stop * dz), 0), nz - 1)
+    sx = ox + t0 * dx
+    sy = oy + t0 * dy
+    sz = oz + t0 * dz
+    cx = min(max(_floor_int(sx), 0), nx - 1)
+    cy = min(max(_floor_int(sy), 0), ny - 1)
+    cz = min(max(_floor_int(sz), 0), nz - 1)
+    return walk, sx, sy, sz, dx, dy, dz, cx, cy, cz, ex, ey, ez, stop_cleared
+
+
 @numba.njit(cache=True, error_model="numpy")
 def insert_frame(
     points: NDArray[np.float64],
@@ -186,53 +238,34 @@ def insert_frame(
             touched[n_touched] = idx
             n_touched += 1
     # Pass 2: rays, clipped to the grid box, from the entry cell to the end (or stop) cell.
-    upper = np.array([float(nx), float(ny), float(nz)])
-    start = np.empty(3)
-    d = np.empty(3)
     for i in range(n_points):
         if point_cell[i] < 0:
             continue
-        start[0] = ox
-        start[1] = oy
-        start[2] = oz
-        t0 = 0.0
-        for a in range(3):
-            d[a] = end_g[i, a] - start[a]
-            if d[a] != 0.0:
-                ta = (0.0 - start[a]) / d[a]
-                tb = (upper[a] - start[a]) / d[a]
-                if ta > tb:
-                    ta, tb = tb, ta
-                if ta > t0:
-                    t0 = ta
-            elif start[a] < 0.0 or start[a] > upper[a]:
-                t0 = 2.0  # parallel to this slab and outside it: cannot happen for an inside end
-        if t0 >= 1.0:
-            continue  # sensor is in the end cell's plane outside the box: nothing to clear
-        extra_visit = 0
+        length = 0.0
         if free_margin > 0.0:
             length = np.sqrt(
                 (points[i, 0] - sensor_origin[0]) ** 2
                 + (points[i, 1] - sensor_origin[1]) ** 2
                 + (points[i, 2] - sensor_origin[2]) ** 2
             )
-            t_stop = 1.0 - free_margin / length
-            if t_stop <= t0:
-                continue
-            ex = min(max(_floor_int(start[0] + t_stop * d[0]), 0), nx - 1)
-            ey = min(max(_floor_int(start[1] + t_stop * d[1]), 0), ny - 1)
-            ez = min(max(_floor_int(start[2] + t_stop * d[2]), 0), nz - 1)
-            extra_visit = 1  # the cell holding the stop point is cleared too
-        else:
-            ex = end_i[i, 0]
-            ey = end_i[i, 1]
-            ez = end_i[i, 2]
-        sx = start[0] + t0 * d[0]
-        sy = start[1] + t0 * d[1]
-        sz = start[2] + t0 * d[2]
-        cx = min(max(_floor_int(sx), 0), nx - 1)
-        cy = min(max(_floor_int(sy), 0), ny - 1)
-        cz = min(max(_floor_int(sz), 0), nz - 1)
+        walk, sx, sy, sz, dx, dy, dz, cx, cy, cz, ex, ey, ez, extra_visit = _clip_ray(
+            ox,
+            oy,
+            oz,
+            end_g[i, 0],
+            end_g[i, 1],
+            end_g[i, 2],
+            end_i[i, 0],
+            end_i[i, 1],
+            end_i[i, 2],
+            nx,
+            ny,
+            nz,
+            free_margin,
+            length,
+        )
+        if not walk:
+            continue
         ix0 = min(ix0, cx)
         ix1 = max(ix1, cx)
         iy0 = min(iy0, cy)
@@ -240,9 +273,9 @@ def insert_frame(
         rem_x = abs(ex - cx)
         rem_y = abs(ey - cy)
         rem_z = abs(ez - cz)
-        tmx, tdx = _first_crossing(rem_x, d[0], sx, cx)
-        tmy, tdy = _first_crossing(rem_y, d[1], sy, cy)
-        tmz, tdz = _first_crossing(rem_z, d[2], sz, cz)
+        tmx, tdx = _first_crossing(rem_x, dx, sx, cx)
+        tmy, tdy = _first_crossing(rem_y, dy, sy, cy)
+        tmz, tdz = _first_crossing(rem_z, dz, sz, cz)
         inf = np.inf
         step_x = 1 if ex > cx else -1
         step_y = 1 if ey > cy else -1
@@ -299,29 +332,257 @@ def traversed_cells(
     geometry_args: tuple[float, float, float, float, float],
     shape: tuple[int, int, int],
     free_margin_m: float = 0.0,
+    columns: bool | None = None,
 ) -> tuple[NDArray[np.int64], NDArray[np.int64]]:
     """Cells (flat indices) a frame marks as miss and as hit — for tests and inspection.
 
-    Runs ``insert_frame`` on a scratch grid with tables that encode the mark in the level.
+    Runs the insertion on a scratch grid with tables that encode the mark in the level.
+
+    Args:
+        points: (N, 3) world points [m].
+        sensor_origin: (3,) world sensor position [m].
+        geometry_args: (origin_x, origin_y, z_min, cell, layer) [m].
+        shape: (nx, ny, nz) of the grid.
+        free_margin_m: As `MapperParams.free_margin_m`.
+        columns: Use `insert_frame_columns` (True) or `insert_frame` (False); None: as the
+            mapper chooses (columns when ``nz <= MAX_COLUMN_LAYERS``).
     """
     og = np.full(shape, 128, dtype=np.uint8)
     size = int(np.prod(shape))
-    mark = np.zeros(mark_buffer_size(size), dtype=np.uint8)
-    touched = np.zeros(size, dtype=np.int64)
     hit = np.full(256, 2, dtype=np.uint8)
     miss = np.full(256, 1, dtype=np.uint8)
     pts = np.ascontiguousarray(points, dtype=np.float64)
-    insert_frame(
-        pts,
-        np.ascontiguousarray(sensor_origin, dtype=np.float64),
-        *geometry_args,
-        og,
-        mark,
-        touched,
-        hit,
-        miss,
-        np.empty(pts.shape[0], dtype=np.int64),
-        free_margin_m,
-    )
+    origin = np.ascontiguousarray(sensor_origin, dtype=np.float64)
+    point_cell = np.empty(pts.shape[0], dtype=np.int64)
+    if columns is None:
+        columns = shape[2] <= MAX_COLUMN_LAYERS
+    if columns:
+        dtype = column_mask_dtype(shape[2])
+        insert_frame_columns(
+            pts,
+            origin,
+            *geometry_args,
+            og,
+            np.zeros(shape[0] * shape[1], dtype=dtype),
+            np.zeros(shape[0] * shape[1], dtype=dtype),
+            layer_range_masks(shape[2]),
+            update_table(hit, miss),
+            point_cell,
+            free_margin_m,
+        )
+    else:
+        insert_frame(
+            pts,
+            origin,
+            *geometry_args,
+            og,
+            np.zeros(mark_buffer_size(size), dtype=np.uint8),
+            np.zeros(size, dtype=np.int64),
+            hit,
+            miss,
+            point_cell,
+            free_margin_m,
+        )
     flat = og.reshape(-1)
     return np.flatnonzero(flat == 1), np.flatnonzero(flat == 2)
+
+
+# ---------------------------------------------------------------- column kernel (nz <= 64)
+#: Largest ``nz`` the column kernel handles (one bit per layer in a uint64 word).
+MAX_COLUMN_LAYERS = 64
+
+
+def column_mask_dtype(nz: int) -> np.dtype:
+    """Smallest unsigned integer type with one bit per layer of a column (``nz <= 64``)."""
+    for dtype in (np.uint8, np.uint16, np.uint32, np.uint64):
+        if nz <= 8 * np.dtype(dtype).itemsize:
+            return np.dtype(dtype)
+    raise ValueError(f"nz must be <= {MAX_COLUMN_LAYERS} for column masks, got {nz}")
+
+
+def layer_range_masks(nz: int) -> NDArray:
+    """(nz, nz) table: ``masks[a, b]`` has the bits of layers ``min(a, b) … max(a, b)`` set."""
+    dtype = column_mask_dtype(nz)
+    masks = np.zeros((nz, nz), dtype=dtype)
+    for a in range(nz):
+        for b in range(nz):
+            lo, hi = min(a, b), max(a, b)
+            masks[a, b] = sum(1 << k for k in range(lo, hi + 1))
+    return masks
+
+
+def update_table(hit_table: NDArray[np.uint8], miss_table: NDArray[np.uint8]) -> NDArray[np.uint8]:
+    """(3, 256) table indexed by (state, old level): state 0 = untouched, 1 = miss, 2 = hit."""
+    return np.stack([np.arange(LEVELS, dtype=np.uint8), miss_table, hit_table])
+
+
+@numba.njit(cache=True, error_model="numpy", boundscheck=False)
+def insert_frame_columns(
+    points: NDArray[np.float64],
+    sensor_origin: NDArray[np.float64],
+    origin_x: float,
+    origin_y: float,
+    z_min: float,
+    cell: float,
+    layer: float,
+    og: NDArray[np.uint8],
+    hit_cols: NDArray,
+    miss_cols: NDArray,
+    range_masks: NDArray,
+    table: NDArray[np.uint8],
+    point_cell: NDArray[np.int64],
+    free_margin: float = 0.0,
+):
+    """`insert_frame` with the marks kept as one bit per layer in one word per column.
+
+    The same once-per-frame rule and the same cells as `insert_frame` (exact traversal of the
+    clipped segment), but the walk only stops at x/y cell boundaries: the layers a ray crosses
+    inside one column are a contiguous run, from the layer where it enters the column to the
+    layer where it leaves it (``floor`` of z at the boundary), marked by OR-ing one range mask
+    into the column's word. Rays whose path touches a layer boundary exactly where they cross a
+    column boundary (measure zero) may mark that zero-length layer in the other column than
+    `insert_frame` does; every cell the segment crosses with positive length is marked by
+    both. Faster than `insert_frame` (one step per column, no per-cell bit test); the table
+    lookups then run over the affected area's words.
+
+    Args:
+        points: (N, 3) world points [m].
+        sensor_origin: (3,) world sensor position [m].
+        origin_x: World x of the grid's corner [m].
+        origin_y: World y of the grid's corner [m].
+        z_min: World z of the grid's lowest face [m].
+        cell: Cell side [m].
+        layer: Layer height [m].
+        og: (nx, ny, nz) uint8 levels, updated in place.
+        hit_cols: (nx*ny,) unsigned scratch (``column_mask_dtype(nz)``), all zero on entry and
+            on return: bit ``k`` of word ``ix*ny + iy`` marks layer ``k`` of that column hit.
+        miss_cols: Same for "crossed by a ray" (the hit wins where both are set).
+        range_masks: ``layer_range_masks(nz)``.
+        table: ``update_table(hit_table, miss_table)``.
+        point_cell: (N,) out: the point's column index ``ix*ny + iy``, -1 if dropped (-2 for
+            non-finite).
+        free_margin: Rays stop clearing this far [m] before their end point.
+
+    Returns:
+        As `insert_frame`.
+    """
+    nx, ny, nz = og.shape
+    flat = og.reshape(-1)
+    dropped_nonfinite = 0
+    dropped_outside = 0
+    used = 0
+    ox = (sensor_origin[0] - origin_x) / cell
+    oy = (sensor_origin[1] - origin_y) / cell
+    oz = (sensor_origin[2] - z_min) / layer
+    inf = np.inf
+    ix0 = nx
+    ix1 = -1
+    iy0 = ny
+    iy1 = -1
+    for i in range(points.shape[0]):
+        x = points[i, 0]
+        y = points[i, 1]
+        z = points[i, 2]
+        if not (np.isfinite(x) and np.isfinite(y) and np.isfinite(z)):
+            dropped_nonfinite += 1
+            point_cell[i] = -2
+            continue
+        gx = (x - origin_x) / cell
+        gy = (y - origin_y) / cell
+        gz = (z - z_min) / layer
+        ix = _floor_int(gx)
+        iy = _floor_int(gy)
+        iz = _floor_int(gz)
+        if ix < 0 or ix >= nx or iy < 0 or iy >= ny or iz < 0 or iz >= nz:
+            dropped_outside += 1
+            point_cell[i] = -1
+            continue
+        point_cell[i] = ix * ny + iy
+        used += 1
+        ix0 = min(ix0, ix)
+        ix1 = max(ix1, ix)
+        iy0 = min(iy0, iy)
+        iy1 = max(iy1, iy)
+        hit_cols[np.uint64(ix * ny + iy)] |= range_masks[np.uint64(iz), np.uint64(iz)]
+        length = 0.0
+        if free_margin > 0.0:
+            length = np.sqrt(
+                (x - sensor_origin[0]) ** 2
+                + (y - sensor_origin[1]) ** 2
+                + (z - sensor_origin[2]) ** 2
+            )
+        walk, sx, sy, sz, dx, dy, dz, cx, cy, cz, ex, ey, ez, stop_cleared = _clip_ray(
+            ox, oy, oz, gx, gy, gz, ix, iy, iz, nx, ny, nz, free_margin, length
+        )
+        if not walk:
+            continue
+        ix0 = min(ix0, cx)
+        ix1 = max(ix1, cx)
+        iy0 = min(iy0, cy)
+        iy1 = max(iy1, cy)
+        rem_x = abs(ex - cx)
+        rem_y = abs(ey - cy)
+        tmx, tdx = _first_crossing(rem_x, dx, sx, cx)
+        tmy, tdy = _first_crossing(rem_y, dy, sy, cy)
+        z_lo = min(cz, ez)
+        z_hi = max(cz, ez)
+        dcol_x = ny if ex > cx else -ny
+        dcol_y = 1 if ey > cy else -1
+        c = cx * ny + cy
+        z_entry = cz
+        for _ in range(rem_x + rem_y):
+            # Leave column c at the nearer x/y boundary (x wins ties, as in `insert_frame`);
+            # it holds the layers from the entry layer to the layer at that boundary. The
+            # indices are non-negative: unsigned, so numba adds no negative-index wraparound.
+            take_x = tmx <= tmy
+            t_exit = tmx if take_x else tmy
+            z_exit = min(max(_floor_int(sz + t_exit * dz), z_lo), z_hi)
+            miss_cols[np.uint64(c)] |= range_masks[np.uint64(z_entry), np.uint64(z_exit)]
+            z_entry = z_exit
+            if take_x:
+                c += dcol_x
+                rem_x -= 1
+                tmx = tmx + tdx if rem_x > 0 else inf
+            else:
+                c += dcol_y
+                rem_y -= 1
+                tmy = tmy + tdy if rem_y > 0 else inf
+        # The last column: its layers down to the end (or stop) cell. The end cell itself is
+        # only marked when it is a stop cell (an end cell is hit, and the hit wins anyway).
+        if stop_cleared:
+            miss_cols[np.uint64(c)] |= range_masks[np.uint64(z_entry), np.uint64(ez)]
+        elif z_entry != ez:
+            z_before_end = ez - 1 if ez > z_entry else ez + 1
+            miss_cols[np.uint64(c)] |= range_masks[np.uint64(z_entry), np.uint64(z_before_end)]
+    n_touched = _apply_columns(flat, nz, ny, hit_cols, miss_cols, table, ix0, ix1, iy0, iy1)
+    return used, dropped_nonfinite, dropped_outside, n_touched, ix0, ix1 + 1, iy0, iy1 + 1
+
+
+@numba.njit(cache=True, boundscheck=False)
+def _apply_columns(flat, nz, ny, hit_cols, miss_cols, table, ix0, ix1, iy0, iy1) -> int:
+    """Table lookups for the marked layers in ``[ix0, ix1] × [iy0, iy1]``; clears the marks.
+
+    Returns:
+        How many cells were updated.
+    """
+    n_touched = 0
+    one = np.uint64(1)
+    for ix in range(ix0, ix1 + 1):
+        for iy in range(iy0, iy1 + 1):
+            col = np.uint64(ix * ny + iy)
+            hit = np.uint64(hit_cols[col])
+            miss = np.uint64(miss_cols[col])
+            if (hit | miss) == 0:
+                continue
+            hit_cols[col] = 0
+            miss_cols[col] = 0
+            miss = miss & ~hit
+            base = col * np.uint64(nz)
+            for k in range(nz):
+                shift = np.uint64(k)
+                state = (((hit >> shift) & one) << one) | ((miss >> shift) & one)
+                if state:
+                    idx = base + shift
+                    flat[idx] = table[state, flat[idx]]
+                    n_touched += 1
+    return n_touched

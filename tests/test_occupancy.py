@@ -137,16 +137,19 @@ def _reference(sensor, end):
 coord = st.floats(-1.0, 1.5, allow_nan=False, allow_infinity=False)
 
 
+@pytest.mark.parametrize("columns", [True, False], ids=["column-marks", "cell-marks"])
 @settings(max_examples=300, deadline=None, derandomize=True)
 @given(
     sensor=st.tuples(coord, coord, coord),
     end_frac=st.tuples(st.floats(0, 0.999), st.floats(0, 0.999), st.floats(0, 0.999)),
 )
-def test_traversal_equals_brute_force(sensor, end_frac):
+def test_traversal_equals_brute_force(columns, sensor, end_frac):
     sensor = np.array(sensor)
     extent = np.array([SHAPE[0] * CELL, SHAPE[1] * CELL, SHAPE[2] * LAYER])
     end = np.array(ORIGIN) + np.array(end_frac) * extent
-    miss, hit = traversed_cells(end[None], sensor, (*ORIGIN, CELL, LAYER), SHAPE)
+    miss, hit = traversed_cells(
+        end[None], sensor, (*ORIGIN, CELL, LAYER), SHAPE, columns=columns
+    )
     end_cell = np.ravel_multi_index(
         tuple(np.floor((end - ORIGIN) / [CELL, CELL, LAYER]).astype(int)), SHAPE
     )
@@ -158,3 +161,40 @@ def test_traversal_equals_brute_force(sensor, end_frac):
     for cell in expected ^ got:
         assert length[cell] < 1e-6, (cell, length[cell])
     assert end_cell not in got
+
+
+@pytest.mark.parametrize("nz", [5, 16, 40, 64])
+@pytest.mark.parametrize("free_margin_m", [0.0, 0.15])
+def test_column_marks_equal_cell_marks(nz, free_margin_m):
+    """Both kernels mark the same cells for 300 random rays (no exact boundary ties)."""
+    rng = np.random.default_rng(nz)
+    shape = (12, 9, nz)
+    geometry = (*ORIGIN, CELL, LAYER)
+    extent = np.array([shape[0] * CELL, shape[1] * CELL, nz * LAYER])
+    for _ in range(5):
+        sensor = np.array(ORIGIN) + rng.uniform(-0.3, 1.3, 3) * extent
+        points = np.array(ORIGIN) + rng.uniform(-0.1, 1.1, (300, 3)) * extent
+        fast = traversed_cells(points, sensor, geometry, shape, free_margin_m, columns=True)
+        slow = traversed_cells(points, sensor, geometry, shape, free_margin_m, columns=False)
+        assert np.array_equal(fast[0], slow[0]) and np.array_equal(fast[1], slow[1])
+        assert len(fast[0]) > 0
+
+
+def test_tall_grid_uses_cell_marks_and_matches_brute_force():
+    """nz > 64 does not fit a column word: the per-cell kernel runs, rays still exact."""
+    params = MapperParams(nx=10, ny=10, nz=80, layer_m=0.01, free_margin_m=0.0)
+    m = FloorObstacleMapper(params)
+    assert not m._columns
+    sensor = np.array([0.0, 0.0, 0.5])  # grid z spans [-0.06, 0.74)
+    point = np.array([[0.15, 0.05, 0.015]])
+    m.update(point, [np.nan], sensor)
+    levels = m.occupancy_levels()
+    cell, valid = m.cell_of(point)
+    assert valid[0] and cell[0, 2] == 7  # (0.015 + 0.06) / 0.01 = 7.5
+    assert levels[tuple(cell[0])] == 179
+    g = m.geometry
+    miss, _ = traversed_cells(
+        point, sensor, (*g.origin_xy_m, g.z_min_m, g.cell_m, g.layer_m), levels.shape
+    )
+    assert np.array_equal(np.flatnonzero(levels.reshape(-1) == 77), miss)
+    assert len(miss) > 50  # 50 layers down and 4 columns across
