@@ -69,26 +69,28 @@ def _floor_int(v: float) -> int:
     return int(np.floor(v))
 
 
-@numba.njit(cache=True)
-def _first_crossing(remaining: int, d: float, s: float, c: int) -> tuple[float, float]:
+@numba.njit(cache=True, inline="always")
+def _first_crossing(remaining: int, d: float, inv_d: float, s: float, c: int):
     """Ray parameter of the first cell-boundary crossing along one axis and its increment.
 
     ``s`` is the start coordinate in cell units, ``c`` its cell, ``d`` the segment's extent
-    along the axis; axes without crossings (``remaining == 0``) never step (inf).
+    along the axis and ``inv_d = 1 / d`` (multiplications instead of divisions: a division
+    costs several multiplications' time); axes without crossings (``remaining == 0``) never
+    step (inf).
     """
     if remaining == 0 or d == 0.0:
         return np.inf, np.inf
     if d > 0.0:
-        return (c + 1.0 - s) / d, 1.0 / d
-    return (s - c) / -d, 1.0 / -d
+        return (c + 1.0 - s) * inv_d, inv_d
+    return (c - s) * inv_d, -inv_d
 
 
 @numba.njit(cache=True, inline="always")
-def _slab_enter(t0: float, s: float, d: float, upper: float) -> float:
+def _slab_enter(t0: float, s: float, d: float, inv_d: float, upper: float) -> float:
     """Raise ``t0`` to where the segment ``s + t·d`` enters the slab ``[0, upper]`` (2: never)."""
     if d != 0.0:
-        ta = (0.0 - s) / d
-        tb = (upper - s) / d
+        ta = (0.0 - s) * inv_d
+        tb = (upper - s) * inv_d
         if ta > tb:
             ta, tb = tb, ta
         return max(t0, ta)
@@ -105,16 +107,20 @@ def _clip_ray(ox, oy, oz, gx, gy, gz, ix, iy, iz, nx, ny, nz, free_margin, lengt
     before the end (``length_m`` is the ray's length [m]) and the stop cell is cleared too.
 
     Returns:
-        (walk, sx, sy, sz, dx, dy, dz, cx, cy, cz, ex, ey, ez, stop_cleared): ``walk`` False
-        if nothing is cleared; else the entry point ``s`` and the cell ``c`` holding it, the
-        segment's direction ``d`` (the full segment, grid units), and the last cell ``e``.
+        (walk, sx, sy, sz, dx, dy, dz, inv_d, cx, cy, cz, ex, ey, ez, stop_cleared):
+        ``walk`` False if nothing is cleared; else the entry point ``s`` and the cell ``c``
+        holding it, the segment's direction ``d`` (the full segment, grid units) and
+        ``inv_d = (1/dx, 1/dy, 1/dz)`` (0 for a zero component), and the last cell ``e``.
     """
     dx = gx - ox
     dy = gy - oy
     dz = gz - oz
-    t0 = _slab_enter(0.0, ox, dx, float(nx))
-    t0 = _slab_enter(t0, oy, dy, float(ny))
-    t0 = _slab_enter(t0, oz, dz, float(nz))
+    inv_dx = 1.0 / dx if dx != 0.0 else 0.0
+    inv_dy = 1.0 / dy if dy != 0.0 else 0.0
+    inv_dz = 1.0 / dz if dz != 0.0 else 0.0
+    t0 = _slab_enter(0.0, ox, dx, inv_dx, float(nx))
+    t0 = _slab_enter(t0, oy, dy, inv_dy, float(ny))
+    t0 = _slab_enter(t0, oz, dz, inv_dz, float(nz))
     walk = t0 < 1.0  # else the sensor is in the end cell's plane outside the box
     stop_cleared = free_margin > 0.0
     ex = ix
@@ -132,7 +138,8 @@ def _clip_ray(ox, oy, oz, gx, gy, gz, ix, iy, iz, nx, ny, nz, free_margin, lengt
     cx = min(max(_floor_int(sx), 0), nx - 1)
     cy = min(max(_floor_int(sy), 0), ny - 1)
     cz = min(max(_floor_int(sz), 0), nz - 1)
-    return walk, sx, sy, sz, dx, dy, dz, cx, cy, cz, ex, ey, ez, stop_cleared
+    inv_d = (inv_dx, inv_dy, inv_dz)
+    return walk, sx, sy, sz, dx, dy, dz, inv_d, cx, cy, cz, ex, ey, ez, stop_cleared
 
 
 @numba.njit(cache=True, error_model="numpy")
@@ -248,7 +255,7 @@ def insert_frame(
                 + (points[i, 1] - sensor_origin[1]) ** 2
                 + (points[i, 2] - sensor_origin[2]) ** 2
             )
-        walk, sx, sy, sz, dx, dy, dz, cx, cy, cz, ex, ey, ez, extra_visit = _clip_ray(
+        walk, sx, sy, sz, dx, dy, dz, inv_d, cx, cy, cz, ex, ey, ez, extra_visit = _clip_ray(
             ox,
             oy,
             oz,
@@ -273,9 +280,9 @@ def insert_frame(
         rem_x = abs(ex - cx)
         rem_y = abs(ey - cy)
         rem_z = abs(ez - cz)
-        tmx, tdx = _first_crossing(rem_x, dx, sx, cx)
-        tmy, tdy = _first_crossing(rem_y, dy, sy, cy)
-        tmz, tdz = _first_crossing(rem_z, dz, sz, cz)
+        tmx, tdx = _first_crossing(rem_x, dx, inv_d[0], sx, cx)
+        tmy, tdy = _first_crossing(rem_y, dy, inv_d[1], sy, cy)
+        tmz, tdz = _first_crossing(rem_z, dz, inv_d[2], sz, cz)
         inf = np.inf
         step_x = 1 if ex > cx else -1
         step_y = 1 if ey > cy else -1
@@ -511,7 +518,7 @@ def insert_frame_columns(
                 + (y - sensor_origin[1]) ** 2
                 + (z - sensor_origin[2]) ** 2
             )
-        walk, sx, sy, sz, dx, dy, dz, cx, cy, cz, ex, ey, ez, stop_cleared = _clip_ray(
+        walk, sx, sy, sz, dx, dy, dz, inv_d, cx, cy, cz, ex, ey, ez, stop_cleared = _clip_ray(
             ox, oy, oz, gx, gy, gz, ix, iy, iz, nx, ny, nz, free_margin, length
         )
         if not walk:
@@ -522,8 +529,8 @@ def insert_frame_columns(
         iy1 = max(iy1, cy)
         rem_x = abs(ex - cx)
         rem_y = abs(ey - cy)
-        tmx, tdx = _first_crossing(rem_x, dx, sx, cx)
-        tmy, tdy = _first_crossing(rem_y, dy, sy, cy)
+        tmx, tdx = _first_crossing(rem_x, dx, inv_d[0], sx, cx)
+        tmy, tdy = _first_crossing(rem_y, dy, inv_d[1], sy, cy)
         z_lo = min(cz, ez)
         z_hi = max(cz, ez)
         dcol_x = ny if ex > cx else -ny
