@@ -401,7 +401,11 @@ def test_resume_after_kill_continues_the_trial_count(tmp_path):
             for t in study.trials
             if t.system_attrs.get("failed_trial") == number and t.state.name == "COMPLETE"
         ]
-        assert len(retried) == 1 and retried[0].params == study.trials[number].params
+        assert len(retried) == 1
+        # A trial killed between Optuna's ask and its suggestions has no parameters yet: its
+        # retry samples afresh. One killed after them is retried with the same parameters.
+        if study.trials[number].params:
+            assert retried[0].params == study.trials[number].params
     assert study.trials[0].params == DEFAULTS
 
 
