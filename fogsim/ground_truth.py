@@ -25,7 +25,6 @@ from __future__ import annotations
 import math
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field
-from enum import IntEnum
 from typing import Any
 
 import numpy as np
@@ -33,18 +32,14 @@ from numpy.typing import ArrayLike, NDArray
 
 from fogsim.errors import FogsimError
 from fogsim.scenario import Scenario, SceneObject
+from mapper.grid import CellType
 
 GROUND = "ground"
 RESTING_TOLERANCE_M = 1e-3  # an object rests on the support below if its base is this close
 _INTERIOR_SAMPLES = 5
 
 
-class TruthLabel(IntEnum):
-    """Cell labels of the ground truth; the values are ``mapper.CellType``'s."""
-
-    UNKNOWN = 0
-    FLOOR = 1
-    OBSTACLE = 2
+TruthLabel = CellType  # truth labels are the mapper's cell types (UNKNOWN unused)
 
 
 @dataclass(frozen=True)

@@ -1,4 +1,5 @@
-"""Exceptions raised by the mapper: one hierarchy, messages name what was wrong and what is allowed."""
+"""Exceptions raised by the mapper: one hierarchy; messages name what was wrong and what is allowed.
+"""
 
 
 class MapperError(Exception):
