@@ -1,5 +1,4 @@
-"""Exceptions raised by the mapper: one hierarchy; messages name what was wrong and what is allowed.
-"""
+"""Exceptions raised by the mapper; messages name what was wrong and what is allowed."""
 
 
 class MapperError(Exception):
