@@ -82,7 +82,14 @@ def test_support_height_on_route(stage_grid):
 
 
 def test_hanging_objects_are_obstacles_above_floor():
-    truth = SceneTruth.from_scenario(load_scenario("table"), 0.0)
+    hanging = {
+        "name": "hanging",
+        "objects": [
+            {"name": "curtain", "center": [1.0, 0.35], "size": [0.1, 0.5, 1.0], "base": 0.2},
+            {"name": "table_top", "center": [1.5, 0.6], "size": [0.4, 0.6, 0.08], "base": 0.35},
+        ],
+    }
+    truth = SceneTruth.from_scenario(scenario_from_dict(hanging), 0.0)
     grid = truth.rasterize(cell_centers(1.18, 0.18, 16, 21), CELL_M)
     under = grid.labels == TruthLabel.OBSTACLE
     assert under.sum() == 10 * 15  # 0.4 x 0.6 m table = 10 x 15 cells, aligned
