@@ -423,7 +423,7 @@ def update_table(hit_table: NDArray[np.uint8], miss_table: NDArray[np.uint8]) ->
     return np.stack([np.arange(LEVELS, dtype=np.uint8), miss_table, hit_table])
 
 
-@numba.njit(cache=True, error_model="numpy", boundscheck=False)
+@numba.njit(cache=True, error_model="numpy", boundscheck=False, fastmath={"contract"})
 def insert_frame_columns(
     points: NDArray[np.float64],
     sensor_origin: NDArray[np.float64],
@@ -542,8 +542,10 @@ def insert_frame_columns(
             # it holds the layers from the entry layer to the layer at that boundary. The
             # indices are non-negative: unsigned, so numba adds no negative-index wraparound.
             take_x = tmx <= tmy
-            t_exit = tmx if take_x else tmy
-            z_exit = min(max(_floor_int(sz + t_exit * dz), z_lo), z_hi)
+            t_exit = min(tmx, tmy)
+            # int() truncates, floor() rounds down: they differ only below 0, where the clamp
+            # to z_lo >= 0 makes both 0 (truncation is the cheaper instruction).
+            z_exit = min(max(int(sz + t_exit * dz), z_lo), z_hi)
             miss_cols[np.uint64(c)] |= range_masks[np.uint64(z_entry), np.uint64(z_exit)]
             z_entry = z_exit
             if take_x:
