@@ -12,6 +12,7 @@ from __future__ import annotations
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
+from mapper.errors import InvalidParameterError
 from mapper.floor_map import update_floor, verify_floor
 from mapper.fog import ceiling_map, update_fog_area
 from mapper.grid import (
@@ -45,10 +46,21 @@ class FloorObstacleMapper:
     Args:
         params: Grid geometry and thresholds (defaults: the paper's grid).
         center_xy_m: World (x, y) [m] that lies in the central cell initially.
+        column_marks: How a frame's once-per-cell marks are kept: True = one bit per layer in a
+            word per column (`insert_frame_columns`, fast; needs ``nz <= 64``), False = one bit
+            per cell (`insert_frame`), None = True when the column fits a word. Both give the
+            same map (benchmarks compare them).
+
+    Raises:
+        InvalidParameterError: ``column_marks=True`` with ``nz > 64``.
     """
 
     def __init__(
-        self, params: MapperParams | None = None, center_xy_m: ArrayLike = (0.0, 0.0)
+        self,
+        params: MapperParams | None = None,
+        center_xy_m: ArrayLike = (0.0, 0.0),
+        *,
+        column_marks: bool | None = None,
     ) -> None:
         self.params = params if params is not None else MapperParams()
         p = self.params
@@ -62,7 +74,11 @@ class FloorObstacleMapper:
         self._fog_heights = np.full((p.nx, p.ny), np.nan)
         # Once-per-frame marks: one bit per layer in a word per column when the column fits one
         # word (`insert_frame_columns`, the fast path), else one bit per cell (`insert_frame`).
-        self._columns = p.nz <= MAX_COLUMN_LAYERS
+        if column_marks and p.nz > MAX_COLUMN_LAYERS:
+            raise InvalidParameterError(
+                f"column_marks=True needs MapperParams.nz <= {MAX_COLUMN_LAYERS}, got {p.nz}"
+            )
+        self._columns = p.nz <= MAX_COLUMN_LAYERS if column_marks is None else column_marks
         if self._columns:
             dtype = column_mask_dtype(p.nz)
             self._hit_cols = np.zeros(p.nx * p.ny, dtype=dtype)

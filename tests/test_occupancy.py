@@ -5,8 +5,10 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from mapper import FloorObstacleMapper, MapperParams
+from mapper import FloorObstacleMapper, MapperParams, PinholeIntrinsics
+from mapper.errors import InvalidParameterError
 from mapper.occupancy import bayes_update, lookup_tables, traversed_cells
+from mapper.synthetic import Box, camera_rays_world, cast_frame
 
 
 def test_tables_by_hand():
@@ -147,9 +149,7 @@ def test_traversal_equals_brute_force(columns, sensor, end_frac):
     sensor = np.array(sensor)
     extent = np.array([SHAPE[0] * CELL, SHAPE[1] * CELL, SHAPE[2] * LAYER])
     end = np.array(ORIGIN) + np.array(end_frac) * extent
-    miss, hit = traversed_cells(
-        end[None], sensor, (*ORIGIN, CELL, LAYER), SHAPE, columns=columns
-    )
+    miss, hit = traversed_cells(end[None], sensor, (*ORIGIN, CELL, LAYER), SHAPE, columns=columns)
     end_cell = np.ravel_multi_index(
         tuple(np.floor((end - ORIGIN) / [CELL, CELL, LAYER]).astype(int)), SHAPE
     )
@@ -185,6 +185,8 @@ def test_tall_grid_uses_cell_marks_and_matches_brute_force():
     params = MapperParams(nx=10, ny=10, nz=80, layer_m=0.01, free_margin_m=0.0)
     m = FloorObstacleMapper(params)
     assert not m._columns
+    with pytest.raises(InvalidParameterError, match="nz <= 64"):
+        FloorObstacleMapper(params, column_marks=True)
     sensor = np.array([0.0, 0.0, 0.5])  # grid z spans [-0.06, 0.74)
     point = np.array([[0.15, 0.05, 0.015]])
     m.update(point, [np.nan], sensor)
@@ -198,3 +200,20 @@ def test_tall_grid_uses_cell_marks_and_matches_brute_force():
     )
     assert np.array_equal(np.flatnonzero(levels.reshape(-1) == 77), miss)
     assert len(miss) > 50  # 50 layers down and 4 columns across
+
+
+def test_mapper_same_map_with_column_or_cell_marks():
+    """Ten frames of the boxes scene: both mark kinds give the same levels, floor and FOG."""
+    rays = camera_rays_world(PinholeIntrinsics.from_fov(88, 72, 47.0, 39.0), 0.0, 25.0)
+    boxes = [Box((1.0, 0.2), (0.3, 0.3, 0.07)), Box((0.8, -0.4), (0.2, 0.2, 0.3), walkable=False)]
+    rng = np.random.default_rng(3)
+    fast, slow = FloorObstacleMapper(column_marks=True), FloorObstacleMapper(column_marks=False)
+    for i in range(10):
+        camera = np.array([0.01 * i, 0.003 * i, 0.7])
+        points, heights = cast_frame(camera, rays, boxes, noise_z_m=0.005, rng=rng)
+        a, b = fast.update(points, heights, camera), slow.update(points, heights, camera)
+        assert a == b
+    assert np.array_equal(fast.occupancy_levels(), slow.occupancy_levels())
+    assert np.array_equal(fast.floor(), slow.floor(), equal_nan=True)
+    assert np.array_equal(fast.fog()[0], slow.fog()[0])
+    assert a.cells_updated > 5000  # the check above compared real work
