@@ -90,8 +90,11 @@ def update_floor(
     Returns:
         (floor points used, floor points rejected by eq. 7).
     """
-    ny = og.shape[1]
     nz = og.shape[2]
+    # Flat views: column ``col = ix*ny + iy`` is ``floor_flat[col]`` and its layer k is
+    # ``og_flat[col*nz + k]`` (C order), so no integer division per point.
+    og_flat = og.reshape(-1)
+    floor_flat = floor.reshape(-1)
     used = 0
     rejected = 0
     for i in range(point_cell.shape[0]):
@@ -99,16 +102,14 @@ def update_floor(
         h = floor_heights[i]
         if col < 0 or not np.isfinite(h):
             continue
-        ix = col // ny
-        iy = col - ix * ny
         k = _layer_of(h, z_min, layer, nz)
-        if k < 0 or og[ix, iy, k] <= occ_level:
+        if k < 0 or og_flat[col * nz + k] <= occ_level:
             rejected += 1
             continue
         used += 1
-        f = floor[ix, iy]
+        f = floor_flat[col]
         if np.isnan(f) or h > f + eps:
-            floor[ix, iy] = h
+            floor_flat[col] = h
         elif h >= f - eps:
-            floor[ix, iy] = nu * f + (1.0 - nu) * h
+            floor_flat[col] = nu * f + (1.0 - nu) * h
     return used, rejected
