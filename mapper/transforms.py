@@ -12,9 +12,7 @@ def planar_pose_to_matrix(pose: ArrayLike) -> NDArray[np.float64]:
     """4×4 transform of a pose (x [m], y [m], z [m], yaw [rad]) with zero roll and pitch."""
     x, y, z, yaw = (float(v) for v in np.asarray(pose, dtype=np.float64).reshape(4))
     c, s = math.cos(yaw), math.sin(yaw)
-    return np.array(
-        [[c, -s, 0.0, x], [s, c, 0.0, y], [0.0, 0.0, 1.0, z], [0.0, 0.0, 0.0, 1.0]]
-    )
+    return np.array([[c, -s, 0.0, x], [s, c, 0.0, y], [0.0, 0.0, 1.0, z], [0.0, 0.0, 0.0, 1.0]])
 
 
 def apply_transform(transform: ArrayLike, points: ArrayLike) -> NDArray[np.float64]:
