@@ -179,6 +179,7 @@ def run_scenario(
     from fogsim.pipeline import resolve_params, run_frames
 
     start = time.perf_counter()
+    params = resolve_params(scenario)  # bad parameters fail here, before any simulation
     if replay is not None:
         frames: Iterable[Any] = replay.frames
         truth_at = replay.truth_at if replay.has_truth else None
@@ -215,7 +216,7 @@ def run_scenario(
             frames,
             truth_at,
             scenario,
-            params=resolve_params(scenario),
+            params=params,
             end_time_s=end_time_s,
             on_frame=(lambda f, p: [cb(f, p) for cb in callbacks]) if callbacks else None,
         )
