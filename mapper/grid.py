@@ -178,11 +178,15 @@ class UpdateResult:
         affected_area: Columns whose 3D cells changed (steps 2–4 ran only there), None if none.
         points_used: Points inserted (finite and inside the grid).
         points_dropped_nonfinite: Points with a NaN/inf coordinate, ignored.
-        points_dropped_outside: Finite points outside the grid in x, y or z, ignored.
+        points_dropped_outside: Finite points (within ``max_range_m``) outside the grid in x,
+            y or z: no hit, but with ``MapperParams.clear_outside`` their rays still clear the
+            cells they cross inside the grid.
         floor_points_used: Floor-labelled points that passed eq. 7 and updated the floor map.
         floor_points_rejected: Floor-labelled points that failed eq. 7 (cell at ``h`` not
             occupied, or ``h`` outside the grid's z range).
         cells_updated: 3D cells that received a (hit or miss) update this frame.
+        points_beyond_range: Finite points farther than ``MapperParams.max_range_m`` from the
+            sensor (inside the grid or not): no hit, their rays clear up to that range.
     """
 
     affected_area: AffectedArea | None
@@ -192,6 +196,7 @@ class UpdateResult:
     floor_points_used: int
     floor_points_rejected: int
     cells_updated: int = 0
+    points_beyond_range: int = 0
 
 
 def validate_frame(

@@ -116,7 +116,10 @@ class FloorObstacleMapper:
 
         Args:
             points: (N, 3) points in the world frame [m]; rows with NaN/inf are dropped and
-                counted, rows outside the grid (x, y or z) are dropped and counted.
+                counted. Rows outside the grid (x, y or z) or farther than
+                ``params.max_range_m`` from the sensor are no hit and counted; with
+                ``params.clear_outside`` their rays still clear the grid cells they cross
+                (see `MapperParams.clear_outside`).
             floor_heights: (N,) height [m] of the horizontal plane each point belongs to, NaN
                 (or any non-finite value) for "not floor".
             sensor_origin: (3,) camera position in the world [m]; may lie outside the grid.
@@ -145,6 +148,8 @@ class FloorObstacleMapper:
                 self._update_table,
                 point_cell,
                 p.free_margin_m,
+                float(p.max_range_m),
+                bool(p.clear_outside),
             )
         else:
             inserted = insert_frame(
@@ -158,10 +163,12 @@ class FloorObstacleMapper:
                 self._miss_table,
                 point_cell,
                 p.free_margin_m,
+                float(p.max_range_m),
+                bool(p.clear_outside),
             )
-        used, nonfinite, outside, cells, ix0, ix1, iy0, iy1 = inserted
+        used, nonfinite, outside, beyond, cells, ix0, ix1, iy0, iy1 = inserted
         if cells == 0:
-            return UpdateResult(None, used, nonfinite, outside, 0, 0, 0)
+            return UpdateResult(None, used, nonfinite, outside, 0, 0, 0, beyond)
         verify_floor(
             self._floor, self._og, self._occ_level, g.z_min_m, g.layer_m, ix0, ix1, iy0, iy1
         )
@@ -199,6 +206,7 @@ class FloorObstacleMapper:
             floor_used,
             floor_rejected,
             cells,
+            beyond,
         )
 
     # ------------------------------------------------------------------ read-out

@@ -17,6 +17,16 @@ rays cross. With ``free_margin_m > 0`` a ray clears cells only up to the cell ho
 exactly ``|Δix| + |Δiy| + |Δiz|`` steps from the entry cell
 to the end (or stop) cell, so it always ends there.
 
+Ends with no hit (OctoMap's ``insertPointCloud`` with ``maxrange``): a point outside the grid
+volume (x, y or z), or farther than ``max_range_m`` from the sensor, marks no cell as hit, but
+its ray still clears every cell it crosses inside the grid — the segment clipped on both sides
+(entry at the sensor or a face, exit at a face), truncated at ``max_range_m`` from the sensor,
+and stopped ``free_margin_m`` before the true end if that lies inside; the last cell is cleared
+too. Without this the grid's border columns and far cells collect hits from noisy points but
+are never cleared by the rays passing through them to farther points, and become false
+obstacles (stage scenario: 94.5 → 96.8 % cells right). With ``clear_outside=False`` (the
+default for now, see `MapperParams.clear_outside`) such points are ignored entirely.
+
 Two kernels keep the once-per-frame marks: `insert_frame_columns` (the mapper's default when
 ``nz <= 64``) keeps one bit per layer in one word per column and steps the traversal only at
 x/y cell boundaries, marking the run of layers a ray crosses inside a column with one OR (about
@@ -32,6 +42,11 @@ import numpy as np
 from numpy.typing import NDArray
 
 from mapper.params import LEVELS, MapperParams
+
+#: ``point_cell`` codes of points that get no hit (see `insert_frame`).
+OUTSIDE = -1
+NONFINITE = -2
+BEYOND_RANGE = -3
 
 
 def mark_buffer_size(cell_count: int) -> int:
@@ -169,6 +184,92 @@ def _clip_ray(ox, oy, oz, gx, gy, gz, ix, iy, iz, nx, ny, nz, free_margin, lengt
     return walk, sx, sy, sz, dx, dy, dz, inv_d, cx, cy, cz, ex, ey, ez, stop_cleared
 
 
+@numba.njit(cache=True, inline="always")
+def _slab_clip(t0: float, t1: float, s: float, d: float, inv_d: float, upper: float):
+    """Narrow ``[t0, t1]`` to where the segment ``s + t·d`` lies in the slab ``[0, upper]``."""
+    if d != 0.0:
+        ta = (0.0 - s) * inv_d
+        tb = (upper - s) * inv_d
+        if ta > tb:
+            ta, tb = tb, ta
+        return max(t0, ta), min(t1, tb)
+    if s < 0.0 or s > upper:
+        return 2.0, -1.0  # parallel to this slab and outside it: the segment misses the box
+    return t0, t1
+
+
+@numba.njit(cache=True, inline="always")
+def _clip_ray_through(ox, oy, oz, gx, gy, gz, nx, ny, nz, t_limit):
+    """The part to clear of a ray whose end gets no hit (outside the grid or beyond range).
+
+    The segment from the sensor ``o`` to the end ``g`` (grid units) is clipped to the grid box
+    on both sides (entry at the sensor or a face, exit at a face) and to ``t <= t_limit`` (the
+    free-margin stop or the maximum range as a fraction of the segment); every cell of what
+    is left is cleared, the last one included.
+
+    Returns:
+        As `_clip_ray`, ``stop_cleared`` always True.
+    """
+    dx = gx - ox
+    dy = gy - oy
+    dz = gz - oz
+    inv_dx = 1.0 / dx if dx != 0.0 else 0.0
+    inv_dy = 1.0 / dy if dy != 0.0 else 0.0
+    inv_dz = 1.0 / dz if dz != 0.0 else 0.0
+    t0, t1 = _slab_clip(0.0, t_limit, ox, dx, inv_dx, float(nx))
+    t0, t1 = _slab_clip(t0, t1, oy, dy, inv_dy, float(ny))
+    t0, t1 = _slab_clip(t0, t1, oz, dz, inv_dz, float(nz))
+    walk = t1 > t0
+    if not walk:  # keep the cell arithmetic below finite and in range
+        t0 = 0.0
+        t1 = 0.0
+    sx = ox + t0 * dx
+    sy = oy + t0 * dy
+    sz = oz + t0 * dz
+    cx = min(max(_floor_int(sx), 0), nx - 1)
+    cy = min(max(_floor_int(sy), 0), ny - 1)
+    cz = min(max(_floor_int(sz), 0), nz - 1)
+    ex = min(max(_floor_int(ox + t1 * dx), 0), nx - 1)
+    ey = min(max(_floor_int(oy + t1 * dy), 0), ny - 1)
+    ez = min(max(_floor_int(oz + t1 * dz), 0), nz - 1)
+    inv_d = (inv_dx, inv_dy, inv_dz)
+    return walk, sx, sy, sz, dx, dy, dz, inv_d, cx, cy, cz, ex, ey, ez, True
+
+
+@numba.njit(cache=True, inline="always")
+def _no_hit_limit(status: int, length: float, free_margin: float, max_range: float) -> float:
+    """``t_limit`` of `_clip_ray_through`: the margin stop and, beyond range, the range."""
+    t_limit = max_range / length if status == BEYOND_RANGE else 1.0
+    if free_margin > 0.0:
+        t_limit = min(t_limit, 1.0 - free_margin / length)
+    return t_limit
+
+
+@numba.njit(cache=True, inline="always")
+def _classify(x, y, z, sensor_x, sensor_y, sensor_z, geometry, shape, need_length, max_range):
+    """`_grid_point` of a world point plus its range from the sensor [m].
+
+    ``geometry`` is (origin_x, origin_y, z_min, cell, layer), ``shape`` (nx, ny, nz). The
+    range is computed only when ``need_length`` (else 0); a finite point farther than
+    ``max_range`` [m] gets status ``BEYOND_RANGE`` whether its end lies in the grid or not.
+
+    Returns:
+        (status, gx, gy, gz, ix, iy, iz, length): status 0 (in the grid), ``OUTSIDE``,
+        ``NONFINITE`` or ``BEYOND_RANGE``.
+    """
+    origin_x, origin_y, z_min, cell, layer = geometry
+    nx, ny, nz = shape
+    status, gx, gy, gz, ix, iy, iz = _grid_point(
+        x, y, z, origin_x, origin_y, z_min, cell, layer, nx, ny, nz
+    )
+    length = 0.0
+    if status != NONFINITE and need_length:
+        length = np.sqrt((x - sensor_x) ** 2 + (y - sensor_y) ** 2 + (z - sensor_z) ** 2)
+        if length > max_range:
+            status = BEYOND_RANGE
+    return status, gx, gy, gz, ix, iy, iz, length
+
+
 @numba.njit(cache=True, error_model="numpy")
 def insert_frame(
     points: NDArray[np.float64],
@@ -185,8 +286,16 @@ def insert_frame(
     miss_table: NDArray[np.uint8],
     point_cell: NDArray[np.int64],
     free_margin: float = 0.0,
+    max_range: float = np.inf,
+    clear_outside: bool = False,
 ):
     """Insert one frame of points into the 3D grid ``og`` (nx, ny, nz) in place.
+
+    A point inside the grid and within ``max_range`` is a hit; its ray clears the cells
+    before it. A point outside the grid (x, y or z) or beyond ``max_range`` is no hit, but
+    with ``clear_outside`` its ray still clears every cell it crosses inside the grid (up to
+    the grid's face, or up to ``max_range`` from the sensor, and at most up to ``free_margin``
+    before the true end) — OctoMap's ``insertPointCloud`` with ``maxrange``.
 
     Args:
         points: (N, 3) world points [m].
@@ -203,14 +312,19 @@ def insert_frame(
         touched: (nx*ny*nz,) int64 scratch.
         hit_table: Hit table from ``lookup_tables``.
         miss_table: Miss table from ``lookup_tables``.
-        point_cell: (N,) out: the point's (ix, iy) column index ``ix*ny + iy``, -1 if dropped
-            (-2 for non-finite).
+        point_cell: (N,) out: the point's (ix, iy) column index ``ix*ny + iy``, or for a
+            point that is no hit ``OUTSIDE`` (-1), ``NONFINITE`` (-2), ``BEYOND_RANGE`` (-3).
         free_margin: Rays stop clearing this far [m] before their end point (0: every cell
             before the end cell is cleared, the paper's model).
+        max_range: Points farther than this from the sensor [m] are no hit (inf: none).
+        clear_outside: Rays of points outside the grid or beyond ``max_range`` clear the
+            cells they cross (False: such points are ignored entirely).
 
     Returns:
-        (used, dropped_nonfinite, dropped_outside, cells_updated, ix0, ix1, iy0, iy1) with the
-        half-open affected area (ix0 > ix1 - 1 … i.e. ix0 == nx when nothing changed).
+        (used, dropped_nonfinite, dropped_outside, beyond_range, cells_updated, ix0, ix1, iy0,
+        iy1) with the half-open affected area (ix0 == nx when nothing changed);
+        ``dropped_outside`` counts the finite points within range whose end is outside the
+        grid, ``beyond_range`` the finite points beyond ``max_range``.
     """
     nx, ny, nz = og.shape
     flat = og.reshape(-1)
@@ -221,7 +335,11 @@ def insert_frame(
     n_touched = 0
     dropped_nonfinite = 0
     dropped_outside = 0
+    beyond_range = 0
     used = 0
+    geometry = (origin_x, origin_y, z_min, cell, layer)
+    shape = (nx, ny, nz)
+    need_length = free_margin > 0.0 or max_range < np.inf
     ox = (sensor_origin[0] - origin_x) / cell
     oy = (sensor_origin[1] - origin_y) / cell
     oz = (sensor_origin[2] - z_min) / layer
@@ -233,23 +351,32 @@ def insert_frame(
     iy1 = -1
     end_g = np.empty((n_points, 3))
     end_i = np.empty((n_points, 3), dtype=np.int64)
+    end_length = np.empty(n_points)
     # Pass 1: end cells get the hit mark first, so they win over any miss this frame.
     for i in range(n_points):
-        x = points[i, 0]
-        y = points[i, 1]
-        z = points[i, 2]
-        status, gx, gy, gz, ix, iy, iz = _grid_point(
-            x, y, z, origin_x, origin_y, z_min, cell, layer, nx, ny, nz
+        status, gx, gy, gz, ix, iy, iz, length = _classify(
+            points[i, 0],
+            points[i, 1],
+            points[i, 2],
+            sensor_origin[0],
+            sensor_origin[1],
+            sensor_origin[2],
+            geometry,
+            shape,
+            need_length,
+            max_range,
         )
-        if status < 0:
-            dropped_nonfinite += status == -2
-            dropped_outside += status == -1
-            point_cell[i] = status
-            continue
-        point_cell[i] = ix * ny + iy
         end_g[i, 0] = gx
         end_g[i, 1] = gy
         end_g[i, 2] = gz
+        end_length[i] = length
+        if status < 0:
+            dropped_nonfinite += status == NONFINITE
+            dropped_outside += status == OUTSIDE
+            beyond_range += status == BEYOND_RANGE
+            point_cell[i] = status
+            continue
+        point_cell[i] = ix * ny + iy
         end_i[i, 0] = ix
         end_i[i, 1] = iy
         end_i[i, 2] = iz
@@ -265,39 +392,41 @@ def insert_frame(
             mark[byte] |= bit
             touched[n_touched] = idx
             n_touched += 1
-    # Pass 2: rays, clipped to the grid box, from the entry cell to the end (or stop) cell.
+    # Pass 2: rays, clipped to the grid box, from the entry cell to the end (or stop) cell;
+    # rays of no-hit ends from the entry cell to the exit (or stop, or range) cell.
     for i in range(n_points):
-        if point_cell[i] < 0:
-            continue
-        length = 0.0
-        if free_margin > 0.0:
-            length = np.sqrt(
-                (points[i, 0] - sensor_origin[0]) ** 2
-                + (points[i, 1] - sensor_origin[1]) ** 2
-                + (points[i, 2] - sensor_origin[2]) ** 2
+        status = point_cell[i]
+        if status >= 0:
+            clip = _clip_ray(
+                ox,
+                oy,
+                oz,
+                end_g[i, 0],
+                end_g[i, 1],
+                end_g[i, 2],
+                end_i[i, 0],
+                end_i[i, 1],
+                end_i[i, 2],
+                nx,
+                ny,
+                nz,
+                free_margin,
+                end_length[i],
             )
-        walk, sx, sy, sz, dx, dy, dz, inv_d, cx, cy, cz, ex, ey, ez, extra_visit = _clip_ray(
-            ox,
-            oy,
-            oz,
-            end_g[i, 0],
-            end_g[i, 1],
-            end_g[i, 2],
-            end_i[i, 0],
-            end_i[i, 1],
-            end_i[i, 2],
-            nx,
-            ny,
-            nz,
-            free_margin,
-            length,
-        )
+        elif clear_outside and status != NONFINITE:
+            t_limit = _no_hit_limit(status, end_length[i], free_margin, max_range)
+            clip = _clip_ray_through(
+                ox, oy, oz, end_g[i, 0], end_g[i, 1], end_g[i, 2], nx, ny, nz, t_limit
+            )
+        else:
+            continue
+        walk, sx, sy, sz, dx, dy, dz, inv_d, cx, cy, cz, ex, ey, ez, extra_visit = clip
         if not walk:
             continue
-        ix0 = min(ix0, cx)
-        ix1 = max(ix1, cx)
-        iy0 = min(iy0, cy)
-        iy1 = max(iy1, cy)
+        ix0 = min(ix0, cx, ex)
+        ix1 = max(ix1, cx, ex)
+        iy0 = min(iy0, cy, ey)
+        iy1 = max(iy1, cy, ey)
         rem_x = abs(ex - cx)
         rem_y = abs(ey - cy)
         rem_z = abs(ez - cz)
@@ -351,7 +480,17 @@ def insert_frame(
         else:
             flat[idx] = miss_table[flat[idx]]
     mark[:] = 0
-    return used, dropped_nonfinite, dropped_outside, n_touched, ix0, ix1 + 1, iy0, iy1 + 1
+    return (
+        used,
+        dropped_nonfinite,
+        dropped_outside,
+        beyond_range,
+        n_touched,
+        ix0,
+        ix1 + 1,
+        iy0,
+        iy1 + 1,
+    )
 
 
 def traversed_cells(
@@ -361,6 +500,8 @@ def traversed_cells(
     shape: tuple[int, int, int],
     free_margin_m: float = 0.0,
     columns: bool | None = None,
+    max_range_m: float = np.inf,
+    clear_outside: bool = False,
 ) -> tuple[NDArray[np.int64], NDArray[np.int64]]:
     """Cells (flat indices) a frame marks as miss and as hit — for tests and inspection.
 
@@ -374,6 +515,8 @@ def traversed_cells(
         free_margin_m: As `MapperParams.free_margin_m`.
         columns: Use `insert_frame_columns` (True) or `insert_frame` (False); None: as the
             mapper chooses (columns when ``nz <= MAX_COLUMN_LAYERS``).
+        max_range_m: As `MapperParams.max_range_m`.
+        clear_outside: As `MapperParams.clear_outside`.
     """
     og = np.full(shape, 128, dtype=np.uint8)
     size = int(np.prod(shape))
@@ -397,6 +540,8 @@ def traversed_cells(
             update_table(hit, miss),
             point_cell,
             free_margin_m,
+            max_range_m,
+            clear_outside,
         )
     else:
         insert_frame(
@@ -410,6 +555,8 @@ def traversed_cells(
             miss,
             point_cell,
             free_margin_m,
+            max_range_m,
+            clear_outside,
         )
     flat = og.reshape(-1)
     return np.flatnonzero(flat == 1), np.flatnonzero(flat == 2)
@@ -460,6 +607,8 @@ def insert_frame_columns(
     table: NDArray[np.uint8],
     point_cell: NDArray[np.int64],
     free_margin: float = 0.0,
+    max_range: float = np.inf,
+    clear_outside: bool = False,
 ):
     """`insert_frame` with the marks kept as one bit per layer in one word per column.
 
@@ -487,9 +636,11 @@ def insert_frame_columns(
         miss_cols: Same for "crossed by a ray" (the hit wins where both are set).
         range_masks: ``layer_range_masks(nz)``.
         table: ``update_table(hit_table, miss_table)``.
-        point_cell: (N,) out: the point's column index ``ix*ny + iy``, -1 if dropped (-2 for
-            non-finite).
+        point_cell: (N,) out: the point's column index ``ix*ny + iy`` or a no-hit code, as
+            in `insert_frame`.
         free_margin: Rays stop clearing this far [m] before their end point.
+        max_range: As in `insert_frame` [m].
+        clear_outside: As in `insert_frame`.
 
     Returns:
         As `insert_frame`.
@@ -498,7 +649,11 @@ def insert_frame_columns(
     flat = og.reshape(-1)
     dropped_nonfinite = 0
     dropped_outside = 0
+    beyond_range = 0
     used = 0
+    geometry = (origin_x, origin_y, z_min, cell, layer)
+    shape = (nx, ny, nz)
+    need_length = free_margin > 0.0 or max_range < np.inf
     ox = (sensor_origin[0] - origin_x) / cell
     oy = (sensor_origin[1] - origin_y) / cell
     oz = (sensor_origin[2] - z_min) / layer
@@ -508,40 +663,43 @@ def insert_frame_columns(
     iy0 = ny
     iy1 = -1
     for i in range(points.shape[0]):
-        x = points[i, 0]
-        y = points[i, 1]
-        z = points[i, 2]
-        status, gx, gy, gz, ix, iy, iz = _grid_point(
-            x, y, z, origin_x, origin_y, z_min, cell, layer, nx, ny, nz
+        status, gx, gy, gz, ix, iy, iz, length = _classify(
+            points[i, 0],
+            points[i, 1],
+            points[i, 2],
+            sensor_origin[0],
+            sensor_origin[1],
+            sensor_origin[2],
+            geometry,
+            shape,
+            need_length,
+            max_range,
         )
         if status < 0:
-            dropped_nonfinite += status == -2
-            dropped_outside += status == -1
+            dropped_nonfinite += status == NONFINITE
+            dropped_outside += status == OUTSIDE
+            beyond_range += status == BEYOND_RANGE
             point_cell[i] = status
-            continue
-        point_cell[i] = ix * ny + iy
-        used += 1
-        ix0 = min(ix0, ix)
-        ix1 = max(ix1, ix)
-        iy0 = min(iy0, iy)
-        iy1 = max(iy1, iy)
-        hit_cols[np.uint64(ix * ny + iy)] |= range_masks[np.uint64(iz), np.uint64(iz)]
-        length = 0.0
-        if free_margin > 0.0:
-            length = np.sqrt(
-                (x - sensor_origin[0]) ** 2
-                + (y - sensor_origin[1]) ** 2
-                + (z - sensor_origin[2]) ** 2
-            )
-        walk, sx, sy, sz, dx, dy, dz, inv_d, cx, cy, cz, ex, ey, ez, stop_cleared = _clip_ray(
-            ox, oy, oz, gx, gy, gz, ix, iy, iz, nx, ny, nz, free_margin, length
-        )
+            if not clear_outside or status == NONFINITE:
+                continue
+            t_limit = _no_hit_limit(status, length, free_margin, max_range)
+            clip = _clip_ray_through(ox, oy, oz, gx, gy, gz, nx, ny, nz, t_limit)
+        else:
+            point_cell[i] = ix * ny + iy
+            used += 1
+            ix0 = min(ix0, ix)
+            ix1 = max(ix1, ix)
+            iy0 = min(iy0, iy)
+            iy1 = max(iy1, iy)
+            hit_cols[np.uint64(ix * ny + iy)] |= range_masks[np.uint64(iz), np.uint64(iz)]
+            clip = _clip_ray(ox, oy, oz, gx, gy, gz, ix, iy, iz, nx, ny, nz, free_margin, length)
+        walk, sx, sy, sz, dx, dy, dz, inv_d, cx, cy, cz, ex, ey, ez, stop_cleared = clip
         if not walk:
             continue
-        ix0 = min(ix0, cx)
-        ix1 = max(ix1, cx)
-        iy0 = min(iy0, cy)
-        iy1 = max(iy1, cy)
+        ix0 = min(ix0, cx, ex)
+        ix1 = max(ix1, cx, ex)
+        iy0 = min(iy0, cy, ey)
+        iy1 = max(iy1, cy, ey)
         rem_x = abs(ex - cx)
         rem_y = abs(ey - cy)
         tmx, tdx = _first_crossing(rem_x, dx, inv_d[0], sx, cx)
@@ -579,7 +737,17 @@ def insert_frame_columns(
             z_before_end = ez - 1 if ez > z_entry else ez + 1
             miss_cols[np.uint64(c)] |= range_masks[np.uint64(z_entry), np.uint64(z_before_end)]
     n_touched = _apply_columns(flat, nz, ny, hit_cols, miss_cols, table, ix0, ix1, iy0, iy1)
-    return used, dropped_nonfinite, dropped_outside, n_touched, ix0, ix1 + 1, iy0, iy1 + 1
+    return (
+        used,
+        dropped_nonfinite,
+        dropped_outside,
+        beyond_range,
+        n_touched,
+        ix0,
+        ix1 + 1,
+        iy0,
+        iy1 + 1,
+    )
 
 
 @numba.njit(cache=True, boundscheck=False)

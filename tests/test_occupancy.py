@@ -42,6 +42,7 @@ def test_bayes_update_matches_eq6():
 
 
 PAPER = MapperParams(free_margin_m=0.0)  # rays clear every cell before the end cell
+CLEAR = MapperParams(free_margin_m=0.0, clear_outside=True)  # and rays of no-hit ends clear
 
 
 def _one_ray_mapper(params=PAPER):
@@ -107,14 +108,105 @@ def test_sensor_above_grid_clears_top_layers():
     assert levels[0] == 128
 
 
+# ---------------------------------------------------------------- ends with no hit
+def test_end_outside_in_x_clears_to_the_grid_face():
+    """Sensor in cell (50, 50, 2), end at x = 2.5 m (grid x ends at 2.0): cells 50…99 cleared."""
+    m, sensor, _ = _one_ray_mapper(CLEAR)
+    r = m.update(np.array([[2.5, 0.02, 0.04]]), [np.nan], sensor)
+    levels = m.occupancy_levels()
+    assert np.all(levels[50:100, 50, 2] == 77)
+    assert np.count_nonzero(levels != 128) == 50  # no hit anywhere
+    assert (r.points_used, r.points_dropped_outside, r.points_beyond_range) == (0, 1, 0)
+    assert r.affected_area.slices == (slice(50, 100), slice(50, 51))
+    assert r.cells_updated == 50
+
+
+@pytest.mark.parametrize(("end_x", "last_cleared"), [(2.5, 99), (2.02, 98)])
+def test_end_outside_free_margin_from_the_true_end(end_x, last_cleared):
+    """free_margin 0.08: end 0.5 m past the face -> all cleared; end at 2.02 -> stop at 1.94
+    (cell (1.94 + 2) / 0.04 = 98.5 -> 98, cleared), cell 99 untouched."""
+    m, sensor, _ = _one_ray_mapper(MapperParams(free_margin_m=0.08, clear_outside=True))
+    m.update(np.array([[end_x, 0.02, 0.04]]), [np.nan], sensor)
+    levels = m.occupancy_levels()[:, 50, 2]
+    assert np.all(levels[50 : last_cleared + 1] == 77)
+    assert np.all(levels[last_cleared + 1 :] == 128)
+
+
+def test_end_below_and_above_the_grid():
+    """Straight down from above the grid to z = -0.5 (below z_min): the whole column cleared;
+    a ray from above the grid to a point above it changes nothing."""
+    m = FloorObstacleMapper(CLEAR)
+    r = m.update(np.array([[0.02, 0.02, -0.5]]), [np.nan], np.array([0.02, 0.02, 1.0]))
+    assert np.all(m.occupancy_levels()[50, 50] == 77)
+    assert r.cells_updated == 16 and r.points_dropped_outside == 1
+    r = m.update(np.array([[1.0, 1.0, 0.7]]), [np.nan], np.array([0.02, 0.02, 1.0]))
+    assert r.affected_area is None and r.cells_updated == 0 and r.points_dropped_outside == 1
+
+
+def test_max_range_truncates_the_ray_no_hit_no_floor():
+    """End in cell 60 (x = 0.42) 0.40 m away, max_range 0.30: cleared to x = 0.32 (cell 58),
+    no hit, no floor update even for a floor-labelled point."""
+    m, sensor, point = _one_ray_mapper(CLEAR.with_overrides(max_range_m=0.30))
+    r = m.update(point, [0.04], sensor)
+    levels = m.occupancy_levels()
+    assert np.all(levels[50:59, 50, 2] == 77)
+    assert np.count_nonzero(levels != 128) == 9
+    assert (r.points_used, r.points_dropped_outside, r.points_beyond_range) == (0, 0, 1)
+    assert r.floor_points_used == 0 and np.all(np.isnan(m.floor()))
+    # within range, the same point is a hit as before
+    m2, _, _ = _one_ray_mapper(CLEAR.with_overrides(max_range_m=0.41))
+    assert m2.update(point, [np.nan], sensor).points_used == 1
+    assert m2.occupancy_levels()[60, 50, 2] == 179
+
+
+def test_max_range_with_free_margin_stops_at_the_nearer():
+    """End 0.40 m away, max_range 0.37, free_margin 0.08: stop at min(0.37, 0.32) -> x = 0.34
+    (cell 58.5 -> 58); with free_margin 0.01: at 0.37 -> x = 0.39 (cell 59.75 -> 59)."""
+    for margin, last in ((0.08, 58), (0.01, 59)):
+        p = MapperParams(free_margin_m=margin, max_range_m=0.37, clear_outside=True)
+        m, sensor, point = _one_ray_mapper(p)
+        m.update(point, [np.nan], sensor)
+        levels = m.occupancy_levels()[:, 50, 2]
+        assert np.all(levels[50 : last + 1] == 77) and np.all(levels[last + 1 :] == 128)
+
+
+def test_clear_outside_off_ignores_no_hit_points():
+    m, sensor, point = _one_ray_mapper(MapperParams(max_range_m=0.35))  # clear_outside off
+    below = [[0.02, 0.02, -0.1]]  # 0.14 m straight down, below the grid (z_min -0.06)
+    r = m.update(np.vstack([point, below]), [np.nan] * 2, sensor)  # point: 0.40 m away
+    assert r.affected_area is None and r.cells_updated == 0
+    assert (r.points_dropped_outside, r.points_beyond_range) == (1, 1)
+    assert np.all(m.occupancy_levels() == 128)
+
+
+@pytest.mark.parametrize("clear_outside", [True, False])
+def test_border_cell_noise_cleared_by_rays_to_farther_points(clear_outside):
+    """Two frames of noisy hits make border cell (99, 50, 2) occupied; rays through it to points
+    beyond the grid then clear it (three frames of misses: 216 -> 179 -> 128 -> 77) — or not,
+    with clear_outside off (the false obstacles on the grid border)."""
+    p = MapperParams(free_margin_m=0.0, clear_outside=clear_outside)
+    m, sensor, _ = _one_ray_mapper(p)
+    for _ in range(2):
+        m.update(np.array([[1.98, 0.02, 0.04]]), [np.nan], sensor)
+    assert m.occupancy_levels()[99, 50, 2] == 216  # > 192: occupied
+    for _ in range(3):
+        m.update(np.array([[2.6, 0.02, 0.04]]), [np.nan], sensor)
+    level = m.occupancy_levels()[99, 50, 2]
+    assert (level <= p.occ_threshold_level) == clear_outside
+    assert level == (77 if clear_outside else 216)
+
+
 # ---------------------------------------------------------------- brute-force reference
 SHAPE = (7, 6, 5)
 CELL, LAYER = 0.1, 0.07
 ORIGIN = (-0.2, 0.3, -0.1)  # grid corner x, y and z_min
 
 
-def _reference(sensor, end):
-    """Cells whose box the segment sensor->end crosses with positive length (slab test)."""
+def _reference(sensor, end, t_max=1.0):
+    """Cells whose box the segment sensor->end crosses with positive length (slab test).
+
+    Only the part ``t <= t_max`` of the segment ``sensor + t·(end - sensor)`` counts.
+    """
     ix, iy, iz = np.meshgrid(*(np.arange(n) for n in SHAPE), indexing="ij")
     lo = np.stack(
         [ORIGIN[0] + ix * CELL, ORIGIN[1] + iy * CELL, ORIGIN[2] + iz * LAYER], axis=-1
@@ -131,53 +223,125 @@ def _reference(sensor, end):
         d == 0, np.where((sensor >= lo) & (sensor < hi), np.inf, -np.inf), np.maximum(ta, tb)
     )
     t0 = np.maximum(t_in.max(axis=1), 0.0)
-    t1 = np.minimum(t_out.min(axis=1), 1.0)
+    t1 = np.minimum(t_out.min(axis=1), t_max)
     length = (t1 - t0) * np.linalg.norm(d)
     return length
 
 
 coord = st.floats(-1.0, 1.5, allow_nan=False, allow_infinity=False)
+# end positions as fractions of the grid's extent: inside, beside, above, below, far off
+end_coord = st.one_of(st.floats(0, 0.999), st.floats(-1.5, 2.5))
+max_range = st.one_of(st.just(np.inf), st.floats(0.05, 1.5))
+
+
+def _expected_marks(sensor, end, free_margin_m, max_range_m):
+    """(miss cells by brute force, hit cell or None, segment lengths per cell) of one ray."""
+    extent = np.array([SHAPE[0] * CELL, SHAPE[1] * CELL, SHAPE[2] * LAYER])
+    rel = end - np.array(ORIGIN)
+    length = float(np.linalg.norm(end - sensor))
+    inside = bool(np.all((rel >= 0) & (rel < extent)))
+    hit_cell = None
+    t_max = 1.0
+    if length > max_range_m:  # beyond range: no hit, cleared up to the range
+        t_max = max_range_m / length
+    elif inside:
+        cell = np.floor(rel / [CELL, CELL, LAYER]).astype(int)
+        hit_cell = int(np.ravel_multi_index(tuple(np.minimum(cell, np.array(SHAPE) - 1)), SHAPE))
+    if free_margin_m > 0:  # margin relative to the true end, the stop cell cleared
+        t_max = min(t_max, 1.0 - free_margin_m / length)
+    seg = _reference(sensor, end, t_max)
+    return seg, hit_cell
 
 
 @pytest.mark.parametrize("columns", [True, False], ids=["column-marks", "cell-marks"])
-@settings(max_examples=300, deadline=None, derandomize=True)
+@settings(max_examples=400, deadline=None, derandomize=True)
 @given(
     sensor=st.tuples(coord, coord, coord),
-    end_frac=st.tuples(st.floats(0, 0.999), st.floats(0, 0.999), st.floats(0, 0.999)),
+    end_frac=st.tuples(end_coord, end_coord, end_coord),
+    free_margin_m=st.sampled_from([0.0, 0.15]),
+    max_range_m=max_range,
+    clear_outside=st.booleans(),
 )
-def test_traversal_equals_brute_force(columns, sensor, end_frac):
+def test_traversal_equals_brute_force(
+    columns, sensor, end_frac, free_margin_m, max_range_m, clear_outside
+):
+    """Ends inside and outside the grid (beside, above, below, rays missing it), max range."""
     sensor = np.array(sensor)
     extent = np.array([SHAPE[0] * CELL, SHAPE[1] * CELL, SHAPE[2] * LAYER])
     end = np.array(ORIGIN) + np.array(end_frac) * extent
-    miss, hit = traversed_cells(end[None], sensor, (*ORIGIN, CELL, LAYER), SHAPE, columns=columns)
-    end_cell = np.ravel_multi_index(
-        tuple(np.floor((end - ORIGIN) / [CELL, CELL, LAYER]).astype(int)), SHAPE
+    miss, hit = traversed_cells(
+        end[None],
+        sensor,
+        (*ORIGIN, CELL, LAYER),
+        SHAPE,
+        free_margin_m,
+        columns=columns,
+        max_range_m=max_range_m,
+        clear_outside=clear_outside,
     )
-    assert hit.tolist() == [end_cell]
-    length = _reference(sensor, end)
-    expected = set(np.flatnonzero(length > 1e-9).tolist()) - {end_cell}
+    seg, hit_cell = _expected_marks(sensor, end, free_margin_m, max_range_m)
+    assert hit.tolist() == ([] if hit_cell is None else [hit_cell])
+    if hit_cell is None and not clear_outside:
+        seg = np.zeros_like(seg)  # a no-hit end is ignored entirely
+    expected = set(np.flatnonzero(seg > 1e-9).tolist()) - {hit_cell}
     got = set(miss.tolist())
     # cells the segment only grazes (numerically zero length) may go either way
     for cell in expected ^ got:
-        assert length[cell] < 1e-6, (cell, length[cell])
-    assert end_cell not in got
+        assert seg[cell] < 1e-6, (cell, seg[cell])
+    assert hit_cell not in got
+
+
+def test_brute_force_draws_cover_outside_cases():
+    """The end strategy draws ends beside, above and below the grid and rays missing it.
+
+    (The same strategies and settings as the brute-force test, without its two extra axes.)
+    """
+    extent = np.array([SHAPE[0] * CELL, SHAPE[1] * CELL, SHAPE[2] * LAYER])
+    seen = set()
+
+    @settings(max_examples=400, deadline=None, derandomize=True, database=None)
+    @given(sensor=st.tuples(coord, coord, coord), end_frac=st.tuples(*[end_coord] * 3))
+    def classify(sensor, end_frac):
+        end = np.array(ORIGIN) + np.array(end_frac) * extent
+        frac = np.array(end_frac)
+        if np.all((frac >= 0) & (frac < 1)):
+            seen.add("inside")
+        elif frac[2] >= 1 and np.all((frac[:2] >= 0) & (frac[:2] < 1)):
+            seen.add("above")
+        elif frac[2] < 0 and np.all((frac[:2] >= 0) & (frac[:2] < 1)):
+            seen.add("below")
+        else:
+            seen.add("beside")
+        if not np.any(_reference(np.array(sensor), end) > 1e-9):
+            seen.add("misses")
+
+    classify()
+    assert seen == {"inside", "above", "below", "beside", "misses"}
 
 
 @pytest.mark.parametrize("nz", [5, 16, 40, 64])
 @pytest.mark.parametrize("free_margin_m", [0.0, 0.15])
-def test_column_marks_equal_cell_marks(nz, free_margin_m):
-    """Both kernels mark the same cells for 300 random rays (no exact boundary ties)."""
+@pytest.mark.parametrize("max_range_m", [np.inf, 1.0])
+@pytest.mark.parametrize("clear_outside", [True, False])
+def test_column_marks_equal_cell_marks(nz, free_margin_m, max_range_m, clear_outside):
+    """Both kernels mark the same cells for 300 random rays (no exact boundary ties).
+
+    Ends up to 60 % of the extent outside the grid on every side (no hit, rays clear).
+    """
     rng = np.random.default_rng(nz)
     shape = (12, 9, nz)
     geometry = (*ORIGIN, CELL, LAYER)
     extent = np.array([shape[0] * CELL, shape[1] * CELL, nz * LAYER])
+    marked = 0
     for _ in range(5):
         sensor = np.array(ORIGIN) + rng.uniform(-0.3, 1.3, 3) * extent
-        points = np.array(ORIGIN) + rng.uniform(-0.1, 1.1, (300, 3)) * extent
-        fast = traversed_cells(points, sensor, geometry, shape, free_margin_m, columns=True)
-        slow = traversed_cells(points, sensor, geometry, shape, free_margin_m, columns=False)
+        points = np.array(ORIGIN) + rng.uniform(-0.6, 1.6, (300, 3)) * extent
+        kw = {"max_range_m": max_range_m, "clear_outside": clear_outside}
+        fast = traversed_cells(points, sensor, geometry, shape, free_margin_m, True, **kw)
+        slow = traversed_cells(points, sensor, geometry, shape, free_margin_m, False, **kw)
         assert np.array_equal(fast[0], slow[0]) and np.array_equal(fast[1], slow[1])
-        assert len(fast[0]) > 0
+        marked += len(fast[0])
+    assert marked > 0  # the comparison saw cleared cells
 
 
 def test_tall_grid_uses_cell_marks_and_matches_brute_force():
@@ -217,3 +381,28 @@ def test_mapper_same_map_with_column_or_cell_marks():
     assert np.array_equal(fast.floor(), slow.floor(), equal_nan=True)
     assert np.array_equal(fast.fog()[0], slow.fog()[0])
     assert a.cells_updated > 5000  # the check above compared real work
+
+
+@pytest.mark.parametrize("clear_outside", [True, False])
+def test_map_inside_the_grid_does_not_depend_on_its_extent(clear_outside):
+    """With clear_outside, a 4 m grid holds exactly the central part of a 6.4 m grid's map.
+
+    A table top at 0.24–0.28 m, 0.8–1.2 m ahead, seen from 0.55 m (rays grazing over its far
+    edge reach the ground 2.4 m ahead: beyond the 4 m grid, inside the 6.4 m one). Without
+    clear_outside the small grid ignores those rays and keeps levels the larger grid clears.
+    """
+    rng = np.random.default_rng(3)
+    rays = camera_rays_world(PinholeIntrinsics.from_fov(88, 72, 47.0, 39.0), 0.0, 15.0)
+    table = Box((1.0, 0.0), (0.4, 0.6, 0.04), base_m=0.24, walkable=False)
+    small = FloorObstacleMapper(MapperParams(clear_outside=clear_outside))
+    large = FloorObstacleMapper(MapperParams(nx=160, ny=160, clear_outside=clear_outside))
+    for _ in range(10):
+        camera = np.array([rng.uniform(-0.02, 0.02), rng.uniform(-0.02, 0.02), 0.55])
+        points, heights = cast_frame(camera, rays, [table], noise_z_m=0.003, rng=rng)
+        a, b = small.update(points, heights, camera), large.update(points, heights, camera)
+        assert a.points_dropped_outside > b.points_dropped_outside > 0
+    centre = (slice(30, 130), slice(30, 130))  # origins -2.0 and -3.2 m: 30 cells apart
+    same_levels = np.array_equal(small.occupancy_levels(), large.occupancy_levels()[centre])
+    same_floor = np.array_equal(small.floor(), large.floor()[centre], equal_nan=True)
+    same_fog = np.array_equal(small.fog()[0], large.fog()[0][centre])
+    assert (same_levels and same_floor and same_fog) == clear_outside

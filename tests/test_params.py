@@ -49,6 +49,11 @@ def test_frozen():
         ("cell_m", 0.0, "> 0"),
         ("layer_m", -0.04, "> 0"),
         ("z_min_m", float("inf"), "finite"),
+        ("max_range_m", 0.0, "> 0"),
+        ("max_range_m", -1.0, "> 0"),
+        ("max_range_m", float("nan"), "> 0"),
+        ("max_range_m", "3", "> 0"),
+        ("clear_outside", 1, "a bool"),
     ],
 )
 def test_invalid_values_name_field_and_range(field, value, allowed):
@@ -68,3 +73,12 @@ def test_with_overrides():
     assert p.p_occ == 0.8 and p.nx == 50 and isinstance(p.nx, int)
     with pytest.raises(ValueError, match="unknown MapperParams field"):
         MapperParams().with_overrides(p_occupied=0.8)
+
+
+def test_max_range_and_clear_outside():
+    p = MapperParams()
+    assert p.clear_outside is False and p.max_range_m == float("inf")
+    assert MapperParams(max_range_m=float("inf")).max_range_m == float("inf")
+    q = p.with_overrides(clear_outside=1.0, max_range_m=2.5)
+    assert q.clear_outside is True and q.max_range_m == 2.5
+    assert q.with_overrides(clear_outside=0).clear_outside is False
