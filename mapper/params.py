@@ -77,10 +77,10 @@ class MapperParams:
             extent). Without it the grid's border columns and far cells collect hits from
             noisy points but are never cleared by the rays passing through them to farther
             points, and turn into false obstacles (stage: 94.5 % cells right off, 96.8 % on).
-            False (default, the behaviour before this flag existed) ignores such points: with
-            True, rays grazing over a far table edge toward points beyond the grid also clear
-            that edge's top cells (as they do today inside a larger grid), which
-            ``tests/test_fog.py::test_table_top_ceiling_and_obstacle`` does not allow yet.
+            False ignores such points (the map then depends on where the grid ends). With
+            True, rays grazing over a far table edge toward the ground beyond the grid clear
+            that edge's top cells in frames where no ray ends in them, as they would inside a
+            larger grid.
         zmatch_min_pairs: Matched floor points needed before a z shift is trusted (Sec. IV).
         zmatch_max_shift_m: Largest z shift [m] accepted; larger ones are reported but not
             accepted (they would mean the frame matched the wrong floor level).
@@ -101,7 +101,7 @@ class MapperParams:
     delta_m: float = 0.05
     free_margin_m: float = 0.08
     max_range_m: float = math.inf
-    clear_outside: bool = False
+    clear_outside: bool = True
     zmatch_min_pairs: int = 30
     zmatch_max_shift_m: float = 0.08
 

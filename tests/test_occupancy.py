@@ -171,7 +171,7 @@ def test_max_range_with_free_margin_stops_at_the_nearer():
 
 
 def test_clear_outside_off_ignores_no_hit_points():
-    m, sensor, point = _one_ray_mapper(MapperParams(max_range_m=0.35))  # clear_outside off
+    m, sensor, point = _one_ray_mapper(MapperParams(max_range_m=0.35, clear_outside=False))
     below = [[0.02, 0.02, -0.1]]  # 0.14 m straight down, below the grid (z_min -0.06)
     r = m.update(np.vstack([point, below]), [np.nan] * 2, sensor)  # point: 0.40 m away
     assert r.affected_area is None and r.cells_updated == 0

@@ -77,8 +77,8 @@ def test_with_overrides():
 
 def test_max_range_and_clear_outside():
     p = MapperParams()
-    assert p.clear_outside is False and p.max_range_m == float("inf")
+    assert p.clear_outside is True and p.max_range_m == float("inf")
     assert MapperParams(max_range_m=float("inf")).max_range_m == float("inf")
-    q = p.with_overrides(clear_outside=1.0, max_range_m=2.5)
-    assert q.clear_outside is True and q.max_range_m == 2.5
-    assert q.with_overrides(clear_outside=0).clear_outside is False
+    q = p.with_overrides(clear_outside=0.0, max_range_m=2.5)
+    assert q.clear_outside is False and q.max_range_m == 2.5
+    assert q.with_overrides(clear_outside=1).clear_outside is True
