@@ -20,8 +20,9 @@ def test_levels_follow_the_8bit_mapping():
     p = MapperParams()
     # probability = level / 256: p_min=0.12 -> 31 (0.121), p_max=0.97 -> 248 (0.969)
     assert p.level_min == 31 and p.level_max == 248
-    # p_occ = 0.75 -> occupied iff level > 192
-    assert p.occ_threshold_level == 192
+    # p_occ = 0.65 -> occupied iff level > 166 (0.6484); 0.75 -> iff level > 192
+    assert p.occ_threshold_level == 166
+    assert MapperParams(p_occ=0.75).occ_threshold_level == 192
 
 
 def test_frozen():
