@@ -7,7 +7,9 @@ from mapper import MapperParams
 from mapper.floor_map import update_floor, verify_floor
 
 # The hand values below are for these thresholds (the defaults before tuning, see MapperParams).
-P = MapperParams(p_occ=0.75, eps_m=0.02, nu=0.9)  # occupied iff level > 192; z_min -0.06
+P = MapperParams(
+    p_occ=0.75, eps_m=0.02, nu=0.9, p_sense=0.7, p_min=0.12, p_max=0.97
+)  # occupied iff level > 192; z_min -0.06
 OCC, FREE = 230, 60
 Z0, L = P.z_min_m, P.layer_m
 

@@ -16,7 +16,7 @@ from mapper import (
 from mapper.synthetic import Box, camera_rays_world, cast_frame
 
 # The expected values below were worked out for these thresholds (the pre-tuning defaults).
-P = MapperParams(p_occ=0.75, eps_m=0.02, nu=0.9)
+P = MapperParams(p_occ=0.75, eps_m=0.02, nu=0.9, p_sense=0.7, p_min=0.12, p_max=0.97)
 INTR = PinholeIntrinsics.from_fov(88, 72, 47.0, 39.0)
 RAYS = camera_rays_world(INTR, yaw_deg=0.0, pitch_down_deg=30.0)
 CAMERA = np.array([0.0, 0.0, 0.55])

@@ -10,10 +10,13 @@ from mapper.errors import InvalidParameterError
 from mapper.occupancy import bayes_update, lookup_tables, traversed_cells
 from mapper.synthetic import Box, camera_rays_world, cast_frame
 
+# The hand-computed levels below are for the sensor model these were worked out with.
+HAND = {"p_sense": 0.7, "p_min": 0.12, "p_max": 0.97}
+
 
 def test_tables_by_hand():
     # p_sense = 0.7, p = L/256, clamps 0.12 (level 31) and 0.97 (level 248).
-    hit, miss = lookup_tables(MapperParams())
+    hit, miss = lookup_tables(MapperParams(**HAND))
     # 128 (0.5) -> 0.7*0.5/(0.7*0.5+0.3*0.5) = 0.7 -> 179.2 -> 179
     assert hit[128] == 179
     # 179/256=0.69922 -> 0.84434 -> 216.15 -> 216
@@ -41,8 +44,8 @@ def test_bayes_update_matches_eq6():
     assert bayes_update(0.7, 0.7) == pytest.approx(0.49 / (0.49 + 0.09))
 
 
-PAPER = MapperParams(free_margin_m=0.0)  # rays clear every cell before the end cell
-CLEAR = MapperParams(free_margin_m=0.0, clear_outside=True)  # and rays of no-hit ends clear
+PAPER = MapperParams(**HAND, free_margin_m=0.0)  # rays clear every cell before the end cell
+CLEAR = MapperParams(**HAND, free_margin_m=0.0, clear_outside=True)  # and rays of no-hit ends clear
 
 
 def _one_ray_mapper(params=PAPER):
@@ -89,7 +92,7 @@ def test_many_points_in_one_cell_are_one_hit():
 
 
 def test_free_margin_stops_clearing_before_the_end():
-    m, sensor, point = _one_ray_mapper(MapperParams(free_margin_m=0.08))
+    m, sensor, point = _one_ray_mapper(MapperParams(**HAND, free_margin_m=0.08))
     m.update(point, [np.nan], sensor)
     levels = m.occupancy_levels()[:, 50, 2]
     # end at x=0.42 (cell 60); clearing stops at x=0.34 (cell 58, cleared too); 59 untouched
@@ -125,7 +128,7 @@ def test_end_outside_in_x_clears_to_the_grid_face():
 def test_end_outside_free_margin_from_the_true_end(end_x, last_cleared):
     """free_margin 0.08: end 0.5 m past the face -> all cleared; end at 2.02 -> stop at 1.94
     (cell (1.94 + 2) / 0.04 = 98.5 -> 98, cleared), cell 99 untouched."""
-    m, sensor, _ = _one_ray_mapper(MapperParams(free_margin_m=0.08, clear_outside=True))
+    m, sensor, _ = _one_ray_mapper(MapperParams(**HAND, free_margin_m=0.08, clear_outside=True))
     m.update(np.array([[end_x, 0.02, 0.04]]), [np.nan], sensor)
     levels = m.occupancy_levels()[:, 50, 2]
     assert np.all(levels[50 : last_cleared + 1] == 77)
@@ -163,7 +166,7 @@ def test_max_range_with_free_margin_stops_at_the_nearer():
     """End 0.40 m away, max_range 0.37, free_margin 0.08: stop at min(0.37, 0.32) -> x = 0.34
     (cell 58.5 -> 58); with free_margin 0.01: at 0.37 -> x = 0.39 (cell 59.75 -> 59)."""
     for margin, last in ((0.08, 58), (0.01, 59)):
-        p = MapperParams(free_margin_m=margin, max_range_m=0.37, clear_outside=True)
+        p = MapperParams(**HAND, free_margin_m=margin, max_range_m=0.37, clear_outside=True)
         m, sensor, point = _one_ray_mapper(p)
         m.update(point, [np.nan], sensor)
         levels = m.occupancy_levels()[:, 50, 2]
@@ -171,7 +174,7 @@ def test_max_range_with_free_margin_stops_at_the_nearer():
 
 
 def test_clear_outside_off_ignores_no_hit_points():
-    m, sensor, point = _one_ray_mapper(MapperParams(max_range_m=0.35, clear_outside=False))
+    m, sensor, point = _one_ray_mapper(MapperParams(**HAND, max_range_m=0.35, clear_outside=False))
     below = [[0.02, 0.02, -0.1]]  # 0.14 m straight down, below the grid (z_min -0.06)
     r = m.update(np.vstack([point, below]), [np.nan] * 2, sensor)  # point: 0.40 m away
     assert r.affected_area is None and r.cells_updated == 0
@@ -184,7 +187,7 @@ def test_border_cell_noise_cleared_by_rays_to_farther_points(clear_outside):
     """Two frames of noisy hits make border cell (99, 50, 2) occupied; rays through it to points
     beyond the grid then clear it (three frames of misses: 216 -> 179 -> 128 -> 77) — or not,
     with clear_outside off (the false obstacles on the grid border)."""
-    p = MapperParams(free_margin_m=0.0, clear_outside=clear_outside)
+    p = MapperParams(**HAND, free_margin_m=0.0, clear_outside=clear_outside)
     m, sensor, _ = _one_ray_mapper(p)
     for _ in range(2):
         m.update(np.array([[1.98, 0.02, 0.04]]), [np.nan], sensor)
@@ -346,7 +349,7 @@ def test_column_marks_equal_cell_marks(nz, free_margin_m, max_range_m, clear_out
 
 def test_tall_grid_uses_cell_marks_and_matches_brute_force():
     """nz > 64 does not fit a column word: the per-cell kernel runs, rays still exact."""
-    params = MapperParams(nx=10, ny=10, nz=80, layer_m=0.01, free_margin_m=0.0)
+    params = MapperParams(**HAND, nx=10, ny=10, nz=80, layer_m=0.01, free_margin_m=0.0)
     m = FloorObstacleMapper(params)
     assert not m._columns
     with pytest.raises(InvalidParameterError, match="nz <= 64"):
@@ -394,8 +397,8 @@ def test_map_inside_the_grid_does_not_depend_on_its_extent(clear_outside):
     rng = np.random.default_rng(3)
     rays = camera_rays_world(PinholeIntrinsics.from_fov(88, 72, 47.0, 39.0), 0.0, 15.0)
     table = Box((1.0, 0.0), (0.4, 0.6, 0.04), base_m=0.24, walkable=False)
-    small = FloorObstacleMapper(MapperParams(clear_outside=clear_outside))
-    large = FloorObstacleMapper(MapperParams(nx=160, ny=160, clear_outside=clear_outside))
+    small = FloorObstacleMapper(MapperParams(**HAND, clear_outside=clear_outside))
+    large = FloorObstacleMapper(MapperParams(**HAND, nx=160, ny=160, clear_outside=clear_outside))
     for _ in range(10):
         camera = np.array([rng.uniform(-0.02, 0.02), rng.uniform(-0.02, 0.02), 0.55])
         points, heights = cast_frame(camera, rays, [table], noise_z_m=0.003, rng=rng)

@@ -18,8 +18,10 @@ def test_defaults_are_the_papers_grid():
 
 def test_levels_follow_the_8bit_mapping():
     p = MapperParams()
-    # probability = level / 256: p_min=0.12 -> 31 (0.121), p_max=0.97 -> 248 (0.969)
-    assert p.level_min == 31 and p.level_max == 248
+    # probability = level / 256: p_min=0.07 -> 18 (0.0703), p_max=0.99 -> 253 (0.988)
+    assert p.level_min == 18 and p.level_max == 253
+    q = MapperParams(p_min=0.12, p_max=0.97)  # 0.12 -> 31 (0.121), 0.97 -> 248 (0.969)
+    assert q.level_min == 31 and q.level_max == 248
     # p_occ = 0.65 -> occupied iff level > 166 (0.6484); 0.75 -> iff level > 192
     assert p.occ_threshold_level == 166
     assert MapperParams(p_occ=0.75).occ_threshold_level == 192
