@@ -24,6 +24,7 @@ from mapper.grid import (
     scroll_xy,
     validate_frame,
 )
+from mapper.occupancy import NONFINITE, OUTSIDE, _grid_point
 from mapper.params import MapperParams
 
 
@@ -42,17 +43,13 @@ def _accumulate(
     iy0 = ny
     iy1 = -1
     for i in range(points.shape[0]):
-        x = points[i, 0]
-        y = points[i, 1]
         z = points[i, 2]
-        if not (np.isfinite(x) and np.isfinite(y) and np.isfinite(z)):
-            nonfinite += 1
-            continue
-        ix = int(np.floor((x - origin_x) / cell))
-        iy = int(np.floor((y - origin_y) / cell))
-        iz = int(np.floor((z - z_min) / layer))
-        if ix < 0 or ix >= nx or iy < 0 or iy >= ny or iz < 0 or iz >= nz:
-            outside += 1
+        status, _, _, _, ix, iy, _ = _grid_point(
+            points[i, 0], points[i, 1], z, origin_x, origin_y, z_min, cell, layer, nx, ny, nz
+        )
+        if status < 0:
+            nonfinite += status == NONFINITE
+            outside += status == OUTSIDE
             continue
         used += 1
         sum_z[ix, iy] += z
