@@ -26,9 +26,9 @@ os.environ.setdefault("MESA_SHADER_CACHE_DISABLE", "true")
 
 import numpy as np
 
-from fogsim.camera import HeadCamera, RaycastDepth, RendererDepth
-from fogsim.scenario import load_scenario
-from fogsim.simulation import Simulation
+from fogsim.sim.camera import HeadCamera, RaycastDepth, RendererDepth
+from fogsim.config.scenario import load_scenario
+from fogsim.sim.simulation import Simulation
 
 
 def timed(fn, *args, **kwargs):

@@ -21,10 +21,10 @@ os.environ.setdefault("MUJOCO_GL", "egl")
 
 import mujoco
 
-from fogsim.encoders import EncoderModel, Odometry
-from fogsim.robot import load_robot
-from fogsim.self_filter import SelfFilter
-from fogsim.walking import plan_route
+from fogsim.robot.encoders import EncoderModel, Odometry
+from fogsim.robot.model import load_robot
+from fogsim.robot.self_filter import SelfFilter
+from fogsim.robot.walking import plan_route
 from mapper.intrinsics import PinholeIntrinsics
 
 

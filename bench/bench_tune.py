@@ -3,10 +3,10 @@
 1. Records the scenarios once (cached in ``OUT/recordings/``, keyed by scenario hash; the
    recording time is printed but is not part of a tune's cost once cached).
 2. One trial, per recording, median of ``--repeats`` runs in this process:
-   ``replay`` = :func:`fogsim.pipeline.run_frames` without truth (segmentation, z match, mapper,
-   averaging baseline), ``scoring`` = the rest of :func:`fogsim.pipeline.replay_report` (world
+   ``replay`` = :func:`fogsim.run.runner.run_frames` without truth (segmentation, z match, mapper,
+   averaging baseline), ``scoring`` = the rest of :func:`fogsim.run.runner.replay_report` (world
    archive vs ground truth, Table I, cells, events, report assembly), ``objective`` = reducing
-   the report (:func:`fogsim.tune_objective.objective_terms`).
+   the report (:func:`fogsim.tune.objective.objective_terms`).
 3. A fresh tune of ``--trials`` trials (TPE, three parameters) with ``--workers`` processes: wall
    time, trials per minute, best vs defaults objective.
 
@@ -29,8 +29,9 @@ os.environ.setdefault("MUJOCO_GL", "egl")
 os.environ.setdefault("PYOPENGL_PLATFORM", "egl")
 os.environ.setdefault("MESA_SHADER_CACHE_DISABLE", "true")
 
-from fogsim.pipeline import replay_report, resolve_params, run_frames
-from fogsim.tune import (
+from fogsim.mapping.pipeline import resolve_params
+from fogsim.run.runner import replay_report, run_frames
+from fogsim.tune.study import (
     RECORDINGS_DIR,
     ParamSpec,
     TuneConfig,
@@ -38,7 +39,7 @@ from fogsim.tune import (
     parameter_defaults,
     tune,
 )
-from fogsim.tune_objective import ObjectiveWeights, objective_terms
+from fogsim.tune.objective import ObjectiveWeights, objective_terms
 
 PARAMS = ("p_occ=0.55:0.95", "eps_m=0.005:0.05:log", "delta_m=0.01:0.06")
 

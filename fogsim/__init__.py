@@ -2,11 +2,12 @@
 
 The public API is imported lazily (``import fogsim`` stays cheap and needs no MuJoCo):
 
-* ``Frame`` — the per-frame contract (``fogsim.frames``);
-* ``load_scenario``, ``list_scenarios`` (``fogsim.scenario``);
-* ``run_frames``, ``replay_report``, ``resolve_params`` (``fogsim.pipeline``);
-* ``save_recording``, ``load_recording``, ``Recording`` (``fogsim.recording``);
-* ``run_scenario``, ``run_suite`` (``fogsim.suite``); ``main`` (the command line).
+* ``Frame`` — the per-frame contract (``fogsim.data.frame``);
+* ``load_scenario``, ``list_scenarios`` (``fogsim.config.scenario``);
+* ``resolve_params`` (``fogsim.mapping.pipeline``); ``run_frames``, ``replay_report``,
+  ``run_scenario`` (``fogsim.run.runner``);
+* ``save_recording``, ``load_recording``, ``Recording`` (``fogsim.data.recording``);
+* ``run_suite`` (``fogsim.run.suite``); ``main`` (the command line).
 """
 
 from __future__ import annotations
@@ -17,17 +18,17 @@ from typing import Any
 __version__ = "0.1.0"
 
 _EXPORTS = {
-    "Frame": "fogsim.frames",
-    "load_scenario": "fogsim.scenario",
-    "list_scenarios": "fogsim.scenario",
-    "run_frames": "fogsim.pipeline",
-    "replay_report": "fogsim.pipeline",
-    "resolve_params": "fogsim.pipeline",
-    "save_recording": "fogsim.recording",
-    "load_recording": "fogsim.recording",
-    "Recording": "fogsim.recording",
-    "run_scenario": "fogsim.suite",
-    "run_suite": "fogsim.suite",
+    "Frame": "fogsim.data.frame",
+    "load_scenario": "fogsim.config.scenario",
+    "list_scenarios": "fogsim.config.scenario",
+    "run_frames": "fogsim.run.runner",
+    "replay_report": "fogsim.run.runner",
+    "resolve_params": "fogsim.mapping.pipeline",
+    "save_recording": "fogsim.data.recording",
+    "load_recording": "fogsim.data.recording",
+    "Recording": "fogsim.data.recording",
+    "run_scenario": "fogsim.run.runner",
+    "run_suite": "fogsim.run.suite",
     "main": "fogsim.cli",
 }
 

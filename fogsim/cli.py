@@ -14,7 +14,7 @@ from collections.abc import Sequence
 from pathlib import Path
 
 from fogsim.errors import FogsimError
-from fogsim.tune import add_tune_arguments
+from fogsim.tune.study import add_tune_arguments
 from mapper.errors import MapperError
 
 CAMERA_MODES = ("ideal", "depth", "stereo")
@@ -85,7 +85,7 @@ def _parser() -> argparse.ArgumentParser:
 
 def _load(name_or_path: str, args: argparse.Namespace):
     """Load a scenario and apply ``--set``, ``--seed`` and ``--camera-mode``."""
-    from fogsim.scenario import load_scenario
+    from fogsim.config.scenario import load_scenario
 
     scenario = load_scenario(name_or_path)
     return _with_options(scenario, args)
@@ -101,7 +101,7 @@ def _with_options(scenario, args: argparse.Namespace):
 
 
 def _cmd_list() -> int:
-    from fogsim.scenario import list_scenarios, load_scenario
+    from fogsim.config.scenario import list_scenarios, load_scenario
 
     for path in list_scenarios():
         try:
@@ -113,17 +113,17 @@ def _cmd_list() -> int:
 
 
 def _cmd_run(args: argparse.Namespace) -> int:
-    from fogsim.report import format_table1
-    from fogsim.suite import run_scenario
+    from fogsim.eval.report import format_table1
+    from fogsim.run.runner import run_scenario
 
     replay = None
     if args.replay is not None:
-        from fogsim.recording import load_recording
+        from fogsim.data.recording import load_recording
 
         replay = load_recording(args.replay)
         scenario = replay.scenario
         if args.scenario is not None:
-            from fogsim.scenario import load_scenario
+            from fogsim.config.scenario import load_scenario
 
             scenario = load_scenario(args.scenario)
         if scenario is not None:
@@ -158,8 +158,8 @@ def _cmd_run(args: argparse.Namespace) -> int:
 
 
 def _cmd_record(args: argparse.Namespace) -> int:
-    from fogsim.recording import save_recording
-    from fogsim.simulation import Simulation
+    from fogsim.data.recording import save_recording
+    from fogsim.sim.simulation import Simulation
 
     start = time.perf_counter()
     scenario = _load(args.scenario, args)
@@ -184,7 +184,7 @@ def _cmd_suite(args: argparse.Namespace) -> int:
     import json
 
     from fogsim.atomic import write_text_atomic
-    from fogsim.suite import (
+    from fogsim.run.suite import (
         check_against_baseline,
         load_json,
         run_suite,

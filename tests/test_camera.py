@@ -8,7 +8,7 @@ import math
 import numpy as np
 import pytest
 
-from fogsim.camera import (
+from fogsim.sim.camera import (
     HeadCamera,
     RaycastDepth,
     RendererDepth,
@@ -17,8 +17,8 @@ from fogsim.camera import (
     set_model_intrinsics,
 )
 from fogsim.errors import FogsimError
-from fogsim.scenario import CameraConfig, load_scenario, scenario_from_dict
-from fogsim.scene import Scene
+from fogsim.config.scenario import CameraConfig, load_scenario, scenario_from_dict
+from fogsim.sim.scene import Scene
 from mapper.transforms import apply_transform
 
 

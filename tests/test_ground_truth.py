@@ -8,14 +8,14 @@ import math
 import numpy as np
 import pytest
 
-from fogsim.ground_truth import (
+from fogsim.world.truth import (
     ObjectState,
     SceneTruth,
     TruthLabel,
     moving_objects,
     object_center_at,
 )
-from fogsim.scenario import load_scenario, scenario_from_dict
+from fogsim.config.scenario import load_scenario, scenario_from_dict
 
 CELL_M = 0.04
 

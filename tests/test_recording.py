@@ -6,10 +6,10 @@ import numpy as np
 import pytest
 
 from fogsim.errors import RecordingError
-from fogsim.frames import Frame
-from fogsim.ground_truth import ObjectState, SceneTruth
-from fogsim.recording import FORMAT_VERSION, load_recording, save_recording
-from fogsim.scenario import load_scenario
+from fogsim.data.frame import Frame
+from fogsim.world.truth import ObjectState, SceneTruth
+from fogsim.data.recording import FORMAT_VERSION, load_recording, save_recording
+from fogsim.config.scenario import load_scenario
 from mapper.intrinsics import PinholeIntrinsics
 
 INTR = PinholeIntrinsics.from_fov(8, 6, 47.0, 39.0)

@@ -6,7 +6,7 @@ import pinocchio as pin
 import pytest
 
 from fogsim.errors import RobotModelError
-from fogsim.robot import CAMERA_NAMES, ROBOT_NAMES, Stance, load_robot
+from fogsim.robot.model import CAMERA_NAMES, ROBOT_NAMES, Stance, load_robot
 from mapper.transforms import planar_pose_to_matrix
 
 

@@ -8,7 +8,7 @@ from pathlib import Path
 import pytest
 
 from fogsim.errors import ScenarioError
-from fogsim.scenario import (
+from fogsim.config.scenario import (
     Scenario,
     list_scenarios,
     load_scenario,

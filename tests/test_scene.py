@@ -6,9 +6,9 @@ import numpy as np
 import pytest
 
 from fogsim.errors import FogsimError
-from fogsim.ground_truth import SceneTruth, object_center_at
-from fogsim.scenario import load_scenario
-from fogsim.scene import CAMERA_NAMES, Scene, rough_elevation
+from fogsim.world.truth import SceneTruth, object_center_at
+from fogsim.config.scenario import load_scenario
+from fogsim.sim.scene import CAMERA_NAMES, Scene, rough_elevation
 
 
 def ray_down(scene: Scene, xy) -> np.ndarray:
@@ -116,7 +116,7 @@ def test_camera_rig_pose_round_trip():
 
 @pytest.fixture(scope="module")
 def robot():
-    robot_module = pytest.importorskip("fogsim.robot")
+    robot_module = pytest.importorskip("fogsim.robot.model")
     return robot_module.load_robot("icub")
 
 

@@ -3,8 +3,8 @@
 import numpy as np
 import pytest
 
-from fogsim.ground_truth import ObjectState, SceneTruth
-from fogsim.scoring import (
+from fogsim.world.truth import ObjectState, SceneTruth
+from fogsim.eval.scoring import (
     EventTracker,
     WorldArchive,
     cell_scores,

@@ -4,11 +4,11 @@ import mujoco
 import numpy as np
 import pytest
 
-from fogsim.encoders import EncoderModel
+from fogsim.robot.encoders import EncoderModel
 from fogsim.errors import FogsimError
-from fogsim.robot import Stance, load_robot
-from fogsim.self_filter import SelfFilter, SelfFilterParams
-from fogsim.walking import plan_route
+from fogsim.robot.model import Stance, load_robot
+from fogsim.robot.self_filter import SelfFilter, SelfFilterParams
+from fogsim.robot.walking import plan_route
 from mapper.intrinsics import PinholeIntrinsics
 
 WIDTH, HEIGHT = 88, 72

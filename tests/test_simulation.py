@@ -8,9 +8,9 @@ import itertools
 import numpy as np
 import pytest
 
-from fogsim.frames import Frame
-from fogsim.scenario import list_scenarios, load_scenario
-from fogsim.simulation import Simulation
+from fogsim.data.frame import Frame
+from fogsim.config.scenario import list_scenarios, load_scenario
+from fogsim.sim.simulation import Simulation
 from mapper.transforms import apply_transform
 
 FIRST_FRAMES = 3

@@ -6,7 +6,7 @@ import pytest
 
 from fogsim.cli import main
 from fogsim.paths import SCENARIOS_DIR
-from fogsim.suite import (
+from fogsim.run.suite import (
     NEVER_FRAMES,
     check_against_baseline,
     report_metrics,
@@ -119,7 +119,7 @@ def test_quick_suite_passes_check_against_committed_baseline(tmp_path, capsys):
     strict = json.loads(baseline.read_text())
     strict["quick_scenarios"]["flat_floor"]["metrics"]["cells.accuracy"] = 1.5
     (tmp_path / "strict.json").write_text(json.dumps(strict))
-    from fogsim.suite import check_against_baseline as check
+    from fogsim.run.suite import check_against_baseline as check
 
     problems = check(summary, strict)
     assert problems and "flat_floor: cells.accuracy got worse" in problems[0]

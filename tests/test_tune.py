@@ -17,14 +17,14 @@ from pathlib import Path
 import pytest
 
 from fogsim.errors import FogsimError
-from fogsim.tune import (
+from fogsim.tune.study import (
     ParamSpec,
     SamplerKind,
     TuneConfig,
     best_params_toml,
     tune,
 )
-from fogsim.tune_objective import (
+from fogsim.tune.objective import (
     ObjectiveTerms,
     ObjectiveWeights,
     SuiteEntry,
@@ -41,7 +41,7 @@ TESTS_DIR = Path(__file__).resolve().parent
 
 @dataclass(frozen=True)
 class FakeRecording:
-    """Stands in for fogsim.recording.Recording: the report function reads ``offset_mm``."""
+    """Stands in for fogsim.data.recording.Recording: the report function reads ``offset_mm``."""
 
     offset_mm: float
     delay_s: float = 0.0
@@ -129,7 +129,7 @@ def test_param_spec_rejects_bad_input_naming_the_problem(text, message):
 
 
 def test_param_names_come_from_the_mapper_parameter_classes():
-    from fogsim.tune import parameter_defaults, tunable_parameter_names
+    from fogsim.tune.study import parameter_defaults, tunable_parameter_names
     from mapper.params import MapperParams
     from mapper.segmentation import SegmentationParams
 
@@ -342,7 +342,7 @@ KILL_SCRIPT = textwrap.dedent(
     import sys
     sys.path[:0] = [{root!r}, {tests!r}]
     from pathlib import Path
-    from fogsim.tune import TuneConfig, tune
+    from fogsim.tune.study import TuneConfig, tune
     import test_tune as t
     cfg = TuneConfig(params=t.specs(), trials=40, out_dir=Path({out!r}), progress=False,
                      heartbeat_s=1, grace_s=2)
@@ -461,10 +461,10 @@ def synthetic_box_removal_suite(frames: int = 70) -> list[SuiteEntry]:
     import numpy as np
     from synthetic_depth import Box, add_depth_noise, look_down_camera, render_boxes
 
-    from fogsim.frames import Frame
-    from fogsim.ground_truth import SceneTruth
-    from fogsim.recording import Recording
-    from fogsim.scenario import load_scenario
+    from fogsim.data.frame import Frame
+    from fogsim.world.truth import SceneTruth
+    from fogsim.data.recording import Recording
+    from fogsim.config.scenario import load_scenario
     from mapper.intrinsics import PinholeIntrinsics
 
     scenario = load_scenario("box_removal")
@@ -500,10 +500,10 @@ def synthetic_box_removal_suite(frames: int = 70) -> list[SuiteEntry]:
 
 def test_small_tune_on_the_quick_subset_is_at_least_as_good_as_the_defaults(tmp_path):
     from fogsim.paths import SCENARIOS_DIR
-    from fogsim.pipeline import replay_report
-    from fogsim.scenario import load_scenario
-    from fogsim.suite import QUICK_MAX_FRAMES, QUICK_SCENARIOS
-    from fogsim.tune import load_suite, parameter_defaults
+    from fogsim.run.runner import replay_report
+    from fogsim.config.scenario import load_scenario
+    from fogsim.run.suite import QUICK_MAX_FRAMES, QUICK_SCENARIOS
+    from fogsim.tune.study import load_suite, parameter_defaults
 
     # The suite's quick subset, simulated once into the cache, then only replayed.
     suite = load_suite(SCENARIOS_DIR, tmp_path / "recordings", quick=True)
@@ -516,7 +516,7 @@ def test_small_tune_on_the_quick_subset_is_at_least_as_good_as_the_defaults(tmp_
         ParamSpec.parse("seg.min_plane_pixels=10:60"),
     )
     cfg = TuneConfig(params=params, trials=4, out_dir=tmp_path, seed=2, progress=False)
-    result = tune(cfg, suite)  # the real fogsim.pipeline.replay_report
+    result = tune(cfg, suite)  # the real fogsim.run.runner.replay_report
     # The defaults are trial 0 and measured: the same as replaying with the library defaults.
     defaults = parameter_defaults([p.name for p in params])
     direct = score_parameters(suite, defaults, cfg.weights, replay_report)
@@ -542,7 +542,7 @@ def test_small_tune_on_the_quick_subset_is_at_least_as_good_as_the_defaults(tmp_
 
 def test_cli_tune_from_a_recording_file_and_resume(tmp_path, capsys):
     from fogsim.cli import main
-    from fogsim.recording import save_recording
+    from fogsim.data.recording import save_recording
 
     (entry,) = synthetic_box_removal_suite(frames=60)
     rec = entry.recording

@@ -3,8 +3,8 @@ import math
 import numpy as np
 import pytest
 
-from fogsim.robot import Stance, load_robot
-from fogsim.walking import GaitParams, RouteError, plan_route
+from fogsim.robot.model import Stance, load_robot
+from fogsim.robot.walking import GaitParams, RouteError, plan_route
 
 PLATFORM_M = 0.122
 
@@ -219,8 +219,8 @@ def test_talos_camera_is_outside_its_head(talos):
 
 
 def test_stage_scenario_route_is_a_minute_and_ends_on_the_platform(icub):
-    from fogsim.ground_truth import SceneTruth
-    from fogsim.scenario import load_scenario
+    from fogsim.world.truth import SceneTruth
+    from fogsim.config.scenario import load_scenario
 
     scenario = load_scenario("stage")
     walk = plan_route(

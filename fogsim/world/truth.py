@@ -30,8 +30,8 @@ from typing import Any
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
+from fogsim.config.scenario import Scenario, SceneObject
 from fogsim.errors import FogsimError
-from fogsim.scenario import Scenario, SceneObject
 from mapper.grid import CellType
 
 GROUND = "ground"

@@ -8,7 +8,7 @@ rig (mocap body ``camera_rig``) carrying ``head_camera``, ``head_camera_left`` a
 ``head_camera_right``.
 
 Objects some event moves or removes are mocap bodies: :meth:`Scene.set_time` places them where
-:func:`fogsim.ground_truth.object_center_at` says (a removed object is parked far away below
+:func:`fogsim.world.truth.object_center_at` says (a removed object is parked far away below
 the floor). Rough tops are height fields whose bumps are drawn from the scenario seed. Every
 surface is textured (checker + random marks) so stereo matching has something to match.
 Rendering settings: no shadows, ``statistic.extent`` = 10 m so that the depth buffer's near
@@ -27,9 +27,9 @@ import numpy as np
 from dm_control import mjcf
 from numpy.typing import ArrayLike, NDArray
 
+from fogsim.config.scenario import Scenario, SceneObject
 from fogsim.errors import FogsimError
-from fogsim.ground_truth import moving_objects, object_center_at
-from fogsim.scenario import Scenario, SceneObject
+from fogsim.world.truth import moving_objects, object_center_at
 
 CAMERA_NAMES = ("head_camera", "head_camera_left", "head_camera_right")
 EXTENT_M = 10.0  # statistic.extent: MuJoCo scales znear/zfar (and some visuals) by it
@@ -44,7 +44,7 @@ _MJ_FROM_CV = np.diag([1.0, -1.0, -1.0])  # R_cv = R_mj @ diag(1, -1, -1) and ba
 
 
 class RobotLike(Protocol):
-    """What the scene needs of a robot (``fogsim.robot.Robot`` fits)."""
+    """What the scene needs of a robot (``fogsim.robot.model.Robot`` fits)."""
 
     name: str
     mjcf_path: Any

@@ -1,8 +1,8 @@
 """``fogsim tune``: search mapper and segmentation thresholds over a suite of recordings.
 
 Each trial scores one parameter set by replaying every recording of the suite with it
-(:func:`fogsim.pipeline.replay_report`, no rendering) and reducing the reports to one objective
-(:mod:`fogsim.tune_objective`). The search is Optuna's: TPE (default), random, or a grid.
+(:func:`fogsim.run.runner.replay_report`, no rendering) and reducing the reports to one objective
+(:mod:`fogsim.tune.objective`). The search is Optuna's: TPE (default), random, or a grid.
 
 Storage and resuming: trials live in an Optuna SQLite database ``OUT/tune.db``. Only the driver
 process talks to it (ask, tell, heartbeats); workers only score. Every trial is stored the moment
@@ -56,7 +56,7 @@ import numpy as np
 
 from fogsim.atomic import write_atomic, write_text_atomic
 from fogsim.errors import FogsimError
-from fogsim.tune_objective import (
+from fogsim.tune.objective import (
     ObjectiveWeights,
     ReportFunction,
     SuiteEntry,
@@ -314,8 +314,8 @@ def scenario_hash(scenario: Any) -> str:
 
 def _record_scenario(scenario: Any, path: Path, max_frames: int | None) -> None:
     """Simulate a scenario once (its first ``max_frames`` frames) and save them with the truth."""
-    from fogsim.recording import save_recording
-    from fogsim.simulation import Simulation
+    from fogsim.data.recording import save_recording
+    from fogsim.sim.simulation import Simulation
 
     simulation = Simulation(scenario)
     frames = list(itertools.islice(simulation.frames(), max_frames))
@@ -353,7 +353,7 @@ def _entry(name: str, recording: Any) -> SuiteEntry:
 
 def _suite_files(source: str | os.PathLike[str]) -> list[Path]:
     """Scenario files and recordings named by one suite argument."""
-    from fogsim.scenario import load_scenario
+    from fogsim.config.scenario import load_scenario
 
     path = Path(source)
     if path.is_dir():
@@ -386,16 +386,16 @@ def load_suite(
         cache_dir: Where recordings made from scenario files are kept, as
             ``<name>-<scenario hash>[-<frames>f].npz``: made once, reused while the scenario
             is unchanged.
-        quick: Only the suite's quick subset (:data:`fogsim.suite.QUICK_SCENARIOS`, cut after
-            :data:`fogsim.suite.QUICK_MAX_FRAMES` frames), as ``fogsim suite --quick`` runs it.
+        quick: Only the suite's quick subset (:data:`fogsim.run.suite.QUICK_SCENARIOS`, cut after
+            :data:`fogsim.run.suite.QUICK_MAX_FRAMES` frames), as ``fogsim suite --quick`` runs it.
 
     Raises:
         FogsimError: a source is missing or empty, no file is left, names repeat, or a
             recording has no ground truth.
     """
-    from fogsim.recording import load_recording
-    from fogsim.scenario import load_scenario
-    from fogsim.suite import QUICK_MAX_FRAMES, QUICK_SCENARIOS
+    from fogsim.config.scenario import load_scenario
+    from fogsim.data.recording import load_recording
+    from fogsim.run.suite import QUICK_MAX_FRAMES, QUICK_SCENARIOS
 
     if isinstance(sources, str | os.PathLike):
         sources = [sources]
@@ -435,8 +435,8 @@ def _suite_identity(suite: Sequence[SuiteEntry]) -> list[str]:
 
 
 def default_report_function() -> ReportFunction:
-    """:func:`fogsim.pipeline.replay_report` (imported lazily)."""
-    from fogsim.pipeline import replay_report
+    """:func:`fogsim.run.runner.replay_report` (imported lazily)."""
+    from fogsim.run.runner import replay_report
 
     return replay_report
 
@@ -786,7 +786,7 @@ def tune(
         config: What to tune and how.
         suite: The recordings every trial replays (:func:`load_suite`).
         report_function: ``(recording, overrides) -> report``; default
-            :func:`fogsim.pipeline.replay_report`. Must be picklable for workers/Ray.
+            :func:`fogsim.run.runner.replay_report`. Must be picklable for workers/Ray.
         defaults: Values of the first trial; default :func:`parameter_defaults`.
 
     Returns:
@@ -1087,7 +1087,7 @@ def add_tune_arguments(subparsers: Any) -> argparse.ArgumentParser:
         default=[],
         metavar="NAME=VALUE",
         help="objective weight (repeatable): table1_mm, cell_error_pct, unknown_pct, "
-        "clearing_s, missing_row_mm, never_cleared_s; see fogsim.tune_objective",
+        "clearing_s, missing_row_mm, never_cleared_s; see fogsim.tune.objective",
     )
     parser.add_argument("--out", required=True, type=Path, help="output directory")
     parser.add_argument("--study-name", default="fogsim-tune")
@@ -1124,7 +1124,7 @@ def run_tune(args: argparse.Namespace) -> int:
 
 
 def tune_main(argv: Sequence[str] | None = None) -> int:
-    """``python -m fogsim.tune ...``: the ``tune`` subcommand on its own."""
+    """``python -m fogsim.tune.study ...``: the ``tune`` subcommand on its own."""
     parser = argparse.ArgumentParser(prog="fogsim")
     add_tune_arguments(parser.add_subparsers(dest="command", required=True))
     args = parser.parse_args(["tune", *(sys.argv[1:] if argv is None else argv)])

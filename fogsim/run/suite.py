@@ -31,14 +31,14 @@ import math
 import multiprocessing
 import os
 import time
-from collections.abc import Callable, Iterable, Mapping, Sequence
+from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
 from fogsim.atomic import write_text_atomic
 from fogsim.errors import FogsimError
-from fogsim.report import build_report, write_report
+from fogsim.run.runner import run_scenario
 
 NEVER_FRAMES = 1_000_000.0
 QUICK_SCENARIOS = ("flat_floor", "box_removal")
@@ -150,113 +150,9 @@ def check_against_baseline(summary: Mapping[str, Any], baseline: Mapping[str, An
     return problems
 
 
-def run_scenario(
-    scenario: Any,
-    out_dir: str | os.PathLike[str] | None,
-    *,
-    replay: Any | None = None,
-    pictures: bool = True,
-    video: bool = False,
-    progress: bool = False,
-    max_frames: int | None = None,
-    depth_backend: str = "renderer",
-) -> dict:
-    """Run one scenario end to end and write its results.
-
-    Args:
-        scenario: A loaded Scenario (overrides already applied).
-        out_dir: Folder for ``report.json``, the PNGs (and ``run.mp4``); None = write nothing.
-        replay: A Recording to feed instead of simulating (no MuJoCo).
-        pictures: Write the PNGs.
-        video: Write ``run.mp4`` (camera image beside the growing map).
-        progress: Show a tqdm progress bar.
-        max_frames: Stop after this many frames (the suite's quick mode).
-        depth_backend: Simulation depth backend (``renderer`` or ``raycast``).
-
-    Returns:
-        The report dict.
-    """
-    from fogsim.pipeline import resolve_params, run_frames
-
-    start = time.perf_counter()
-    params = resolve_params(scenario)  # bad parameters fail here, before any simulation
-    if replay is not None:
-        frames: Iterable[Any] = replay.frames
-        truth_at = replay.truth_at if replay.has_truth else None
-        times_s = [f.time_s for f in replay.frames]
-        source = "replay"
-    else:
-        from fogsim.simulation import Simulation
-
-        simulation = Simulation(scenario, depth_backend=depth_backend)
-        frames = simulation.frames()
-        truth_at = simulation.truth_at
-        times_s = list(simulation.trajectory.times_s)
-        source = "simulation"
-    total = len(times_s)
-    if max_frames is not None and total > max_frames:
-        frames, total = _take(frames, max_frames), max_frames
-    end_time_s = float(times_s[total - 1])
-
-    callbacks: list[Callable[[Any, Any], None]] = []
-    bar = None
-    if progress:
-        from tqdm import tqdm
-
-        bar = tqdm(total=total, unit="frame", desc=getattr(scenario, "name", "run"))
-        callbacks.append(lambda frame, pipeline: bar.update(1))
-    writer = None
-    if video and out_dir is not None:
-        from fogsim.pictures import RunVideoWriter
-
-        writer = RunVideoWriter(Path(out_dir) / "run.mp4", fps=scenario.frame_rate_hz)
-        callbacks.append(writer.add)
-    try:
-        result = run_frames(
-            frames,
-            truth_at,
-            scenario,
-            params=params,
-            end_time_s=end_time_s,
-            on_frame=(lambda f, p: [cb(f, p) for cb in callbacks]) if callbacks else None,
-        )
-    finally:
-        if bar is not None:
-            bar.close()
-        if writer is not None:
-            writer.close()
-    wall_s = time.perf_counter() - start
-    report = build_report(
-        result,
-        scenario,
-        source=source,
-        wall_s=wall_s,
-        duration_s=result.frames / scenario.frame_rate_hz if scenario is not None else None,
-    )
-    if out_dir is not None:
-        out = Path(out_dir)
-        if pictures:
-            from fogsim.pictures import write_pictures
-
-            picture_start = time.perf_counter()
-            report["pictures"] = [p.name for p in write_pictures(result, scenario, out)]
-            report["timing"]["pictures_s"] = round(time.perf_counter() - picture_start, 3)
-        if writer is not None:
-            report["video"] = writer.path.name
-        write_report(out / "report.json", report)
-    return report
-
-
-def _take(frames: Iterable[Any], count: int) -> Iterable[Any]:
-    for i, frame in enumerate(frames):
-        if i >= count:
-            return
-        yield frame
-
-
 def _suite_worker(path: str, out_dir: str, quick: bool, overrides: Sequence[str]) -> dict:
     """One scenario in a worker process: run it, return its summary entry."""
-    from fogsim.scenario import load_scenario
+    from fogsim.config.scenario import load_scenario
 
     start = time.perf_counter()
     name = Path(path).stem

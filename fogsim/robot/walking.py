@@ -14,7 +14,7 @@ tries the nominal step first, then shorter ones, then longer ones up to ``max_st
 robot steps over the sill and takes every stair tread with both feet when it must.
 
 Frames: world (z up); feet are given by their sole frames; the robot frame R is
-`fogsim.robot.Robot.robot_frame_in_world` with the stance foot as reference (left in DOUBLE).
+`fogsim.robot.model.Robot.robot_frame_in_world` with the stance foot as reference (left in DOUBLE).
 """
 
 from __future__ import annotations
@@ -29,7 +29,7 @@ import pinocchio as pin
 from numpy.typing import ArrayLike, NDArray
 
 from fogsim.errors import FogsimError
-from fogsim.robot import Robot, Stance
+from fogsim.robot.model import Robot, Stance
 
 SupportHeightFn = Callable[[NDArray[np.float64]], NDArray[np.float64]]
 
@@ -590,7 +590,7 @@ def plan_route(
     """Plan a kinematic walk along a route and sample it at the frame rate.
 
     Args:
-        robot: The humanoid (`fogsim.robot.load_robot`).
+        robot: The humanoid (`fogsim.robot.model.load_robot`).
         start_pose_xy_yaw: (x [m], y [m], yaw [deg]) of the robot frame at the start.
         route_steps: Route steps (see module docstring).
         support_height_m: Height [m] of the highest standing surface at (N, 2) world xy.

@@ -3,7 +3,7 @@
 Every joint reading = true angle + a per-run bias (drawn once, N(0, bias_deg²) per joint) +
 per-frame noise (N(0, noise_deg²)), with one level for the body (legs, torso, arms) and one
 for the neck (`JointGroup`, `EncoderModel`). The believed camera pose in the robot frame R is
-pinocchio's forward kinematics of the readings (`fogsim.robot.Robot.transform_camera_to_robot`). The
+pinocchio's forward kinematics of the readings (`fogsim.robot.model.Robot.transform_camera_to_robot`). The
 believed pose of R in the world comes from foot-to-foot odometry: when the support switches, the
 new reference sole's pose = old reference sole's pose ∘ FK(readings, old sole → new sole),
 projected to a level pose (x, y, z, yaw), using readings taken while both feet were down.
@@ -20,7 +20,7 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from fogsim.errors import FogsimError
-from fogsim.robot import Robot, Stance
+from fogsim.robot.model import Robot, Stance
 from mapper.transforms import planar_pose_to_matrix, rotation_angle_deg
 
 
@@ -69,7 +69,7 @@ class EncoderModel:
     Why two levels: the camera error of the body chain (iCub: ~1 m from the sole to the eyes)
     is mostly translation, the neck's (a ~0.15 m lever) mostly rotation. The paper's "up to 7°
     and 10 mm" needs a precise body and a sloppy neck; with iCub's neck lever the neck gives
-    about 2 mm per degree, so the scenario defaults (`fogsim.scenario.EncoderConfig`) trade
+    about 2 mm per degree, so the scenario defaults (`fogsim.config.scenario.EncoderConfig`) trade
     part of the 7° for the 10 mm.
 
     Args:

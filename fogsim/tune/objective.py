@@ -1,7 +1,7 @@
 """The tuning objective: one number (lower is better) from the report of a replayed run.
 
 ``fogsim tune`` scores a parameter set by replaying every recording of a suite with those
-parameters (:func:`fogsim.pipeline.replay_report`) and reducing each report to three terms:
+parameters (:func:`fogsim.run.runner.replay_report`) and reducing each report to three terms:
 
 * ``table1_mm`` -- mean absolute Table I error of the FOG over the walkable surfaces and the
   ground [mm]; a row the FOG never estimated is charged ``missing_row_mm``;
@@ -30,7 +30,7 @@ from typing import Any
 from fogsim.errors import FogsimError
 
 ReportFunction = Callable[[Any, Mapping[str, float]], Mapping[str, Any]]
-"""``(recording, overrides) -> report dict``; :func:`fogsim.pipeline.replay_report`."""
+"""``(recording, overrides) -> report dict``; :func:`fogsim.run.runner.replay_report`."""
 
 
 @dataclass(frozen=True)
@@ -158,7 +158,7 @@ def _fog_table(report: Mapping[str, Any], key: str, kind: type) -> Any:
 def objective_terms(
     report: Mapping[str, Any], weights: ObjectiveWeights, frame_rate_hz: float
 ) -> ObjectiveTerms:
-    """Reduce one report (DESIGN.md "Results", :func:`fogsim.report.build_report`) to terms.
+    """Reduce one report (DESIGN.md "Results", :func:`fogsim.eval.report.build_report`) to terms.
 
     Reads ``table1.fog`` rows (``error_mm``; rows whose surface has no interior cell in the
     scored area, ``surface_cells == 0``, are left out), ``cells.fog`` (``region``, ``seen``,
@@ -166,7 +166,7 @@ def objective_terms(
     null = never).
 
     Args:
-        report: A report dict as :func:`fogsim.pipeline.replay_report` returns it.
+        report: A report dict as :func:`fogsim.run.runner.replay_report` returns it.
         weights: Supplies the penalties for missing rows and never-cleared footprints.
         frame_rate_hz: Frame rate of the recording, to turn clearing frames into seconds.
 
@@ -216,7 +216,7 @@ class SuiteEntry:
 
     Attributes:
         name: Display name (the scenario's name or the file stem).
-        recording: A :class:`fogsim.recording.Recording` (anything the report function takes).
+        recording: A :class:`fogsim.data.recording.Recording` (anything the report function takes).
         frame_rate_hz: Frame rate of the recording [Hz].
     """
 

@@ -35,8 +35,8 @@ import mujoco
 import numpy as np
 from numpy.typing import NDArray
 
+from fogsim.config.scenario import CameraConfig
 from fogsim.errors import FogsimError
-from fogsim.scenario import CameraConfig
 from mapper.intrinsics import PinholeIntrinsics
 
 DEPTH_BACKENDS = ("renderer", "raycast")

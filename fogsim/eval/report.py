@@ -93,7 +93,7 @@ def build_report(
     wall_s: float | None = None,
     duration_s: float | None = None,
 ) -> dict:
-    """Assemble the report dict of a :class:`fogsim.pipeline.RunResult`.
+    """Assemble the report dict of a :class:`fogsim.eval.result.RunResult`.
 
     Args:
         result: The run's result.

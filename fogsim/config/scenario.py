@@ -88,7 +88,7 @@ class EncoderConfig:
 
     The defaults follow the paper's "up to 7° and 10 mm" camera-pose error (precise legs and
     torso, a sloppy neck); on the stage run with iCub they give about 5° and 12 mm at most
-    (see ``fogsim.encoders.EncoderModel`` for why not 7° and 10 mm together).
+    (see ``fogsim.robot.encoders.EncoderModel`` for why not 7° and 10 mm together).
     """
 
     bias_deg: float = 0.05

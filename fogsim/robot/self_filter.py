@@ -1,7 +1,7 @@
 """Remove the robot's own body from depth images before they reach the mapper.
 
 The body is approximated by one box per geometry (bounding its mesh in the joint frame, see
-`fogsim.robot.BodyBox`), inflated by a margin. Each frame, pinocchio's forward kinematics of the
+`fogsim.robot.model.BodyBox`), inflated by a margin. Each frame, pinocchio's forward kinematics of the
 joint readings places the boxes relative to the camera (the same kinematics that gives the
 believed camera pose, so no world pose is needed); every pixel whose back-projected point falls
 in a box is flagged. Points at or below the believed ground plane of R (z_R below
@@ -18,7 +18,7 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from fogsim.errors import FogsimError
-from fogsim.robot import Robot
+from fogsim.robot.model import Robot
 from mapper.intrinsics import PinholeIntrinsics
 
 

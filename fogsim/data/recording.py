@@ -56,8 +56,8 @@ import numpy as np
 from numpy.typing import NDArray
 
 from fogsim.atomic import write_atomic
+from fogsim.data.frame import Frame
 from fogsim.errors import RecordingError
-from fogsim.frames import Frame
 from mapper.intrinsics import PinholeIntrinsics
 
 FORMAT_NAME = "fogsim-recording"
@@ -125,7 +125,7 @@ def save_recording(
     Args:
         path: Target file (``.npz`` is conventional).
         frames: Frames in order; all must share one intrinsics.
-        scenario: A ``fogsim.scenario.Scenario`` (stored as its TOML text) or None.
+        scenario: A ``fogsim.config.scenario.Scenario`` (stored as its TOML text) or None.
         truths: One ``SceneTruth`` (anything with ``to_dict()``) or None per frame; equal
             consecutive states are stored once.
 
@@ -203,7 +203,7 @@ def _check_shape(name: str, array: NDArray[Any], shape: tuple[int, ...]) -> None
 
 def _scenario_from_toml(text: str, name_hint: str) -> Any:
     """Rebuild a Scenario from its TOML text (through a temporary file, as the loader reads)."""
-    from fogsim.scenario import load_scenario
+    from fogsim.config.scenario import load_scenario
 
     with tempfile.TemporaryDirectory() as tmp:
         path = Path(tmp) / f"{name_hint}.toml"
@@ -284,7 +284,7 @@ def load_recording(path: str | os.PathLike[str]) -> Recording:
         )
     truth_objects: list[Any] = []
     if truth_dicts:
-        from fogsim.ground_truth import SceneTruth
+        from fogsim.world.truth import SceneTruth
 
         truth_objects = [SceneTruth.from_dict(d) for d in truth_dicts]
     truths = [truth_objects[i] if i >= 0 else None for i in truth_index.tolist()]

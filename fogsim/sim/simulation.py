@@ -8,7 +8,7 @@ Per frame (``Simulation.frames``), at the trajectory's time ``t``:
        the robot frame is pinocchio's forward kinematics of the readings, the believed robot
        pose comes from odometry of the readings, and the self-filter blanks pixels on the
        robot's own body at the believed configuration;
-    4. a :class:`fogsim.frames.Frame` is built with the true poses for scoring.
+    4. a :class:`fogsim.data.frame.Frame` is built with the true poses for scoring.
 
 Everything random is drawn from generators seeded by ``scenario.seed`` (camera noise per frame
 from ``(seed, 17, index)``, encoders from ``(seed, 23)``), so every call of :meth:`frames`
@@ -25,11 +25,11 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
-from fogsim.camera import HeadCamera
-from fogsim.frames import Frame
-from fogsim.ground_truth import SceneTruth
-from fogsim.scenario import Scenario
-from fogsim.scene import Scene
+from fogsim.config.scenario import Scenario
+from fogsim.data.frame import Frame
+from fogsim.sim.camera import HeadCamera
+from fogsim.sim.scene import Scene
+from fogsim.world.truth import SceneTruth
 from mapper.intrinsics import PinholeIntrinsics
 from mapper.transforms import planar_pose_to_matrix, rotation_angle_deg
 
@@ -62,16 +62,16 @@ class Simulation:
 
     Attributes:
         scenario: The scenario.
-        robot: The loaded robot (``fogsim.robot.Robot``).
-        scene: The MuJoCo :class:`~fogsim.scene.Scene`.
-        camera: The :class:`~fogsim.camera.HeadCamera`.
+        robot: The loaded robot (``fogsim.robot.model.Robot``).
+        scene: The MuJoCo :class:`~fogsim.sim.scene.Scene`.
+        camera: The :class:`~fogsim.sim.camera.HeadCamera`.
         intrinsics: Intrinsics of the depth images.
-        trajectory: The planned walk (``fogsim.walking.Trajectory``), one sample per frame.
+        trajectory: The planned walk (``fogsim.robot.walking.Trajectory``), one sample per frame.
     """
 
     def __init__(self, scenario: Scenario, *, depth_backend: str = "renderer") -> None:
-        from fogsim.robot import load_robot
-        from fogsim.walking import plan_route
+        from fogsim.robot.model import load_robot
+        from fogsim.robot.walking import plan_route
 
         self.scenario = scenario
         self.robot = load_robot(scenario.robot.model)
@@ -130,7 +130,7 @@ class Simulation:
     def _encoder_reader(self) -> Any:
         """Encoder model of the robot helper, or exact readings if it is not available."""
         try:
-            from fogsim.encoders import EncoderModel
+            from fogsim.robot.encoders import EncoderModel
         except ImportError:
             return None
         rng = np.random.default_rng([self.scenario.seed, _ENCODER_STREAM])
@@ -243,7 +243,7 @@ def _make_odometry(robot: Any, trajectory: Any) -> Any:
     integrates foot-to-foot kinematics of the readings.
     """
     try:
-        from fogsim.encoders import Odometry
+        from fogsim.robot.encoders import Odometry
     except ImportError:
         return None
     state: dict[str, Any] = {}
@@ -262,7 +262,7 @@ def _make_odometry(robot: Any, trajectory: Any) -> Any:
 def _make_self_filter(robot: Any, camera: str) -> Any:
     """The robot helper's self-filter for the depth camera, None if unavailable."""
     try:
-        from fogsim.self_filter import SelfFilter
+        from fogsim.robot.self_filter import SelfFilter
     except ImportError:
         return None
     return SelfFilter(robot, camera=camera)

@@ -1,0 +1,251 @@
+"""The per-frame pipeline: depth image → segmentation → world points → z-shift → maps → scores.
+
+Per frame (paper Fig. 1, 2 and Sec. IV), with the pose the robot *believes*:
+
+1. ``segment_depth`` labels the (already self-filtered) depth image: points in the robot frame
+   R with the height ``h`` of the horizontal plane each belongs to (NaN = not floor), after the
+   segmentation's own rotation / ground-plane correction.
+2. Points and heights go to the world with the believed robot pose (x, y, yaw from odometry,
+   z from the *elevation filter* below): ``h_G = h_R + z_R``.
+3. The grids follow the robot: both maps ``recenter`` on the believed (x, y).
+4. z-shift matching against the floor map (``match_z``): an accepted shift is added to the
+   points' z, their floor heights and the camera origin. If it is not accepted (few pairs or an
+   implausible shift) and the segmentation found no ground plane either, the frame is
+   *withdrawn* (Sec. IV); otherwise the unshifted data are used.
+5. ``FloorObstacleMapper.update`` and ``AveragingMap.update`` get exactly the same data.
+6. Robot elevation filter (``mapper.RobotElevationFilter``): the offset on odometry's z is
+   pulled towards ``Floor(x_R, y_R)`` when the floor map has a height under the robot.
+
+Scoring runs alongside (:mod:`fogsim.eval.scoring`): every frame's FOG and baseline go into a
+world-fixed archive, event footprints are checked, and the archive is scored against the truth
+at the end of the run.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import time
+from collections.abc import Callable, Mapping
+from dataclasses import dataclass, field
+from typing import Any
+
+import numpy as np
+from numpy.typing import NDArray
+
+from fogsim.data.frame import Frame
+from fogsim.errors import FogsimError
+from mapper import (
+    AveragingMap,
+    ElevationFilterParams,
+    FloorObstacleMapper,
+    MapperParams,
+    RobotElevationFilter,
+    ZDecision,
+    frame_decision,
+)
+from mapper.segmentation import SegmentationParams, segment_depth
+from mapper.transforms import apply_transform, planar_pose_to_matrix
+
+
+@dataclass(frozen=True)
+class PipelineParams:
+    """Parameters of the pipeline around the mapper (override keys ``pipe.<name>``).
+
+    Attributes:
+        use_z_match: Apply the z-shift matching (paper: optional step 2 of Fig. 2).
+        use_elevation_filter: Filter the robot's z with the floor map (Sec. IV).
+        event_tolerance_m: Height tolerance of "floor again" in the event scores [m].
+    """
+
+    use_z_match: bool = True
+    use_elevation_filter: bool = True
+    event_tolerance_m: float = 0.01
+
+    def __post_init__(self) -> None:
+        if not self.event_tolerance_m > 0.0:
+            raise FogsimError(
+                f"PipelineParams.event_tolerance_m must be > 0 m, got {self.event_tolerance_m!r}"
+            )
+
+
+FrameCallback = Callable[[Frame, "Pipeline"], None]
+
+
+def _replace_validated(params: Any, changes: Mapping[str, Any], what: str) -> Any:
+    """``dataclasses.replace`` that names unknown fields and what is allowed."""
+    if not changes:
+        return params
+    allowed = [f.name for f in dataclasses.fields(params)]
+    unknown = sorted(set(changes) - set(allowed))
+    if unknown:
+        raise FogsimError(f"unknown {what} parameter(s) {unknown}; allowed: {allowed}")
+    typed = {}
+    for name, value in changes.items():
+        current = getattr(params, name)
+        if isinstance(current, bool):
+            value = bool(value)
+        elif isinstance(current, int) and float(value).is_integer():
+            value = int(value)
+        typed[name] = value
+    return dataclasses.replace(params, **typed)
+
+
+@dataclass(frozen=True)
+class RunParams:
+    """Every parameter of a run (the report's ``params``).
+
+    Attributes:
+        mapper: Grid and thresholds (override keys: bare field names or ``mapper.<field>``).
+        segmentation: Plane segmentation (``seg.<field>``).
+        elevation: Robot elevation filter (``elev.<field>``).
+        pipeline: The pipeline's own switches (``pipe.<field>``).
+    """
+
+    mapper: MapperParams = field(default_factory=MapperParams)
+    segmentation: SegmentationParams = field(default_factory=SegmentationParams)
+    elevation: ElevationFilterParams = field(default_factory=ElevationFilterParams)
+    pipeline: PipelineParams = field(default_factory=PipelineParams)
+
+    def to_dict(self) -> dict[str, dict[str, Any]]:
+        """Plain ``{"mapper": {...}, "segmentation": {...}, ...}``."""
+        return {
+            f.name: {
+                g.name: getattr(getattr(self, f.name), g.name)
+                for g in dataclasses.fields(getattr(self, f.name))
+            }
+            for f in dataclasses.fields(self)
+        }
+
+
+_PREFIXES = {"seg.": "segmentation", "elev.": "elevation", "pipe.": "pipeline", "mapper.": "mapper"}
+
+
+def resolve_params(scenario: Any | None, overrides: Mapping[str, float] | None = None) -> RunParams:
+    """Parameters of a run: defaults ← scenario ``[mapper]`` / ``[segmentation]`` ← overrides.
+
+    Args:
+        scenario: A Scenario (its ``mapper`` and ``segmentation`` tables) or None.
+        overrides: Keys ``"<mapper field>"`` (e.g. ``"p_occ"``, or ``"mapper.p_occ"``),
+            ``"seg.<field>"``, ``"elev.<field>"`` and ``"pipe.<field>"``.
+
+    Raises:
+        FogsimError: An unknown key (the message lists the allowed ones) or a bad value.
+    """
+    changes: dict[str, dict[str, Any]] = {
+        "mapper": dict(getattr(scenario, "mapper", {}) or {}),
+        "segmentation": dict(getattr(scenario, "segmentation", {}) or {}),
+        "elevation": {},
+        "pipeline": {},
+    }
+    for key, value in (overrides or {}).items():
+        group = next((g for prefix, g in _PREFIXES.items() if key.startswith(prefix)), None)
+        name = key.split(".", 1)[1] if group else key
+        changes[group or "mapper"][name] = value
+    defaults = RunParams()
+    try:
+        return RunParams(
+            **{
+                group: _replace_validated(getattr(defaults, group), values, group)
+                for group, values in changes.items()
+            }
+        )
+    except (TypeError, ValueError) as exc:
+        raise FogsimError(f"invalid parameter override: {exc}") from exc
+
+
+class Pipeline:
+    """Stateful per-frame processing: the two maps and the robot elevation filter."""
+
+    def __init__(self, params: RunParams | None = None) -> None:
+        self.run_params = params or RunParams()
+        self.mapper_params = self.run_params.mapper
+        self.segmentation_params = self.run_params.segmentation
+        self.params = self.run_params.pipeline
+        self.mapper = FloorObstacleMapper(self.mapper_params)
+        self.baseline = AveragingMap(self.mapper_params)
+        self.elevation = RobotElevationFilter(self.run_params.elevation)
+        self.last_segmentation: Any = None
+        self.last_match: Any = None
+        self.last_withdrawn = False
+
+    def robot_pose(self, frame: Frame) -> NDArray[np.float64]:
+        """Believed robot pose (x, y, z, yaw) with the elevation filter's z."""
+        pose = np.asarray(frame.robot_pose_believed, dtype=np.float64).copy()
+        if self.params.use_elevation_filter:
+            pose[2] += self.elevation.offset_m
+        return pose
+
+    def process(self, frame: Frame) -> dict[str, float]:
+        """Run one frame through segmentation, z-match and both maps.
+
+        Returns:
+            Timings ``segmentation_ms``, ``update_ms`` (NaN if withdrawn), ``frame_ms`` and
+            flags ``withdrawn``, ``z_matched`` (as floats 0/1).
+        """
+        t0 = time.perf_counter()
+        seg = segment_depth(
+            frame.depth_m,
+            frame.intrinsics,
+            frame.transform_camera_to_robot_believed,
+            self.segmentation_params,
+        )
+        t1 = time.perf_counter()
+        pose = self.robot_pose(frame)
+        transform_robot_to_world = planar_pose_to_matrix(pose)
+        points_world = apply_transform(transform_robot_to_world, seg.points)
+        floor_world = np.asarray(seg.floor_heights, dtype=np.float64) + pose[2]
+        # Camera centre after the segmentation's own correction, so rays match the points.
+        sensor_origin = apply_transform(
+            transform_robot_to_world, np.asarray(seg.transform_camera_to_robot)[:3, 3]
+        )
+        self.mapper.recenter(pose[0], pose[1])
+        self.baseline.recenter(pose[0], pose[1])
+
+        matched = withdrawn = False
+        match = None
+        if self.params.use_z_match:
+            match = self.mapper.match_z(points_world, floor_world)
+            decision = frame_decision(match, bool(seg.correction.ground_plane_found))
+            if decision == ZDecision.APPLY_SHIFT:
+                shift = float(match.shift_m)
+                points_world[:, 2] += shift
+                floor_world = floor_world + shift
+                sensor_origin = sensor_origin + np.array([0.0, 0.0, shift])
+                matched = True
+            withdrawn = decision == ZDecision.WITHDRAW
+        update_ms = float("nan")
+        if not withdrawn:
+            t2 = time.perf_counter()
+            self.mapper.update(points_world, floor_world, sensor_origin)
+            update_ms = 1000.0 * (time.perf_counter() - t2)
+            self.baseline.update(points_world, floor_world, sensor_origin)
+            if self.params.use_elevation_filter:
+                self.elevation.update(
+                    float(frame.robot_pose_believed[2]), self.mapper.floor_at(pose[0], pose[1])
+                )
+        self.last_segmentation, self.last_match, self.last_withdrawn = seg, match, withdrawn
+        return {
+            "segmentation_ms": 1000.0 * (t1 - t0),
+            "update_ms": update_ms,
+            "frame_ms": 1000.0 * (time.perf_counter() - t0),
+            "withdrawn": float(withdrawn),
+            "z_matched": float(matched),
+        }
+
+    def maps(self) -> tuple[NDArray[np.int8], NDArray[np.float64], NDArray[np.float64]]:
+        """Current FOG types, FOG heights [m] and baseline heights [m] (NaN = none)."""
+        types, heights = self.mapper.fog()
+        return (
+            np.asarray(types),
+            np.asarray(heights, dtype=np.float64),
+            baseline_heights(self.baseline),
+        )
+
+    def cell_centers_xy(self) -> NDArray[np.float64]:
+        """(nx, ny, 2) world centres of the current grid cells [m]."""
+        return np.asarray(self.mapper.geometry.cell_centers_xy(), dtype=np.float64)
+
+
+def baseline_heights(baseline: AveragingMap) -> NDArray[np.float64]:
+    """Averaging-baseline height map (nx, ny) [m]: mean z of all points, NaN where none."""
+    return np.asarray(baseline.heights(), dtype=np.float64)
