@@ -26,8 +26,8 @@ os.environ.setdefault("MESA_SHADER_CACHE_DISABLE", "true")
 
 import numpy as np
 
-from fogsim.sim.camera import HeadCamera, RaycastDepth, RendererDepth
 from fogsim.config.scenario import load_scenario
+from fogsim.sim.camera import HeadCamera, RaycastDepth, RendererDepth
 from fogsim.sim.simulation import Simulation
 
 

@@ -29,8 +29,9 @@ os.environ.setdefault("MUJOCO_GL", "egl")
 os.environ.setdefault("PYOPENGL_PLATFORM", "egl")
 os.environ.setdefault("MESA_SHADER_CACHE_DISABLE", "true")
 
-from fogsim.mapping.pipeline import resolve_params
+from fogsim.config.params import resolve_params
 from fogsim.run.runner import replay_report, run_frames
+from fogsim.tune.objective import ObjectiveWeights, objective_terms
 from fogsim.tune.study import (
     RECORDINGS_DIR,
     ParamSpec,
@@ -39,7 +40,6 @@ from fogsim.tune.study import (
     parameter_defaults,
     tune,
 )
-from fogsim.tune.objective import ObjectiveWeights, objective_terms
 
 PARAMS = ("p_occ=0.55:0.95", "eps_m=0.005:0.05:log", "delta_m=0.01:0.06")
 

@@ -51,15 +51,55 @@ def capture(out: Path) -> None:
     out.mkdir(parents=True, exist_ok=True)
     for path in sorted((ROOT / "scenarios").glob("*.toml")):
         _run(["run", path.stem, "--out", str(out / path.stem), "--no-pictures", "--quiet"])
-    _run(["run", "stage", "--camera-mode", "stereo", "--seed", "2", "--out",
-          str(out / "stage_stereo"), "--no-pictures", "--quiet"])
+    _run(
+        [
+            "run",
+            "stage",
+            "--camera-mode",
+            "stereo",
+            "--seed",
+            "2",
+            "--out",
+            str(out / "stage_stereo"),
+            "--no-pictures",
+            "--quiet",
+        ]
+    )
     rec = out / "box_removal.npz"
     _run(["record", "box_removal", "--out", str(rec), "--quiet"])
-    _run(["run", "--replay", str(rec), "--set", "mapper.p_occ=0.8", "--out",
-          str(out / "replay"), "--no-pictures", "--quiet"])
-    _run(["tune", "flat_floor", "box_removal", "--quick", "--param", "p_occ=0.55:0.95",
-          "--trials", "3", "--workers", "1", "--seed", "3", "--no-progress", "--no-pictures",
-          "--out", str(out / "tune")])
+    _run(
+        [
+            "run",
+            "--replay",
+            str(rec),
+            "--set",
+            "mapper.p_occ=0.8",
+            "--out",
+            str(out / "replay"),
+            "--no-pictures",
+            "--quiet",
+        ]
+    )
+    _run(
+        [
+            "tune",
+            "flat_floor",
+            "box_removal",
+            "--quick",
+            "--param",
+            "p_occ=0.55:0.95",
+            "--trials",
+            "3",
+            "--workers",
+            "1",
+            "--seed",
+            "3",
+            "--no-progress",
+            "--no-pictures",
+            "--out",
+            str(out / "tune"),
+        ]
+    )
 
 
 def _leaves(value: object, path: tuple[str, ...] = ()) -> dict[tuple[str, ...], object]:
@@ -101,8 +141,10 @@ def compare(before: Path, after: Path) -> int:
                 continue
             if path not in a or path not in b or not _same(a[path], b[path]):
                 differences += 1
-                print(f"{name}: {'.'.join(path)}: {a.get(path, '<absent>')!r} -> "
-                      f"{b.get(path, '<absent>')!r}")
+                print(
+                    f"{name}: {'.'.join(path)}: {a.get(path, '<absent>')!r} -> "
+                    f"{b.get(path, '<absent>')!r}"
+                )
     print(f"{len(names)} files compared, {differences} differences")
     return differences
 

@@ -4,7 +4,7 @@ The public API is imported lazily (``import fogsim`` stays cheap and needs no Mu
 
 * ``Frame`` — the per-frame contract (``fogsim.data.frame``);
 * ``load_scenario``, ``list_scenarios`` (``fogsim.config.scenario``);
-* ``resolve_params`` (``fogsim.mapping.pipeline``); ``run_frames``, ``replay_report``,
+* ``resolve_params`` (``fogsim.config.params``); ``run_frames``, ``replay_report``,
   ``run_scenario`` (``fogsim.run.runner``);
 * ``save_recording``, ``load_recording``, ``Recording`` (``fogsim.data.recording``);
 * ``run_suite`` (``fogsim.run.suite``); ``main`` (the command line).
@@ -23,7 +23,7 @@ _EXPORTS = {
     "list_scenarios": "fogsim.config.scenario",
     "run_frames": "fogsim.run.runner",
     "replay_report": "fogsim.run.runner",
-    "resolve_params": "fogsim.mapping.pipeline",
+    "resolve_params": "fogsim.config.params",
     "save_recording": "fogsim.data.recording",
     "load_recording": "fogsim.data.recording",
     "Recording": "fogsim.data.recording",

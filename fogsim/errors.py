@@ -1,4 +1,10 @@
-"""Exceptions raised by the testbed: one hierarchy, messages list the valid choices."""
+"""Exceptions raised by the testbed: one tree under :class:`FogsimError`.
+
+Every message names what was wrong (file, key path or argument, the value) and what is
+allowed. Errors about a value a caller passed are also :class:`ValueError`, so generic code
+that catches ``ValueError`` keeps working. The command line catches :class:`FogsimError` (and
+the mapper's :class:`mapper.errors.MapperError`) and exits with code 2.
+"""
 
 
 class FogsimError(Exception):
@@ -9,9 +15,33 @@ class ScenarioError(FogsimError, ValueError):
     """A scenario file is invalid; the message names the file, the key and what is allowed."""
 
 
+class ParameterError(FogsimError, ValueError):
+    """A mapper, segmentation, pipeline or tuning parameter is unknown or out of range."""
+
+
 class RobotModelError(FogsimError):
     """A robot model cannot be loaded or lacks a frame the testbed needs."""
 
 
+class RouteError(FogsimError, ValueError):
+    """A route step is malformed or the terrain leaves no place to put a foot."""
+
+
+class EncoderError(FogsimError, ValueError):
+    """Invalid encoder parameters or readings."""
+
+
+class CameraError(FogsimError, ValueError):
+    """A camera configuration the renderer or the matcher cannot serve."""
+
+
 class RecordingError(FogsimError, ValueError):
     """A recording file is missing, corrupt or of an unsupported version."""
+
+
+class ReportError(FogsimError, ValueError):
+    """A ``report.json`` or summary file is missing, corrupt or of an unsupported version."""
+
+
+class TuneError(FogsimError, ValueError):
+    """A tuning study cannot run: bad ranges, weights, suite or a study that does not match."""

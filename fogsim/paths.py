@@ -1,7 +1,22 @@
-"""Locations of the project's data folders."""
+"""Locations of the project's data folders, in a source checkout and in an installed wheel alike.
+
+``scenarios/`` and ``assets/`` live at the top of the repository. A wheel installs them as the
+package data folders ``fogsim/scenarios`` and ``fogsim/assets`` (see ``setup.py``); a source
+checkout (editable install, or ``PYTHONPATH``) has them beside the package instead.
+"""
 
 from pathlib import Path
 
-PROJECT_ROOT = Path(__file__).resolve().parent.parent
-SCENARIOS_DIR = PROJECT_ROOT / "scenarios"
-ASSETS_DIR = PROJECT_ROOT / "assets"
+_PACKAGE_DIR = Path(__file__).resolve().parent
+
+
+def _data_dir(name: str) -> Path:
+    """The installed data folder ``fogsim/<name>`` if there is one, else ``<checkout>/<name>``."""
+    installed = _PACKAGE_DIR / name
+    return installed if installed.is_dir() else _PACKAGE_DIR.parent / name
+
+
+SCENARIOS_DIR = _data_dir("scenarios")
+"""Folder of the shipped scenario files (``*.toml``) and ``baseline.json``."""
+ASSETS_DIR = _data_dir("assets")
+"""Folder of the shipped data: MJCF pieces (``mjcf/``) and robot descriptions (``robots/``)."""

@@ -8,6 +8,8 @@ import math
 import numpy as np
 import pytest
 
+from fogsim.config.scenario import CameraConfig, load_scenario, scenario_from_dict
+from fogsim.errors import FogsimError
 from fogsim.sim.camera import (
     HeadCamera,
     RaycastDepth,
@@ -16,8 +18,6 @@ from fogsim.sim.camera import (
     camera_intrinsics,
     set_model_intrinsics,
 )
-from fogsim.errors import FogsimError
-from fogsim.config.scenario import CameraConfig, load_scenario, scenario_from_dict
 from fogsim.sim.scene import Scene
 from mapper.transforms import apply_transform
 

@@ -8,6 +8,7 @@ import math
 import numpy as np
 import pytest
 
+from fogsim.config.scenario import load_scenario, scenario_from_dict
 from fogsim.world.truth import (
     ObjectState,
     SceneTruth,
@@ -15,7 +16,6 @@ from fogsim.world.truth import (
     moving_objects,
     object_center_at,
 )
-from fogsim.config.scenario import load_scenario, scenario_from_dict
 
 CELL_M = 0.04
 

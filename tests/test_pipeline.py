@@ -4,13 +4,13 @@ import numpy as np
 import pytest
 from synthetic_depth import Box, add_depth_noise, look_down_camera, render_boxes
 
-from fogsim.errors import FogsimError
-from fogsim.data.frame import Frame
-from fogsim.world.truth import ObjectState, SceneTruth
-from fogsim.mapping.pipeline import RunParams, resolve_params
-from fogsim.run.runner import replay_report, run_frames
-from fogsim.data.recording import Recording
+from fogsim.config.params import RunParams, resolve_params
 from fogsim.config.scenario import load_scenario
+from fogsim.data.frame import Frame
+from fogsim.data.recording import Recording
+from fogsim.errors import FogsimError
+from fogsim.run.runner import replay_report, run_frames
+from fogsim.world.truth import ObjectState, SceneTruth
 from mapper.intrinsics import PinholeIntrinsics
 
 INTR = PinholeIntrinsics.from_fov(88, 72, 47.0, 39.0)

@@ -6,9 +6,9 @@ import numpy as np
 import pytest
 from test_pipeline import NAMES, make_frames, provider_removed_at
 
-from fogsim.run.runner import run_frames
-from fogsim.eval.report import build_report, format_table1, load_report, write_report
 from fogsim.config.scenario import load_scenario
+from fogsim.eval.report import build_report, format_table1, load_report, write_report
+from fogsim.run.runner import run_frames
 
 
 @pytest.fixture(scope="module")

@@ -7,13 +7,13 @@ from pathlib import Path
 
 import pytest
 
-from fogsim.errors import ScenarioError
 from fogsim.config.scenario import (
     Scenario,
     list_scenarios,
     load_scenario,
     scenario_from_dict,
 )
+from fogsim.errors import ScenarioError
 
 MINIMAL = """
 name = "t"

@@ -5,10 +5,10 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from fogsim.errors import FogsimError
-from fogsim.world.truth import SceneTruth, object_center_at
 from fogsim.config.scenario import load_scenario
+from fogsim.errors import FogsimError
 from fogsim.sim.scene import CAMERA_NAMES, Scene, rough_elevation
+from fogsim.world.truth import SceneTruth, object_center_at
 
 
 def ray_down(scene: Scene, xy) -> np.ndarray:

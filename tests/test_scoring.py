@@ -3,7 +3,6 @@
 import numpy as np
 import pytest
 
-from fogsim.world.truth import ObjectState, SceneTruth
 from fogsim.eval.scoring import (
     EventTracker,
     WorldArchive,
@@ -11,6 +10,7 @@ from fogsim.eval.scoring import (
     score_archive,
     table1_rows,
 )
+from fogsim.world.truth import ObjectState, SceneTruth
 from mapper.grid import CellType
 
 CELL = 0.04

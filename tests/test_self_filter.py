@@ -4,8 +4,8 @@ import mujoco
 import numpy as np
 import pytest
 
-from fogsim.robot.encoders import EncoderModel
 from fogsim.errors import FogsimError
+from fogsim.robot.encoders import EncoderModel
 from fogsim.robot.model import Stance, load_robot
 from fogsim.robot.self_filter import SelfFilter, SelfFilterParams
 from fogsim.robot.walking import plan_route

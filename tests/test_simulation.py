@@ -8,8 +8,8 @@ import itertools
 import numpy as np
 import pytest
 
-from fogsim.data.frame import Frame
 from fogsim.config.scenario import list_scenarios, load_scenario
+from fogsim.data.frame import Frame
 from fogsim.sim.simulation import Simulation
 from mapper.transforms import apply_transform
 

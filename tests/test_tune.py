@@ -17,19 +17,19 @@ from pathlib import Path
 import pytest
 
 from fogsim.errors import FogsimError
-from fogsim.tune.study import (
-    ParamSpec,
-    SamplerKind,
-    TuneConfig,
-    best_params_toml,
-    tune,
-)
 from fogsim.tune.objective import (
     ObjectiveTerms,
     ObjectiveWeights,
     SuiteEntry,
     objective_terms,
     score_parameters,
+)
+from fogsim.tune.study import (
+    ParamSpec,
+    SamplerKind,
+    TuneConfig,
+    best_params_toml,
+    tune,
 )
 
 NAMES = ("p_occ", "eps_m", "nu", "seg.min_points")
@@ -461,10 +461,10 @@ def synthetic_box_removal_suite(frames: int = 70) -> list[SuiteEntry]:
     import numpy as np
     from synthetic_depth import Box, add_depth_noise, look_down_camera, render_boxes
 
-    from fogsim.data.frame import Frame
-    from fogsim.world.truth import SceneTruth
-    from fogsim.data.recording import Recording
     from fogsim.config.scenario import load_scenario
+    from fogsim.data.frame import Frame
+    from fogsim.data.recording import Recording
+    from fogsim.world.truth import SceneTruth
     from mapper.intrinsics import PinholeIntrinsics
 
     scenario = load_scenario("box_removal")
@@ -499,9 +499,9 @@ def synthetic_box_removal_suite(frames: int = 70) -> list[SuiteEntry]:
 
 
 def test_small_tune_on_the_quick_subset_is_at_least_as_good_as_the_defaults(tmp_path):
+    from fogsim.config.scenario import load_scenario
     from fogsim.paths import SCENARIOS_DIR
     from fogsim.run.runner import replay_report
-    from fogsim.config.scenario import load_scenario
     from fogsim.run.suite import QUICK_MAX_FRAMES, QUICK_SCENARIOS
     from fogsim.tune.study import load_suite, parameter_defaults
 

@@ -219,8 +219,8 @@ def test_talos_camera_is_outside_its_head(talos):
 
 
 def test_stage_scenario_route_is_a_minute_and_ends_on_the_platform(icub):
-    from fogsim.world.truth import SceneTruth
     from fogsim.config.scenario import load_scenario
+    from fogsim.world.truth import SceneTruth
 
     scenario = load_scenario("stage")
     walk = plan_route(

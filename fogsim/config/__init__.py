@@ -1,1 +1,1 @@
-"""config"""
+"""Layer 1 — configuration: the scenario schema, loading and writing scenario files, run parameters."""

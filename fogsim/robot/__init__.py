@@ -1,1 +1,1 @@
-"""robot"""
+"""Layer 4 — the robot: its description, kinematics, walking, encoders, odometry and self-filter."""

@@ -19,13 +19,9 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from fogsim.errors import FogsimError
+from fogsim.errors import EncoderError
 from fogsim.robot.model import Robot, Stance
 from mapper.transforms import planar_pose_to_matrix, rotation_angle_deg
-
-
-class EncoderError(FogsimError, ValueError):
-    """Invalid encoder parameters or readings."""
 
 
 class JointGroup(enum.IntEnum):

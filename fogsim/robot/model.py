@@ -42,13 +42,13 @@ from numpy.typing import ArrayLike, NDArray
 
 from fogsim.atomic import write_text_atomic
 from fogsim.errors import RobotModelError
+from fogsim.geometry import MJ_FROM_CV
 
 #: Bump when the generated MJCF changes, so stale cache files are rebuilt.
 _CACHE_FORMAT_VERSION = 3
 MIN_BODY_MASS_KG = 1e-3
 MIN_PRINCIPAL_INERTIA_KGM2 = 1e-6
 CAMERA_FOVY_DEG = 39.0
-_MJ_FROM_CV = np.diag([1.0, -1.0, -1.0])
 _Y_UP_TO_Z_UP = np.array([[1.0, 0.0, 0.0], [0.0, 0.0, -1.0], [0.0, 1.0, 0.0]])
 
 
@@ -717,7 +717,7 @@ def build_mjcf(config: RobotConfig, model: pin.Model, geometry_model) -> str:
             "camera",
             name=name,
             pos=_fmt(placement.translation),
-            quat=_fmt(_quat_wxyz(placement.rotation @ _MJ_FROM_CV)),
+            quat=_fmt(_quat_wxyz(placement.rotation @ MJ_FROM_CV)),
             fovy=repr(CAMERA_FOVY_DEG),
         )
     ET.indent(root)

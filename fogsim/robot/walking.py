@@ -28,14 +28,10 @@ import numpy as np
 import pinocchio as pin
 from numpy.typing import ArrayLike, NDArray
 
-from fogsim.errors import FogsimError
+from fogsim.errors import RouteError
 from fogsim.robot.model import Robot, Stance
 
 SupportHeightFn = Callable[[NDArray[np.float64]], NDArray[np.float64]]
-
-
-class RouteError(FogsimError, ValueError):
-    """A route step is malformed or the terrain leaves no place to put a foot."""
 
 
 @dataclass(frozen=True)

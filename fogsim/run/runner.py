@@ -12,12 +12,13 @@ from typing import Any
 import numpy as np
 from tqdm import tqdm
 
+from fogsim.config.params import RunParams, resolve_params
 from fogsim.data.frame import Frame
 from fogsim.errors import FogsimError
 from fogsim.eval.report import build_report, write_report
 from fogsim.eval.result import RunResult, Snapshot
 from fogsim.eval.scoring import EventTracker, TruthProvider, WorldArchive, score_archive
-from fogsim.mapping.pipeline import FrameCallback, Pipeline, RunParams, resolve_params
+from fogsim.mapping.pipeline import FrameCallback, Pipeline
 from fogsim.sim.simulation import Simulation
 from fogsim.viz.pictures import RunVideoWriter, write_pictures
 from mapper import MapperParams

@@ -37,11 +37,11 @@ from numpy.typing import NDArray
 
 from fogsim.config.scenario import CameraConfig
 from fogsim.errors import FogsimError
+from fogsim.geometry import MJ_FROM_CV
 from mapper.intrinsics import PinholeIntrinsics
 
 DEPTH_BACKENDS = ("renderer", "raycast")
 _PIXEL_PITCH_M = 1e-5  # notional sensor pixel size: only the ratio focal/pitch matters
-_MJ_FROM_CV = np.diag([1.0, -1.0, -1.0])
 
 
 def camera_intrinsics(config: CameraConfig, scale: int = 1) -> PinholeIntrinsics:
@@ -134,7 +134,7 @@ class RaycastDepth:
 
     def render(self, data: mujoco.MjData, camera_id: int) -> NDArray[np.float32]:
         """(H, W) depth along the optical axis [m] from camera ``camera_id``; NaN = none."""
-        rotation_cv = data.cam_xmat[camera_id].reshape(3, 3) @ _MJ_FROM_CV
+        rotation_cv = data.cam_xmat[camera_id].reshape(3, 3) @ MJ_FROM_CV
         directions_world = self._directions_camera @ rotation_cv.T
         mujoco.mj_multiRay(
             self._model,

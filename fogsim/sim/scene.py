@@ -29,6 +29,7 @@ from numpy.typing import ArrayLike, NDArray
 
 from fogsim.config.scenario import Scenario, SceneObject
 from fogsim.errors import FogsimError
+from fogsim.geometry import MJ_FROM_CV
 from fogsim.world.truth import moving_objects, object_center_at
 
 CAMERA_NAMES = ("head_camera", "head_camera_left", "head_camera_right")
@@ -40,7 +41,6 @@ ROUGH_SAMPLE_M = (
     0.08  # spacing of the height-field samples of rough tops [m]: bumps several pixels wide at 2 m
 )
 PARKED_Z_M = -50.0  # where removed objects go (below the opaque floor, out of every view)
-_MJ_FROM_CV = np.diag([1.0, -1.0, -1.0])  # R_cv = R_mj @ diag(1, -1, -1) and back
 
 
 class RobotLike(Protocol):
@@ -320,7 +320,7 @@ class Scene:
             raise FogsimError("this scene has a robot; move it with set_robot_qpos")
         t = np.asarray(transform_camera_to_world, dtype=np.float64)
         self.data.mocap_pos[self._rig_mocap_id] = t[:3, 3]
-        self.data.mocap_quat[self._rig_mocap_id] = quat_wxyz_from_matrix(t[:3, :3] @ _MJ_FROM_CV)
+        self.data.mocap_quat[self._rig_mocap_id] = quat_wxyz_from_matrix(t[:3, :3] @ MJ_FROM_CV)
 
     def forward(self) -> None:
         """Positions only: body, geom and camera poses for rendering (no dynamics)."""
@@ -332,7 +332,7 @@ class Scene:
         """4×4 pose of a head camera in the world, OpenCV convention (after :meth:`forward`)."""
         cam = self.camera_ids[name]
         t = np.eye(4)
-        t[:3, :3] = self.data.cam_xmat[cam].reshape(3, 3) @ _MJ_FROM_CV
+        t[:3, :3] = self.data.cam_xmat[cam].reshape(3, 3) @ MJ_FROM_CV
         t[:3, 3] = self.data.cam_xpos[cam]
         return t
 
