@@ -14,14 +14,14 @@ from __future__ import annotations
 import enum
 import math
 from collections.abc import Sequence
-from dataclasses import dataclass
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from fogsim.errors import EncoderError
+from fogsim.geometry import PoseError, pose_error  # noqa: F401  (re-exported)
 from fogsim.robot.model import Robot, Stance
-from mapper.transforms import planar_pose_to_matrix, rotation_angle_deg
+from mapper.transforms import planar_pose_to_matrix
 
 
 class JointGroup(enum.IntEnum):
@@ -238,21 +238,3 @@ def _planar(transform: NDArray[np.float64]) -> NDArray[np.float64]:
 def _level(transform: NDArray[np.float64]) -> NDArray[np.float64]:
     """Drop roll and pitch: keep x, y, z and the yaw of the x axis."""
     return planar_pose_to_matrix(_planar(transform))
-
-
-@dataclass(frozen=True)
-class PoseError:
-    """Difference between a believed and a true pose."""
-
-    rotation_deg: float
-    translation_mm: float
-
-
-def pose_error(believed: ArrayLike, true: ArrayLike) -> PoseError:
-    """Rotation [deg] and translation [mm] between two 4×4 poses."""
-    a = np.asarray(believed, dtype=np.float64)
-    b = np.asarray(true, dtype=np.float64)
-    return PoseError(
-        rotation_angle_deg(a[:3, :3].T @ b[:3, :3]),
-        1000.0 * float(np.linalg.norm(a[:3, 3] - b[:3, 3])),
-    )
