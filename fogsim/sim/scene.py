@@ -320,7 +320,3 @@ class Scene:
     def transform_between_cameras(self, source: str, target: str) -> NDArray[np.float64]:
         """4×4 pose of camera ``source`` in camera ``target``'s frame (both OpenCV)."""
         return np.linalg.inv(self.camera_to_world(target)) @ self.camera_to_world(source)
-
-    def geom_names(self, ids: Sequence[int]) -> list[str]:
-        """Names of geoms by id (for diagnostics)."""
-        return [self.model.geom(int(i)).name for i in ids]
