@@ -11,7 +11,7 @@ OpenGL contexts are not switched between timed calls):
   noise          stereo error model (depth mode)
   stereo         two RGB renders at 176 × 144 + SGBM + pooling (stereo mode capture)
   frame_depth    whole Simulation.frames() step in depth mode (render, noise, encoders,
-                 believed FK, odometry, self-filter if present)
+                 believed FK, odometry, self-filter)
 """
 
 from __future__ import annotations

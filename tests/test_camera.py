@@ -5,11 +5,12 @@ from __future__ import annotations
 import dataclasses
 import math
 
+import mujoco
 import numpy as np
 import pytest
 
 from fogsim.config.scenario import CameraConfig, load_scenario, scenario_from_dict
-from fogsim.errors import FogsimError
+from fogsim.errors import CameraError
 from fogsim.sim.camera import (
     HeadCamera,
     RaycastDepth,
@@ -19,6 +20,7 @@ from fogsim.sim.camera import (
     set_model_intrinsics,
 )
 from fogsim.sim.scene import Scene
+from mapper.intrinsics import PinholeIntrinsics
 from mapper.transforms import apply_transform
 
 
@@ -203,17 +205,20 @@ def test_stereo_mode_matches_rendered_images(stage_scene):
 
 
 def test_bad_camera_requests_raise(stage_scene):
-    with pytest.raises(FogsimError, match="renderer, raycast"):
+    with pytest.raises(CameraError, match="renderer, raycast"):
         HeadCamera(stage_scene.model, stage_scene.camera_ids, CameraConfig(), backend="opengl")
-    with pytest.raises(FogsimError, match="stereo"):
+    with pytest.raises(CameraError, match="stereo"):
         HeadCamera(
             stage_scene.model,
             stage_scene.camera_ids,
             CameraConfig(mode="stereo"),
             backend="raycast",
         )
-    with pytest.raises(FogsimError, match="dropout"):
-        StereoErrorModel(100.0, 0.1, dropout=1.5)
+    with pytest.raises(CameraError, match="dropout"):
+        StereoErrorModel(100.0, 0.1, 0.05, 0.0625, dropout=1.5, range_m=(0.15, 4.0))
+    off_centre = PinholeIntrinsics(88, 72, 100.0, 100.0, 40.0, 35.5)
+    with pytest.raises(CameraError, match=r"cx=40.0, cy=35.5 .* allowed cx=43.5, cy=35.5"):
+        set_model_intrinsics(stage_scene.model, 0, off_centre)
 
 
 def test_intrinsics_follow_the_scenario():
@@ -227,8 +232,6 @@ def test_intrinsics_follow_the_scenario():
 
 
 def test_camera_inside_its_mount_sees_through_it_in_both_backends():
-    import mujoco
-
     xml = """<mujoco><statistic extent="10"/><visual><map znear="0.005" zfar="2"/>
     <quality offsamples="0"/></visual><worldbody><geom name="floor" type="plane" size="5 5 .1"/>
     <body name="head" pos="0 0 1.2"><geom name="shell" type="box" size=".1 .1 .1"/>
@@ -248,8 +251,6 @@ def test_camera_inside_its_mount_sees_through_it_in_both_backends():
 
 def test_the_twenty_metre_reading_is_the_far_plane_of_a_small_model():
     """The early probe's 20.0: extent 0.4 m x zfar 50 = 20 m far plane, where no-hit pixels land."""
-    import mujoco
-
     xml = """<mujoco><statistic extent="0.4"/><worldbody>
     <geom name="floor" type="plane" size="0 0 .1"/>
     <body name="cam" pos="0 0 1" euler="90 0 0"><camera name="c" fovy="39"/></body>

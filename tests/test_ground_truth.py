@@ -9,7 +9,7 @@ import numpy as np
 import pytest
 
 from fogsim.config.scenario import load_scenario, scenario_from_dict
-from fogsim.world.truth import (
+from fogsim.world import (
     ObjectState,
     SceneTruth,
     TruthLabel,

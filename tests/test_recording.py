@@ -9,7 +9,7 @@ from fogsim.config.scenario import load_scenario
 from fogsim.data.frame import Frame
 from fogsim.data.recording import FORMAT_VERSION, load_recording, save_recording
 from fogsim.errors import RecordingError
-from fogsim.world.truth import ObjectState, SceneTruth
+from fogsim.world import ObjectState, SceneTruth
 from mapper.intrinsics import PinholeIntrinsics
 
 INTR = PinholeIntrinsics.from_fov(8, 6, 47.0, 39.0)

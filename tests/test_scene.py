@@ -2,19 +2,20 @@
 
 from __future__ import annotations
 
+import mujoco
 import numpy as np
 import pytest
 
 from fogsim.config.scenario import load_scenario
 from fogsim.errors import FogsimError
-from fogsim.sim.scene import CAMERA_NAMES, Scene, rough_elevation
-from fogsim.world.truth import SceneTruth, object_center_at
+from fogsim.robot.model import CAMERA_NAMES, load_robot
+from fogsim.sim.assets import MJCF_DIR, load_mjcf_piece
+from fogsim.sim.scene import Scene, rough_elevation
+from fogsim.world import SceneTruth, object_center_at
 
 
 def ray_down(scene: Scene, xy) -> np.ndarray:
     """Height [m] of the first surface hit by vertical rays cast from 5 m down at points xy."""
-    import mujoco
-
     heights = []
     geomid = np.zeros(1, dtype=np.int32)
     groups = np.array([1, 1, 1, 0, 0, 0], dtype=np.uint8)
@@ -116,8 +117,7 @@ def test_camera_rig_pose_round_trip():
 
 @pytest.fixture(scope="module")
 def robot():
-    robot_module = pytest.importorskip("fogsim.robot.model")
-    return robot_module.load_robot("icub")
+    return load_robot("icub")
 
 
 def test_attached_robot_cameras_match_pinocchio(robot):
@@ -142,3 +142,47 @@ def test_attached_robot_cameras_match_pinocchio(robot):
     assert set(scene.model.geom_group[robot_geoms]) <= set(scene.render_geomgroups)
     with pytest.raises(FogsimError, match="has a robot"):
         scene.set_camera_rig_pose(np.eye(4))
+
+
+def test_render_and_depth_buffer_settings_come_from_the_asset_pieces():
+    scene = Scene(load_scenario("simulated_world"))
+    model = scene.model
+    assert scene.mjcf_model.model == "fogsim_simulated_world"
+    # Depth buffer: 5 cm near and 20 m far plane (MuJoCo scales both by the extent; float32).
+    assert model.stat.extent == 10.0
+    assert model.vis.map.znear * model.stat.extent == pytest.approx(0.05, rel=1e-6)
+    assert model.vis.map.zfar * model.stat.extent == pytest.approx(20.0, rel=1e-6)
+    assert model.vis.quality.shadowsize == 0 and model.vis.quality.offsamples == 0
+    assert (model.vis.global_.offwidth, model.vis.global_.offheight) == (640, 480)
+    assert not model.light_castshadow[model.light("sun").id]
+    # Objects' materials are of class "object": the box texture, uniform, repeated 2 x 2.
+    tex_box = model.texture("tex_box").id
+    for obj in load_scenario("simulated_world").objects:
+        material = model.material(f"mat_{obj.name}").id
+        assert tex_box in model.mat_texid[material]
+        assert model.mat_texuniform[material]
+        np.testing.assert_array_equal(model.mat_texrepeat[material], [2.0, 2.0])
+    floor = model.material("mat_floor").id
+    assert model.texture("tex_speckle").id in model.mat_texid[floor]
+    # Every element is named (the world body is MuJoCo's own).
+    counts = {
+        mujoco.mjtObj.mjOBJ_BODY: model.nbody,
+        mujoco.mjtObj.mjOBJ_GEOM: model.ngeom,
+        mujoco.mjtObj.mjOBJ_CAMERA: model.ncam,
+        mujoco.mjtObj.mjOBJ_LIGHT: model.nlight,
+        mujoco.mjtObj.mjOBJ_TEXTURE: model.ntex,
+        mujoco.mjtObj.mjOBJ_MATERIAL: model.nmat,
+        mujoco.mjtObj.mjOBJ_HFIELD: model.nhfield,
+    }
+    for kind, count in counts.items():
+        assert count > 0
+        assert all(mujoco.mj_id2name(model, kind, i) for i in range(count)), kind
+
+
+def test_every_piece_loads_and_an_unknown_piece_names_the_pieces():
+    pieces = sorted(p.stem for p in MJCF_DIR.glob("*.xml"))
+    assert pieces == ["camera_rig", "floor", "lighting", "materials", "visual"]
+    for name in pieces:
+        assert load_mjcf_piece(name).model == name
+    with pytest.raises(FogsimError, match=r"no MJCF piece 'sky'.*camera_rig, floor, lighting"):
+        load_mjcf_piece("sky")

@@ -10,8 +10,9 @@ import pytest
 
 from fogsim.config.scenario import list_scenarios, load_scenario
 from fogsim.data.frame import Frame
+from fogsim.geometry import PoseError, pose_error
 from fogsim.sim.simulation import Simulation
-from mapper.transforms import apply_transform
+from mapper.transforms import apply_transform, planar_pose_to_matrix
 
 FIRST_FRAMES = 3
 
@@ -121,14 +122,40 @@ def test_truth_follows_events():
         assert on_box.sum() > 100  # depth mode: noisy, but the box top is there
 
 
-def test_pose_error_stats_structure(flat_ideal):
-    first_frames(flat_ideal, 5)
-    stats = flat_ideal.pose_error_stats()
-    assert set(stats) == {"camera_in_robot", "camera_in_world"}
-    for part in stats.values():
-        for key in ("rotation_deg", "translation_mm"):
-            assert set(part[key]) == {"median", "max"}
-            assert part[key]["max"] >= part[key]["median"] >= 0.0
+def camera_pose_errors(frame: Frame) -> tuple[PoseError, PoseError]:
+    """Believed-vs-true camera pose in the robot frame (encoders) and in the world (+ odometry)."""
+    camera_in_robot_true = (
+        np.linalg.inv(planar_pose_to_matrix(frame.robot_pose_true))
+        @ frame.transform_camera_to_world_true
+    )
+    return (
+        pose_error(frame.transform_camera_to_robot_believed, camera_in_robot_true),
+        pose_error(frame.transform_camera_to_world_believed, frame.transform_camera_to_world_true),
+    )
+
+
+def test_believed_poses_come_from_the_encoders_and_the_odometry(flat_ideal):
+    """Exact encoders: the believed poses are the true ones; the scenario's encoder errors put
+    the camera off by degrees and millimetres (the paper's "up to 7° and 10 mm"), never 0."""
+    exact_encoders = flat_ideal.scenario.with_overrides(
+        [
+            f"encoders.{key}=0"
+            for key in ("bias_deg", "noise_deg", "head_bias_deg", "head_noise_deg")
+        ]
+    )
+    with Simulation(exact_encoders) as exact:
+        for frame in first_frames(exact, 10):
+            for error in camera_pose_errors(frame):
+                assert error.rotation_deg < 1e-4 and error.translation_mm < 1e-3
+            np.testing.assert_allclose(frame.robot_pose_believed, frame.robot_pose_true, atol=1e-6)
+    frames = first_frames(flat_ideal, 10)
+    for frame in frames:
+        in_robot, in_world = camera_pose_errors(frame)
+        assert 1.0 < in_robot.rotation_deg < 7.0 and 1.0 < in_robot.translation_mm < 10.0
+        assert in_world.rotation_deg > 1.0 and in_world.translation_mm > 1.0
+    # The odometry starts at the true pose and drifts from there.
+    np.testing.assert_allclose(frames[0].robot_pose_believed, frames[0].robot_pose_true, atol=1e-12)
+    assert np.abs(frames[-1].robot_pose_believed - frames[-1].robot_pose_true).max() > 1e-5
 
 
 def test_stereo_mode_depth_belongs_to_the_left_camera():

@@ -53,11 +53,13 @@ from pathlib import Path
 from typing import Any
 
 import numpy as np
-from numpy.typing import NDArray
+from numpy.typing import DTypeLike, NDArray
 
 from fogsim.atomic import write_atomic
+from fogsim.config.scenario import Scenario, load_scenario
 from fogsim.data.frame import Frame
 from fogsim.errors import RecordingError
+from fogsim.world import SceneTruth
 from mapper.intrinsics import PinholeIntrinsics
 
 FORMAT_NAME = "fogsim-recording"
@@ -79,14 +81,15 @@ class Recording:
     Attributes:
         frames: The frames in order (``Frame.index`` = position in the list).
         scenario: The scenario the frames came from, or None (real robot data).
-        truths: Ground truth per frame (a ``SceneTruth``) or None where unknown.
+        truths: Ground truth per frame, None where unknown.
         intrinsics: Depth camera intrinsics shared by all frames.
         source_path: The file it was read from, if any.
+        meta: The file's ``meta_json`` object without ``truths`` (JSON values).
     """
 
     frames: list[Frame]
-    scenario: Any | None
-    truths: list[Any | None]
+    scenario: Scenario | None
+    truths: list[SceneTruth | None]
     intrinsics: PinholeIntrinsics
     source_path: Path | None = None
     meta: dict[str, Any] = field(default_factory=dict)
@@ -102,14 +105,15 @@ class Recording:
         """True if every frame has a ground truth (the run can be scored)."""
         return bool(self.truths) and all(t is not None for t in self.truths)
 
-    def truth_at(self, time_s: float) -> Any | None:
+    def truth_at(self, time_s: float) -> SceneTruth | None:
         """Ground truth of the last frame at or before ``time_s`` (the first frame if earlier)."""
         times = np.array([f.time_s for f in self.frames])
         i = int(np.searchsorted(times, time_s + 1e-9, side="right")) - 1
         return self.truths[max(0, min(i, len(self.truths) - 1))]
 
 
-def _frame_array(frames: Sequence[Frame], name: str, dtype: Any) -> NDArray[Any]:
+def _frame_array(frames: Sequence[Frame], name: str, dtype: DTypeLike) -> NDArray[Any]:
+    """The per-frame array ``name`` of every frame stacked along a new first axis."""
     return np.stack([np.asarray(getattr(f, name), dtype=dtype) for f in frames])
 
 
@@ -117,17 +121,16 @@ def save_recording(
     path: str | os.PathLike[str],
     frames: Sequence[Frame],
     *,
-    scenario: Any | None = None,
-    truths: Sequence[Any | None] | None = None,
+    scenario: Scenario | None = None,
+    truths: Sequence[SceneTruth | None] | None = None,
 ) -> Path:
     """Write frames (and optionally the scenario and ground truth) to one file atomically.
 
     Args:
         path: Target file (``.npz`` is conventional).
         frames: Frames in order; all must share one intrinsics.
-        scenario: A ``fogsim.config.scenario.Scenario`` (stored as its TOML text) or None.
-        truths: One ``SceneTruth`` (anything with ``to_dict()``) or None per frame; equal
-            consecutive states are stored once.
+        scenario: The scenario (stored as its TOML text), or None (real robot data).
+        truths: One ground truth or None per frame; equal states are stored once.
 
     Returns:
         The written path.
@@ -201,10 +204,8 @@ def _check_shape(name: str, array: NDArray[Any], shape: tuple[int, ...]) -> None
         raise RecordingError(f"recording array '{name}' must have shape {shape}, got {array.shape}")
 
 
-def _scenario_from_toml(text: str, name_hint: str) -> Any:
+def _scenario_from_toml(text: str, name_hint: str) -> Scenario:
     """Rebuild a Scenario from its TOML text (through a temporary file, as the loader reads)."""
-    from fogsim.config.scenario import load_scenario
-
     with tempfile.TemporaryDirectory() as tmp:
         path = Path(tmp) / f"{name_hint}.toml"
         path.write_text(text, encoding="utf-8")
@@ -282,11 +283,7 @@ def load_recording(path: str | os.PathLike[str]) -> Recording:
         raise RecordingError(
             f"{source}: truth_index must be -1 or in [0, {len(truth_dicts)}) (meta.truths)"
         )
-    truth_objects: list[Any] = []
-    if truth_dicts:
-        from fogsim.world.truth import SceneTruth
-
-        truth_objects = [SceneTruth.from_dict(d) for d in truth_dicts]
+    truth_objects = [SceneTruth.from_dict(d) for d in truth_dicts]
     truths = [truth_objects[i] if i >= 0 else None for i in truth_index.tolist()]
 
     depth = arrays["depth_m"].astype(np.float32)

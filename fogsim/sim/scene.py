@@ -2,53 +2,49 @@
 
 The scene is the world of DESIGN.md: z up, a textured ground plane at z = 0 reaching well
 beyond the 4 × 1 m stage, one body per scenario object (``obj_<name>``, geom
-``geom_<name>``), the robot attached from its standalone MJCF (names prefixed ``<model>/``,
-its free joint moved onto the attachment frame), or, without a robot, a free-floating camera
-rig (mocap body ``camera_rig``) carrying ``head_camera``, ``head_camera_left`` and
-``head_camera_right``.
+``geom_<name>``, material ``mat_<name>``, rough tops' height field ``hf_<name>``), the robot
+attached from its standalone MJCF (names prefixed ``<model>/``, its free joint moved onto the
+attachment frame), or, without a robot, a free-floating camera rig (mocap body
+``camera_rig``) carrying ``head_camera``, ``head_camera_left`` and ``head_camera_right``.
+
+What does not depend on the scenario is data: the MJCF pieces in ``assets/mjcf/``
+(:data:`WORLD_PIECES`: render and depth-buffer settings, the light, textures and materials,
+the floor; and the camera rig), merged in through :func:`fogsim.sim.assets.load_mjcf_piece`.
+Each piece's file says why its values are what they are.
 
 Objects some event moves or removes are mocap bodies: :meth:`Scene.set_time` places them where
-:func:`fogsim.world.truth.object_center_at` says (a removed object is parked far away below
-the floor). Rough tops are height fields whose bumps are drawn from the scenario seed. Every
-surface is textured (checker + random marks) so stereo matching has something to match.
-Rendering settings: no shadows, ``statistic.extent`` = 10 m so that the depth buffer's near
-plane is 5 cm and its far plane 20 m (MuJoCo scales both by the extent — a too small extent
-is what turned a 1 m depth into 20.0 in an early probe: the far plane clipped the view).
+:func:`fogsim.world.object_center_at` says (a removed object is parked far away below the
+floor). Rough tops are height fields whose bumps are drawn from the scenario seed.
 """
 
 from __future__ import annotations
 
 import math
 from collections.abc import Sequence
-from typing import Any, Protocol
+from dataclasses import dataclass
 
 import mujoco
 import numpy as np
 from dm_control import mjcf
 from numpy.typing import ArrayLike, NDArray
 
-from fogsim.config.scenario import Scenario, SceneObject
+from fogsim.config.scenario import CameraConfig, Scenario, SceneObject
 from fogsim.errors import FogsimError
 from fogsim.geometry import MJ_FROM_CV
-from fogsim.world.truth import moving_objects, object_center_at
+from fogsim.robot.model import CAMERA_NAMES, Robot
+from fogsim.sim.assets import load_mjcf_piece
+from fogsim.sim.camera.depth import VISIBLE_GEOMGROUPS
+from fogsim.world import moving_objects, object_center_at
 
-CAMERA_NAMES = ("head_camera", "head_camera_left", "head_camera_right")
-EXTENT_M = 10.0  # statistic.extent: MuJoCo scales znear/zfar (and some visuals) by it
-ZNEAR_M = 0.05  # depth buffer near plane [m]
-ZFAR_M = 20.0  # depth buffer far plane [m]; pixels at the far plane have no measurement
-FLOOR_HALF_SIZE_M = 12.0
-ROUGH_SAMPLE_M = (
-    0.08  # spacing of the height-field samples of rough tops [m]: bumps several pixels wide at 2 m
-)
-PARKED_Z_M = -50.0  # where removed objects go (below the opaque floor, out of every view)
-
-
-class RobotLike(Protocol):
-    """What the scene needs of a robot (``fogsim.robot.model.Robot`` fits)."""
-
-    name: str
-    mjcf_path: Any
-    mujoco_joint_names: tuple[str, ...]
+WORLD_PIECES = ("visual", "lighting", "materials", "floor")
+"""The MJCF pieces every scene starts from, in this order (element order sets MuJoCo's ids)."""
+MIN_OFFSCREEN_PX = (640, 480)
+"""Smallest off-screen buffer (width, height) [px]: MuJoCo's default; the stereo mode renders at
+twice the camera's resolution, so the buffer grows to hold that."""
+ROUGH_SAMPLE_M = 0.08
+"""Spacing of the height-field samples of rough tops [m]: bumps several pixels wide at 2 m."""
+PARKED_Z_M = -50.0
+"""Where removed objects go [m]: below the opaque floor, out of every view."""
 
 
 def _object_colour(index: int, walkable: bool) -> list[float]:
@@ -79,8 +75,147 @@ def quat_wxyz_from_matrix(rotation: ArrayLike) -> NDArray[np.float64]:
     return quat
 
 
+# ---------------------------------------------------------------------- building
+
+
+def _merge_piece(root: mjcf.RootElement, name: str) -> None:
+    """Merge the MJCF piece ``name`` into ``root``, keeping the names of both."""
+    model_name = root.model
+    root.include_copy(load_mjcf_piece(name))
+    root.model = model_name  # include_copy takes the piece's model name
+
+
+def _world_root(scenario: Scenario) -> mjcf.RootElement:
+    """The scene's root: the world pieces, the off-screen buffer for the scenario's camera."""
+    root = mjcf.RootElement(model=f"fogsim_{scenario.name}")
+    for piece in WORLD_PIECES:
+        _merge_piece(root, piece)
+    offscreen = getattr(root.visual, "global")
+    offscreen.offwidth = max(MIN_OFFSCREEN_PX[0], 2 * scenario.camera.width)
+    offscreen.offheight = max(MIN_OFFSCREEN_PX[1], 2 * scenario.camera.height)
+    return root
+
+
+def _add_object(
+    root: mjcf.RootElement, obj: SceneObject, index: int, seed: int, mocap: bool
+) -> mjcf.Element:
+    """Add one scenario object (a box, or a height field for a rough top); returns its body."""
+    material = root.asset.add(
+        "material",
+        name=f"mat_{obj.name}",
+        dclass="object",
+        rgba=_object_colour(index, obj.walkable),
+    )
+    sx, sy, sz = obj.size
+    body = root.worldbody.add(
+        "body",
+        name=f"obj_{obj.name}",
+        pos=[obj.center[0], obj.center[1], obj.base],
+        euler=[0.0, 0.0, math.radians(obj.yaw_deg)],
+        mocap=mocap,
+    )
+    if obj.surface == "rough":
+        elevation = rough_elevation(obj, seed, index)
+        hfield = root.asset.add(
+            "hfield",
+            name=f"hf_{obj.name}",
+            nrow=elevation.shape[0],
+            ncol=elevation.shape[1],
+            size=[0.5 * sx, 0.5 * sy, obj.roughness_m, sz - obj.roughness_m],
+            elevation=elevation.ravel(),
+        )
+        body.add(
+            "geom",
+            name=f"geom_{obj.name}",
+            type="hfield",
+            hfield=hfield,
+            pos=[0.0, 0.0, sz - obj.roughness_m],
+            material=material,
+            group=0,
+        )
+    else:
+        body.add(
+            "geom",
+            name=f"geom_{obj.name}",
+            type="box",
+            size=[0.5 * sx, 0.5 * sy, 0.5 * sz],
+            pos=[0.0, 0.0, 0.5 * sz],
+            material=material,
+            group=0,
+        )
+    return body
+
+
+def _find(root: mjcf.RootElement, kind: str, name: str, source: str) -> mjcf.Element:
+    """The element ``kind`` named ``name``; raises naming ``source`` if it is missing."""
+    element = root.find(kind, name)
+    if element is None:
+        raise FogsimError(f"{source}: no {kind} named {name!r}")
+    return element
+
+
+def _add_camera_rig(
+    root: mjcf.RootElement, camera: CameraConfig
+) -> tuple[mjcf.Element, list[mjcf.Element]]:
+    """Merge in the camera rig piece, set up for the scenario's camera; (rig body, cameras).
+
+    The left and right cameras sit half the stereo baseline left and right of ``head_camera``
+    (MuJoCo camera frame: x right).
+    """
+    _merge_piece(root, "camera_rig")
+    rig = _find(root, "body", "camera_rig", "assets/mjcf/camera_rig.xml")
+    cameras = [_find(root, "camera", name, "assets/mjcf/camera_rig.xml") for name in CAMERA_NAMES]
+    offsets_m = (0.0, -0.5 * camera.baseline_m, 0.5 * camera.baseline_m)
+    for element, dx in zip(cameras, offsets_m, strict=True):
+        element.pos = [dx, 0.0, 0.0]
+        element.fovy = camera.fov_deg[1]
+    return rig, cameras
+
+
+@dataclass(frozen=True)
+class _AttachedRobot:
+    """The robot's elements in the scene.
+
+    Attributes:
+        free_joint: The free joint on the attachment frame.
+        joints: The robot's joints in its standalone qpos order (after the free joint).
+        cameras: The cameras of ``CAMERA_NAMES``.
+    """
+
+    free_joint: mjcf.Element
+    joints: tuple[mjcf.Element, ...]
+    cameras: tuple[mjcf.Element, ...]
+
+
+def _attach_robot(root: mjcf.RootElement, robot: Robot) -> _AttachedRobot:
+    """Attach the robot's MJCF; its free joint moves onto the attachment frame."""
+    robot_model = mjcf.from_path(str(robot.mjcf_path))
+    free = robot_model.find("joint", "root")
+    if free is None:
+        raise FogsimError(f"{robot.mjcf_path}: the robot MJCF has no free joint named 'root'")
+    free.remove()
+    frame = root.attach(robot_model)
+    free_joint = frame.add("freejoint", name="root")
+    joint_names = robot.mujoco_joint_names[1:]
+    joints = [robot_model.find("joint", name) for name in joint_names]
+    missing = [name for name, joint in zip(joint_names, joints, strict=True) if joint is None]
+    if missing:
+        raise FogsimError(f"{robot.mjcf_path}: joints {missing} not found in the MJCF")
+    cameras = [robot_model.find("camera", name) for name in CAMERA_NAMES]
+    if any(c is None for c in cameras):
+        raise FogsimError(f"{robot.mjcf_path}: the robot needs cameras {CAMERA_NAMES}")
+    return _AttachedRobot(free_joint, tuple(joints), tuple(cameras))
+
+
+# ---------------------------------------------------------------------- the scene
+
+
 class Scene:
     """A compiled scene: dm_control ``Physics`` plus by-name access to its state.
+
+    Args:
+        scenario: The scenario to build.
+        robot: The robot to attach, or None for the free camera rig.
 
     Attributes:
         scenario: The scenario it was built from.
@@ -93,23 +228,23 @@ class Scene:
         render_geomgroups: Geom groups the renderer draws (0, 1, 2); ray casts use the same.
     """
 
-    def __init__(self, scenario: Scenario, robot: RobotLike | None = None) -> None:
+    def __init__(self, scenario: Scenario, robot: Robot | None = None) -> None:
         self.scenario = scenario
         self.has_robot = robot is not None
         self._moving = moving_objects(scenario)
-        root = mjcf.RootElement(model=f"fogsim_{scenario.name}")
+        root = _world_root(scenario)
         self.mjcf_model = root
-        self._add_settings(root, scenario)
-        self._add_floor(root)
-        self._object_bodies: dict[str, Any] = {}
-        for index, obj in enumerate(scenario.objects):
-            self._object_bodies[obj.name] = self._add_object(root, obj, index, scenario.seed)
-        self._robot_frame = None
-        self._robot_joints: list[Any] = []
+        object_bodies = {
+            obj.name: _add_object(root, obj, index, scenario.seed, obj.name in self._moving)
+            for index, obj in enumerate(scenario.objects)
+        }
+        attached: _AttachedRobot | None = None
+        rig: mjcf.Element | None = None
         if robot is not None:
-            camera_elements = self._attach_robot(root, robot)
+            attached = _attach_robot(root, robot)
+            camera_elements: Sequence[mjcf.Element] = attached.cameras
         else:
-            camera_elements = self._add_camera_rig(root, scenario.camera.baseline_m)
+            rig, camera_elements = _add_camera_rig(root, scenario.camera)
         self.physics = mjcf.Physics.from_mjcf_model(root)
         self.model: mujoco.MjModel = self.physics.model.ptr
         self.data: mujoco.MjData = self.physics.data.ptr
@@ -117,176 +252,22 @@ class Scene:
             name: int(self.physics.bind(element).element_id)
             for name, element in zip(CAMERA_NAMES, camera_elements, strict=True)
         }
-        self.render_geomgroups = (0, 1, 2)
+        self.render_geomgroups = VISIBLE_GEOMGROUPS
         self._mocap_ids = {
-            name: int(self.physics.bind(self._object_bodies[name]).mocapid) for name in self._moving
+            name: int(self.physics.bind(object_bodies[name]).mocapid) for name in self._moving
         }
-        if robot is not None:
-            self._robot_qpos_address = self._robot_qpos_addresses(robot)
-        else:
-            self._rig_mocap_id = int(self.physics.bind(self._rig).mocapid)
+        self._robot_qpos_address = (
+            self._robot_qpos_addresses(attached) if attached is not None else None
+        )
+        self._rig_mocap_id = int(self.physics.bind(rig).mocapid) if rig is not None else None
         self.set_time(0.0)
         self.forward()
 
-    # ------------------------------------------------------------------ building
-
-    @staticmethod
-    def _add_settings(root: Any, scenario: Scenario) -> None:
-        root.compiler.angle = "radian"
-        root.statistic.extent = EXTENT_M
-        root.statistic.center = [2.0, 0.5, 0.3]
-        root.visual.map.znear = ZNEAR_M / EXTENT_M
-        root.visual.map.zfar = ZFAR_M / EXTENT_M
-        root.visual.quality.shadowsize = 0  # shadows make CPU (llvmpipe) rendering ~20x slower
-        root.visual.quality.offsamples = 0  # no multisampling: faster, depth at pixel centres
-        width, height = scenario.camera.width, scenario.camera.height
-        getattr(root.visual, "global").offwidth = max(640, 2 * width)
-        getattr(root.visual, "global").offheight = max(480, 2 * height)
-        root.visual.headlight.ambient = [0.35, 0.35, 0.35]
-        root.visual.headlight.diffuse = [0.4, 0.4, 0.4]
-        root.worldbody.add(
-            "light",
-            name="sun",
-            directional=True,
-            castshadow=False,
-            pos=[2.0, 0.0, 5.0],
-            dir=[0.3, 0.2, -1.0],
-            diffuse=[0.6, 0.6, 0.6],
-        )
-        root.asset.add(
-            "texture",
-            name="tex_speckle",
-            type="2d",
-            builtin="checker",
-            rgb1=[0.55, 0.55, 0.55],
-            rgb2=[0.4, 0.4, 0.4],
-            mark="random",
-            random=0.35,
-            markrgb=[0.95, 0.95, 0.95],
-            width=128,
-            height=128,
-        )
-        root.asset.add(
-            "texture",
-            name="tex_box",
-            type="cube",
-            builtin="flat",
-            rgb1=[0.7, 0.7, 0.7],
-            mark="random",
-            random=0.35,
-            markrgb=[0.15, 0.15, 0.15],
-            width=64,
-            height=64,
-        )
-
-    @staticmethod
-    def _add_floor(root: Any) -> None:
-        root.asset.add(
-            "material",
-            name="mat_floor",
-            texture="tex_speckle",
-            texuniform=True,
-            texrepeat=[1.0, 1.0],
-            rgba=[1.0, 1.0, 1.0, 1.0],
-        )
-        root.worldbody.add(
-            "geom",
-            name="floor",
-            type="plane",
-            size=[FLOOR_HALF_SIZE_M, FLOOR_HALF_SIZE_M, 0.1],
-            pos=[2.0, 0.5, 0.0],
-            material="mat_floor",
-            group=0,
-        )
-
-    def _add_object(self, root: Any, obj: SceneObject, index: int, seed: int) -> Any:
-        material = root.asset.add(
-            "material",
-            name=f"mat_{obj.name}",
-            texture="tex_box",
-            texuniform=True,
-            texrepeat=[2.0, 2.0],
-            rgba=_object_colour(index, obj.walkable),
-        )
-        sx, sy, sz = obj.size
-        mocap = obj.name in self._moving
-        body = root.worldbody.add(
-            "body",
-            name=f"obj_{obj.name}",
-            pos=[obj.center[0], obj.center[1], obj.base],
-            euler=[0.0, 0.0, math.radians(obj.yaw_deg)],
-            mocap=mocap,
-        )
-        if obj.surface == "rough":
-            elevation = rough_elevation(obj, seed, index)
-            hfield = root.asset.add(
-                "hfield",
-                name=f"hf_{obj.name}",
-                nrow=elevation.shape[0],
-                ncol=elevation.shape[1],
-                size=[0.5 * sx, 0.5 * sy, obj.roughness_m, sz - obj.roughness_m],
-                elevation=elevation.ravel(),
-            )
-            body.add(
-                "geom",
-                name=f"geom_{obj.name}",
-                type="hfield",
-                hfield=hfield,
-                pos=[0.0, 0.0, sz - obj.roughness_m],
-                material=material,
-                group=0,
-            )
-        else:
-            body.add(
-                "geom",
-                name=f"geom_{obj.name}",
-                type="box",
-                size=[0.5 * sx, 0.5 * sy, 0.5 * sz],
-                pos=[0.0, 0.0, 0.5 * sz],
-                material=material,
-                group=0,
-            )
-        return body
-
-    def _add_camera_rig(self, root: Any, baseline_m: float) -> list[Any]:
-        """A mocap body carrying the three head cameras (MuJoCo convention, x right)."""
-        fovy = self.scenario.camera.fov_deg[1]
-        self._rig = root.worldbody.add("body", name="camera_rig", mocap=True, pos=[0, 0, 1])
-        offsets = (0.0, -0.5 * baseline_m, 0.5 * baseline_m)
-        return [
-            self._rig.add("camera", name=name, pos=[dx, 0.0, 0.0], fovy=fovy)
-            for name, dx in zip(CAMERA_NAMES, offsets, strict=True)
-        ]
-
-    def _attach_robot(self, root: Any, robot: RobotLike) -> list[Any]:
-        """Attach the robot's MJCF; its free joint moves onto the attachment frame."""
-        robot_model = mjcf.from_path(str(robot.mjcf_path))
-        free = robot_model.find("joint", "root")
-        if free is None:
-            raise FogsimError(f"{robot.mjcf_path}: the robot MJCF has no free joint named 'root'")
-        free.remove()
-        self._robot_frame = root.attach(robot_model)
-        self._robot_free_joint = self._robot_frame.add("freejoint", name="root")
-        self._robot_joints = [
-            robot_model.find("joint", name) for name in robot.mujoco_joint_names[1:]
-        ]
-        if any(j is None for j in self._robot_joints):
-            missing = [
-                n
-                for n, j in zip(robot.mujoco_joint_names[1:], self._robot_joints, strict=True)
-                if j is None
-            ]
-            raise FogsimError(f"{robot.mjcf_path}: joints {missing} not found in the MJCF")
-        cameras = [robot_model.find("camera", name) for name in CAMERA_NAMES]
-        if any(c is None for c in cameras):
-            raise FogsimError(f"{robot.mjcf_path}: the robot needs cameras {CAMERA_NAMES}")
-        return cameras
-
-    def _robot_qpos_addresses(self, robot: RobotLike) -> NDArray[np.intp]:
+    def _robot_qpos_addresses(self, attached: _AttachedRobot) -> NDArray[np.intp]:
         """Scene qpos index of every entry of the robot's standalone qpos."""
-        free_address = int(self.physics.bind(self._robot_free_joint).qposadr)
+        free_address = int(self.physics.bind(attached.free_joint).qposadr)
         addresses = list(range(free_address, free_address + 7))
-        for joint in self._robot_joints:
+        for joint in attached.joints:
             addresses.append(int(self.physics.bind(joint).qposadr))
         return np.asarray(addresses, dtype=np.intp)
 
@@ -305,7 +286,7 @@ class Scene:
 
     def set_robot_qpos(self, qpos_standalone: ArrayLike) -> None:
         """Set the robot's configuration from its standalone-model qpos (free joint first)."""
-        if not self.has_robot:
+        if self._robot_qpos_address is None:
             raise FogsimError("this scene has no robot (it was built with the camera rig)")
         qpos = np.asarray(qpos_standalone, dtype=np.float64)
         if qpos.shape != self._robot_qpos_address.shape:
@@ -316,7 +297,7 @@ class Scene:
 
     def set_camera_rig_pose(self, transform_camera_to_world: ArrayLike) -> None:
         """Place the free camera rig so ``head_camera`` has this OpenCV pose (4×4, world)."""
-        if self.has_robot:
+        if self._rig_mocap_id is None:
             raise FogsimError("this scene has a robot; move it with set_robot_qpos")
         t = np.asarray(transform_camera_to_world, dtype=np.float64)
         self.data.mocap_pos[self._rig_mocap_id] = t[:3, 3]
@@ -339,7 +320,3 @@ class Scene:
     def transform_between_cameras(self, source: str, target: str) -> NDArray[np.float64]:
         """4×4 pose of camera ``source`` in camera ``target``'s frame (both OpenCV)."""
         return np.linalg.inv(self.camera_to_world(target)) @ self.camera_to_world(source)
-
-    def geom_names(self, ids: Sequence[int]) -> list[str]:
-        """Names of geoms by id (for diagnostics)."""
-        return [self.model.geom(int(i)).name for i in ids]

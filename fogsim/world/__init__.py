@@ -1,1 +1,20 @@
-"""Layer 2 — the world over time: where each object is at a time, and the ground truth it implies."""
+"""Layer 2 — the world over time: where each object is at a time, and the truth it implies.
+
+* :mod:`fogsim.world.timeline` — :class:`ObjectState`, :func:`object_center_at`,
+  :func:`moving_objects`: the event timeline of the scenario's objects;
+* :mod:`fogsim.world.truth` — :class:`SceneTruth`, :class:`GroundTruthGrid`: the ground truth
+  at one instant, on points and on grids.
+"""
+
+from fogsim.world.timeline import ObjectState, moving_objects, object_center_at
+from fogsim.world.truth import GROUND, GroundTruthGrid, SceneTruth, TruthLabel
+
+__all__ = [
+    "GROUND",
+    "GroundTruthGrid",
+    "ObjectState",
+    "SceneTruth",
+    "TruthLabel",
+    "moving_objects",
+    "object_center_at",
+]

@@ -1,8 +1,8 @@
-"""Ground truth of a scene: object placement at any time, support heights, labelled grids.
+"""Ground truth of a scene at one instant: support heights and labelled grids.
 
-The world is the scenario's: z up, the ground is the plane z = 0, every object a box (possibly
-yawed, possibly hanging). Events move or remove objects over time; :class:`SceneTruth` is the
-state at one instant.
+:class:`SceneTruth` is the world at one time, the objects placed where the event timeline
+(:mod:`fogsim.world.timeline`) puts them; :meth:`SceneTruth.rasterize` turns it into the
+:class:`GroundTruthGrid` a map is scored against.
 
 Rasterisation rule (per cell, evaluated at the cell centre; "covers" = the point lies in the
 object's footprint, edges included):
@@ -23,15 +23,16 @@ object's footprint, edges included):
 from __future__ import annotations
 
 import math
-from collections.abc import Mapping, Sequence
+from collections.abc import Mapping
 from dataclasses import dataclass, field
 from typing import Any
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from fogsim.config.scenario import Scenario, SceneObject
+from fogsim.config.scenario import Scenario
 from fogsim.errors import FogsimError
+from fogsim.world.timeline import ObjectState, object_center_at
 from mapper.grid import CellType
 
 GROUND = "ground"
@@ -40,69 +41,6 @@ _INTERIOR_SAMPLES = 5
 
 
 TruthLabel = CellType  # truth labels are the mapper's cell types (UNKNOWN unused)
-
-
-@dataclass(frozen=True)
-class ObjectState:
-    """Where one box is at one instant.
-
-    Attributes:
-        name: The scenario object's name.
-        center_xy: (x, y) footprint centre in the world [m].
-        size: (x, y, z) extent [m].
-        yaw_rad: Rotation about world z [rad].
-        base_m: z of the bottom face [m].
-        walkable: Its top is a floor.
-        surface: ``flat`` or ``rough``.
-        roughness_m: Bump height of a rough top [m].
-    """
-
-    name: str
-    center_xy: tuple[float, float]
-    size: tuple[float, float, float]
-    yaw_rad: float
-    base_m: float
-    walkable: bool
-    surface: str = "flat"
-    roughness_m: float = 0.0
-
-    @property
-    def top_m(self) -> float:
-        """Height of the top face (the highest bump of a rough top) [m]."""
-        return self.base_m + self.size[2]
-
-    def contains(self, xy: ArrayLike, margin_m: float = 1e-9) -> NDArray[np.bool_]:
-        """Whether world points (..., 2) lie in the footprint (edges included, + margin)."""
-        p = np.asarray(xy, dtype=np.float64)
-        c, s = math.cos(self.yaw_rad), math.sin(self.yaw_rad)
-        dx = p[..., 0] - self.center_xy[0]
-        dy = p[..., 1] - self.center_xy[1]
-        local_x = c * dx + s * dy
-        local_y = -s * dx + c * dy
-        return (np.abs(local_x) <= 0.5 * self.size[0] + margin_m) & (
-            np.abs(local_y) <= 0.5 * self.size[1] + margin_m
-        )
-
-    def footprint_corners_xy(self) -> NDArray[np.float64]:
-        """(4, 2) world corners of the footprint, counter-clockwise."""
-        hx, hy = 0.5 * self.size[0], 0.5 * self.size[1]
-        local = np.array([[hx, hy], [-hx, hy], [-hx, -hy], [hx, -hy]])
-        c, s = math.cos(self.yaw_rad), math.sin(self.yaw_rad)
-        return local @ np.array([[c, s], [-s, c]]) + np.asarray(self.center_xy)
-
-    @classmethod
-    def from_object(cls, obj: SceneObject, center_xy: Sequence[float]) -> ObjectState:
-        """The state of a scenario object placed at ``center_xy``."""
-        return cls(
-            name=obj.name,
-            center_xy=(float(center_xy[0]), float(center_xy[1])),
-            size=obj.size,
-            yaw_rad=math.radians(obj.yaw_deg),
-            base_m=obj.base,
-            walkable=obj.walkable,
-            surface=obj.surface,
-            roughness_m=obj.roughness_m if obj.surface == "rough" else 0.0,
-        )
 
 
 @dataclass(frozen=True)
@@ -137,6 +75,25 @@ class GroundTruthGrid:
             )
         mask = self.surface_id == self.surface_names.index(name)
         return mask & self.interior if interior_only else mask
+
+
+@dataclass(frozen=True)
+class _PointLabels:
+    """Ground truth at M points (the rules of the module docstring).
+
+    Attributes:
+        floor_m: (M,) floor height [m], NaN where not floor.
+        obstacle_top_m: (M,) obstacle top [m], NaN where no obstacle.
+        labels: (M,) int8 ``TruthLabel``.
+        surface_id: (M,) int32 index into ``surface_names``, -1 for obstacles.
+        owner_key: (M,) int64, one key per surface or object a point lies on (the interior test).
+    """
+
+    floor_m: NDArray[np.float64]
+    obstacle_top_m: NDArray[np.float64]
+    labels: NDArray[np.int8]
+    surface_id: NDArray[np.int32]
+    owner_key: NDArray[np.int64]
 
 
 @dataclass(frozen=True)
@@ -215,7 +172,7 @@ class SceneTruth:
         support, *_ = self._classify(p.reshape(-1, 2))
         return support.reshape(p.shape[:-1])
 
-    def _labels_of(self, xy: NDArray[np.float64]) -> dict[str, NDArray[Any]]:
+    def _labels_of(self, xy: NDArray[np.float64]) -> _PointLabels:
         support, owner, hanging_top, hanging_owner = self._classify(xy)
         walkable = np.array([o.walkable for o in self.objects] + [True], dtype=bool)
         tops = np.array([o.top_m for o in self.objects] + [0.0])
@@ -237,13 +194,13 @@ class SceneTruth:
         surface_id = np.where(obstacle, -1, surface_of_object[owner]).astype(np.int32)
         # One key per distinct surface/object a sample can lie on, for the interior test.
         owner_key = np.where(hanging, 10_000 + hanging_owner, owner).astype(np.int64)
-        return {
-            "floor": np.where(obstacle, np.nan, support),
-            "obstacle_top": obstacle_top,
-            "labels": np.where(obstacle, TruthLabel.OBSTACLE, TruthLabel.FLOOR).astype(np.int8),
-            "surface_id": surface_id,
-            "owner_key": owner_key,
-        }
+        return _PointLabels(
+            floor_m=np.where(obstacle, np.nan, support),
+            obstacle_top_m=obstacle_top,
+            labels=np.where(obstacle, TruthLabel.OBSTACLE, TruthLabel.FLOOR).astype(np.int8),
+            surface_id=surface_id,
+            owner_key=owner_key,
+        )
 
     def rasterize(self, cell_centers_xy: ArrayLike, cell_m: float) -> GroundTruthGrid:
         """Ground truth on a grid of axis-aligned square cells.
@@ -273,11 +230,11 @@ class SceneTruth:
         ox, oy = np.meshgrid(offsets, offsets, indexing="ij")
         candidates = flat[near_edge]
         samples = candidates[:, None, :] + np.stack([ox.ravel(), oy.ravel()], axis=-1)[None]
-        keys = self._labels_of(samples.reshape(-1, 2))["owner_key"]
+        keys = self._labels_of(samples.reshape(-1, 2)).owner_key
         interior = np.ones(flat.shape[0], dtype=bool)
         interior[near_edge] = np.all(
             keys.reshape(candidates.shape[0], _INTERIOR_SAMPLES**2)
-            == at_center["owner_key"][near_edge, None],
+            == at_center.owner_key[near_edge, None],
             axis=1,
         )
 
@@ -285,10 +242,10 @@ class SceneTruth:
             return a.reshape(nx, ny)
 
         return GroundTruthGrid(
-            floor_m=grid(at_center["floor"]),
-            obstacle_top_m=grid(at_center["obstacle_top"]),
-            labels=grid(at_center["labels"]),
-            surface_id=grid(at_center["surface_id"]),
+            floor_m=grid(at_center.floor_m),
+            obstacle_top_m=grid(at_center.obstacle_top_m),
+            labels=grid(at_center.labels),
+            surface_id=grid(at_center.surface_id),
             interior=grid(interior),
             surface_names=self.surface_names,
             surface_heights_m=dict(self.surface_heights_m),
@@ -343,33 +300,3 @@ class SceneTruth:
             )
         except (KeyError, TypeError, IndexError, ValueError) as exc:
             raise FogsimError(f"invalid SceneTruth dict: {exc!r}") from exc
-
-
-def object_center_at(scenario: Scenario, name: str, time_s: float) -> tuple[float, float] | None:
-    """Footprint centre (x, y) [m] of a scenario object at ``time_s``; None once removed.
-
-    Events of the object apply in time order: ``remove`` takes it away at ``at``; ``move``
-    slides it in a straight line from where it is at ``at`` towards ``to`` at ``speed`` until
-    it arrives or the object's next event starts.
-    """
-    obj = scenario.object(name)
-    center = np.array(obj.center, dtype=np.float64)
-    events = sorted((e for e in scenario.events if e.target == name), key=lambda e: e.at)
-    for i, event in enumerate(events):
-        if time_s < event.at:
-            break
-        if event.kind == "remove":
-            return None
-        next_at = events[i + 1].at if i + 1 < len(events) else math.inf
-        travel_s = min(time_s, next_at) - event.at
-        to = np.array(event.to, dtype=np.float64)
-        distance = float(np.linalg.norm(to - center))
-        step = min(distance, (event.speed or 0.0) * travel_s)
-        if distance > 0.0:
-            center = center + (to - center) * (step / distance)
-    return (float(center[0]), float(center[1]))
-
-
-def moving_objects(scenario: Scenario) -> tuple[str, ...]:
-    """Names of the objects some event moves or removes (mocap bodies in the scene)."""
-    return tuple(dict.fromkeys(e.target for e in scenario.events))

@@ -1,0 +1,109 @@
+"""The robot's head camera: one depth image per frame in the mode the scenario asks for.
+
+Modes:
+    ``ideal``: exact depth (:mod:`fogsim.sim.camera.depth`).
+    ``depth``: exact depth through the stereo error model (:mod:`fogsim.sim.camera.error_model`).
+    ``stereo``: left and right images matched with OpenCV (:mod:`fogsim.sim.camera.stereo`);
+        the depth image belongs to ``head_camera_left``.
+"""
+
+from __future__ import annotations
+
+import mujoco
+import numpy as np
+from numpy.typing import NDArray
+
+from fogsim.config.scenario import CameraConfig
+from fogsim.errors import CameraError
+from fogsim.sim.camera.depth import DEPTH_BACKENDS, VISIBLE_GEOMGROUPS, RaycastDepth, RendererDepth
+from fogsim.sim.camera.error_model import StereoErrorModel
+from fogsim.sim.camera.intrinsics import camera_intrinsics, set_model_intrinsics
+from fogsim.sim.camera.stereo import STEREO_RENDER_SCALE, StereoMatcher
+
+
+class HeadCamera:
+    """The robot's depth sensor in one of the modes ``ideal``, ``depth``, ``stereo``.
+
+    Args:
+        model: The scene's MuJoCo model (camera intrinsics are written into it).
+        camera_ids: MuJoCo ids of ``head_camera``, ``head_camera_left``, ``head_camera_right``.
+        config: The scenario's camera table.
+        backend: ``renderer`` (OpenGL) or ``raycast`` (no OpenGL; not for ``stereo``).
+        baseline_m: Stereo baseline of the left/right pair (``stereo`` mode) [m].
+        geomgroups: Geom groups that are visible.
+
+    Attributes:
+        config: The scenario's camera table.
+        mode: ``ideal``, ``depth`` or ``stereo``.
+        intrinsics: Intrinsics of the output depth image.
+        depth_camera: Which camera the depth image belongs to (``head_camera``, or
+            ``head_camera_left`` in ``stereo`` mode).
+        noise: The stereo error model of the ``depth`` mode.
+
+    Raises:
+        CameraError: An unknown backend, or ``stereo`` mode without the renderer.
+    """
+
+    def __init__(
+        self,
+        model: mujoco.MjModel,
+        camera_ids: dict[str, int],
+        config: CameraConfig,
+        backend: str = "renderer",
+        baseline_m: float | None = None,
+        geomgroups: tuple[int, ...] = VISIBLE_GEOMGROUPS,
+    ) -> None:
+        if backend not in DEPTH_BACKENDS:
+            raise CameraError(
+                f"depth_backend must be one of {', '.join(DEPTH_BACKENDS)}, got {backend!r}"
+            )
+        if config.mode == "stereo" and backend != "renderer":
+            raise CameraError(
+                f"camera mode 'stereo' needs images: depth_backend {backend!r} is not allowed, "
+                "use 'renderer'"
+            )
+        self.config = config
+        self.mode = config.mode
+        self.intrinsics = camera_intrinsics(config)
+        for camera_id in camera_ids.values():
+            set_model_intrinsics(model, camera_id, self.intrinsics)
+        self._camera_ids = camera_ids
+        self.depth_camera = "head_camera_left" if self.mode == "stereo" else "head_camera"
+        self._depth: RendererDepth | RaycastDepth | None = None
+        self._stereo: StereoMatcher | None = None
+        if self.mode == "stereo":
+            for name in ("head_camera_left", "head_camera_right"):
+                set_model_intrinsics(
+                    model, camera_ids[name], camera_intrinsics(config, STEREO_RENDER_SCALE)
+                )
+            self._stereo = StereoMatcher(
+                model, self.intrinsics, baseline_m or config.baseline_m, geomgroups=geomgroups
+            )
+        elif backend == "renderer":
+            self._depth = RendererDepth(model, self.intrinsics, geomgroups)
+        else:
+            self._depth = RaycastDepth(model, self.intrinsics, geomgroups)
+        self.noise = StereoErrorModel.from_config(config, self.intrinsics.fx)
+
+    def exact_depth(self, data: mujoco.MjData) -> NDArray[np.float32]:
+        """Exact depth of ``head_camera`` (not in ``stereo`` mode)."""
+        if self._depth is None:
+            raise CameraError("exact depth is not rendered in 'stereo' mode")
+        return self._depth.render(data, self._camera_ids["head_camera"])
+
+    def capture(self, data: mujoco.MjData, rng: np.random.Generator) -> NDArray[np.float32]:
+        """One depth image of the current scene state (call the scene's ``forward`` first)."""
+        if self._stereo is not None:
+            return self._stereo.depth(
+                data, self._camera_ids["head_camera_left"], self._camera_ids["head_camera_right"]
+            )
+        depth = self.exact_depth(data)
+        if self.mode == "ideal":
+            return depth
+        return self.noise.apply(depth, rng)
+
+    def close(self) -> None:
+        """Free OpenGL contexts."""
+        for part in (self._depth, self._stereo):
+            if part is not None:
+                part.close()

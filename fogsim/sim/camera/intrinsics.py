@@ -1,0 +1,63 @@
+"""The head camera's pinhole intrinsics, from the scenario and written into a MuJoCo model.
+
+MuJoCo renders a camera with the intrinsics in its model (``cam_resolution``,
+``cam_sensorsize``, ``cam_intrinsic``): writing :func:`camera_intrinsics` there makes the
+renderer use exactly ``PinholeIntrinsics.from_fov(...)``, fx ≠ fy allowed.
+"""
+
+from __future__ import annotations
+
+import math
+
+import mujoco
+
+from fogsim.config.scenario import CameraConfig
+from fogsim.errors import CameraError
+from mapper.intrinsics import PinholeIntrinsics
+
+PIXEL_PITCH_M = 1e-5
+"""Notional sensor pixel size [m]: MuJoCo wants a sensor size and a focal length in metres, and
+only their ratio (the focal length in pixels) matters."""
+
+
+def camera_intrinsics(config: CameraConfig, scale: int = 1) -> PinholeIntrinsics:
+    """Pinhole intrinsics of the head camera from the scenario (optionally ``scale``×).
+
+    Args:
+        config: The scenario's camera table (``width``, ``height`` [px], ``fov_deg``).
+        scale: Resolution factor (the stereo mode renders at 2×); the field of view is kept.
+    """
+    return PinholeIntrinsics.from_fov(
+        config.width * scale, config.height * scale, config.fov_deg[0], config.fov_deg[1]
+    )
+
+
+def set_model_intrinsics(
+    model: mujoco.MjModel, camera_id: int, intrinsics: PinholeIntrinsics
+) -> None:
+    """Make MuJoCo render camera ``camera_id`` with exactly these (centred) intrinsics.
+
+    Raises:
+        CameraError: The principal point is not the image centre (MuJoCo cannot render that).
+    """
+    if not (
+        math.isclose(intrinsics.cx, (intrinsics.width - 1) / 2.0)
+        and math.isclose(intrinsics.cy, (intrinsics.height - 1) / 2.0)
+    ):
+        raise CameraError(
+            f"only centred principal points can be rendered: got cx={intrinsics.cx}, "
+            f"cy={intrinsics.cy} for a {intrinsics.width}x{intrinsics.height} image, allowed "
+            f"cx={(intrinsics.width - 1) / 2.0}, cy={(intrinsics.height - 1) / 2.0}"
+        )
+    model.cam_resolution[camera_id] = (intrinsics.width, intrinsics.height)
+    model.cam_sensorsize[camera_id] = (
+        intrinsics.width * PIXEL_PITCH_M,
+        intrinsics.height * PIXEL_PITCH_M,
+    )
+    model.cam_intrinsic[camera_id] = (
+        intrinsics.fx * PIXEL_PITCH_M,
+        intrinsics.fy * PIXEL_PITCH_M,
+        0.0,
+        0.0,
+    )
+    model.cam_fovy[camera_id] = intrinsics.vfov_deg
