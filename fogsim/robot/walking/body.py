@@ -23,9 +23,8 @@ class BodyKinematics:
     """
 
     def __init__(self, robot: Robot, params: GaitParams) -> None:
-        self.robot = robot
-        self.params = params
         description = robot.description
+        self.neck_pitch_sign = description.neck.pitch_sign
         left_sole = description.feet.left_sole
         q0 = robot.neutral()
         for joint, angle in description.arm_pose_rad.items():
@@ -88,7 +87,7 @@ class BodyKinematics:
             residual = max(residual, self.legs[foot].solve(q, _planar_se3(pose), weight))
         for index, value in (
             (self.neck_yaw, math.radians(look_deg[0])),
-            (self.neck_pitch, self.robot.description.neck.pitch_sign * math.radians(look_deg[1])),
+            (self.neck_pitch, self.neck_pitch_sign * math.radians(look_deg[1])),
         ):
             lo, hi = self.neck_limits[index]
             q[index] = min(hi, max(lo, value))
