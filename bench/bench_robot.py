@@ -21,10 +21,7 @@ os.environ.setdefault("MUJOCO_GL", "egl")
 
 import mujoco
 
-from fogsim.robot.encoders import EncoderModel, Odometry
-from fogsim.robot.model import load_robot
-from fogsim.robot.self_filter import SelfFilter
-from fogsim.robot.walking import plan_route
+from fogsim.robot import EncoderModel, Odometry, SelfFilter, load_robot, plan_route
 from mapper.intrinsics import PinholeIntrinsics
 
 

@@ -3,16 +3,18 @@ import math
 import numpy as np
 import pytest
 
-from fogsim.robot.encoders import (
-    EncoderError,
+from fogsim.config.scenario import EncoderConfig, load_scenario
+from fogsim.errors import EncoderError
+from fogsim.geometry import pose_error
+from fogsim.robot import (
     EncoderModel,
     JointGroup,
     Odometry,
+    Stance,
     joint_groups,
-    pose_error,
+    load_robot,
+    plan_route,
 )
-from fogsim.robot.model import Stance, load_robot
-from fogsim.robot.walking import plan_route
 from tests.test_walking import stage_support
 
 
@@ -198,8 +200,6 @@ def test_equal_levels_reproduce_the_single_level_model_bit_for_bit(icub, walk):
 
 def test_paper_defaults_give_degrees_at_the_neck_and_millimetres(icub, walk):
     """Scenario defaults: camera-in-robot error of several degrees and about 10 mm (seeded)."""
-    from fogsim.config.scenario import EncoderConfig
-
     config = EncoderConfig()
     rotations, translations = [], []
     for seed in range(3):
@@ -233,8 +233,6 @@ def test_bad_group_parameters_are_rejected():
 
 
 def test_scenario_head_levels_default_to_the_body_levels_a_file_gives():
-    from fogsim.config.scenario import EncoderConfig, load_scenario
-
     legacy = load_scenario("box_removal").encoders  # bias_deg/noise_deg only: one level
     assert (legacy.head_bias_deg, legacy.head_noise_deg) == (legacy.bias_deg, legacy.noise_deg)
     assert load_scenario("flat_floor").encoders == EncoderConfig()  # no [encoders] table

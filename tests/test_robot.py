@@ -6,7 +6,15 @@ import pinocchio as pin
 import pytest
 
 from fogsim.errors import RobotModelError
-from fogsim.robot.model import CAMERA_NAMES, ROBOT_NAMES, Stance, load_robot
+from fogsim.robot import (
+    CAMERA_NAMES,
+    ROBOT_NAMES,
+    Stance,
+    load_description,
+    load_robot,
+    read_description,
+)
+from fogsim.robot.description import ROBOTS_DIR
 from mapper.transforms import planar_pose_to_matrix
 
 
@@ -150,7 +158,7 @@ def test_every_robot_loads_with_cameras(name):
     robot = load_robot(name)
     q = robot.neutral()
     camera = robot.transform_camera_to_world(q)
-    sole = robot.frame_transforms(q, (robot.config.left_sole,))[0]
+    sole = robot.frame_transforms(q, (robot.description.feet.left_sole,))[0]
     assert camera[2, 3] > sole[2, 3] + 0.5
     model = mujoco.MjModel.from_xml_path(str(robot.mjcf_path))
     assert model.nq == robot.nq
@@ -162,3 +170,94 @@ def test_model_is_built_into_the_cache_dir_given_by_fogsim_cache(tmp_path, monke
     assert robot.mjcf_path.parent == tmp_path / "robots" / "icub"
     model = mujoco.MjModel.from_xml_path(str(robot.mjcf_path))  # standalone, no asset files
     assert model.nmesh > 0 and model.njnt == 33
+
+
+def test_shipped_descriptions_hold_the_values_of_the_former_literals():
+    assert ROBOT_NAMES == ("icub", "talos")
+    icub = load_description("icub")
+    assert icub.name == "icub" and icub.example_robot_data == "icub"
+    assert (icub.feet.left_sole, icub.feet.right_sole) == ("l_sole", "r_sole")
+    assert icub.feet.center_offset_m == 0.05
+    assert icub.feet.length_m == (-0.028, 0.128) and icub.feet.half_width_m == 0.03
+    assert icub.legs.left_joints == (
+        "l_hip_pitch", "l_hip_roll", "l_hip_yaw", "l_knee", "l_ankle_pitch", "l_ankle_roll",
+    )  # fmt: skip
+    assert icub.legs.right_joints[3] == "r_knee" and icub.legs.pelvis_height_m == 0.575
+    assert icub.neck.joints == ("neck_pitch", "neck_roll", "neck_yaw")
+    assert (icub.neck.yaw_joint, icub.neck.pitch_joint, icub.neck.pitch_sign) == (
+        "neck_yaw", "neck_pitch", 1.0,
+    )  # fmt: skip
+    assert icub.camera.parent_joint == "neck_yaw" and icub.camera.frame is None
+    assert icub.camera.position_in_parent_m == (-0.09, -0.10, 0.0)
+    assert icub.camera.forward_in_parent == (-1.0, 0.0, 0.0)
+    assert icub.camera.up_in_parent == (0.0, -1.0, 0.0)
+    assert icub.camera.stereo_baseline_m == 0.068 and icub.camera.ahead_m == 0.0
+    assert icub.quirks.fix_y_up_meshes and not icub.quirks.collision_meshes_for_visuals
+    assert dict(icub.arm_pose_rad) == {
+        "l_shoulder_roll": 0.35, "r_shoulder_roll": 0.35, "l_elbow": 0.6, "r_elbow": 0.6,
+        "l_shoulder_pitch": -0.2, "r_shoulder_pitch": -0.2,
+    }  # fmt: skip
+
+    talos = load_description("talos")
+    assert (talos.feet.left_sole, talos.feet.right_sole) == ("left_sole_link", "right_sole_link")
+    assert talos.feet.center_offset_m == 0.0
+    assert talos.feet.length_m == (-0.1, 0.1) and talos.feet.half_width_m == 0.065
+    assert talos.legs.left_joints == tuple(f"leg_left_{i}_joint" for i in range(1, 7))
+    assert talos.legs.right_joints == tuple(f"leg_right_{i}_joint" for i in range(1, 7))
+    assert talos.legs.pelvis_height_m == 0.98
+    assert talos.neck.joints == ("head_1_joint", "head_2_joint")
+    assert (talos.neck.yaw_joint, talos.neck.pitch_joint, talos.neck.pitch_sign) == (
+        "head_2_joint", "head_1_joint", -1.0,
+    )  # fmt: skip
+    assert (talos.camera.parent_joint, talos.camera.frame) == ("head_2_joint", "rgbd_optical_frame")
+    assert talos.camera.position_in_parent_m is None
+    assert talos.camera.stereo_baseline_m == 0.07 and talos.camera.ahead_m == 0.05
+    assert talos.quirks.collision_meshes_for_visuals and not talos.quirks.fix_y_up_meshes
+    assert dict(talos.arm_pose_rad) == {
+        "arm_left_2_joint": 0.25, "arm_right_2_joint": -0.25,
+        "arm_left_4_joint": -0.5, "arm_right_4_joint": -0.5,
+    }  # fmt: skip
+
+
+@pytest.mark.parametrize(
+    ("old", "new", "message"),
+    [
+        ("half_width_m = 0.03", 'half_width_m = "wide"', "feet.half_width_m: Expected `float`"),
+        ("stereo_baseline_m = 0.068", "stereo_baseline_m = -0.068", "camera.stereo_baseline_m"),
+        ("pelvis_height_m = 0.575", "", "legs.pelvis_height_m: missing"),
+        ('"l_ankle_pitch", "l_ankle_roll"]', '"l_ankle_pitch"]', "legs.left_joints: Expected"),
+        (
+            "fix_y_up_meshes = true",
+            "fix_y_up_meshes = true\ncolour = 1",
+            "unknown key quirks.colour",
+        ),
+        ("l_elbow = 0.6", "l_elbow = 6.0", "arm_pose_rad.l_elbow = 6.0"),
+        ("pitch_sign = 1.0", "pitch_sign = 0.5", "neck.pitch_sign = 0.5"),
+        ('yaw_joint = "neck_yaw"', 'yaw_joint = "neck_twist"', "neck.yaw_joint = 'neck_twist'"),
+        ("length_m = [-0.028, 0.128]", "length_m = [0.128, -0.028]", "feet.length_m"),
+        ('parent_joint = "neck_yaw"', 'parent_joint = "neck_yaw"\nframe = "eye"', "camera.frame"),
+        ("up_in_parent = [0.0, -1.0, 0.0]", "", "camera.up_in_parent is missing"),
+        ("up_in_parent = [0.0, -1.0, 0.0]", "up_in_parent = [-1.0, 0.0, 0.0]", "not parallel"),
+        (
+            'example_robot_data = "icub"',
+            'name = "icub"',
+            "unknown key name; allowed there: example",
+        ),
+        ('example_robot_data = "icub"', "", "example_robot_data: missing"),
+        ("[feet]", "[feet", "not valid TOML"),
+    ],
+)
+def test_malformed_description_names_the_file_and_key(tmp_path, old, new, message):
+    text = (ROBOTS_DIR / "icub.toml").read_text()
+    assert old in text
+    path = tmp_path / "icub.toml"
+    path.write_text(text.replace(old, new, 1))
+    with pytest.raises(RobotModelError) as raised:
+        read_description(path)
+    assert str(raised.value).startswith(f"{path}: ")
+    assert message in str(raised.value)
+
+
+def test_missing_description_file_is_a_robot_model_error(tmp_path):
+    with pytest.raises(RobotModelError, match="cannot read"):
+        read_description(tmp_path / "asimo.toml")

@@ -4,11 +4,8 @@ import mujoco
 import numpy as np
 import pytest
 
-from fogsim.errors import FogsimError
-from fogsim.robot.encoders import EncoderModel
-from fogsim.robot.model import Stance, load_robot
-from fogsim.robot.self_filter import SelfFilter, SelfFilterParams
-from fogsim.robot.walking import plan_route
+from fogsim.errors import CameraError, ParameterError
+from fogsim.robot import EncoderModel, SelfFilter, SelfFilterParams, Stance, load_robot, plan_route
 from mapper.intrinsics import PinholeIntrinsics
 
 WIDTH, HEIGHT = 88, 72
@@ -114,7 +111,7 @@ def test_empty_and_invalid_depth(icub, standing):
     self_filter = SelfFilter(icub)
     nothing = np.full((HEIGHT, WIDTH), np.nan)
     assert not self_filter.mask(nothing, INTRINSICS, standing).any()
-    with pytest.raises(FogsimError, match="4×4"):
+    with pytest.raises(CameraError, match="4×4"):
         self_filter.mask(nothing, INTRINSICS, standing, np.eye(3))
-    with pytest.raises(FogsimError, match="margin_m"):
+    with pytest.raises(ParameterError, match="margin_m"):
         SelfFilterParams(margin_m=-0.1)

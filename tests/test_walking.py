@@ -1,10 +1,14 @@
 import math
 
+import mujoco
 import numpy as np
 import pytest
 
-from fogsim.robot.model import Stance, load_robot
-from fogsim.robot.walking import GaitParams, RouteError, plan_route
+from fogsim.config.scenario import load_scenario
+from fogsim.errors import RouteError
+from fogsim.robot import GaitParams, Stance, load_robot, plan_route
+from fogsim.world.truth import SceneTruth
+from mapper.transforms import planar_pose_to_matrix
 
 PLATFORM_M = 0.122
 
@@ -39,7 +43,9 @@ def stage(icub):
 
 
 def _soles(robot, q):
-    return robot.frame_transforms(q, (robot.config.left_sole, robot.config.right_sole))
+    return robot.frame_transforms(
+        q, (robot.description.feet.left_sole, robot.description.feet.right_sole)
+    )
 
 
 def test_stage_route_ends_on_the_platform(icub, stage):
@@ -64,8 +70,8 @@ def test_stance_feet_stand_flat_on_the_surface(icub, stage):
         for foot in feet:
             sole = soles[foot]
             # footprint corners at the sole's height vs. the surface under them
-            back, front = icub.config.foot_length_m
-            hw = icub.config.foot_half_width_m
+            back, front = icub.description.feet.length_m
+            hw = icub.description.feet.half_width_m
             corners = np.array([[back, -hw, 0], [back, hw, 0], [front, -hw, 0], [front, hw, 0]])
             world = corners @ sole[:3, :3].T + sole[:3, 3]
             error = np.abs(world[:, 2] - stage_support(world[:, :2]))
@@ -75,8 +81,8 @@ def test_stance_feet_stand_flat_on_the_surface(icub, stage):
 
 
 def test_footsteps_are_flat_and_never_straddle_an_edge(icub, stage):
-    back, front = icub.config.foot_length_m
-    hw = icub.config.foot_half_width_m
+    back, front = icub.description.feet.length_m
+    hw = icub.description.feet.half_width_m
     xs, ys = np.meshgrid(np.linspace(back, front, 17), np.linspace(-hw, hw, 5))
     for step in stage.footsteps:
         x, y, z, yaw = step.pose
@@ -126,7 +132,6 @@ def test_same_inputs_same_trajectory_bit_for_bit(icub, stage):
 
 
 def test_robot_pose_is_consistent_with_camera_kinematics(icub, stage):
-    from mapper.transforms import planar_pose_to_matrix
 
     for i in range(0, stage.frame_count, 37):
         believed = planar_pose_to_matrix(stage.robot_pose_true[i]) @ icub.transform_camera_to_robot(
@@ -197,7 +202,6 @@ def test_talos_look_maps_to_pan_and_tilt(talos):
 
 def test_talos_camera_is_outside_its_head(talos):
     """Rays over the whole field of view from the depth camera hit no robot geometry nearby."""
-    import mujoco
 
     walk = plan_route(talos, (0.0, 0.0, 0.0), [{"wait": 0.2}], flat_support, 12.5)
     model = mujoco.MjModel.from_xml_path(str(talos.mjcf_path))
@@ -219,9 +223,6 @@ def test_talos_camera_is_outside_its_head(talos):
 
 
 def test_stage_scenario_route_is_a_minute_and_ends_on_the_platform(icub):
-    from fogsim.config.scenario import load_scenario
-    from fogsim.world.truth import SceneTruth
-
     scenario = load_scenario("stage")
     walk = plan_route(
         icub,
@@ -231,7 +232,9 @@ def test_stage_scenario_route_is_a_minute_and_ends_on_the_platform(icub):
         scenario.frame_rate_hz,
     )
     assert 55.0 < walk.duration_s < 65.0
-    soles = icub.frame_transforms(walk.q[-1], (icub.config.left_sole, icub.config.right_sole))
+    soles = icub.frame_transforms(
+        walk.q[-1], (icub.description.feet.left_sole, icub.description.feet.right_sole)
+    )
     for sole in soles:
         assert sole[2, 3] == pytest.approx(PLATFORM_M, abs=0.005)
     assert walk.robot_pose_true[-1, 0] > 3.2  # on the platform (x from 3.2 to 4.0 m)

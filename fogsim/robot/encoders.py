@@ -1,12 +1,11 @@
-"""Joint-encoder errors, the camera pose the robot believes, and kinematic odometry.
+"""Joint encoders: what the robot reads of its joint angles.
 
 Every joint reading = true angle + a per-run bias (drawn once, N(0, bias_deg²) per joint) +
 per-frame noise (N(0, noise_deg²)), with one level for the body (legs, torso, arms) and one
 for the neck (`JointGroup`, `EncoderModel`). The believed camera pose in the robot frame R is
-pinocchio's forward kinematics of the readings (`fogsim.robot.model.Robot.transform_camera_to_robot`). The
-believed pose of R in the world comes from foot-to-foot odometry: when the support switches, the
-new reference sole's pose = old reference sole's pose ∘ FK(readings, old sole → new sole),
-projected to a level pose (x, y, z, yaw), using readings taken while both feet were down.
+pinocchio's forward kinematics of the readings
+(`fogsim.robot.kinematics.Robot.transform_camera_to_robot`); the believed pose of R in the world
+is `fogsim.robot.odometry.Odometry`'s.
 """
 
 from __future__ import annotations
@@ -19,9 +18,10 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from fogsim.errors import EncoderError
-from fogsim.geometry import PoseError, pose_error  # noqa: F401  (re-exported)
-from fogsim.robot.model import Robot, Stance
-from mapper.transforms import planar_pose_to_matrix
+from fogsim.robot.kinematics import Robot
+
+# fogsim.sim.simulation still imports Odometry from here; drop this once it imports fogsim.robot.
+from fogsim.robot.odometry import Odometry  # noqa: F401
 
 
 class JointGroup(enum.IntEnum):
@@ -36,19 +36,19 @@ class JointGroup(enum.IntEnum):
 def joint_groups(robot: Robot) -> NDArray[np.int8]:
     """`JointGroup` of every actuated joint of ``robot`` (reading order, ``q[7:]``).
 
-    Legs and neck come from the robot's configuration; torso joints are the other ancestors of
+    Legs and neck come from the robot's description; torso joints are the other ancestors of
     the head on the kinematic chain; everything else (arms) is ``OTHER``.
     """
-    config = robot.config
+    description = robot.description
     groups = np.full(robot.n_joints, JointGroup.OTHER, dtype=np.int8)
     model = robot.pin_model
-    joint_id = model.getJointId(config.camera_parent_joint)
+    joint_id = model.getJointId(description.camera.parent_joint)
     while joint_id > 1:  # 1 is the free flyer
         groups[joint_id - 2] = JointGroup.TORSO
         joint_id = model.parents[joint_id]
-    for name in config.left_leg_joints + config.right_leg_joints:
+    for name in description.legs.left_joints + description.legs.right_joints:
         groups[robot.joint_index(name)] = JointGroup.LEG
-    for name in config.neck_joints:
+    for name in description.neck.joints:
         groups[robot.joint_index(name)] = JointGroup.NECK
     return groups
 
@@ -178,63 +178,3 @@ class EncoderModel:
             return joints.copy()
         noise = np.radians(self.noise_std_deg) * self.rng.standard_normal(n)
         return joints + self.bias_rad + noise
-
-
-class Odometry:
-    """Believed pose of the robot frame R from foot-to-foot kinematics of the readings.
-
-    Args:
-        robot: The humanoid.
-        initial_robot_pose: (x, y, z [m], yaw [rad]) of R at the start (taken as known).
-        readings: Joint readings at the start.
-        stance: Stance at the start.
-    """
-
-    def __init__(
-        self,
-        robot: Robot,
-        initial_robot_pose: ArrayLike,
-        readings: ArrayLike,
-        stance: Stance | int,
-    ) -> None:
-        self.robot = robot
-        stance = Stance(int(stance))
-        self.reference = Stance.RIGHT if stance == Stance.RIGHT else Stance.LEFT
-        t_world_robot = planar_pose_to_matrix(initial_robot_pose)
-        t_sole_robot = robot.transform_robot_to_sole(readings, self.reference)
-        self.sole_world = _level(t_world_robot @ np.linalg.inv(t_sole_robot))
-        self.readings_both_down = np.asarray(readings, dtype=np.float64).copy()
-        self.pose = np.asarray(initial_robot_pose, dtype=np.float64).copy()
-
-    def update(self, readings: ArrayLike, stance: Stance | int) -> NDArray[np.float64]:
-        """Advance by one frame; returns the believed R pose (x, y, z [m], yaw [rad])."""
-        stance = Stance(int(stance))
-        readings = np.asarray(readings, dtype=np.float64)
-        if stance == Stance.DOUBLE:
-            self.readings_both_down = readings.copy()
-        reference = Stance.RIGHT if stance == Stance.RIGHT else Stance.LEFT
-        if reference != self.reference:
-            step = self.robot.transform_sole_to_sole(
-                self.readings_both_down, self.reference, reference
-            )
-            self.sole_world = _level(self.sole_world @ step)
-            self.reference = reference
-        t_world_robot = self.sole_world @ self.robot.transform_robot_to_sole(readings, reference)
-        self.pose = _planar(t_world_robot)
-        return self.pose.copy()
-
-
-def _planar(transform: NDArray[np.float64]) -> NDArray[np.float64]:
-    return np.array(
-        [
-            transform[0, 3],
-            transform[1, 3],
-            transform[2, 3],
-            math.atan2(transform[1, 0], transform[0, 0]),
-        ]
-    )
-
-
-def _level(transform: NDArray[np.float64]) -> NDArray[np.float64]:
-    """Drop roll and pitch: keep x, y, z and the yaw of the x axis."""
-    return planar_pose_to_matrix(_planar(transform))

@@ -1,7 +1,7 @@
 """Remove the robot's own body from depth images before they reach the mapper.
 
 The body is approximated by one box per geometry (bounding its mesh in the joint frame, see
-`fogsim.robot.model.BodyBox`), inflated by a margin. Each frame, pinocchio's forward kinematics of the
+`fogsim.robot.body_boxes.BodyBox`), inflated by a margin. Each frame, forward kinematics of the
 joint readings places the boxes relative to the camera (the same kinematics that gives the
 believed camera pose, so no world pose is needed); every pixel whose back-projected point falls
 in a box is flagged. Points at or below the believed ground plane of R (z_R below
@@ -17,8 +17,8 @@ import numba
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from fogsim.errors import FogsimError
-from fogsim.robot.model import Robot
+from fogsim.errors import CameraError, ParameterError, RobotModelError
+from fogsim.robot.kinematics import Robot
 from mapper.intrinsics import PinholeIntrinsics
 
 
@@ -36,11 +36,11 @@ class SelfFilterParams:
 
     def __post_init__(self) -> None:
         if not 0.0 <= self.margin_m <= 0.5:
-            raise FogsimError(
+            raise ParameterError(
                 f"SelfFilterParams.margin_m must be in [0, 0.5] m, got {self.margin_m}"
             )
         if not -0.5 <= self.ground_clearance_m <= 0.5:
-            raise FogsimError(
+            raise ParameterError(
                 "SelfFilterParams.ground_clearance_m must be in [-0.5, 0.5] m, got "
                 f"{self.ground_clearance_m}"
             )
@@ -130,7 +130,7 @@ class SelfFilter:
         self.mj_data = mujoco.MjData(self.mj_model)
         self.camera_site = mujoco.mj_name2id(self.mj_model, mujoco.mjtObj.mjOBJ_SITE, camera)
         if self.camera_site < 0:
-            raise FogsimError(f"{robot.name} has no camera {camera!r}")
+            raise RobotModelError(f"{robot.name} has no camera {camera!r}")
         boxes = robot.body_boxes
         body_ids = []
         for box in boxes:
@@ -147,7 +147,7 @@ class SelfFilter:
     ) -> tuple[NDArray[np.float64], NDArray[np.float64], NDArray[np.float64]]:
         """Box axes (B, 3, 3), centres (B, 3) [m] in the camera frame and half extents (B, 3)."""
         robot = self.robot
-        self.mj_data.qpos[:] = robot.qpos_mujoco(robot._joints_only(q_read))
+        self.mj_data.qpos[:] = robot.qpos_mujoco(robot.configuration_at_origin(q_read))
         mujoco.mj_kinematics(self.mj_model, self.mj_data)
         body_rot = self.mj_data.xmat[self.body_ids].reshape(-1, 3, 3)
         body_pos = self.mj_data.xpos[self.body_ids]
@@ -179,12 +179,12 @@ class SelfFilter:
         """
         depth = np.asarray(depth_m, dtype=np.float64)
         if depth.shape != intrinsics.shape:
-            raise FogsimError(f"depth_m must have shape {intrinsics.shape}, got {depth.shape}")
+            raise CameraError(f"depth_m must have shape {intrinsics.shape}, got {depth.shape}")
         ground = np.array([0.0, 0.0, 0.0, 1e9])  # no ground plane given: nothing is below it
         if transform_camera_to_robot is not None:
             t = np.asarray(transform_camera_to_robot, dtype=np.float64)
             if t.shape != (4, 4):
-                raise FogsimError(f"transform_camera_to_robot must be 4×4, got {t.shape}")
+                raise CameraError(f"transform_camera_to_robot must be 4×4, got {t.shape}")
             ground = t[2].copy()
         rotations, centres, half = self.boxes_in_camera(q_read)
         return _mask_kernel(
