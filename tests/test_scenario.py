@@ -2,18 +2,26 @@
 
 from __future__ import annotations
 
+import dataclasses
 import tomllib
 from pathlib import Path
 
 import pytest
 
-from fogsim.config.scenario import (
+from fogsim.config import (
+    CAMERA_MODES,
+    Event,
+    RobotSpec,
+    RouteStep,
     Scenario,
-    list_scenarios,
+    SceneObject,
+    find_scenario_files,
     load_scenario,
     scenario_from_dict,
+    scenario_from_toml,
 )
 from fogsim.errors import ScenarioError
+from fogsim.paths import SCENARIOS_DIR
 
 MINIMAL = """
 name = "t"
@@ -31,7 +39,7 @@ remove = "box"
 
 
 def test_registry_every_shipped_scenario_validates_and_round_trips():
-    paths = list_scenarios()
+    paths = find_scenario_files()
     names = {p.stem for p in paths}
     assert {"stage", "box_removal", "moving_box", "simulated_world"} <= names
     for path in paths:
@@ -165,10 +173,216 @@ def test_parameter_tables_are_checked_against_the_parameter_classes():
     changed = stage.with_overrides(["mapper.p_occ=0.7", "mapper.nx=120"])
     assert changed.mapper == {"p_occ": 0.7, "nx": 120}
     assert isinstance(changed.mapper["nx"], int)
-    with pytest.raises(ScenarioError, match=r"mapper\.p_ocx: unknown parameter; allowed: .*p_occ"):
+    with pytest.raises(
+        ScenarioError,
+        match=r"mapper\.p_ocx: unknown mapper parameter\(s\) \['p_ocx'\]; allowed: .*p_occ",
+    ):
         stage.with_overrides(["mapper.p_ocx=0.7"])
     seg_field = next(iter(segmentation.SegmentationParams.__dataclass_fields__))
     assert stage.with_overrides([f"segmentation.{seg_field}=0.1"]).segmentation
-    with pytest.raises(ScenarioError, match=r"segmentation\.nonsense: unknown parameter"):
+    with pytest.raises(
+        ScenarioError, match=r"segmentation\.nonsense: unknown segmentation parameter"
+    ):
         stage.with_overrides(["segmentation.nonsense=1"])
     assert mapper.MapperParams
+
+
+# --------------------------------------------------------------------- known answers per file
+
+SHIPPED = {
+    # name: (seed, robot model, camera mode, (bias, noise, head bias, head noise) [deg], objects)
+    "box_removal": (2, "icub", "depth", (0.5, 0.2, 0.5, 0.2), 1),
+    "flat_floor": (5, "icub", "depth", (0.05, 0.02, 4.0, 0.3), 0),
+    "flat_floor_talos": (5, "talos", "depth", (0.05, 0.02, 4.0, 0.3), 0),
+    "moving_box": (3, "icub", "depth", (0.5, 0.2, 0.5, 0.2), 1),
+    "simulated_world": (4, "icub", "ideal", (0.0, 0.0, 0.0, 0.0), 4),
+    "stage": (1, "icub", "depth", (0.05, 0.02, 4.0, 0.3), 9),
+    "table": (6, "icub", "depth", (0.05, 0.02, 4.0, 0.3), 2),
+}
+
+
+def _types(value: object) -> object:
+    """The value with every leaf replaced by its type (tuples, dataclasses kept; as ``==``)."""
+    if dataclasses.is_dataclass(value):
+        fields = [f for f in dataclasses.fields(value) if f.compare]
+        return (type(value), tuple(_types(getattr(value, f.name)) for f in fields))
+    if isinstance(value, tuple):
+        return tuple(_types(v) for v in value)
+    if isinstance(value, dict):
+        return {k: _types(v) for k, v in value.items()}
+    return type(value)
+
+
+@pytest.mark.parametrize("path", find_scenario_files(), ids=lambda p: p.stem)
+def test_every_shipped_file_decodes_to_its_known_values(path):
+    scenario = load_scenario(path)
+    seed, model, mode, encoders, n_objects = SHIPPED[path.stem]
+    assert scenario.name == path.stem and scenario.source_path == path
+    assert scenario.seed == seed and scenario.frame_rate_hz == 12.5
+    assert scenario.robot == RobotSpec(model=model, start=(0.3, 0.5, 0.0))
+    assert scenario.camera.mode == mode and scenario.camera.fov_deg == (47.0, 39.0)
+    e = scenario.encoders
+    assert (e.bias_deg, e.noise_deg, e.head_bias_deg, e.head_noise_deg) == encoders
+    assert len(scenario.objects) == n_objects
+    assert scenario.mapper == {} and scenario.segmentation == {}
+    # Types as the file's contract says: floats stay floats (an int in the file becomes one),
+    # arrays become tuples.
+    assert type(scenario.robot.start) is tuple and type(scenario.robot.start[0]) is float
+    assert all(type(x) is float for o in scenario.objects for x in (*o.center, *o.size))
+    assert all(type(s.kind) is str for s in scenario.route)
+
+
+def test_shipped_routes_and_events_are_read_exactly():
+    box_removal = load_scenario("box_removal")
+    assert box_removal.route == (RouteStep(look=(0.0, -35.0)), RouteStep(wait=9.0))
+    assert box_removal.events == (Event(at=4.0, remove="flat_box"),)
+    (event,) = box_removal.events
+    assert (event.kind, event.target, event.to, event.speed) == ("remove", "flat_box", None, None)
+    (move,) = load_scenario("moving_box").events
+    assert move == Event(at=2.0, move="flat_box", to=(1.35, 1.0), speed=0.08)
+    assert (move.kind, move.target) == ("move", "flat_box")
+    assert load_scenario("moving_box").object("flat_box").size == (0.3, 0.3, 0.06)
+
+
+# --------------------------------------------------------------------- messages, word for word
+
+
+def _error(tmp_path: Path, text: str) -> tuple[Path, str]:
+    path = _write(tmp_path, text)
+    with pytest.raises(ScenarioError) as info:
+        load_scenario(path)
+    return path, str(info.value)
+
+
+@pytest.mark.parametrize(
+    ("edit", "message"),
+    [
+        # a wrong type
+        (("seed = 1", 'seed = "one"'), "seed: must be an integer in [0, 4294967295], got 'one'"),
+        (
+            ("seed = 1", "seed = 1\n[camera]\nwidth = 2.5"),
+            "camera.width: must be an integer in [8, 4096], got 2.5",
+        ),
+        # an out-of-range value
+        (
+            ("seed = 1", "seed = 1\n[encoders]\nbias_deg = -1"),
+            "encoders.bias_deg: must be a number in [0.0, 10.0], got -1",
+        ),
+        # an unknown key, with every allowed one
+        (
+            ("seed = 1", "seed = 1\ncolour = 3"),
+            "colour: unknown key; allowed: name, description, seed, frame_rate_hz, robot, camera, "
+            "encoders, objects, route, events, mapper, segmentation",
+        ),
+        (
+            ("seed = 1", 'seed = 1\nsource_path = "x.toml"'),
+            "source_path: unknown key; allowed: name, description",
+        ),
+        # an unknown choice, in the schema's order
+        (
+            ("seed = 1", "seed = 1\n[camera]\nmode = 'lidar'"),
+            "camera.mode: must be one of ideal, depth, stereo, got 'lidar'",
+        ),
+        # a value nested in an array of tables
+        (
+            (
+                "[[route]]",
+                '[[objects]]\nname = "b2"\ncenter = [0, 0]\nsize = [0.2, 0.2]\n[[route]]',
+            ),
+            "objects[1].size: must be an array of 3 numbers in [0.005, 100.0], got [0.2, 0.2]",
+        ),
+        (
+            (
+                "[[route]]",
+                '[[objects]]\nname = "b2"\ncenter = [0, 0]\nsize = [0.2, 0.2, 0]\n[[route]]',
+            ),
+            "objects[1].size[2]: must be a number in [0.005, 100.0], got 0",
+        ),
+        (
+            ('name = "box"', 'name = "a box"'),
+            "objects[0].name: must be letters, digits, '_' or '-', got 'a box'",
+        ),
+        (("[[route]]", "[[route]]\nwait = 1.0"), "route[0]: must have exactly one of walk_to"),
+        # [mapper] and [segmentation] are checked at load, by the parameter classes' own rules
+        (
+            ("seed = 1", "seed = 1\n[mapper]\np_occ = 1.5"),
+            "mapper.p_occ: MapperParams.p_occ must be in (0.5, 1), got 1.5",
+        ),
+        (
+            ("seed = 1", "seed = 1\n[segmentation]\nmin_plane_pixels = 2.5"),
+            "segmentation.min_plane_pixels: must be an integer, got 2.5",
+        ),
+    ],
+)
+def test_error_messages_name_file_key_value_and_what_is_allowed(tmp_path, edit, message):
+    old, new = edit
+    assert old in MINIMAL
+    path, got = _error(tmp_path, MINIMAL.replace(old, new, 1))
+    assert got.startswith(f"{path}: {message}")
+
+
+def test_rules_across_fields_hold_for_direct_construction_too():
+    with pytest.raises(ScenarioError, match="walkable: a rough top is no plane"):
+        SceneObject("b", (0.0, 0.0), (1.0, 1.0, 1.0), surface="rough", walkable=True)
+    with pytest.raises(ScenarioError, match=r"range_m: must be \[min, max\] with min < max"):
+        dataclasses.replace(load_scenario("stage").camera, range_m=(2.0, 1.0))
+    with pytest.raises(ScenarioError, match="speed: is required with move"):
+        Event(at=1.0, move="b", to=(0.0, 0.0))
+
+
+def test_head_encoder_levels_default_to_the_body_levels_a_file_gives():
+    only_bias = scenario_from_dict({"name": "t", "encoders": {"bias_deg": 1}}).encoders
+    assert (only_bias.head_bias_deg, only_bias.head_noise_deg) == (1.0, 0.3)
+    assert type(only_bias.head_bias_deg) is float
+    explicit = scenario_from_dict({"name": "t", "encoders": {"bias_deg": 1, "head_bias_deg": 2}})
+    assert explicit.encoders.head_bias_deg == 2.0
+    assert scenario_from_dict({"name": "t"}).encoders.head_bias_deg == 4.0
+
+
+# --------------------------------------------------------------------- writing and finding
+
+EVERYTHING = {
+    "name": "everything",
+    "description": 'quotes " and \\ and a\nnew line',
+    "seed": 4294967295,
+    "frame_rate_hz": 25,
+    "robot": {"model": "talos", "start": [-1, 2.5, 90]},
+    "camera": {"mode": "stereo", "range_m": [0.2, 3.0], "dropout": 0},
+    "encoders": {"noise_deg": 0.1},
+    "objects": [
+        {"name": "rough_1", "center": [1, 0], "size": [0.2, 0.2, 0.3], "surface": "rough"},
+        {"name": "slab", "center": [2, 0], "size": [1, 1, 0.1], "walkable": True, "base": 0.1},
+    ],
+    "route": [{"walk_to": [1, 2]}, {"turn_to": -90}, {"look": [0, -30]}, {"wait": 0.5}],
+    "events": [
+        {"at": 1, "remove": "rough_1"},
+        {"at": 2, "move": "slab", "to": [3, 0], "speed": 0.05},
+    ],
+    "mapper": {"p_occ": 0.7, "nx": 120, "clear_outside": False, "max_range_m": float("inf")},
+    "segmentation": {"min_plane_pixels": 30},
+}
+
+
+@pytest.mark.parametrize("source", [*find_scenario_files(), "everything"], ids=str)
+def test_toml_round_trip_is_exact(source):
+    scenario = scenario_from_dict(EVERYTHING) if source == "everything" else load_scenario(source)
+    text = scenario.to_toml()
+    assert tomllib.loads(text) == scenario.to_dict()
+    again = scenario_from_toml(text)
+    assert again == scenario
+    assert _types(again) == _types(scenario)  # an int stays an int, a float a float
+
+
+def test_find_scenario_files_by_name_path_directory_or_nothing(tmp_path):
+    shipped = find_scenario_files()
+    assert shipped == sorted(SCENARIOS_DIR.glob("*.toml"))
+    assert find_scenario_files("stage") == [SCENARIOS_DIR / "stage.toml"]
+    assert find_scenario_files(SCENARIOS_DIR / "stage.toml") == [SCENARIOS_DIR / "stage.toml"]
+    assert find_scenario_files(SCENARIOS_DIR) == shipped
+    with pytest.raises(ScenarioError, match=r"no scenario file 'nope'.*known scenarios: .*stage"):
+        find_scenario_files("nope")
+    with pytest.raises(ScenarioError, match=r"no scenario files \(\*\.toml\) in"):
+        find_scenario_files(tmp_path)
+    with pytest.raises(ScenarioError, match="is a directory of 7 scenario files"):
+        load_scenario(SCENARIOS_DIR)
+    assert CAMERA_MODES == ("ideal", "depth", "stereo")

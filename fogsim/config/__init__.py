@@ -1,1 +1,48 @@
-"""Layer 1 — configuration: the scenario schema, loading and writing scenario files, run parameters."""
+"""Layer 1 — configuration: the scenario schema, loading and writing scenario files, run parameters.
+
+Modules (each imports only those above it): ``decode`` (msgspec decoding with errors naming
+file, key, value and what is allowed), ``params`` (run parameters, the one mapping → parameter
+dataclass helper), ``overrides`` (``--set KEY=VALUE``), ``write`` (TOML with ``tomli_w``),
+``schema`` (the scenario's frozen dataclasses), ``load`` (finding and loading scenario files).
+"""
+
+from fogsim.config.load import find_scenario_files, load_scenario, scenario_from_toml
+from fogsim.config.params import PipelineParams, RunParams, replace_params, resolve_params
+from fogsim.config.schema import (
+    CAMERA_MODES,
+    EVENT_KINDS,
+    ROBOT_MODELS,
+    ROUTE_KINDS,
+    SURFACES,
+    CameraConfig,
+    EncoderConfig,
+    Event,
+    RobotSpec,
+    RouteStep,
+    Scenario,
+    SceneObject,
+    scenario_from_dict,
+)
+
+__all__ = [
+    "CAMERA_MODES",
+    "EVENT_KINDS",
+    "ROBOT_MODELS",
+    "ROUTE_KINDS",
+    "SURFACES",
+    "CameraConfig",
+    "EncoderConfig",
+    "Event",
+    "PipelineParams",
+    "RobotSpec",
+    "RouteStep",
+    "RunParams",
+    "Scenario",
+    "SceneObject",
+    "find_scenario_files",
+    "load_scenario",
+    "replace_params",
+    "resolve_params",
+    "scenario_from_dict",
+    "scenario_from_toml",
+]

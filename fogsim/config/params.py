@@ -2,19 +2,30 @@
 
 :class:`RunParams` groups the mapper's, the segmentation's, the robot elevation filter's and the
 pipeline's own parameters; :func:`resolve_params` builds it from a scenario and ``--set`` style
-overrides, naming any unknown key or bad value with what is allowed.
+overrides. :func:`replace_params` is the one conversion of a ``{name: value}`` mapping into a
+parameter dataclass (the scenario loader checks ``[mapper]`` and ``[segmentation]`` with it, the
+run resolves its parameters with it); its errors name the key, the value and what is allowed.
 """
 
 from __future__ import annotations
 
 import dataclasses
+import math
+import numbers
+import re
 from collections.abc import Mapping
 from dataclasses import dataclass, field
-from typing import Any
+from typing import TYPE_CHECKING, Any, TypeVar
 
-from fogsim.errors import FogsimError
+from fogsim.errors import ParameterError
 from mapper import ElevationFilterParams, MapperParams
 from mapper.segmentation import SegmentationParams
+
+if TYPE_CHECKING:  # for the annotation only: the schema imports this module
+    from fogsim.config.schema import Scenario
+
+P = TypeVar("P")
+"""A frozen parameter dataclass (``MapperParams``, ``SegmentationParams``, ...)."""
 
 
 @dataclass(frozen=True)
@@ -33,28 +44,69 @@ class PipelineParams:
 
     def __post_init__(self) -> None:
         if not self.event_tolerance_m > 0.0:
-            raise FogsimError(
+            raise ParameterError(
                 f"PipelineParams.event_tolerance_m must be > 0 m, got {self.event_tolerance_m!r}"
             )
 
 
-def _replace_validated(params: Any, changes: Mapping[str, Any], what: str) -> Any:
-    """``dataclasses.replace`` that names unknown fields and what is allowed."""
+def replace_params(params: P, changes: Mapping[str, object], where: str) -> P:
+    """A copy of the parameter dataclass ``params`` with ``changes`` applied and validated.
+
+    Each value is typed by the field's current value: a bool field takes true/false (or 1/0),
+    an int field an integer (an integral float such as ``120.0`` becomes ``120``), a float field
+    any number (kept as given: an int stays an int). The dataclass's own ``__post_init__`` then
+    checks ranges and relations between fields.
+
+    Args:
+        params: The parameters to start from (e.g. ``MapperParams()``).
+        changes: Field name → new value.
+        where: Dotted prefix naming the parameters in messages (``"mapper"``).
+
+    Raises:
+        ParameterError: An unknown name (the message lists the allowed ones), a value of the
+            wrong type or one the dataclass rejects; the message starts with ``<where>.<name>``.
+    """
     if not changes:
         return params
-    allowed = [f.name for f in dataclasses.fields(params)]
+    allowed = [f.name for f in dataclasses.fields(params)]  # type: ignore[arg-type]
     unknown = sorted(set(changes) - set(allowed))
     if unknown:
-        raise FogsimError(f"unknown {what} parameter(s) {unknown}; allowed: {allowed}")
-    typed = {}
-    for name, value in changes.items():
-        current = getattr(params, name)
-        if isinstance(current, bool):
-            value = bool(value)
-        elif isinstance(current, int) and float(value).is_integer():
-            value = int(value)
-        typed[name] = value
-    return dataclasses.replace(params, **typed)
+        raise ParameterError(
+            f"{where}.{unknown[0]}: unknown {where} parameter(s) {unknown}; allowed: {allowed}"
+        )
+    typed = {
+        name: _typed(value, getattr(params, name), f"{where}.{name}")
+        for name, value in changes.items()
+    }
+    try:
+        return dataclasses.replace(params, **typed)  # type: ignore[type-var]
+    except (TypeError, ValueError) as exc:
+        raise ParameterError(f"{_rejected_key(str(exc), params, typed, where)}: {exc}") from exc
+
+
+def _typed(value: object, current: object, key: str) -> bool | int | float:
+    """``value`` as the type of the field whose current value is ``current``."""
+    if isinstance(current, bool):
+        if isinstance(value, numbers.Real) and value in (0, 1):
+            return bool(value)
+        raise ParameterError(f"{key}: must be true or false (or 1 / 0), got {value!r}")
+    if isinstance(value, bool) or not isinstance(value, numbers.Real) or math.isnan(float(value)):
+        raise ParameterError(f"{key}: must be a number, got {value!r}")
+    if isinstance(current, int):
+        if not float(value).is_integer():
+            raise ParameterError(f"{key}: must be an integer, got {value!r}")
+        return int(value)
+    return value  # type: ignore[return-value]  # a Real: int or float as given
+
+
+def _rejected_key(message: str, params: object, changes: Mapping[str, object], where: str) -> str:
+    """``<where>.<name>`` of the changed field the dataclass's message names, else ``where``.
+
+    The mapper's parameter classes name the field they reject as ``<Class>.<field>``.
+    """
+    cls = re.escape(type(params).__name__)
+    named = [n for n in changes if re.search(rf"\b{cls}\.{re.escape(n)}\b", message)]
+    return f"{where}.{named[0]}" if named else where
 
 
 @dataclass(frozen=True)
@@ -87,7 +139,9 @@ class RunParams:
 _PREFIXES = {"seg.": "segmentation", "elev.": "elevation", "pipe.": "pipeline", "mapper.": "mapper"}
 
 
-def resolve_params(scenario: Any | None, overrides: Mapping[str, float] | None = None) -> RunParams:
+def resolve_params(
+    scenario: Scenario | None, overrides: Mapping[str, float] | None = None
+) -> RunParams:
     """Parameters of a run: defaults ← scenario ``[mapper]`` / ``[segmentation]`` ← overrides.
 
     Args:
@@ -96,11 +150,11 @@ def resolve_params(scenario: Any | None, overrides: Mapping[str, float] | None =
             ``"seg.<field>"``, ``"elev.<field>"`` and ``"pipe.<field>"``.
 
     Raises:
-        FogsimError: An unknown key (the message lists the allowed ones) or a bad value.
+        ParameterError: An unknown key (the message lists the allowed ones) or a bad value.
     """
-    changes: dict[str, dict[str, Any]] = {
-        "mapper": dict(getattr(scenario, "mapper", {}) or {}),
-        "segmentation": dict(getattr(scenario, "segmentation", {}) or {}),
+    changes: dict[str, dict[str, object]] = {
+        "mapper": dict(scenario.mapper) if scenario is not None else {},
+        "segmentation": dict(scenario.segmentation) if scenario is not None else {},
         "elevation": {},
         "pipeline": {},
     }
@@ -109,12 +163,9 @@ def resolve_params(scenario: Any | None, overrides: Mapping[str, float] | None =
         name = key.split(".", 1)[1] if group else key
         changes[group or "mapper"][name] = value
     defaults = RunParams()
-    try:
-        return RunParams(
-            **{
-                group: _replace_validated(getattr(defaults, group), values, group)
-                for group, values in changes.items()
-            }
-        )
-    except (TypeError, ValueError) as exc:
-        raise FogsimError(f"invalid parameter override: {exc}") from exc
+    return RunParams(
+        **{
+            group: replace_params(getattr(defaults, group), values, group)
+            for group, values in changes.items()
+        }
+    )

@@ -1,0 +1,74 @@
+"""``--set KEY=VALUE`` overrides: parse them and assign them in a scenario's plain tables.
+
+Keys are dotted: ``seed=3``, ``camera.mode=ideal``, ``mapper.p_occ=0.7``,
+``encoders.bias_deg=0``, ``objects.<name>.<field>=...``. Values are TOML values (``[1, 2]``,
+``true``, ``0.5``); a bare word that is no TOML value is taken as a string (``camera.mode=ideal``).
+The scenario decodes the edited tables again, so a bad key or value fails as in a file.
+"""
+
+from __future__ import annotations
+
+import copy
+import tomllib
+from collections.abc import Sequence
+
+from fogsim.errors import ScenarioError
+
+TABLES = "robot, camera, encoders, mapper, segmentation, objects.<name>"
+"""The tables an override key may go into (in messages)."""
+
+
+def parse_override(assignment: str, origin: str) -> tuple[list[str], object]:
+    """``"camera.mode=ideal"`` → ``(["camera", "mode"], "ideal")``.
+
+    Raises:
+        ScenarioError: The text is no ``key=value``.
+    """
+    key, sep, text = assignment.partition("=")
+    key = key.strip()
+    if not sep or not key:
+        raise ScenarioError(f"{origin}: override {assignment!r} must look like key=value")
+    try:
+        value = tomllib.loads(f"v = {text.strip()}")["v"]
+    except tomllib.TOMLDecodeError:
+        value = text.strip()  # a bare word: the documented string shorthand
+    return key.split("."), value
+
+
+def assign_overrides(
+    tables: dict[str, object], assignments: Sequence[str], origin: str
+) -> dict[str, object]:
+    """A copy of a scenario's plain tables with every ``key=value`` assignment made.
+
+    Args:
+        tables: The scenario as plain tables (``Scenario.to_dict()``).
+        assignments: ``key=value`` texts, applied in order.
+        origin: How errors name the scenario (``<file> (override)``).
+
+    Raises:
+        ScenarioError: A malformed assignment, a key through something that is no table or an
+            object name that does not exist.
+    """
+    edited = copy.deepcopy(tables)
+    for assignment in assignments:
+        parts, value = parse_override(assignment, origin)
+        key = ".".join(parts)
+        target: object = edited
+        for i, part in enumerate(parts[:-1]):
+            if isinstance(target, list):  # objects.<name>
+                match = [o for o in target if isinstance(o, dict) and o.get("name") == part]
+                if not match:
+                    raise ScenarioError(
+                        f"{origin}: key {key!r}: no entry named {part!r} in {'.'.join(parts[:i])}"
+                    )
+                target = match[0]
+            elif isinstance(target, dict) and isinstance(target.get(part), dict | list):
+                target = target[part]
+            else:
+                raise ScenarioError(
+                    f"{origin}: key {key!r}: {part!r} is not a table; tables: {TABLES}"
+                )
+        if not isinstance(target, dict):
+            raise ScenarioError(f"{origin}: key {key!r} does not name a single value")
+        target[parts[-1]] = value
+    return edited

@@ -1,0 +1,132 @@
+"""replace_params, the one mapping → parameter dataclass helper, and resolve_params on top."""
+
+from __future__ import annotations
+
+import dataclasses
+import math
+
+import pytest
+
+from fogsim.config import (
+    PipelineParams,
+    RunParams,
+    replace_params,
+    resolve_params,
+    scenario_from_dict,
+)
+from fogsim.errors import FogsimError, ParameterError
+from mapper import ElevationFilterParams, MapperParams
+from mapper.segmentation import SegmentationParams
+
+MAPPER_FIELDS = [f.name for f in dataclasses.fields(MapperParams)]
+
+
+def test_no_changes_give_the_same_object():
+    params = MapperParams()
+    assert replace_params(params, {}, "mapper") is params
+
+
+def test_values_are_typed_by_the_field():
+    params = replace_params(
+        MapperParams(), {"nx": 120.0, "clear_outside": 0, "eps_m": 0, "p_occ": 0.7}, "mapper"
+    )
+    assert params.nx == 120 and type(params.nx) is int  # integral float → int field
+    assert params.clear_outside is False  # 1 / 0 → bool field
+    assert params.eps_m == 0 and type(params.eps_m) is int  # a number is kept as given
+    assert params.p_occ == 0.7
+    assert replace_params(SegmentationParams(), {"correct_tilt": True}, "seg").correct_tilt
+
+
+@pytest.mark.parametrize(
+    ("params", "changes", "where", "message"),
+    [
+        # unknown names, with the allowed ones
+        (
+            MapperParams(),
+            {"p_ocx": 0.7, "zz": 1},
+            "mapper",
+            f"mapper.p_ocx: unknown mapper parameter(s) ['p_ocx', 'zz']; allowed: {MAPPER_FIELDS}",
+        ),
+        # wrong types, naming the field
+        (MapperParams(), {"p_occ": "high"}, "mapper", "mapper.p_occ: must be a number, got 'high'"),
+        (MapperParams(), {"p_occ": True}, "mapper", "mapper.p_occ: must be a number, got True"),
+        (MapperParams(), {"p_occ": math.nan}, "mapper", "mapper.p_occ: must be a number, got nan"),
+        (MapperParams(), {"nx": 2.5}, "mapper", "mapper.nx: must be an integer, got 2.5"),
+        (
+            MapperParams(),
+            {"clear_outside": 2},
+            "mapper",
+            "mapper.clear_outside: must be true or false (or 1 / 0), got 2",
+        ),
+        # the dataclass's own ranges, naming the field it rejects
+        (
+            MapperParams(),
+            {"p_occ": 1.5},
+            "mapper",
+            "mapper.p_occ: MapperParams.p_occ must be in (0.5, 1), got 1.5",
+        ),
+        (
+            SegmentationParams(),
+            {"min_plane_pixels": 1},
+            "segmentation",
+            "segmentation.min_plane_pixels: SegmentationParams.min_plane_pixels must be an "
+            "integer >= 3, got 1",
+        ),
+        (
+            ElevationFilterParams(),
+            {"gain": 0.0},
+            "elevation",
+            "elevation.gain: ElevationFilterParams.gain must be in (0, 1], got 0.0",
+        ),
+        (
+            PipelineParams(),
+            {"event_tolerance_m": 0},
+            "pipeline",
+            "pipeline.event_tolerance_m: PipelineParams.event_tolerance_m must be > 0 m, got 0",
+        ),
+        # a relation broken by a change to another field names the table
+        (
+            MapperParams(),
+            {"p_max": 0.6},
+            "mapper",
+            "mapper: MapperParams.p_occ must be below p_max=0.6 after 8-bit quantisation, got 0.65",
+        ),
+    ],
+)
+def test_errors_name_key_value_and_what_is_allowed(params, changes, where, message):
+    with pytest.raises(ParameterError) as info:
+        replace_params(params, changes, where)
+    assert str(info.value) == message
+    assert isinstance(info.value, ValueError) and isinstance(info.value, FogsimError)
+
+
+def test_resolve_params_layers_defaults_scenario_and_overrides():
+    assert resolve_params(None) == RunParams()
+    scenario = scenario_from_dict(
+        {"name": "t", "mapper": {"p_occ": 0.7, "nx": 120}, "segmentation": {"min_depth_m": 0.1}}
+    )
+    params = resolve_params(
+        scenario,
+        {
+            "eps_m": 0.02,
+            "mapper.nx": 80.0,
+            "seg.min_plane_pixels": 30,
+            "elev.gain": 0.5,
+            "pipe.use_z_match": 0,
+        },
+    )
+    assert params == RunParams(
+        mapper=dataclasses.replace(MapperParams(), p_occ=0.7, nx=80, eps_m=0.02),
+        segmentation=dataclasses.replace(
+            SegmentationParams(), min_depth_m=0.1, min_plane_pixels=30
+        ),
+        elevation=ElevationFilterParams(gain=0.5),
+        pipeline=PipelineParams(use_z_match=False),
+    )
+    assert scenario.mapper == {"p_occ": 0.7, "nx": 120}  # the scenario is untouched
+    with pytest.raises(
+        ParameterError,
+        match=r"^elevation\.gate: unknown elevation parameter\(s\) \['gate'\]; "
+        r"allowed: \['gain', 'gate_m'\]$",
+    ):
+        resolve_params(None, {"elev.gate_m": 0.1, "elev.gate": 1})
