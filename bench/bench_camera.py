@@ -26,7 +26,7 @@ os.environ.setdefault("MESA_SHADER_CACHE_DISABLE", "true")
 
 import numpy as np
 
-from fogsim.config.scenario import load_scenario
+from fogsim.config import load_scenario
 from fogsim.sim.camera import HeadCamera, RaycastDepth, RendererDepth
 from fogsim.sim.simulation import Simulation
 

@@ -23,7 +23,7 @@ os.environ.setdefault("PYOPENGL_PLATFORM", "egl")
 os.environ.setdefault("MESA_SHADER_CACHE_DISABLE", "true")
 sys.path.insert(0, str(Path(__file__).resolve().parent.parent))
 
-from fogsim.config.scenario import load_scenario
+from fogsim.config import load_scenario
 from fogsim.data.recording import load_recording, save_recording
 from fogsim.run.runner import run_scenario
 from fogsim.sim.simulation import Simulation

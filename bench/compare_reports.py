@@ -1,4 +1,4 @@
-"""Behaviour-preservation check: capture every shipped scenario's results, then compare two captures.
+"""Behaviour-preservation check: capture every shipped scenario's results, compare two captures.
 
 A capture runs, through the ``fogsim`` command line only (so it works on any version of the
 code), every scenario file in ``scenarios/``, one ``record`` + ``--replay`` and one short

@@ -85,7 +85,7 @@ def _parser() -> argparse.ArgumentParser:
 
 def _load(name_or_path: str, args: argparse.Namespace):
     """Load a scenario and apply ``--set``, ``--seed`` and ``--camera-mode``."""
-    from fogsim.config.scenario import load_scenario
+    from fogsim.config import load_scenario
 
     scenario = load_scenario(name_or_path)
     return _with_options(scenario, args)
@@ -101,9 +101,9 @@ def _with_options(scenario, args: argparse.Namespace):
 
 
 def _cmd_list() -> int:
-    from fogsim.config.scenario import list_scenarios, load_scenario
+    from fogsim.config import find_scenario_files, load_scenario
 
-    for path in list_scenarios():
+    for path in find_scenario_files():
         try:
             scenario = load_scenario(path)
             print(f"{scenario.name:<18} {scenario.description}")
@@ -123,7 +123,7 @@ def _cmd_run(args: argparse.Namespace) -> int:
         replay = load_recording(args.replay)
         scenario = replay.scenario
         if args.scenario is not None:
-            from fogsim.config.scenario import load_scenario
+            from fogsim.config import load_scenario
 
             scenario = load_scenario(args.scenario)
         if scenario is not None:

@@ -9,7 +9,7 @@ import mujoco
 import numpy as np
 import pytest
 
-from fogsim.config.scenario import CameraConfig, load_scenario, scenario_from_dict
+from fogsim.config import CameraConfig, load_scenario, scenario_from_dict
 from fogsim.errors import CameraError
 from fogsim.sim.camera import (
     HeadCamera,

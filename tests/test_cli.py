@@ -7,7 +7,7 @@ import pytest
 from test_pipeline import make_frames, provider_removed_at
 
 from fogsim.cli import main
-from fogsim.config.scenario import load_scenario
+from fogsim.config import load_scenario
 from fogsim.data.recording import load_recording, save_recording
 
 

@@ -3,7 +3,7 @@ import math
 import numpy as np
 import pytest
 
-from fogsim.config.scenario import EncoderConfig, load_scenario
+from fogsim.config import EncoderConfig, load_scenario
 from fogsim.errors import EncoderError
 from fogsim.geometry import pose_error
 from fogsim.robot import (

@@ -8,7 +8,7 @@ import math
 import numpy as np
 import pytest
 
-from fogsim.config.scenario import load_scenario, scenario_from_dict
+from fogsim.config import load_scenario, scenario_from_dict
 from fogsim.world import (
     ObjectState,
     SceneTruth,

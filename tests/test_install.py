@@ -67,8 +67,19 @@ def test_wheel_installed_elsewhere_runs_a_shipped_scenario(tmp_path):
         assert name in listed.stdout
 
     run = subprocess.run(
-        [str(python), "-m", "fogsim", "run", "flat_floor", "--out", "out", "--quiet",
-         "--no-pictures", "--set", "camera.mode=ideal"],
+        [
+            str(python),
+            "-m",
+            "fogsim",
+            "run",
+            "flat_floor",
+            "--out",
+            "out",
+            "--quiet",
+            "--no-pictures",
+            "--set",
+            "camera.mode=ideal",
+        ],
         cwd=work,
         capture_output=True,
         text=True,

@@ -5,7 +5,7 @@ import json
 import numpy as np
 import pytest
 
-from fogsim.config.scenario import load_scenario
+from fogsim.config import load_scenario
 from fogsim.data.frame import Frame
 from fogsim.data.recording import FORMAT_VERSION, load_recording, save_recording
 from fogsim.errors import RecordingError

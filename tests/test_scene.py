@@ -6,7 +6,7 @@ import mujoco
 import numpy as np
 import pytest
 
-from fogsim.config.scenario import load_scenario
+from fogsim.config import load_scenario
 from fogsim.errors import FogsimError
 from fogsim.robot.model import CAMERA_NAMES, load_robot
 from fogsim.sim.assets import MJCF_DIR, load_mjcf_piece

@@ -8,7 +8,7 @@ import itertools
 import numpy as np
 import pytest
 
-from fogsim.config.scenario import list_scenarios, load_scenario
+from fogsim.config import find_scenario_files, load_scenario
 from fogsim.data.frame import Frame
 from fogsim.geometry import PoseError, pose_error
 from fogsim.sim.simulation import Simulation
@@ -42,7 +42,7 @@ def flat_ideal():
         yield simulation
 
 
-@pytest.mark.parametrize("path", list_scenarios(), ids=lambda p: p.stem)
+@pytest.mark.parametrize("path", find_scenario_files(), ids=lambda p: p.stem)
 def test_registry_every_scenario_simulates_deterministically(path):
     scenario = load_scenario(path)
     with Simulation(scenario) as simulation:

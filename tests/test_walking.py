@@ -4,10 +4,10 @@ import mujoco
 import numpy as np
 import pytest
 
-from fogsim.config.scenario import load_scenario
+from fogsim.config import load_scenario
 from fogsim.errors import RouteError
 from fogsim.robot import GaitParams, Stance, load_robot, plan_route
-from fogsim.world.truth import SceneTruth
+from fogsim.world import SceneTruth
 from mapper.transforms import planar_pose_to_matrix
 
 PLATFORM_M = 0.122

@@ -46,7 +46,6 @@ from __future__ import annotations
 import io
 import json
 import os
-import tempfile
 from collections.abc import Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -56,7 +55,7 @@ import numpy as np
 from numpy.typing import DTypeLike, NDArray
 
 from fogsim.atomic import write_atomic
-from fogsim.config.scenario import Scenario, load_scenario
+from fogsim.config import Scenario, scenario_from_toml
 from fogsim.data.frame import Frame
 from fogsim.errors import RecordingError
 from fogsim.world import SceneTruth
@@ -204,14 +203,6 @@ def _check_shape(name: str, array: NDArray[Any], shape: tuple[int, ...]) -> None
         raise RecordingError(f"recording array '{name}' must have shape {shape}, got {array.shape}")
 
 
-def _scenario_from_toml(text: str, name_hint: str) -> Scenario:
-    """Rebuild a Scenario from its TOML text (through a temporary file, as the loader reads)."""
-    with tempfile.TemporaryDirectory() as tmp:
-        path = Path(tmp) / f"{name_hint}.toml"
-        path.write_text(text, encoding="utf-8")
-        return load_scenario(path)
-
-
 def load_recording(path: str | os.PathLike[str]) -> Recording:
     """Read a recording written by :func:`save_recording` (or by hand, see the module doc).
 
@@ -303,7 +294,7 @@ def load_recording(path: str | os.PathLike[str]) -> Recording:
     ]
     scenario = None
     if meta.get("scenario_toml"):
-        scenario = _scenario_from_toml(meta["scenario_toml"], source.stem.split(".")[0])
+        scenario = scenario_from_toml(meta["scenario_toml"], where=f"recording {source}")
     return Recording(
         frames=frames,
         scenario=scenario,

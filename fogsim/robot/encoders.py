@@ -20,9 +20,6 @@ from numpy.typing import ArrayLike, NDArray
 from fogsim.errors import EncoderError
 from fogsim.robot.kinematics import Robot
 
-# fogsim.sim.simulation still imports Odometry from here; drop this once it imports fogsim.robot.
-from fogsim.robot.odometry import Odometry  # noqa: F401
-
 
 class JointGroup(enum.IntEnum):
     """Which error level a joint gets: ``NECK`` the head's, every other group the body's."""

@@ -28,10 +28,10 @@ import numpy as np
 from dm_control import mjcf
 from numpy.typing import ArrayLike, NDArray
 
-from fogsim.config.scenario import CameraConfig, Scenario, SceneObject
+from fogsim.config import CameraConfig, Scenario, SceneObject
 from fogsim.errors import FogsimError
 from fogsim.geometry import MJ_FROM_CV
-from fogsim.robot.model import CAMERA_NAMES, Robot
+from fogsim.robot import CAMERA_NAMES, Robot
 from fogsim.sim.assets import load_mjcf_piece
 from fogsim.sim.camera.depth import VISIBLE_GEOMGROUPS
 from fogsim.world import moving_objects, object_center_at

@@ -25,12 +25,17 @@ from collections.abc import Iterator
 
 import numpy as np
 
-from fogsim.config.scenario import Scenario
+from fogsim.config import Scenario
 from fogsim.data.frame import Frame
-from fogsim.robot.encoders import EncoderModel, Odometry
-from fogsim.robot.model import Robot, load_robot
-from fogsim.robot.self_filter import SelfFilter
-from fogsim.robot.walking import Trajectory, plan_route
+from fogsim.robot import (
+    EncoderModel,
+    Odometry,
+    Robot,
+    SelfFilter,
+    Trajectory,
+    load_robot,
+    plan_route,
+)
 from fogsim.sim.camera import HeadCamera
 from fogsim.sim.scene import Scene
 from fogsim.world import SceneTruth

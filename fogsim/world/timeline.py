@@ -16,7 +16,7 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from fogsim.config.scenario import Scenario, SceneObject
+from fogsim.config import Scenario, SceneObject
 
 
 @dataclass(frozen=True)

@@ -30,7 +30,7 @@ from typing import Any
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from fogsim.config.scenario import Scenario
+from fogsim.config import Scenario
 from fogsim.errors import FogsimError
 from fogsim.world.timeline import ObjectState, object_center_at
 from mapper.grid import CellType

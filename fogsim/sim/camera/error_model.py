@@ -12,7 +12,7 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import NDArray
 
-from fogsim.config.scenario import CameraConfig
+from fogsim.config import CameraConfig
 from fogsim.errors import CameraError
 
 

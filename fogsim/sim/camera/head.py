@@ -13,7 +13,7 @@ import mujoco
 import numpy as np
 from numpy.typing import NDArray
 
-from fogsim.config.scenario import CameraConfig
+from fogsim.config import CameraConfig
 from fogsim.errors import CameraError
 from fogsim.sim.camera.depth import DEPTH_BACKENDS, VISIBLE_GEOMGROUPS, RaycastDepth, RendererDepth
 from fogsim.sim.camera.error_model import StereoErrorModel

@@ -11,7 +11,7 @@ import math
 
 import mujoco
 
-from fogsim.config.scenario import CameraConfig
+from fogsim.config import CameraConfig
 from fogsim.errors import CameraError
 from mapper.intrinsics import PinholeIntrinsics
 
