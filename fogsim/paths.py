@@ -20,3 +20,8 @@ SCENARIOS_DIR = _data_dir("scenarios")
 """Folder of the shipped scenario files (``*.toml``) and ``baseline.json``."""
 ASSETS_DIR = _data_dir("assets")
 """Folder of the shipped data: MJCF pieces (``mjcf/``) and robot descriptions (``robots/``)."""
+ROBOTS_DIR = ASSETS_DIR / "robots"
+"""Folder of the robot descriptions, one ``<name>.toml`` per robot."""
+ROBOT_NAMES: tuple[str, ...] = tuple(sorted(path.stem for path in ROBOTS_DIR.glob("*.toml")))
+"""Names of the shipped robots (their description files' stems), sorted: what ``robot.model``
+in a scenario file may name."""

@@ -31,10 +31,12 @@ from fogsim.config.overrides import assign_overrides
 from fogsim.config.params import replace_params
 from fogsim.config.write import TomlValue, to_table, toml_text
 from fogsim.errors import ParameterError, ScenarioError
+from fogsim.paths import ROBOT_NAMES
 from mapper import MapperParams
 from mapper.segmentation import SegmentationParams
 
-RobotModel = Literal["icub", "talos"]
+# The robots are the description files in assets/robots/ (one list for config and robot).
+RobotModel = Literal[ROBOT_NAMES]  # type: ignore[valid-type]
 CameraMode = Literal["ideal", "depth", "stereo"]
 Surface = Literal["flat", "rough"]
 ROBOT_MODELS: tuple[str, ...] = get_args(RobotModel)

@@ -21,12 +21,7 @@ import msgspec
 import numpy as np
 
 from fogsim.errors import RobotModelError
-from fogsim.paths import ASSETS_DIR
-
-ROBOTS_DIR = ASSETS_DIR / "robots"
-"""Folder of the robot descriptions (``<name>.toml``)."""
-ROBOT_NAMES: tuple[str, ...] = tuple(sorted(path.stem for path in ROBOTS_DIR.glob("*.toml")))
-"""Names of the shipped robots (their file names), sorted."""
+from fogsim.paths import ROBOT_NAMES, ROBOTS_DIR
 CAMERA_NAMES: tuple[str, str, str] = ("head_camera", "head_camera_left", "head_camera_right")
 """The camera rig every robot gets: the depth camera and the left and right stereo cameras."""
 
