@@ -22,6 +22,7 @@ import numpy as np
 
 from fogsim.errors import RobotModelError
 from fogsim.paths import ROBOT_NAMES, ROBOTS_DIR
+
 CAMERA_NAMES: tuple[str, str, str] = ("head_camera", "head_camera_left", "head_camera_right")
 """The camera rig every robot gets: the depth camera and the left and right stereo cameras."""
 
