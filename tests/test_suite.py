@@ -3,6 +3,7 @@
 import json
 
 import pytest
+from report_factory import event, make_report, row
 
 from fogsim.cli import main
 from fogsim.paths import SCENARIOS_DIR
@@ -15,25 +16,13 @@ from fogsim.run.suite import (
     update_baseline,
 )
 
-REPORT = {
-    "table1": {
-        "fog": [
-            {"name": "ground", "error_mm": -0.4},
-            {"name": "sill", "error_mm": 2.5},
-            {"name": "far", "error_mm": None},
-        ]
-    },
-    "cells": {"fog": {"accuracy": 0.981, "obstacle_height": {"within_one_cell_fraction": 1.0}}},
-    "events": [
-        {"object": "box", "fog_frames": 4, "averaging_frames": None},
-        {
-            "object": "slider",
-            "fog_frames": None,
-            "intermediate_floor_cells": {"fog": {"max": 3, "final": 1}},
-        },
-    ],
-    "timing": {"frame_ms": {"median": 6.0}},
-}
+REPORT = make_report(
+    [row("ground", -0.4), row("sill", 2.5), row("far", None)],
+    accuracy=0.981,
+    within_one_cell=1.0,
+    events=[event("box", 4), event("slider", None, intermediate_final=1)],
+    frame_ms_median=6.0,
+)
 
 
 def test_report_metrics_flatten_the_report():

@@ -36,8 +36,13 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
+from msgspec import UNSET
+
 from fogsim.atomic import write_text_atomic
+from fogsim.config.scenario import load_scenario
 from fogsim.errors import FogsimError
+from fogsim.eval.report import Report
+from fogsim.paths import SCENARIOS_DIR
 from fogsim.run.runner import run_scenario
 
 NEVER_FRAMES = 1_000_000.0
@@ -83,28 +88,30 @@ def rule_for(metric: str) -> MetricRule:
     raise FogsimError(f"no tolerance rule for metric {metric!r}")
 
 
-def report_metrics(report: Mapping[str, Any]) -> dict[str, float]:
+def report_metrics(report: Report) -> dict[str, float]:
     """Flat regression metrics of one report (None values are left out, except events)."""
     metrics: dict[str, float] = {}
-    table = report.get("table1") or {}
-    for row in table.get("fog") or []:
-        if row.get("error_mm") is not None:
-            metrics[f"table1.{row['name']}.abs_error_mm"] = abs(float(row["error_mm"]))
-    cells = (report.get("cells") or {}).get("fog") or {}
-    if cells.get("accuracy") is not None:
-        metrics["cells.accuracy"] = float(cells["accuracy"])
-    within = (cells.get("obstacle_height") or {}).get("within_one_cell_fraction")
-    if within is not None:
-        metrics["cells.obstacle_within_one_cell"] = float(within)
-    for event in report.get("events") or []:
-        frames = event.get("fog_frames")
-        metrics[f"events.{event['object']}.fog_frames"] = (
+    if report.table1 is not None:
+        for row in report.table1.fog:
+            if row.error_mm is not None:
+                metrics[f"table1.{row.name}.abs_error_mm"] = abs(float(row.error_mm))
+    if report.cells is not None:
+        cells = report.cells.fog
+        if cells.accuracy is not None:
+            metrics["cells.accuracy"] = float(cells.accuracy)
+        within = cells.obstacle_height.within_one_cell_fraction
+        if within is not None:
+            metrics["cells.obstacle_within_one_cell"] = float(within)
+    for event in report.events:
+        frames = event.fog_frames
+        metrics[f"events.{event.object}.fog_frames"] = (
             NEVER_FRAMES if frames is None else float(frames)
         )
-        moved = event.get("intermediate_floor_cells")
-        if moved:
-            metrics[f"events.{event['object']}.intermediate"] = float(moved["fog"]["final"])
-    median = ((report.get("timing") or {}).get("frame_ms") or {}).get("median")
+        if event.intermediate_floor_cells is not UNSET:
+            metrics[f"events.{event.object}.intermediate"] = float(
+                event.intermediate_floor_cells.fog.final
+            )
+    median = report.timing.frame_ms.median
     if median is not None:
         metrics["timing.frame_ms_median"] = float(median)
     return metrics
@@ -152,8 +159,6 @@ def check_against_baseline(summary: Mapping[str, Any], baseline: Mapping[str, An
 
 def _suite_worker(path: str, out_dir: str, quick: bool, overrides: Sequence[str]) -> dict:
     """One scenario in a worker process: run it, return its summary entry."""
-    from fogsim.config.scenario import load_scenario
-
     start = time.perf_counter()
     name = Path(path).stem
     try:
@@ -169,7 +174,7 @@ def _suite_worker(path: str, out_dir: str, quick: bool, overrides: Sequence[str]
         return {
             "name": name,
             "metrics": report_metrics(report),
-            "frames": report["timing"]["frames"],
+            "frames": report.timing.frames,
             "wall_s": round(time.perf_counter() - start, 2),
             "report": f"{name}/report.json",
             "error": None,
@@ -187,8 +192,6 @@ def _suite_worker(path: str, out_dir: str, quick: bool, overrides: Sequence[str]
 
 def scenario_paths(directory: str | os.PathLike[str] | None, quick: bool) -> list[Path]:
     """Scenario files of a folder (default: the project's), the quick subset if asked."""
-    from fogsim.paths import SCENARIOS_DIR
-
     folder = Path(directory) if directory is not None else SCENARIOS_DIR
     paths = sorted(folder.glob("*.toml"))
     if not paths:
