@@ -9,6 +9,7 @@ from fogsim.config.scenario import load_scenario
 from fogsim.data.frame import Frame
 from fogsim.data.recording import Recording
 from fogsim.errors import FogsimError
+from fogsim.mapping.pipeline import FrameTiming, Pipeline
 from fogsim.run.runner import replay_report, run_frames
 from fogsim.world.truth import ObjectState, SceneTruth
 from mapper.intrinsics import PinholeIntrinsics
@@ -123,3 +124,14 @@ def test_replay_report_uses_overrides():
     assert report.source == "replay"
     assert report.timing.frames == 5
     assert {r.name for r in report.table1.fog} == set(NAMES)
+
+
+def test_process_returns_the_frames_timing_and_decisions():
+    pipeline = Pipeline()
+    first, second, third = (pipeline.process(f) for f in make_frames(3))
+    assert isinstance(first, FrameTiming)
+    # An empty map has no floor to match: the first frames are used unshifted, then matched.
+    assert (first.z_matched, second.z_matched, third.z_matched) == (False, False, True)
+    assert not any(t.withdrawn for t in (first, second, third))
+    for t in (first, second, third):
+        assert 0 < t.segmentation_ms + t.update_ms <= t.frame_ms

@@ -123,7 +123,9 @@ def test_round_trip_of_a_hand_made_report_with_every_optional_key(tmp_path):
 
 def test_nan_and_infinity_are_written_as_null(tmp_path, removal_report):
     timing = dataclasses.replace(removal_report.timing, realtime_factor=float("nan"))
-    path = write_report(tmp_path / "report.json", dataclasses.replace(removal_report, timing=timing))
+    path = write_report(
+        tmp_path / "report.json", dataclasses.replace(removal_report, timing=timing)
+    )
     text = path.read_text()
     assert "NaN" not in text and "Infinity" not in text
     assert json.loads(text)["timing"]["realtime_factor"] is None
