@@ -9,6 +9,7 @@ from fogsim.config.scenario import load_scenario
 from fogsim.data.frame import Frame
 from fogsim.data.recording import Recording
 from fogsim.errors import FogsimError
+from fogsim.mapping.pipeline import FrameTiming, Pipeline
 from fogsim.run.runner import replay_report, run_frames
 from fogsim.world.truth import ObjectState, SceneTruth
 from mapper.intrinsics import PinholeIntrinsics
@@ -64,15 +65,15 @@ def provider_removed_at(time_s):
 def test_static_box_table1_within_3mm_and_cells_right():
     frames = make_frames(12, noise=0.002)
     result = run_frames(frames, provider_removed_at(1e9), None)
-    rows = {r["name"]: r for r in result.scores["table1"]["fog"]}
+    rows = {r.name: r for r in result.scores.table1.fog}
     for name in NAMES:
-        assert rows[name]["cells"] > 10, rows[name]
-        assert abs(rows[name]["error_mm"]) <= 3.0, rows[name]
-    cells = result.scores["cells"]["fog"]
-    assert cells["accuracy"] >= 0.97, cells
+        assert rows[name].cells > 10, rows[name]
+        assert abs(rows[name].error_mm) <= 3.0, rows[name]
+    cells = result.scores.cells.fog
+    assert cells.accuracy >= 0.97, cells
     assert result.frames == 12 and result.withdrawn == 0
     assert np.isfinite(result.update_ms).all()
-    assert result.pose_error["camera_in_robot"]["rotation_deg"]["max"] == pytest.approx(0, abs=1e-6)
+    assert result.pose_error.camera_in_robot.rotation_deg.max == pytest.approx(0, abs=1e-6)
 
 
 def test_box_removal_fog_clears_within_25_frames_averaging_never():
@@ -81,10 +82,10 @@ def test_box_removal_fog_clears_within_25_frames_averaging_never():
     frames = make_frames(removal_frame + 40, box_until_frame=removal_frame)
     result = run_frames(frames, provider_removed_at(4.0), scenario)
     (event,) = result.events
-    assert event["object"] == "flat_box" and event["start_frame"] == removal_frame
-    assert event["footprint_cells"] > 20
-    assert event["fog_frames"] is not None and event["fog_frames"] <= 25, event
-    assert event["averaging_frames"] is None, event
+    assert event.object == "flat_box" and event.start_frame == removal_frame
+    assert event.footprint_cells > 20
+    assert event.fog_frames is not None and event.fog_frames <= 25, event
+    assert event.averaging_frames is None, event
     assert [s.label for s in result.snapshots] == ["before", "after"]
     assert result.snapshots[0].frame_index == removal_frame - 1
 
@@ -93,7 +94,7 @@ def test_same_frames_same_result_bit_for_bit():
     frames = make_frames(6, noise=0.003, seed=4)
     a = run_frames(frames, None, None)
     b = run_frames(frames, None, None)
-    assert a.scores is None and a.events == []
+    assert a.scores is None and a.events == ()
     np.testing.assert_array_equal(a.archive.fog_heights_m, b.archive.fog_heights_m)
     np.testing.assert_array_equal(a.archive.fog_types, b.archive.fog_types)
 
@@ -119,7 +120,18 @@ def test_replay_report_uses_overrides():
     truths = [provider_removed_at(1e9)(f.time_s) for f in frames]
     rec = Recording(frames=frames, scenario=None, truths=truths, intrinsics=INTR)
     report = replay_report(rec, {"p_occ": 0.8})
-    assert report["params"]["mapper"]["p_occ"] == 0.8
-    assert report["source"] == "replay"
-    assert report["timing"]["frames"] == 5
-    assert {r["name"] for r in report["table1"]["fog"]} == set(NAMES)
+    assert report.params.mapper["p_occ"] == 0.8
+    assert report.source == "replay"
+    assert report.timing.frames == 5
+    assert {r.name for r in report.table1.fog} == set(NAMES)
+
+
+def test_process_returns_the_frames_timing_and_decisions():
+    pipeline = Pipeline()
+    first, second, third = (pipeline.process(f) for f in make_frames(3))
+    assert isinstance(first, FrameTiming)
+    # An empty map has no floor to match: the first frames are used unshifted, then matched.
+    assert (first.z_matched, second.z_matched, third.z_matched) == (False, False, True)
+    assert not any(t.withdrawn for t in (first, second, third))
+    for t in (first, second, third):
+        assert 0 < t.segmentation_ms + t.update_ms <= t.frame_ms

@@ -2,14 +2,14 @@
 
 import numpy as np
 import pytest
+from msgspec import UNSET
 
-from fogsim.eval.scoring import (
-    EventTracker,
-    WorldArchive,
-    cell_scores,
-    score_archive,
-    table1_rows,
-)
+from fogsim.config.scenario import Event
+from fogsim.errors import FogsimError
+from fogsim.eval.archive import WorldArchive
+from fogsim.eval.events import EventTracker
+from fogsim.eval.metrics import cell_scores, score_archive, table1_rows
+from fogsim.eval.report.schema import ConfusionRow, MaxFinal, ObstacleObjectScore
 from fogsim.world.truth import ObjectState, SceneTruth
 from mapper.grid import CellType
 
@@ -35,21 +35,21 @@ def test_table1_medians_over_interior_cells_with_border_cells_left_out():
     step = grid.surface_id == 1
     heights[step & ~grid.interior] = 0.5  # garbage on border cells must not count
     heights[grid.surface_id == 0] = 0.001
-    rows = {r["name"]: r for r in table1_rows(grid, heights, np.isfinite(heights))}
+    rows = {r.name: r for r in table1_rows(grid, heights, np.isfinite(heights))}
     # Box spans x, y in [0.3, 0.7]; cells lie fully inside from 0.32 to 0.68: 9 x 9 cells.
-    assert rows["step"]["cells"] == 81
-    assert rows["step"]["surface_cells"] == 81
-    assert rows["step"]["ground_truth_mm"] == pytest.approx(31.0)
-    assert rows["step"]["estimated_mm"] == pytest.approx(33.0, abs=1e-6)
-    assert rows["step"]["error_mm"] == pytest.approx(2.0, abs=1e-6)
-    assert rows["ground"]["estimated_mm"] == pytest.approx(1.0, abs=1e-6)
+    assert rows["step"].cells == 81
+    assert rows["step"].surface_cells == 81
+    assert rows["step"].ground_truth_mm == pytest.approx(31.0)
+    assert rows["step"].estimated_mm == pytest.approx(33.0, abs=1e-6)
+    assert rows["step"].error_mm == pytest.approx(2.0, abs=1e-6)
+    assert rows["ground"].estimated_mm == pytest.approx(1.0, abs=1e-6)
 
 
 def test_table1_row_without_estimate_is_null():
     grid = truth().rasterize(centers(), CELL)
     rows = table1_rows(grid, np.full(grid.labels.shape, np.nan), np.ones(grid.labels.shape, bool))
-    assert all(r["estimated_mm"] is None and r["error_mm"] is None for r in rows)
-    assert all(r["cells"] == 0 for r in rows)
+    assert all(r.estimated_mm is None and r.error_mm is None for r in rows)
+    assert all(r.cells == 0 for r in rows)
 
 
 def test_cell_scores_confusion_accuracy_and_obstacle_height():
@@ -65,16 +65,16 @@ def test_cell_scores_confusion_accuracy_and_obstacle_height():
     s = cell_scores(grid, types, heights, region, cell_z_m=0.04)
     n_obstacle = int((grid.labels == CellType.OBSTACLE).sum())
     assert n_obstacle == 25  # post spans [0.82, 0.98]: centres 0.82..0.98, edges included
-    assert s["region"] == 900
-    assert s["seen"] == 890
-    assert s["correct"] == 885
-    assert s["accuracy"] == pytest.approx(885 / 890, abs=1e-5)
-    assert s["confusion"]["floor"] == {"unknown": 10, "floor": 860, "obstacle": 5}
-    assert s["confusion"]["obstacle"] == {"unknown": 0, "floor": 0, "obstacle": 25}
-    assert s["obstacle_height"]["cells"] == 25
-    assert s["obstacle_height"]["median_abs_error_mm"] == pytest.approx(20.0)
-    assert s["obstacle_height"]["within_one_cell_fraction"] == 1.0
-    assert s["floor_height"]["max_abs_error_mm"] == pytest.approx(0.0)
+    assert s.region == 900
+    assert s.seen == 890
+    assert s.correct == 885
+    assert s.accuracy == pytest.approx(885 / 890, abs=1e-5)
+    assert s.confusion.floor == ConfusionRow(unknown=10, floor=860, obstacle=5)
+    assert s.confusion.obstacle == ConfusionRow(unknown=0, floor=0, obstacle=25)
+    assert s.obstacle_height.cells == 25
+    assert s.obstacle_height.median_abs_error_mm == pytest.approx(20.0)
+    assert s.obstacle_height.within_one_cell_fraction == 1.0
+    assert s.floor_height.max_abs_error_mm == pytest.approx(0.0)
 
 
 def test_world_archive_keeps_last_value_on_a_world_lattice():
@@ -102,20 +102,20 @@ def test_score_archive_perfect_map_scores_exactly():
     heights = np.where(grid.labels == CellType.FLOOR, grid.floor_m, grid.obstacle_top_m)
     archive.store(c, grid.labels, heights, heights)
     scores = score_archive(archive, truth(), cell_z_m=0.04)
-    for row in scores["table1"]["fog"] + scores["table1"]["averaging"]:
-        assert row["error_mm"] == pytest.approx(0.0, abs=1e-9)
-    assert scores["cells"]["fog"]["accuracy"] == 1.0
-    assert scores["cells"]["averaging"]["seen"] == 900
-    (post,) = scores["cells"]["obstacles"]
+    for row in scores.table1.fog + scores.table1.averaging:
+        assert row.error_mm == pytest.approx(0.0, abs=1e-9)
+    assert scores.cells.fog.accuracy == 1.0
+    assert scores.cells.averaging.seen == 900
+    (post,) = scores.cells.obstacles
     # Post spans [0.82, 0.98]; centres at least half a cell inside: 0.86, 0.90, 0.94.
-    assert post == {
-        "name": "post",
-        "cells": 9,
-        "seen": 9,
-        "obstacle_fraction": 1.0,
-        "top_mm": 200.0,
-        "median_top_error_mm": 0.0,
-    }
+    assert post == ObstacleObjectScore(
+        name="post",
+        cells=9,
+        seen=9,
+        obstacle_fraction=1.0,
+        top_mm=200.0,
+        median_top_error_mm=0.0,
+    )
 
 
 def _fog_of(grid):
@@ -132,7 +132,7 @@ def test_event_tracker_counts_frames_until_footprint_cleared_fog_vs_never_for_ba
         return with_box if t < 1.0 else without
 
     c = centers()
-    tracker = EventTracker([{"at": 1.0, "remove": "box"}], provider, end_time_s=3.0)
+    tracker = EventTracker([Event(at=1.0, kind="remove", target="box")], provider, end_time_s=3.0)
     old_types, old_heights = _fog_of(with_box.rasterize(c, CELL))
     new_types, new_heights = _fog_of(without.rasterize(c, CELL))
     for i in range(30):
@@ -147,14 +147,15 @@ def test_event_tracker_counts_frames_until_footprint_cleared_fog_vs_never_for_ba
         near[: int(0.6 / CELL), :] &= True
         near[int(0.6 / CELL) :, :] = False
         base[near] = 0.05
-        tracker.update(i, t, c, CELL, {"fog": (types, heights), "averaging": (None, base)})
+        tracker.update(i, t, c, CELL, types, heights, base)
     (result,) = tracker.results()
-    assert result["start_frame"] == 10
-    assert result["footprint_cells"] == int((old_heights > 0.04).sum()) > 0
-    assert result["fog_frames"] == 4
-    assert result["fog_frames_to_floor"] == 4
-    assert result["averaging_frames"] is None
-    assert result["averaging_frames_to_floor"] is None
+    assert result.start_frame == 10
+    assert result.footprint_cells == int((old_heights > 0.04).sum()) > 0
+    assert result.fog_frames == 4
+    assert result.fog_frames_to_floor == 4
+    assert result.averaging_frames is None
+    assert result.averaging_frames_to_floor is None
+    assert result.intermediate_floor_cells is UNSET  # only moves count intermediate cells
 
 
 def test_event_tracker_counts_intermediate_floor_cells_of_a_moved_box():
@@ -168,16 +169,28 @@ def test_event_tracker_counts_intermediate_floor_cells_of_a_moved_box():
         return before if t < 1.0 else after
 
     c = centers()
-    tracker = EventTracker([{"at": 1.0, "move": "box", "to": [0.9, 0.6]}], provider, 2.0)
+    tracker = EventTracker(
+        [Event(at=1.0, kind="move", target="box", to=(0.9, 0.6), speed=1.0)], provider, 2.0
+    )
     types, heights = _fog_of(after.rasterize(c, CELL))
     smeared = heights.copy()
     smeared[12, 15] = 0.03  # ground cell between old and new place, half box height
     smeared[13, 15] = 0.03
-    tracker.update(0, 0.0, c, CELL, {"fog": (types, heights), "averaging": (None, heights)})
-    tracker.update(1, 1.0, c, CELL, {"fog": (types, heights), "averaging": (None, smeared)})
-    tracker.update(2, 2.0, c, CELL, {"fog": (types, heights), "averaging": (None, heights)})
+    tracker.update(0, 0.0, c, CELL, types, heights, heights)
+    tracker.update(1, 1.0, c, CELL, types, heights, smeared)
+    tracker.update(2, 2.0, c, CELL, types, heights, heights)
     (result,) = tracker.results()
-    assert result["kind"] == "move"
-    assert result["fog_frames"] == 0
-    assert result["intermediate_floor_cells"]["fog"] == {"max": 0, "final": 0}
-    assert result["intermediate_floor_cells"]["averaging"] == {"max": 2, "final": 0}
+    assert result.kind == "move"
+    assert result.fog_frames == 0
+    assert result.intermediate_floor_cells.fog == MaxFinal(max=0, final=0)
+    assert result.intermediate_floor_cells.averaging == MaxFinal(max=2, final=0)
+
+
+def test_event_tracker_rejects_an_unknown_event_kind():
+    with pytest.raises(FogsimError, match=r"kind 'melt'; allowed: \['remove', 'move'\]"):
+        EventTracker([Event(at=1.0, kind="melt", target="box")], lambda t: truth(), 2.0)
+
+
+def test_an_empty_archive_has_no_cells():
+    with pytest.raises(FogsimError, match="archive is empty"):
+        WorldArchive(CELL).cell_centers_xy()

@@ -1,39 +1,38 @@
 """Suite: regression metrics, tolerance rules, baseline check, and the quick subset end to end."""
 
-import json
+import dataclasses
 
 import pytest
+from report_factory import event, make_report, row
 
 from fogsim.cli import main
+from fogsim.errors import ReportError
+from fogsim.eval.report.io import load_json, load_report
 from fogsim.paths import SCENARIOS_DIR
-from fogsim.run.suite import (
+from fogsim.run.baseline import (
     NEVER_FRAMES,
-    check_against_baseline,
+    Baseline,
+    BaselineEntry,
+    load_baseline,
     report_metrics,
     rule_for,
+    write_baseline,
+)
+from fogsim.run.suite import (
+    ScenarioRun,
+    SuiteSummary,
+    check_against_baseline,
     summary_markdown,
     update_baseline,
 )
 
-REPORT = {
-    "table1": {
-        "fog": [
-            {"name": "ground", "error_mm": -0.4},
-            {"name": "sill", "error_mm": 2.5},
-            {"name": "far", "error_mm": None},
-        ]
-    },
-    "cells": {"fog": {"accuracy": 0.981, "obstacle_height": {"within_one_cell_fraction": 1.0}}},
-    "events": [
-        {"object": "box", "fog_frames": 4, "averaging_frames": None},
-        {
-            "object": "slider",
-            "fog_frames": None,
-            "intermediate_floor_cells": {"fog": {"max": 3, "final": 1}},
-        },
-    ],
-    "timing": {"frame_ms": {"median": 6.0}},
-}
+REPORT = make_report(
+    [row("ground", -0.4), row("sill", 2.5), row("far", None)],
+    accuracy=0.981,
+    within_one_cell=1.0,
+    events=[event("box", 4), event("slider", None, intermediate_final=1)],
+    frame_ms_median=6.0,
+)
 
 
 def test_report_metrics_flatten_the_report():
@@ -63,12 +62,8 @@ def test_rules_allow_the_tolerance_and_flag_beyond_it():
 
 
 def summary_with(metrics, quick=False, error=None):
-    return {
-        "quick": quick,
-        "workers": 1,
-        "wall_s": 1.0,
-        "scenarios": {"stage": {"metrics": metrics, "frames": 5, "wall_s": 1.0, "error": error}},
-    }
+    run = ScenarioRun(metrics, 5, 1.0, None if error else "stage/report.json", error)
+    return SuiteSummary("fogsim-suite", 1, quick, 1, 1.0, {"stage": run})
 
 
 def test_check_names_each_worse_metric():
@@ -91,8 +86,39 @@ def test_check_names_each_worse_metric():
     # A quick run is compared with the quick section only.
     assert "no 'quick_scenarios'" in check_against_baseline(summary_with({}, quick=True), base)[0]
     both = update_baseline(base, summary_with({"cells.accuracy": 0.5}, quick=True))
-    assert both["scenarios"] == base["scenarios"]
-    assert both["quick_scenarios"]["stage"]["metrics"] == {"cells.accuracy": 0.5}
+    assert both.scenarios == base.scenarios
+    assert both.quick_scenarios == {"stage": BaselineEntry({"cells.accuracy": 0.5})}
+
+
+def test_baseline_round_trip_keeps_the_committed_file_byte_for_byte(tmp_path):
+    committed = SCENARIOS_DIR / "baseline.json"
+    baseline = load_baseline(committed)
+    assert set(baseline.section(quick=True)) == {"flat_floor", "box_removal"}
+    path = write_baseline(tmp_path / "baseline.json", baseline)
+    assert path.read_bytes() == committed.read_bytes()
+
+
+def test_a_new_baseline_has_only_the_section_that_was_run(tmp_path):
+    base = update_baseline(None, summary_with({"cells.accuracy": 0.9}))
+    assert base == Baseline(scenarios={"stage": BaselineEntry({"cells.accuracy": 0.9})})
+    path = write_baseline(tmp_path / "baseline.json", base)
+    assert path.read_text() == (
+        "{\n"
+        '  "format": "fogsim-baseline",\n'
+        '  "scenarios": {\n'
+        '    "stage": {\n'
+        '      "metrics": {\n'
+        '        "cells.accuracy": 0.9\n'
+        "      }\n"
+        "    }\n"
+        "  },\n"
+        '  "version": 1\n'
+        "}\n"
+    )
+    assert load_baseline(path) == base
+    path.write_text(path.read_text().replace('"scenarios"', '"scenario"'))
+    with pytest.raises(ReportError, match=r"does not know: `\$.scenario`"):
+        load_baseline(path)
 
 
 def test_summary_markdown_lists_scenarios_and_problems():
@@ -105,21 +131,25 @@ def test_summary_markdown_lists_scenarios_and_problems():
 @pytest.mark.slow
 def test_quick_suite_passes_check_against_committed_baseline(tmp_path, capsys):
     baseline = SCENARIOS_DIR / "baseline.json"
-    assert json.loads(baseline.read_text())["quick_scenarios"], "baseline lacks a quick section"
+    assert load_baseline(baseline).section(quick=True), "baseline lacks a quick section"
     code = main(
         ["suite", "--quick", "--out", str(tmp_path), "--workers", "2", "--check", str(baseline)]
     )
     out = capsys.readouterr()
     assert code == 0, out.err
-    summary = json.loads((tmp_path / "summary.json").read_text())
-    assert set(summary["scenarios"]) == {"flat_floor", "box_removal"}
-    assert (tmp_path / "box_removal" / "report.json").is_file()
+    summary = load_json(tmp_path / "summary.json", SuiteSummary, "suite summary")
+    assert set(summary.scenarios) == {"flat_floor", "box_removal"}
+    assert load_report(tmp_path / "box_removal" / "report.json").timing.frames == 80
     assert (tmp_path / "box_removal" / "fig5_comparison.png").is_file()
     # The same run checked against a baseline that is better than possible fails loudly.
-    strict = json.loads(baseline.read_text())
-    strict["quick_scenarios"]["flat_floor"]["metrics"]["cells.accuracy"] = 1.5
-    (tmp_path / "strict.json").write_text(json.dumps(strict))
-    from fogsim.run.suite import check_against_baseline as check
-
-    problems = check(summary, strict)
+    committed = load_baseline(baseline)
+    flat = committed.quick_scenarios["flat_floor"]
+    strict = dataclasses.replace(
+        committed,
+        quick_scenarios={
+            **committed.quick_scenarios,
+            "flat_floor": BaselineEntry({**flat.metrics, "cells.accuracy": 1.5}),
+        },
+    )
+    problems = check_against_baseline(summary, strict)
     assert problems and "flat_floor: cells.accuracy got worse" in problems[0]

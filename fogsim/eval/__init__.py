@@ -1,1 +1,5 @@
-"""Layer 7 — evaluation: the world-fixed archive, metrics against the truth, events, the report."""
+"""Layer 7 — evaluation: archive, metrics, events, pose error, the typed result and report.
+
+Modules: ``archive``, ``metrics``, ``events``, ``pose_error``, ``rounding``, ``result`` and the
+``report`` sub-package (schema, build, io, console).
+"""

@@ -2,16 +2,19 @@
 
 from __future__ import annotations
 
-from dataclasses import dataclass, field
-from typing import Any
+from dataclasses import dataclass
 
 import numpy as np
 from numpy.typing import NDArray
 
-from fogsim.eval.scoring import WorldArchive
+from fogsim.config.params import RunParams
+from fogsim.eval.archive import WorldArchive
+from fogsim.eval.report.schema import ArchiveScores, EventResult, PoseErrorStats
+from fogsim.world.truth import GroundTruthGrid
+from mapper import AveragingMap, FloorObstacleMapper
 
 
-@dataclass
+@dataclass(frozen=True)
 class Snapshot:
     """Both maps at one frame (for Fig. 5).
 
@@ -36,29 +39,30 @@ class Snapshot:
     depth_m: NDArray[np.float32]
 
 
-@dataclass
+@dataclass(frozen=True)
 class RunResult:
-    """Everything a run produced (the report is assembled from it by :mod:`fogsim.eval.report`).
+    """Everything a run produced (:func:`fogsim.eval.report.build_report` makes the report of it).
 
     Attributes:
         frames: Frames processed.
         withdrawn: Frames withdrawn by the z-match rule.
         z_matched: Frames whose data were shifted by an accepted z match.
-        update_ms: (frames,) time of ``FloorObstacleMapper.update`` per applied frame [ms].
+        update_ms: (frames,) time of ``FloorObstacleMapper.update`` per frame [ms], NaN for a
+            withdrawn frame.
         segmentation_ms: (frames,) time of ``segment_depth`` per frame [ms].
         frame_ms: (frames,) whole pipeline time per frame, scoring excluded [ms].
         wall_s: Wall time of the whole run incl. scoring [s].
-        mapper: The final FloorObstacleMapper.
-        baseline: The final AveragingMap.
+        mapper: The final mapper.
+        baseline: The final averaging baseline.
         archive: World-fixed archive of both maps.
-        scores: ``{"table1", "cells"}`` from :func:`fogsim.eval.scoring.score_archive`, None without
-            ground truth.
-        events: Per-event results of :class:`fogsim.eval.scoring.EventTracker`.
+        scores: Table I and cell scores of the archive against the final truth (None without
+            ground truth).
+        events: One result per removed or moved object (empty without ground truth).
         pose_error: Believed-vs-true camera pose error statistics.
-        params: ``{"mapper", "segmentation", "elevation", "pipeline"}`` parameters used.
+        params: The parameters used.
         snapshots: Snapshots for Fig. 5 (event scenarios only).
-        final_truth: ``GroundTruthGrid`` of the final world on the final grid, or None.
-        last_depth_m: Depth image of the last frame.
+        final_truth: Ground truth of the final world on the final grid, or None.
+        last_depth_m: Depth image of the last frame [m].
     """
 
     frames: int
@@ -68,13 +72,13 @@ class RunResult:
     segmentation_ms: NDArray[np.float64]
     frame_ms: NDArray[np.float64]
     wall_s: float
-    mapper: Any
-    baseline: Any
+    mapper: FloorObstacleMapper
+    baseline: AveragingMap
     archive: WorldArchive
-    scores: dict | None
-    events: list[dict]
-    pose_error: dict
-    params: dict
-    snapshots: list[Snapshot] = field(default_factory=list)
-    final_truth: Any | None = None
+    scores: ArchiveScores | None
+    events: tuple[EventResult, ...]
+    pose_error: PoseErrorStats
+    params: RunParams
+    snapshots: tuple[Snapshot, ...] = ()
+    final_truth: GroundTruthGrid | None = None
     last_depth_m: NDArray[np.float32] | None = None

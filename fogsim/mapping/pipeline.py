@@ -1,4 +1,4 @@
-"""The per-frame pipeline: depth image → segmentation → world points → z-shift → maps → scores.
+"""The per-frame pipeline: depth image → segmentation → world points → z-shift → maps.
 
 Per frame (paper Fig. 1, 2 and Sec. IV), with the pose the robot *believes*:
 
@@ -16,16 +16,15 @@ Per frame (paper Fig. 1, 2 and Sec. IV), with the pose the robot *believes*:
 6. Robot elevation filter (``mapper.RobotElevationFilter``): the offset on odometry's z is
    pulled towards ``Floor(x_R, y_R)`` when the floor map has a height under the robot.
 
-Scoring runs alongside (:mod:`fogsim.eval.scoring`): every frame's FOG and baseline go into a
-world-fixed archive, event footprints are checked, and the archive is scored against the truth
-at the end of the run.
+Scoring is not done here: :func:`fogsim.run.runner.run_frames` hands every frame's maps to the
+evaluation layer (:mod:`fogsim.eval`).
 """
 
 from __future__ import annotations
 
 import time
 from collections.abc import Callable
-from typing import Any
+from dataclasses import dataclass
 
 import numpy as np
 from numpy.typing import NDArray
@@ -43,6 +42,26 @@ from mapper.segmentation import segment_depth
 from mapper.transforms import apply_transform, planar_pose_to_matrix
 
 FrameCallback = Callable[[Frame, "Pipeline"], None]
+"""Called after every frame with the frame and the pipeline (progress bars, video)."""
+
+
+@dataclass(frozen=True)
+class FrameTiming:
+    """What processing one frame took and decided.
+
+    Attributes:
+        segmentation_ms: ``segment_depth`` time [ms].
+        update_ms: ``FloorObstacleMapper.update`` time [ms]; NaN when the frame was withdrawn.
+        frame_ms: The whole frame [ms].
+        withdrawn: The z-match rule withdrew the frame (no map update).
+        z_matched: An accepted z shift was applied to the frame's data.
+    """
+
+    segmentation_ms: float
+    update_ms: float
+    frame_ms: float
+    withdrawn: bool
+    z_matched: bool
 
 
 class Pipeline:
@@ -56,9 +75,6 @@ class Pipeline:
         self.mapper = FloorObstacleMapper(self.mapper_params)
         self.baseline = AveragingMap(self.mapper_params)
         self.elevation = RobotElevationFilter(self.run_params.elevation)
-        self.last_segmentation: Any = None
-        self.last_match: Any = None
-        self.last_withdrawn = False
 
     def robot_pose(self, frame: Frame) -> NDArray[np.float64]:
         """Believed robot pose (x, y, z, yaw) with the elevation filter's z."""
@@ -67,13 +83,8 @@ class Pipeline:
             pose[2] += self.elevation.offset_m
         return pose
 
-    def process(self, frame: Frame) -> dict[str, float]:
-        """Run one frame through segmentation, z-match and both maps.
-
-        Returns:
-            Timings ``segmentation_ms``, ``update_ms`` (NaN if withdrawn), ``frame_ms`` and
-            flags ``withdrawn``, ``z_matched`` (as floats 0/1).
-        """
+    def process(self, frame: Frame) -> FrameTiming:
+        """Run one frame through segmentation, z-match and both maps."""
         t0 = time.perf_counter()
         seg = segment_depth(
             frame.depth_m,
@@ -94,7 +105,6 @@ class Pipeline:
         self.baseline.recenter(pose[0], pose[1])
 
         matched = withdrawn = False
-        match = None
         if self.params.use_z_match:
             match = self.mapper.match_z(points_world, floor_world)
             decision = frame_decision(match, bool(seg.correction.ground_plane_found))
@@ -115,14 +125,13 @@ class Pipeline:
                 self.elevation.update(
                     float(frame.robot_pose_believed[2]), self.mapper.floor_at(pose[0], pose[1])
                 )
-        self.last_segmentation, self.last_match, self.last_withdrawn = seg, match, withdrawn
-        return {
-            "segmentation_ms": 1000.0 * (t1 - t0),
-            "update_ms": update_ms,
-            "frame_ms": 1000.0 * (time.perf_counter() - t0),
-            "withdrawn": float(withdrawn),
-            "z_matched": float(matched),
-        }
+        return FrameTiming(
+            segmentation_ms=1000.0 * (t1 - t0),
+            update_ms=update_ms,
+            frame_ms=1000.0 * (time.perf_counter() - t0),
+            withdrawn=withdrawn,
+            z_matched=matched,
+        )
 
     def maps(self) -> tuple[NDArray[np.int8], NDArray[np.float64], NDArray[np.float64]]:
         """Current FOG types, FOG heights [m] and baseline heights [m] (NaN = none)."""
@@ -130,14 +139,9 @@ class Pipeline:
         return (
             np.asarray(types),
             np.asarray(heights, dtype=np.float64),
-            baseline_heights(self.baseline),
+            np.asarray(self.baseline.heights(), dtype=np.float64),
         )
 
     def cell_centers_xy(self) -> NDArray[np.float64]:
         """(nx, ny, 2) world centres of the current grid cells [m]."""
         return np.asarray(self.mapper.geometry.cell_centers_xy(), dtype=np.float64)
-
-
-def baseline_heights(baseline: AveragingMap) -> NDArray[np.float64]:
-    """Averaging-baseline height map (nx, ny) [m]: mean z of all points, NaN where none."""
-    return np.asarray(baseline.heights(), dtype=np.float64)

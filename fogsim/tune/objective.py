@@ -25,12 +25,16 @@ import math
 import time
 from collections.abc import Callable, Mapping, Sequence
 from dataclasses import asdict, dataclass, fields
-from typing import Any
 
-from fogsim.errors import FogsimError
+from fogsim.data.recording import Recording
+from fogsim.errors import TuneError
+from fogsim.eval.report import Report
 
-ReportFunction = Callable[[Any, Mapping[str, float]], Mapping[str, Any]]
-"""``(recording, overrides) -> report dict``; :func:`fogsim.run.runner.replay_report`."""
+ReportFunction = Callable[[Recording, Mapping[str, float]], Report]
+"""``(recording, overrides) -> report``; :func:`fogsim.run.runner.replay_report`."""
+
+TermValue = float | int | None
+"""One objective term as the trial stores it (JSON-able for Optuna's user attributes)."""
 
 
 @dataclass(frozen=True)
@@ -58,13 +62,11 @@ class ObjectiveWeights:
         for f in fields(self):
             value = getattr(self, f.name)
             if isinstance(value, bool) or not isinstance(value, int | float):
-                raise FogsimError(f"objective weight {f.name} must be a number, got {value!r}")
+                raise TuneError(f"objective weight {f.name} must be a number, got {value!r}")
             if not math.isfinite(value) or value < 0:
-                raise FogsimError(
-                    f"objective weight {f.name} must be finite and >= 0, got {value!r}"
-                )
+                raise TuneError(f"objective weight {f.name} must be finite and >= 0, got {value!r}")
         if self.table1_mm == self.cell_error_pct == self.unknown_pct == self.clearing_s == 0:
-            raise FogsimError(
+            raise TuneError(
                 "objective weights table1_mm, cell_error_pct, unknown_pct and clearing_s are "
                 "all 0; at least one must be > 0"
             )
@@ -74,7 +76,7 @@ class ObjectiveWeights:
         """Weights from ``name=value`` strings (``--weight table1_mm=2``), defaults otherwise.
 
         Raises:
-            FogsimError: a malformed assignment, an unknown name (the message lists the
+            TuneError: a malformed assignment, an unknown name (the message lists the
                 allowed ones) or an invalid value.
         """
         allowed = [f.name for f in fields(cls)]
@@ -83,15 +85,13 @@ class ObjectiveWeights:
             name, sep, text = assignment.partition("=")
             name = name.strip()
             if not sep:
-                raise FogsimError(f"weight {assignment!r} must look like name=value")
+                raise TuneError(f"weight {assignment!r} must look like name=value")
             if name not in allowed:
-                raise FogsimError(f"unknown objective weight {name!r}; allowed: {allowed}")
+                raise TuneError(f"unknown objective weight {name!r}; allowed: {allowed}")
             try:
                 values[name] = float(text)
             except ValueError:
-                raise FogsimError(
-                    f"objective weight {name} must be a number, got {text!r}"
-                ) from None
+                raise TuneError(f"objective weight {name} must be a number, got {text!r}") from None
         return cls(**values)
 
     def to_dict(self) -> dict[str, float]:
@@ -127,78 +127,50 @@ class ObjectiveTerms:
             total += weights.clearing_s * self.clearing_s
         return float(total)
 
-    def to_dict(self) -> dict[str, Any]:
+    def to_dict(self) -> dict[str, TermValue]:
         """The terms as a plain (JSON-able) dict."""
         return asdict(self)
 
 
-def _number(value: Any) -> float | None:
-    """``value`` as a finite float, or None (missing, null, NaN)."""
-    if value is None or isinstance(value, bool):
-        return None
-    try:
-        out = float(value)
-    except (TypeError, ValueError):
-        return None
-    return out if math.isfinite(out) else None
-
-
-def _fog_table(report: Mapping[str, Any], key: str, kind: type) -> Any:
-    """``report[key]["fog"]``, checked to be of ``kind``."""
-    table = report.get(key)
-    fog = table.get("fog") if isinstance(table, Mapping) else None
-    if not isinstance(fog, kind):
-        raise FogsimError(
-            f"report has no '{key}.fog' table (a report of a run with ground truth is needed); "
-            f"got {key}={table!r:.80}"
-        )
-    return fog
-
-
 def objective_terms(
-    report: Mapping[str, Any], weights: ObjectiveWeights, frame_rate_hz: float
+    report: Report, weights: ObjectiveWeights, frame_rate_hz: float
 ) -> ObjectiveTerms:
     """Reduce one report (DESIGN.md "Results", :func:`fogsim.eval.report.build_report`) to terms.
 
-    Reads ``table1.fog`` rows (``error_mm``; rows whose surface has no interior cell in the
-    scored area, ``surface_cells == 0``, are left out), ``cells.fog`` (``region``, ``seen``,
-    ``correct``) and ``events`` (``fog_frames``: frames until the old footprint is cleared,
-    null = never).
+    Reads the FOG's Table I rows (``error_mm``; rows whose surface has no interior cell in the
+    scored area, ``surface_cells == 0``, are left out), its cell scores (``region``, ``seen``,
+    ``correct``) and the events (``fog_frames``: frames until the old footprint is cleared,
+    None = never).
 
     Args:
-        report: A report dict as :func:`fogsim.run.runner.replay_report` returns it.
+        report: A report as :func:`fogsim.run.runner.replay_report` returns it.
         weights: Supplies the penalties for missing rows and never-cleared footprints.
         frame_rate_hz: Frame rate of the recording, to turn clearing frames into seconds.
 
     Raises:
-        FogsimError: the report lacks the tables the objective needs.
+        TuneError: the report has no Table I or cell scores (a run without ground truth), or
+            the frame rate is not positive.
     """
     if not frame_rate_hz > 0:
-        raise FogsimError(f"frame_rate_hz must be > 0, got {frame_rate_hz!r}")
-    rows = [
-        row
-        for row in _fog_table(report, "table1", list)
-        if isinstance(row, Mapping) and row.get("surface_cells", 1) != 0
-    ]
-    errors = []
-    for row in rows:
-        error = _number(row.get("error_mm"))
-        errors.append(weights.missing_row_mm if error is None else abs(error))
+        raise TuneError(f"frame_rate_hz must be > 0, got {frame_rate_hz!r}")
+    if report.table1 is None or report.cells is None:
+        raise TuneError(
+            f"the report of {report.scenario or 'real data'} has no Table I and cell scores; "
+            "the objective needs a run with ground truth"
+        )
+    rows = [row for row in report.table1.fog if row.surface_cells != 0]
+    errors = [weights.missing_row_mm if row.error_mm is None else abs(row.error_mm) for row in rows]
     table1_mm = sum(errors) / len(errors) if errors else 0.0
 
-    cells = _fog_table(report, "cells", Mapping)
-    region = int(_number(cells.get("region")) or 0)
-    seen = int(_number(cells.get("seen")) or 0)
-    correct = int(_number(cells.get("correct")) or 0)
+    cells = report.cells.fog
+    region, seen, correct = cells.region, cells.seen, cells.correct
     cell_error_pct = 100.0 * (1.0 - correct / seen) if seen else 100.0
     unknown_pct = 100.0 * (1.0 - seen / region) if region else 100.0
 
-    clearing: list[float] = []
-    for event in report.get("events") or []:
-        if not isinstance(event, Mapping):
-            continue
-        frames = _number(event.get("fog_frames"))
-        clearing.append(weights.never_cleared_s if frames is None else frames / frame_rate_hz)
+    clearing = [
+        weights.never_cleared_s if event.fog_frames is None else event.fog_frames / frame_rate_hz
+        for event in report.events
+    ]
     clearing_s = sum(clearing) / len(clearing) if clearing else None
     return ObjectiveTerms(
         table1_mm=float(table1_mm),
@@ -216,12 +188,12 @@ class SuiteEntry:
 
     Attributes:
         name: Display name (the scenario's name or the file stem).
-        recording: A :class:`fogsim.data.recording.Recording` (anything the report function takes).
+        recording: The recording the report function replays.
         frame_rate_hz: Frame rate of the recording [Hz].
     """
 
     name: str
-    recording: Any
+    recording: Recording
     frame_rate_hz: float
 
 
@@ -238,7 +210,7 @@ class TrialScore:
     """
 
     objective: float
-    terms: dict[str, dict[str, Any]]
+    terms: dict[str, dict[str, TermValue]]
     report_s: float
     objective_s: float
 
@@ -261,9 +233,9 @@ def score_parameters(
         The trial's score with per-recording terms and the time split.
     """
     if not suite:
-        raise FogsimError("cannot score parameters over an empty suite")
+        raise TuneError("cannot score parameters over an empty suite")
     report_s = objective_s = 0.0
-    terms: dict[str, dict[str, Any]] = {}
+    terms: dict[str, dict[str, TermValue]] = {}
     values = []
     for entry in suite:
         start = time.perf_counter()

@@ -16,18 +16,27 @@ metres on the axes.
 from __future__ import annotations
 
 import os
+from collections.abc import Sequence
 from pathlib import Path
-from typing import Any
 
 import matplotlib
 
 matplotlib.use("Agg")
 
+import cv2
 import matplotlib.pyplot as plt
 import numpy as np
+from matplotlib.axes import Axes
 from matplotlib.colors import Normalize
+from matplotlib.figure import Figure
 from numpy.typing import NDArray
 
+from fogsim.atomic import write_atomic
+from fogsim.config.scenario import Scenario
+from fogsim.data.frame import Frame
+from fogsim.eval.archive import WorldArchive
+from fogsim.eval.result import RunResult
+from fogsim.mapping.pipeline import Pipeline
 from mapper.grid import CellType
 
 CMAP = "viridis"
@@ -77,7 +86,14 @@ def heights_rgb(heights_m: NDArray[np.floating], norm: Normalize) -> NDArray[np.
     return rgb
 
 
-def _draw_fog(ax: Any, types, heights, centers, cell_m: float, norm: Normalize) -> None:
+def _draw_fog(
+    ax: Axes,
+    types: NDArray[np.integer],
+    heights: NDArray[np.floating],
+    centers: NDArray[np.float64],
+    cell_m: float,
+    norm: Normalize,
+) -> None:
     ax.imshow(fog_rgb(types, heights, norm), origin="lower", extent=_extent(centers, cell_m))
     obstacle = np.asarray(types) == CellType.OBSTACLE
     if obstacle.any():
@@ -97,19 +113,19 @@ def _draw_fog(ax: Any, types, heights, centers, cell_m: float, norm: Normalize) 
     ax.set_aspect("equal")
 
 
-def _colorbar(fig: Any, ax: Any, norm: Normalize, label: str = "height [mm]") -> None:
+def _colorbar(
+    fig: Figure, ax: Axes | Sequence[Axes], norm: Normalize, label: str = "height [mm]"
+) -> None:
     fig.colorbar(plt.cm.ScalarMappable(norm=norm, cmap=CMAP), ax=ax, label=label, shrink=0.85)
 
 
-def _save(fig: Any, path: Path) -> Path:
-    from fogsim.atomic import write_atomic
-
+def _save(fig: Figure, path: Path) -> Path:
     write_atomic(path, lambda handle: fig.savefig(handle, format="png", dpi=110))
     plt.close(fig)
     return path
 
 
-def _crop_to_visited(archive: Any) -> tuple[slice, slice]:
+def _crop_to_visited(archive: WorldArchive) -> tuple[slice, slice]:
     visited = archive.visited & (archive.fog_types != CellType.UNKNOWN)
     if not visited.any():
         return slice(None), slice(None)
@@ -121,7 +137,7 @@ def _crop_to_visited(archive: Any) -> tuple[slice, slice]:
     )
 
 
-def draw_fog_map(result: Any, title: str, path: Path) -> Path:
+def draw_fog_map(result: RunResult, title: str, path: Path) -> Path:
     """Fig. 7: the archived FOG of the run."""
     archive = result.archive
     sx, sy = _crop_to_visited(archive)
@@ -137,7 +153,7 @@ def draw_fog_map(result: Any, title: str, path: Path) -> Path:
     return _save(fig, path)
 
 
-def draw_fig3(result: Any, title: str, path: Path) -> Path:
+def draw_fig3(result: RunResult, title: str, path: Path) -> Path:
     """Fig. 3: world, floor map, 3-D occupancy grid, FOG on the final grid."""
     mapper = result.mapper
     g = mapper.geometry
@@ -191,7 +207,7 @@ def draw_fig3(result: Any, title: str, path: Path) -> Path:
     return _save(fig, path)
 
 
-def draw_fig5(result: Any, title: str, path: Path, cell_m: float) -> Path:
+def draw_fig5(result: RunResult, title: str, path: Path, cell_m: float) -> Path:
     """Fig. 5: camera, averaging baseline and FOG before the first event and at the end."""
     snaps = result.snapshots
     all_heights = [s.baseline_heights_m for s in snaps] + [s.fog_heights_m for s in snaps]
@@ -211,10 +227,12 @@ def draw_fig5(result: Any, title: str, path: Path, cell_m: float) -> Path:
     return _save(fig, path)
 
 
-def write_pictures(result: Any, scenario: Any | None, out_dir: str | os.PathLike[str]) -> list:
+def write_pictures(
+    result: RunResult, scenario: Scenario | None, out_dir: str | os.PathLike[str]
+) -> list[Path]:
     """Write the run's PNGs into ``out_dir``; returns their paths."""
     out = Path(out_dir)
-    title = getattr(scenario, "name", None) or "run"
+    title = (scenario.name if scenario is not None else None) or "run"
     paths = [
         draw_fog_map(result, title, out / "fog_map.png"),
         draw_fig3(result, title, out / "fig3_panels.png"),
@@ -234,21 +252,17 @@ class RunVideoWriter:
         self.path = Path(path)
         self.fps = float(fps)
         self.height_px = int(height_px)
-        self._writer: Any = None
+        self._writer: cv2.VideoWriter | None = None
         self._tmp = self.path.with_name(f".{self.path.name}.tmp.mp4")
         self._norm: Normalize | None = None
 
     def _to_bgr(self, rgb: NDArray[np.float64], height: int) -> NDArray[np.uint8]:
-        import cv2
-
         img = (np.clip(rgb, 0.0, 1.0) * 255).astype(np.uint8)[::-1, :, ::-1]  # y up, RGB→BGR
         width = max(1, round(img.shape[1] * height / img.shape[0]))
         return cv2.resize(img, (width, height), interpolation=cv2.INTER_NEAREST)
 
-    def add(self, frame: Any, pipeline: Any) -> None:
+    def add(self, frame: Frame, pipeline: Pipeline) -> None:
         """Append the frame's depth image and the pipeline's current FOG."""
-        import cv2
-
         depth = np.asarray(frame.depth_m, dtype=np.float64)
         finite = np.isfinite(depth)
         scaled = np.zeros(depth.shape, dtype=np.uint8)

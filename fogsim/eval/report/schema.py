@@ -1,0 +1,344 @@
+"""The typed ``report.json``: frozen dataclasses whose fields are the file's keys, in order.
+
+Each class below is one JSON object of the report; its fields are that object's keys in the
+order they are written, so :func:`fogsim.eval.report.io.write_report` needs no key mapping and
+:func:`fogsim.eval.report.io.load_report` checks every key and type while decoding. Lengths are
+in millimetres, times in ms or s as named. ``None`` is JSON ``null`` (not available, never, no
+cell to measure); a field whose default is ``UNSET`` is a key that only some reports have.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import Literal
+
+from msgspec import UNSET, UnsetType
+
+REPORT_FORMAT = "fogsim-report"
+REPORT_VERSION = 1
+
+Source = Literal["simulation", "replay"]
+"""Where the frames came from: a simulation, or a recording replayed."""
+
+ParamValue = bool | int | float | None
+"""One parameter's value as JSON holds it (``None`` for an infinite limit such as
+``max_range_m``)."""
+
+
+@dataclass(frozen=True)
+class Table1Row:
+    """Estimated vs true height of one walkable surface (a row of the paper's Table I).
+
+    Attributes:
+        name: Surface name (``ground`` or a walkable object).
+        ground_truth_mm: True top height [mm].
+        estimated_mm: Median estimated floor height over the surface's interior cells that the
+            map has [mm]; None when no cell was used.
+        error_mm: ``estimated_mm - ground_truth_mm`` [mm]; None when no cell was used.
+        cells: Interior cells whose estimate was used.
+        surface_cells: Interior cells of the surface in the scored area.
+    """
+
+    name: str
+    ground_truth_mm: float | None
+    estimated_mm: float | None
+    error_mm: float | None
+    cells: int
+    surface_cells: int
+
+
+@dataclass(frozen=True)
+class Table1:
+    """Table I of both maps: one row per walkable surface and the ground, in surface order."""
+
+    fog: tuple[Table1Row, ...]
+    averaging: tuple[Table1Row, ...]
+
+
+@dataclass(frozen=True)
+class ErrorStats:
+    """Statistics of absolute height errors over cells (None when no cell has a finite error).
+
+    Attributes:
+        cells: Cells with a finite error.
+        median_abs_error_mm: Median absolute error [mm].
+        p95_abs_error_mm: 95th percentile [mm].
+        max_abs_error_mm: Largest absolute error [mm].
+    """
+
+    cells: int
+    median_abs_error_mm: float | None
+    p95_abs_error_mm: float | None
+    max_abs_error_mm: float | None
+
+
+@dataclass(frozen=True)
+class ObstacleHeightStats(ErrorStats):
+    """Obstacle-top errors of FOG obstacle cells over true obstacles.
+
+    Attributes:
+        within_one_cell_fraction: Share of them within one layer of the true top (None when
+            there is none).
+    """
+
+    within_one_cell_fraction: float | None
+
+
+@dataclass(frozen=True)
+class ConfusionRow:
+    """FOG labels of the cells of one true label, over the scored region (unknown included)."""
+
+    unknown: int
+    floor: int
+    obstacle: int
+
+
+@dataclass(frozen=True)
+class Confusion:
+    """Truth label → FOG label → cell count."""
+
+    floor: ConfusionRow
+    obstacle: ConfusionRow
+
+
+@dataclass(frozen=True)
+class FogCellScores:
+    """Cell labels and heights of the FOG against the truth.
+
+    Attributes:
+        region: Cells scored (those that were ever inside the map).
+        seen: Region cells the FOG labels floor or obstacle.
+        correct: Seen cells labelled as the truth.
+        accuracy: ``correct / seen`` (None when nothing was seen).
+        interior_seen: Seen cells that are interior (whole cell on one surface).
+        interior_accuracy: Accuracy over those (None when there is none).
+        confusion: Truth label → FOG label → count.
+        obstacle_height: Obstacle-top errors.
+        floor_height: Floor-height errors of FOG floor cells over true floor.
+    """
+
+    region: int
+    seen: int
+    correct: int
+    accuracy: float | None
+    interior_seen: int
+    interior_accuracy: float | None
+    confusion: Confusion
+    obstacle_height: ObstacleHeightStats
+    floor_height: ErrorStats
+
+
+@dataclass(frozen=True)
+class ObstacleObjectScore:
+    """How much of one obstacle object (not walkable, or hanging) the FOG marks obstacle.
+
+    Attributes:
+        name: The object's name.
+        cells: Cells whose centre lies inside its footprint, half a cell in from the edge.
+        seen: Of those, labelled floor or obstacle.
+        obstacle_fraction: Of the seen ones, the share labelled obstacle (None if none seen).
+        top_mm: True top [mm].
+        median_top_error_mm: Median FOG obstacle height − true top [mm] (None if no obstacle
+            cell).
+    """
+
+    name: str
+    cells: int
+    seen: int
+    obstacle_fraction: float | None
+    top_mm: float | None
+    median_top_error_mm: float | None
+
+
+@dataclass(frozen=True)
+class AveragingCellScores:
+    """The averaging baseline's cells (it has heights, no labels).
+
+    Attributes:
+        seen: Region cells with a baseline height.
+        floor_height: Height errors of those that are true floor.
+    """
+
+    seen: int
+    floor_height: ErrorStats
+
+
+@dataclass(frozen=True)
+class CellScores:
+    """Per-cell scores of both maps and per obstacle object."""
+
+    fog: FogCellScores
+    obstacles: tuple[ObstacleObjectScore, ...]
+    averaging: AveragingCellScores
+
+
+@dataclass(frozen=True)
+class ArchiveScores:
+    """Everything scored on the run's archive against the final truth."""
+
+    table1: Table1
+    cells: CellScores
+
+
+@dataclass(frozen=True)
+class MaxFinal:
+    """A per-frame cell count: its largest value and its value at the last frame."""
+
+    max: int
+    final: int
+
+
+@dataclass(frozen=True)
+class IntermediateFloorCells:
+    """Floor cells between the floor and a moved object's old top, per map."""
+
+    fog: MaxFinal
+    averaging: MaxFinal
+
+
+@dataclass(frozen=True)
+class EventResult:
+    """How fast each map forgot a removed or moved object (frame counts from ``start_frame``).
+
+    Attributes:
+        object: The object's name.
+        kind: ``remove`` or ``move``.
+        at_s: Event time [s].
+        start_frame: First frame at or after the event (None if the run ended before it).
+        footprint_cells: Cells of the object's old footprint.
+        old_top_mm: Highest old top over the footprint [mm] (None without footprint).
+        fog_frames: Frames until the FOG no longer shows the object (None = never).
+        averaging_frames: The same for the averaging baseline.
+        fog_frames_to_floor: Frames until 90 % of the footprint is FOG floor at the true height
+            (None = never).
+        averaging_frames_to_floor: The same for the baseline.
+        intermediate_floor_cells: Moves only: floor cells at heights between the floor and the
+            old top in the swept area.
+    """
+
+    object: str
+    kind: Literal["remove", "move"]
+    at_s: float
+    start_frame: int | None
+    footprint_cells: int
+    old_top_mm: float | None
+    fog_frames: int | None
+    averaging_frames: int | None
+    fog_frames_to_floor: int | None
+    averaging_frames_to_floor: int | None
+    intermediate_floor_cells: IntermediateFloorCells | UnsetType = UNSET
+
+
+@dataclass(frozen=True)
+class TimeStats:
+    """Median, 99th percentile and maximum of a per-frame time [ms] (None without frames)."""
+
+    median: float | None
+    p99: float | None
+    max: float | None
+
+
+@dataclass(frozen=True)
+class Timing:
+    """Frame counts and times of the run.
+
+    Attributes:
+        frames: Frames processed.
+        withdrawn_frames: Frames withdrawn by the z-match rule.
+        z_matched_frames: Frames shifted by an accepted z match.
+        update_ms: ``FloorObstacleMapper.update`` per applied frame [ms].
+        segmentation_ms: ``segment_depth`` per frame [ms].
+        frame_ms: Whole pipeline per frame, scoring excluded [ms].
+        wall_s: Wall time of the run [s] (incl. setup when the caller measured it).
+        realtime_factor: Simulated duration / wall time (None when unknown).
+        pictures_s: Time writing the pictures [s]; only when pictures were written.
+    """
+
+    frames: int
+    withdrawn_frames: int
+    z_matched_frames: int
+    update_ms: TimeStats
+    segmentation_ms: TimeStats
+    frame_ms: TimeStats
+    wall_s: float
+    realtime_factor: float | None
+    pictures_s: float | UnsetType = UNSET
+
+
+@dataclass(frozen=True)
+class MedianMax:
+    """Median and maximum of a per-frame error."""
+
+    median: float | None
+    max: float | None
+
+
+@dataclass(frozen=True)
+class PoseErrorPair:
+    """Rotation [deg] and translation [mm] errors of a believed pose."""
+
+    rotation_deg: MedianMax
+    translation_mm: MedianMax
+
+
+@dataclass(frozen=True)
+class PoseErrorStats:
+    """Believed-vs-true camera pose over the frames that have a true pose.
+
+    Attributes:
+        frames: Frames compared (0 without true poses: then the other keys are absent).
+        camera_in_robot: Camera in the robot frame: what the encoders cause (the paper's 7° and
+            10 mm).
+        camera_in_world: Camera in the world: encoders plus odometry drift.
+    """
+
+    frames: int
+    camera_in_robot: PoseErrorPair | UnsetType = UNSET
+    camera_in_world: PoseErrorPair | UnsetType = UNSET
+
+
+@dataclass(frozen=True)
+class ParamTables:
+    """The parameters used, one table per parameter group, name → value."""
+
+    mapper: dict[str, ParamValue]
+    segmentation: dict[str, ParamValue]
+    elevation: dict[str, ParamValue]
+    pipeline: dict[str, ParamValue]
+
+
+@dataclass(frozen=True)
+class Report:
+    """One run's results, as ``report.json`` holds them (DESIGN.md "Results").
+
+    Attributes:
+        format: Always ``fogsim-report``.
+        version: Schema version, 1.
+        scenario: Scenario name (None for real data).
+        seed: Scenario seed (None for real data).
+        source: ``simulation`` or ``replay``.
+        table1: Table I of both maps (None without ground truth).
+        cells: Cell scores (None without ground truth).
+        events: One result per removed or moved object.
+        timing: Frame counts and times.
+        pose_error: Believed-vs-true camera pose error.
+        params: Parameters used.
+        versions: Python's and key packages' versions (None = not installed).
+        pictures: File names of the pictures written (only when written).
+        video: File name of the video (only when written).
+    """
+
+    format: Literal["fogsim-report"]
+    version: Literal[1]
+    scenario: str | None
+    seed: int | None
+    source: Source
+    table1: Table1 | None
+    cells: CellScores | None
+    events: tuple[EventResult, ...]
+    timing: Timing
+    pose_error: PoseErrorStats
+    params: ParamTables
+    versions: dict[str, str | None]
+    pictures: tuple[str, ...] | UnsetType = UNSET
+    video: str | UnsetType = UNSET

@@ -1,0 +1,60 @@
+"""Pose-error statistics over frames: known offsets give known medians and maxima."""
+
+import math
+
+import numpy as np
+import pytest
+
+from fogsim.data.frame import Frame
+from fogsim.eval.pose_error import PoseErrorAccumulator
+from fogsim.eval.report.schema import MedianMax, PoseErrorStats
+from mapper.intrinsics import PinholeIntrinsics
+from mapper.transforms import planar_pose_to_matrix
+
+INTR = PinholeIntrinsics.from_fov(8, 6, 47.0, 39.0)
+ROBOT_POSE = np.array([1.0, 2.0, 0.0, 0.5])
+
+
+def camera_in_robot(yaw_deg=0.0, z_m=0.9):
+    a = math.radians(yaw_deg)
+    t = np.eye(4)
+    t[:3, :3] = [[math.cos(a), -math.sin(a), 0], [math.sin(a), math.cos(a), 0], [0, 0, 1]]
+    t[2, 3] = z_m
+    return t
+
+
+def frame(index, believed_camera, robot_offset_m=0.0, true_pose=True):
+    true_world = planar_pose_to_matrix(ROBOT_POSE) @ camera_in_robot()
+    believed_robot = ROBOT_POSE + np.array([robot_offset_m, 0.0, 0.0, 0.0])
+    return Frame(
+        index=index,
+        time_s=index / 12.5,
+        depth_m=np.ones((6, 8), np.float32),
+        intrinsics=INTR,
+        transform_camera_to_robot_believed=believed_camera,
+        robot_pose_believed=believed_robot,
+        transform_camera_to_world_true=true_world if true_pose else np.full((4, 4), np.nan),
+        robot_pose_true=ROBOT_POSE,
+    )
+
+
+def test_no_true_pose_gives_only_a_zero_frame_count():
+    errors = PoseErrorAccumulator()
+    errors.add(frame(0, camera_in_robot(), true_pose=False))
+    assert errors.stats() == PoseErrorStats(frames=0)
+
+
+def test_encoder_and_odometry_offsets_give_known_statistics():
+    errors = PoseErrorAccumulator()
+    # Frame 0: the camera believed 2° yawed and 10 mm higher, the robot 30 mm ahead in world x.
+    errors.add(frame(0, camera_in_robot(yaw_deg=2.0, z_m=0.91), robot_offset_m=0.03))
+    errors.add(frame(1, camera_in_robot()))  # exact
+    errors.add(frame(2, camera_in_robot(yaw_deg=9.0), true_pose=False))  # skipped
+    stats = errors.stats()
+    assert stats.frames == 2
+    assert stats.camera_in_robot.rotation_deg == MedianMax(1.0, 2.0)
+    assert stats.camera_in_robot.translation_mm == MedianMax(5.0, 10.0)
+    assert stats.camera_in_world.rotation_deg == MedianMax(1.0, 2.0)
+    world_mm = 1000.0 * math.hypot(0.03, 0.01)  # 31.6228 mm
+    assert stats.camera_in_world.translation_mm.max == pytest.approx(world_mm, abs=1e-4)
+    assert stats.camera_in_world.translation_mm.median == pytest.approx(world_mm / 2, abs=1e-4)
