@@ -55,10 +55,10 @@ def main() -> None:
             run_scenario(scenario, None, replay=rec)
             replay.append(time.perf_counter() - start)
 
-    timing = reports[-1]["timing"]
-    duration = timing["frames"] / scenario.frame_rate_hz
+    timing = reports[-1].timing
+    duration = timing.frames / scenario.frame_rate_hz
     print(
-        f"scenario {scenario.name}: {timing['frames']} frames = {duration:.1f} s simulated, "
+        f"scenario {scenario.name}: {timing.frames} frames = {duration:.1f} s simulated, "
         f"camera {scenario.camera.mode}, backend {args.backend}, {args.repeats} repeats"
     )
     print(
@@ -70,8 +70,8 @@ def main() -> None:
         f"all {[round(t, 2) for t in replay]}"
     )
     for key in ("segmentation_ms", "update_ms", "frame_ms"):
-        s = timing[key]
-        print(f"  {key:<16} median {s['median']:.2f} ms  p99 {s['p99']:.2f} ms  max {s['max']:.2f}")
+        s = getattr(timing, key)
+        print(f"  {key:<16} median {s.median:.2f} ms  p99 {s.p99:.2f} ms  max {s.max:.2f}")
 
 
 if __name__ == "__main__":

@@ -3,8 +3,8 @@
 The public API is imported lazily (``import fogsim`` stays cheap and needs no MuJoCo):
 
 * ``Frame`` — the per-frame contract (``fogsim.data.frame``);
-* ``load_scenario``, ``list_scenarios`` (``fogsim.config.scenario``);
-* ``resolve_params`` (``fogsim.config.params``); ``run_frames``, ``replay_report``,
+* ``load_scenario``, ``find_scenario_files`` (``fogsim.config``);
+* ``resolve_params`` (``fogsim.config``); ``run_frames``, ``replay_report``,
   ``run_scenario`` (``fogsim.run.runner``);
 * ``save_recording``, ``load_recording``, ``Recording`` (``fogsim.data.recording``);
 * ``run_suite`` (``fogsim.run.suite``); ``main`` (the command line).
@@ -19,11 +19,11 @@ __version__ = "0.1.0"
 
 _EXPORTS = {
     "Frame": "fogsim.data.frame",
-    "load_scenario": "fogsim.config.scenario",
-    "list_scenarios": "fogsim.config.scenario",
+    "load_scenario": "fogsim.config",
+    "find_scenario_files": "fogsim.config",
     "run_frames": "fogsim.run.runner",
     "replay_report": "fogsim.run.runner",
-    "resolve_params": "fogsim.config.params",
+    "resolve_params": "fogsim.config",
     "save_recording": "fogsim.data.recording",
     "load_recording": "fogsim.data.recording",
     "Recording": "fogsim.data.recording",

@@ -149,10 +149,10 @@ def _cmd_run(args: argparse.Namespace) -> int:
         depth_backend=args.depth_backend,
     )
     print(format_table1(report))
-    timing = report["timing"]
+    timing = report.timing
     print(
-        f"{timing['frames']} frames, mapper update {timing['update_ms']['median']} ms median, "
-        f"wall {timing['wall_s']} s -> {out / 'report.json'}"
+        f"{timing.frames} frames, mapper update {timing.update_ms.median} ms median, "
+        f"wall {timing.wall_s} s -> {out / 'report.json'}"
     )
     return 0
 
@@ -181,18 +181,16 @@ def _cmd_record(args: argparse.Namespace) -> int:
 
 
 def _cmd_suite(args: argparse.Namespace) -> int:
-    import json
-
     from fogsim.atomic import write_text_atomic
+    from fogsim.run.baseline import load_baseline, write_baseline
     from fogsim.run.suite import (
         check_against_baseline,
-        load_json,
         run_suite,
         summary_markdown,
         update_baseline,
     )
 
-    baseline = load_json(args.check, "baseline") if args.check is not None else None
+    baseline = load_baseline(args.check) if args.check is not None else None
     summary = run_suite(
         args.directory,
         args.out,
@@ -200,9 +198,9 @@ def _cmd_suite(args: argparse.Namespace) -> int:
         quick=args.quick,
         overrides=args.assignments,
     )
-    failed = [n for n, e in summary["scenarios"].items() if e.get("error")]
+    failed = [name for name, run in summary.scenarios.items() if run.error]
     for name in failed:
-        print(f"FAILED {name}: {summary['scenarios'][name]['error']}", file=sys.stderr)
+        print(f"FAILED {name}: {summary.scenarios[name].error}", file=sys.stderr)
     problems: list[str] = []
     if baseline is not None:
         problems = check_against_baseline(summary, baseline)
@@ -212,11 +210,10 @@ def _cmd_suite(args: argparse.Namespace) -> int:
     if args.write_baseline is not None:
         existing = None
         if args.write_baseline.exists():
-            existing = load_json(args.write_baseline, "baseline")
-        body = update_baseline(existing, summary)
-        write_text_atomic(args.write_baseline, json.dumps(body, indent=2, sort_keys=True) + "\n")
+            existing = load_baseline(args.write_baseline)
+        write_baseline(args.write_baseline, update_baseline(existing, summary))
     print(
-        f"{len(summary['scenarios'])} scenarios in {summary['wall_s']} s; "
+        f"{len(summary.scenarios)} scenarios in {summary.wall_s} s; "
         f"{len(failed)} failed; {len(problems)} metrics worse than the baseline -> "
         f"{args.out / 'summary.md'}"
     )

@@ -6,7 +6,7 @@ from collections.abc import Sequence
 
 from msgspec import UNSET
 
-from fogsim.config.params import RunParams
+from fogsim.config import RunParams
 from fogsim.eval.report.build import param_tables
 from fogsim.eval.report.schema import (
     AveragingCellScores,

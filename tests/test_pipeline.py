@@ -4,8 +4,7 @@ import numpy as np
 import pytest
 from synthetic_depth import Box, add_depth_noise, look_down_camera, render_boxes
 
-from fogsim.config.params import RunParams, resolve_params
-from fogsim.config.scenario import load_scenario
+from fogsim.config import RunParams, load_scenario, resolve_params
 from fogsim.data.frame import Frame
 from fogsim.data.recording import Recording
 from fogsim.errors import FogsimError

@@ -9,7 +9,7 @@ from msgspec import UNSET
 from report_factory import event, make_report, row
 from test_pipeline import NAMES, make_frames, provider_removed_at
 
-from fogsim.config.scenario import load_scenario
+from fogsim.config import load_scenario
 from fogsim.errors import ReportError
 from fogsim.eval.report import Report, build_report, format_table1, load_report, write_report
 from fogsim.run.runner import run_frames

@@ -4,7 +4,7 @@ import numpy as np
 import pytest
 from msgspec import UNSET
 
-from fogsim.config.scenario import Event
+from fogsim.config import Event
 from fogsim.errors import FogsimError
 from fogsim.eval.archive import WorldArchive
 from fogsim.eval.events import EventTracker

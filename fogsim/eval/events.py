@@ -14,7 +14,7 @@ import numpy as np
 from msgspec import UNSET
 from numpy.typing import NDArray
 
-from fogsim.config.scenario import Event
+from fogsim.config import Event
 from fogsim.errors import FogsimError
 from fogsim.eval.report.schema import EventResult, IntermediateFloorCells, MaxFinal
 from fogsim.eval.rounding import mm

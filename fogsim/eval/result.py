@@ -7,7 +7,7 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import NDArray
 
-from fogsim.config.params import RunParams
+from fogsim.config import RunParams
 from fogsim.eval.archive import WorldArchive
 from fogsim.eval.report.schema import ArchiveScores, EventResult, PoseErrorStats
 from fogsim.world.truth import GroundTruthGrid

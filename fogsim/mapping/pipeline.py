@@ -29,7 +29,7 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import NDArray
 
-from fogsim.config.params import RunParams
+from fogsim.config import RunParams
 from fogsim.data.frame import Frame
 from mapper import (
     AveragingMap,

@@ -62,7 +62,7 @@ class EncoderModel:
     Why two levels: the camera error of the body chain (iCub: ~1 m from the sole to the eyes)
     is mostly translation, the neck's (a ~0.15 m lever) mostly rotation. The paper's "up to 7°
     and 10 mm" needs a precise body and a sloppy neck; with iCub's neck lever the neck gives
-    about 2 mm per degree, so the scenario defaults (`fogsim.config.scenario.EncoderConfig`) trade
+    about 2 mm per degree, so the scenario defaults (`fogsim.config.EncoderConfig`) trade
     part of the 7° for the 10 mm.
 
     Args:

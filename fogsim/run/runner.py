@@ -18,8 +18,7 @@ import numpy as np
 from numpy.typing import NDArray
 from tqdm import tqdm
 
-from fogsim.config.params import RunParams, resolve_params
-from fogsim.config.scenario import Scenario
+from fogsim.config import RunParams, Scenario, resolve_params
 from fogsim.data.frame import Frame
 from fogsim.data.recording import Recording
 from fogsim.errors import FogsimError

@@ -20,7 +20,7 @@ from pathlib import Path
 from typing import Literal
 
 from fogsim.atomic import write_text_atomic
-from fogsim.config.scenario import list_scenarios, load_scenario
+from fogsim.config import list_scenarios, load_scenario
 from fogsim.errors import FogsimError
 from fogsim.eval.report.io import write_json
 from fogsim.paths import SCENARIOS_DIR

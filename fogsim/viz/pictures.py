@@ -32,7 +32,7 @@ from matplotlib.figure import Figure
 from numpy.typing import NDArray
 
 from fogsim.atomic import write_atomic
-from fogsim.config.scenario import Scenario
+from fogsim.config import Scenario
 from fogsim.data.frame import Frame
 from fogsim.eval.archive import WorldArchive
 from fogsim.eval.result import RunResult

@@ -11,8 +11,7 @@ from collections.abc import Mapping
 import numpy as np
 from numpy.typing import NDArray
 
-from fogsim.config.params import RunParams
-from fogsim.config.scenario import Scenario
+from fogsim.config import RunParams, Scenario
 from fogsim.eval.report.schema import (
     REPORT_FORMAT,
     REPORT_VERSION,

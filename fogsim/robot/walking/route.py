@@ -1,6 +1,6 @@
 """Route application: each route step becomes one command of the footstep planner.
 
-A route step is a mapping or an object (``fogsim.config.scenario.RouteStep``) with exactly one
+A route step is a mapping or an object (``fogsim.config.RouteStep``) with exactly one
 of ``walk_to: (x [m], y [m])``, ``turn_to: yaw [deg]``, ``look: (yaw [deg], pitch [deg])``
 (head relative to the body, positive yaw = left, negative pitch = down) or ``wait: seconds``.
 """
