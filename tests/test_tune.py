@@ -17,19 +17,19 @@ from pathlib import Path
 import pytest
 
 from fogsim.errors import FogsimError
+from fogsim.tune import (
+    ParamSpec,
+    SamplerKind,
+    TuneConfig,
+    best_params_toml,
+    tune,
+)
 from fogsim.tune.objective import (
     ObjectiveTerms,
     ObjectiveWeights,
     SuiteEntry,
     objective_terms,
     score_parameters,
-)
-from fogsim.tune.study import (
-    ParamSpec,
-    SamplerKind,
-    TuneConfig,
-    best_params_toml,
-    tune,
 )
 
 NAMES = ("p_occ", "eps_m", "nu", "seg.min_points")
@@ -129,7 +129,7 @@ def test_param_spec_rejects_bad_input_naming_the_problem(text, message):
 
 
 def test_param_names_come_from_the_mapper_parameter_classes():
-    from fogsim.tune.study import parameter_defaults, tunable_parameter_names
+    from fogsim.tune import parameter_defaults, tunable_parameter_names
     from mapper.params import MapperParams
     from mapper.segmentation import SegmentationParams
 
@@ -342,7 +342,7 @@ KILL_SCRIPT = textwrap.dedent(
     import sys
     sys.path[:0] = [{root!r}, {tests!r}]
     from pathlib import Path
-    from fogsim.tune.study import TuneConfig, tune
+    from fogsim.tune import TuneConfig, tune
     import test_tune as t
     cfg = TuneConfig(params=t.specs(), trials=40, out_dir=Path({out!r}), progress=False,
                      heartbeat_s=1, grace_s=2)
@@ -503,7 +503,7 @@ def test_small_tune_on_the_quick_subset_is_at_least_as_good_as_the_defaults(tmp_
     from fogsim.paths import SCENARIOS_DIR
     from fogsim.run.runner import replay_report
     from fogsim.run.suite import QUICK_MAX_FRAMES, QUICK_SCENARIOS
-    from fogsim.tune.study import load_suite, parameter_defaults
+    from fogsim.tune import load_suite, parameter_defaults
 
     # The suite's quick subset, simulated once into the cache, then only replayed.
     suite = load_suite(SCENARIOS_DIR, tmp_path / "recordings", quick=True)
@@ -516,7 +516,7 @@ def test_small_tune_on_the_quick_subset_is_at_least_as_good_as_the_defaults(tmp_
         ParamSpec.parse("seg.min_plane_pixels=10:60"),
     )
     cfg = TuneConfig(params=params, trials=4, out_dir=tmp_path, seed=2, progress=False)
-    result = tune(cfg, suite)  # the real fogsim.run.runner.replay_report
+    result = tune(cfg, suite, report_function=replay_report)  # the real replay
     # The defaults are trial 0 and measured: the same as replaying with the library defaults.
     defaults = parameter_defaults([p.name for p in params])
     direct = score_parameters(suite, defaults, cfg.weights, replay_report)

@@ -1,1 +1,49 @@
-"""Layer 10 — tuning: searching mapper and segmentation thresholds over replayed recordings."""
+"""Layer 10 — tuning: searching mapper and segmentation thresholds over replayed recordings.
+
+Modules, each one job: :mod:`~fogsim.tune.space` (tunable parameters and a tuned range),
+:mod:`~fogsim.tune.config` (:class:`TuneConfig`), :mod:`~fogsim.tune.objective` (a report to one
+number), :mod:`~fogsim.tune.suite` (the recordings and their cache),
+:mod:`~fogsim.tune.executors` (inline, process pool, Ray), :mod:`~fogsim.tune.recovery`
+(heartbeats, retrying a dead run's trials), :mod:`~fogsim.tune.study` (the ask/tell loop),
+:mod:`~fogsim.tune.writers` and :mod:`~fogsim.tune.plots` (result files),
+:mod:`~fogsim.tune.cli` (``fogsim tune``).
+
+The public API below is imported lazily, as :mod:`fogsim`'s is: ``fogsim.tune.cli`` must load
+without MuJoCo (which :mod:`fogsim.tune.suite` imports), see :func:`fogsim.tune.cli.run_tune`.
+A tune from Python::
+
+    from fogsim.run.runner import replay_report
+    from fogsim.tune import ParamSpec, TuneConfig, load_suite, tune
+
+    config = TuneConfig(params=(ParamSpec.parse("p_occ=0.55:0.95"),), trials=20, out_dir=out)
+    suite = load_suite("scenarios", out / "recordings", quick=True)
+    result = tune(config, suite, report_function=replay_report)
+"""
+
+from __future__ import annotations
+
+import importlib
+from typing import Any
+
+_EXPORTS = {
+    "ObjectiveWeights": "fogsim.tune.objective",
+    "ParamSpec": "fogsim.tune.space",
+    "SamplerKind": "fogsim.tune.config",
+    "SuiteEntry": "fogsim.tune.objective",
+    "TuneConfig": "fogsim.tune.config",
+    "TuneResult": "fogsim.tune.writers",
+    "best_params_toml": "fogsim.tune.writers",
+    "load_suite": "fogsim.tune.suite",
+    "parameter_defaults": "fogsim.tune.space",
+    "tunable_parameter_names": "fogsim.tune.space",
+    "tune": "fogsim.tune.study",
+}
+
+__all__ = sorted(_EXPORTS)
+
+
+def __getattr__(name: str) -> Any:
+    module = _EXPORTS.get(name)
+    if module is None:
+        raise AttributeError(f"module 'fogsim.tune' has no attribute {name!r}")
+    return getattr(importlib.import_module(module), name)
