@@ -557,7 +557,8 @@ def test_small_tune_on_the_quick_subset_is_at_least_as_good_as_the_defaults(tmp_
     from fogsim.paths import SCENARIOS_DIR
     from fogsim.run.runner import replay_report
     from fogsim.run.suite import QUICK_MAX_FRAMES, QUICK_SCENARIOS
-    from fogsim.tune import load_suite, parameter_defaults
+    from fogsim.tune import parameter_defaults
+    from fogsim.tune.suite import load_suite
 
     # The suite's quick subset, simulated once into the cache, then only replayed.
     suite = load_suite(SCENARIOS_DIR, tmp_path / "recordings", quick=True)

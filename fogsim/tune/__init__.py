@@ -8,42 +8,34 @@ number), :mod:`~fogsim.tune.suite` (the recordings and their cache),
 :mod:`~fogsim.tune.writers` and :mod:`~fogsim.tune.plots` (result files),
 :mod:`~fogsim.tune.cli` (``fogsim tune``).
 
-The public API below is imported lazily, as :mod:`fogsim`'s is: ``fogsim.tune.cli`` must load
-without MuJoCo (which :mod:`fogsim.tune.suite` imports), see :func:`fogsim.tune.cli.run_tune`.
-A tune from Python::
+This package imports no MuJoCo, so the command line can build its parser before it sets
+``MUJOCO_GL``; :func:`fogsim.tune.suite.load_suite`, which records scenarios with MuJoCo, is
+therefore imported from its module. A tune from Python::
 
     from fogsim.run.runner import replay_report
-    from fogsim.tune import ParamSpec, TuneConfig, load_suite, tune
+    from fogsim.tune import ParamSpec, TuneConfig, tune
+    from fogsim.tune.suite import load_suite
 
     config = TuneConfig(params=(ParamSpec.parse("p_occ=0.55:0.95"),), trials=20, out_dir=out)
     suite = load_suite("scenarios", out / "recordings", quick=True)
     result = tune(config, suite, report_function=replay_report)
 """
 
-from __future__ import annotations
+from fogsim.tune.config import SamplerKind, TuneConfig
+from fogsim.tune.objective import ObjectiveWeights, SuiteEntry
+from fogsim.tune.space import ParamSpec, parameter_defaults, tunable_parameter_names
+from fogsim.tune.study import tune
+from fogsim.tune.writers import TuneResult, best_params_toml
 
-import importlib
-from typing import Any
-
-_EXPORTS = {
-    "ObjectiveWeights": "fogsim.tune.objective",
-    "ParamSpec": "fogsim.tune.space",
-    "SamplerKind": "fogsim.tune.config",
-    "SuiteEntry": "fogsim.tune.objective",
-    "TuneConfig": "fogsim.tune.config",
-    "TuneResult": "fogsim.tune.writers",
-    "best_params_toml": "fogsim.tune.writers",
-    "load_suite": "fogsim.tune.suite",
-    "parameter_defaults": "fogsim.tune.space",
-    "tunable_parameter_names": "fogsim.tune.space",
-    "tune": "fogsim.tune.study",
-}
-
-__all__ = sorted(_EXPORTS)
-
-
-def __getattr__(name: str) -> Any:
-    module = _EXPORTS.get(name)
-    if module is None:
-        raise AttributeError(f"module 'fogsim.tune' has no attribute {name!r}")
-    return getattr(importlib.import_module(module), name)
+__all__ = [
+    "ObjectiveWeights",
+    "ParamSpec",
+    "SamplerKind",
+    "SuiteEntry",
+    "TuneConfig",
+    "TuneResult",
+    "best_params_toml",
+    "parameter_defaults",
+    "tunable_parameter_names",
+    "tune",
+]

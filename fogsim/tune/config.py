@@ -37,9 +37,10 @@ class TuneConfig:
         workers: Parallel scoring processes (1 = in the driver process).
         ray_address: Ray cluster address (``auto``, ``HOST:PORT``, ``local``); None = no Ray.
         weights: Objective weights.
-        grid_points: Values per parameter for the grid sampler.
+        grid_points: Values per parameter for the grid sampler. 5: both ends, the middle and
+            the quarter points; 25 points for two parameters, 125 for three.
         study_name: Name of the Optuna study in the database.
-        top: Rows of the top-trials table.
+        top: Rows of the top-trials table (10: the best fit on one screen).
         heartbeat_s: Heartbeat interval of running trials [s]. 10 s: one small write per
             running trial every 10 s, negligible beside a trial's replay (seconds).
         grace_s: A running trial without heartbeat for this long is stale (its run died) [s].
