@@ -31,15 +31,10 @@ os.environ.setdefault("MESA_SHADER_CACHE_DISABLE", "true")
 
 from fogsim.config.params import resolve_params
 from fogsim.run.runner import replay_report, run_frames
+from fogsim.tune import ParamSpec, TuneConfig, parameter_defaults, tune
+from fogsim.tune.config import RECORDINGS_DIR
 from fogsim.tune.objective import ObjectiveWeights, objective_terms
-from fogsim.tune.study import (
-    RECORDINGS_DIR,
-    ParamSpec,
-    TuneConfig,
-    load_suite,
-    parameter_defaults,
-    tune,
-)
+from fogsim.tune.suite import load_suite
 
 PARAMS = ("p_occ=0.55:0.95", "eps_m=0.005:0.05:log", "delta_m=0.01:0.06")
 
@@ -91,7 +86,7 @@ def main() -> None:
         study_name=f"bench-{time.strftime('%Y%m%d-%H%M%S')}",
     )  # fmt: skip
     start = time.perf_counter()
-    result = tune(config, suite)
+    result = tune(config, suite, report_function=replay_report)
     wall = time.perf_counter() - start
     print(
         f"\ntune: {result.complete} trials, {args.workers} workers, {wall:.1f} s wall "

@@ -17,19 +17,19 @@ from pathlib import Path
 import pytest
 
 from fogsim.errors import FogsimError
+from fogsim.tune import (
+    ParamSpec,
+    SamplerKind,
+    TuneConfig,
+    best_params_toml,
+    tune,
+)
 from fogsim.tune.objective import (
     ObjectiveTerms,
     ObjectiveWeights,
     SuiteEntry,
     objective_terms,
     score_parameters,
-)
-from fogsim.tune.study import (
-    ParamSpec,
-    SamplerKind,
-    TuneConfig,
-    best_params_toml,
-    tune,
 )
 
 NAMES = ("p_occ", "eps_m", "nu", "seg.min_points")
@@ -129,7 +129,7 @@ def test_param_spec_rejects_bad_input_naming_the_problem(text, message):
 
 
 def test_param_names_come_from_the_mapper_parameter_classes():
-    from fogsim.tune.study import parameter_defaults, tunable_parameter_names
+    from fogsim.tune import parameter_defaults, tunable_parameter_names
     from mapper.params import MapperParams
     from mapper.segmentation import SegmentationParams
 
@@ -231,6 +231,9 @@ def read_trials(db: Path) -> list[tuple[int, str]]:
 
 
 def test_tune_beats_defaults_and_writes_results(tmp_path):
+    import matplotlib
+
+    style = {k: matplotlib.rcParams[k] for k in ("axes.facecolor", "axes.grid", "font.size")}
     result = tune(
         config(tmp_path, trials=25, seed=3, pictures=True),
         fake_suite(),
@@ -257,6 +260,8 @@ def test_tune_beats_defaults_and_writes_results(tmp_path):
     for name in ("p_occ", "eps_m", "seg.min_points"):
         png = tmp_path / f"objective_{name}.png"
         assert png.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
+    # Optuna's slice plot switches pyplot to ggplot; the pictures must not leave that behind.
+    assert {k: matplotlib.rcParams[k] for k in style} == style
     assert [n for n, _ in read_trials(tmp_path / "tune.db")] == list(range(25))
 
 
@@ -301,6 +306,55 @@ def test_best_params_toml_block():
     assert tomllib.loads(text) == {"mapper": {"p_occ": 0.7}, "segmentation": {"min_points": 12}}
 
 
+def test_best_params_toml_text_mapper_first_floats_by_repr_integers_whole():
+    values = {"seg.min_points": 12.0, "p_occ": 0.7, "eps_m": 1e-05}
+    assert best_params_toml(values, specs(), "c") == (
+        "# c\n[mapper]\np_occ = 0.7\neps_m = 1e-05\n\n[segmentation]\nmin_points = 12\n"
+    )
+    assert best_params_toml({"seg.min_points": 12}, specs(), "c") == (
+        "# c\n[segmentation]\nmin_points = 12\n"
+    )
+
+
+def test_override_keys_split_into_scenario_tables():
+    from fogsim.tune.space import split_override_key
+
+    assert split_override_key("p_occ") == ("mapper", "p_occ")
+    assert split_override_key("seg.min_plane_pixels") == ("segmentation", "min_plane_pixels")
+
+
+def test_a_trial_dead_before_its_heartbeat_is_failed_and_retried(tmp_path):
+    import warnings
+
+    import optuna
+    from optuna.trial import TrialState
+
+    from fogsim.tune.recovery import TrialHeartbeat, fail_dead_trials, open_storage
+
+    cfg = TuneConfig(params=specs(), trials=3, out_dir=tmp_path, heartbeat_s=1, grace_s=2)
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", optuna.exceptions.ExperimentalWarning)
+        warnings.filterwarnings("ignore", message="Heartbeat of storage", category=UserWarning)
+        storage = open_storage(cfg)
+        study = optuna.create_study(storage=storage, study_name=cfg.study_name)
+        dead = study.ask()  # its run was killed here: no heartbeat, no parameters
+        live = study.ask()
+        heartbeat = TrialHeartbeat(storage, cfg.study_name, cfg.heartbeat_s)
+        try:
+            heartbeat.add(live.number)
+            specs()[0].suggest(live)
+            fail_dead_trials(study, storage, grace_s=60.0)  # not older than the grace: kept
+            assert [t.state for t in study.trials] == [TrialState.RUNNING] * 2
+            fail_dead_trials(study, storage, grace_s=0.0)
+        finally:
+            heartbeat.close()
+    trials = study.trials
+    assert trials[dead.number].state == TrialState.FAIL
+    assert trials[live.number].state == TrialState.RUNNING  # fresh heartbeat, has parameters
+    retries = [t for t in trials if t.system_attrs.get("failed_trial") == dead.number]
+    assert [t.state for t in retries] == [TrialState.WAITING]
+
+
 def test_resume_refuses_a_study_made_with_other_settings(tmp_path):
     tune(config(tmp_path, trials=3), fake_suite(), report_function=fake_report, defaults=DEFAULTS)
     other = TuneConfig(
@@ -342,7 +396,7 @@ KILL_SCRIPT = textwrap.dedent(
     import sys
     sys.path[:0] = [{root!r}, {tests!r}]
     from pathlib import Path
-    from fogsim.tune.study import TuneConfig, tune
+    from fogsim.tune import TuneConfig, tune
     import test_tune as t
     cfg = TuneConfig(params=t.specs(), trials=40, out_dir=Path({out!r}), progress=False,
                      heartbeat_s=1, grace_s=2)
@@ -503,7 +557,8 @@ def test_small_tune_on_the_quick_subset_is_at_least_as_good_as_the_defaults(tmp_
     from fogsim.paths import SCENARIOS_DIR
     from fogsim.run.runner import replay_report
     from fogsim.run.suite import QUICK_MAX_FRAMES, QUICK_SCENARIOS
-    from fogsim.tune.study import load_suite, parameter_defaults
+    from fogsim.tune import parameter_defaults
+    from fogsim.tune.suite import load_suite
 
     # The suite's quick subset, simulated once into the cache, then only replayed.
     suite = load_suite(SCENARIOS_DIR, tmp_path / "recordings", quick=True)
@@ -516,7 +571,7 @@ def test_small_tune_on_the_quick_subset_is_at_least_as_good_as_the_defaults(tmp_
         ParamSpec.parse("seg.min_plane_pixels=10:60"),
     )
     cfg = TuneConfig(params=params, trials=4, out_dir=tmp_path, seed=2, progress=False)
-    result = tune(cfg, suite)  # the real fogsim.run.runner.replay_report
+    result = tune(cfg, suite, report_function=replay_report)  # the real replay
     # The defaults are trial 0 and measured: the same as replaying with the library defaults.
     defaults = parameter_defaults([p.name for p in params])
     direct = score_parameters(suite, defaults, cfg.weights, replay_report)
