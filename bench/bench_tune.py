@@ -29,7 +29,7 @@ os.environ.setdefault("MUJOCO_GL", "egl")
 os.environ.setdefault("PYOPENGL_PLATFORM", "egl")
 os.environ.setdefault("MESA_SHADER_CACHE_DISABLE", "true")
 
-from fogsim.config.params import resolve_params
+from fogsim.config import resolve_params
 from fogsim.run.runner import replay_report, run_frames
 from fogsim.tune import ParamSpec, TuneConfig, parameter_defaults, tune
 from fogsim.tune.config import RECORDINGS_DIR

@@ -14,7 +14,7 @@ from collections.abc import Sequence
 from pathlib import Path
 
 from fogsim.errors import FogsimError
-from fogsim.tune.study import add_tune_arguments
+from fogsim.tune.cli import add_tune_arguments
 from mapper.errors import MapperError
 
 CAMERA_MODES = ("ideal", "depth", "stereo")

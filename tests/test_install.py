@@ -47,11 +47,14 @@ def test_wheel_installed_elsewhere_runs_a_shipped_scenario(tmp_path):
     deps = sysconfig.get_paths()["purelib"]
     (site / "fogsim_test_deps.pth").write_text(f"import site; site.addsitedir({deps!r})\n")
 
+    # Only what a user's shell would have: no PYTHONPATH pointing back at the checkout.
+    env = {"MUJOCO_GL": "egl", "MESA_SHADER_CACHE_DISABLE": "true", "PATH": "/usr/bin:/bin"}
     work = tmp_path / "elsewhere"
     work.mkdir()
     where = subprocess.run(
         [str(python), "-c", "import fogsim.paths as p; print(p.__file__); print(p.SCENARIOS_DIR)"],
         cwd=work,
+        env=env,
         check=True,
         capture_output=True,
         text=True,
@@ -60,7 +63,7 @@ def test_wheel_installed_elsewhere_runs_a_shipped_scenario(tmp_path):
     assert Path(where[1]).is_relative_to(site)
 
     listed = subprocess.run(
-        [str(python), "-m", "fogsim", "list"], cwd=work, capture_output=True, text=True
+        [str(python), "-m", "fogsim", "list"], cwd=work, env=env, capture_output=True, text=True
     )
     assert listed.returncode == 0, listed.stderr
     for name in ("stage", "flat_floor", "box_removal"):
@@ -83,7 +86,7 @@ def test_wheel_installed_elsewhere_runs_a_shipped_scenario(tmp_path):
         cwd=work,
         capture_output=True,
         text=True,
-        env={"MUJOCO_GL": "egl", "MESA_SHADER_CACHE_DISABLE": "true", "PATH": "/usr/bin:/bin"},
+        env=env,
     )
     assert run.returncode == 0, run.stderr
     assert (work / "out" / "report.json").is_file()

@@ -132,7 +132,7 @@ def test_event_tracker_counts_frames_until_footprint_cleared_fog_vs_never_for_ba
         return with_box if t < 1.0 else without
 
     c = centers()
-    tracker = EventTracker([Event(at=1.0, kind="remove", target="box")], provider, end_time_s=3.0)
+    tracker = EventTracker([Event(at=1.0, remove="box")], provider, end_time_s=3.0)
     old_types, old_heights = _fog_of(with_box.rasterize(c, CELL))
     new_types, new_heights = _fog_of(without.rasterize(c, CELL))
     for i in range(30):
@@ -170,7 +170,7 @@ def test_event_tracker_counts_intermediate_floor_cells_of_a_moved_box():
 
     c = centers()
     tracker = EventTracker(
-        [Event(at=1.0, kind="move", target="box", to=(0.9, 0.6), speed=1.0)], provider, 2.0
+        [Event(at=1.0, move="box", to=(0.9, 0.6), speed=1.0)], provider, 2.0
     )
     types, heights = _fog_of(after.rasterize(c, CELL))
     smeared = heights.copy()
@@ -184,11 +184,6 @@ def test_event_tracker_counts_intermediate_floor_cells_of_a_moved_box():
     assert result.fog_frames == 0
     assert result.intermediate_floor_cells.fog == MaxFinal(max=0, final=0)
     assert result.intermediate_floor_cells.averaging == MaxFinal(max=2, final=0)
-
-
-def test_event_tracker_rejects_an_unknown_event_kind():
-    with pytest.raises(FogsimError, match=r"kind 'melt'; allowed: \['remove', 'move'\]"):
-        EventTracker([Event(at=1.0, kind="melt", target="box")], lambda t: truth(), 2.0)
 
 
 def test_an_empty_archive_has_no_cells():

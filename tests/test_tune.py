@@ -15,6 +15,7 @@ from dataclasses import dataclass
 from pathlib import Path
 
 import pytest
+from report_factory import event, make_report, row
 
 from fogsim.errors import FogsimError
 from fogsim.tune import (
@@ -58,11 +59,13 @@ def fake_report(recording, overrides):
     min_points = overrides.get("seg.min_points", 20)
     error_mm = 100.0 * (p_occ - 0.8) ** 2 + 1000.0 * abs(eps_m - 0.01) + recording.offset_mm
     correct = 100 - abs(min_points - 30) // 5
-    return {
-        "table1": {"fog": [{"name": "ground", "error_mm": error_mm}], "averaging": []},
-        "cells": {"fog": {"region": 125, "seen": 100, "correct": correct}},
-        "events": [{"name": "box", "fog_frames": 25 if p_occ < 0.9 else None}],
-    }
+    return make_report(
+        [row("ground", error_mm)],
+        region=125,
+        seen=100,
+        correct=correct,
+        events=[event("box", 25 if p_occ < 0.9 else None)],
+    )
 
 
 def fake_suite(delay_s: float = 0.0) -> list[SuiteEntry]:
@@ -165,18 +168,18 @@ def test_config_rejects_duplicates_and_bad_counts(tmp_path):
 
 
 def test_objective_terms_of_a_hand_made_report():
-    report = {
-        "table1": {
-            "fog": [
-                {"name": "ground", "error_mm": -1.0},
-                {"name": "sill", "error_mm": 3.0},
-                {"name": "step_3", "error_mm": None, "surface_cells": 9},  # charged 50 mm
-                {"name": "platform", "error_mm": None, "surface_cells": 0},  # never in view
-            ]
-        },
-        "cells": {"fog": {"region": 500, "seen": 400, "correct": 390}},
-        "events": [{"name": "a", "fog_frames": 25}, {"name": "b", "fog_frames": None}],
-    }
+    report = make_report(
+        [
+            row("ground", -1.0),
+            row("sill", 3.0),
+            row("step_3", None, surface_cells=9),  # charged 50 mm
+            row("platform", None, surface_cells=0),  # never in view
+        ],
+        region=500,
+        seen=400,
+        correct=390,
+        events=[event("a", 25), event("b", None)],
+    )
     weights = ObjectiveWeights()
     terms = objective_terms(report, weights, frame_rate_hz=12.5)
     assert terms.table1_mm == pytest.approx((1 + 3 + 50) / 3, abs=1e-12)
@@ -476,7 +479,9 @@ def test_process_pool_and_ray_give_the_same_trials(tmp_path):
         report_function=fake_report,
         defaults=DEFAULTS,
     )
-    cloudpickle.register_pickle_by_value(sys.modules[__name__])
+    by_value = (sys.modules[__name__], sys.modules["report_factory"])  # tests/ is not on Ray's path
+    for module in by_value:
+        cloudpickle.register_pickle_by_value(module)
     ray.init(num_cpus=2, include_dashboard=False, log_to_driver=False)
     try:
         on_ray = tune(
@@ -487,7 +492,8 @@ def test_process_pool_and_ray_give_the_same_trials(tmp_path):
         )
     finally:
         ray.shutdown()
-        cloudpickle.unregister_pickle_by_value(sys.modules[__name__])
+        for module in by_value:
+            cloudpickle.unregister_pickle_by_value(module)
     assert on_ray.complete == pool.complete == 6
     assert on_ray.best_params == pool.best_params
     assert on_ray.best_value == pool.best_value
@@ -515,7 +521,7 @@ def synthetic_box_removal_suite(frames: int = 70) -> list[SuiteEntry]:
     import numpy as np
     from synthetic_depth import Box, add_depth_noise, look_down_camera, render_boxes
 
-    from fogsim.config.scenario import load_scenario
+    from fogsim.config import load_scenario
     from fogsim.data.frame import Frame
     from fogsim.data.recording import Recording
     from fogsim.world.truth import SceneTruth
@@ -553,7 +559,7 @@ def synthetic_box_removal_suite(frames: int = 70) -> list[SuiteEntry]:
 
 
 def test_small_tune_on_the_quick_subset_is_at_least_as_good_as_the_defaults(tmp_path):
-    from fogsim.config.scenario import load_scenario
+    from fogsim.config import load_scenario
     from fogsim.paths import SCENARIOS_DIR
     from fogsim.run.runner import replay_report
     from fogsim.run.suite import QUICK_MAX_FRAMES, QUICK_SCENARIOS

@@ -15,7 +15,6 @@ from msgspec import UNSET
 from numpy.typing import NDArray
 
 from fogsim.config import Event
-from fogsim.errors import FogsimError
 from fogsim.eval.report.schema import EventResult, IntermediateFloorCells, MaxFinal
 from fogsim.eval.rounding import mm
 from fogsim.world.truth import SceneTruth
@@ -25,7 +24,6 @@ TruthProvider = Callable[[float], SceneTruth]
 """Ground truth of the world at a time [s] (``Simulation.truth_at``, ``Recording.truth_at``)."""
 
 EventKind = Literal["remove", "move"]
-_EVENT_KINDS: dict[str, EventKind] = {"remove": "remove", "move": "move"}
 
 
 @dataclass
@@ -93,9 +91,6 @@ class EventTracker:
         tolerance_m: Height tolerance of "floor again" [m] (the pipeline's
             ``event_tolerance_m``, 1 cm by default).
         floor_fraction: Share of the footprint that must be floor again (0.9).
-
-    Raises:
-        FogsimError: An event of a kind other than ``remove`` or ``move``.
     """
 
     def __init__(
@@ -111,15 +106,10 @@ class EventTracker:
         self.end_time_s = float(end_time_s)
         self.tolerance_m = float(tolerance_m)
         self.floor_fraction = float(floor_fraction)
-        self.states: list[_EventState] = []
-        for event in events:
-            kind = _EVENT_KINDS.get(event.kind)
-            if kind is None:
-                raise FogsimError(
-                    f"event of {event.target!r} at {event.at} s has kind {event.kind!r}; "
-                    f"allowed: {list(_EVENT_KINDS)}"
-                )
-            self.states.append(_EventState(str(event.target), kind, float(event.at)))
+        self.states: list[_EventState] = [
+            _EventState(event.target, "remove" if event.remove is not None else "move", event.at)
+            for event in events
+        ]
 
     def _start(
         self,

@@ -20,7 +20,7 @@ from pathlib import Path
 from typing import Literal
 
 from fogsim.atomic import write_text_atomic
-from fogsim.config import list_scenarios, load_scenario
+from fogsim.config import find_scenario_files, load_scenario
 from fogsim.errors import FogsimError
 from fogsim.eval.report.io import write_json
 from fogsim.paths import SCENARIOS_DIR
@@ -116,9 +116,7 @@ def _suite_worker(
 def scenario_paths(directory: str | os.PathLike[str] | None, quick: bool) -> list[Path]:
     """Scenario files of a folder (default: the project's), the quick subset if asked."""
     folder = Path(directory) if directory is not None else SCENARIOS_DIR
-    paths = list_scenarios(folder)
-    if not paths:
-        raise FogsimError(f"no scenario files (*.toml) in {folder}")
+    paths = find_scenario_files(folder)  # ScenarioError if the folder holds none
     if quick:
         paths = [p for p in paths if p.stem in QUICK_SCENARIOS]
         if not paths:

@@ -15,7 +15,7 @@ from dataclasses import dataclass
 import numpy as np
 import optuna
 
-from fogsim.config.params import RunParams
+from fogsim.config import RunParams
 from fogsim.errors import ParameterError
 
 TUNED_TABLES = ("mapper", "segmentation")

@@ -234,8 +234,3 @@ def _tune(
         if progress is not None:
             progress.close()
     return write_results(study, config)
-
-
-# Compatibility: fogsim/cli.py imports add_tune_arguments from here until the lead points it at
-# fogsim.tune.cli. Remove this import then. (At the bottom: fogsim.tune.cli imports tune above.)
-from fogsim.tune.cli import add_tune_arguments  # noqa: E402, F401

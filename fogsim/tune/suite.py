@@ -14,7 +14,7 @@ import sys
 from collections.abc import Sequence
 from pathlib import Path
 
-from fogsim.config.scenario import Scenario, list_scenarios, load_scenario
+from fogsim.config import Scenario, load_scenario
 from fogsim.data.recording import Recording, load_recording, save_recording
 from fogsim.errors import TuneError
 from fogsim.run.suite import QUICK_MAX_FRAMES, QUICK_SCENARIOS
@@ -67,7 +67,7 @@ def _suite_files(source: str | os.PathLike[str]) -> list[Path]:
     """Scenario files and recordings named by one suite argument."""
     path = Path(source)
     if path.is_dir():
-        files = sorted([*list_scenarios(path), *path.glob("*.npz")])
+        files = sorted([*path.glob("*.toml"), *path.glob("*.npz")])
         if not files:
             raise TuneError(f"suite directory {path} holds no *.toml or *.npz files")
         return files
