@@ -13,7 +13,14 @@ The public API is imported lazily (``import fogsim`` stays cheap and needs no Mu
 from __future__ import annotations
 
 import importlib
+import os
 from typing import Any
+
+# Rendering is headless: MuJoCo picks its OpenGL backend from these when it is first imported,
+# so they are set (unless the user chose otherwise) before any fogsim module imports it.
+os.environ.setdefault("MUJOCO_GL", "egl")
+os.environ.setdefault("PYOPENGL_PLATFORM", "egl")
+os.environ.setdefault("MESA_SHADER_CACHE_DISABLE", "true")
 
 __version__ = "0.1.0"
 

@@ -13,11 +13,18 @@ import time
 from collections.abc import Sequence
 from pathlib import Path
 
+from fogsim.atomic import write_text_atomic
+from fogsim.config import CAMERA_MODES, Scenario, find_scenario_files, load_scenario
+from fogsim.data.recording import load_recording
 from fogsim.errors import FogsimError
+from fogsim.eval.report import format_table1
+from fogsim.run.baseline import load_baseline, write_baseline
+from fogsim.run.record import record_scenario
+from fogsim.run.runner import run_scenario
+from fogsim.run.suite import check_against_baseline, run_suite, summary_markdown, update_baseline
+from fogsim.sim.camera.depth import DEPTH_BACKENDS
 from fogsim.tune.cli import add_tune_arguments
 from mapper.errors import MapperError
-
-CAMERA_MODES = ("ideal", "depth", "stereo")
 
 
 def _parser() -> argparse.ArgumentParser:
@@ -42,7 +49,7 @@ def _parser() -> argparse.ArgumentParser:
         p.add_argument("--camera-mode", choices=CAMERA_MODES, help="camera mode to simulate")
         p.add_argument(
             "--depth-backend",
-            choices=("renderer", "raycast"),
+            choices=DEPTH_BACKENDS,
             default="renderer",
             help="depth by mujoco.Renderer (EGL) or by mj_multiRay (no OpenGL)",
         )
@@ -83,15 +90,14 @@ def _parser() -> argparse.ArgumentParser:
     return parser
 
 
-def _load(name_or_path: str, args: argparse.Namespace):
+def _load(name_or_path: str, args: argparse.Namespace) -> Scenario:
     """Load a scenario and apply ``--set``, ``--seed`` and ``--camera-mode``."""
-    from fogsim.config import load_scenario
-
     scenario = load_scenario(name_or_path)
     return _with_options(scenario, args)
 
 
-def _with_options(scenario, args: argparse.Namespace):
+def _with_options(scenario: Scenario, args: argparse.Namespace) -> Scenario:
+    """Apply ``--set``, ``--seed`` and ``--camera-mode`` to a loaded scenario."""
     assignments = list(args.assignments)
     if args.seed is not None:
         assignments.append(f"seed={args.seed}")
@@ -101,8 +107,6 @@ def _with_options(scenario, args: argparse.Namespace):
 
 
 def _cmd_list() -> int:
-    from fogsim.config import find_scenario_files, load_scenario
-
     for path in find_scenario_files():
         try:
             scenario = load_scenario(path)
@@ -113,18 +117,11 @@ def _cmd_list() -> int:
 
 
 def _cmd_run(args: argparse.Namespace) -> int:
-    from fogsim.eval.report import format_table1
-    from fogsim.run.runner import run_scenario
-
     replay = None
     if args.replay is not None:
-        from fogsim.data.recording import load_recording
-
         replay = load_recording(args.replay)
         scenario = replay.scenario
         if args.scenario is not None:
-            from fogsim.config import load_scenario
-
             scenario = load_scenario(args.scenario)
         if scenario is not None:
             scenario = _with_options(scenario, args)
@@ -158,38 +155,20 @@ def _cmd_run(args: argparse.Namespace) -> int:
 
 
 def _cmd_record(args: argparse.Namespace) -> int:
-    from fogsim.data.recording import save_recording
-    from fogsim.sim.simulation import Simulation
-
     start = time.perf_counter()
     scenario = _load(args.scenario, args)
-    simulation = Simulation(scenario, depth_backend=args.depth_backend)
-    frames = simulation.frames()
-    if not args.quiet:
-        from tqdm import tqdm
-
-        frames = tqdm(frames, total=simulation.frame_count, unit="frame", desc=scenario.name)
-    frames = list(frames)
-    truths = [simulation.truth_at(f.time_s) for f in frames]
-    path = save_recording(args.out, frames, scenario=scenario, truths=truths)
+    path, frames = record_scenario(
+        scenario, args.out, depth_backend=args.depth_backend, progress=not args.quiet
+    )
     size_mb = os.path.getsize(path) / 1e6
     print(
-        f"recorded {len(frames)} frames of {scenario.name} to {path} "
+        f"recorded {frames} frames of {scenario.name} to {path} "
         f"({size_mb:.1f} MB, {time.perf_counter() - start:.1f} s)"
     )
     return 0
 
 
 def _cmd_suite(args: argparse.Namespace) -> int:
-    from fogsim.atomic import write_text_atomic
-    from fogsim.run.baseline import load_baseline, write_baseline
-    from fogsim.run.suite import (
-        check_against_baseline,
-        run_suite,
-        summary_markdown,
-        update_baseline,
-    )
-
     baseline = load_baseline(args.check) if args.check is not None else None
     summary = run_suite(
         args.directory,
@@ -221,10 +200,12 @@ def _cmd_suite(args: argparse.Namespace) -> int:
 
 
 def main(argv: Sequence[str] | None = None) -> int:
-    """Entry point of the ``fogsim`` command; returns the exit code."""
-    os.environ.setdefault("MUJOCO_GL", "egl")
-    os.environ.setdefault("PYOPENGL_PLATFORM", "egl")
-    os.environ.setdefault("MESA_SHADER_CACHE_DISABLE", "true")
+    """Entry point of the ``fogsim`` command; returns the exit code.
+
+    Errors of the testbed (:class:`FogsimError`) and of the mapper library it drives
+    (:class:`MapperError`, e.g. a recording whose data the mapper rejects) are bad input: one
+    line on standard error and exit code 2, never a traceback.
+    """
     args = _parser().parse_args(argv)
     try:
         if args.command == "list":

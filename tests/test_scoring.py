@@ -169,9 +169,7 @@ def test_event_tracker_counts_intermediate_floor_cells_of_a_moved_box():
         return before if t < 1.0 else after
 
     c = centers()
-    tracker = EventTracker(
-        [Event(at=1.0, move="box", to=(0.9, 0.6), speed=1.0)], provider, 2.0
-    )
+    tracker = EventTracker([Event(at=1.0, move="box", to=(0.9, 0.6), speed=1.0)], provider, 2.0)
     types, heights = _fog_of(after.rasterize(c, CELL))
     smeared = heights.copy()
     smeared[12, 15] = 0.03  # ground cell between old and new place, half box height

@@ -8,13 +8,10 @@ number), :mod:`~fogsim.tune.suite` (the recordings and their cache),
 :mod:`~fogsim.tune.writers` and :mod:`~fogsim.tune.plots` (result files),
 :mod:`~fogsim.tune.cli` (``fogsim tune``).
 
-This package imports no MuJoCo, so the command line can build its parser before it sets
-``MUJOCO_GL``; :func:`fogsim.tune.suite.load_suite`, which records scenarios with MuJoCo, is
-therefore imported from its module. A tune from Python::
+A tune from Python::
 
     from fogsim.run.runner import replay_report
-    from fogsim.tune import ParamSpec, TuneConfig, tune
-    from fogsim.tune.suite import load_suite
+    from fogsim.tune import ParamSpec, TuneConfig, load_suite, tune
 
     config = TuneConfig(params=(ParamSpec.parse("p_occ=0.55:0.95"),), trials=20, out_dir=out)
     suite = load_suite("scenarios", out / "recordings", quick=True)
@@ -25,6 +22,7 @@ from fogsim.tune.config import SamplerKind, TuneConfig
 from fogsim.tune.objective import ObjectiveWeights, SuiteEntry
 from fogsim.tune.space import ParamSpec, parameter_defaults, tunable_parameter_names
 from fogsim.tune.study import tune
+from fogsim.tune.suite import load_suite
 from fogsim.tune.writers import TuneResult, best_params_toml
 
 __all__ = [
@@ -35,6 +33,7 @@ __all__ = [
     "TuneConfig",
     "TuneResult",
     "best_params_toml",
+    "load_suite",
     "parameter_defaults",
     "tunable_parameter_names",
     "tune",

@@ -5,10 +5,12 @@ from __future__ import annotations
 import argparse
 from pathlib import Path
 
+from fogsim.run.runner import replay_report
 from fogsim.tune.config import RECORDINGS_DIR, SamplerKind, TuneConfig
 from fogsim.tune.objective import ObjectiveWeights
 from fogsim.tune.space import ParamSpec
 from fogsim.tune.study import tune
+from fogsim.tune.suite import load_suite
 
 
 def add_tune_arguments(
@@ -73,12 +75,6 @@ def add_tune_arguments(
 
 def run_tune(args: argparse.Namespace) -> int:
     """Run ``fogsim tune`` from parsed arguments; prints the best block and the top table."""
-    # Imported here, not at the top: these modules import MuJoCo, which picks its OpenGL
-    # backend from MUJOCO_GL when imported, and fogsim.cli.main sets that default only after
-    # building the parser (which imports this module).
-    from fogsim.run.runner import replay_report
-    from fogsim.tune.suite import load_suite
-
     params = tuple(ParamSpec.parse(text) for text in args.param)
     config = TuneConfig(
         params=params,

@@ -8,31 +8,22 @@ from __future__ import annotations
 
 import dataclasses
 import hashlib
-import itertools
 import os
 import sys
 from collections.abc import Sequence
 from pathlib import Path
 
 from fogsim.config import Scenario, load_scenario
-from fogsim.data.recording import Recording, load_recording, save_recording
+from fogsim.data.recording import Recording, load_recording
 from fogsim.errors import TuneError
+from fogsim.run.record import record_scenario
 from fogsim.run.suite import QUICK_MAX_FRAMES, QUICK_SCENARIOS
-from fogsim.sim.simulation import Simulation
 from fogsim.tune.objective import SuiteEntry
 
 
 def scenario_hash(scenario: Scenario) -> str:
     """16 hex digits of SHA-256 over the scenario's canonical TOML (the recording cache key)."""
     return hashlib.sha256(scenario.to_toml().encode("utf-8")).hexdigest()[:16]
-
-
-def _record_scenario(scenario: Scenario, path: Path, max_frames: int | None) -> None:
-    """Simulate a scenario once (its first ``max_frames`` frames) and save them with the truth."""
-    simulation = Simulation(scenario)
-    frames = list(itertools.islice(simulation.frames(), max_frames))
-    truths = [simulation.truth_at(frame.time_s) for frame in frames]
-    save_recording(path, frames, scenario=scenario, truths=truths)
 
 
 def _first_frames(recording: Recording, max_frames: int | None) -> Recording:
@@ -122,7 +113,7 @@ def load_suite(
         cached = Path(cache_dir) / f"{scenario.name}-{scenario_hash(scenario)}{suffix}.npz"
         if not cached.is_file():
             print(f"fogsim tune: recording {scenario.name} once into {cached}", file=sys.stderr)
-            _record_scenario(scenario, cached, max_frames)
+            record_scenario(scenario, cached, max_frames=max_frames)
         entries.append(_entry(scenario.name, load_recording(cached)))
     if not entries:
         raise TuneError(f"the quick subset {list(QUICK_SCENARIOS)} is not in the suite")

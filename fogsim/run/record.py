@@ -1,0 +1,49 @@
+"""Recording a scenario: simulate it once and save every frame with its ground truth.
+
+Thresholds do not change what the camera sees, so ``fogsim record`` and the tune's recording
+cache both simulate a scenario once with :func:`record_scenario` and replay the file after.
+"""
+
+from __future__ import annotations
+
+import itertools
+import os
+from pathlib import Path
+
+from tqdm import tqdm
+
+from fogsim.config import Scenario
+from fogsim.data.recording import save_recording
+from fogsim.sim.simulation import Simulation
+
+
+def record_scenario(
+    scenario: Scenario,
+    path: str | os.PathLike[str],
+    *,
+    max_frames: int | None = None,
+    depth_backend: str = "renderer",
+    progress: bool = False,
+) -> tuple[Path, int]:
+    """Simulate ``scenario`` and save its frames and per-frame truth to ``path``.
+
+    Args:
+        scenario: The scenario (overrides already applied).
+        path: The recording file to write (atomically).
+        max_frames: Keep only the first frames (the suite's quick mode); None = all.
+        depth_backend: ``renderer`` (OpenGL) or ``raycast`` (no OpenGL).
+        progress: Show a progress bar.
+
+    Returns:
+        The written file and the number of frames in it.
+    """
+    simulation = Simulation(scenario, depth_backend=depth_backend)
+    total = (
+        simulation.frame_count if max_frames is None else min(max_frames, simulation.frame_count)
+    )
+    frames = itertools.islice(simulation.frames(), total)
+    if progress:
+        frames = tqdm(frames, total=total, unit="frame", desc=scenario.name)
+    kept = list(frames)
+    truths = [simulation.truth_at(frame.time_s) for frame in kept]
+    return save_recording(path, kept, scenario=scenario, truths=truths), len(kept)
