@@ -320,7 +320,7 @@ def test_best_params_toml_text_mapper_first_floats_by_repr_integers_whole():
 
 
 def test_override_keys_split_into_scenario_tables():
-    from fogsim.tune.space import split_override_key
+    from fogsim.config import split_override_key
 
     assert split_override_key("p_occ") == ("mapper", "p_occ")
     assert split_override_key("seg.min_plane_pixels") == ("segmentation", "min_plane_pixels")

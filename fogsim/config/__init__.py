@@ -7,7 +7,15 @@ dataclass helper), ``overrides`` (``--set KEY=VALUE``), ``write`` (TOML with ``t
 """
 
 from fogsim.config.load import find_scenario_files, load_scenario, scenario_from_toml
-from fogsim.config.params import PipelineParams, RunParams, replace_params, resolve_params
+from fogsim.config.params import (
+    OVERRIDE_PREFIXES,
+    PipelineParams,
+    RunParams,
+    override_key,
+    replace_params,
+    resolve_params,
+    split_override_key,
+)
 from fogsim.config.schema import (
     CAMERA_MODES,
     EVENT_KINDS,
@@ -27,6 +35,7 @@ from fogsim.config.schema import (
 __all__ = [
     "CAMERA_MODES",
     "EVENT_KINDS",
+    "OVERRIDE_PREFIXES",
     "ROBOT_MODELS",
     "ROUTE_KINDS",
     "SURFACES",
@@ -41,8 +50,10 @@ __all__ = [
     "SceneObject",
     "find_scenario_files",
     "load_scenario",
+    "override_key",
     "replace_params",
     "resolve_params",
     "scenario_from_dict",
     "scenario_from_toml",
+    "split_override_key",
 ]

@@ -136,7 +136,32 @@ class RunParams:
         }
 
 
-_PREFIXES = {"seg.": "segmentation", "elev.": "elevation", "pipe.": "pipeline", "mapper.": "mapper"}
+OVERRIDE_PREFIXES: dict[str, str] = {
+    "mapper": "",
+    "segmentation": "seg.",
+    "elevation": "elev.",
+    "pipeline": "pipe.",
+}
+"""Prefix of each :class:`RunParams` group in override keys (``mapper.`` is also accepted)."""
+
+
+def override_key(group: str, name: str) -> str:
+    """The override key of a parameter: ``("segmentation", "min_points") -> "seg.min_points"``."""
+    return OVERRIDE_PREFIXES[group] + name
+
+
+def split_override_key(key: str) -> tuple[str, str]:
+    """The group and field an override key names (inverse of :func:`override_key`).
+
+    ``"p_occ"`` and ``"mapper.p_occ"`` -> ``("mapper", "p_occ")``; ``"seg.min_points"`` ->
+    ``("segmentation", "min_points")``.
+    """
+    if key.startswith("mapper."):
+        return "mapper", key[len("mapper.") :]
+    for group, prefix in OVERRIDE_PREFIXES.items():
+        if prefix and key.startswith(prefix):
+            return group, key[len(prefix) :]
+    return "mapper", key
 
 
 def resolve_params(
@@ -159,9 +184,8 @@ def resolve_params(
         "pipeline": {},
     }
     for key, value in (overrides or {}).items():
-        group = next((g for prefix, g in _PREFIXES.items() if key.startswith(prefix)), None)
-        name = key.split(".", 1)[1] if group else key
-        changes[group or "mapper"][name] = value
+        group, name = split_override_key(key)
+        changes[group][name] = value
     defaults = RunParams()
     return RunParams(
         **{

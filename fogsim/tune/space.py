@@ -15,43 +15,18 @@ from dataclasses import dataclass
 import numpy as np
 import optuna
 
-from fogsim.config import RunParams
+from fogsim.config import RunParams, override_key
 from fogsim.errors import ParameterError
 
 TUNED_TABLES = ("mapper", "segmentation")
 """The :class:`~fogsim.config.params.RunParams` groups (scenario tables) tuning may change."""
-
-# --------------------------------------------------------------------------------------------
-# Private copy of the override-key scheme of fogsim.config.params.resolve_params (which reads
-# it inline from its private ``_PREFIXES``). To be replaced by public ``override_key`` and
-# ``split_override_key`` helpers of fogsim/config/params.py once the lead adds them.
-_TABLE_PREFIXES = {"mapper": "", "segmentation": "seg."}
-
-
-def _override_key(table: str, field_name: str) -> str:
-    """The override key of a field of a scenario table: ``("segmentation", "x") -> "seg.x"``."""
-    return _TABLE_PREFIXES[table] + field_name
-
-
-def split_override_key(key: str) -> tuple[str, str]:
-    """The scenario table and field of a tuned parameter's key.
-
-    ``"p_occ" -> ("mapper", "p_occ")``, ``"seg.min_points" -> ("segmentation", "min_points")``.
-    """
-    for table, prefix in _TABLE_PREFIXES.items():
-        if prefix and key.startswith(prefix):
-            return table, key[len(prefix) :]
-    return "mapper", key
-
-
-# --------------------------------------------------------------------------------------------
 
 
 def _tunable_defaults() -> dict[str, int | float]:
     """Library default of every numeric (not bool) field of the tuned tables, by override key."""
     tables = RunParams().to_dict()
     return {
-        _override_key(table, name): value
+        override_key(table, name): value
         for table in TUNED_TABLES
         for name, value in tables[table].items()
         if isinstance(value, int | float) and not isinstance(value, bool)

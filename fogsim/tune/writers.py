@@ -17,10 +17,11 @@ import tomli_w
 from optuna.trial import FrozenTrial, TrialState
 
 from fogsim.atomic import write_text_atomic
+from fogsim.config import split_override_key
 from fogsim.errors import TuneError
 from fogsim.tune.config import TuneConfig
 from fogsim.tune.plots import plot_parameter
-from fogsim.tune.space import TUNED_TABLES, ParamSpec, split_override_key
+from fogsim.tune.space import TUNED_TABLES, ParamSpec
 
 TERM_COLUMNS = ("table1_mm", "cell_error_pct", "unknown_pct", "clearing_s")
 """The objective terms shown in ``trials.md`` (keys of a trial's ``terms`` user attribute)."""
