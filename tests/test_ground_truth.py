@@ -61,16 +61,45 @@ def test_labels_obstacles_and_floor(stage_grid):
     assert np.all(grid.surface_id[obstacles] == -1)
     assert np.all(~np.isnan(grid.floor_m[~obstacles]))
     assert np.all(np.isnan(grid.obstacle_top_m[~obstacles]))
-    # Each box's centre cell is an obstacle with the box's top.
+    assert np.all(np.isnan(grid.ceiling_m))  # nothing hangs on the stage
+    assert grid.object_names == tuple(o.name for o in load_scenario("stage").objects)
+    # Each (rough) box's centre cell is an obstacle with the box's top.
     for obj in truth.objects:
         if obj.walkable:
             continue
         i, j = (np.floor((np.array(obj.center_xy) + 0.2) / CELL_M)).astype(int)
         assert grid.labels[i, j] == TruthLabel.OBSTACLE
         assert grid.obstacle_top_m[i, j] == pytest.approx(obj.top_m, abs=1e-12)
-    # Obstacle cells total about the boxes' footprints (within the border cells).
-    area = sum(o.size[0] * o.size[1] for o in truth.objects if not o.walkable)
-    assert obstacles.sum() * CELL_M**2 == pytest.approx(area, rel=0.2)
+        assert grid.object_names[grid.object_id[i, j]] == obj.name
+
+    def obstacle_cells_of(name):
+        return obstacles & (grid.object_id == grid.object_names.index(name))
+
+    # Every cell a box touches is an obstacle (the paper's definition: a cell partly on a box
+    # holds the box; before issue 10 the centre alone decided and this test only bounded the
+    # total area). box_right_1 (x 0.70..1.00, y 0.045..0.295, not yawed): cells with edges on
+    # -0.2 + 0.04 k run x 0.68..1.00 (8) and y 0.04..0.32 (7); box_left_2 (x 1.70..2.00,
+    # y 0.74..0.96): x 1.68..2.00 (8), y 0.72..0.96 (6).
+    assert obstacle_cells_of("box_right_1").sum() == 8 * 7
+    assert obstacle_cells_of("box_left_2").sum() == 8 * 6
+    # The sill (x 1.15..1.25) has its riser faces inside cells 1.12..1.16 and 1.24..1.28: two
+    # columns of 25 obstacle cells with the sill's top (issue 10: cells over a step edge are
+    # obstacles). The steps' and the platform's edges lie on cell boundaries: no riser cells.
+    sill = obstacle_cells_of("sill")
+    assert np.nonzero(sill.any(axis=1))[0].tolist() == [33, 36]
+    assert sill.sum() == 2 * 25
+    assert np.all(grid.obstacle_top_m[sill] == pytest.approx(0.038, abs=1e-12))
+    for name in ("step_1", "step_2", "step_3", "platform"):
+        assert not obstacle_cells_of(name).any(), name
+    # The yawed boxes: every cell wholly inside is an obstacle, none beyond a cell's reach.
+    reach = 0.5 * math.sqrt(2) * CELL_M
+    centers = cell_centers(-0.2, -0.2, 110, 35)
+    for name in ("box_left_1", "box_right_2"):
+        obj = truth.object_state(name)
+        cells = obstacle_cells_of(name)
+        assert np.all(cells[obj.contains(centers, -reach)])
+        assert not np.any(cells & ~obj.contains(centers, reach))
+    assert obstacles.sum() == sum(obstacle_cells_of(o.name).sum() for o in truth.objects)
 
 
 def test_support_height_on_route(stage_grid):
@@ -81,7 +110,7 @@ def test_support_height_on_route(stage_grid):
     assert truth.support_height_m([[1.15, 0.5], [1.1499, 0.5]]) == pytest.approx([0.038, 0.0])
 
 
-def test_hanging_objects_are_obstacles_above_floor():
+def test_hanging_objects_curtain_obstacle_table_top_floor_with_ceiling_below():
     hanging = {
         "name": "hanging",
         "objects": [
@@ -91,22 +120,31 @@ def test_hanging_objects_are_obstacles_above_floor():
     }
     truth = SceneTruth.from_scenario(scenario_from_dict(hanging), 0.0)
     grid = truth.rasterize(cell_centers(1.18, 0.18, 16, 21), CELL_M)
-    under = grid.labels == TruthLabel.OBSTACLE
-    assert under.sum() == 10 * 15  # 0.4 x 0.6 m table = 10 x 15 cells, aligned
-    assert np.all(grid.obstacle_top_m[under] == pytest.approx(0.35 + 0.08, abs=1e-12))
-    assert np.all(np.isnan(grid.floor_m[under]))
+    # A flat table top (0.4 x 0.6 m, room for a foot, below the grid top 0.58 m) is floor at
+    # its height with the ceiling (its base) below it — DESIGN.md "Ground truth"; before
+    # issue 10 it was an obstacle. 0.4 x 0.6 m = 10 x 15 cells, edges on cell boundaries.
+    assert np.all(grid.labels == TruthLabel.FLOOR)
+    table = grid.object_id == 1
+    assert table.sum() == 10 * 15
+    assert np.all(grid.floor_m[table] == pytest.approx(0.35 + 0.08, abs=1e-12))
+    assert np.all(grid.ceiling_m[table] == pytest.approx(0.35, abs=1e-12))
+    assert np.all(grid.surface_id[table] == -1)  # not walkable: no Table I row
+    assert np.all(grid.floor_m[~table] == 0.0) and np.all(np.isnan(grid.ceiling_m[~table]))
     # The table is no support: the robot stands on the ground under it.
     assert truth.support_height_m([[1.5, 0.6]]) == pytest.approx([0.0])
-    # The curtain (x 0.95..1.05, y 0.1..0.6, 0.2..1.2 m): cells with centres 0.96, 1.0, 1.04.
+    # The curtain (x 0.95..1.05, y 0.1..0.6, 0.2..1.2 m) reaches above the grid top: obstacle
+    # over every cell it touches: x cells 0.94..0.98, 0.98..1.02, 1.02..1.06 and y cells
+    # 0.08..0.60 (13; the edge y = 0.6 is a cell boundary).
     grid = truth.rasterize(cell_centers(0.9, 0.0, 5, 20), CELL_M)
     curtain = grid.labels == TruthLabel.OBSTACLE
     assert curtain.any(axis=1).tolist() == [False, True, True, True, False]
-    assert curtain[2].sum() == 13  # cell centres 0.1..0.58 lie on y 0.1..0.6 (edges included)
+    assert curtain.sum(axis=1).tolist() == [0, 13, 13, 13, 0]
     assert np.all(grid.obstacle_top_m[curtain] == pytest.approx(1.2))
-    # Only the middle column (x 0.98..1.02) lies wholly under the curtain.
-    assert (
-        grid.interior[curtain].sum() == 12
-    )  # y 0.1..0.6 wholly holds cells 0.12..0.16 to 0.56..0.60
+    assert np.all(grid.ceiling_m[curtain] == pytest.approx(0.2))
+    assert np.all(grid.object_id[curtain] == 0)
+    assert np.all(np.isnan(grid.ceiling_m[~curtain]))
+    # Only the middle column (x 0.98..1.02) lies wholly under the curtain, y 0.12..0.56 (12).
+    assert grid.interior[curtain].sum() == 12
     assert np.all(np.nonzero(grid.interior & curtain)[0] == 2)
 
 
@@ -130,9 +168,23 @@ def test_stacked_and_rotated_objects():
     xy = [[1.0, 1.0], [1.0 + d - 1e-6, 1.0], [1.0 + d + 1e-6, 1.0], [1.4, 1.4]]
     assert truth.support_height_m(xy) == pytest.approx([0.4, 0.4, 0.1, 0.1])
     grid = truth.rasterize(cell_centers(0.5, 0.5, 25, 25), CELL_M)
-    assert grid.labels[12, 12] == TruthLabel.OBSTACLE
-    assert grid.obstacle_top_m[12, 12] == pytest.approx(0.4)
+    # The box's flat 0.2 x 0.2 m top holds iCub's 0.156 x 0.06 m foot: floor at 0.4 (before
+    # issue 10 every non-walkable top was an obstacle); it is no Table I row (not walkable).
+    assert grid.labels[12, 12] == TruthLabel.FLOOR
+    assert grid.floor_m[12, 12] == pytest.approx(0.4)
+    assert grid.surface_id[12, 12] == -1 and grid.object_id[12, 12] == 1
     assert grid.floor_m[2, 2] == pytest.approx(0.1)
+    assert grid.surface_id[2, 2] == 1 and grid.object_id[2, 2] == 0
+    # Its yawed edges cross cells: risers 0.3 m high over the slab, obstacles with its top.
+    # Rim cells: not wholly inside (centre less than half a diagonal in), and centre within
+    # 0.2 cell of the footprint in the box's axes (< 0.29 cell away), so the box reaches well
+    # into the cell, past its samples a quarter cell apart.
+    box = truth.object_state("box")
+    centers = cell_centers(0.5, 0.5, 25, 25)
+    rim = box.contains(centers, 0.2 * CELL_M) & ~box.contains(centers, -math.sqrt(0.5) * CELL_M)
+    assert rim.sum() > 0
+    assert np.all(grid.labels[rim] == TruthLabel.OBSTACLE)
+    assert np.all(grid.obstacle_top_m[rim] == pytest.approx(0.4))
 
 
 def test_events_move_and_remove():
@@ -153,6 +205,7 @@ def test_events_move_and_remove():
     after = SceneTruth.from_scenario(removal, at)
     assert after.object_state("flat_box") is None
     assert after.surface_names == ("ground", "flat_box")  # stable ids
+    assert after.object_names == ("flat_box",)
     assert after.support_height_m([[1.35, 0.5]]) == pytest.approx([0.0])
 
 

@@ -1,23 +1,46 @@
-"""Ground truth of a scene at one instant: support heights and labelled grids.
+"""Ground truth of a scene at one instant, by the paper's definitions, on a grid of cells.
 
 :class:`SceneTruth` is the world at one time, the objects placed where the event timeline
 (:mod:`fogsim.world.timeline`) puts them; :meth:`SceneTruth.rasterize` turns it into the
-:class:`GroundTruthGrid` a map is scored against.
+:class:`GroundTruthGrid` a map is scored against, given :class:`TruthParams` (the robot's foot
+and the mapper grid's top).
 
-Rasterisation rule (per cell, evaluated at the cell centre; "covers" = the point lies in the
-object's footprint, edges included):
-    * The *support* at a point is the top of the highest object resting there (an object rests
-      when its base is at most 1 mm above the support beneath it — on the ground, or stacked on
-      another object), or the ground (0 m).
-    * FLOOR if the support is the ground or a walkable object: ``floor_m`` is its height,
-      ``surface_id`` its index in ``surface_names`` (``ground`` first, then every walkable object
-      of the scenario in file order, present or not, so ids are stable over time).
-    * OBSTACLE if the support is a non-walkable object, or if any hanging object (base above the
-      support, like a table top or a curtain) covers the point: ``obstacle_top_m`` is the highest
-      such top (rough tops: the nominal top, the highest bump), ``floor_m`` NaN, ``surface_id`` -1.
-    * ``interior``: the whole cell lies on one surface — 5 × 5 samples over the cell square
-      (edges included, inset by 1e-4 cell) all give the centre's label and surface/object.
-      Cells along an edge or a step are left out (the Table I convention of DESIGN.md).
+Definitions (DESIGN.md "Ground truth"; heights in world metres, z up, the ground at 0). Every
+object is a box; one whose bottom is at or above ``TruthParams.grid_top_m`` is not there for the
+truth (the mapper never sees it). At a point ("over" = the point lies in the object's footprint,
+edges included):
+
+* The *support* is the top of the highest object resting there (its base at most
+  :data:`SAME_HEIGHT_M` above the support beneath it: on the ground, or stacked), else the
+  ground: where a foot stands. A hanging object (base above the support: a table top, a
+  curtain, a bar) is no support.
+* The *highest thing* is the object with the highest top over the point, resting or hanging,
+  else the ground. Nothing lies above it, so it is what a map's highest surface should show.
+* FLOOR when the highest thing is the ground, or a flat top (``surface = "flat"``) with room
+  for a foot (:meth:`TruthParams.has_room_for_foot` of the object's x, y size) at or below the
+  grid top — walkable or not, resting or hanging: a flat box top or a table top is floor at its
+  height (a planner decides whether the step is too high). OBSTACLE otherwise: a rough top, a
+  top narrower than a foot (a post), a top above the grid, anything hanging over a floor that is
+  no floor itself (a thin curtain, a bar, a curtain reaching above the grid).
+* The *ceiling* is the bottom of the lowest hanging object over the support, NaN where there is
+  none: under a table its base — the table top is floor, the ceiling below it, and ``ceiling −
+  support`` is the clearance to crawl under.
+
+A cell (an axis-aligned square) has its centre's truth when no object outline crosses it. When
+one may (the cell lies within half a cell diagonal of an outline), 5 × 5 samples over the cell
+(edges inset by 1e-4 cell) decide:
+
+* FLOOR only if every sample is floor at the centre's height (within :data:`SAME_HEIGHT_M`).
+  A cell over a step edge holds a riser's face; a cell partly on a box or partly under a
+  hanging thing holds an obstacle: both are OBSTACLE. An edge lying exactly on a cell boundary
+  crosses neither cell.
+* ``obstacle_top_m`` and ``object_id`` of an OBSTACLE cell: the highest top over the samples
+  and its object; ``ceiling_m``: the lowest ceiling over the samples.
+* ``interior``: every sample has the centre's highest thing — the whole cell lies on one
+  surface; Table I leaves the other cells out (DESIGN.md).
+
+Objects thinner than the sample spacing (a quarter cell) can fall between the samples.
+``walkable`` only chooses the Table I rows (``surface_names``); it never changes a label.
 """
 
 from __future__ import annotations
@@ -33,12 +56,25 @@ from numpy.typing import ArrayLike, NDArray
 from fogsim.config import Scenario
 from fogsim.errors import FogsimError
 from fogsim.world.timeline import ObjectState, object_center_at
+from fogsim.world.truth_params import TruthParams
+
+__all__ = [
+    "GROUND",
+    "SAME_HEIGHT_M",
+    "GroundTruthGrid",
+    "SceneTruth",
+    "TruthLabel",
+    "TruthParams",
+]
 from mapper.grid import CellType
 
 GROUND = "ground"
-RESTING_TOLERANCE_M = 1e-3  # an object rests on the support below if its base is this close
+SAME_HEIGHT_M = 1e-3
+"""Two heights this close are one level [m]: an object whose base is this close to the support
+beneath it rests on it, a cell whose samples' tops are this close holds no step. Far above the
+rounding of scenario heights, far below any step the mapper resolves (its layers are 40 mm)."""
 _INTERIOR_SAMPLES = 5
-
+_DEFAULT_PARAMS = TruthParams()
 
 TruthLabel = CellType  # truth labels are the mapper's cell types (UNKNOWN unused)
 
@@ -49,13 +85,21 @@ class GroundTruthGrid:
 
     Attributes:
         floor_m: (nx, ny) true floor height [m], NaN where not floor.
-        obstacle_top_m: (nx, ny) obstacle top [m], NaN where no obstacle.
+        obstacle_top_m: (nx, ny) top of the highest thing over an obstacle cell [m] (rough
+            tops: the highest bump), NaN where the cell is floor.
         labels: (nx, ny) int8, ``TruthLabel`` (= ``mapper.CellType``) FLOOR=1 / OBSTACLE=2.
-        surface_id: (nx, ny) int index into ``surface_names``, -1 for obstacle cells.
+        surface_id: (nx, ny) int32 index into ``surface_names`` of a floor cell's surface; -1
+            for obstacle cells and for floors that are no Table I row (a flat top of an object
+            that is not ``walkable``).
         interior: (nx, ny) bool, the whole cell lies on one surface.
-        surface_names: ``ground`` and every walkable object of the scenario.
-        surface_heights_m: true top height of each surface [m].
+        surface_names: ``ground`` and every walkable object of the scenario (Table I rows).
+        surface_heights_m: True top height of each surface [m].
         cell_m: Cell side [m].
+        ceiling_m: (nx, ny) bottom of the lowest object hanging over the support (the surface
+            one stands on) [m], NaN where there is none.
+        object_id: (nx, ny) int32 index into ``object_names`` of the object whose top or body
+            is the highest thing over the cell, -1 for the ground.
+        object_names: Every object of the scenario, in file order (removed ones included).
     """
 
     floor_m: NDArray[np.float64]
@@ -66,6 +110,9 @@ class GroundTruthGrid:
     surface_names: tuple[str, ...]
     surface_heights_m: Mapping[str, float]
     cell_m: float
+    ceiling_m: NDArray[np.float64]
+    object_id: NDArray[np.int32]
+    object_names: tuple[str, ...]
 
     def surface_mask(self, name: str, interior_only: bool = True) -> NDArray[np.bool_]:
         """Cells of one surface (optionally only its interior cells)."""
@@ -78,22 +125,26 @@ class GroundTruthGrid:
 
 
 @dataclass(frozen=True)
-class _PointLabels:
-    """Ground truth at M points (the rules of the module docstring).
+class _PointTruth:
+    """The truth at M points (the rules of the module docstring).
 
     Attributes:
-        floor_m: (M,) floor height [m], NaN where not floor.
-        obstacle_top_m: (M,) obstacle top [m], NaN where no obstacle.
-        labels: (M,) int8 ``TruthLabel``.
-        surface_id: (M,) int32 index into ``surface_names``, -1 for obstacles.
-        owner_key: (M,) int64, one key per surface or object a point lies on (the interior test).
+        top_m: (M,) top of the highest thing over the point [m] (0 on the ground).
+        owner: (M,) int64 index into ``SceneTruth.objects`` of the highest thing, -1 ground.
+        floor: (M,) bool, the highest thing is a floor.
+        ceiling_m: (M,) bottom of the lowest object hanging over the support [m], NaN if none.
     """
 
-    floor_m: NDArray[np.float64]
-    obstacle_top_m: NDArray[np.float64]
-    labels: NDArray[np.int8]
-    surface_id: NDArray[np.int32]
-    owner_key: NDArray[np.int64]
+    top_m: NDArray[np.float64]
+    owner: NDArray[np.int64]
+    floor: NDArray[np.bool_]
+    ceiling_m: NDArray[np.float64]
+
+
+def _lowest(values: NDArray[np.float64], axis: int) -> NDArray[np.float64]:
+    """Minimum along ``axis`` ignoring NaN; NaN where every value is NaN."""
+    low = np.where(np.isnan(values), np.inf, values).min(axis=axis, initial=np.inf)
+    return np.where(np.isinf(low), np.nan, low)
 
 
 @dataclass(frozen=True)
@@ -105,12 +156,30 @@ class SceneTruth:
         objects: The objects present at that time (removed ones are absent).
         surface_names: ``ground`` and every walkable object of the scenario (stable ids).
         surface_heights_m: True top of every walkable surface [m] (ground 0).
+        object_names: Every object of the scenario in file order, present or not, so that
+            ``GroundTruthGrid.object_id`` is stable over time. Default (empty): the names of
+            ``objects``, right for a world without removed objects (hand-built truths);
+            :meth:`from_scenario` always gives every scenario object.
+
+    Raises:
+        FogsimError: An object whose name is not in ``object_names``.
     """
 
     time_s: float
     objects: tuple[ObjectState, ...]
     surface_names: tuple[str, ...]
     surface_heights_m: Mapping[str, float] = field(default_factory=dict)
+    object_names: tuple[str, ...] = ()
+
+    def __post_init__(self) -> None:
+        if not self.object_names:
+            object.__setattr__(self, "object_names", tuple(o.name for o in self.objects))
+        missing = [o.name for o in self.objects if o.name not in self.object_names]
+        if missing:
+            raise FogsimError(
+                f"SceneTruth objects {missing} are not in object_names "
+                f"({', '.join(self.object_names)})"
+            )
 
     @classmethod
     def from_scenario(cls, scenario: Scenario, time_s: float) -> SceneTruth:
@@ -127,6 +196,7 @@ class SceneTruth:
             objects=tuple(states),
             surface_names=(GROUND, *(o.name for o in walkable)),
             surface_heights_m=heights,
+            object_names=tuple(o.name for o in scenario.objects),
         )
 
     def object_state(self, name: str) -> ObjectState | None:
@@ -135,79 +205,76 @@ class SceneTruth:
 
     # ------------------------------------------------------------------ point queries
 
-    def _classify(
-        self, xy: NDArray[np.float64]
-    ) -> tuple[NDArray[np.float64], NDArray[np.int32], NDArray[np.float64], NDArray[np.int32]]:
-        """Per point (M, 2): support height, support owner, hanging top, hanging owner.
+    def _inside(self, xy: NDArray[np.float64]) -> NDArray[np.bool_]:
+        """(objects, M) whether each world point (M, 2) lies in each object's footprint."""
+        if not self.objects:
+            return np.zeros((0, xy.shape[0]), dtype=bool)
+        return np.stack([obj.contains(xy) for obj in self.objects])
 
-        Owner: -1 ground, else object index in ``self.objects``; hanging owner -1 = none.
-        """
-        m = xy.shape[0]
-        support = np.zeros(m)
-        owner = np.full(m, -1, dtype=np.int32)
-        order = sorted(range(len(self.objects)), key=lambda k: self.objects[k].base_m)
-        inside = [self.objects[k].contains(xy) for k in range(len(self.objects))]
-        for k in order:
+    def _support(self, inside: NDArray[np.bool_]) -> NDArray[np.float64]:
+        """(M,) support height [m] at points, given :meth:`_inside` of them."""
+        support = np.zeros(inside.shape[1])
+        for k in sorted(range(len(self.objects)), key=lambda k: self.objects[k].base_m):
             obj = self.objects[k]
-            rests = inside[k] & (obj.base_m <= support + RESTING_TOLERANCE_M)
-            higher = rests & (obj.top_m > support)
-            support = np.where(higher, obj.top_m, support)
-            owner = np.where(higher, k, owner)
-        hanging_top = np.full(m, np.nan)
-        hanging_owner = np.full(m, -1, dtype=np.int32)
-        for k, obj in enumerate(self.objects):
-            hangs = inside[k] & (obj.base_m > support + RESTING_TOLERANCE_M)
-            higher = hangs & ~(hanging_top >= obj.top_m)
-            hanging_top = np.where(higher, obj.top_m, hanging_top)
-            hanging_owner = np.where(higher, k, hanging_owner)
-        return support, owner, hanging_top, hanging_owner
+            rests = inside[k] & (obj.base_m <= support + SAME_HEIGHT_M)
+            support = np.where(rests & (obj.top_m > support), obj.top_m, support)
+        return support
 
     def support_height_m(self, xy: ArrayLike) -> NDArray[np.float64]:
         """Height [m] of the highest surface one can stand on at world points (..., 2).
 
-        The top of the highest resting object (walkable or not), 0 on the ground; hanging
-        objects are no support.
+        The top of the highest resting object (walkable or not, whatever its size or height),
+        0 on the ground; hanging objects are no support.
         """
         p = np.asarray(xy, dtype=np.float64)
-        support, *_ = self._classify(p.reshape(-1, 2))
-        return support.reshape(p.shape[:-1])
+        flat = p.reshape(-1, 2)
+        return self._support(self._inside(flat)).reshape(p.shape[:-1])
 
-    def _labels_of(self, xy: NDArray[np.float64]) -> _PointLabels:
-        support, owner, hanging_top, hanging_owner = self._classify(xy)
-        walkable = np.array([o.walkable for o in self.objects] + [True], dtype=bool)
-        tops = np.array([o.top_m for o in self.objects] + [0.0])
-        surface_of_object = np.array(
-            [
-                self.surface_names.index(o.name) if o.name in self.surface_names else -1
+    def _point_truth(self, xy: NDArray[np.float64], params: TruthParams) -> _PointTruth:
+        """The truth at world points (M, 2) (rules of the module docstring)."""
+        inside = self._inside(xy)
+        support = self._support(inside)
+        tops = np.array([o.top_m for o in self.objects])
+        bases = np.array([o.base_m for o in self.objects])
+        counted = inside & (bases < params.grid_top_m)[:, None]
+        # Row 0 is the ground; row k + 1 object k (-inf where it is not over the point).
+        heights = np.vstack([np.zeros((1, xy.shape[0])), np.where(counted, tops[:, None], -np.inf)])
+        row = np.argmax(heights, axis=0)
+        is_floor = np.array(
+            [True]
+            + [
+                o.surface == "flat"
+                and params.has_room_for_foot(o.size[0], o.size[1])
+                and o.top_m <= params.grid_top_m
                 for o in self.objects
             ]
-            + [0],
-            dtype=np.int32,
-        )  # index -1 (ground) picks the appended last entry
-        support_is_floor = walkable[owner]
-        hanging = hanging_owner >= 0
-        obstacle = ~support_is_floor | hanging
-        obstacle_top = np.where(
-            hanging, np.fmax(hanging_top, np.where(support_is_floor, np.nan, support)), np.nan
         )
-        obstacle_top = np.where(~support_is_floor & ~hanging, tops[owner], obstacle_top)
-        surface_id = np.where(obstacle, -1, surface_of_object[owner]).astype(np.int32)
-        # One key per distinct surface/object a sample can lie on, for the interior test.
-        owner_key = np.where(hanging, 10_000 + hanging_owner, owner).astype(np.int64)
-        return _PointLabels(
-            floor_m=np.where(obstacle, np.nan, support),
-            obstacle_top_m=obstacle_top,
-            labels=np.where(obstacle, TruthLabel.OBSTACLE, TruthLabel.FLOOR).astype(np.int8),
-            surface_id=surface_id,
-            owner_key=owner_key,
+        hangs = counted & (bases[:, None] > support + SAME_HEIGHT_M)
+        return _PointTruth(
+            top_m=np.take_along_axis(heights, row[None], axis=0)[0],
+            owner=row - 1,
+            floor=is_floor[row],
+            ceiling_m=_lowest(np.where(hangs, bases[:, None], np.nan), axis=0),
         )
 
-    def rasterize(self, cell_centers_xy: ArrayLike, cell_m: float) -> GroundTruthGrid:
+    def _near_outline(self, xy: NDArray[np.float64], cell_m: float) -> NDArray[np.bool_]:
+        """(M,) whether an object outline may cross the axis-aligned cell centred at each point."""
+        reach = 0.5 * math.sqrt(2.0) * cell_m
+        near = np.zeros(xy.shape[0], dtype=bool)
+        for obj in self.objects:
+            near |= obj.contains(xy, reach) & ~obj.contains(xy, -reach)
+        return near
+
+    def rasterize(
+        self, cell_centers_xy: ArrayLike, cell_m: float, *, params: TruthParams = _DEFAULT_PARAMS
+    ) -> GroundTruthGrid:
         """Ground truth on a grid of axis-aligned square cells.
 
         Args:
             cell_centers_xy: (nx, ny, 2) world x, y of the cell centres [m].
             cell_m: Cell side [m].
+            params: The robot's foot and the mapper grid's top (default: iCub's foot, the
+                default grid).
 
         Returns:
             The :class:`GroundTruthGrid` (rules in the module docstring).
@@ -219,37 +286,61 @@ class SceneTruth:
             raise FogsimError(f"cell_m must be > 0 m, got {cell_m}")
         nx, ny = centers.shape[:2]
         flat = centers.reshape(-1, 2)
-        at_center = self._labels_of(flat)
-        # Only cells an object's outline passes near can straddle two surfaces: sample those.
-        reach = 0.5 * math.sqrt(2.0) * cell_m
-        near_edge = np.zeros(flat.shape[0], dtype=bool)
-        for obj in self.objects:
-            near_edge |= obj.contains(flat, reach) & ~obj.contains(flat, -reach)
+        center = self._point_truth(flat, params)
+        cell_top, cell_owner = center.top_m.copy(), center.owner.copy()
+        floor, ceiling = center.floor.copy(), center.ceiling_m.copy()
+        interior = np.ones(flat.shape[0], dtype=bool)
+
+        near = self._near_outline(flat, cell_m)
         half = 0.5 * cell_m * (1.0 - 1e-4)
         offsets = np.linspace(-half, half, _INTERIOR_SAMPLES)
         ox, oy = np.meshgrid(offsets, offsets, indexing="ij")
-        candidates = flat[near_edge]
-        samples = candidates[:, None, :] + np.stack([ox.ravel(), oy.ravel()], axis=-1)[None]
-        keys = self._labels_of(samples.reshape(-1, 2)).owner_key
-        interior = np.ones(flat.shape[0], dtype=bool)
-        interior[near_edge] = np.all(
-            keys.reshape(candidates.shape[0], _INTERIOR_SAMPLES**2)
-            == at_center.owner_key[near_edge, None],
-            axis=1,
+        samples_xy = flat[near][:, None, :] + np.stack([ox.ravel(), oy.ravel()], axis=-1)[None]
+        sampled = self._point_truth(samples_xy.reshape(-1, 2), params)
+        count = int(near.sum())
+
+        def per_cell(values: NDArray[Any], at_center: NDArray[Any]) -> NDArray[Any]:
+            """(cells near an outline, 1 + samples): the centre's value first."""
+            return np.column_stack([at_center[near], values.reshape(count, _INTERIOR_SAMPLES**2)])
+
+        tops = per_cell(sampled.top_m, center.top_m)
+        highest = np.argmax(tops, axis=1)  # ties keep the centre
+        cell_top[near] = np.take_along_axis(tops, highest[:, None], axis=1)[:, 0]
+        owners = per_cell(sampled.owner, center.owner)
+        cell_owner[near] = np.take_along_axis(owners, highest[:, None], axis=1)[:, 0]
+        ceiling[near] = _lowest(per_cell(sampled.ceiling_m, center.ceiling_m), axis=1)
+        level = np.abs(tops - tops[:, :1]) <= SAME_HEIGHT_M
+        floor[near] &= np.all(per_cell(sampled.floor, center.floor) & level, axis=1)
+        interior[near] = np.all(owners == owners[:, :1], axis=1)
+
+        # Index -1 (the ground) picks the appended last entry.
+        object_ids = np.array(
+            [self.object_names.index(o.name) for o in self.objects] + [-1], dtype=np.int32
+        )
+        surface_ids = np.array(
+            [
+                self.surface_names.index(o.name) if o.name in self.surface_names else -1
+                for o in self.objects
+            ]
+            + [self.surface_names.index(GROUND) if GROUND in self.surface_names else -1],
+            dtype=np.int32,
         )
 
         def grid(a: NDArray[Any]) -> NDArray[Any]:
             return a.reshape(nx, ny)
 
         return GroundTruthGrid(
-            floor_m=grid(at_center.floor_m),
-            obstacle_top_m=grid(at_center.obstacle_top_m),
-            labels=grid(at_center.labels),
-            surface_id=grid(at_center.surface_id),
+            floor_m=grid(np.where(floor, center.top_m, np.nan)),
+            obstacle_top_m=grid(np.where(floor, np.nan, cell_top)),
+            labels=grid(np.where(floor, TruthLabel.FLOOR, TruthLabel.OBSTACLE).astype(np.int8)),
+            surface_id=grid(np.where(floor, surface_ids[center.owner], -1).astype(np.int32)),
             interior=grid(interior),
             surface_names=self.surface_names,
             surface_heights_m=dict(self.surface_heights_m),
             cell_m=float(cell_m),
+            ceiling_m=grid(ceiling),
+            object_id=grid(object_ids[np.where(floor, center.owner, cell_owner)]),
+            object_names=self.object_names,
         )
 
     # ------------------------------------------------------------------ (de)serialisation
@@ -273,11 +364,17 @@ class SceneTruth:
             ],
             "surface_names": list(self.surface_names),
             "surface_heights_m": dict(self.surface_heights_m),
+            "object_names": list(self.object_names),
         }
 
     @classmethod
     def from_dict(cls, data: Mapping[str, Any]) -> SceneTruth:
-        """Inverse of :meth:`to_dict`."""
+        """Inverse of :meth:`to_dict`.
+
+        Raises:
+            FogsimError: A key is missing or malformed (truths recorded before
+                ``object_names`` existed lack it: record them again).
+        """
         try:
             objects = tuple(
                 ObjectState(
@@ -297,6 +394,7 @@ class SceneTruth:
                 objects=objects,
                 surface_names=tuple(str(n) for n in data["surface_names"]),
                 surface_heights_m={str(k): float(v) for k, v in data["surface_heights_m"].items()},
+                object_names=tuple(str(n) for n in data["object_names"]),
             )
         except (KeyError, TypeError, IndexError, ValueError) as exc:
             raise FogsimError(f"invalid SceneTruth dict: {exc!r}") from exc
