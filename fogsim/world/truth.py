@@ -6,9 +6,9 @@
 and the mapper grid's top).
 
 Definitions (DESIGN.md "Ground truth"; heights in world metres, z up, the ground at 0). Every
-object is a box; one whose bottom is at or above ``TruthParams.grid_top_m`` is not there for the
-truth (the mapper never sees it). At a point ("over" = the point lies in the object's footprint,
-edges included):
+object is a box; one whose bottom is at or above ``TruthParams.grid_top_m`` (within
+:data:`SAME_HEIGHT_M`) is not there for the truth (the mapper never sees it). At a point
+("over" = the point lies in the object's footprint, edges included):
 
 * The *support* is the top of the highest object resting there (its base at most
   :data:`SAME_HEIGHT_M` above the support beneath it: on the ground, or stacked), else the
@@ -57,6 +57,7 @@ from fogsim.config import Scenario
 from fogsim.errors import FogsimError
 from fogsim.world.timeline import ObjectState, object_center_at
 from fogsim.world.truth_params import TruthParams
+from mapper.grid import CellType
 
 __all__ = [
     "GROUND",
@@ -66,13 +67,13 @@ __all__ = [
     "TruthLabel",
     "TruthParams",
 ]
-from mapper.grid import CellType
 
 GROUND = "ground"
 SAME_HEIGHT_M = 1e-3
 """Two heights this close are one level [m]: an object whose base is this close to the support
-beneath it rests on it, a cell whose samples' tops are this close holds no step. Far above the
-rounding of scenario heights, far below any step the mapper resolves (its layers are 40 mm)."""
+beneath it rests on it, a cell whose samples' tops are this close holds no step, a bottom or a
+top this close to the grid top is at it. Far above the rounding of scenario heights, far below
+any step the mapper resolves (its layers are 40 mm)."""
 _INTERIOR_SAMPLES = 5
 _DEFAULT_PARAMS = TruthParams()
 
@@ -236,7 +237,7 @@ class SceneTruth:
         support = self._support(inside)
         tops = np.array([o.top_m for o in self.objects])
         bases = np.array([o.base_m for o in self.objects])
-        counted = inside & (bases < params.grid_top_m)[:, None]
+        counted = inside & (bases < params.grid_top_m - SAME_HEIGHT_M)[:, None]
         # Row 0 is the ground; row k + 1 object k (-inf where it is not over the point).
         heights = np.vstack([np.zeros((1, xy.shape[0])), np.where(counted, tops[:, None], -np.inf)])
         row = np.argmax(heights, axis=0)
@@ -245,7 +246,7 @@ class SceneTruth:
             + [
                 o.surface == "flat"
                 and params.has_room_for_foot(o.size[0], o.size[1])
-                and o.top_m <= params.grid_top_m
+                and o.top_m <= params.grid_top_m + SAME_HEIGHT_M
                 for o in self.objects
             ]
         )
