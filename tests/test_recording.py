@@ -103,6 +103,20 @@ def test_hand_written_minimal_file_loads(tmp_path):
     assert np.all(np.isnan(rec.frames[0].robot_pose_true))
 
 
+def test_version_1_truth_is_refused_with_the_way_out(tmp_path):
+    """Version 1 truths lack the object names that per-object scores need: record again."""
+    frames = make_frames(2)
+    truth = SceneTruth(0.0, (BOX,), NAMES, {"ground": 0.0, "box": 0.05})
+    path = save_recording(tmp_path / "v2.npz", frames, truths=[truth, truth])
+    with np.load(path) as data:
+        meta = json.loads(str(data["meta_json"]))
+    assert meta["version"] == 2
+    meta["version"] = 1
+    _rewrite(path, tmp_path / "v1.npz", meta_json=np.array(json.dumps(meta)))
+    with pytest.raises(RecordingError, match=r"version 1 .* record the scenario again"):
+        load_recording(tmp_path / "v1.npz")
+
+
 def _rewrite(path, out, **changes):
     with np.load(path) as data:
         arrays = {k: data[k] for k in data.files}
@@ -121,7 +135,7 @@ def test_errors_name_the_problem(tmp_path):
         meta = json.loads(str(data["meta_json"]))
     meta["version"] = FORMAT_VERSION + 1
     _rewrite(path, tmp_path / "v.npz", meta_json=np.array(json.dumps(meta)))
-    with pytest.raises(RecordingError, match=r"version 2 is not supported; supported versions"):
+    with pytest.raises(RecordingError, match=r"version 3 is not supported; supported versions"):
         load_recording(tmp_path / "v.npz")
     _rewrite(path, tmp_path / "s.npz", robot_pose_believed=np.zeros((4, 3)))
     with pytest.raises(RecordingError, match=r"'robot_pose_believed' must have shape \(4, 4\)"):

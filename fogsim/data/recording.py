@@ -5,7 +5,7 @@ believes), the true poses and the scene's ground truth, so tuning and regression
 mapper without MuJoCo. It is also how real robot data comes to the mapper: write the arrays
 below with numpy (``numpy.savez_compressed``) and run ``fogsim run --replay FILE``.
 
-File format, version 1 (a NumPy ``.npz`` zip archive, loaded with ``allow_pickle=False``):
+File format, version 2 (a NumPy ``.npz`` zip archive, loaded with ``allow_pickle=False``):
 
 =======================================  ==================  ======================================
 key                                      shape, dtype        meaning
@@ -32,7 +32,7 @@ key                                      shape, dtype        meaning
                                                              at this frame, -1 = none
 =======================================  ==================  ======================================
 
-``meta_json`` keys: ``format`` (``"fogsim-recording"``), ``version`` (1), ``intrinsics``
+``meta_json`` keys: ``format`` (``"fogsim-recording"``), ``version`` (2), ``intrinsics``
 (``width``, ``height`` [px], ``fx``, ``fy``, ``cx``, ``cy`` [px], pixel centres at integer
 coordinates), ``scenario_toml`` (the scenario file text, or null for real data: the mapper then
 uses its default parameters and the run is not scored), ``truths`` (list of
@@ -62,8 +62,10 @@ from fogsim.world import SceneTruth
 from mapper.intrinsics import PinholeIntrinsics
 
 FORMAT_NAME = "fogsim-recording"
-FORMAT_VERSION = 1
-SUPPORTED_VERSIONS = (1,)
+FORMAT_VERSION = 2
+"""2: ground-truth states name every scenario object (``object_names``, for per-object truth)."""
+SUPPORTED_VERSIONS = (1, 2)
+"""Version 1 files load when they hold no ground truth (real data); their truths are refused."""
 REQUIRED_ARRAYS = (
     "meta_json",
     "time_s",
@@ -234,6 +236,11 @@ def load_recording(path: str | os.PathLike[str]) -> Recording:
         raise RecordingError(
             f"{source}: recording version {meta.get('version')!r} is not supported; "
             f"supported versions: {list(SUPPORTED_VERSIONS)}"
+        )
+    if meta["version"] == 1 and meta.get("truths"):
+        raise RecordingError(
+            f"{source}: a version 1 recording's ground truth lacks the scenario's object names "
+            "(version 2 scores per object); record the scenario again with `fogsim record`"
         )
     try:
         k = meta["intrinsics"]

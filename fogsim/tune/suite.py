@@ -14,7 +14,7 @@ from collections.abc import Sequence
 from pathlib import Path
 
 from fogsim.config import Scenario, load_scenario
-from fogsim.data.recording import Recording, load_recording
+from fogsim.data.recording import FORMAT_VERSION, Recording, load_recording
 from fogsim.errors import TuneError
 from fogsim.run.record import record_scenario
 from fogsim.run.suite import QUICK_MAX_FRAMES, QUICK_SCENARIOS
@@ -22,8 +22,12 @@ from fogsim.tune.objective import SuiteEntry
 
 
 def scenario_hash(scenario: Scenario) -> str:
-    """16 hex digits of SHA-256 over the scenario's canonical TOML (the recording cache key)."""
-    return hashlib.sha256(scenario.to_toml().encode("utf-8")).hexdigest()[:16]
+    """16 hex digits of SHA-256 over the recording format and the scenario's canonical TOML.
+
+    The recording cache key: a changed scenario or a new recording format gets a new recording.
+    """
+    text = f"{FORMAT_VERSION}\n{scenario.to_toml()}"
+    return hashlib.sha256(text.encode("utf-8")).hexdigest()[:16]
 
 
 def _first_frames(recording: Recording, max_frames: int | None) -> Recording:
