@@ -613,35 +613,23 @@ def update_table(hit_table: NDArray[np.uint8], miss_table: NDArray[np.uint8]) ->
 
 
 @numba.njit(cache=True, inline="always")
-def _walk_columns(
-    miss_cols,
-    range_masks,
-    c,
-    z_entry,
-    rem_x,
-    rem_y,
-    tmx,
-    tmy,
-    tdx,
-    tdy,
-    dcol_x,
-    dcol_y,
-    sz,
-    dz,
-    z_lo,
-    z_hi,
-):
+def _walk_columns(miss_cols, range_masks, c, z_entry, axis_x, axis_y, z_line, z_range):
     """Mark the layers a ray crosses in each column it leaves; returns (last column, entry layer).
 
-    The ray leaves column ``c`` (flat ``ix*ny + iy``) ``rem_x`` times across an x boundary and
-    ``rem_y`` times across a y boundary, at ray parameters ``tmx, tmx + tdx, ...`` and ``tmy, tmy
-    + tdy, ...`` (``_first_crossing``); each column holds the layers from its entry layer to the
-    layer at its exit (``z = sz + t·dz``, clamped to ``[z_lo, z_hi]``). While both axes have
-    crossings left the nearer one comes first (x wins ties, as in `insert_frame`); then the
+    Each axis is ``(crossings left, parameter of the next crossing, parameter step, column
+    step)``: the ray leaves column ``c`` (flat ``ix*ny + iy``) ``rem_x`` times across an x
+    boundary, at ray parameters ``tmx, tmx + tdx, ...`` (``_first_crossing``), likewise in y.
+    Each column holds the layers from its entry layer to the layer at its exit: ``z = sz +
+    t·dz`` with ``z_line = (sz, dz)``, clamped to ``z_range = (z_lo, z_hi)``. While both axes
+    have crossings left the nearer one comes first (x wins ties, as in `insert_frame`); then the
     other axis's crossings follow in order. Two loops instead of one with an infinite parameter
     for an exhausted axis: that select sits on the loop's dependency chain, and how it is
     compiled depends on the CPU (2x slower with AVX-512 than with the ``generic`` target).
     """
+    rem_x, tmx, tdx, dcol_x = axis_x
+    rem_y, tmy, tdy, dcol_y = axis_y
+    sz, dz = z_line
+    z_lo, z_hi = z_range
     while rem_x > 0 and rem_y > 0:
         if tmx <= tmy:
             t_exit = tmx
@@ -790,18 +778,10 @@ def insert_frame_columns(
             range_masks,
             cx * ny + cy,
             cz,
-            rem_x,
-            rem_y,
-            tmx,
-            tmy,
-            tdx,
-            tdy,
-            ny if ex > cx else -ny,
-            1 if ey > cy else -1,
-            sz,
-            dz,
-            min(cz, ez),
-            max(cz, ez),
+            (rem_x, tmx, tdx, ny if ex > cx else -ny),
+            (rem_y, tmy, tdy, 1 if ey > cy else -1),
+            (sz, dz),
+            (min(cz, ez), max(cz, ez)),
         )
         # The last column: its layers down to the end (or stop) cell. The end cell itself is
         # only marked when it is a stop cell (an end cell is hit, and the hit wins anyway).
