@@ -324,9 +324,7 @@ def main() -> None:
     codegens = ["host", "generic"] if args.codegen == "both" else [args.codegen]
     with tempfile.TemporaryDirectory() as cache_dir:
         rows = [row for c in codegens for row in run_child(args, c, Path(cache_dir))]
-    print(
-        f"{len(args.sets)} frame sets x 2 resolutions, {args.frames} frames each, {os.uname()[1]}"
-    )
+    print(f"{machine()}; {args.frames} frames per set, blocks of {args.block}")
     print_table(rows)
 
 
