@@ -1,57 +1,124 @@
-"""Mapper update speed: FloorObstacleMapper vs AveragingMap vs OctoMap on the same frames.
+"""Mapper update speed with host and generic code generation, peers interleaved in one process.
 
-Scene (analytic, `mapper.synthetic`): ground plane, two boxes and a wall 3.2 m ahead, seen by a
-camera 0.70 m above the ground (above the grid's 0.58 m top, as on the iCub: rays are clipped to
-the grid) pitched down 22°, 47° × 39° field of view, from the grid's -x edge looking across it,
-so that every ray ends inside the default 4 m × 4 m × 0.64 m grid at a range of 1–3.5 m.
-±5 mm z noise; the camera sways by a few millimetres per frame so the points differ. The same
-points go to every implementation (OctoMap: ``OcTree(0.04).insertPointCloud(points, origin)``,
-which also updates each voxel once per cloud, occupied winning).
-Scene "centre" (``--scene centre``): the robot-centred case, the same camera and scene but the
-camera at the grid's centre; points beyond the grid's ±2 m are dropped (counted) by the mapper but
-still given to OctoMap, whose map is unbounded.
-Peers run interleaved in blocks of ``--block`` frames (10: each implementation runs frames
-i … i+9, then the next one does), so load from other processes hits them alike while each keeps
-its caches warm within a block as in a loop of its own; ``--block 1`` measures every frame after
-the others' (caches flushed by OctoMap's tree, as in a pipeline that does other work between
-frames). "cell marks" is the mapper with its
-per-cell mark kernel (`insert_frame`, the implementation before the column kernel), the same
-map, for a before/after figure in one process.
-Run: ``.venv/bin/python bench/bench_mapper.py [--frames 300] [--scene edge|centre|both]``.
+What is timed: one ``update`` per frame (the grid recentred before it, untimed, as the pipeline
+does) of
+
+- ``FloorObstacleMapper`` (the column kernel, the default for ``nz <= 64``),
+- ``FloorObstacleMapper (cell marks)`` (the per-cell kernel, the same map),
+- ``AveragingMap`` (the Kagami baseline),
+- ``octomap.OcTree.insertPointCloud`` on the same finite points from the same sensor origin
+  (which also updates each voxel once per cloud, occupied winning).
+
+Frame sets:
+
+- ``stage``: the stage scenario's own frames — its recording (``fogsim record stage``, made
+  once into ``--recordings``) replayed through the pipeline (segmentation, z matching), and the
+  points, floor heights and sensor origin it hands ``FloorObstacleMapper.update`` captured;
+  at the scenario's 88 × 72 and at 176 × 144 (``--set camera.width=176 ...``).
+- ``edge`` / ``centre`` (`mapper.synthetic`): a ground plane, two boxes and a wall 3.2 m
+  ahead, seen from 0.70 m (above the grid's 0.58 m top) pitched down 22°, 47° × 39° field of
+  view; from the grid's -x edge (every ray ends inside the 4 m grid at 1–3.5 m) or from its
+  centre; ±5 mm z noise, the camera swaying by a few millimetres per frame.
+
+Peers run interleaved in blocks of ``--block`` frames (each runs frames i … i+9, then the
+next one does), so load from other processes hits them alike; the figure is the median per
+frame. Code generation: numba compiles for the host CPU unless ``NUMBA_CPU_NAME=generic``; the
+bench runs itself once per codegen in a child process (generic with its own numba cache) and
+prints both, with ``os.getloadavg()`` before and after each frame set.
+
+Run: ``.venv/bin/python bench/bench_mapper.py [--frames 200] [--sets stage edge centre]
+[--codegen both|host|generic]``.
 """
 
 from __future__ import annotations
 
 import argparse
+import json
+import os
+import platform
+import subprocess
 import sys
+import tempfile
 import time
-from dataclasses import replace
+from collections.abc import Callable
+from dataclasses import dataclass, replace
 from pathlib import Path
 
 import numpy as np
+import octomap
+from numpy.typing import NDArray
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
-from mapper import (
-    AveragingMap,
-    FloorObstacleMapper,
-    MapperParams,
-    PinholeIntrinsics,
-)
+from fogsim.config.params import resolve_params
+from fogsim.data.recording import load_recording
+from fogsim.mapping.pipeline import Pipeline
+from mapper import AveragingMap, FloorObstacleMapper, MapperParams, PinholeIntrinsics
 from mapper.synthetic import Box, camera_rays_world, cast_frame
 
+ROOT = Path(__file__).resolve().parents[1]
+RESOLUTIONS = ((88, 72), (176, 144))
 BOXES = (
     Box((-0.6, 0.3), (0.4, 0.4, 0.07)),
     Box((0.0, -0.5), (0.3, 0.3, 0.25), walkable=False),
     Box((1.35, 0.0), (0.1, 4.0, 1.0), walkable=False),
 )
-# scene name -> (camera position [m], pitch down [deg]); see the module docstring
+# synthetic scene name -> (camera position [m], pitch down [deg]); see the module docstring
 SCENES = {
     "edge": (np.array([-1.9, 0.0, 0.70]), 22.0),
     "centre": (np.array([0.0, 0.0, 0.70]), 22.0),
 }
+PEERS = (
+    "FloorObstacleMapper",
+    "FloorObstacleMapper (cell marks)",
+    "AveragingMap",
+    "octomap insertPointCloud",
+)
 
 
-def make_frames(width: int, height: int, count: int, seed: int = 0, scene: str = "edge"):
+@dataclass(frozen=True)
+class MapperInput:
+    """What one ``update`` gets, and where the grid is centred before it.
+
+    Attributes:
+        points: (N, 3) world points [m].
+        floor_heights: (N,) floor height of each point [m], NaN = not floor.
+        sensor_origin: (3,) world camera position [m].
+        center_xy_m: World (x, y) the grid is recentred on before the update [m].
+    """
+
+    points: NDArray[np.float64]
+    floor_heights: NDArray[np.float64]
+    sensor_origin: NDArray[np.float64]
+    center_xy_m: tuple[float, float]
+
+
+@dataclass(frozen=True)
+class FrameSet:
+    """Frames of one source at one resolution, with the mapper parameters they were made for."""
+
+    name: str
+    resolution: str
+    params: MapperParams
+    frames: list[MapperInput]
+
+
+@dataclass(frozen=True)
+class Row:
+    """One peer's times on one frame set in one process (milliseconds per frame)."""
+
+    frame_set: str
+    resolution: str
+    peer: str
+    codegen: str
+    median_ms: float
+    p90_ms: float
+    points: int
+    load_before: tuple[float, float, float]
+    load_after: tuple[float, float, float]
+
+
+def synthetic_frames(scene: str, width: int, height: int, count: int, seed: int = 0) -> FrameSet:
+    """The ``edge`` or ``centre`` scene (module docstring), grid centred at the origin."""
     rng = np.random.default_rng(seed)
     intrinsics = PinholeIntrinsics.from_fov(width, height, 47.0, 39.0)
     camera0, pitch_deg = SCENES[scene]
@@ -62,101 +129,203 @@ def make_frames(width: int, height: int, count: int, seed: int = 0, scene: str =
     for i in range(count):
         camera = camera0 + np.array([0.002 * (i % 20), 0.001 * (i % 7), 0.003 * (i % 3)])
         points, heights = cast_frame(camera, rays, boxes, max_range_m=3.5, noise_z_m=0.005, rng=rng)
-        frames.append((points, heights, camera))
-    return frames
+        frames.append(MapperInput(points, heights, camera, (0.0, 0.0)))
+    return FrameSet(scene, f"{width}x{height}", MapperParams(), frames)
 
 
-def time_interleaved(impls: dict, frames, block: int) -> dict[str, np.ndarray]:
-    """Per-frame times [ms] of each implementation, interleaved in blocks of frames."""
-    times = {name: np.empty(len(frames)) for name in impls}
-    for start in range(0, len(frames), block):
-        for name, insert in impls.items():
-            for i in range(start, min(start + block, len(frames))):
-                points, heights, camera = frames[i]
-                t0 = time.perf_counter()
-                insert(points, heights, camera)
-                times[name][i] = time.perf_counter() - t0
-    return {name: t * 1e3 for name, t in times.items()}
+def stage_recording(directory: Path, width: int, height: int) -> Path:
+    """The stage scenario recorded at ``width × height`` (made with the CLI on first use)."""
+    path = directory / f"stage-{width}x{height}.npz"
+    if not path.is_file():
+        directory.mkdir(parents=True, exist_ok=True)
+        command = [sys.executable, "-m", "fogsim", "record", "stage", "--out", str(path)]
+        command += ["--set", f"camera.width={width}", "--set", f"camera.height={height}"]
+        subprocess.run([*command, "--quiet"], check=True, cwd=ROOT)
+    return path
 
 
-def run_scene(scene: str, frames_count: int, octomap_too: bool, block: int) -> list[tuple]:
-    params = MapperParams()
-    rows = []
-    for width, height in ((88, 72), (176, 144)):
-        frames = make_frames(width, height, frames_count, scene=scene)
-        points0, _, camera0 = frames[0]
-        valid = np.count_nonzero(np.all(np.isfinite(points0), axis=1))
-        ranges = np.linalg.norm(points0 - camera0, axis=1)
-        probe = FloorObstacleMapper(params).update(*frames[0])
-        print(
-            f"{scene} {width}x{height}: {valid} finite points, ranges {np.nanmin(ranges):.2f}-"
-            f"{np.nanmax(ranges):.2f} m, {probe.points_used} inside the grid, "
-            f"{probe.cells_updated} cells updated per frame"
-        )
-        # warm-up (JIT compile, caches) on separate instances
-        t0 = time.perf_counter()
-        FloorObstacleMapper(params).update(*frames[0])
-        first_ms = (time.perf_counter() - t0) * 1e3
-        FloorObstacleMapper(params, column_marks=False).update(*frames[0])
-        impls = {
-            "FloorObstacleMapper": FloorObstacleMapper(params).update,
-            "FloorObstacleMapper (cell marks)": FloorObstacleMapper(
-                params, column_marks=False
-            ).update,
-            "AveragingMap": AveragingMap(params).update,
-        }
-        if octomap_too:
-            import octomap
+def stage_frames(path: Path, count: int) -> FrameSet:
+    """The mapper's inputs when the recording is replayed: ``count`` frames evenly spaced."""
+    recording = load_recording(path)
+    pipeline = Pipeline(resolve_params(recording.scenario))
+    mapper = pipeline.mapper
+    captured: list[MapperInput] = []
+    center: list[tuple[float, float]] = [(0.0, 0.0)]
+    recenter, update = mapper.recenter, mapper.update
 
-            tree = octomap.OcTree(params.cell_m)
+    def capture_recenter(x_m: float, y_m: float) -> tuple[int, int]:
+        center[0] = (float(x_m), float(y_m))
+        return recenter(x_m, y_m)
 
-            def octo(points, heights, camera, tree=tree):
-                finite = np.all(np.isfinite(points), axis=1)
-                tree.insertPointCloud(np.ascontiguousarray(points[finite]), camera)
-
-            impls["octomap.OcTree.insertPointCloud"] = octo
-        for name, times in time_interleaved(impls, frames, block).items():
-            rows.append(
-                (
-                    scene,
-                    name,
-                    f"{width}x{height}",
-                    valid,
-                    np.median(times),
-                    np.percentile(times, 90),
-                )
+    def capture_update(points, floor_heights, sensor_origin):
+        captured.append(
+            MapperInput(
+                np.array(points, dtype=np.float64),
+                np.array(floor_heights, dtype=np.float64),
+                np.array(sensor_origin, dtype=np.float64),
+                center[0],
             )
-        print(f"{scene} {width}x{height}: first FloorObstacleMapper call {first_ms:.0f} ms")
+        )
+        return update(points, floor_heights, sensor_origin)
+
+    mapper.recenter, mapper.update = capture_recenter, capture_update
+    for frame in recording.frames:
+        pipeline.process(frame)
+    keep = np.linspace(0, len(captured) - 1, min(count, len(captured))).round().astype(int)
+    k = recording.intrinsics
+    return FrameSet(
+        "stage", f"{k.width}x{k.height}", pipeline.mapper_params, [captured[i] for i in keep]
+    )
+
+
+def make_peers(params: MapperParams) -> dict[str, Callable[[MapperInput], float]]:
+    """Each peer's insertion of one frame; returns the seconds the insertion itself took."""
+    column = FloorObstacleMapper(params)
+    cell = FloorObstacleMapper(params, column_marks=False)
+    averaging = AveragingMap(params)
+    tree = octomap.OcTree(params.cell_m)
+
+    def grid_map(m: FloorObstacleMapper | AveragingMap) -> Callable[[MapperInput], float]:
+        def insert(f: MapperInput) -> float:
+            m.recenter(*f.center_xy_m)
+            t0 = time.perf_counter()
+            m.update(f.points, f.floor_heights, f.sensor_origin)
+            return time.perf_counter() - t0
+
+        return insert
+
+    def octo(f: MapperInput) -> float:
+        finite = np.ascontiguousarray(f.points[np.all(np.isfinite(f.points), axis=1)])
+        t0 = time.perf_counter()
+        tree.insertPointCloud(finite, f.sensor_origin)
+        return time.perf_counter() - t0
+
+    impls = (grid_map(column), grid_map(cell), grid_map(averaging), octo)
+    return dict(zip(PEERS, impls, strict=True))
+
+
+def time_interleaved(frame_set: FrameSet, block: int, codegen: str) -> list[Row]:
+    """Per-frame times of every peer, interleaved in blocks of frames; one row per peer."""
+    # warm-up (JIT compile or cache load) on separate instances
+    for insert in make_peers(frame_set.params).values():
+        insert(frame_set.frames[0])
+    peers = make_peers(frame_set.params)
+    frames = frame_set.frames
+    times = {name: np.empty(len(frames)) for name in peers}
+    load_before = os.getloadavg()
+    for start in range(0, len(frames), block):
+        for name, insert in peers.items():
+            for i in range(start, min(start + block, len(frames))):
+                times[name][i] = insert(frames[i])
+    load_after = os.getloadavg()
+    points = int(np.median([len(f.points) for f in frames]))
+    return [
+        Row(
+            frame_set.name,
+            frame_set.resolution,
+            name,
+            codegen,
+            float(np.median(t) * 1e3),
+            float(np.percentile(t, 90) * 1e3),
+            points,
+            load_before,
+            load_after,
+        )
+        for name, t in times.items()
+    ]
+
+
+def measure(args: argparse.Namespace, codegen: str) -> list[Row]:
+    """All requested frame sets in this process."""
+    rows = []
+    for name in args.sets:
+        for width, height in RESOLUTIONS:
+            if name == "stage":
+                path = stage_recording(Path(args.recordings), width, height)
+                frame_set = stage_frames(path, args.frames)
+            else:
+                frame_set = synthetic_frames(name, width, height, args.frames)
+            rows += time_interleaved(frame_set, args.block, codegen)
     return rows
+
+
+def run_child(args: argparse.Namespace, codegen: str, cache_dir: Path) -> list[Row]:
+    """``measure`` in a child process compiled for ``codegen`` (host or generic)."""
+    env = dict(os.environ)
+    if codegen == "generic":
+        env["NUMBA_CPU_NAME"] = "generic"
+        env["NUMBA_CACHE_DIR"] = str(cache_dir / "numba-generic")
+    else:
+        env.pop("NUMBA_CPU_NAME", None)
+    command = [sys.executable, __file__, "--child", codegen, "--frames", str(args.frames)]
+    command += ["--block", str(args.block), "--recordings", args.recordings, "--sets", *args.sets]
+    out = subprocess.run(command, env=env, check=True, capture_output=True, text=True).stdout
+    rows = []
+    for line in out.splitlines():
+        fields = json.loads(line)
+        fields["load_before"] = tuple(fields["load_before"])
+        fields["load_after"] = tuple(fields["load_after"])
+        rows.append(Row(**fields))
+    return rows
+
+
+def machine() -> str:
+    """CPU model (from /proc/cpuinfo where there is one), core count and OS."""
+    cpuinfo = Path("/proc/cpuinfo")
+    model = platform.processor()
+    if cpuinfo.is_file():
+        names = [line for line in cpuinfo.read_text().splitlines() if line.startswith("model name")]
+        model = names[0].split(":", 1)[1].strip() if names else model
+    return f"{model}, {os.cpu_count()} cores, {platform.platform()}"
+
+
+def print_table(rows: list[Row]) -> None:
+    """The rows, then per frame set and codegen the speed-ups that matter."""
+    print(
+        f"{'set':7s} {'frame':>8s} {'codegen':8s} {'peer':33s} {'points':>7s} "
+        f"{'median ms':>10s} {'p90 ms':>8s}  load (1, 5, 15 min) before / after"
+    )
+    for r in rows:
+        load = f"{'/'.join(f'{v:.1f}' for v in r.load_before)} / "
+        load += "/".join(f"{v:.1f}" for v in r.load_after)
+        print(
+            f"{r.frame_set:7s} {r.resolution:>8s} {r.codegen:8s} {r.peer:33s} {r.points:7d} "
+            f"{r.median_ms:10.3f} {r.p90_ms:8.3f}  {load}"
+        )
+    by = {(r.frame_set, r.resolution, r.codegen, r.peer): r.median_ms for r in rows}
+    print()
+    for key in sorted({(r.frame_set, r.resolution, r.codegen) for r in rows}):
+        ours = by[(*key, PEERS[0])]
+        cell = by[(*key, PEERS[1])]
+        octo = by[(*key, PEERS[3])]
+        print(
+            f"{' '.join(key)}: update {ours:.3f} ms, column vs cell marks {cell / ours:.2f}x, "
+            f"vs OctoMap {octo / ours:.1f}x"
+        )
 
 
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__)
-    parser.add_argument("--frames", type=int, default=300)
-    parser.add_argument("--no-octomap", action="store_true")
-    parser.add_argument("--scene", choices=[*sorted(SCENES), "both"], default="edge")
+    parser.add_argument("--frames", type=int, default=200, help="frames per set")
+    parser.add_argument("--sets", nargs="+", choices=["stage", *SCENES], default=["stage", "edge"])
     parser.add_argument("--block", type=int, default=10, help="frames per interleaved block")
-    args = parser.parse_args()
-    scenes = sorted(SCENES) if args.scene == "both" else [args.scene]
-    rows = []
-    for scene in scenes:
-        rows += run_scene(scene, args.frames, not args.no_octomap, args.block)
-    print(
-        f"\n{'scene':7s} {'implementation':34s} {'frame':>8s} {'points':>7s} "
-        f"{'median ms':>10s} {'p90 ms':>8s}"
+    parser.add_argument("--codegen", choices=["both", "host", "generic"], default="both")
+    parser.add_argument(
+        "--recordings",
+        default=str(Path(tempfile.gettempdir()) / "fogsim-bench"),
+        help="where the stage recordings are kept (made on first use)",
     )
-    for scene, name, res, n, med, p90 in rows:
-        print(f"{scene:7s} {name:34s} {res:>8s} {n:7d} {med:10.3f} {p90:8.3f}")
-    by = {(r[0], r[1], r[2]): r[4] for r in rows}
-    for scene in scenes:
-        for res in ("88x72", "176x144"):
-            ours = by[(scene, "FloorObstacleMapper", res)]
-            before = by[(scene, "FloorObstacleMapper (cell marks)", res)]
-            line = f"{scene} {res}: column vs cell marks {before / ours:.2f}x"
-            key = (scene, "octomap.OcTree.insertPointCloud", res)
-            if key in by:
-                line += f", speed-up vs OctoMap {by[key] / ours:.1f}x"
-            print(line)
+    parser.add_argument("--child", choices=["host", "generic"], help=argparse.SUPPRESS)
+    args = parser.parse_args()
+    if args.child:
+        for row in measure(args, args.child):
+            print(json.dumps(row.__dict__))
+        return
+    codegens = ["host", "generic"] if args.codegen == "both" else [args.codegen]
+    with tempfile.TemporaryDirectory() as cache_dir:
+        rows = [row for c in codegens for row in run_child(args, c, Path(cache_dir))]
+    print(f"{machine()}; {args.frames} frames per set, blocks of {args.block}")
+    print_table(rows)
 
 
 if __name__ == "__main__":

@@ -24,7 +24,7 @@ from mapper.grid import (
     scroll_xy,
     validate_frame,
 )
-from mapper.occupancy import NONFINITE, OUTSIDE, _grid_point
+from mapper.occupancy import NONFINITE, OUTSIDE, grid_point
 from mapper.params import MapperParams
 
 
@@ -44,7 +44,7 @@ def _accumulate(
     iy1 = -1
     for i in range(points.shape[0]):
         z = points[i, 2]
-        status, _, _, _, ix, iy, _ = _grid_point(
+        status, _, _, _, ix, iy, _ = grid_point(
             points[i, 0], points[i, 1], z, origin_x, origin_y, z_min, cell, layer, nx, ny, nz
         )
         if status < 0:

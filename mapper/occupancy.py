@@ -29,10 +29,17 @@ default for now, see `MapperParams.clear_outside`) such points are ignored entir
 
 Two kernels keep the once-per-frame marks: `insert_frame_columns` (the mapper's default when
 ``nz <= 64``) keeps one bit per layer in one word per column and steps the traversal only at
-x/y cell boundaries, marking the run of layers a ray crosses inside a column with one OR (about
-1.7× faster on the benchmark scene, `bench/bench_mapper.py`); `insert_frame` keeps one bit per
-cell and steps through every cell (any ``nz``). Both mark the same cells (tests compare them
-with each other and with a brute-force slab test).
+x/y cell boundaries, marking the run of layers a ray crosses inside a column with one OR (1.7 to
+2.3× faster than the other on the stage's and the synthetic frames, `bench/bench_mapper.py`);
+`insert_frame` keeps one bit per cell and steps through every cell (any ``nz``). Both mark the
+same cells (tests compare them with each other and with a brute-force slab test).
+
+Code generation: both run as fast compiled for the host CPU as for numba's ``generic`` target.
+Their walks never select an infinite crossing parameter for an axis without crossings left (a
+select on the loop's dependency chain that LLVM compiled 2× slower for an AVX-512 host than for
+``generic``): they loop while every axis has crossings left, then over the axes left. No FMA
+contraction either: it is used only where the CPU has FMA, so the rounding of ``sz + t·dz`` — and
+in rare ties the marked cells — would depend on the CPU.
 """
 
 from __future__ import annotations
@@ -88,19 +95,43 @@ def lookup_tables(params: MapperParams) -> tuple[NDArray[np.uint8], NDArray[np.u
 
 @numba.njit(cache=True, inline="always")
 def _floor_int(v: float) -> int:
-    return int(np.floor(v))
+    """``int(np.floor(v))`` for finite ``v``: truncation, one lower for negative non-integers.
+
+    Written out because numba's ``generic`` target (x86-64 without SSE4.1) has no rounding
+    instruction and would call libm's ``floor`` for every coordinate.
+    """
+    i = int(v)
+    return i - 1 if v < i else i
 
 
 @numba.njit(cache=True, inline="always")
-def _grid_point(x, y, z, origin_x, origin_y, z_min, cell, layer, nx, ny, nz):
-    """A world point [m] in grid units and its cell.
+def grid_point(x, y, z, origin_x, origin_y, z_min, cell, layer, nx, ny, nz):
+    """A world point [m] in grid units and its cell (numba, for kernels on the same grid).
+
+    The cell convention of `mapper.grid`: ``gx = (x - origin_x) / cell``, ``ix = floor(gx)``,
+    likewise y; ``gz = (z - z_min) / layer``. The occupancy kernels and `mapper.averaging` use
+    this one function so that every map puts a point into the same cell.
+
+    Args:
+        x: World x of the point [m].
+        y: World y of the point [m].
+        z: World z of the point [m].
+        origin_x: World x of the grid's corner [m].
+        origin_y: World y of the grid's corner [m].
+        z_min: World z of the grid's lowest face [m].
+        cell: Cell side [m].
+        layer: Layer height [m].
+        nx: Cells along x.
+        ny: Cells along y.
+        nz: Layers.
 
     Returns:
-        (status, gx, gy, gz, ix, iy, iz): status 0 if the point lies in the grid, -1 if it is
-        outside, -2 if a coordinate is not finite (the other values are then meaningless).
+        (status, gx, gy, gz, ix, iy, iz): status 0 if the point lies in the grid, `OUTSIDE` if
+        it is outside, `NONFINITE` if a coordinate is not finite (the other values are then
+        meaningless); ``gx, gy, gz`` in cells and layers from the grid's corner.
     """
     if not (np.isfinite(x) and np.isfinite(y) and np.isfinite(z)):
-        return -2, 0.0, 0.0, 0.0, 0, 0, 0
+        return NONFINITE, 0.0, 0.0, 0.0, 0, 0, 0
     gx = (x - origin_x) / cell
     gy = (y - origin_y) / cell
     gz = (z - z_min) / layer
@@ -108,7 +139,7 @@ def _grid_point(x, y, z, origin_x, origin_y, z_min, cell, layer, nx, ny, nz):
     iy = _floor_int(gy)
     iz = _floor_int(gz)
     inside = 0 <= ix < nx and 0 <= iy < ny and 0 <= iz < nz
-    return (0 if inside else -1), gx, gy, gz, ix, iy, iz
+    return (0 if inside else OUTSIDE), gx, gy, gz, ix, iy, iz
 
 
 @numba.njit(cache=True, inline="always")
@@ -247,7 +278,7 @@ def _no_hit_limit(status: int, length: float, free_margin: float, max_range: flo
 
 @numba.njit(cache=True, inline="always")
 def _classify(x, y, z, sensor_x, sensor_y, sensor_z, geometry, shape, need_length, max_range):
-    """`_grid_point` of a world point plus its range from the sensor [m].
+    """`grid_point` of a world point plus its range from the sensor [m].
 
     ``geometry`` is (origin_x, origin_y, z_min, cell, layer), ``shape`` (nx, ny, nz). The
     range is computed only when ``need_length`` (else 0); a finite point farther than
@@ -259,7 +290,7 @@ def _classify(x, y, z, sensor_x, sensor_y, sensor_z, geometry, shape, need_lengt
     """
     origin_x, origin_y, z_min, cell, layer = geometry
     nx, ny, nz = shape
-    status, gx, gy, gz, ix, iy, iz = _grid_point(
+    status, gx, gy, gz, ix, iy, iz = grid_point(
         x, y, z, origin_x, origin_y, z_min, cell, layer, nx, ny, nz
     )
     length = 0.0
@@ -433,18 +464,16 @@ def insert_frame(
         tmx, tdx = _first_crossing(rem_x, dx, inv_d[0], sx, cx)
         tmy, tdy = _first_crossing(rem_y, dy, inv_d[1], sy, cy)
         tmz, tdz = _first_crossing(rem_z, dz, inv_d[2], sz, cz)
-        inf = np.inf
-        step_x = 1 if ex > cx else -1
-        step_y = 1 if ey > cy else -1
-        step_z = 1 if ez > cz else -1
         idx = cx * stride_x + cy * stride_y + cz
-        dix = step_x * stride_x
-        diy = step_y * stride_y
-        diz = step_z
-        n_steps = rem_x + rem_y + rem_z
-        for _ in range(n_steps):
+        dix = (1 if ex > cx else -1) * stride_x
+        diy = (1 if ey > cy else -1) * stride_y
+        diz = 1 if ez > cz else -1
+        # The nearest crossing first (ties: x, then y, then z); an axis without crossings left
+        # never wins. Tested on the counts, not with an infinite parameter: that select would
+        # sit on the loop's dependency chain and compile CPU-dependently (see `_walk_columns`).
+        for _ in range(rem_x + rem_y + rem_z + extra_visit):
             # Written out, not a helper call: passing the arrays to an njit helper in this loop
-            # costs reference counting per cell (measured 2.5x slower).
+            # costs reference counting per cell (measured 2.5x slower; 9x when inlined).
             byte = miss_base + (idx >> 3)
             bit = np.uint8(1 << (idx & 7))
             if not mark[byte] & bit:
@@ -452,26 +481,18 @@ def insert_frame(
                 if not mark[idx >> 3] & bit:  # not already listed as a hit
                     touched[n_touched] = idx
                     n_touched += 1
-            if tmx <= tmy and tmx <= tmz:
+            if rem_x > 0 and (rem_y == 0 or tmx <= tmy) and (rem_z == 0 or tmx <= tmz):
                 idx += dix
                 rem_x -= 1
-                tmx = tmx + tdx if rem_x > 0 else inf
-            elif tmy <= tmz:
+                tmx += tdx
+            elif rem_y > 0 and (rem_z == 0 or tmy <= tmz):
                 idx += diy
                 rem_y -= 1
-                tmy = tmy + tdy if rem_y > 0 else inf
-            else:
+                tmy += tdy
+            elif rem_z > 0:
                 idx += diz
                 rem_z -= 1
-                tmz = tmz + tdz if rem_z > 0 else inf
-        if extra_visit:  # the stop cell (same test as in the loop above)
-            byte = miss_base + (idx >> 3)
-            bit = np.uint8(1 << (idx & 7))
-            if not mark[byte] & bit:
-                mark[byte] |= bit
-                if not mark[idx >> 3] & bit:  # not already listed as a hit
-                    touched[n_touched] = idx
-                    n_touched += 1
+                tmz += tdz
     # Pass 3: apply the table lookups, clear the marks.
     for t in range(n_touched):
         idx = touched[t]
@@ -591,7 +612,56 @@ def update_table(hit_table: NDArray[np.uint8], miss_table: NDArray[np.uint8]) ->
     return np.stack([np.arange(LEVELS, dtype=np.uint8), miss_table, hit_table])
 
 
-@numba.njit(cache=True, error_model="numpy", boundscheck=False, fastmath={"contract"})
+@numba.njit(cache=True, inline="always")
+def _walk_columns(miss_cols, range_masks, c, z_entry, axis_x, axis_y, z_line, z_range):
+    """Mark the layers a ray crosses in each column it leaves; returns (last column, entry layer).
+
+    Each axis is ``(crossings left, parameter of the next crossing, parameter step, column
+    step)``: the ray leaves column ``c`` (flat ``ix*ny + iy``) ``rem_x`` times across an x
+    boundary, at ray parameters ``tmx, tmx + tdx, ...`` (``_first_crossing``), likewise in y.
+    Each column holds the layers from its entry layer to the layer at its exit: ``z = sz +
+    t·dz`` with ``z_line = (sz, dz)``, clamped to ``z_range = (z_lo, z_hi)``. While both axes
+    have crossings left the nearer one comes first (x wins ties, as in `insert_frame`); then the
+    other axis's crossings follow in order. Two loops instead of one with an infinite parameter
+    for an exhausted axis: that select sits on the loop's dependency chain, and how it is
+    compiled depends on the CPU (2x slower with AVX-512 than with the ``generic`` target).
+    """
+    rem_x, tmx, tdx, dcol_x = axis_x
+    rem_y, tmy, tdy, dcol_y = axis_y
+    sz, dz = z_line
+    z_lo, z_hi = z_range
+    while rem_x > 0 and rem_y > 0:
+        if tmx <= tmy:
+            t_exit = tmx
+            tmx += tdx
+            rem_x -= 1
+            step = dcol_x
+        else:
+            t_exit = tmy
+            tmy += tdy
+            rem_y -= 1
+            step = dcol_y
+        # int() truncates, floor() rounds down: they differ only below 0, where the clamp to
+        # z_lo >= 0 makes both 0 (truncation is the cheaper instruction). The indices are
+        # non-negative: unsigned, so numba adds no negative-index wraparound.
+        z_exit = min(max(int(sz + t_exit * dz), z_lo), z_hi)
+        miss_cols[np.uint64(c)] |= range_masks[np.uint64(z_entry), np.uint64(z_exit)]
+        z_entry = z_exit
+        c += step
+    if rem_x > 0:
+        t_exit, t_step, rem, step = tmx, tdx, rem_x, dcol_x
+    else:
+        t_exit, t_step, rem, step = tmy, tdy, rem_y, dcol_y
+    for _ in range(rem):
+        z_exit = min(max(int(sz + t_exit * dz), z_lo), z_hi)
+        miss_cols[np.uint64(c)] |= range_masks[np.uint64(z_entry), np.uint64(z_exit)]
+        z_entry = z_exit
+        c += step
+        t_exit += t_step
+    return c, z_entry
+
+
+@numba.njit(cache=True, error_model="numpy", boundscheck=False)
 def insert_frame_columns(
     points: NDArray[np.float64],
     sensor_origin: NDArray[np.float64],
@@ -657,7 +727,6 @@ def insert_frame_columns(
     ox = (sensor_origin[0] - origin_x) / cell
     oy = (sensor_origin[1] - origin_y) / cell
     oz = (sensor_origin[2] - z_min) / layer
-    inf = np.inf
     ix0 = nx
     ix1 = -1
     iy0 = ny
@@ -704,31 +773,16 @@ def insert_frame_columns(
         rem_y = abs(ey - cy)
         tmx, tdx = _first_crossing(rem_x, dx, inv_d[0], sx, cx)
         tmy, tdy = _first_crossing(rem_y, dy, inv_d[1], sy, cy)
-        z_lo = min(cz, ez)
-        z_hi = max(cz, ez)
-        dcol_x = ny if ex > cx else -ny
-        dcol_y = 1 if ey > cy else -1
-        c = cx * ny + cy
-        z_entry = cz
-        for _ in range(rem_x + rem_y):
-            # Leave column c at the nearer x/y boundary (x wins ties, as in `insert_frame`);
-            # it holds the layers from the entry layer to the layer at that boundary. The
-            # indices are non-negative: unsigned, so numba adds no negative-index wraparound.
-            take_x = tmx <= tmy
-            t_exit = min(tmx, tmy)
-            # int() truncates, floor() rounds down: they differ only below 0, where the clamp
-            # to z_lo >= 0 makes both 0 (truncation is the cheaper instruction).
-            z_exit = min(max(int(sz + t_exit * dz), z_lo), z_hi)
-            miss_cols[np.uint64(c)] |= range_masks[np.uint64(z_entry), np.uint64(z_exit)]
-            z_entry = z_exit
-            if take_x:
-                c += dcol_x
-                rem_x -= 1
-                tmx = tmx + tdx if rem_x > 0 else inf
-            else:
-                c += dcol_y
-                rem_y -= 1
-                tmy = tmy + tdy if rem_y > 0 else inf
+        c, z_entry = _walk_columns(
+            miss_cols,
+            range_masks,
+            cx * ny + cy,
+            cz,
+            (rem_x, tmx, tdx, ny if ex > cx else -ny),
+            (rem_y, tmy, tdy, 1 if ey > cy else -1),
+            (sz, dz),
+            (min(cz, ez), max(cz, ez)),
+        )
         # The last column: its layers down to the end (or stop) cell. The end cell itself is
         # only marked when it is a stop cell (an end cell is hit, and the hit wins anyway).
         if stop_cleared:

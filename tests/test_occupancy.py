@@ -7,7 +7,14 @@ from hypothesis import strategies as st
 
 from mapper import FloorObstacleMapper, MapperParams, PinholeIntrinsics
 from mapper.errors import InvalidParameterError
-from mapper.occupancy import bayes_update, lookup_tables, traversed_cells
+from mapper.occupancy import (
+    NONFINITE,
+    OUTSIDE,
+    bayes_update,
+    grid_point,
+    lookup_tables,
+    traversed_cells,
+)
 from mapper.synthetic import Box, camera_rays_world, cast_frame
 
 # The hand-computed levels below are for the sensor model these were worked out with.
@@ -37,6 +44,26 @@ def test_tables_monotone_and_never_stall():
     assert np.all(hit[levels[:-1]] > levels[:-1])
     assert np.all(miss[levels[1:]] < levels[1:])
     assert np.all(np.diff(hit.astype(int)) >= 0) and np.all(np.diff(miss.astype(int)) >= 0)
+
+
+@pytest.mark.parametrize(
+    ("point", "expected"),
+    [
+        ((0.0, -0.0, 0.0), (0, 8, 8, 2)),  # cell faces: x = 0 opens cell 8; -0.0 is 0
+        ((-1e-9, -0.25, -0.000001), (0, 7, 7, 1)),  # just below a face: the cell before it
+        ((-2.0, 1.999, 0.999), (0, 0, 15, 3)),  # the grid's first and last cells
+        ((-2.1, 0.0, 0.0), (OUTSIDE, -1, 8, 2)),  # below the -x face: -0.4 rounds down to -1
+        ((2.0, 0.0, 0.0), (OUTSIDE, 16, 8, 2)),  # x = 2 m is the face after cell 15
+        ((0.0, 0.0, -1.0000001), (OUTSIDE, 8, 8, -1)),
+        ((np.nan, 0.0, 0.0), (NONFINITE, 0, 0, 0)),
+        ((0.0, np.inf, 0.0), (NONFINITE, 0, 0, 0)),
+    ],
+)
+def test_grid_point_cells_by_hand(point, expected):
+    """16 x 16 x 4 cells of 0.25 m x 0.5 m from (-2, -2, -1) (binary-exact): floor of the
+    grid units, also below zero (a point just outside the low faces is outside)."""
+    status, _, _, _, ix, iy, iz = grid_point(*point, -2.0, -2.0, -1.0, 0.25, 0.5, 16, 16, 4)
+    assert (status, ix, iy, iz) == expected
 
 
 def test_bayes_update_matches_eq6():
