@@ -20,7 +20,13 @@ from fogsim.config import CAMERA_MODES, Scenario, find_scenario_files, load_scen
 from fogsim.data.recording import load_recording
 from fogsim.errors import FogsimError
 from fogsim.eval.report import format_table1
-from fogsim.run.baseline import baseline_to_update, load_baseline, poor_reasons, write_baseline
+from fogsim.run.baseline import (
+    REGENERATE,
+    baseline_to_update,
+    load_baseline,
+    poor_reasons,
+    write_baseline,
+)
 from fogsim.run.record import record_scenario
 from fogsim.run.runner import run_scenario
 from fogsim.run.seeds import SEEDS_ALLOWED, parse_seeds, run_seeds, worst_lines
@@ -85,13 +91,18 @@ def _parser() -> argparse.ArgumentParser:
     suite.add_argument("directory", nargs="?", type=Path, help="scenario folder")
     suite.add_argument("--out", type=Path, required=True, help="output folder")
     suite.add_argument("--workers", type=int, default=2, help="parallel processes (default 2)")
-    suite.add_argument("--check", type=Path, metavar="BASELINE.json", help="compare metrics")
+    suite.add_argument(
+        "--check", type=Path, metavar="BASELINE.json", help="compare the figures with a baseline"
+    )
     suite.add_argument("--quick", action="store_true", help="quick subset (short runs)")
     suite.add_argument(
         "--seeds", metavar="SPEC", help=f"run every scenario over these seeds: {SEEDS_ALLOWED}"
     )
     suite.add_argument(
-        "--write-baseline", type=Path, metavar="FILE", help="store the metrics as a baseline"
+        "--write-baseline",
+        type=Path,
+        metavar="FILE",
+        help="store the figures as the baseline's set of this kind of run",
     )
     suite.add_argument(
         "--set",
@@ -242,10 +253,10 @@ def _cmd_suite(args: argparse.Namespace) -> int:
         if not args.check.is_file():
             raise FogsimError(
                 f"--check {args.check}: no such baseline file; write one with "
-                f"`fogsim suite --out DIR --write-baseline {args.check}`"
+                f"`{REGENERATE.format(path=args.check)}`"
             )
         baseline = load_baseline(args.check)
-    # Read the baseline to extend before the runs, so that a broken file stops nothing late.
+    # Read the baseline to extend now: a broken file fails before the runs, not after them.
     existing = None
     if args.write_baseline is not None:
         existing = baseline_to_update(args.write_baseline)

@@ -272,44 +272,15 @@ def test_suite_over_seeds_writes_mean_and_worst_and_checks_a_baseline(
 
 
 def test_suite_check_finds_worse_figures(two_scenarios, tmp_path, monkeypatch, capsys):
+    def suite(seeds, out, *options):
+        return main(["suite", str(two_scenarios), "--seeds", seeds, "--workers", "1",
+                     "--out", str(tmp_path / out), *options])  # fmt: skip
+
     fake_runs(monkeypatch)
     base = tmp_path / "baseline.json"
-    folder = str(two_scenarios)
-    assert (
-        main(
-            [
-                "suite",
-                folder,
-                "--seeds",
-                "1-3",
-                "--workers",
-                "1",
-                "--out",
-                str(tmp_path / "a"),
-                "--write-baseline",
-                str(base),
-            ]
-        )
-        == 0
-    )
+    assert suite("1-3", "a", "--write-baseline", str(base)) == 0
     # Other seeds: the baseline has no set to compare them with.
-    assert (
-        main(
-            [
-                "suite",
-                folder,
-                "--seeds",
-                "1-2,4",
-                "--workers",
-                "1",
-                "--out",
-                str(tmp_path / "b"),
-                "--check",
-                str(base),
-            ]
-        )
-        == 1
-    )
+    assert suite("1-2,4", "b", "--check", str(base)) == 1
     err = capsys.readouterr().err
     assert (
         "WORSE baseline has no set 'full seeds=1-2,4' to compare this run with "
@@ -324,23 +295,7 @@ def test_suite_check_finds_worse_figures(two_scenarios, tmp_path, monkeypatch, c
             seed=scenario.seed,
         ),
     )
-    assert (
-        main(
-            [
-                "suite",
-                folder,
-                "--seeds",
-                "1-3",
-                "--workers",
-                "1",
-                "--out",
-                str(tmp_path / "c"),
-                "--check",
-                str(base),
-            ]
-        )
-        == 1
-    )
+    assert suite("1-3", "c", "--check", str(base)) == 1
     out = capsys.readouterr()
     for name in ("alpha", "beta"):
         assert (

@@ -103,10 +103,6 @@ class MetricRule:
         change = current - baseline if self.direction == "lower" else baseline - current
         return change - (self.absolute + self.relative * abs(baseline))
 
-    def is_worse(self, a: float, b: float) -> bool:
-        """Whether value ``a`` is worse than value ``b`` (no tolerance)."""
-        return a > b if self.direction == "lower" else a < b
-
 
 def rule_for(metric: str) -> MetricRule:
     """The tolerance rule of a figure name (see the module table)."""

@@ -49,12 +49,11 @@ GROUP_ORDER = ("table1", "cells", "safety", "step_edges", "events", "timing")
 _ITEM = re.compile(r"\s*(\d+)\s*(?:-\s*(\d+)\s*)?")
 
 
-def parse_seeds(spec: str, argument: str = "--seeds") -> tuple[int, ...]:
-    """The seeds of a spec such as ``1-8``, ``1,3,5`` or ``2``, sorted.
+def parse_seeds(spec: str) -> tuple[int, ...]:
+    """The seeds of a ``--seeds`` spec such as ``1-8``, ``1,3,5`` or ``2``, sorted.
 
     Args:
         spec: Comma-separated seeds and inclusive ranges ``first-last``.
-        argument: The command-line argument the spec came from (for messages).
 
     Raises:
         FogsimError: A malformed item, a backward range, a seed out of range or a repeated
@@ -65,25 +64,25 @@ def parse_seeds(spec: str, argument: str = "--seeds") -> tuple[int, ...]:
         match = _ITEM.fullmatch(item)
         if match is None:
             raise FogsimError(
-                f"{argument} {spec!r}: {item.strip()!r} is not a seed or a range; "
+                f"--seeds {spec!r}: {item.strip()!r} is not a seed or a range; "
                 f"allowed: {SEEDS_ALLOWED}"
             )
         first = int(match[1])
         last = int(match[2]) if match[2] is not None else first
         if last < first:
             raise FogsimError(
-                f"{argument} {spec!r}: range {item.strip()!r} ends before it starts; "
+                f"--seeds {spec!r}: range {item.strip()!r} ends before it starts; "
                 f"allowed: {SEEDS_ALLOWED}"
             )
         if last > MAX_SEED:
             raise FogsimError(
-                f"{argument} {spec!r}: seed {last} is above {MAX_SEED}; allowed: {SEEDS_ALLOWED}"
+                f"--seeds {spec!r}: seed {last} is above {MAX_SEED}; allowed: {SEEDS_ALLOWED}"
             )
         seeds.extend(range(first, last + 1))
     repeated = sorted({s for s in seeds if seeds.count(s) > 1})
     if repeated:
         raise FogsimError(
-            f"{argument} {spec!r}: seed {repeated[0]} is given twice; allowed: {SEEDS_ALLOWED}"
+            f"--seeds {spec!r}: seed {repeated[0]} is given twice; allowed: {SEEDS_ALLOWED}"
         )
     return tuple(sorted(seeds))
 

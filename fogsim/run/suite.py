@@ -266,9 +266,9 @@ def summary_markdown(summary: SuiteSummary, comparison: Sequence[str] | None = N
     for name, scenario in summary.scenarios.items():
         if not scenario.runs:
             continue
-        lines += ["", f"## {name}", ""]
+        lines += ["", f"## {name}"]
         if summary.seeds is not None:
-            lines += [*runs_markdown(scenario.runs)]
+            lines += ["", *runs_markdown(scenario.runs)]
         lines += figures_markdown(scenario.figures)
     lines += ["", "## Baseline", ""]
     if comparison is None:
