@@ -1,7 +1,9 @@
 """The ``fogsim`` command line: ``list``, ``run``, ``record``, ``suite``.
 
-Exit codes: 0 success, 1 a ``--check`` found worse metrics or a suite scenario failed,
-2 bad input (unknown scenario, invalid ``--set``, unreadable recording).
+Exit codes: 0 success; 1 a ``--check`` found worse figures, a suite scenario failed (it raised
+or its map is poor) or a seed of ``run --seeds`` raised; 2 bad input (unknown scenario, invalid
+``--set`` or ``--seeds``, unreadable recording, missing baseline); 3 ``run --strict`` and a
+run's map is poor (the report's ``quality.poor``; the reasons are printed).
 """
 
 from __future__ import annotations
@@ -18,9 +20,16 @@ from fogsim.config import CAMERA_MODES, Scenario, find_scenario_files, load_scen
 from fogsim.data.recording import load_recording
 from fogsim.errors import FogsimError
 from fogsim.eval.report import format_table1
-from fogsim.run.baseline import load_baseline, write_baseline
+from fogsim.run.baseline import (
+    REGENERATE,
+    baseline_to_update,
+    load_baseline,
+    poor_reasons,
+    write_baseline,
+)
 from fogsim.run.record import record_scenario
 from fogsim.run.runner import run_scenario
+from fogsim.run.seeds import SEEDS_ALLOWED, parse_seeds, run_seeds, worst_lines
 from fogsim.run.suite import check_against_baseline, run_suite, summary_markdown, update_baseline
 from fogsim.sim.camera.depth import DEPTH_BACKENDS
 from fogsim.tune.cli import add_tune_arguments
@@ -62,6 +71,15 @@ def _parser() -> argparse.ArgumentParser:
     run.add_argument("--video", action="store_true", help="also write run.mp4")
     run.add_argument("--no-pictures", action="store_true", help="skip the PNGs")
     run.add_argument("--quiet", action="store_true", help="no progress bar")
+    run.add_argument(
+        "--seeds",
+        metavar="SPEC",
+        help=f"run once per seed in parallel, into OUT/seed_<n>/, and summarise: {SEEDS_ALLOWED}",
+    )
+    run.add_argument("--workers", type=int, help="parallel processes for --seeds (default 2)")
+    run.add_argument(
+        "--strict", action="store_true", help="exit 3 when a run's map is poor (quality.poor)"
+    )
 
     record = sub.add_parser("record", help="simulate a scenario and save every frame to FILE")
     record.add_argument("scenario", help="scenario name or TOML path")
@@ -73,10 +91,18 @@ def _parser() -> argparse.ArgumentParser:
     suite.add_argument("directory", nargs="?", type=Path, help="scenario folder")
     suite.add_argument("--out", type=Path, required=True, help="output folder")
     suite.add_argument("--workers", type=int, default=2, help="parallel processes (default 2)")
-    suite.add_argument("--check", type=Path, metavar="BASELINE.json", help="compare metrics")
+    suite.add_argument(
+        "--check", type=Path, metavar="BASELINE.json", help="compare the figures with a baseline"
+    )
     suite.add_argument("--quick", action="store_true", help="quick subset (short runs)")
     suite.add_argument(
-        "--write-baseline", type=Path, metavar="FILE", help="store the metrics as a baseline"
+        "--seeds", metavar="SPEC", help=f"run every scenario over these seeds: {SEEDS_ALLOWED}"
+    )
+    suite.add_argument(
+        "--write-baseline",
+        type=Path,
+        metavar="FILE",
+        help="store the figures as the baseline's set of this kind of run",
     )
     suite.add_argument(
         "--set",
@@ -116,7 +142,20 @@ def _cmd_list() -> int:
     return 0
 
 
+def _strict_exit(reasons_by_run: dict[str, tuple[str, ...]]) -> int:
+    """Exit code of ``--strict``: 3 (reasons printed) when a run's map is poor, else 0."""
+    poor = {run: reasons for run, reasons in reasons_by_run.items() if reasons}
+    for run, reasons in poor.items():
+        for reason in reasons:
+            print(f"fogsim: --strict: {run}: poor map: {reason}", file=sys.stderr)
+    return 3 if poor else 0
+
+
 def _cmd_run(args: argparse.Namespace) -> int:
+    if args.seeds is not None:
+        return _cmd_run_seeds(args)
+    if args.workers is not None:
+        raise FogsimError("--workers sets the processes of --seeds; give --seeds SPEC too")
     replay = None
     if args.replay is not None:
         replay = load_recording(args.replay)
@@ -151,7 +190,46 @@ def _cmd_run(args: argparse.Namespace) -> int:
         f"{timing.frames} frames, mapper update {timing.update_ms.median} ms median, "
         f"wall {timing.wall_s} s -> {out / 'report.json'}"
     )
-    return 0
+    return _strict_exit({name: poor_reasons(report)}) if args.strict else 0
+
+
+def _cmd_run_seeds(args: argparse.Namespace) -> int:
+    """``fogsim run SCENARIO --seeds SPEC``: the seeds in parallel, then their summary."""
+    if args.replay is not None:
+        raise FogsimError(
+            "--seeds simulates the scenario once per seed; a recording (--replay) has fixed "
+            "frames: give one of them"
+        )
+    if args.seed is not None:
+        raise FogsimError("give either --seed N or --seeds SPEC, not both")
+    if args.scenario is None:
+        raise FogsimError("run --seeds needs a SCENARIO (see `fogsim list`)")
+    seeds = parse_seeds(args.seeds)
+    scenario = _load(args.scenario, args)
+    out = args.out if args.out is not None else Path("runs") / scenario.name
+    summary = run_seeds(
+        scenario,
+        seeds,
+        out,
+        workers=args.workers if args.workers is not None else 2,
+        pictures=not args.no_pictures,
+        video=args.video,
+        depth_backend=args.depth_backend,
+    )
+    for run in summary.runs:
+        print(f"seed {run.seed}: {run.frames} frames, {run.wall_s} s, {run.status()}")
+    for line in worst_lines(summary.figures):
+        print(line)
+    print(
+        f"{summary.scenario}: {len(summary.runs)} seeds in {summary.wall_s} s "
+        f"-> {out / 'summary.md'}"
+    )
+    failed = [run for run in summary.runs if run.error is not None]
+    for run in failed:
+        print(f"FAILED seed {run.seed}: {run.error}", file=sys.stderr)
+    if failed:
+        return 1
+    return _strict_exit({f"seed {r.seed}": r.poor for r in summary.runs}) if args.strict else 0
 
 
 def _cmd_record(args: argparse.Namespace) -> int:
@@ -169,34 +247,50 @@ def _cmd_record(args: argparse.Namespace) -> int:
 
 
 def _cmd_suite(args: argparse.Namespace) -> int:
-    baseline = load_baseline(args.check) if args.check is not None else None
+    seeds = parse_seeds(args.seeds) if args.seeds is not None else None
+    baseline = None
+    if args.check is not None:
+        if not args.check.is_file():
+            raise FogsimError(
+                f"--check {args.check}: no such baseline file; write one with "
+                f"`{REGENERATE.format(path=args.check)}`"
+            )
+        baseline = load_baseline(args.check)
+    # Read the baseline to extend now: a broken file fails before the runs, not after them.
+    existing = None
+    if args.write_baseline is not None:
+        existing = baseline_to_update(args.write_baseline)
     summary = run_suite(
         args.directory,
         args.out,
         workers=args.workers,
         quick=args.quick,
+        seeds=seeds,
         overrides=args.assignments,
     )
-    failed = [name for name, run in summary.scenarios.items() if run.error]
-    for name in failed:
-        print(f"FAILED {name}: {summary.scenarios[name].error}", file=sys.stderr)
-    problems: list[str] = []
+    failures = summary.failures()
+    for name, reasons in failures.items():
+        for reason in reasons:
+            print(f"FAILED {name}: {reason}", file=sys.stderr)
+    comparison = None
     if baseline is not None:
-        problems = check_against_baseline(summary, baseline)
-        write_text_atomic(args.out / "summary.md", summary_markdown(summary, problems))
-        for line in problems:
+        comparison = check_against_baseline(summary, baseline)
+        for line in comparison:
             print(f"WORSE {line}", file=sys.stderr)
+    write_text_atomic(args.out / "summary.md", summary_markdown(summary, comparison))
     if args.write_baseline is not None:
-        existing = None
-        if args.write_baseline.exists():
-            existing = load_baseline(args.write_baseline)
         write_baseline(args.write_baseline, update_baseline(existing, summary))
-    print(
-        f"{len(summary.scenarios)} scenarios in {summary.wall_s} s; "
-        f"{len(failed)} failed; {len(problems)} metrics worse than the baseline -> "
-        f"{args.out / 'summary.md'}"
+    compared = (
+        "no baseline given: nothing compared"
+        if comparison is None
+        else f"{len(comparison)} figures worse than the baseline"
     )
-    return 1 if failed or problems else 0
+    over = f" over seeds {summary.seeds}" if summary.seeds is not None else ""
+    print(
+        f"{len(summary.scenarios)} scenarios{over} in {summary.wall_s} s; "
+        f"{len(failures)} failed; {compared} -> {args.out / 'summary.md'}"
+    )
+    return 1 if failures or comparison else 0
 
 
 def main(argv: Sequence[str] | None = None) -> int:

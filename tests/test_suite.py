@@ -1,36 +1,44 @@
-"""Suite: regression metrics, tolerance rules, baseline check, and the quick subset end to end."""
-
-import dataclasses
+"""Suite: figures and their rules, the baseline file and its check, the suite over seeds."""
 
 import pytest
-from report_factory import event, make_report, row
+from report_factory import row
+from test_seeds import StepEdge, contract_report, event, fake_runs, seed_run
 
 from fogsim.cli import main
-from fogsim.errors import ReportError
+from fogsim.errors import FogsimError, ReportError
 from fogsim.eval.report.io import load_json, load_report
 from fogsim.paths import SCENARIOS_DIR
 from fogsim.run.baseline import (
     NEVER_FRAMES,
     Baseline,
     BaselineEntry,
+    BaselineFigure,
+    baseline_to_update,
     load_baseline,
+    poor_reasons,
     report_metrics,
     rule_for,
+    set_name,
     write_baseline,
 )
+from fogsim.run.seeds import figure_stats
 from fogsim.run.suite import (
-    ScenarioRun,
+    QUICK_MAX_FRAMES,
+    QUICK_SCENARIOS,
+    ScenarioRuns,
     SuiteSummary,
     check_against_baseline,
     summary_markdown,
     update_baseline,
 )
 
-REPORT = make_report(
+REPORT = contract_report(
     [row("ground", -0.4), row("sill", 2.5), row("far", None)],
-    accuracy=0.981,
-    within_one_cell=1.0,
-    events=[event("box", 4), event("slider", None, intermediate_final=1)],
+    floor=(0.97, 0.99),
+    obstacle=(0.4, None),
+    unsafe=12,
+    edges=[StepEdge("sill", "near", 20, -38.0, 60.0), StepEdge("sill", "far", 0, None, None)],
+    events=[event("box", 11, 9), event("slider", None, None), event("hidden", None, None, False)],
     frame_ms_median=6.0,
 )
 
@@ -39,117 +47,330 @@ def test_report_metrics_flatten_the_report():
     assert report_metrics(REPORT) == {
         "table1.ground.abs_error_mm": 0.4,
         "table1.sill.abs_error_mm": 2.5,
-        "cells.accuracy": 0.981,
-        "cells.obstacle_within_one_cell": 1.0,
-        "events.box.fog_frames": 4.0,
-        "events.slider.fog_frames": NEVER_FRAMES,
-        "events.slider.intermediate": 1.0,
+        "cells.floor_recall": 0.97,
+        "cells.floor_precision": 0.99,
+        "cells.obstacle_recall": 0.4,
+        "safety.unsafe_cells": 12.0,
+        "step_edges.sill.near.abs_error_mm": 38.0,
+        "events.box.cleared_frames": 11.0,
+        "events.box.floor_again_frames": 9.0,
+        "events.slider.cleared_frames": NEVER_FRAMES,
+        "events.slider.floor_again_frames": NEVER_FRAMES,
         "timing.frame_ms_median": 6.0,
     }
+    assert poor_reasons(REPORT) == ()
+    assert poor_reasons(contract_report(poor=["map is empty"])) == ("map is empty",)
 
 
 def test_rules_allow_the_tolerance_and_flag_beyond_it():
     table = rule_for("table1.sill.abs_error_mm")
     assert table.worse_by(3.4, 2.5) < 0  # 0.9 mm worse: within 1 mm
     assert table.worse_by(3.6, 2.5) == pytest.approx(0.1)
-    accuracy = rule_for("cells.accuracy")
-    assert accuracy.worse_by(0.975, 0.981) < 0 and accuracy.worse_by(0.97, 0.981) > 0
-    assert accuracy.worse_by(0.999, 0.981) < 0  # better is never a failure
+    floor = rule_for("cells.floor_precision")
+    assert floor.worse_by(0.975, 0.981) < 0 and floor.worse_by(0.97, 0.981) > 0
+    assert floor.worse_by(0.999, 0.981) < 0  # better is never a failure
+    obstacle = rule_for("cells.obstacle_recall")
+    assert obstacle.worse_by(0.36, 0.4) < 0 and obstacle.worse_by(0.34, 0.4) > 0
+    unsafe = rule_for("safety.unsafe_cells")  # 3 cells + 10 %
+    assert unsafe.worse_by(13.9, 10.0) < 0 and unsafe.worse_by(14.1, 10.0) > 0
+    edge = rule_for("step_edges.sill.near.abs_error_mm")  # half a cell
+    assert edge.worse_by(58.0, 40.0) < 0 and edge.worse_by(80.0, 40.0) > 0
+    for name in ("events.box.cleared_frames", "events.box.floor_again_frames"):
+        frames = rule_for(name)
+        assert frames.worse_by(14.0, 11.0) <= 0 and frames.worse_by(15.0, 11.0) > 0
+        assert frames.worse_by(NEVER_FRAMES, 11.0) > 0
     timing = rule_for("timing.frame_ms_median")
     assert timing.worse_by(16.9, 6.0) < 0 and timing.worse_by(17.1, 6.0) > 0  # 2x + 5 ms
-    with pytest.raises(Exception, match="no tolerance rule"):
-        rule_for("bogus")
+    with pytest.raises(FogsimError, match=r"no tolerance rule for figure 'cells\.accuracy'"):
+        rule_for("cells.accuracy")
 
 
-def summary_with(metrics, quick=False, error=None):
-    run = ScenarioRun(metrics, 5, 1.0, None if error else "stage/report.json", error)
-    return SuiteSummary("fogsim-suite", 1, quick, 1, 1.0, {"stage": run})
+def suite_of(runs_by_scenario, seeds="1-3", quick=False):
+    scenarios = {
+        name: ScenarioRuns(tuple(runs), figure_stats(runs))
+        for name, runs in runs_by_scenario.items()
+    }
+    return SuiteSummary("fogsim-suite", 2, quick, seeds, 1, 1.0, scenarios)
 
 
-def test_check_names_each_worse_metric():
-    base = update_baseline(None, summary_with(report_metrics(REPORT)))
-    worse = dict(report_metrics(REPORT))
-    worse["table1.sill.abs_error_mm"] = 4.0
-    worse["events.box.fog_frames"] = NEVER_FRAMES
-    del worse["cells.accuracy"]
-    problems = check_against_baseline(summary_with(worse), base)
-    assert len(problems) == 3
-    assert any(
-        p.startswith("stage: table1.sill.abs_error_mm got worse: 4 vs baseline 2.5")
-        for p in problems
+def sill_runs(*errors_mm, recall=0.9):
+    return [
+        seed_run(i + 1, {"table1.sill.abs_error_mm": e, "cells.floor_recall": recall})
+        for i, e in enumerate(errors_mm)
+    ]
+
+
+def test_check_compares_mean_and_worst_and_names_each_figure():
+    base = update_baseline(None, suite_of({"stage": sill_runs(1.0, 2.0, 3.0)}))
+    assert base.sets == {
+        "full seeds=1-3": {
+            "stage": BaselineEntry(
+                {
+                    "cells.floor_recall": BaselineFigure(0.9, 0.9),
+                    "table1.sill.abs_error_mm": BaselineFigure(2.0, 3.0),
+                }
+            )
+        }
+    }
+    assert check_against_baseline(suite_of({"stage": sill_runs(1.0, 2.0, 3.0)}), base) == []
+    # The mean moves by 0.33 mm (within 1 mm), the worst seed by 1.5 mm: only the worst fails.
+    problems = check_against_baseline(suite_of({"stage": sill_runs(1.0, 2.0, 4.5)}), base)
+    assert problems == [
+        "stage: table1.sill.abs_error_mm worst got worse: 4.5 vs baseline 3 "
+        "(lower is better, tolerance 1)"
+    ]
+    # Every seed 1.2 mm worse: mean and worst fail; a figure the run lacks is missing.
+    worse = suite_of(
+        {
+            "stage": [
+                seed_run(s, {"table1.sill.abs_error_mm": e})
+                for s, e in ((1, 2.2), (2, 3.2), (3, 4.2))
+            ]
+        }
     )
-    assert any("events.box.fog_frames got worse" in p for p in problems)
-    assert any(p == "stage: cells.accuracy missing (baseline 0.981)" for p in problems)
-    assert check_against_baseline(summary_with(report_metrics(REPORT)), base) == []
-    failed = check_against_baseline(summary_with({}, error="boom"), base)
-    assert failed == ["stage: run failed: boom"]
-    # A quick run is compared with the quick section only.
-    assert "no 'quick_scenarios'" in check_against_baseline(summary_with({}, quick=True), base)[0]
-    both = update_baseline(base, summary_with({"cells.accuracy": 0.5}, quick=True))
-    assert both.scenarios == base.scenarios
-    assert both.quick_scenarios == {"stage": BaselineEntry({"cells.accuracy": 0.5})}
+    assert check_against_baseline(worse, base) == [
+        "stage: cells.floor_recall missing (baseline mean 0.9)",
+        "stage: table1.sill.abs_error_mm mean got worse: 3.2 vs baseline 2 "
+        "(lower is better, tolerance 1)",
+        "stage: table1.sill.abs_error_mm worst got worse: 4.2 vs baseline 3 "
+        "(lower is better, tolerance 1)",
+    ]
 
 
-def test_baseline_round_trip_keeps_the_committed_file_byte_for_byte(tmp_path):
-    committed = SCENARIOS_DIR / "baseline.json"
-    baseline = load_baseline(committed)
-    assert set(baseline.section(quick=True)) == {"flat_floor", "box_removal"}
-    path = write_baseline(tmp_path / "baseline.json", baseline)
-    assert path.read_bytes() == committed.read_bytes()
+def test_check_of_one_seed_compares_the_value_once_and_skips_failed_runs():
+    base = update_baseline(None, suite_of({"stage": sill_runs(1.0)}, seeds=None))
+    assert list(base.sets) == ["full seeds=scenario"]
+    problems = check_against_baseline(suite_of({"stage": sill_runs(2.5)}, seeds=None), base)
+    assert problems == [
+        "stage: table1.sill.abs_error_mm mean got worse: 2.5 vs baseline 1 "
+        "(lower is better, tolerance 1)"
+    ]
+    failed = suite_of({"stage": [seed_run(7, {}, error="RuntimeError: boom")]}, seeds=None)
+    assert check_against_baseline(failed, base) == ["stage: not compared: a run failed"]
+    # A run over other seeds, or a quick run, has no set to be compared with.
+    assert check_against_baseline(suite_of({"stage": sill_runs(1.0)}, seeds="1"), base) == [
+        "baseline has no set 'full seeds=1' to compare this run with "
+        "(it has: 'full seeds=scenario')"
+    ]
+    assert set_name(True, None) == "quick seeds=scenario"
 
 
-def test_a_new_baseline_has_only_the_section_that_was_run(tmp_path):
-    base = update_baseline(None, summary_with({"cells.accuracy": 0.9}))
-    assert base == Baseline(scenarios={"stage": BaselineEntry({"cells.accuracy": 0.9})})
+def test_update_baseline_keeps_other_sets_and_leaves_failed_scenarios_out():
+    full = update_baseline(None, suite_of({"stage": sill_runs(1.0, 2.0, 3.0)}))
+    runs = {
+        "flat": sill_runs(0.5),
+        "poor": [seed_run(1, {"table1.sill.abs_error_mm": 1.0}, poor=["map is empty"])],
+        "broken": [seed_run(1, {}, error="RuntimeError: boom")],
+    }
+    both = update_baseline(full, suite_of(runs, seeds=None, quick=True))
+    assert both.sets["full seeds=1-3"] == full.sets["full seeds=1-3"]
+    assert list(both.sets["quick seeds=scenario"]) == ["flat"]
+    assert suite_of(runs).failures() == {
+        "poor": ["seed 1: poor: map is empty"],
+        "broken": ["seed 1: failed: RuntimeError: boom"],
+    }
+
+
+def test_baseline_file_format_and_round_trip(tmp_path):
+    base = update_baseline(None, suite_of({"stage": sill_runs(1.0, 3.0)[:1]}, seeds="1"))
     path = write_baseline(tmp_path / "baseline.json", base)
     assert path.read_text() == (
         "{\n"
         '  "format": "fogsim-baseline",\n'
-        '  "scenarios": {\n'
-        '    "stage": {\n'
-        '      "metrics": {\n'
-        '        "cells.accuracy": 0.9\n'
+        '  "sets": {\n'
+        '    "full seeds=1": {\n'
+        '      "stage": {\n'
+        '        "figures": {\n'
+        '          "cells.floor_recall": {\n'
+        '            "mean": 0.9,\n'
+        '            "worst": 0.9\n'
+        "          },\n"
+        '          "table1.sill.abs_error_mm": {\n'
+        '            "mean": 1.0,\n'
+        '            "worst": 1.0\n'
+        "          }\n"
+        "        }\n"
         "      }\n"
         "    }\n"
         "  },\n"
-        '  "version": 1\n'
+        '  "version": 2\n'
         "}\n"
     )
-    assert load_baseline(path) == base
-    path.write_text(path.read_text().replace('"scenarios"', '"scenario"'))
-    with pytest.raises(ReportError, match=r"does not know: `\$.scenario`"):
+    assert load_baseline(path) == base == baseline_to_update(path)
+    path.write_text(path.read_text().replace('"sets"', '"set"'))
+    with pytest.raises(ReportError, match=r"does not know: `\$.set`"):
         load_baseline(path)
+    with pytest.raises(ReportError, match=r"does not know: `\$.set`"):
+        baseline_to_update(path)
+    assert baseline_to_update(tmp_path / "new.json") == Baseline()
 
 
-def test_summary_markdown_lists_scenarios_and_problems():
-    text = summary_markdown(summary_with(report_metrics(REPORT)), ["stage: x got worse"])
-    assert "| stage | 5 | 1.0 | ok |" in text
-    assert "| events.slider.fog_frames | never |" in text
-    assert "- stage: x got worse" in text
+def test_a_version_1_baseline_is_named_and_replaced_not_converted(tmp_path):
+    old = tmp_path / "baseline.json"
+    old.write_text(
+        '{"format": "fogsim-baseline", "version": 1,\n'
+        ' "scenarios": {"stage": {"metrics": {"cells.accuracy": 0.97972}}}}\n'
+    )
+    with pytest.raises(ReportError) as info:
+        load_baseline(old)
+    assert str(info.value) == (
+        f"baseline {old} is version 1 (one value per figure, scored against the truth before "
+        "per-seed figures); it is not converted: write a version 2 baseline with "
+        f"`fogsim suite [--quick] [--seeds 1-8] --out DIR --write-baseline {old}`"
+    )
+    assert baseline_to_update(old) == Baseline()
+
+
+def test_summary_markdown_lists_scenarios_figures_and_the_comparison():
+    summary = suite_of({"stage": sill_runs(1.0, 2.0, 3.0), "bad": sill_runs(1.0)})
+    text = summary_markdown(summary)
+    assert "2 scenarios, seeds 1-3, 1 workers" in text
+    assert "| stage | 3 | 5 | 3.0 | ok |" in text
+    assert "| sill | lower | 3 | 3 | 2 | 3 (3), 2 (2), 1 (1) |" in text
+    assert text.endswith("## Baseline\n\nNo baseline given: nothing compared.\n")
+    assert summary_markdown(summary, []).endswith("Nothing got worse than the baseline.\n")
+    assert summary_markdown(summary, ["stage: x got worse"]).endswith("- stage: x got worse\n")
+
+
+# --- fogsim suite through the command line (runs replaced by hand-made reports)
+
+
+@pytest.fixture
+def two_scenarios(tmp_path):
+    folder = tmp_path / "scenarios"
+    folder.mkdir()
+    text = (SCENARIOS_DIR / "flat_floor.toml").read_text()
+    for name in ("alpha", "beta"):
+        (folder / f"{name}.toml").write_text(text.replace('"flat_floor"', f'"{name}"'))
+    return folder
+
+
+def test_suite_over_seeds_writes_mean_and_worst_and_checks_a_baseline(
+    two_scenarios, tmp_path, monkeypatch, capsys
+):
+    fake_runs(monkeypatch)
+    base = tmp_path / "baseline.json"
+    suite = ["suite", str(two_scenarios), "--seeds", "1-3", "--workers", "1"]
+    assert main([*suite, "--out", str(tmp_path / "a"), "--write-baseline", str(base)]) == 0
+    out = capsys.readouterr().out
+    assert "2 scenarios over seeds 1-3" in out and "no baseline given: nothing compared" in out
+    summary = load_json(tmp_path / "a" / "summary.json", SuiteSummary, "suite summary")
+    alpha = summary.scenarios["alpha"]
+    assert [r.report for r in alpha.runs] == [f"alpha/seed_{n}/report.json" for n in (1, 2, 3)]
+    sill = alpha.figures["table1.sill.abs_error_mm"]
+    assert (sill.mean, sill.worst, sill.worst_seed) == (2.0, 3.0, 3)
+    entry = load_baseline(base).sets["full seeds=1-3"]["beta"]
+    assert entry.figures["table1.sill.abs_error_mm"] == BaselineFigure(2.0, 3.0)
+    # The same runs pass the check; a poor seed fails its scenario (exit 1).
+    assert main([*suite, "--out", str(tmp_path / "b"), "--check", str(base)]) == 0
+    assert "0 figures worse than the baseline" in capsys.readouterr().out
+    fake_runs(monkeypatch, poor_seeds=(2,))
+    assert main([*suite, "--out", str(tmp_path / "c"), "--check", str(base)]) == 1
+    err = capsys.readouterr().err
+    assert "FAILED alpha: seed 2: poor: withdrawn 30 % of frames" in err
+    assert "WORSE" not in err
+
+
+def test_suite_check_finds_worse_figures(two_scenarios, tmp_path, monkeypatch, capsys):
+    def suite(seeds, out, *options):
+        return main(["suite", str(two_scenarios), "--seeds", seeds, "--workers", "1",
+                     "--out", str(tmp_path / out), *options])  # fmt: skip
+
+    fake_runs(monkeypatch)
+    base = tmp_path / "baseline.json"
+    assert suite("1-3", "a", "--write-baseline", str(base)) == 0
+    # Other seeds: the baseline has no set to compare them with.
+    assert suite("1-2,4", "b", "--check", str(base)) == 1
+    err = capsys.readouterr().err
+    assert (
+        "WORSE baseline has no set 'full seeds=1-2,4' to compare this run with "
+        "(it has: 'full seeds=1-3')" in err
+    )
+    # Twice the sill error on every seed: the mean is 4 mm (baseline 2), the worst 6 (3).
+    monkeypatch.setattr(
+        "fogsim.run.seeds.run_scenario",
+        lambda scenario, out_dir, **options: contract_report(
+            [row("sill", scenario.seed * 2.0)],
+            floor=((100 - scenario.seed) / 100, 0.99),
+            seed=scenario.seed,
+        ),
+    )
+    assert suite("1-3", "c", "--check", str(base)) == 1
+    out = capsys.readouterr()
+    for name in ("alpha", "beta"):
+        assert (
+            f"WORSE {name}: table1.sill.abs_error_mm mean got worse: 4 vs baseline 2 "
+            "(lower is better, tolerance 1)" in out.err
+        )
+    assert "0 failed; 4 figures worse than the baseline" in out.out
+    text = (tmp_path / "c" / "summary.md").read_text()
+    assert "- beta: table1.sill.abs_error_mm worst got worse: 6 vs baseline 3" in text
+
+
+def test_suite_check_without_a_baseline_file_exits_2_before_running(tmp_path, capsys):
+    missing = tmp_path / "nothing.json"
+    code = main(["suite", "--quick", "--out", str(tmp_path / "o"), "--check", str(missing)])
+    assert code == 2
+    err = capsys.readouterr().err
+    assert f"--check {missing}: no such baseline file" in err
+    assert not (tmp_path / "o").exists()
+    old = tmp_path / "old.json"
+    old.write_text('{"format": "fogsim-baseline", "version": 1, "scenarios": {}}')
+    assert main(["suite", "--quick", "--out", str(tmp_path / "o"), "--check", str(old)]) == 2
+    assert "is version 1" in capsys.readouterr().err
+    assert main(["suite", "--quick", "--out", str(tmp_path / "o"), "--seeds", "x"]) == 2
+    assert "--seeds 'x': 'x' is not a seed or a range" in capsys.readouterr().err
+
+
+def test_committed_baseline_holds_the_stage_over_seeds_and_the_quick_subset(tmp_path):
+    committed = SCENARIOS_DIR / "baseline.json"
+    baseline = load_baseline(committed)
+    assert set(baseline.sets) == {"full seeds=1-8", "quick seeds=scenario"}
+    assert set(baseline.sets["quick seeds=scenario"]) == set(QUICK_SCENARIOS)
+    stage = baseline.sets["full seeds=1-8"]["stage"].figures
+    assert {"table1.step_1.abs_error_mm", "cells.obstacle_recall", "safety.unsafe_cells"} <= set(
+        stage
+    )
+    stairs = baseline.sets["quick seeds=scenario"]["stairs"].figures
+    assert {f"table1.{s}.abs_error_mm" for s in ("step_1", "step_2", "step_3", "platform")} <= set(
+        stairs
+    )
+    path = write_baseline(tmp_path / "baseline.json", baseline)
+    assert path.read_bytes() == committed.read_bytes()
 
 
 @pytest.mark.slow
 def test_quick_suite_passes_check_against_committed_baseline(tmp_path, capsys):
     baseline = SCENARIOS_DIR / "baseline.json"
-    assert load_baseline(baseline).section(quick=True), "baseline lacks a quick section"
     code = main(
         ["suite", "--quick", "--out", str(tmp_path), "--workers", "2", "--check", str(baseline)]
     )
     out = capsys.readouterr()
     assert code == 0, out.err
+    assert "0 figures worse than the baseline" in out.out
     summary = load_json(tmp_path / "summary.json", SuiteSummary, "suite summary")
-    assert set(summary.scenarios) == {"flat_floor", "box_removal"}
-    assert load_report(tmp_path / "box_removal" / "report.json").timing.frames == 80
+    assert set(summary.scenarios) == set(QUICK_SCENARIOS)
+    assert load_report(tmp_path / "box_removal" / "report.json").timing.frames == QUICK_MAX_FRAMES
     assert (tmp_path / "box_removal" / "fig5_comparison.png").is_file()
+    # The staircase's Table I rows are checked by the quick subset.
+    stairs = summary.scenarios["stairs"].figures
+    assert {f"table1.{s}.abs_error_mm" for s in ("step_1", "step_2", "step_3", "platform")} <= set(
+        stairs
+    )
     # The same run checked against a baseline that is better than possible fails loudly.
     committed = load_baseline(baseline)
-    flat = committed.quick_scenarios["flat_floor"]
-    strict = dataclasses.replace(
-        committed,
-        quick_scenarios={
-            **committed.quick_scenarios,
-            "flat_floor": BaselineEntry({**flat.metrics, "cells.accuracy": 1.5}),
-        },
+    quick = committed.sets["quick seeds=scenario"]
+    flat = quick["flat_floor"].figures
+    strict = Baseline(
+        sets={
+            **committed.sets,
+            "quick seeds=scenario": {
+                **quick,
+                "flat_floor": BaselineEntry(
+                    {**flat, "cells.floor_recall": BaselineFigure(1.5, 1.5)}
+                ),
+            },
+        }
     )
     problems = check_against_baseline(summary, strict)
-    assert problems and "flat_floor: cells.accuracy got worse" in problems[0]
+    assert problems and problems[0].startswith("flat_floor: cells.floor_recall mean got worse")

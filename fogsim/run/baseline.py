@@ -1,50 +1,96 @@
-"""Regression metrics of a report and their check against the committed ``baseline.json``.
+"""Regression figures of a report, their tolerance rules, and the committed ``baseline.json``.
 
-Metrics (flat names, one value per scenario; ``direction`` says which way is better):
+Figures (flat names, one value per run; ``direction`` says which way is better):
 
-=====================================  =========  ==========  ================================
-metric                                 direction  tolerance   meaning
-=====================================  =========  ==========  ================================
-``table1.<surface>.abs_error_mm``      lower      1.0 mm      FOG Table I row error
-``cells.accuracy``                     higher     0.01        seen cells labelled right
-``cells.obstacle_within_one_cell``     higher     0.02        obstacle tops within one cell
-``events.<object>.fog_frames``         lower      3 frames    frames to clear the footprint
-                                                              (never = 10⁶)
-``events.<object>.intermediate``       lower      2 cells     moved box: intermediate floor
-                                                              cells at the end (FOG)
-``timing.frame_ms_median``             lower      ×2 + 5 ms   pipeline time per frame (noisy,
-                                                              so only gross regressions count)
-=====================================  =========  ==========  ================================
+============================================  =========  ===========  =========================
+figure                                        direction  tolerance    meaning
+============================================  =========  ===========  =========================
+``table1.<surface>.abs_error_mm``             lower      1.0 mm       FOG Table I row error
+``cells.floor_recall``                        higher     0.01         true floor cells seen and
+                                                                      labelled floor
+``cells.floor_precision``                     higher     0.01         FOG floor cells that are
+                                                                      true floor
+``cells.obstacle_recall``                     higher     0.05         true obstacle cells seen
+                                                                      and labelled obstacle
+``cells.obstacle_precision``                  higher     0.05         FOG obstacle cells that
+                                                                      are true obstacle
+``safety.unsafe_cells``                       lower      3 cells      floor on a true obstacle
+                                              + 10 %                  or > 20 mm off
+``step_edges.<surface>.<edge>.abs_error_mm``  lower      20 mm        |median position error|
+                                                                      of a walkable edge
+``events.<object>.cleared_frames``            lower      3 frames     until no footprint cell
+                                                                      shows the object
+``events.<object>.floor_again_frames``        lower      3 frames     until ≥ 90 % of it is
+                                                                      floor within 10 mm
+``timing.frame_ms_median``                    lower      ×2 + 5 ms    pipeline time per frame
+============================================  =========  ===========  =========================
 
-``baseline.json`` keeps the metrics of a full run (``scenarios``) and of a quick run
-(``quick_scenarios``), keys sorted so that a rewrite shows as a small diff.
+Why these tolerances. A run is deterministic for its seed, so the tolerance is not noise
+between runs: it is how far a harmless change (a refactoring, another platform's floating
+point) may move a figure before the check calls it a regression.
+
+* Table I rows are medians over about a hundred cells of smoothed heights: a millimetre is
+  below the paper's own Table I resolution (its rows differ by 1–4 mm) and above rounding.
+* Floor classes hold thousands of seen cells on the stage, so 0.01 is tens of cells; obstacle
+  classes hold 50–100 seen cells (the stage's boxes), so one cell is 1–2 % and 0.05 lets
+  two or three cells flip, no more.
+* Unsafe cells are counts from a handful to hundreds: 3 cells absorb a cell or two flipping at
+  an object's border, 10 % of the baseline scales that for scenes with many.
+* A mapped edge sits on a cell border, so its median position error moves in steps of half
+  a cell (the median of an even count averages two cells): 20 mm, half the 40 mm cell, lets one
+  such step through and flags an edge moved by a whole cell.
+* Event frames are counted at 12.5 Hz: 3 frames (0.24 s) is one odd frame (a withdrawn frame,
+  a late ray) at either end of the count; a footprint that never clears or never becomes
+  floor again counts as :data:`NEVER_FRAMES`.
+* Frame times are wall-clock: only gross regressions count.
+
+An event whose object the map never saw before its event has no figure (the report says
+``seen: false``): it is left out, and a baseline that has it reports it missing.
+
+``baseline.json`` (version 2) holds figure **sets**: one per way the suite ran (quick or full,
+over which seeds), named by :func:`set_name` (``"full seeds=1-8"``, ``"quick seeds=scenario"``
+for each scenario's own seed). Each set maps a scenario to its figures, each figure to its
+``mean`` and ``worst`` over the set's seeds::
+
+    {"format": "fogsim-baseline", "version": 2,
+     "sets": {"full seeds=1-8": {"stage": {"figures": {
+         "table1.sill.abs_error_mm": {"mean": 1.9, "worst": 4.7}, ...}}}}}
+
+Keys are sorted so that a rewrite shows as a small diff. Version 1 files (one value per figure,
+``scenarios`` and ``quick_scenarios``) scored the truth before per-object figures existed and
+use figure names that no longer exist: they are not converted. The loader names the version and
+the command that writes a new one; ``--write-baseline`` replaces such a file with a new
+baseline holding the set it wrote.
 """
 
 from __future__ import annotations
 
 import os
 from collections.abc import Mapping
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Literal
 
-from msgspec import UNSET, UnsetType
-
-from fogsim.errors import FogsimError
+from fogsim.errors import FogsimError, ReportError
 from fogsim.eval.report import Report
 from fogsim.eval.report.io import load_json, write_json
 
 NEVER_FRAMES = 1_000_000.0
-"""The ``fog_frames`` metric of a footprint that never clears."""
+"""The event figure of a footprint that never clears (or never becomes floor again)."""
+
+BASELINE_VERSION = 2
+
+REGENERATE = "fogsim suite [--quick] [--seeds 1-8] --out DIR --write-baseline {path}"
+"""The command that writes a set of a baseline (``{path}``: the file)."""
 
 
 @dataclass(frozen=True)
 class MetricRule:
-    """How a metric may change.
+    """How a figure may change.
 
     Attributes:
         direction: ``"lower"`` or ``"higher"`` is better.
-        absolute: Allowed slack in the metric's unit.
+        absolute: Allowed slack in the figure's unit.
         relative: Further slack as a fraction of ``|baseline|``.
     """
 
@@ -59,44 +105,58 @@ class MetricRule:
 
 
 def rule_for(metric: str) -> MetricRule:
-    """The tolerance rule of a metric name (see the module table)."""
+    """The tolerance rule of a figure name (see the module table)."""
     if metric.startswith("table1."):
         return MetricRule("lower", 1.0)
-    if metric == "cells.accuracy":
+    if metric in ("cells.floor_recall", "cells.floor_precision"):
         return MetricRule("higher", 0.01)
-    if metric == "cells.obstacle_within_one_cell":
-        return MetricRule("higher", 0.02)
-    if metric.endswith(".fog_frames"):
+    if metric in ("cells.obstacle_recall", "cells.obstacle_precision"):
+        return MetricRule("higher", 0.05)
+    if metric == "safety.unsafe_cells":
+        return MetricRule("lower", 3.0, 0.1)
+    if metric.startswith("step_edges."):
+        return MetricRule("lower", 20.0)
+    if metric.endswith((".cleared_frames", ".floor_again_frames")):
         return MetricRule("lower", 3.0)
-    if metric.endswith(".intermediate"):
-        return MetricRule("lower", 2.0)
     if metric.startswith("timing."):
         return MetricRule("lower", 5.0, 1.0)
-    raise FogsimError(f"no tolerance rule for metric {metric!r}")
+    raise FogsimError(f"no tolerance rule for figure {metric!r}")
+
+
+def _frames(frames: int | None) -> float:
+    """An event figure: the frame count, or :data:`NEVER_FRAMES` for never."""
+    return NEVER_FRAMES if frames is None else float(frames)
 
 
 def report_metrics(report: Report) -> dict[str, float]:
-    """Flat regression metrics of one report (None values are left out, except events)."""
+    """The flat figures of one report (see the module table).
+
+    Figures the report has no value for (a Table I row without cells, a class no cell of which
+    was seen, an edge not in view, an event whose object was never seen) are left out.
+    """
     metrics: dict[str, float] = {}
     if report.table1 is not None:
         for row in report.table1.fog:
             if row.error_mm is not None:
                 metrics[f"table1.{row.name}.abs_error_mm"] = abs(float(row.error_mm))
     if report.cells is not None:
-        cells = report.cells.fog
-        if cells.accuracy is not None:
-            metrics["cells.accuracy"] = float(cells.accuracy)
-        within = cells.obstacle_height.within_one_cell_fraction
-        if within is not None:
-            metrics["cells.obstacle_within_one_cell"] = float(within)
+        classes = report.cells.fog.classes
+        for label, scores in (("floor", classes.floor), ("obstacle", classes.obstacle)):
+            if scores.recall is not None:
+                metrics[f"cells.{label}_recall"] = float(scores.recall)
+            if scores.precision is not None:
+                metrics[f"cells.{label}_precision"] = float(scores.precision)
+    if report.safety is not None:
+        metrics["safety.unsafe_cells"] = float(report.safety.unsafe_cells)
+    for edge in report.step_edges:
+        if edge.median_error_mm is not None:
+            name = f"step_edges.{edge.surface}.{edge.edge}.abs_error_mm"
+            metrics[name] = abs(float(edge.median_error_mm))
     for event in report.events:
-        frames = event.fog_frames
-        metrics[f"events.{event.object}.fog_frames"] = (
-            NEVER_FRAMES if frames is None else float(frames)
-        )
-        if event.intermediate_floor_cells is not UNSET:
-            metrics[f"events.{event.object}.intermediate"] = float(
-                event.intermediate_floor_cells.fog.final
+        if event.seen:
+            metrics[f"events.{event.object}.cleared_frames"] = _frames(event.cleared_frames.fog)
+            metrics[f"events.{event.object}.floor_again_frames"] = _frames(
+                event.floor_again_frames.fog
             )
     median = report.timing.frame_ms.median
     if median is not None:
@@ -104,69 +164,150 @@ def report_metrics(report: Report) -> dict[str, float]:
     return metrics
 
 
+def poor_reasons(report: Report) -> tuple[str, ...]:
+    """Why the report's map is poor (``quality.reasons``), empty when it is not."""
+    return report.quality.reasons if report.quality.poor else ()
+
+
+@dataclass(frozen=True)
+class BaselineFigure:
+    """One figure of a scenario over a set of seeds.
+
+    Attributes:
+        mean: Mean over the seeds.
+        worst: Worst over the seeds (the largest of a lower-is-better figure, the smallest of a
+            higher-is-better one); equal to ``mean`` for one seed.
+    """
+
+    mean: float
+    worst: float
+
+
 @dataclass(frozen=True)
 class BaselineEntry:
-    """The committed metrics of one scenario."""
+    """The committed figures of one scenario, by flat name."""
+
+    figures: dict[str, BaselineFigure]
+
+
+@dataclass(frozen=True)
+class Baseline:
+    """``baseline.json``: the figures a run is checked against.
+
+    Attributes:
+        format: Always ``fogsim-baseline``.
+        version: Schema version, 2.
+        sets: Set name (:func:`set_name`) → scenario name → its figures.
+    """
+
+    format: Literal["fogsim-baseline"] = "fogsim-baseline"
+    version: Literal[2] = 2
+    sets: dict[str, dict[str, BaselineEntry]] = field(default_factory=dict)
+
+
+@dataclass(frozen=True)
+class _EntryV1:
+    """A scenario of a version-1 baseline (recognised only to say it is not converted)."""
 
     metrics: dict[str, float]
 
 
 @dataclass(frozen=True)
-class Baseline:
-    """``baseline.json``: the metrics a run is checked against, per scenario.
+class _BaselineV1:
+    """A version-1 ``baseline.json``: one value per figure, a full and a quick section."""
 
-    Attributes:
-        format: Always ``fogsim-baseline``.
-        version: Schema version, 1.
-        quick_scenarios: Metrics of the quick subset (cut after the quick frame count); absent
-            until a quick run was written.
-        scenarios: Metrics of the full runs; absent until a full run was written.
+    format: Literal["fogsim-baseline"]
+    version: Literal[1]
+    quick_scenarios: dict[str, _EntryV1] | None = None
+    scenarios: dict[str, _EntryV1] | None = None
+
+
+def set_name(quick: bool, seeds: str | None) -> str:
+    """The baseline set of a run: ``"<quick|full> seeds=<spec>"``.
+
+    Args:
+        quick: The quick subset ran.
+        seeds: The seeds in canonical form (:func:`fogsim.run.seeds.format_seeds`, e.g.
+            ``"1-8"``), or None when each scenario ran at its own seed (``seeds=scenario``).
     """
-
-    format: Literal["fogsim-baseline"] = "fogsim-baseline"
-    version: Literal[1] = 1
-    quick_scenarios: dict[str, BaselineEntry] | UnsetType = UNSET
-    scenarios: dict[str, BaselineEntry] | UnsetType = UNSET
-
-    def section(self, quick: bool) -> dict[str, BaselineEntry]:
-        """The metrics a quick or a full run is compared with (empty when absent)."""
-        entries = self.quick_scenarios if quick else self.scenarios
-        return {} if entries is UNSET else entries
+    return f"{'quick' if quick else 'full'} seeds={seeds if seeds is not None else 'scenario'}"
 
 
-def section_name(quick: bool) -> str:
-    """The baseline key of a quick or a full run."""
-    return "quick_scenarios" if quick else "scenarios"
-
-
-def check_metrics(
-    name: str, current: Mapping[str, float], baseline: Mapping[str, float]
+def check_figures(
+    name: str, current: Mapping[str, BaselineFigure], baseline: BaselineEntry, *, worst: bool
 ) -> list[str]:
-    """Every metric of one scenario worse than its baseline beyond its tolerance, or missing.
+    """Every figure of one scenario worse than its baseline beyond its tolerance, or missing.
+
+    Args:
+        name: The scenario (for the messages).
+        current: Its figures now.
+        baseline: Its committed figures.
+        worst: Compare the worst over the seeds too (not for one seed: it equals the mean).
 
     Returns:
         Human-readable lines, empty if nothing got worse.
     """
     problems = []
-    for metric, base_value in baseline.items():
-        if metric not in current:
-            problems.append(f"{name}: {metric} missing (baseline {base_value:g})")
+    for metric, base in baseline.figures.items():
+        now = current.get(metric)
+        if now is None:
+            problems.append(f"{name}: {metric} missing (baseline mean {base.mean:g})")
             continue
         rule = rule_for(metric)
-        excess = rule.worse_by(float(current[metric]), float(base_value))
-        if excess > 1e-9:
-            problems.append(
-                f"{name}: {metric} got worse: {current[metric]:g} vs baseline "
-                f"{base_value:g} ({rule.direction} is better, tolerance {rule.absolute:g}"
-                + (f" + {rule.relative:g}×baseline" if rule.relative else "")
-                + ")"
-            )
+        pairs = [("mean", now.mean, base.mean)]
+        if worst:
+            pairs.append(("worst", now.worst, base.worst))
+        for which, value, reference in pairs:
+            if rule.worse_by(value, reference) > 1e-9:
+                problems.append(
+                    f"{name}: {metric} {which} got worse: {value:g} vs baseline {reference:g} "
+                    f"({rule.direction} is better, tolerance {rule.absolute:g}"
+                    + (f" + {rule.relative:g}×baseline" if rule.relative else "")
+                    + ")"
+                )
     return problems
 
 
+def _is_version_1(path: str | os.PathLike[str]) -> bool:
+    """Whether the file is a readable version-1 baseline."""
+    try:
+        load_json(path, _BaselineV1, "baseline")
+    except ReportError:
+        return False
+    return True
+
+
 def load_baseline(path: str | os.PathLike[str]) -> Baseline:
-    """Read ``baseline.json``; raises :class:`fogsim.errors.ReportError` naming any bad key."""
-    return load_json(path, Baseline, "baseline")
+    """Read ``baseline.json``.
+
+    Raises:
+        ReportError: The file is missing or does not match the schema (the message names the
+            key), or it is a version-1 baseline (the message says how to write a new one).
+    """
+    try:
+        return load_json(path, Baseline, "baseline")
+    except ReportError:
+        if not _is_version_1(path):
+            raise
+    raise ReportError(
+        f"baseline {path} is version 1 (one value per figure, scored against the truth before "
+        f"per-seed figures); it is not converted: write a version {BASELINE_VERSION} baseline "
+        f"with `{REGENERATE.format(path=path)}`"
+    )
+
+
+def baseline_to_update(path: str | os.PathLike[str]) -> Baseline:
+    """The baseline that ``--write-baseline`` adds its set to.
+
+    The file's baseline; a new, empty one when the file does not exist or is a version-1
+    baseline (every figure of which is stale, see the module docstring).
+
+    Raises:
+        ReportError: The file exists but is neither a version-1 nor a valid baseline.
+    """
+    if not Path(path).exists() or _is_version_1(path):
+        return Baseline()
+    return load_baseline(path)
 
 
 def write_baseline(path: str | os.PathLike[str], baseline: Baseline) -> Path:

@@ -1,17 +1,20 @@
-"""Run every scenario of a folder, summarise the runs, and check them against the baseline.
+"""Run every scenario of a folder (over seeds), summarise the runs, check them against a baseline.
 
-:func:`run_suite` runs the scenarios in parallel processes (each as ``fogsim run`` does,
-:func:`fogsim.run.runner.run_scenario`) and writes ``summary.json`` and ``summary.md``;
-:func:`check_against_baseline` compares the summary's metrics (:mod:`fogsim.run.baseline`)
-with ``baseline.json`` and lists every metric that got worse by more than its tolerance.
+:func:`run_suite` runs the scenarios — each at its own seed, or each over the same seeds —
+in parallel processes (:func:`fogsim.run.seeds.run_jobs`, each run as ``fogsim run`` does it)
+and writes ``summary.json`` (:class:`SuiteSummary`) and ``summary.md``: per scenario, every
+figure's mean and worst over the seeds. A scenario fails when it cannot be loaded, a run of it
+raises, or a run's map is poor (the report's ``quality.poor``). :func:`check_against_baseline`
+compares the figures with the baseline's set of the same kind of run (quick or full, same
+seeds; :mod:`fogsim.run.baseline`) and lists every figure whose mean, or worst over the seeds,
+got worse than its tolerance allows.
+
+Output folders: ``OUT/<scenario>/`` for a run at the scenario's own seed,
+``OUT/<scenario>/seed_<n>/`` for each of ``--seeds``.
 """
 
 from __future__ import annotations
 
-import concurrent.futures
-import dataclasses
-import math
-import multiprocessing
 import os
 import time
 from collections.abc import Sequence
@@ -20,43 +23,55 @@ from pathlib import Path
 from typing import Literal
 
 from fogsim.atomic import write_text_atomic
-from fogsim.config import find_scenario_files, load_scenario
+from fogsim.config import Scenario, find_scenario_files, load_scenario
 from fogsim.errors import FogsimError
 from fogsim.eval.report.io import write_json
 from fogsim.paths import SCENARIOS_DIR
 from fogsim.run.baseline import (
-    NEVER_FRAMES,
     Baseline,
     BaselineEntry,
-    check_metrics,
-    report_metrics,
-    section_name,
+    BaselineFigure,
+    check_figures,
+    set_name,
 )
-from fogsim.run.runner import run_scenario
+from fogsim.run.seeds import (
+    FigureStats,
+    SeedJob,
+    SeedRun,
+    figure_stats,
+    figures_markdown,
+    format_seeds,
+    run_jobs,
+    runs_markdown,
+    seed_jobs,
+)
 
-QUICK_SCENARIOS = ("flat_floor", "box_removal")
+QUICK_SCENARIOS = ("flat_floor", "box_removal", "stairs")
+"""The quick subset: an empty floor, an event (Fig. 5) and a staircase (Table I)."""
+
 QUICK_MAX_FRAMES = 80
-"""The quick subset: these scenarios, each cut after this many frames (6.4 s at 12.5 Hz)."""
+"""Frames of each quick run (6.4 s at 12.5 Hz): ``stairs`` has seen every tread by then."""
 
 
 @dataclass(frozen=True)
-class ScenarioRun:
+class ScenarioRuns:
     """One scenario of a suite run.
 
     Attributes:
-        metrics: Its regression metrics (:func:`fogsim.run.baseline.report_metrics`), empty if
-            the run failed.
-        frames: Frames run.
-        wall_s: Wall time of the run [s].
-        report: Path of its ``report.json`` relative to the suite's folder (None if failed).
-        error: Why the run failed (None if it worked).
+        runs: One run per seed (one run at the scenario's own seed without ``--seeds``).
+        figures: Each figure's mean and worst over the runs that worked.
+        error: Why the scenario could not be run at all (None if it was loaded).
     """
 
-    metrics: dict[str, float]
-    frames: int
-    wall_s: float
-    report: str | None
-    error: str | None
+    runs: tuple[SeedRun, ...]
+    figures: dict[str, FigureStats]
+    error: str | None = None
+
+    def failures(self) -> list[str]:
+        """Why the scenario failed: not loaded, a run raised, a run's map is poor (empty: ok)."""
+        if self.error is not None:
+            return [self.error]
+        return [f"seed {run.seed}: {run.status()}" for run in self.runs if run.status() != "ok"]
 
 
 @dataclass(frozen=True)
@@ -65,52 +80,26 @@ class SuiteSummary:
 
     Attributes:
         format: Always ``fogsim-suite``.
-        version: Schema version, 1.
+        version: Schema version, 2 (version 1 had one metrics table per scenario).
         quick: Only the quick subset was run, each cut after ``QUICK_MAX_FRAMES`` frames.
+        seeds: The seeds every scenario ran over (canonical spec, ``"1-8"``); None = each
+            scenario at its own seed.
         workers: Parallel processes.
         wall_s: Wall time of the whole suite [s].
-        scenarios: Each scenario's run, by name, in file order.
+        scenarios: Each scenario's runs and figures, by name, in file order.
     """
 
     format: Literal["fogsim-suite"]
-    version: Literal[1]
+    version: Literal[2]
     quick: bool
+    seeds: str | None
     workers: int
     wall_s: float
-    scenarios: dict[str, ScenarioRun]
+    scenarios: dict[str, ScenarioRuns]
 
-
-def _suite_worker(
-    path: str, out_dir: str, quick: bool, overrides: Sequence[str]
-) -> tuple[str, ScenarioRun]:
-    """One scenario in a worker process: run it, return its name and summary entry."""
-    start = time.perf_counter()
-    name = Path(path).stem
-    try:
-        scenario = load_scenario(path)
-        name = scenario.name
-        if overrides:
-            scenario = scenario.with_overrides(list(overrides))
-        report = run_scenario(
-            scenario,
-            Path(out_dir) / name,
-            max_frames=QUICK_MAX_FRAMES if quick else None,
-        )
-        return name, ScenarioRun(
-            metrics=report_metrics(report),
-            frames=report.timing.frames,
-            wall_s=round(time.perf_counter() - start, 2),
-            report=f"{name}/report.json",
-            error=None,
-        )
-    except Exception as exc:  # a failing scenario must not stop the others
-        return name, ScenarioRun(
-            metrics={},
-            frames=0,
-            wall_s=round(time.perf_counter() - start, 2),
-            report=None,
-            error=f"{type(exc).__name__}: {exc}",
-        )
+    def failures(self) -> dict[str, list[str]]:
+        """Failed scenarios → why (see :meth:`ScenarioRuns.failures`)."""
+        return {name: s.failures() for name, s in self.scenarios.items() if s.failures()}
 
 
 def scenario_paths(directory: str | os.PathLike[str] | None, quick: bool) -> list[Path]:
@@ -124,113 +113,168 @@ def scenario_paths(directory: str | os.PathLike[str] | None, quick: bool) -> lis
     return paths
 
 
+def _jobs(
+    scenario: Scenario, out: Path, seeds: Sequence[int] | None, max_frames: int | None
+) -> list[SeedJob]:
+    """A scenario's jobs: one at its own seed into ``out/<name>/``, or one per seed."""
+    name = scenario.name
+    if seeds is None:
+        return [SeedJob(scenario, out / name, f"{name}/report.json", max_frames=max_frames)]
+    return seed_jobs(scenario, seeds, out / name, prefix=f"{name}/", max_frames=max_frames)
+
+
 def run_suite(
     directory: str | os.PathLike[str] | None,
     out_dir: str | os.PathLike[str],
     *,
     workers: int = 2,
     quick: bool = False,
+    seeds: Sequence[int] | None = None,
     overrides: Sequence[str] = (),
 ) -> SuiteSummary:
-    """Run every scenario of a folder in parallel processes; write summary.json / summary.md."""
-    if workers < 1:
-        raise FogsimError(f"--workers must be >= 1, got {workers}")
+    """Run every scenario of a folder in parallel processes; write summary.json / summary.md.
+
+    Args:
+        directory: Folder of scenario files (None = the project's ``scenarios/``).
+        out_dir: Output folder.
+        workers: Parallel processes (1 = inline).
+        quick: Only :data:`QUICK_SCENARIOS`, each cut after :data:`QUICK_MAX_FRAMES` frames.
+        seeds: Run every scenario over these seeds (None = each at its own seed).
+        overrides: ``key=value`` assignments applied to every scenario.
+
+    Raises:
+        FogsimError: No scenario file, ``workers`` below 1, two files with one scenario name.
+    """
     paths = scenario_paths(directory, quick)
     out = Path(out_dir)
-    out.mkdir(parents=True, exist_ok=True)
+    max_frames = QUICK_MAX_FRAMES if quick else None
     start = time.perf_counter()
-    if workers == 1:
-        runs = [_suite_worker(str(p), str(out), quick, tuple(overrides)) for p in paths]
-    else:
-        context = multiprocessing.get_context("spawn")  # MuJoCo/EGL state must not be forked
-        with concurrent.futures.ProcessPoolExecutor(workers, mp_context=context) as pool:
-            futures = [
-                pool.submit(_suite_worker, str(p), str(out), quick, tuple(overrides)) for p in paths
-            ]
-            runs = [f.result() for f in futures]
+    planned: dict[str, list[SeedJob] | str] = {}  # name → its jobs, or why it was not loaded
+    for path in paths:
+        try:
+            scenario = load_scenario(path)
+            if overrides:
+                scenario = scenario.with_overrides(list(overrides))
+        except FogsimError as exc:  # a broken file fails its scenario, not the suite
+            planned[path.stem] = f"{type(exc).__name__}: {exc}"
+            continue
+        if scenario.name in planned:
+            raise FogsimError(f"two scenario files in {path.parent} are named {scenario.name!r}")
+        planned[scenario.name] = _jobs(scenario, out, seeds, max_frames)
+    jobs = [job for entry in planned.values() if isinstance(entry, list) for job in entry]
+    runs = iter(run_jobs(jobs, workers))
+    scenarios = {}
+    for name, entry in planned.items():
+        if isinstance(entry, str):
+            scenarios[name] = ScenarioRuns(runs=(), figures={}, error=entry)
+            continue
+        own = tuple(next(runs) for _ in entry)
+        scenarios[name] = ScenarioRuns(runs=own, figures=figure_stats(own))
     summary = SuiteSummary(
         format="fogsim-suite",
-        version=1,
+        version=2,
         quick=quick,
+        seeds=format_seeds(seeds) if seeds is not None else None,
         workers=workers,
         wall_s=round(time.perf_counter() - start, 2),
-        scenarios=dict(runs),
+        scenarios=scenarios,
     )
     write_json(out / "summary.json", summary)
     write_text_atomic(out / "summary.md", summary_markdown(summary))
     return summary
 
 
-def check_against_baseline(summary: SuiteSummary, baseline: Baseline) -> list[str]:
-    """Every metric of the summary worse than the baseline beyond its tolerance.
+def _entry(figures: dict[str, FigureStats]) -> BaselineEntry:
+    """A scenario's figures as the baseline keeps them (mean and worst)."""
+    return BaselineEntry({name: BaselineFigure(s.mean, s.worst) for name, s in figures.items()})
 
-    A quick summary is compared with the baseline's ``quick_scenarios``, a full one with its
-    ``scenarios``. Scenarios of the baseline that the summary did not run are skipped; a metric
-    the baseline has but the run lacks is reported, as is a scenario that failed.
+
+def check_against_baseline(summary: SuiteSummary, baseline: Baseline) -> list[str]:
+    """Every figure of the summary worse than the baseline beyond its tolerance.
+
+    The summary is compared with the baseline's set of the same kind of run
+    (:func:`fogsim.run.baseline.set_name`): a quick run over seeds 1–8 only with
+    ``"quick seeds=1-8"``. Means are compared, and over several seeds the worst values too.
+    Scenarios of the baseline that the summary did not run are skipped; a figure the baseline
+    has but the run lacks is reported, as is a scenario whose run raised (its figures would be
+    over fewer seeds). A poor run's figures are compared: the suite fails it anyway.
 
     Returns:
         Human-readable lines, empty if nothing got worse.
     """
-    section = section_name(summary.quick)
-    entries = baseline.section(summary.quick)
-    if not entries:
-        return [f"baseline has no '{section}' to compare a {section.split('_')[0]} run with"]
+    key = set_name(summary.quick, summary.seeds)
+    entries = baseline.sets.get(key)
+    if entries is None:
+        known = ", ".join(f"'{name}'" for name in sorted(baseline.sets)) or "none"
+        return [f"baseline has no set '{key}' to compare this run with (it has: {known})"]
     problems = []
     for name, base in entries.items():
-        run = summary.scenarios.get(name)
-        if run is None:
+        scenario = summary.scenarios.get(name)
+        if scenario is None:
             continue
-        if run.error:
-            problems.append(f"{name}: run failed: {run.error}")
+        if scenario.error is not None or any(run.error for run in scenario.runs):
+            problems.append(f"{name}: not compared: a run failed")
             continue
-        problems += check_metrics(name, run.metrics, base.metrics)
+        several = len(scenario.runs) > 1
+        problems += check_figures(name, _entry(scenario.figures).figures, base, worst=several)
     return problems
 
 
 def update_baseline(baseline: Baseline | None, summary: SuiteSummary) -> Baseline:
-    """The baseline with the summary's metrics as its ``quick_scenarios`` or ``scenarios``.
+    """The baseline with the summary's figures as the set of its kind of run.
 
-    The other section of an existing baseline is kept, so one file serves ``--check`` of both
-    the full and the quick suite. Failed scenarios are left out.
+    The other sets of an existing baseline are kept, so one file serves ``--check`` of the
+    full suite over seeds 1–8 and of the quick subset. Failed scenarios (not loaded, a run
+    raised, or a poor map) are left out.
     """
+    failed = summary.failures()
     entries = {
-        name: BaselineEntry(metrics=run.metrics)
-        for name, run in summary.scenarios.items()
-        if not run.error
+        name: _entry(scenario.figures)
+        for name, scenario in summary.scenarios.items()
+        if name not in failed
     }
-    current = baseline or Baseline()
-    if summary.quick:
-        return dataclasses.replace(current, quick_scenarios=entries)
-    return dataclasses.replace(current, scenarios=entries)
+    sets = dict(baseline.sets) if baseline is not None else {}
+    sets[set_name(summary.quick, summary.seeds)] = entries
+    return Baseline(sets=sets)
 
 
-def _fmt(value: float | None) -> str:
-    if value is None:
-        return "–"
-    if value >= NEVER_FRAMES:
-        return "never"
-    return f"{value:.4g}" if math.isfinite(value) else "–"
+def summary_markdown(summary: SuiteSummary, comparison: Sequence[str] | None = None) -> str:
+    """The suite's Markdown summary: the scenarios' status, then each one's figures.
 
-
-def summary_markdown(summary: SuiteSummary, problems: Sequence[str] = ()) -> str:
-    """The suite's Markdown summary: one section per scenario with its metrics."""
+    Args:
+        summary: The suite's summary.
+        comparison: The baseline check's lines (empty: nothing got worse); None when no
+            baseline was given.
+    """
+    seeds = f"seeds {summary.seeds}" if summary.seeds is not None else "each at its own seed"
     lines = [
         "# fogsim suite",
         "",
-        f"{len(summary.scenarios)} scenarios, {summary.workers} workers, "
-        f"{summary.wall_s} s wall{' (quick subset)' if summary.quick else ''}.",
+        f"{len(summary.scenarios)} scenarios, {seeds}, {summary.workers} workers, "
+        f"{summary.wall_s} s wall{' (quick subset)' if summary.quick else ''}. "
+        "Worst = the largest error, the smallest recall or precision.",
         "",
-        "| scenario | frames | wall s | status |",
-        "|---|---:|---:|---|",
+        "| scenario | runs | frames | wall s | status |",
+        "|---|---:|---:|---:|---|",
     ]
-    for name, run in summary.scenarios.items():
-        status = f"failed: {run.error}" if run.error else "ok"
-        lines.append(f"| {name} | {run.frames} | {run.wall_s} | {status} |")
-    for name, run in summary.scenarios.items():
-        if not run.metrics:
+    for name, scenario in summary.scenarios.items():
+        frames = sorted({run.frames for run in scenario.runs}) or [0]
+        frames_text = str(frames[0]) if len(frames) == 1 else f"{frames[0]}–{frames[-1]}"
+        wall = round(sum(run.wall_s for run in scenario.runs), 2)
+        status = "; ".join(scenario.failures()) or "ok"
+        lines.append(f"| {name} | {len(scenario.runs)} | {frames_text} | {wall} | {status} |")
+    for name, scenario in summary.scenarios.items():
+        if not scenario.runs:
             continue
-        lines += ["", f"## {name}", "", "| metric | value |", "|---|---:|"]
-        lines += [f"| {m} | {_fmt(v)} |" for m, v in sorted(run.metrics.items())]
-    if problems:
-        lines += ["", "## Worse than the baseline", ""] + [f"- {p}" for p in problems]
+        lines += ["", f"## {name}"]
+        if summary.seeds is not None:
+            lines += ["", *runs_markdown(scenario.runs)]
+        lines += figures_markdown(scenario.figures)
+    lines += ["", "## Baseline", ""]
+    if comparison is None:
+        lines.append("No baseline given: nothing compared.")
+    elif not comparison:
+        lines.append("Nothing got worse than the baseline.")
+    else:
+        lines += [f"- {line}" for line in comparison]
     return "\n".join(lines) + "\n"

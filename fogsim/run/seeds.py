@@ -1,0 +1,469 @@
+"""Run a scenario over several seeds in parallel; each figure's mean and worst over the seeds.
+
+``fogsim run SCENARIO --seeds 1-8`` calls :func:`run_seeds`: every seed runs in its own process
+exactly as ``fogsim run SCENARIO --seed n`` does (the scenario with ``seed=n``, through
+:func:`fogsim.run.runner.run_scenario`) into ``OUT/seed_<n>/`` (its ``report.json`` and
+pictures), and ``OUT/summary.json`` (:class:`SeedsSummary`, through the one JSON writer of
+:mod:`fogsim.eval.report.io`) and ``OUT/summary.md`` give, per figure
+(:func:`fogsim.run.baseline.report_metrics`), its mean and its worst over the seeds. "Worst"
+follows the figure's direction (:func:`fogsim.run.baseline.rule_for`): the largest error, the
+smallest recall. A run is deterministic for its seed, so the same seeds give the same reports
+bit for bit whatever the number of workers (timing and version fields aside).
+
+The suite (:mod:`fogsim.run.suite`) runs its scenarios and seeds through the same
+:func:`run_jobs`.
+"""
+
+from __future__ import annotations
+
+import concurrent.futures
+import itertools
+import math
+import multiprocessing
+import os
+import re
+import time
+from collections.abc import Mapping, Sequence
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Literal
+
+from fogsim.atomic import write_text_atomic
+from fogsim.config import Scenario, resolve_params
+from fogsim.errors import FogsimError
+from fogsim.eval.report.io import write_json
+from fogsim.run.baseline import NEVER_FRAMES, poor_reasons, report_metrics, rule_for
+from fogsim.run.runner import run_scenario
+
+MAX_SEED = 2**32 - 1
+"""The largest seed a scenario takes (``seed`` in the scenario schema)."""
+
+SEEDS_ALLOWED = (
+    "a range 1-8, a list 1,3,5, a single seed 2, or a mix such as 1-4,9 "
+    f"(whole numbers 0 to {MAX_SEED}, each seed once)"
+)
+
+GROUP_ORDER = ("table1", "cells", "safety", "step_edges", "events", "timing")
+"""Figure groups (the first part of a flat name) in the order the text shows them."""
+
+_ITEM = re.compile(r"\s*(\d+)\s*(?:-\s*(\d+)\s*)?")
+
+
+def parse_seeds(spec: str) -> tuple[int, ...]:
+    """The seeds of a ``--seeds`` spec such as ``1-8``, ``1,3,5`` or ``2``, sorted.
+
+    Args:
+        spec: Comma-separated seeds and inclusive ranges ``first-last``.
+
+    Raises:
+        FogsimError: A malformed item, a backward range, a seed out of range or a repeated
+            seed; the message names the argument, the spec and what is allowed.
+    """
+    seeds: list[int] = []
+    for item in spec.split(","):
+        match = _ITEM.fullmatch(item)
+        if match is None:
+            raise FogsimError(
+                f"--seeds {spec!r}: {item.strip()!r} is not a seed or a range; "
+                f"allowed: {SEEDS_ALLOWED}"
+            )
+        first = int(match[1])
+        last = int(match[2]) if match[2] is not None else first
+        if last < first:
+            raise FogsimError(
+                f"--seeds {spec!r}: range {item.strip()!r} ends before it starts; "
+                f"allowed: {SEEDS_ALLOWED}"
+            )
+        if last > MAX_SEED:
+            raise FogsimError(
+                f"--seeds {spec!r}: seed {last} is above {MAX_SEED}; allowed: {SEEDS_ALLOWED}"
+            )
+        seeds.extend(range(first, last + 1))
+    repeated = sorted({s for s in seeds if seeds.count(s) > 1})
+    if repeated:
+        raise FogsimError(
+            f"--seeds {spec!r}: seed {repeated[0]} is given twice; allowed: {SEEDS_ALLOWED}"
+        )
+    return tuple(sorted(seeds))
+
+
+def format_seeds(seeds: Sequence[int]) -> str:
+    """The canonical spec of sorted distinct seeds: runs of consecutive seeds as ranges.
+
+    ``(1, 2, 3, 4, 9)`` → ``"1-4,9"``; :func:`parse_seeds` reads it back.
+    """
+    parts = []
+    for _, run in itertools.groupby(enumerate(seeds), key=lambda pair: pair[1] - pair[0]):
+        members = [seed for _, seed in run]
+        first, last = members[0], members[-1]
+        parts.append(str(first) if first == last else f"{first}-{last}")
+    return ",".join(parts)
+
+
+@dataclass(frozen=True)
+class SeedJob:
+    """One run of a scenario at one seed, for a worker process.
+
+    Attributes:
+        scenario: The scenario with its seed (and every override) applied.
+        out_dir: Folder of its ``report.json`` and pictures.
+        report: Path of its ``report.json`` relative to the summary's folder.
+        max_frames: Stop after this many frames (the suite's quick subset); None = all.
+        pictures: Write the PNGs.
+        video: Write ``run.mp4``.
+        depth_backend: Simulation depth backend (``renderer`` or ``raycast``).
+    """
+
+    scenario: Scenario
+    out_dir: Path
+    report: str
+    max_frames: int | None = None
+    pictures: bool = True
+    video: bool = False
+    depth_backend: str = "renderer"
+
+
+@dataclass(frozen=True)
+class SeedRun:
+    """One seed's run as a summary lists it.
+
+    Attributes:
+        seed: The scenario's seed.
+        metrics: Its flat figures (:func:`fogsim.run.baseline.report_metrics`); empty if the
+            run failed.
+        frames: Frames run.
+        wall_s: Wall time of the run [s].
+        report: Path of its ``report.json`` relative to the summary's folder (None if failed).
+        poor: Why its map is poor (the report's ``quality.reasons``); empty when it is not.
+        error: Why the run failed (None if it worked).
+    """
+
+    seed: int
+    metrics: dict[str, float]
+    frames: int
+    wall_s: float
+    report: str | None
+    poor: tuple[str, ...]
+    error: str | None
+
+    def status(self) -> str:
+        """``ok``, ``poor: <reasons>`` or ``failed: <error>``."""
+        if self.error is not None:
+            return f"failed: {self.error}"
+        if self.poor:
+            return "poor: " + "; ".join(self.poor)
+        return "ok"
+
+
+def run_seed(job: SeedJob) -> SeedRun:
+    """Run one job (in a worker process) and return its summary entry.
+
+    Any exception becomes the entry's ``error``: one failing seed or scenario must not stop
+    the others.
+    """
+    start = time.perf_counter()
+    try:
+        report = run_scenario(
+            job.scenario,
+            job.out_dir,
+            pictures=job.pictures,
+            video=job.video,
+            max_frames=job.max_frames,
+            depth_backend=job.depth_backend,
+        )
+        return SeedRun(
+            seed=job.scenario.seed,
+            metrics=report_metrics(report),
+            frames=report.timing.frames,
+            wall_s=round(time.perf_counter() - start, 2),
+            report=job.report,
+            poor=poor_reasons(report),
+            error=None,
+        )
+    except Exception as exc:  # reported in the summary; the other jobs go on
+        return SeedRun(
+            seed=job.scenario.seed,
+            metrics={},
+            frames=0,
+            wall_s=round(time.perf_counter() - start, 2),
+            report=None,
+            poor=(),
+            error=f"{type(exc).__name__}: {exc}",
+        )
+
+
+def run_jobs(jobs: Sequence[SeedJob], workers: int) -> list[SeedRun]:
+    """Run jobs in ``workers`` processes (inline for one); results in the jobs' order.
+
+    Raises:
+        FogsimError: ``workers`` is below 1.
+    """
+    if workers < 1:
+        raise FogsimError(f"--workers must be >= 1, got {workers}")
+    if workers == 1:
+        return [run_seed(job) for job in jobs]
+    context = multiprocessing.get_context("spawn")  # MuJoCo/EGL state must not be forked
+    with concurrent.futures.ProcessPoolExecutor(workers, mp_context=context) as pool:
+        return list(pool.map(run_seed, jobs))
+
+
+@dataclass(frozen=True)
+class SeedValue:
+    """A figure's value on one seed."""
+
+    seed: int
+    value: float
+
+
+@dataclass(frozen=True)
+class FigureStats:
+    """One figure over the seeds that have it.
+
+    Attributes:
+        direction: ``lower`` or ``higher`` is better (:func:`fogsim.run.baseline.rule_for`).
+        mean: Mean over the seeds (rounded to 6 decimals; an event that never clears counts
+            as :data:`fogsim.run.baseline.NEVER_FRAMES`).
+        worst: The worst value: the largest if lower is better, the smallest if higher is.
+        worst_seed: The seed with the worst value (the lowest such seed on a tie).
+        values: Every seed's value, worst first (ties by seed).
+        missing: Seeds whose run worked but has no value for the figure (e.g. a Table I row
+            without cells, an object never seen before its event).
+    """
+
+    direction: Literal["lower", "higher"]
+    mean: float
+    worst: float
+    worst_seed: int
+    values: tuple[SeedValue, ...]
+    missing: tuple[int, ...]
+
+
+def figure_stats(runs: Sequence[SeedRun]) -> dict[str, FigureStats]:
+    """Each figure's mean and worst over the runs that worked (failed runs are left out).
+
+    Returns:
+        Flat figure name → its statistics, names sorted.
+    """
+    worked = [run for run in runs if run.error is None]
+    names = sorted({name for run in worked for name in run.metrics})
+    stats = {}
+    for name in names:
+        rule = rule_for(name)
+        values = [SeedValue(run.seed, run.metrics[name]) for run in worked if name in run.metrics]
+        sign = -1.0 if rule.direction == "lower" else 1.0
+        ranked = tuple(sorted(values, key=lambda v: (sign * v.value, v.seed)))
+        stats[name] = FigureStats(
+            direction=rule.direction,
+            mean=round(math.fsum(v.value for v in values) / len(values), 6),
+            worst=ranked[0].value,
+            worst_seed=ranked[0].seed,
+            values=ranked,
+            missing=tuple(run.seed for run in worked if name not in run.metrics),
+        )
+    return stats
+
+
+@dataclass(frozen=True)
+class SeedsSummary:
+    """``summary.json`` of ``fogsim run SCENARIO --seeds``.
+
+    Attributes:
+        format: Always ``fogsim-seeds``.
+        version: Schema version, 1.
+        scenario: The scenario's name.
+        seeds: The seeds run, canonical spec (``"1-8"``).
+        workers: Parallel processes.
+        wall_s: Wall time of all runs [s].
+        runs: Each seed's run, in seed order.
+        figures: Each figure's mean and worst over the seeds, names sorted.
+    """
+
+    format: Literal["fogsim-seeds"]
+    version: Literal[1]
+    scenario: str
+    seeds: str
+    workers: int
+    wall_s: float
+    runs: tuple[SeedRun, ...]
+    figures: dict[str, FigureStats]
+
+
+def seed_jobs(
+    scenario: Scenario,
+    seeds: Sequence[int],
+    out_dir: str | os.PathLike[str],
+    *,
+    prefix: str = "",
+    max_frames: int | None = None,
+    pictures: bool = True,
+    video: bool = False,
+    depth_backend: str = "renderer",
+) -> list[SeedJob]:
+    """One job per seed: the scenario with ``seed=<n>``, into ``out_dir/seed_<n>/``.
+
+    Args:
+        scenario: The scenario, every other override applied.
+        seeds: The seeds.
+        out_dir: The folder that holds the ``seed_<n>`` folders.
+        prefix: Path of ``out_dir`` relative to the summary's folder (``""`` or ``"stage/"``).
+        max_frames: Stop each run after this many frames (None = all).
+        pictures: Write the PNGs.
+        video: Write ``run.mp4``.
+        depth_backend: Simulation depth backend.
+    """
+    return [
+        SeedJob(
+            scenario=scenario.with_overrides([f"seed={seed}"]),
+            out_dir=Path(out_dir) / f"seed_{seed}",
+            report=f"{prefix}seed_{seed}/report.json",
+            max_frames=max_frames,
+            pictures=pictures,
+            video=video,
+            depth_backend=depth_backend,
+        )
+        for seed in seeds
+    ]
+
+
+def run_seeds(
+    scenario: Scenario,
+    seeds: Sequence[int],
+    out_dir: str | os.PathLike[str],
+    *,
+    workers: int = 2,
+    pictures: bool = True,
+    video: bool = False,
+    depth_backend: str = "renderer",
+) -> SeedsSummary:
+    """Run a scenario once per seed in parallel; write ``summary.json`` and ``summary.md``.
+
+    Args:
+        scenario: The scenario, overrides other than the seed applied.
+        seeds: The seeds (from :func:`parse_seeds`).
+        out_dir: Output folder: ``seed_<n>/`` per seed, and the summaries.
+        workers: Parallel processes (1 = run inline).
+        pictures: Write each seed's PNGs.
+        video: Write each seed's ``run.mp4``.
+        depth_backend: Simulation depth backend.
+
+    Raises:
+        FogsimError: ``workers`` below 1, an invalid seed or invalid parameters.
+    """
+    resolve_params(scenario)  # bad parameters fail here, once, before any process starts
+    out = Path(out_dir)
+    jobs = seed_jobs(
+        scenario, seeds, out, pictures=pictures, video=video, depth_backend=depth_backend
+    )
+    start = time.perf_counter()
+    runs = run_jobs(jobs, workers)
+    summary = SeedsSummary(
+        format="fogsim-seeds",
+        version=1,
+        scenario=scenario.name,
+        seeds=format_seeds(seeds),
+        workers=workers,
+        wall_s=round(time.perf_counter() - start, 2),
+        runs=tuple(runs),
+        figures=figure_stats(runs),
+    )
+    write_json(out / "summary.json", summary)
+    write_text_atomic(out / "summary.md", seeds_markdown(summary))
+    return summary
+
+
+def format_value(value: float) -> str:
+    """A figure's value for text: ``never`` for an event that never happened, 4 digits."""
+    if value >= NEVER_FRAMES:
+        return "never"
+    return f"{value:.4g}" if math.isfinite(value) else "–"
+
+
+def _group(name: str) -> str:
+    return name.split(".", 1)[0]
+
+
+def _label(name: str) -> str:
+    """A figure's name within its group: ``table1.sill.abs_error_mm`` → ``sill``."""
+    return name.split(".", 1)[1].removesuffix(".abs_error_mm")
+
+
+def grouped(figures: Mapping[str, FigureStats]) -> dict[str, dict[str, FigureStats]]:
+    """Figures by group (:data:`GROUP_ORDER` first, others after), names sorted in a group."""
+    groups: dict[str, dict[str, FigureStats]] = {}
+    order = {group: i for i, group in enumerate(GROUP_ORDER)}
+    for name in sorted(figures, key=lambda n: (order.get(_group(n), len(order)), n)):
+        groups.setdefault(_group(name), {})[name] = figures[name]
+    return groups
+
+
+def _mean_text(stats: FigureStats) -> str:
+    """The mean, or how many seeds never got there when the mean counts a never."""
+    nevers = sum(v.value >= NEVER_FRAMES for v in stats.values)
+    if nevers:
+        return f"never on {nevers} of {len(stats.values)}"
+    return format_value(stats.mean)
+
+
+def worst_lines(figures: Mapping[str, FigureStats]) -> list[str]:
+    """One console line per figure group: each figure's worst value and seed, and its mean."""
+    lines = []
+    for group, members in grouped(figures).items():
+        parts = [
+            f"{_label(name)} {format_value(s.worst)} (seed {s.worst_seed}, mean {_mean_text(s)})"
+            for name, s in members.items()
+        ]
+        lines.append(f"{group:<10} worst: " + ", ".join(parts))
+    return lines
+
+
+def figures_markdown(figures: Mapping[str, FigureStats]) -> list[str]:
+    """Markdown tables of the figures, one per group: worst and its seed first, then the mean.
+
+    With one seed per figure the table has one value column.
+    """
+    lines: list[str] = []
+    single = all(len(s.values) == 1 and not s.missing for s in figures.values())
+    for group, members in grouped(figures).items():
+        lines += ["", f"### {group}", ""]
+        if single:
+            lines += ["| figure | better | value |", "|---|---|---:|"]
+            lines += [
+                f"| {_label(n)} | {s.direction} | {format_value(s.worst)} |"
+                for n, s in members.items()
+            ]
+            continue
+        lines += [
+            "| figure | better | worst | seed | mean | seeds, worst first |",
+            "|---|---|---:|---:|---:|---|",
+        ]
+        for name, s in members.items():
+            values = ", ".join(f"{format_value(v.value)} ({v.seed})" for v in s.values)
+            if s.missing:
+                values += f"; none on {format_seeds(s.missing)}"
+            lines.append(
+                f"| {_label(name)} | {s.direction} | {format_value(s.worst)} | {s.worst_seed} "
+                f"| {_mean_text(s)} | {values} |"
+            )
+    return lines
+
+
+def runs_markdown(runs: Sequence[SeedRun]) -> list[str]:
+    """The table of runs: seed, frames, wall time, status."""
+    lines = ["| seed | frames | wall s | status |", "|---:|---:|---:|---|"]
+    lines += [f"| {r.seed} | {r.frames} | {r.wall_s} | {r.status()} |" for r in runs]
+    return lines
+
+
+def seeds_markdown(summary: SeedsSummary) -> str:
+    """``summary.md`` of a seeds run: the runs, then every figure's worst and mean."""
+    lines = [
+        f"# fogsim run {summary.scenario}, seeds {summary.seeds}",
+        "",
+        f"{len(summary.runs)} seeds, {summary.workers} workers, {summary.wall_s} s wall. "
+        "Worst = the largest error, the smallest recall or precision; each seed's report is "
+        "in `seed_<n>/report.json`.",
+        "",
+        *runs_markdown(summary.runs),
+        *figures_markdown(summary.figures),
+    ]
+    return "\n".join(lines) + "\n"
