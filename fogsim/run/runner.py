@@ -22,7 +22,7 @@ from fogsim.config import RunParams, Scenario, resolve_params
 from fogsim.data.frame import Frame
 from fogsim.data.recording import Recording
 from fogsim.errors import FogsimError
-from fogsim.eval.archive import WorldArchive
+from fogsim.eval.archive import WorldArchive, cells_in_view
 from fogsim.eval.events import EventTracker, TruthProvider
 from fogsim.eval.metrics import score_archive
 from fogsim.eval.pose_error import PoseErrorAccumulator
@@ -30,8 +30,10 @@ from fogsim.eval.report import Report, build_report, write_report
 from fogsim.eval.report.schema import Source
 from fogsim.eval.result import RunResult, Snapshot
 from fogsim.mapping.pipeline import FrameCallback, FrameTiming, Pipeline
+from fogsim.robot import load_description
 from fogsim.sim.simulation import Simulation
 from fogsim.viz.pictures import RunVideoWriter, write_pictures
+from fogsim.world.truth import TruthParams
 from mapper import MapperParams
 from mapper.segmentation import SegmentationParams
 
@@ -72,6 +74,27 @@ class _Fig5Snapshots:
         if self._before is None or self._previous is None:
             return ()
         return (self._before, dataclasses.replace(self._previous, label="after"))
+
+
+def truth_params(scenario: Scenario | None, mapper_params: MapperParams) -> TruthParams:
+    """The ground truth's rules for this run: the robot's foot and the mapper's grid top.
+
+    Args:
+        scenario: The scenario (its robot's ``[feet]`` give the foot); None: the truth's default
+            foot (recordings without a scenario).
+        mapper_params: The mapper's parameters (things above ``z_min_m + nz * layer_m`` are out
+            of its grid).
+    """
+    grid_top_m = mapper_params.z_min_m + mapper_params.nz * mapper_params.layer_m
+    if scenario is None:
+        return TruthParams(grid_top_m=grid_top_m)
+    feet = load_description(scenario.robot.model).feet
+    back_m, front_m = feet.length_m
+    return TruthParams(
+        foot_length_m=front_m - back_m,
+        foot_width_m=2.0 * feet.half_width_m,
+        grid_top_m=grid_top_m,
+    )
 
 
 def run_frames(
@@ -133,7 +156,16 @@ def run_frames(
         pose_errors.add(frame)
         centers = pipeline.cell_centers_xy()
         types, fog_heights, base_heights = pipeline.maps()
-        archive.store(centers, types, fog_heights, base_heights)
+        archive.store(
+            centers,
+            types,
+            fog_heights,
+            base_heights,
+            floor_m=pipeline.mapper.floor(),
+            obstacle_m=pipeline.mapper.obstacle(),
+            ceiling_m=pipeline.mapper.ceiling(),
+            in_view=cells_in_view(frame, pipeline.mapper.geometry),
+        )
         if tracker is not None:
             tracker.update(
                 frame.index, frame.time_s, centers, cell_m, types, fog_heights, base_heights
@@ -149,12 +181,15 @@ def run_frames(
     scores = final_truth = None
     if truth_provider is not None:
         truth = truth_provider(last.time_s)
-        scores = score_archive(archive, truth, pipeline.mapper_params.layer_m)
-        final_truth = truth.rasterize(pipeline.cell_centers_xy(), cell_m)
+        rules = truth_params(scenario, pipeline.mapper_params)
+        grid = truth.rasterize(archive.cell_centers_xy(), cell_m, params=rules)
+        scores = score_archive(archive, truth, grid, pipeline.mapper_params.layer_m)
+        final_truth = truth.rasterize(pipeline.cell_centers_xy(), cell_m, params=rules)
     return RunResult(
         frames=len(timings),
         withdrawn=sum(t.withdrawn for t in timings),
         z_matched=sum(t.z_matched for t in timings),
+        frames_without_ground_plane=sum(not t.ground_plane_found for t in timings),
         update_ms=np.array([t.update_ms for t in timings]),
         segmentation_ms=np.array([t.segmentation_ms for t in timings]),
         frame_ms=np.array([t.frame_ms for t in timings]),
