@@ -406,14 +406,15 @@ def _edge_errors(
     tangent = np.array([-normal[1], normal[0]])
     relative = cells.centers_xy - midpoint
     offset_all = relative @ normal
-    slot_all = np.floor((relative @ tangent + 0.5 * length) / cell_m).astype(np.int64)
-    slots = np.arange(1, int(np.floor(length / cell_m + 1e-9)) - 1)
+    # A cell centre on a slot boundary (an edge through cell centres) goes to the upper slot.
+    slot_all = np.floor((relative @ tangent + 0.5 * length) / cell_m + 1e-6).astype(np.int64)
+    slots = np.arange(1, int(np.floor(length / cell_m + 1e-6)) - 1)
     near = np.flatnonzero((np.abs(offset_all) <= STEP_EDGE_REACH_M) & np.isin(slot_all, slots))
     offset, slot, support = offset_all[near], slot_all[near], cells.support_m[near]
     heights, seen, true_floor = cells.fog_floor_m[near], cells.seen[near], cells.true_floor[near]
     inside = obj.contains(cells.centers_xy[near])
     top = obj.top_m
-    inner = inside & (offset <= 0) & (np.abs(support - top) <= _SAME_HEIGHT_M)
+    inner = inside & (np.abs(support - top) <= _SAME_HEIGHT_M)
     edge_points = midpoint + tangent * ((slots + 0.5) * cell_m - 0.5 * length)[:, None]
     beyond = truth.support_height_m(edge_points + 0.5 * cell_m * normal)
     in_view = False

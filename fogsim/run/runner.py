@@ -82,10 +82,10 @@ def truth_params(scenario: Scenario | None, mapper_params: MapperParams) -> Trut
     Args:
         scenario: The scenario (its robot's ``[feet]`` give the foot); None: the truth's default
             foot (recordings without a scenario).
-        mapper_params: The mapper's parameters (things above ``z_min_m + nz * layer_m`` are out
-            of its grid).
+        mapper_params: The mapper's parameters (things above its ``z_max_m`` are out of its
+            grid).
     """
-    grid_top_m = mapper_params.z_min_m + mapper_params.nz * mapper_params.layer_m
+    grid_top_m = mapper_params.z_max_m
     if scenario is None:
         return TruthParams(grid_top_m=grid_top_m)
     feet = load_description(scenario.robot.model).feet
