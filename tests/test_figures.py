@@ -237,22 +237,42 @@ def half_wrong_floor_scores():
 
 def test_a_good_run_passes_the_quality_gate():
     q = assess_quality(
-        frames=100, withdrawn=20, frames_without_ground_plane=50, map_empty=False, scores=None
+        frames=100,
+        withdrawn=20,
+        frames_without_ground_plane=50,
+        z_match=False,
+        map_empty=False,
+        scores=None,
     )
     assert (q.withdrawn_fraction, q.frames_without_ground_plane) == (0.2, 50)
     assert not q.poor and q.reasons == () and q.floor_right_fraction is None
+    # With z matching, frames without a ground plane are matched or withdrawn: no limit.
+    matched = assess_quality(
+        frames=100,
+        withdrawn=0,
+        frames_without_ground_plane=90,
+        z_match=True,
+        map_empty=False,
+        scores=None,
+    )
+    assert not matched.poor
 
 
 def test_each_crossed_limit_is_a_reason():
     scores = half_wrong_floor_scores()
     assert scores.safety.floor_height_off == 6
     q = assess_quality(
-        frames=778, withdrawn=581, frames_without_ground_plane=400, map_empty=True, scores=scores
+        frames=778,
+        withdrawn=581,
+        frames_without_ground_plane=400,
+        z_match=False,
+        map_empty=True,
+        scores=scores,
     )
     assert q.poor and q.floor_right_fraction == 0.4
     assert q.reasons == (
         "581 of 778 frames (74.7 %) were withdrawn by the z-match rule (limit 20 %)",
-        "400 of 778 frames (51.4 %) had no ground plane (limit 50 %)",
+        "400 of 778 frames (51.4 %) had no ground plane and z matching is off (limit 50 %)",
         "the map is empty: the FOG labelled no cell floor or obstacle",
         "only 40.0 % of the seen floor is floor within 20 mm of the truth (limit 50 %)",
     )

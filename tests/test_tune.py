@@ -195,7 +195,7 @@ def test_objective_terms_of_a_hand_made_report():
     assert terms.unsafe_cells == 12
     assert terms.clearing_s == pytest.approx((2.0 + 10.0) / 2, abs=1e-12)
     assert terms.table1_rows == 3 and terms.seen_cells == 400
-    assert terms.value(weights) == pytest.approx(18.0 + 2.5 + 2.0 + 6.0 + 1.2 + 6.0, abs=1e-12)
+    assert terms.value(weights) == pytest.approx(18.0 + 2.5 + 2.0 + 3.0 + 0.12 + 6.0, abs=1e-12)
     heavy = ObjectiveWeights(
         table1_mm=2.0,
         cell_error_pct=0.0,

@@ -19,8 +19,9 @@ the robot-centred grid (a world-fixed archive keeps each cell's last value):
 * ``quality``: ``withdrawn_fraction`` (frames withdrawn by the z-match rule / frames),
   ``frames_without_ground_plane``, ``map_empty``, ``floor_right_fraction`` (seen true floor
   labelled floor within 20 mm), ``poor`` and ``reasons``: a run is poor when more than 20 % of
-  its frames are withdrawn, more than 50 % have no ground plane, the map is empty, or less than
-  50 % of the seen floor is right; ``fogsim run`` prints a WARNING line per reason.
+  its frames are withdrawn, more than 50 % have no ground plane while z matching is off, the
+  map is empty, or less than 50 % of the seen floor is right; ``fogsim run`` prints a WARNING
+  line per reason.
 * ``table1``: ``{"fog": rows, "averaging": rows}``, one row per walkable surface and the ground:
   ``name``, ``ground_truth_mm``, ``estimated_mm`` (median floor height over the surface's
   interior cells — border cells left out — that the map has: FOG floor cells, or any

@@ -116,6 +116,7 @@ def build_report(
             frames=result.frames,
             withdrawn=result.withdrawn,
             frames_without_ground_plane=result.frames_without_ground_plane,
+            z_match=result.params.pipeline.use_z_match,
             map_empty=result.archive.is_empty(),
             scores=scores,
         ),

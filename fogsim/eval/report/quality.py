@@ -15,9 +15,14 @@ a frame only when it finds neither a floor match nor a ground plane: a good run 
 frames where it turns its head away; when a fifth of the frames are dropped the map misses whole
 stretches of the route."""
 MAX_NO_GROUND_PLANE_FRACTION = 0.5
-"""More frames without a ground plane than this share make a run poor: the segmentation's tilt
-correction and the z reference rest on the ground plane (Sec. IV), so a run that lacks it in
-most frames maps with uncorrected camera-pose errors of several degrees."""
+"""Without z matching, more frames without a ground plane than this share make a run poor: the
+ground plane is then a frame's only height reference (Sec. IV), and a map built mostly from
+unreferenced frames carries the odometry's height drift. With z matching on (the default) a
+frame without a ground plane is either z-matched to the map — fine — or withdrawn, which
+:data:`MAX_WITHDRAWN_FRACTION` limits: the share alone does not tell a poor run. Measured: the
+stage's depth run (seed 1) has 420 of 778 frames (54 %) without a ground plane, every one of
+them z-matched (the robot on the upper steps and the platform finds no plane at its feet's
+height in view), and a good map; the stereo run of seed 2 has 553 (71 %), all withdrawn."""
 MIN_FLOOR_RIGHT_FRACTION = 0.5
 """A run whose seen true floor is labelled floor at the right height (within the safety
 tolerance, ``safety.height_tolerance_mm``) in less than this share is poor: then the map is wrong
@@ -39,6 +44,7 @@ def assess_quality(
     frames: int,
     withdrawn: int,
     frames_without_ground_plane: int,
+    z_match: bool,
     map_empty: bool,
     scores: ArchiveScores | None,
 ) -> Quality:
@@ -48,6 +54,7 @@ def assess_quality(
         frames: Frames processed (> 0).
         withdrawn: Frames withdrawn by the z-match rule.
         frames_without_ground_plane: Frames whose segmentation found no ground plane.
+        z_match: The pipeline z-matched frames to the map (``pipe.use_z_match``).
         map_empty: The FOG labelled no cell in the whole run.
         scores: The run's figures against the truth (None without ground truth: the floor is
             then not judged).
@@ -61,10 +68,11 @@ def assess_quality(
             f"{withdrawn} of {frames} frames ({100 * withdrawn_share:.1f} %) were withdrawn by "
             f"the z-match rule (limit {100 * MAX_WITHDRAWN_FRACTION:.0f} %)"
         )
-    if no_ground_share > MAX_NO_GROUND_PLANE_FRACTION:
+    if not z_match and no_ground_share > MAX_NO_GROUND_PLANE_FRACTION:
         reasons.append(
             f"{frames_without_ground_plane} of {frames} frames ({100 * no_ground_share:.1f} %) "
-            f"had no ground plane (limit {100 * MAX_NO_GROUND_PLANE_FRACTION:.0f} %)"
+            f"had no ground plane and z matching is off "
+            f"(limit {100 * MAX_NO_GROUND_PLANE_FRACTION:.0f} %)"
         )
     if map_empty:
         reasons.append("the map is empty: the FOG labelled no cell floor or obstacle")

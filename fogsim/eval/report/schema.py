@@ -301,7 +301,8 @@ class Quality:
 
     Attributes:
         withdrawn_fraction: Frames withdrawn by the z-match rule / frames.
-        frames_without_ground_plane: Frames whose segmentation found no ground plane.
+        frames_without_ground_plane: Frames whose segmentation found no ground plane (with z
+            matching on, each of them is z-matched to the map or withdrawn).
         map_empty: The FOG labelled no cell floor or obstacle in the whole run.
         floor_right_fraction: Of the seen cells that are true floor, the share the FOG labels
             floor within 20 mm of the true height (None without ground truth or such cells).
