@@ -95,6 +95,11 @@ PLATFORM = ObjectState("platform", (1.2, 0.6), (0.4, 0.8, 0.1), 0.0, 0.0, True)
 NX, NY = 40, 30
 
 
+def across(c, x_lo, x_hi):
+    """Cells with centres in x_lo < x < x_hi along the treads' width, 0.2 < y < 1.0."""
+    return (c[..., 0] > x_lo) & (c[..., 0] < x_hi) & (c[..., 1] > 0.2) & (c[..., 1] < 1.0)
+
+
 def stairs(*objects):
     names = ("ground", *(o.name for o in objects))
     return SceneTruth(0.0, objects, names, {"ground": 0.0, **{o.name: o.top_m for o in objects}})
@@ -127,8 +132,7 @@ def test_a_riser_mapped_two_cells_toward_the_robot_is_minus_80_mm():
     truth = stairs(STEP, PLATFORM)
     c, types, heights = perfect_map(truth)
     # The map's step begins 2 cells (80 mm) early, toward a robot coming from x = 0.
-    early = (c[..., 0] > 0.52) & (c[..., 0] < 0.6) & (c[..., 1] > 0.2) & (c[..., 1] < 1.0)
-    heights[early] = 0.05
+    heights[across(c, 0.52, 0.6)] = 0.05
     rows = edges_of(truth, types, heights)
     assert rows["step", "x_min"] == StepEdge("step", "x_min", 18, -80.0, 80.0)
     assert rows["step", "y_min"] == StepEdge("step", "y_min", 8, 0.0, 0.0)  # end cells only
@@ -138,7 +142,7 @@ def test_a_riser_mapped_two_cells_toward_the_robot_is_minus_80_mm():
 def test_an_obstacle_band_in_front_of_a_riser_puts_the_edge_in_its_middle():
     truth = stairs(STEP, PLATFORM)
     c, types, heights = perfect_map(truth)
-    band = (c[..., 0] > 0.52) & (c[..., 0] < 0.6) & (c[..., 1] > 0.2) & (c[..., 1] < 1.0)
+    band = across(c, 0.52, 0.6)
     types[band] = OBSTACLE  # the riser, seen 2 cells toward the robot; the tread in place
     heights[band] = 0.06
     assert edges_of(truth, types, heights)["step", "x_min"].median_error_mm == -40.0
@@ -148,8 +152,7 @@ def test_sign_is_toward_the_higher_side_from_either_surface():
     truth = stairs(STEP, PLATFORM)
     c, types, heights = perfect_map(truth)
     # The step's 50 mm floor runs one cell into the platform (toward the higher side).
-    into = (c[..., 0] > 1.0) & (c[..., 0] < 1.04) & (c[..., 1] > 0.2) & (c[..., 1] < 1.0)
-    heights[into] = 0.05
+    heights[across(c, 1.0, 1.04)] = 0.05
     rows = edges_of(truth, types, heights)
     assert rows["step", "x_max"].median_error_mm == 40.0
     assert rows["platform", "x_min"].median_error_mm == 40.0
@@ -186,8 +189,7 @@ def test_edges_are_named_in_the_objects_own_frame():
     turned = ObjectState("step", (0.8, 0.6), (0.8, 0.4, 0.05), math.pi / 2, 0.0, True)
     truth = stairs(turned)
     c, types, heights = perfect_map(truth)
-    early = (c[..., 0] > 0.52) & (c[..., 0] < 0.6) & (c[..., 1] > 0.2) & (c[..., 1] < 1.0)
-    heights[early] = 0.05
+    heights[across(c, 0.52, 0.6)] = 0.05
     rows = edges_of(truth, types, heights)
     assert rows["step", "y_max"] == StepEdge("step", "y_max", 18, -80.0, 80.0)
     assert rows["step", "x_min"].median_error_mm == 0.0
@@ -235,39 +237,32 @@ def half_wrong_floor_scores():
     return score_archive(archive, truth, grid, 0.04)
 
 
-def test_a_good_run_passes_the_quality_gate():
-    q = assess_quality(
+def quality(**changes):
+    """The quality of a 100-frame run without ground truth, z matching off, with ``changes``."""
+    counts = dict(
         frames=100,
-        withdrawn=20,
-        frames_without_ground_plane=50,
+        withdrawn=0,
+        frames_without_ground_plane=0,
         z_match=False,
         map_empty=False,
         scores=None,
     )
+    return assess_quality(**{**counts, **changes})
+
+
+def test_a_good_run_passes_the_quality_gate():
+    q = quality(withdrawn=20, frames_without_ground_plane=50)
     assert (q.withdrawn_fraction, q.frames_without_ground_plane) == (0.2, 50)
     assert not q.poor and q.reasons == () and q.floor_right_fraction is None
     # With z matching, frames without a ground plane are matched or withdrawn: no limit.
-    matched = assess_quality(
-        frames=100,
-        withdrawn=0,
-        frames_without_ground_plane=90,
-        z_match=True,
-        map_empty=False,
-        scores=None,
-    )
-    assert not matched.poor
+    assert not quality(frames_without_ground_plane=90, z_match=True).poor
 
 
 def test_each_crossed_limit_is_a_reason():
     scores = half_wrong_floor_scores()
     assert scores.safety.floor_height_off == 6
-    q = assess_quality(
-        frames=778,
-        withdrawn=581,
-        frames_without_ground_plane=400,
-        z_match=False,
-        map_empty=True,
-        scores=scores,
+    q = quality(
+        frames=778, withdrawn=581, frames_without_ground_plane=400, map_empty=True, scores=scores
     )
     assert q.poor and q.floor_right_fraction == 0.4
     assert q.reasons == (

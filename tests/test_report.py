@@ -6,7 +6,7 @@ import json
 import numpy as np
 import pytest
 from msgspec import UNSET
-from report_factory import class_scores, event, make_report, row, safety_with, step_edge
+from report_factory import GOOD, class_scores, event, make_report, row, safety_with, step_edge
 from test_pipeline import NAMES, make_frames, provider_removed_at
 
 from fogsim.config import load_scenario
@@ -19,7 +19,7 @@ from fogsim.eval.report import (
     load_report,
     write_report,
 )
-from fogsim.eval.report.schema import CeilingScores, Quality
+from fogsim.eval.report.schema import CeilingScores
 from fogsim.run.runner import run_frames
 
 RESULTS_KEYS = [
@@ -282,11 +282,10 @@ def test_format_table1_shows_the_new_figures_compactly():
     ]
 
 
-POOR = Quality(
+POOR = dataclasses.replace(
+    GOOD,
     withdrawn_fraction=0.74679,
-    frames_without_ground_plane=0,
     map_empty=True,
-    floor_right_fraction=None,
     poor=True,
     reasons=("581 of 778 frames (74.7 %) were withdrawn", "the map is empty"),
 )
