@@ -62,7 +62,8 @@ class RunResult:
         pose_error: Believed-vs-true camera pose error statistics.
         params: The parameters used.
         snapshots: Snapshots for Fig. 5 (event scenarios only).
-        final_truth: Ground truth of the final world on the final grid, or None.
+        final_truth: Ground truth of the final world on the archive's cells (what the scores
+            and ``maps.npz`` compare against), or None.
         last_depth_m: Depth image of the last frame [m].
     """
 

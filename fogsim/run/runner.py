@@ -1,7 +1,8 @@
 """Run frames through the pipeline and score them: what ``fogsim run`` and ``--replay`` do.
 
 :func:`run_scenario` does one run end to end: frames from a simulation or a recording →
-:func:`run_frames` (pipeline and scoring) → the typed report → pictures → ``report.json``.
+:func:`run_frames` (pipeline and scoring) → the typed report → ``maps.npz`` → pictures →
+``report.json``.
 """
 
 from __future__ import annotations
@@ -24,6 +25,7 @@ from fogsim.data.recording import Recording
 from fogsim.errors import FogsimError
 from fogsim.eval.archive import WorldArchive, cells_in_view
 from fogsim.eval.events import EventTracker, TruthProvider
+from fogsim.eval.maps import write_maps
 from fogsim.eval.metrics import score_archive
 from fogsim.eval.pose_error import PoseErrorAccumulator
 from fogsim.eval.report import Report, build_report, write_report
@@ -182,9 +184,8 @@ def run_frames(
     if truth_provider is not None:
         truth = truth_provider(last.time_s)
         rules = truth_params(scenario, pipeline.mapper_params)
-        grid = truth.rasterize(archive.cell_centers_xy(), cell_m, params=rules)
-        scores = score_archive(archive, truth, grid, pipeline.mapper_params.layer_m)
-        final_truth = truth.rasterize(pipeline.cell_centers_xy(), cell_m, params=rules)
+        final_truth = truth.rasterize(archive.cell_centers_xy(), cell_m, params=rules)
+        scores = score_archive(archive, truth, final_truth, pipeline.mapper_params.layer_m)
     return RunResult(
         frames=len(timings),
         withdrawn=sum(t.withdrawn for t in timings),
@@ -286,7 +287,8 @@ def run_scenario(
     Args:
         scenario: A loaded Scenario (overrides already applied); None only with a
             recording of real data.
-        out_dir: Folder for ``report.json``, the PNGs (and ``run.mp4``); None = write nothing.
+        out_dir: Folder for ``report.json``, ``maps.npz``, the PNGs (and ``run.mp4``); None =
+            write nothing.
         replay: A Recording to feed instead of simulating (no MuJoCo).
         pictures: Write the PNGs.
         video: Write ``run.mp4`` (camera image beside the growing map).
@@ -333,6 +335,7 @@ def run_scenario(
     if out_dir is None:
         return report
     out = Path(out_dir)
+    write_maps(out / "maps.npz", result, result.final_truth)
     if pictures:
         picture_start = time.perf_counter()
         names = tuple(path.name for path in write_pictures(result, scenario, out))
