@@ -16,7 +16,9 @@ from fogsim.eval.report.schema import (
     Confusion,
     ConfusionRow,
     ErrorStats,
+    EventFrames,
     EventResult,
+    EventSeen,
     FogCellScores,
     FogClasses,
     IntermediateFloorCells,
@@ -81,19 +83,22 @@ def row(name: str, error_mm: float | None, surface_cells: int = 100) -> Table1Ro
 
 
 def event(name: str, fog_frames: int | None, intermediate_final: int | None = None) -> EventResult:
-    """A remove event, or a move when ``intermediate_final`` (FOG cells at the end) is given."""
+    """A remove event (a move when ``intermediate_final``, FOG cells at the end, is given):
+    the FOG clears it and is floor again after ``fog_frames`` (None = never), the averaging
+    baseline never."""
     moved = intermediate_final is not None
+    frames = EventFrames(fog=fog_frames, averaging=None)
     return EventResult(
         object=name,
         kind="move" if moved else "remove",
         at_s=1.0,
         start_frame=12,
         footprint_cells=20,
+        excluded_cells=0,
         old_top_mm=50.0,
-        fog_frames=fog_frames,
-        averaging_frames=None,
-        fog_frames_to_floor=fog_frames,
-        averaging_frames_to_floor=None,
+        seen=EventSeen(fog=True, averaging=True),
+        cleared_frames=frames,
+        floor_again_frames=frames,
         intermediate_floor_cells=(
             IntermediateFloorCells(
                 fog=MaxFinal(max=intermediate_final + 2, final=intermediate_final),

@@ -95,8 +95,9 @@ def test_box_removal_fog_clears_within_25_frames_averaging_never():
     (event,) = result.events
     assert event.object == "flat_box" and event.start_frame == removal_frame
     assert event.footprint_cells > 20
-    assert event.fog_frames is not None and event.fog_frames <= 25, event
-    assert event.averaging_frames is None, event
+    assert event.seen.fog and event.seen.averaging
+    assert event.cleared_frames.fog is not None and event.cleared_frames.fog <= 25, event
+    assert event.cleared_frames.averaging is None, event
     assert [s.label for s in result.snapshots] == ["before", "after"]
     assert result.snapshots[0].frame_index == removal_frame - 1
 

@@ -229,7 +229,9 @@ def test_format_table1_lists_rows_accuracy_and_events(removal_report):
     text = format_table1(removal_report)
     assert "ground" in text and "flat_box" in text
     assert "cells labelled right" in text
-    assert "remove flat_box: footprint cleared after FOG" in text
+    assert (
+        f"remove flat_box ({removal_report.events[0].footprint_cells} cells): cleared FOG" in text
+    )
     unscored = dataclasses.replace(removal_report, table1=None, cells=None, events=())
     assert format_table1(unscored) == "Table I: no ground truth (nothing to score)."
 
@@ -249,7 +251,8 @@ def test_format_table1_of_a_hand_made_report():
         "floor: recall -, precision -; obstacle: recall -, precision -",
         "unsafe cells: 0 (0 floor on obstacle, 0 floor off > 20 mm); "
         "floor height error p50 - / p95 - / max - mm",
-        "remove box: footprint cleared after FOG 4 / averaging None frames",
+        "remove box (20 cells): cleared FOG 4 / averaging never; "
+        "floor again FOG 4 / averaging never (frames after the event)",
     ]
 
 

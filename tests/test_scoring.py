@@ -10,7 +10,13 @@ from fogsim.errors import FogsimError
 from fogsim.eval.archive import WorldArchive
 from fogsim.eval.events import EventTracker
 from fogsim.eval.metrics import cell_scores, score_archive, table1_rows
-from fogsim.eval.report.schema import ClassScores, ConfusionRow, MaxFinal, ObstacleObjectScore
+from fogsim.eval.report.schema import (
+    ClassScores,
+    ConfusionRow,
+    EventFrames,
+    MaxFinal,
+    ObstacleObjectScore,
+)
 from fogsim.world.truth import ObjectState, SceneTruth
 from mapper.grid import CellType
 
@@ -181,7 +187,7 @@ def test_event_tracker_counts_frames_until_footprint_cleared_fog_vs_never_for_ba
         return with_box if t < 1.0 else without
 
     c = centers()
-    tracker = EventTracker([Event(at=1.0, remove="box")], provider, end_time_s=3.0)
+    tracker = EventTracker([Event(at=1.0, remove="box")], provider)
     old_types, old_heights = _fog_of(with_box.rasterize(c, CELL))
     new_types, new_heights = _fog_of(without.rasterize(c, CELL))
     for i in range(30):
@@ -200,10 +206,8 @@ def test_event_tracker_counts_frames_until_footprint_cleared_fog_vs_never_for_ba
     (result,) = tracker.results()
     assert result.start_frame == 10
     assert result.footprint_cells == int((old_heights > 0.04).sum()) > 0
-    assert result.fog_frames == 4
-    assert result.fog_frames_to_floor == 4
-    assert result.averaging_frames is None
-    assert result.averaging_frames_to_floor is None
+    assert result.cleared_frames == EventFrames(fog=4, averaging=None)
+    assert result.floor_again_frames == EventFrames(fog=4, averaging=None)
     assert result.intermediate_floor_cells is UNSET  # only moves count intermediate cells
 
 
@@ -218,7 +222,7 @@ def test_event_tracker_counts_intermediate_floor_cells_of_a_moved_box():
         return before if t < 1.0 else after
 
     c = centers()
-    tracker = EventTracker([Event(at=1.0, move="box", to=(0.9, 0.6), speed=1.0)], provider, 2.0)
+    tracker = EventTracker([Event(at=1.0, move="box", to=(0.9, 0.6), speed=1.0)], provider)
     types, heights = _fog_of(after.rasterize(c, CELL))
     smeared = heights.copy()
     smeared[12, 15] = 0.03  # ground cell between old and new place, half box height
@@ -228,7 +232,7 @@ def test_event_tracker_counts_intermediate_floor_cells_of_a_moved_box():
     tracker.update(2, 2.0, c, CELL, types, heights, heights)
     (result,) = tracker.results()
     assert result.kind == "move"
-    assert result.fog_frames == 0
+    assert result.cleared_frames.fog == 0
     assert result.intermediate_floor_cells.fog == MaxFinal(max=0, final=0)
     assert result.intermediate_floor_cells.averaging == MaxFinal(max=2, final=0)
 

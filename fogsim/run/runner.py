@@ -107,7 +107,6 @@ def run_frames(
     segmentation_params: SegmentationParams | None = None,
     *,
     params: RunParams | None = None,
-    end_time_s: float | None = None,
     on_frame: FrameCallback | None = None,
 ) -> RunResult:
     """Feed frames through the pipeline and score the run.
@@ -121,13 +120,11 @@ def run_frames(
         segmentation_params: Segmentation parameters; default from ``[segmentation]``.
         params: All parameters at once (from :func:`resolve_params`); replaces the scenario's
             tables; ``mapper_params`` / ``segmentation_params`` still override its parts.
-        end_time_s: Time of the last frame [s], needed to score events when ``frames`` is a
-            generator; default: the last frame of a sequence.
         on_frame: Called after every frame with the frame and the pipeline (progress bars,
             video).
 
     Raises:
-        FogsimError: No frames, or events to score in a generator without ``end_time_s``.
+        FogsimError: No frames.
     """
     start = time.perf_counter()
     run_params = params or resolve_params(scenario)
@@ -137,15 +134,11 @@ def run_frames(
         run_params = dataclasses.replace(run_params, segmentation=segmentation_params)
     pipeline = Pipeline(run_params)
     cell_m = pipeline.mapper_params.cell_m
-    if end_time_s is None and isinstance(frames, list | tuple) and frames:
-        end_time_s = frames[-1].time_s
     events = scenario.events if scenario is not None else ()
     tracker = None
     if truth_provider is not None and events:
-        if end_time_s is None:
-            raise FogsimError("run_frames needs end_time_s to score events of a frame generator")
         tracker = EventTracker(
-            events, truth_provider, end_time_s, tolerance_m=pipeline.params.event_tolerance_m
+            events, truth_provider, tolerance_m=pipeline.params.event_tolerance_m
         )
     fig5 = _Fig5Snapshots(min(float(e.at) for e in events)) if events else None
 
@@ -233,14 +226,12 @@ class _FrameSource:
         frames: The frames (a generator for a simulation).
         truth_at: Ground truth at a time [s]; None for real data.
         frame_count: Frames the run will take.
-        end_time_s: Time of the last of them [s].
         kind: ``simulation`` or ``replay``.
     """
 
     frames: Iterable[Frame]
     truth_at: TruthProvider | None
     frame_count: int
-    end_time_s: float
     kind: Source
 
 
@@ -255,20 +246,19 @@ def _frame_source(
     if replay is not None:
         frames = replay.frames
         truth_at = replay.truth_at if replay.has_truth else None
-        times_s = [f.time_s for f in replay.frames]
+        count = len(replay.frames)
         kind: Source = "replay"
     elif scenario is not None:
         simulation = Simulation(scenario, depth_backend=depth_backend)
         frames = simulation.frames()
         truth_at = simulation.truth_at
-        times_s = list(simulation.trajectory.times_s)
+        count = len(simulation.trajectory.times_s)
         kind = "simulation"
     else:
         raise FogsimError("a run needs a scenario to simulate or a recording to replay")
-    count = len(times_s)
     if max_frames is not None and count > max_frames:
         frames, count = _take(frames, max_frames), max_frames
-    return _FrameSource(frames, truth_at, count, float(times_s[count - 1]), kind)
+    return _FrameSource(frames, truth_at, count, kind)
 
 
 def run_scenario(
@@ -322,7 +312,6 @@ def run_scenario(
             source.truth_at,
             scenario,
             params=params,
-            end_time_s=source.end_time_s,
             on_frame=_all_of(callbacks) if callbacks else None,
         )
     report = build_report(

@@ -16,9 +16,10 @@ parameters (:func:`fogsim.run.runner.replay_report`) and reducing each report to
   (no recall), no term when the scored area holds no true obstacle;
 * ``unsafe_cells`` -- FOG floor cells where the truth is obstacle or the floor is more than
   20 mm off (``safety.unsafe_cells``);
-* ``clearing_s`` -- mean time until a removed or moved object's old footprint is cleared
-  [s]; a footprint that never clears is charged ``never_cleared_s``. Recordings without events
-  contribute no clearing term.
+* ``clearing_s`` -- mean time until a removed or moved object's footprint is cleared (the
+  report's ``cleared_frames``: no cell shows the object) [s]; a footprint that never clears is
+  charged ``never_cleared_s``, and so is an object the FOG never saw before its event (no
+  figure: not seeing it is no better). Recordings without events contribute no clearing term.
 
 The objective of one recording is the sum of each term times its weight (a term a recording
 does not have adds nothing); a trial's objective is the mean over the suite's recordings. The
@@ -182,8 +183,8 @@ def objective_terms(
     Reads the FOG's Table I rows (``error_mm``; rows whose surface has no interior cell in the
     scored area, ``surface_cells == 0``, are left out), its cell scores (``in_view``,
     ``in_view_seen``, ``seen``, ``correct``, the obstacle class's ``recall`` and the obstacle
-    row of ``confusion``), ``safety.unsafe_cells`` and the events (``fog_frames``: frames until
-    the old footprint is cleared, None = never).
+    row of ``confusion``), ``safety.unsafe_cells`` and the events (``cleared_frames.fog``:
+    frames until the footprint is cleared, None = never or not seen).
 
     Args:
         report: A report as :func:`fogsim.run.runner.replay_report` returns it.
@@ -216,9 +217,9 @@ def objective_terms(
     else:
         obstacle_missed_pct = 100.0 if recall is None else 100.0 * (1.0 - recall)
 
+    cleared = [event.cleared_frames.fog for event in report.events]
     clearing = [
-        weights.never_cleared_s if event.fog_frames is None else event.fog_frames / frame_rate_hz
-        for event in report.events
+        weights.never_cleared_s if frames is None else frames / frame_rate_hz for frames in cleared
     ]
     clearing_s = sum(clearing) / len(clearing) if clearing else None
     return ObjectiveTerms(

@@ -49,8 +49,9 @@ def format_table1(report: Report) -> str:
     """The run's figures as text, one compact line each.
 
     Table I (FOG and averaging side by side), cell accuracy, per-class recall and precision,
-    unsafe cells, step edges, objects never seen, the ceiling, event clearing, and a WARNING
-    line per reason the run is poor (also without ground truth).
+    unsafe cells, step edges, objects never seen, the ceiling, the events (``cleared`` and
+    ``floor again``), and a WARNING line per reason the run is poor (also without ground
+    truth).
     """
     if report.table1 is None or not report.table1.fog:
         return "\n".join([NO_TRUTH, *format_warnings(report)])
@@ -87,10 +88,6 @@ def format_table1(report: Report) -> str:
             f"ceiling: {ceiling.cells} cells, |error| median {_num(ceiling.median_abs_error_mm)}"
             f" / max {_num(ceiling.max_abs_error_mm)} mm"
         )
-    for event in report.events:
-        lines.append(
-            f"{event.kind} {event.object}: footprint cleared after "
-            f"FOG {event.fog_frames} / averaging {event.averaging_frames} frames"
-        )
+    lines.extend(event.text() for event in report.events)
     lines.extend(format_warnings(report))
     return "\n".join(lines)
