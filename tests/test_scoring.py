@@ -232,7 +232,8 @@ def test_event_tracker_counts_intermediate_floor_cells_of_a_moved_box():
     tracker.update(2, 2.0, c, CELL, types, heights, heights)
     (result,) = tracker.results()
     assert result.kind == "move"
-    assert result.cleared_frames.fog == 0
+    # The maps never showed the box at its old place: no event figure (not seen).
+    assert not result.seen.fog and result.cleared_frames == EventFrames(None, None)
     assert result.intermediate_floor_cells.fog == MaxFinal(max=0, final=0)
     assert result.intermediate_floor_cells.averaging == MaxFinal(max=2, final=0)
 
