@@ -50,9 +50,12 @@ the robot-centred grid (a world-fixed archive keeps each cell's last value):
 * ``unseen_objects``: objects present at the end none of whose cells the FOG ever labelled.
 * ``ceiling``: where the truth has a ceiling (something hanging) in the region: ``cells`` with a
   mapped ceiling, ``median_abs_error_mm``, ``max_abs_error_mm``; null where nothing hangs.
-* ``events``: per removed / moved object, frames from the event until its old footprint is
-  cleared (``fog_frames``, ``averaging_frames``; null = never) and until 90 % of it is floor at
-  the true height (``*_frames_to_floor``); moves add ``intermediate_floor_cells``.
+* ``events``: per removed / moved object, its own footprint at its event time
+  (``footprint_cells``; ``excluded_cells`` another object covers from then on), ``seen`` per
+  map (whether it showed the object before the event; a map that did not gets no figure), and
+  two figures per map ``{fog, averaging}`` in frames from ``start_frame`` (null = never):
+  ``cleared_frames`` (no footprint cell shows the object) and ``floor_again_frames`` (90 % of
+  it floor within 10 mm of the true height); moves add ``intermediate_floor_cells``.
 * ``timing``: ``frames``, ``withdrawn_frames``, ``z_matched_frames``, ``update_ms``,
   ``segmentation_ms`` and ``frame_ms`` (``median``, ``p99``, ``max``), ``wall_s``
   (whole run incl. setup when the caller passes it), ``realtime_factor``; ``pictures_s`` when
