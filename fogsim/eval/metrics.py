@@ -35,7 +35,7 @@ from fogsim.eval.report.schema import (
     Table1,
     Table1Row,
 )
-from fogsim.eval.rounding import fraction, mm, rounded
+from fogsim.eval.rounding import fraction, mm
 from fogsim.world.timeline import ObjectState
 from fogsim.world.truth import GroundTruthGrid, SceneTruth
 from mapper import CellType
@@ -315,28 +315,43 @@ def safety_scores(
         unsafe_cells=int(unsafe.sum()),
         floor_on_obstacle=int(on_obstacle.sum()),
         floor_height_off=int(height_off.sum()),
-        height_tolerance_mm=float(mm(HEIGHT_TOLERANCE_M)),
+        height_tolerance_mm=round(HEIGHT_TOLERANCE_M * 1000.0, 2),
         positions_xy_m=tuple(
-            (float(rounded(x, _POSITION_DIGITS)), float(rounded(y, _POSITION_DIGITS)))
+            (round(float(x), _POSITION_DIGITS), round(float(y), _POSITION_DIGITS))
             for x, y in positions
         ),
         floor_height_error_mm=percentiles_mm(floor_error[on_floor]),
     )
 
 
-def _object_edges(
-    obj: ObjectState,
-) -> tuple[tuple[str, NDArray[np.float64], NDArray[np.float64], float], ...]:
-    """The footprint's four edges: (name, world midpoint, outward unit normal, length [m])."""
+@dataclass(frozen=True)
+class _Edge:
+    """One side of an object's footprint.
+
+    Attributes:
+        name: ``x_min``, ``x_max``, ``y_min`` or ``y_max`` in the object's own frame.
+        midpoint_xy: (2,) world midpoint [m].
+        normal_xy: (2,) outward unit normal in the world.
+        length_m: Its length [m].
+    """
+
+    name: str
+    midpoint_xy: NDArray[np.float64]
+    normal_xy: NDArray[np.float64]
+    length_m: float
+
+
+def _object_edges(obj: ObjectState) -> tuple[_Edge, ...]:
+    """The four sides of an object's footprint."""
     c, s = np.cos(obj.yaw_rad), np.sin(obj.yaw_rad)
     axis_x, axis_y = np.array([c, s]), np.array([-s, c])
     half_x, half_y = 0.5 * obj.size[0], 0.5 * obj.size[1]
     center = np.asarray(obj.center_xy, dtype=np.float64)
     return (
-        ("x_min", center - half_x * axis_x, -axis_x, obj.size[1]),
-        ("x_max", center + half_x * axis_x, axis_x, obj.size[1]),
-        ("y_min", center - half_y * axis_y, -axis_y, obj.size[0]),
-        ("y_max", center + half_y * axis_y, axis_y, obj.size[0]),
+        _Edge("x_min", center - half_x * axis_x, -axis_x, obj.size[1]),
+        _Edge("x_max", center + half_x * axis_x, axis_x, obj.size[1]),
+        _Edge("y_min", center - half_y * axis_y, -axis_y, obj.size[0]),
+        _Edge("y_max", center + half_y * axis_y, axis_y, obj.size[0]),
     )
 
 
@@ -384,7 +399,7 @@ class _FlatCells:
 def _edge_errors(
     truth: SceneTruth,
     obj: ObjectState,
-    edge: tuple[str, NDArray[np.float64], NDArray[np.float64], float],
+    edge: _Edge,
     cells: _FlatCells,
     cell_m: float,
 ) -> tuple[bool, list[float]]:
@@ -402,7 +417,7 @@ def _edge_errors(
         Whether the FOG labelled any cell of the edge's step profiles, and one error per slot
         where the map shows the step.
     """
-    _, midpoint, normal, length = edge
+    midpoint, normal, length = edge.midpoint_xy, edge.normal_xy, edge.length_m
     tangent = np.array([-normal[1], normal[0]])
     relative = cells.centers_xy - midpoint
     offset_all = relative @ normal
@@ -477,7 +492,7 @@ def step_edges(
             rows.append(
                 StepEdge(
                     surface=obj.name,
-                    edge=edge[0],
+                    edge=edge.name,
                     cells=int(e.size),
                     median_error_mm=mm(np.median(e)) if e.size else None,
                     max_abs_error_mm=mm(np.abs(e).max()) if e.size else None,
