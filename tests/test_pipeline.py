@@ -8,9 +8,12 @@ from fogsim.config import RunParams, load_scenario, resolve_params
 from fogsim.data.frame import Frame
 from fogsim.data.recording import Recording
 from fogsim.errors import FogsimError
+from fogsim.eval.archive import cells_in_view
 from fogsim.mapping.pipeline import FrameTiming, Pipeline
-from fogsim.run.runner import replay_report, run_frames
-from fogsim.world.truth import ObjectState, SceneTruth
+from fogsim.run.runner import replay_report, run_frames, truth_params
+from fogsim.world.truth import ObjectState, SceneTruth, TruthParams
+from mapper import MapperParams
+from mapper.grid import GridGeometry
 from mapper.intrinsics import PinholeIntrinsics
 
 INTR = PinholeIntrinsics.from_fov(88, 72, 47.0, 39.0)
@@ -71,7 +74,16 @@ def test_static_box_table1_within_3mm_and_cells_right():
     cells = result.scores.cells.fog
     assert cells.accuracy >= 0.97, cells
     assert result.frames == 12 and result.withdrawn == 0
+    assert result.frames_without_ground_plane == 0
     assert np.isfinite(result.update_ms).all()
+    # The archive keeps every map; the camera saw the cells the FOG labelled, and more.
+    archive = result.archive
+    floor = archive.fog_types == 1
+    np.testing.assert_array_equal(archive.floor_m[floor], archive.fog_heights_m[floor])
+    obstacle = archive.fog_types == 2
+    np.testing.assert_array_equal(archive.obstacle_m[obstacle], archive.fog_heights_m[obstacle])
+    labelled = archive.fog_types != 0
+    assert archive.in_view[labelled].all() and archive.in_view.sum() > labelled.sum()
     assert result.pose_error.camera_in_robot.rotation_deg.max == pytest.approx(0, abs=1e-6)
 
 
@@ -83,8 +95,9 @@ def test_box_removal_fog_clears_within_25_frames_averaging_never():
     (event,) = result.events
     assert event.object == "flat_box" and event.start_frame == removal_frame
     assert event.footprint_cells > 20
-    assert event.fog_frames is not None and event.fog_frames <= 25, event
-    assert event.averaging_frames is None, event
+    assert event.seen.fog and event.seen.averaging
+    assert event.cleared_frames.fog is not None and event.cleared_frames.fog <= 25, event
+    assert event.cleared_frames.averaging is None, event
     assert [s.label for s in result.snapshots] == ["before", "after"]
     assert result.snapshots[0].frame_index == removal_frame - 1
 
@@ -134,3 +147,41 @@ def test_process_returns_the_frames_timing_and_decisions():
     assert not any(t.withdrawn for t in (first, second, third))
     for t in (first, second, third):
         assert 0 < t.segmentation_ms + t.update_ms <= t.frame_ms
+
+
+def _frame_looking_down(depth, transform_camera_to_world):
+    """A 2 x 2 pixel frame whose rays leave the camera at ±0.5 m per metre of depth."""
+    return Frame(
+        index=0,
+        time_s=0.0,
+        depth_m=np.array(depth, dtype=np.float32),
+        intrinsics=PinholeIntrinsics(2, 2, 1.0, 1.0, 0.5, 0.5),
+        transform_camera_to_robot_believed=np.eye(4),
+        robot_pose_believed=np.zeros(4),
+        transform_camera_to_world_true=transform_camera_to_world,
+        robot_pose_true=np.zeros(4),
+    )
+
+
+def test_cells_in_view_are_where_true_depth_points_fall_inside_the_grid():
+    # Camera 1 m above (1, 1), looking straight down (optical x = world x, y = -world y).
+    down = np.array([[1.0, 0, 0, 1.0], [0, -1.0, 0, 1.0], [0, 0, -1.0, 1.0], [0, 0, 0, 1.0]])
+    geometry = GridGeometry(50, 50, 16, 0.04, 0.04, -0.06)  # [0, 2] x [0, 2] x [-0.06, 0.58]
+    # Top pixels hit the ground at (0.5, 1.5) and (1.5, 1.5); the bottom-left one a point at
+    # 0.7 m, above the grid; the bottom-right one has no measurement.
+    frame = _frame_looking_down([[1.0, 1.0], [0.3, np.nan]], down)
+    seen = cells_in_view(frame, geometry)
+    assert np.argwhere(seen).tolist() == [[12, 37], [37, 37]]
+    unknown_pose = _frame_looking_down([[1.0, 1.0], [1.0, 1.0]], np.full((4, 4), np.nan))
+    assert not cells_in_view(unknown_pose, geometry).any()
+
+
+def test_truth_params_take_the_robots_foot_and_the_mappers_grid_top():
+    params = truth_params(load_scenario("stage"), MapperParams())  # iCub: [-0.028, 0.128] x 0.06
+    assert params.foot_length_m == pytest.approx(0.156)
+    assert params.foot_width_m == pytest.approx(0.06)
+    assert params.grid_top_m == pytest.approx(-0.06 + 16 * 0.04)
+    talos = truth_params(load_scenario("flat_floor_talos"), MapperParams(nz=10))
+    assert (talos.foot_length_m, talos.foot_width_m) == pytest.approx((0.2, 0.13))
+    assert talos.grid_top_m == pytest.approx(-0.06 + 10 * 0.04)
+    assert truth_params(None, MapperParams(nz=10)) == TruthParams(grid_top_m=0.34)

@@ -6,12 +6,20 @@ import json
 import numpy as np
 import pytest
 from msgspec import UNSET
-from report_factory import event, make_report, row
+from report_factory import GOOD, class_scores, event, make_report, row, safety_with, step_edge
 from test_pipeline import NAMES, make_frames, provider_removed_at
 
 from fogsim.config import load_scenario
 from fogsim.errors import ReportError
-from fogsim.eval.report import Report, build_report, format_table1, load_report, write_report
+from fogsim.eval.report import (
+    Report,
+    build_report,
+    format_table1,
+    format_warnings,
+    load_report,
+    write_report,
+)
+from fogsim.eval.report.schema import CeilingScores
 from fogsim.run.runner import run_frames
 
 RESULTS_KEYS = [
@@ -20,8 +28,13 @@ RESULTS_KEYS = [
     "scenario",
     "seed",
     "source",
+    "quality",
     "table1",
     "cells",
+    "safety",
+    "step_edges",
+    "unseen_objects",
+    "ceiling",
     "events",
     "timing",
     "pose_error",
@@ -48,7 +61,7 @@ def written(tmp_path, removal_report):
 def test_report_has_every_results_key_in_order(written):
     _, r = written
     assert list(r) == RESULTS_KEYS
-    assert r["format"] == "fogsim-report" and r["version"] == 1
+    assert r["format"] == "fogsim-report" and r["version"] == 2
     assert r["scenario"] == "box_removal" and r["seed"] == 2 and r["source"] == "simulation"
     for table in ("fog", "averaging"):
         assert [row["name"] for row in r["table1"][table]] == list(NAMES)
@@ -61,7 +74,38 @@ def test_report_has_every_results_key_in_order(written):
                 "cells",
                 "surface_cells",
             ]
+    assert list(r["quality"]) == [
+        "withdrawn_fraction",
+        "frames_without_ground_plane",
+        "map_empty",
+        "floor_right_fraction",
+        "poor",
+        "reasons",
+    ]
+    assert r["quality"]["poor"] is False and r["quality"]["reasons"] == []
+    assert r["quality"]["frames_without_ground_plane"] == 0  # the ground is in every frame
     assert list(r["cells"]) == ["fog", "obstacles", "averaging"]
+    fog = r["cells"]["fog"]
+    assert list(fog)[:4] == ["region", "in_view", "seen", "in_view_seen"]
+    assert 0 < fog["in_view_seen"] <= fog["in_view"] <= fog["region"]
+    assert list(fog["classes"]) == ["floor", "obstacle"]
+    assert list(fog["classes"]["floor"]) == [
+        "truth_seen",
+        "labelled",
+        "true_positive",
+        "recall",
+        "precision",
+    ]
+    assert list(r["safety"]) == [
+        "unsafe_cells",
+        "floor_on_obstacle",
+        "floor_height_off",
+        "height_tolerance_mm",
+        "positions_xy_m",
+        "floor_height_error_mm",
+    ]
+    assert list(r["safety"]["floor_height_error_mm"]) == ["p50", "p90", "p95", "p99", "max"]
+    assert r["unseen_objects"] == [] and r["ceiling"] is None  # the box is gone, nothing hangs
     assert list(r["cells"]["fog"]["confusion"]["floor"]) == ["unknown", "floor", "obstacle"]
     assert list(r["cells"]["fog"]["obstacle_height"])[-1] == "within_one_cell_fraction"
     (ev,) = r["events"]
@@ -168,7 +212,7 @@ def test_a_wrong_type_or_version_fails_loading_naming_the_key(written):
     _rewrite(path, lambda d: d["cells"]["fog"].update(seen="many"))
     with pytest.raises(ReportError, match=r"Expected `int`, got `str` - at `\$.cells.fog.seen`"):
         load_report(path)
-    _rewrite(path, lambda d: (d["cells"]["fog"].update(seen=3), d.update(version=2)))
+    _rewrite(path, lambda d: (d["cells"]["fog"].update(seen=3), d.update(version=1)))
     with pytest.raises(ReportError, match=r"at `\$.version`"):
         load_report(path)
 
@@ -185,7 +229,9 @@ def test_format_table1_lists_rows_accuracy_and_events(removal_report):
     text = format_table1(removal_report)
     assert "ground" in text and "flat_box" in text
     assert "cells labelled right" in text
-    assert "remove flat_box: footprint cleared after FOG" in text
+    assert (
+        f"remove flat_box ({removal_report.events[0].footprint_cells} cells): cleared FOG" in text
+    )
     unscored = dataclasses.replace(removal_report, table1=None, cells=None, events=())
     assert format_table1(unscored) == "Table I: no ground truth (nothing to score)."
 
@@ -202,5 +248,68 @@ def test_format_table1_of_a_hand_made_report():
         "ground                 0.0      -0.4    -0.4     10         -       -",
         "sill                   0.0         -       -      0         -       -",
         "cells labelled right: 97.5 % of 400 seen",
-        "remove box: footprint cleared after FOG 4 / averaging None frames",
+        "floor: recall -, precision -; obstacle: recall -, precision -",
+        "unsafe cells: 0 (0 floor on obstacle, 0 floor off > 20 mm); "
+        "floor height error p50 - / p95 - / max - mm",
+        "remove box (20 cells): cleared FOG 4 / averaging never; "
+        "floor again FOG 4 / averaging never (frames after the event)",
     ]
+
+
+def test_format_table1_shows_the_new_figures_compactly():
+    report = make_report(
+        [row("ground", 1.0)],
+        seen=400,
+        accuracy=0.9,
+        floor=class_scores(380, 390, 370),
+        obstacle=class_scores(20, 10, 8),
+        safety=safety_with(7, on_obstacle=2),
+        step_edges=[
+            step_edge("sill", "x_min", -80.0, 120.0),
+            step_edge("sill", "x_max", 4.0, 40.0),
+            step_edge("step_1", "x_min", None, None),
+        ],
+        unseen_objects=["box_left_2", "box_right_2"],
+        ceiling=CeilingScores(12, 20.0, 60.0),
+    )
+    assert format_table1(report).splitlines()[2:] == [
+        "cells labelled right: 90.0 % of 400 seen",
+        "floor: recall 97.4 %, precision 94.9 %; obstacle: recall 40.0 %, precision 80.0 %",
+        "unsafe cells: 7 (2 floor on obstacle, 5 floor off > 20 mm); "
+        "floor height error p50 1.0 / p95 3.0 / max 40.0 mm",
+        "step edges, median / max |error| mm (+ = toward the higher side):",
+        "  sill: x_min -80.0 / 120.0  x_max 4.0 / 40.0",
+        "  step_1: x_min - / -",
+        "never seen: box_left_2, box_right_2",
+        "ceiling: 12 cells, |error| median 20.0 / max 60.0 mm",
+    ]
+
+
+POOR = dataclasses.replace(
+    GOOD,
+    withdrawn_fraction=0.74679,
+    map_empty=True,
+    poor=True,
+    reasons=("581 of 778 frames (74.7 %) were withdrawn", "the map is empty"),
+)
+
+
+def test_a_poor_run_prints_a_warning_line_per_reason(removal_report):
+    report = make_report([row("ground", 1.0)], quality=POOR)
+    lines = format_table1(report).splitlines()
+    assert lines[-2:] == [
+        "WARNING: poor run: 581 of 778 frames (74.7 %) were withdrawn",
+        "WARNING: poor run: the map is empty",
+    ]
+    assert format_warnings(report) == lines[-2:]
+    unscored = dataclasses.replace(report, table1=None, cells=None, safety=None, events=())
+    assert format_table1(unscored).splitlines() == [
+        "Table I: no ground truth (nothing to score).",
+        *lines[-2:],
+    ]
+    assert format_warnings(removal_report) == []
+
+
+def test_a_poor_quality_block_round_trips(tmp_path):
+    report = make_report([row("ground", 1.0)], quality=POOR)
+    assert load_report(write_report(tmp_path / "report.json", report)) == report

@@ -2,6 +2,7 @@
 
 import numpy as np
 import pytest
+from archive_factory import store
 from msgspec import UNSET
 
 from fogsim.config import Event
@@ -9,7 +10,13 @@ from fogsim.errors import FogsimError
 from fogsim.eval.archive import WorldArchive
 from fogsim.eval.events import EventTracker
 from fogsim.eval.metrics import cell_scores, score_archive, table1_rows
-from fogsim.eval.report.schema import ConfusionRow, MaxFinal, ObstacleObjectScore
+from fogsim.eval.report.schema import (
+    ClassScores,
+    ConfusionRow,
+    EventFrames,
+    MaxFinal,
+    ObstacleObjectScore,
+)
 from fogsim.world.truth import ObjectState, SceneTruth
 from mapper.grid import CellType
 
@@ -22,7 +29,7 @@ def centers(nx=30, ny=30, x0=0.0, y0=0.0):
 
 
 STEP = ObjectState("step", (0.5, 0.5), (0.4, 0.4, 0.031), 0.0, 0.0, True)
-POST = ObjectState("post", (0.9, 0.9), (0.16, 0.16, 0.2), 0.0, 0.0, False)
+POST = ObjectState("post", (0.9, 0.9), (0.16, 0.16, 0.2), 0.0, 0.0, False, "rough", 0.05)
 
 
 def truth(objects=(STEP, POST), time_s=0.0):
@@ -55,23 +62,31 @@ def test_table1_row_without_estimate_is_null():
 def test_cell_scores_confusion_accuracy_and_obstacle_height():
     grid = truth().rasterize(centers(), CELL)
     types = grid.labels.copy()
-    heights = np.where(grid.labels == CellType.FLOOR, grid.floor_m, 0.22)  # post top 0.20
+    # Obstacle tops 20 mm high: the post (0.20 m) and the step's risers (0.031 m).
+    heights = np.where(grid.labels == CellType.FLOOR, grid.floor_m, grid.obstacle_top_m + 0.02)
     floor_cells = np.argwhere(grid.labels == CellType.FLOOR)
     for ix, iy in floor_cells[:5]:
         types[ix, iy] = CellType.OBSTACLE  # 5 wrong
     for ix, iy in floor_cells[5:15]:
         types[ix, iy] = CellType.UNKNOWN  # 10 unseen
     region = np.ones(types.shape, dtype=bool)
-    s = cell_scores(grid, types, heights, region, cell_z_m=0.04)
+    in_view = np.zeros(types.shape, dtype=bool)
+    in_view[:10] = True  # rows x < 0.4: 300 cells, of them the first 5 + 10 floor cells
+    s = cell_scores(grid, types, heights, region, in_view, cell_z_m=0.04)
     n_obstacle = int((grid.labels == CellType.OBSTACLE).sum())
-    assert n_obstacle == 25  # post spans [0.82, 0.98]: centres 0.82..0.98, edges included
+    # The rough post spans [0.82, 0.98]: 5 x 5 cells; the step's edges (0.3, 0.7) cross the
+    # cells centred there, which hold its risers: a ring of 4 x 10 cells.
+    assert n_obstacle == 25 + 40
     assert s.region == 900
+    assert s.in_view == 300 and s.in_view_seen == 290
     assert s.seen == 890
     assert s.correct == 885
     assert s.accuracy == pytest.approx(885 / 890, abs=1e-5)
-    assert s.confusion.floor == ConfusionRow(unknown=10, floor=860, obstacle=5)
-    assert s.confusion.obstacle == ConfusionRow(unknown=0, floor=0, obstacle=25)
-    assert s.obstacle_height.cells == 25
+    assert s.confusion.floor == ConfusionRow(unknown=10, floor=820, obstacle=5)
+    assert s.confusion.obstacle == ConfusionRow(unknown=0, floor=0, obstacle=65)
+    assert s.classes.floor == ClassScores(825, 820, 820, round(820 / 825, 5), 1.0)
+    assert s.classes.obstacle == ClassScores(65, 70, 65, 1.0, round(65 / 70, 5))
+    assert s.obstacle_height.cells == 65
     assert s.obstacle_height.median_abs_error_mm == pytest.approx(20.0)
     assert s.obstacle_height.within_one_cell_fraction == 1.0
     assert s.floor_height.max_abs_error_mm == pytest.approx(0.0)
@@ -80,9 +95,27 @@ def test_cell_scores_confusion_accuracy_and_obstacle_height():
 def test_world_archive_keeps_last_value_on_a_world_lattice():
     archive = WorldArchive(CELL)
     first = centers(10, 10)
-    archive.store(first, np.full((10, 10), 1, np.int8), np.full((10, 10), 0.01), np.zeros((10, 10)))
+    seen_first = np.zeros((10, 10), dtype=bool)
+    seen_first[7, 2] = True
+    ceiling = np.full((10, 10), 0.3)
+    store(
+        archive,
+        first,
+        np.full((10, 10), 1),
+        np.full((10, 10), 0.01),
+        np.zeros((10, 10)),
+        ceiling_m=ceiling,
+        in_view=seen_first,
+    )
     moved = centers(10, 10, x0=5 * CELL, y0=-3 * CELL)  # scrolled by (5, -3) whole cells
-    archive.store(moved, np.full((10, 10), 2, np.int8), np.full((10, 10), 0.2), np.ones((10, 10)))
+    store(
+        archive,
+        moved,
+        np.full((10, 10), 2),
+        np.full((10, 10), 0.2),
+        np.ones((10, 10)),
+        in_view=np.zeros((10, 10), dtype=bool),
+    )
     assert archive.visited.shape == (15, 13)
     assert archive.visited.sum() == 100 + 100 - 5 * 7
     xy = archive.cell_centers_xy()
@@ -93,19 +126,41 @@ def test_world_archive_keeps_last_value_on_a_world_lattice():
     assert archive.fog_types[tuple(only_first)] == 1
     assert archive.fog_heights_m[tuple(overlap)] == pytest.approx(0.2)
     assert archive.baseline_heights_m[tuple(overlap)] == pytest.approx(1.0)
+    assert archive.floor_m[tuple(only_first)] == pytest.approx(0.01)
+    assert np.isnan(archive.floor_m[tuple(overlap)])  # the second grid's cells are obstacle
+    assert archive.obstacle_m[tuple(overlap)] == pytest.approx(0.2)
+    assert archive.ceiling_m[tuple(only_first)] == pytest.approx(0.3)
+    assert np.isnan(archive.ceiling_m[tuple(overlap)])
+    # In view is kept: the cell seen in the first frame stays seen when a later frame misses it.
+    assert archive.in_view.sum() == 1 and archive.in_view[tuple(overlap)]
+    assert not archive.is_empty()
 
 
 def test_score_archive_perfect_map_scores_exactly():
-    archive = WorldArchive(CELL)
     c = centers()
     grid = truth().rasterize(c, CELL)
     heights = np.where(grid.labels == CellType.FLOOR, grid.floor_m, grid.obstacle_top_m)
-    archive.store(c, grid.labels, heights, heights)
-    scores = score_archive(archive, truth(), cell_z_m=0.04)
+    archive = store(WorldArchive(CELL), c, grid.labels, heights)
+    scores = score_archive(archive, truth(), grid, cell_z_m=0.04)
     for row in scores.table1.fog + scores.table1.averaging:
         assert row.error_mm == pytest.approx(0.0, abs=1e-9)
     assert scores.cells.fog.accuracy == 1.0
+    assert scores.cells.fog.classes.floor.recall == scores.cells.fog.classes.floor.precision == 1
+    assert scores.cells.fog.classes.obstacle.recall == 1.0
     assert scores.cells.averaging.seen == 900
+    assert scores.safety.unsafe_cells == 0 and scores.safety.positions_xy_m == ()
+    assert scores.safety.floor_height_error_mm.max == 0.0
+    # The step's four edges lie on cell boundaries: a perfect map puts them exactly there.
+    assert {
+        (e.edge, e.cells, e.median_error_mm, e.max_abs_error_mm) for e in scores.step_edges
+    } == {
+        ("x_min", 8, 0.0, 0.0),
+        ("x_max", 8, 0.0, 0.0),
+        ("y_min", 8, 0.0, 0.0),
+        ("y_max", 8, 0.0, 0.0),
+    }
+    assert scores.unseen_objects == ()
+    assert scores.ceiling is None  # nothing hangs
     (post,) = scores.cells.obstacles
     # Post spans [0.82, 0.98]; centres at least half a cell inside: 0.86, 0.90, 0.94.
     assert post == ObstacleObjectScore(
@@ -132,7 +187,7 @@ def test_event_tracker_counts_frames_until_footprint_cleared_fog_vs_never_for_ba
         return with_box if t < 1.0 else without
 
     c = centers()
-    tracker = EventTracker([Event(at=1.0, remove="box")], provider, end_time_s=3.0)
+    tracker = EventTracker([Event(at=1.0, remove="box")], provider)
     old_types, old_heights = _fog_of(with_box.rasterize(c, CELL))
     new_types, new_heights = _fog_of(without.rasterize(c, CELL))
     for i in range(30):
@@ -151,10 +206,8 @@ def test_event_tracker_counts_frames_until_footprint_cleared_fog_vs_never_for_ba
     (result,) = tracker.results()
     assert result.start_frame == 10
     assert result.footprint_cells == int((old_heights > 0.04).sum()) > 0
-    assert result.fog_frames == 4
-    assert result.fog_frames_to_floor == 4
-    assert result.averaging_frames is None
-    assert result.averaging_frames_to_floor is None
+    assert result.cleared_frames == EventFrames(fog=4, averaging=None)
+    assert result.floor_again_frames == EventFrames(fog=4, averaging=None)
     assert result.intermediate_floor_cells is UNSET  # only moves count intermediate cells
 
 
@@ -169,7 +222,7 @@ def test_event_tracker_counts_intermediate_floor_cells_of_a_moved_box():
         return before if t < 1.0 else after
 
     c = centers()
-    tracker = EventTracker([Event(at=1.0, move="box", to=(0.9, 0.6), speed=1.0)], provider, 2.0)
+    tracker = EventTracker([Event(at=1.0, move="box", to=(0.9, 0.6), speed=1.0)], provider)
     types, heights = _fog_of(after.rasterize(c, CELL))
     smeared = heights.copy()
     smeared[12, 15] = 0.03  # ground cell between old and new place, half box height
@@ -179,7 +232,8 @@ def test_event_tracker_counts_intermediate_floor_cells_of_a_moved_box():
     tracker.update(2, 2.0, c, CELL, types, heights, heights)
     (result,) = tracker.results()
     assert result.kind == "move"
-    assert result.fog_frames == 0
+    # The maps never showed the box at its old place: no event figure (not seen).
+    assert not result.seen.fog and result.cleared_frames == EventFrames(None, None)
     assert result.intermediate_floor_cells.fog == MaxFinal(max=0, final=0)
     assert result.intermediate_floor_cells.averaging == MaxFinal(max=2, final=0)
 
@@ -187,3 +241,6 @@ def test_event_tracker_counts_intermediate_floor_cells_of_a_moved_box():
 def test_an_empty_archive_has_no_cells():
     with pytest.raises(FogsimError, match="archive is empty"):
         WorldArchive(CELL).cell_centers_xy()
+    assert WorldArchive(CELL).is_empty()
+    unlabelled = store(WorldArchive(CELL), centers(3, 3), np.zeros((3, 3)), np.full((3, 3), np.nan))
+    assert unlabelled.is_empty()

@@ -15,7 +15,7 @@ from dataclasses import dataclass
 from pathlib import Path
 
 import pytest
-from report_factory import event, make_report, row
+from report_factory import class_scores, event, make_report, row, safety_with
 
 from fogsim.errors import FogsimError
 from fogsim.tune import (
@@ -26,6 +26,7 @@ from fogsim.tune import (
     tune,
 )
 from fogsim.tune.objective import (
+    TERM_NAMES,
     ObjectiveTerms,
     ObjectiveWeights,
     SuiteEntry,
@@ -175,9 +176,14 @@ def test_objective_terms_of_a_hand_made_report():
             row("step_3", None, surface_cells=9),  # charged 50 mm
             row("platform", None, surface_cells=0),  # never in view
         ],
-        region=500,
+        region=5000,  # most of the scored area is never in view: it does not count
+        in_view=500,
         seen=400,
+        in_view_seen=400,
         correct=390,
+        obstacle=class_scores(truth_seen=20, labelled=10, true_positive=8),  # 60 % missed
+        obstacle_truth_cells=30,
+        safety=safety_with(12, on_obstacle=2),
         events=[event("a", 25), event("b", None)],
     )
     weights = ObjectiveWeights()
@@ -185,15 +191,44 @@ def test_objective_terms_of_a_hand_made_report():
     assert terms.table1_mm == pytest.approx((1 + 3 + 50) / 3, abs=1e-12)
     assert terms.cell_error_pct == pytest.approx(2.5, abs=1e-12)
     assert terms.unknown_pct == pytest.approx(20.0, abs=1e-12)
+    assert terms.obstacle_missed_pct == pytest.approx(60.0, abs=1e-12)
+    assert terms.unsafe_cells == 12
     assert terms.clearing_s == pytest.approx((2.0 + 10.0) / 2, abs=1e-12)
     assert terms.table1_rows == 3 and terms.seen_cells == 400
-    assert terms.value(weights) == pytest.approx(18.0 + 2.5 + 2.0 + 6.0, abs=1e-12)
-    heavy = ObjectiveWeights(table1_mm=2.0, cell_error_pct=0.0, unknown_pct=0.0, clearing_s=0.5)
-    assert terms.value(heavy) == pytest.approx(36.0 + 3.0, abs=1e-12)
+    assert terms.value(weights) == pytest.approx(18.0 + 2.5 + 2.0 + 3.0 + 0.12 + 6.0, abs=1e-12)
+    heavy = ObjectiveWeights(
+        table1_mm=2.0,
+        cell_error_pct=0.0,
+        unknown_pct=0.0,
+        obstacle_missed_pct=0.0,
+        unsafe_cells=1.0,
+        clearing_s=0.5,
+    )
+    assert terms.value(heavy) == pytest.approx(36.0 + 12.0 + 3.0, abs=1e-12)
+
+
+def test_obstacles_the_fog_never_labels_are_all_missed_and_no_obstacle_is_no_term():
+    never = make_report(
+        [row("ground", 0.0)], region=10, seen=10, correct=10, obstacle_truth_cells=5
+    )  # 5 true obstacle cells, all left unknown
+    assert objective_terms(never, ObjectiveWeights(), 12.5).obstacle_missed_pct == 100.0
+    none = make_report([row("ground", 0.0)], region=10, seen=10, correct=10)
+    terms = objective_terms(none, ObjectiveWeights(), 12.5)
+    assert terms.obstacle_missed_pct is None
+    assert terms.value(ObjectiveWeights(obstacle_missed_pct=100.0)) == 0.0
 
 
 def test_objective_without_events_has_no_clearing_term():
-    terms = ObjectiveTerms(2.0, 1.0, 10.0, None, 1, 10)
+    terms = ObjectiveTerms(
+        table1_mm=2.0,
+        cell_error_pct=1.0,
+        unknown_pct=10.0,
+        obstacle_missed_pct=None,
+        unsafe_cells=0,
+        clearing_s=None,
+        table1_rows=1,
+        seen_cells=10,
+    )
     assert terms.value(ObjectiveWeights(clearing_s=100.0)) == 4.0
 
 
@@ -204,8 +239,10 @@ def test_weights_from_assignments_and_their_errors():
         ObjectiveWeights.from_assignments(["speed=1"])
     with pytest.raises(FogsimError, match="must be finite and >= 0"):
         ObjectiveWeights(table1_mm=-1.0)
+    zero = dict.fromkeys(TERM_NAMES, 0.0)
     with pytest.raises(FogsimError, match="all 0"):
-        ObjectiveWeights(table1_mm=0, cell_error_pct=0, unknown_pct=0, clearing_s=0)
+        ObjectiveWeights(**zero)
+    assert ObjectiveWeights(**{**zero, "unsafe_cells": 1.0}).unsafe_cells == 1.0
     with pytest.raises(FogsimError, match="must look like name=value"):
         ObjectiveWeights.from_assignments(["table1_mm"])
 

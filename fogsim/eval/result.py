@@ -47,6 +47,7 @@ class RunResult:
         frames: Frames processed.
         withdrawn: Frames withdrawn by the z-match rule.
         z_matched: Frames whose data were shifted by an accepted z match.
+        frames_without_ground_plane: Frames whose segmentation found no ground plane.
         update_ms: (frames,) time of ``FloorObstacleMapper.update`` per frame [ms], NaN for a
             withdrawn frame.
         segmentation_ms: (frames,) time of ``segment_depth`` per frame [ms].
@@ -55,19 +56,21 @@ class RunResult:
         mapper: The final mapper.
         baseline: The final averaging baseline.
         archive: World-fixed archive of both maps.
-        scores: Table I and cell scores of the archive against the final truth (None without
-            ground truth).
+        scores: Every figure of the archive against the final truth (None without ground
+            truth).
         events: One result per removed or moved object (empty without ground truth).
         pose_error: Believed-vs-true camera pose error statistics.
         params: The parameters used.
         snapshots: Snapshots for Fig. 5 (event scenarios only).
-        final_truth: Ground truth of the final world on the final grid, or None.
+        final_truth: Ground truth of the final world on the archive's cells (what the scores
+            and ``maps.npz`` compare against), or None.
         last_depth_m: Depth image of the last frame [m].
     """
 
     frames: int
     withdrawn: int
     z_matched: int
+    frames_without_ground_plane: int
     update_ms: NDArray[np.float64]
     segmentation_ms: NDArray[np.float64]
     frame_ms: NDArray[np.float64]

@@ -1,7 +1,8 @@
 """Run frames through the pipeline and score them: what ``fogsim run`` and ``--replay`` do.
 
 :func:`run_scenario` does one run end to end: frames from a simulation or a recording →
-:func:`run_frames` (pipeline and scoring) → the typed report → pictures → ``report.json``.
+:func:`run_frames` (pipeline and scoring) → the typed report → ``maps.npz`` → pictures →
+``report.json``.
 """
 
 from __future__ import annotations
@@ -22,16 +23,19 @@ from fogsim.config import RunParams, Scenario, resolve_params
 from fogsim.data.frame import Frame
 from fogsim.data.recording import Recording
 from fogsim.errors import FogsimError
-from fogsim.eval.archive import WorldArchive
+from fogsim.eval.archive import WorldArchive, cells_in_view
 from fogsim.eval.events import EventTracker, TruthProvider
+from fogsim.eval.maps import write_maps
 from fogsim.eval.metrics import score_archive
 from fogsim.eval.pose_error import PoseErrorAccumulator
 from fogsim.eval.report import Report, build_report, write_report
 from fogsim.eval.report.schema import Source
 from fogsim.eval.result import RunResult, Snapshot
 from fogsim.mapping.pipeline import FrameCallback, FrameTiming, Pipeline
+from fogsim.robot import load_description
 from fogsim.sim.simulation import Simulation
 from fogsim.viz.pictures import RunVideoWriter, write_pictures
+from fogsim.world.truth import TruthParams
 from mapper import MapperParams
 from mapper.segmentation import SegmentationParams
 
@@ -74,6 +78,27 @@ class _Fig5Snapshots:
         return (self._before, dataclasses.replace(self._previous, label="after"))
 
 
+def truth_params(scenario: Scenario | None, mapper_params: MapperParams) -> TruthParams:
+    """The ground truth's rules for this run: the robot's foot and the mapper's grid top.
+
+    Args:
+        scenario: The scenario (its robot's ``[feet]`` give the foot); None: the truth's default
+            foot (recordings without a scenario).
+        mapper_params: The mapper's parameters (things above its ``z_max_m`` are out of its
+            grid).
+    """
+    grid_top_m = mapper_params.z_max_m
+    if scenario is None:
+        return TruthParams(grid_top_m=grid_top_m)
+    feet = load_description(scenario.robot.model).feet
+    back_m, front_m = feet.length_m
+    return TruthParams(
+        foot_length_m=front_m - back_m,
+        foot_width_m=2.0 * feet.half_width_m,
+        grid_top_m=grid_top_m,
+    )
+
+
 def run_frames(
     frames: Iterable[Frame],
     truth_provider: TruthProvider | None,
@@ -82,7 +107,6 @@ def run_frames(
     segmentation_params: SegmentationParams | None = None,
     *,
     params: RunParams | None = None,
-    end_time_s: float | None = None,
     on_frame: FrameCallback | None = None,
 ) -> RunResult:
     """Feed frames through the pipeline and score the run.
@@ -96,13 +120,11 @@ def run_frames(
         segmentation_params: Segmentation parameters; default from ``[segmentation]``.
         params: All parameters at once (from :func:`resolve_params`); replaces the scenario's
             tables; ``mapper_params`` / ``segmentation_params`` still override its parts.
-        end_time_s: Time of the last frame [s], needed to score events when ``frames`` is a
-            generator; default: the last frame of a sequence.
         on_frame: Called after every frame with the frame and the pipeline (progress bars,
             video).
 
     Raises:
-        FogsimError: No frames, or events to score in a generator without ``end_time_s``.
+        FogsimError: No frames.
     """
     start = time.perf_counter()
     run_params = params or resolve_params(scenario)
@@ -112,15 +134,11 @@ def run_frames(
         run_params = dataclasses.replace(run_params, segmentation=segmentation_params)
     pipeline = Pipeline(run_params)
     cell_m = pipeline.mapper_params.cell_m
-    if end_time_s is None and isinstance(frames, list | tuple) and frames:
-        end_time_s = frames[-1].time_s
     events = scenario.events if scenario is not None else ()
     tracker = None
     if truth_provider is not None and events:
-        if end_time_s is None:
-            raise FogsimError("run_frames needs end_time_s to score events of a frame generator")
         tracker = EventTracker(
-            events, truth_provider, end_time_s, tolerance_m=pipeline.params.event_tolerance_m
+            events, truth_provider, tolerance_m=pipeline.params.event_tolerance_m
         )
     fig5 = _Fig5Snapshots(min(float(e.at) for e in events)) if events else None
 
@@ -133,7 +151,16 @@ def run_frames(
         pose_errors.add(frame)
         centers = pipeline.cell_centers_xy()
         types, fog_heights, base_heights = pipeline.maps()
-        archive.store(centers, types, fog_heights, base_heights)
+        archive.store(
+            centers,
+            types,
+            fog_heights,
+            base_heights,
+            floor_m=pipeline.mapper.floor(),
+            obstacle_m=pipeline.mapper.obstacle(),
+            ceiling_m=pipeline.mapper.ceiling(),
+            in_view=cells_in_view(frame, pipeline.mapper.geometry),
+        )
         if tracker is not None:
             tracker.update(
                 frame.index, frame.time_s, centers, cell_m, types, fog_heights, base_heights
@@ -149,12 +176,14 @@ def run_frames(
     scores = final_truth = None
     if truth_provider is not None:
         truth = truth_provider(last.time_s)
-        scores = score_archive(archive, truth, pipeline.mapper_params.layer_m)
-        final_truth = truth.rasterize(pipeline.cell_centers_xy(), cell_m)
+        rules = truth_params(scenario, pipeline.mapper_params)
+        final_truth = truth.rasterize(archive.cell_centers_xy(), cell_m, params=rules)
+        scores = score_archive(archive, truth, final_truth, pipeline.mapper_params.layer_m)
     return RunResult(
         frames=len(timings),
         withdrawn=sum(t.withdrawn for t in timings),
         z_matched=sum(t.z_matched for t in timings),
+        frames_without_ground_plane=sum(not t.ground_plane_found for t in timings),
         update_ms=np.array([t.update_ms for t in timings]),
         segmentation_ms=np.array([t.segmentation_ms for t in timings]),
         frame_ms=np.array([t.frame_ms for t in timings]),
@@ -197,14 +226,12 @@ class _FrameSource:
         frames: The frames (a generator for a simulation).
         truth_at: Ground truth at a time [s]; None for real data.
         frame_count: Frames the run will take.
-        end_time_s: Time of the last of them [s].
         kind: ``simulation`` or ``replay``.
     """
 
     frames: Iterable[Frame]
     truth_at: TruthProvider | None
     frame_count: int
-    end_time_s: float
     kind: Source
 
 
@@ -219,20 +246,19 @@ def _frame_source(
     if replay is not None:
         frames = replay.frames
         truth_at = replay.truth_at if replay.has_truth else None
-        times_s = [f.time_s for f in replay.frames]
+        count = len(replay.frames)
         kind: Source = "replay"
     elif scenario is not None:
         simulation = Simulation(scenario, depth_backend=depth_backend)
         frames = simulation.frames()
         truth_at = simulation.truth_at
-        times_s = list(simulation.trajectory.times_s)
+        count = len(simulation.trajectory.times_s)
         kind = "simulation"
     else:
         raise FogsimError("a run needs a scenario to simulate or a recording to replay")
-    count = len(times_s)
     if max_frames is not None and count > max_frames:
         frames, count = _take(frames, max_frames), max_frames
-    return _FrameSource(frames, truth_at, count, float(times_s[count - 1]), kind)
+    return _FrameSource(frames, truth_at, count, kind)
 
 
 def run_scenario(
@@ -251,7 +277,8 @@ def run_scenario(
     Args:
         scenario: A loaded Scenario (overrides already applied); None only with a
             recording of real data.
-        out_dir: Folder for ``report.json``, the PNGs (and ``run.mp4``); None = write nothing.
+        out_dir: Folder for ``report.json``, ``maps.npz``, the PNGs (and ``run.mp4``); None =
+            write nothing.
         replay: A Recording to feed instead of simulating (no MuJoCo).
         pictures: Write the PNGs.
         video: Write ``run.mp4`` (camera image beside the growing map).
@@ -285,7 +312,6 @@ def run_scenario(
             source.truth_at,
             scenario,
             params=params,
-            end_time_s=source.end_time_s,
             on_frame=_all_of(callbacks) if callbacks else None,
         )
     report = build_report(
@@ -298,6 +324,7 @@ def run_scenario(
     if out_dir is None:
         return report
     out = Path(out_dir)
+    write_maps(out / "maps.npz", result, result.final_truth)
     if pictures:
         picture_start = time.perf_counter()
         names = tuple(path.name for path in write_pictures(result, scenario, out))

@@ -1,22 +1,29 @@
 """The tuning objective: one number (lower is better) from the report of a replayed run.
 
 ``fogsim tune`` scores a parameter set by replaying every recording of a suite with those
-parameters (:func:`fogsim.run.runner.replay_report`) and reducing each report to three terms:
+parameters (:func:`fogsim.run.runner.replay_report`) and reducing each report to these terms:
 
 * ``table1_mm`` -- mean absolute Table I error of the FOG over the walkable surfaces and the
   ground [mm]; a row the FOG never estimated is charged ``missing_row_mm``;
 * ``cell_error_pct`` -- share of the seen cells labelled wrong (floor vs obstacle) [%];
-* ``unknown_pct`` -- share of the scored area (cells that were inside the map) the FOG left
-  unknown [%], so that labelling fewer cells does not pass for accuracy;
-* ``clearing_s`` -- mean time until a removed or moved object's old footprint is floor again
-  [s]; a footprint that never clears is charged ``never_cleared_s``. Recordings without events
-  contribute no clearing term.
+* ``unknown_pct`` -- share of the cells *in view* (a depth measurement fell into them, placed
+  with the true camera pose) that the FOG left unknown [%], so that labelling fewer cells does
+  not pass for accuracy. Cells the camera never saw do not count: over the whole scored area
+  (every cell ever in the robot-centred grid) about 88 % stay unknown whatever the parameters,
+  which made this term 95 % of the quick subset's objective;
+* ``obstacle_missed_pct`` -- ``100 − obstacle recall`` [%]: the share of the seen true obstacle
+  cells the FOG does not label obstacle; 100 when it leaves every true obstacle cell unknown
+  (no recall), no term when the scored area holds no true obstacle;
+* ``unsafe_cells`` -- FOG floor cells where the truth is obstacle or the floor is more than
+  20 mm off (``safety.unsafe_cells``);
+* ``clearing_s`` -- mean time until a removed or moved object's footprint is cleared (the
+  report's ``cleared_frames``: no cell shows the object) [s]; a footprint that never clears is
+  charged ``never_cleared_s``, and so is an object the FOG never saw before its event (no
+  figure: not seeing it is no better). Recordings without events contribute no clearing term.
 
-The objective of one recording is ``table1_mm * w.table1_mm + cell_error_pct *
-w.cell_error_pct + unknown_pct * w.unknown_pct + clearing_s * w.clearing_s``; a trial's
-objective is the mean over the suite's recordings. With the default weights one millimetre of
-Table I error, one percent of wrong cells, ten percent of unknown cells and one second of
-clearing time cost the same.
+The objective of one recording is the sum of each term times its weight (a term a recording
+does not have adds nothing); a trial's objective is the mean over the suite's recordings. The
+default weights are in :class:`ObjectiveWeights`.
 """
 
 from __future__ import annotations
@@ -36,16 +43,43 @@ ReportFunction = Callable[[Recording, Mapping[str, float]], Report]
 TermValue = float | int | None
 """One objective term as the trial stores it (JSON-able for Optuna's user attributes)."""
 
+TERM_NAMES = (
+    "table1_mm",
+    "cell_error_pct",
+    "unknown_pct",
+    "obstacle_missed_pct",
+    "unsafe_cells",
+    "clearing_s",
+)
+"""The weighted terms, in the order ``trials.md`` shows them (each has a weight of that name)."""
+
 
 @dataclass(frozen=True)
 class ObjectiveWeights:
     """Weights and penalties of the tuning objective (see the module docstring).
 
+    With the defaults one millimetre of Table I error, one percent of wrong cells, ten percent
+    of the cells in view left unknown, twenty percent of the seen obstacle cells missed, a
+    hundred unsafe cells (0.16 m² of floor) and one second of clearing time cost the same. An
+    unknown cell is safe (a planner avoids it), a wrong one is not, hence the tenth. Measured
+    with the default parameters (the truth by the paper's definitions):
+
+    * the quick subset, replayed (flat_floor, box_removal; 80 frames): over the whole scored
+      area 87 % / 89 % of the cells stay unknown, 8.7 of 8.7 and 8.9 of 9.8 (95 % of the
+      objective) with the former formula; over the cells in view 1.1 % / 1.0 %, 0.11 of 0.13
+      and 0.10 of 1.02 now, where box_removal's 0.88 s of clearing is the term that moves;
+    * the stage (depth, seed 1, the route that sees every box): Table I 1.0 mm, wrong cells
+      2.5 %, unknown in view 9.2 %, obstacles missed 49 % (riser cells included), 349 unsafe
+      cells: terms of 1.0, 2.5, 0.9, 2.5 and 3.5 of 10.3, none above a third.
+
     Attributes:
         table1_mm: Weight per millimetre of mean absolute Table I error.
         cell_error_pct: Weight per percent of seen cells labelled wrong.
-        unknown_pct: Weight per percent of the scored area left unknown (keeps the search from
-            buying accuracy by labelling less).
+        unknown_pct: Weight per percent of the cells in view left unknown (keeps the search
+            from buying accuracy by labelling less).
+        obstacle_missed_pct: Weight per percent of the seen obstacle cells not labelled
+            obstacle.
+        unsafe_cells: Weight per unsafe cell (floor on an obstacle, or floor > 20 mm off).
         clearing_s: Weight per second of event clearing time.
         missing_row_mm: Error charged for a Table I row without an estimate [mm].
         never_cleared_s: Clearing time charged when a footprint never clears [s].
@@ -54,6 +88,8 @@ class ObjectiveWeights:
     table1_mm: float = 1.0
     cell_error_pct: float = 1.0
     unknown_pct: float = 0.1
+    obstacle_missed_pct: float = 0.05
+    unsafe_cells: float = 0.01
     clearing_s: float = 1.0
     missing_row_mm: float = 50.0
     never_cleared_s: float = 10.0
@@ -65,10 +101,9 @@ class ObjectiveWeights:
                 raise TuneError(f"objective weight {f.name} must be a number, got {value!r}")
             if not math.isfinite(value) or value < 0:
                 raise TuneError(f"objective weight {f.name} must be finite and >= 0, got {value!r}")
-        if self.table1_mm == self.cell_error_pct == self.unknown_pct == self.clearing_s == 0:
+        if all(getattr(self, name) == 0 for name in TERM_NAMES):
             raise TuneError(
-                "objective weights table1_mm, cell_error_pct, unknown_pct and clearing_s are "
-                "all 0; at least one must be > 0"
+                f"objective weights {', '.join(TERM_NAMES)} are all 0; at least one must be > 0"
             )
 
     @classmethod
@@ -106,7 +141,10 @@ class ObjectiveTerms:
     Attributes:
         table1_mm: Mean absolute Table I error of the FOG [mm] (missing rows charged).
         cell_error_pct: Seen cells labelled wrong [%] (100 if none was seen).
-        unknown_pct: Cells of the scored area the FOG left unknown [%].
+        unknown_pct: Cells in view the FOG left unknown [%] (100 if no cell was in view).
+        obstacle_missed_pct: Seen true obstacle cells not labelled obstacle [%] (100 when
+            none is labelled so), None when the scored area holds no true obstacle.
+        unsafe_cells: Unsafe FOG floor cells.
         clearing_s: Mean event clearing time [s] (never-cleared charged), None without events.
         table1_rows: Number of Table I rows.
         seen_cells: Number of seen cells the cell accuracy is over.
@@ -115,6 +153,8 @@ class ObjectiveTerms:
     table1_mm: float
     cell_error_pct: float
     unknown_pct: float
+    obstacle_missed_pct: float | None
+    unsafe_cells: int
     clearing_s: float | None
     table1_rows: int
     seen_cells: int
@@ -123,6 +163,9 @@ class ObjectiveTerms:
         """The weighted objective of this recording (lower is better)."""
         total = weights.table1_mm * self.table1_mm + weights.cell_error_pct * self.cell_error_pct
         total += weights.unknown_pct * self.unknown_pct
+        if self.obstacle_missed_pct is not None:
+            total += weights.obstacle_missed_pct * self.obstacle_missed_pct
+        total += weights.unsafe_cells * self.unsafe_cells
         if self.clearing_s is not None:
             total += weights.clearing_s * self.clearing_s
         return float(total)
@@ -138,9 +181,10 @@ def objective_terms(
     """Reduce one report (DESIGN.md "Results", :func:`fogsim.eval.report.build_report`) to terms.
 
     Reads the FOG's Table I rows (``error_mm``; rows whose surface has no interior cell in the
-    scored area, ``surface_cells == 0``, are left out), its cell scores (``region``, ``seen``,
-    ``correct``) and the events (``fog_frames``: frames until the old footprint is cleared,
-    None = never).
+    scored area, ``surface_cells == 0``, are left out), its cell scores (``in_view``,
+    ``in_view_seen``, ``seen``, ``correct``, the obstacle class's ``recall`` and the obstacle
+    row of ``confusion``), ``safety.unsafe_cells`` and the events (``cleared_frames.fog``:
+    frames until the footprint is cleared, None = never or not seen).
 
     Args:
         report: A report as :func:`fogsim.run.runner.replay_report` returns it.
@@ -148,34 +192,42 @@ def objective_terms(
         frame_rate_hz: Frame rate of the recording, to turn clearing frames into seconds.
 
     Raises:
-        TuneError: the report has no Table I or cell scores (a run without ground truth), or
-            the frame rate is not positive.
+        TuneError: the report has no ground-truth figures (a run without ground truth), or the
+            frame rate is not positive.
     """
     if not frame_rate_hz > 0:
         raise TuneError(f"frame_rate_hz must be > 0, got {frame_rate_hz!r}")
-    if report.table1 is None or report.cells is None:
+    if report.table1 is None or report.cells is None or report.safety is None:
         raise TuneError(
-            f"the report of {report.scenario or 'real data'} has no Table I and cell scores; "
-            "the objective needs a run with ground truth"
+            f"the report of {report.scenario or 'real data'} has no Table I, cell and safety "
+            "scores; the objective needs a run with ground truth"
         )
     rows = [row for row in report.table1.fog if row.surface_cells != 0]
     errors = [weights.missing_row_mm if row.error_mm is None else abs(row.error_mm) for row in rows]
     table1_mm = sum(errors) / len(errors) if errors else 0.0
 
     cells = report.cells.fog
-    region, seen, correct = cells.region, cells.seen, cells.correct
+    seen, correct = cells.seen, cells.correct
     cell_error_pct = 100.0 * (1.0 - correct / seen) if seen else 100.0
-    unknown_pct = 100.0 * (1.0 - seen / region) if region else 100.0
+    unknown_pct = 100.0 * (1.0 - cells.in_view_seen / cells.in_view) if cells.in_view else 100.0
+    obstacle_row = cells.confusion.obstacle
+    recall = cells.classes.obstacle.recall
+    if obstacle_row.unknown + obstacle_row.floor + obstacle_row.obstacle == 0:
+        obstacle_missed_pct = None  # nothing in the scored area is an obstacle
+    else:
+        obstacle_missed_pct = 100.0 if recall is None else 100.0 * (1.0 - recall)
 
+    cleared = [event.cleared_frames.fog for event in report.events]
     clearing = [
-        weights.never_cleared_s if event.fog_frames is None else event.fog_frames / frame_rate_hz
-        for event in report.events
+        weights.never_cleared_s if frames is None else frames / frame_rate_hz for frames in cleared
     ]
     clearing_s = sum(clearing) / len(clearing) if clearing else None
     return ObjectiveTerms(
         table1_mm=float(table1_mm),
         cell_error_pct=float(cell_error_pct),
         unknown_pct=float(unknown_pct),
+        obstacle_missed_pct=obstacle_missed_pct,
+        unsafe_cells=report.safety.unsafe_cells,
         clearing_s=None if clearing_s is None else float(clearing_s),
         table1_rows=len(rows),
         seen_cells=seen,

@@ -12,6 +12,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from fogsim.config import RunParams, Scenario
+from fogsim.eval.report.quality import assess_quality
 from fogsim.eval.report.schema import (
     REPORT_FORMAT,
     REPORT_VERSION,
@@ -104,14 +105,27 @@ def build_report(
             round(float(duration_s) / wall, _WALL_DIGITS) if duration_s and wall > 0 else None
         ),
     )
+    scores = result.scores
     return Report(
         format=REPORT_FORMAT,
         version=REPORT_VERSION,
         scenario=scenario.name if scenario is not None else None,
         seed=scenario.seed if scenario is not None else None,
         source=source,
-        table1=result.scores.table1 if result.scores is not None else None,
-        cells=result.scores.cells if result.scores is not None else None,
+        quality=assess_quality(
+            frames=result.frames,
+            withdrawn=result.withdrawn,
+            frames_without_ground_plane=result.frames_without_ground_plane,
+            z_match=result.params.pipeline.use_z_match,
+            map_empty=result.archive.is_empty(),
+            scores=scores,
+        ),
+        table1=scores.table1 if scores is not None else None,
+        cells=scores.cells if scores is not None else None,
+        safety=scores.safety if scores is not None else None,
+        step_edges=scores.step_edges if scores is not None else (),
+        unseen_objects=scores.unseen_objects if scores is not None else (),
+        ceiling=scores.ceiling if scores is not None else None,
         events=result.events,
         timing=timing,
         pose_error=result.pose_error,

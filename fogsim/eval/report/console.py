@@ -2,7 +2,9 @@
 
 from __future__ import annotations
 
-from fogsim.eval.report.schema import Report
+from itertools import groupby
+
+from fogsim.eval.report.schema import Report, Safety, StepEdge
 
 NO_TRUTH = "Table I: no ground truth (nothing to score)."
 
@@ -11,10 +13,48 @@ def _num(value: float | None) -> str:
     return "-" if value is None else f"{value:.1f}"
 
 
+def _pct(value: float | None) -> str:
+    return "-" if value is None else f"{100 * value:.1f} %"
+
+
+def _safety_line(safety: Safety) -> str:
+    errors = safety.floor_height_error_mm
+    return (
+        f"unsafe cells: {safety.unsafe_cells} ({safety.floor_on_obstacle} floor on obstacle, "
+        f"{safety.floor_height_off} floor off > {safety.height_tolerance_mm:.0f} mm); "
+        f"floor height error p50 {_num(errors.p50)} / p95 {_num(errors.p95)} / "
+        f"max {_num(errors.max)} mm"
+    )
+
+
+def _step_edge_lines(edges: tuple[StepEdge, ...]) -> list[str]:
+    lines = ["step edges, median / max |error| mm (+ = toward the higher side):"]
+    for surface, rows in groupby(edges, key=lambda edge: edge.surface):
+        lines.append(
+            f"  {surface}: "
+            + "  ".join(
+                f"{row.edge} {_num(row.median_error_mm)} / {_num(row.max_abs_error_mm)}"
+                for row in rows
+            )
+        )
+    return lines
+
+
+def format_warnings(report: Report) -> list[str]:
+    """One ``WARNING`` line per reason the run is poor (none for a good run)."""
+    return [f"WARNING: poor run: {reason}" for reason in report.quality.reasons]
+
+
 def format_table1(report: Report) -> str:
-    """Table I (FOG and averaging side by side), cell accuracy and event clearing, as text."""
+    """The run's figures as text, one compact line each.
+
+    Table I (FOG and averaging side by side), cell accuracy, per-class recall and precision,
+    unsafe cells, step edges, objects never seen, the ceiling, the events (``cleared`` and
+    ``floor again``), and a WARNING line per reason the run is poor (also without ground
+    truth).
+    """
     if report.table1 is None or not report.table1.fog:
-        return NO_TRUTH
+        return "\n".join([NO_TRUTH, *format_warnings(report)])
     averaging = {row.name: row for row in report.table1.averaging}
     lines = [
         f"{'floor':<16}{'truth mm':>10}{'FOG mm':>10}{'err':>8}{'cells':>7}"
@@ -31,9 +71,23 @@ def format_table1(report: Report) -> str:
     if report.cells is not None and report.cells.fog.accuracy is not None:
         fog = report.cells.fog
         lines.append(f"cells labelled right: {100 * fog.accuracy:.1f} % of {fog.seen} seen")
-    for event in report.events:
+        floor, obstacle = fog.classes.floor, fog.classes.obstacle
         lines.append(
-            f"{event.kind} {event.object}: footprint cleared after "
-            f"FOG {event.fog_frames} / averaging {event.averaging_frames} frames"
+            f"floor: recall {_pct(floor.recall)}, precision {_pct(floor.precision)}; "
+            f"obstacle: recall {_pct(obstacle.recall)}, precision {_pct(obstacle.precision)}"
         )
+    if report.safety is not None:
+        lines.append(_safety_line(report.safety))
+    if report.step_edges:
+        lines.extend(_step_edge_lines(report.step_edges))
+    if report.unseen_objects:
+        lines.append(f"never seen: {', '.join(report.unseen_objects)}")
+    if report.ceiling is not None:
+        ceiling = report.ceiling
+        lines.append(
+            f"ceiling: {ceiling.cells} cells, |error| median {_num(ceiling.median_abs_error_mm)}"
+            f" / max {_num(ceiling.max_abs_error_mm)} mm"
+        )
+    lines.extend(event.text() for event in report.events)
+    lines.extend(format_warnings(report))
     return "\n".join(lines)

@@ -15,7 +15,7 @@ from typing import Literal
 from msgspec import UNSET, UnsetType
 
 REPORT_FORMAT = "fogsim-report"
-REPORT_VERSION = 1
+REPORT_VERSION = 2
 
 Source = Literal["simulation", "replay"]
 """Where the frames came from: a simulation, or a recording replayed."""
@@ -102,28 +102,68 @@ class Confusion:
 
 
 @dataclass(frozen=True)
+class ClassScores:
+    """How well the FOG finds one class (floor or obstacle), over the seen cells.
+
+    Only cells the FOG labels floor or obstacle count: a cell it leaves unknown is in neither
+    figure (``cells.fog.in_view_seen`` says how much it leaves unknown).
+
+    Attributes:
+        truth_seen: Seen cells whose truth is this class.
+        labelled: Seen cells the FOG labels this class.
+        true_positive: Seen cells of this class in both.
+        recall: ``true_positive / truth_seen``: the share of the class the FOG finds (None when
+            no seen cell is of the class).
+        precision: ``true_positive / labelled``: the share of the FOG's labels that are right
+            (None when the FOG labels no cell so).
+    """
+
+    truth_seen: int
+    labelled: int
+    true_positive: int
+    recall: float | None
+    precision: float | None
+
+
+@dataclass(frozen=True)
+class FogClasses:
+    """Recall and precision of the FOG's two labels."""
+
+    floor: ClassScores
+    obstacle: ClassScores
+
+
+@dataclass(frozen=True)
 class FogCellScores:
     """Cell labels and heights of the FOG against the truth.
 
     Attributes:
         region: Cells scored (those that were ever inside the map).
+        in_view: Region cells the camera saw: a depth measurement, placed with the true camera
+            pose, fell into the cell within the grid's height range in some frame.
         seen: Region cells the FOG labels floor or obstacle.
+        in_view_seen: Cells in view that the FOG labels floor or obstacle (the rest of
+            ``in_view`` it saw but left unknown).
         correct: Seen cells labelled as the truth.
         accuracy: ``correct / seen`` (None when nothing was seen).
         interior_seen: Seen cells that are interior (whole cell on one surface).
         interior_accuracy: Accuracy over those (None when there is none).
         confusion: Truth label → FOG label → count.
+        classes: Recall and precision of floor and obstacle over the seen cells.
         obstacle_height: Obstacle-top errors.
         floor_height: Floor-height errors of FOG floor cells over true floor.
     """
 
     region: int
+    in_view: int
     seen: int
+    in_view_seen: int
     correct: int
     accuracy: float | None
     interior_seen: int
     interior_accuracy: float | None
     confusion: Confusion
+    classes: FogClasses
     obstacle_height: ObstacleHeightStats
     floor_height: ErrorStats
 
@@ -173,11 +213,130 @@ class CellScores:
 
 
 @dataclass(frozen=True)
+class Percentiles:
+    """Percentiles of an absolute error [mm] over cells (None when no cell has one)."""
+
+    p50: float | None
+    p90: float | None
+    p95: float | None
+    p99: float | None
+    max: float | None
+
+
+@dataclass(frozen=True)
+class Safety:
+    """FOG floor cells a robot could not safely stand on (DESIGN.md "Ground truth").
+
+    A cell is *unsafe* when the FOG labels it floor and either the truth is obstacle there
+    (``floor_on_obstacle``) or the truth is floor more than ``height_tolerance_mm`` away from
+    the FOG's height (``floor_height_off``). Over the scored region (cells ever in the map).
+
+    Attributes:
+        unsafe_cells: ``floor_on_obstacle + floor_height_off``.
+        floor_on_obstacle: FOG floor where the truth is obstacle.
+        floor_height_off: FOG floor on true floor, height off by more than the tolerance.
+        height_tolerance_mm: The tolerance [mm] (20: a step a foot can stumble on).
+        positions_xy_m: World (x, y) cell centres [m] of the unsafe cells, worst first (the
+            largest height gap between the FOG's floor and the true top there: the floor's for
+            floor cells, the obstacle's for obstacle cells), at most 200.
+        floor_height_error_mm: Absolute floor-height error [mm] of FOG floor on true floor.
+    """
+
+    unsafe_cells: int
+    floor_on_obstacle: int
+    floor_height_off: int
+    height_tolerance_mm: float
+    positions_xy_m: tuple[tuple[float, float], ...]
+    floor_height_error_mm: Percentiles
+
+
+@dataclass(frozen=True)
+class StepEdge:
+    """Where the FOG puts one edge of a walkable surface, against the true edge.
+
+    Table I leaves a surface's border cells out; this is about exactly those. The edge is one
+    side of the object's footprint, named in the object's own frame (the world's when its yaw
+    is 0): ``x_min``, ``x_max``, ``y_min``, ``y_max``. Along the edge, one cell apart (its end
+    cells left out), the map's edge is where the FOG floor changes from the surface's height to
+    its neighbour's, looking up to 0.2 m to either side along the edge normal (cells labelled
+    obstacle or unknown in between put it in the middle of the gap). Only positions where the
+    true heights on the two sides differ by at least 10 mm count; an edge with none, or with no
+    cell seen, is not listed.
+
+    Attributes:
+        surface: The walkable object's name.
+        edge: ``x_min``, ``x_max``, ``y_min`` or ``y_max``.
+        cells: Positions along the edge where the map shows the step.
+        median_error_mm: Median signed error [mm] along the edge normal, **+ = toward the
+            higher side** (a riser the map puts toward a robot walking up is negative); None
+            when the map shows the step nowhere along the edge.
+        max_abs_error_mm: Largest absolute error [mm]; None likewise.
+    """
+
+    surface: str
+    edge: str
+    cells: int
+    median_error_mm: float | None
+    max_abs_error_mm: float | None
+
+
+@dataclass(frozen=True)
+class CeilingScores:
+    """The ceiling map (lowest thing above the floor) against the true ceiling.
+
+    Attributes:
+        cells: Region cells where both the truth and the map have a ceiling.
+        median_abs_error_mm: Median absolute ceiling error [mm] (None without cells).
+        max_abs_error_mm: Largest absolute ceiling error [mm] (None without cells).
+    """
+
+    cells: int
+    median_abs_error_mm: float | None
+    max_abs_error_mm: float | None
+
+
+@dataclass(frozen=True)
+class Quality:
+    """Whether the run's figures can be trusted at all (:mod:`fogsim.eval.report.quality`).
+
+    Attributes:
+        withdrawn_fraction: Frames withdrawn by the z-match rule / frames.
+        frames_without_ground_plane: Frames whose segmentation found no ground plane (with z
+            matching on, each of them is z-matched to the map or withdrawn).
+        map_empty: The FOG labelled no cell floor or obstacle in the whole run.
+        floor_right_fraction: Of the seen cells that are true floor, the share the FOG labels
+            floor within 20 mm of the true height (None without ground truth or such cells).
+        poor: One of the limits below is crossed.
+        reasons: One sentence per crossed limit (the console prints each as a WARNING).
+    """
+
+    withdrawn_fraction: float
+    frames_without_ground_plane: int
+    map_empty: bool
+    floor_right_fraction: float | None
+    poor: bool
+    reasons: tuple[str, ...]
+
+
+@dataclass(frozen=True)
 class ArchiveScores:
-    """Everything scored on the run's archive against the final truth."""
+    """Everything scored on the run's archive against the final truth.
+
+    Attributes:
+        table1: Table I of both maps.
+        cells: Cell scores.
+        safety: Unsafe FOG floor cells.
+        step_edges: One row per edge of a walkable surface in view.
+        unseen_objects: Objects present at the end none of whose cells the FOG ever labelled.
+        ceiling: Ceiling errors where the truth has a ceiling in the region, else None.
+    """
 
     table1: Table1
     cells: CellScores
+    safety: Safety
+    step_edges: tuple[StepEdge, ...]
+    unseen_objects: tuple[str, ...]
+    ceiling: CeilingScores | None
 
 
 @dataclass(frozen=True)
@@ -313,12 +472,20 @@ class Report:
 
     Attributes:
         format: Always ``fogsim-report``.
-        version: Schema version, 1.
+        version: Schema version, 2.
         scenario: Scenario name (None for real data).
         seed: Scenario seed (None for real data).
         source: ``simulation`` or ``replay``.
+        quality: Withdrawn frames, frames without a ground plane, an empty map; ``poor``.
         table1: Table I of both maps (None without ground truth).
         cells: Cell scores (None without ground truth).
+        safety: Unsafe FOG floor cells (None without ground truth).
+        step_edges: Edge position errors of the walkable surfaces in view (empty without
+            ground truth).
+        unseen_objects: Objects present at the end that the FOG never labelled (empty without
+            ground truth).
+        ceiling: Ceiling errors where the scene has something hanging in the mapped area
+            (None otherwise or without ground truth).
         events: One result per removed or moved object.
         timing: Frame counts and times.
         pose_error: Believed-vs-true camera pose error.
@@ -329,12 +496,17 @@ class Report:
     """
 
     format: Literal["fogsim-report"]
-    version: Literal[1]
+    version: Literal[2]
     scenario: str | None
     seed: int | None
     source: Source
+    quality: Quality
     table1: Table1 | None
     cells: CellScores | None
+    safety: Safety | None
+    step_edges: tuple[StepEdge, ...]
+    unseen_objects: tuple[str, ...]
+    ceiling: CeilingScores | None
     events: tuple[EventResult, ...]
     timing: Timing
     pose_error: PoseErrorStats
