@@ -197,23 +197,48 @@ class IntermediateFloorCells:
 
 
 @dataclass(frozen=True)
+class EventFrames:
+    """One event figure of both maps, in frames from the event's start frame.
+
+    None = never; also None when the map never saw the object before the event
+    (:class:`EventSeen` tells the two apart).
+    """
+
+    fog: int | None
+    averaging: int | None
+
+
+@dataclass(frozen=True)
+class EventSeen:
+    """Per map, whether it showed the object on its footprint in a frame before the event."""
+
+    fog: bool
+    averaging: bool
+
+
+@dataclass(frozen=True)
 class EventResult:
-    """How fast each map forgot a removed or moved object (frame counts from ``start_frame``).
+    """How fast each map forgot a removed or moved object (:mod:`fogsim.eval.events`).
 
     Attributes:
         object: The object's name.
         kind: ``remove`` or ``move``.
         at_s: Event time [s].
         start_frame: First frame at or after the event (None if the run ended before it).
-        footprint_cells: Cells of the object's old footprint.
-        old_top_mm: Highest old top over the footprint [mm] (None without footprint).
-        fog_frames: Frames until the FOG no longer shows the object (None = never).
-        averaging_frames: The same for the averaging baseline.
-        fog_frames_to_floor: Frames until 90 % of the footprint is FOG floor at the true height
-            (None = never).
-        averaging_frames_to_floor: The same for the baseline.
+        footprint_cells: Cells of the object's own footprint: its cells at the event (and, for a
+            move, the cells it slid over, less those it covers at the end) that no other object
+            covers from the event on.
+        excluded_cells: Cells of the object's that were left out of the footprint because
+            another object covers them from the event on.
+        old_top_mm: The object's top [mm] (None without footprint).
+        seen: Per map, whether it showed the object on its footprint before the event; a map
+            that did not gets no figure.
+        cleared_frames: Frames until no footprint cell shows the object (no obstacle, no height
+            nearer its top than the floor).
+        floor_again_frames: Frames until at least 90 % of the footprint is floor within 10 mm
+            of the true height.
         intermediate_floor_cells: Moves only: floor cells at heights between the floor and the
-            old top in the swept area.
+            object's top in the footprint.
     """
 
     object: str
@@ -221,11 +246,11 @@ class EventResult:
     at_s: float
     start_frame: int | None
     footprint_cells: int
+    excluded_cells: int
     old_top_mm: float | None
-    fog_frames: int | None
-    averaging_frames: int | None
-    fog_frames_to_floor: int | None
-    averaging_frames_to_floor: int | None
+    seen: EventSeen
+    cleared_frames: EventFrames
+    floor_again_frames: EventFrames
     intermediate_floor_cells: IntermediateFloorCells | UnsetType = UNSET
 
 
