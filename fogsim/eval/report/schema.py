@@ -207,6 +207,20 @@ class EventFrames:
     fog: int | None
     averaging: int | None
 
+    def text(self, seen: EventSeen) -> str:
+        """Both maps' figure as text: ``FOG 12 / averaging never`` (or ``not seen``)."""
+        return (
+            f"FOG {_frames_text(self.fog, seen.fog)} / "
+            f"averaging {_frames_text(self.averaging, seen.averaging)}"
+        )
+
+
+def _frames_text(frames: int | None, seen: bool) -> str:
+    """One map's event figure: the frame count, ``never``, or ``not seen`` (no figure)."""
+    if not seen:
+        return "not seen"
+    return "never" if frames is None else str(frames)
+
 
 @dataclass(frozen=True)
 class EventSeen:
@@ -252,6 +266,20 @@ class EventResult:
     cleared_frames: EventFrames
     floor_again_frames: EventFrames
     intermediate_floor_cells: IntermediateFloorCells | UnsetType = UNSET
+
+    def text(self) -> str:
+        """The event's figures in the words of the report, for the console and the pictures.
+
+        ``remove box (63 cells): cleared FOG 12 / averaging never; floor again FOG 9 /
+        averaging never (frames after the event)``.
+        """
+        head = f"{self.kind} {self.object} ({self.footprint_cells} cells)"
+        if self.start_frame is None:
+            return f"{head}: the run ended before the event"
+        return (
+            f"{head}: cleared {self.cleared_frames.text(self.seen)}; "
+            f"floor again {self.floor_again_frames.text(self.seen)} (frames after the event)"
+        )
 
 
 @dataclass(frozen=True)
