@@ -134,12 +134,12 @@ def difference_figure(maps: RunMaps, title: str) -> tuple[Figure, Axes]:
     for name, cells in unseen_objects(maps).items():
         segments = outline_segments(cells, maps.cell_centers_xy, maps.cell_m)
         ax.add_collection(LineCollection(segments, colors=[OUTLINE_RGB], linewidths=2.0))
-        x, y = maps.cell_centers_xy[cells].mean(axis=0)
+        xy = maps.cell_centers_xy[cells]
         ax.annotate(
             f"{name}: never seen",
-            (x, y),
+            (xy[:, 0].mean(), xy[:, 1].max() + maps.cell_m),  # above the outline
             ha="center",
-            va="center",
+            va="bottom",
             fontsize=8,
             bbox={"boxstyle": "round", "facecolor": "white", "alpha": 0.8, "linewidth": 0},
         )
