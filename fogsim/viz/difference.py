@@ -123,7 +123,7 @@ def outline_segments(
 def difference_figure(maps: RunMaps, title: str) -> tuple[Figure, Axes]:
     """The difference picture as a figure and its map axes (world metres)."""
     truth = _truth(maps)
-    fig = new_figure(9.0, 6.5)
+    fig = new_figure(9.0, 6.5, constrained=True)
     ax = fig.add_subplot()
     ax.imshow(
         difference_rgb(maps),
@@ -151,13 +151,14 @@ def difference_figure(maps: RunMaps, title: str) -> tuple[Figure, Axes]:
         for name, colour in CLASS_RGB.items()
     ]
     handles.append(Patch(color=UNKNOWN_RGB, label="never labelled"))
-    ax.legend(handles=handles, loc="upper left", bbox_to_anchor=(0.0, -0.1), ncol=4, fontsize=8)
+    fig.legend(handles=handles, loc="outside lower center", ncol=4, fontsize=8)
     ax.set_xlabel("x [m]")
     ax.set_ylabel("y [m]")
     ax.set_aspect("equal")
     ax.set_title(
-        f"{title}: FOG vs truth (truth → FOG); floor cells by height error, "
-        f"{off} of {counts['floor → floor']} more than 20 mm off",
+        f"{title}: FOG against the truth (labels: truth → FOG)\n"
+        f"floor → floor cells by height error: {off} of {counts['floor → floor']} "
+        "more than 20 mm off",
         fontsize=10,
     )
     colorbar(
@@ -168,7 +169,6 @@ def difference_figure(maps: RunMaps, title: str) -> tuple[Figure, Axes]:
         cmap=ERROR_CMAP,
         extend="both",
     )
-    fig.subplots_adjust(bottom=0.2)
     return fig, ax
 
 

@@ -67,9 +67,14 @@ def colorbar(
     fig.colorbar(mappable, ax=ax, label=label, shrink=0.85, extend=extend)
 
 
-def new_figure(width_in: float, height_in: float) -> Figure:
-    """An empty figure of the given size [inch] at :data:`PICTURE_DPI`."""
-    return plt.figure(figsize=(width_in, height_in), dpi=PICTURE_DPI)
+def new_figure(width_in: float, height_in: float, *, constrained: bool = False) -> Figure:
+    """An empty figure of the given size [inch] at :data:`PICTURE_DPI`.
+
+    ``constrained``: matplotlib's constrained layout places titles, colour bars and legends
+    outside the axes without overlap.
+    """
+    layout = "constrained" if constrained else None
+    return plt.figure(figsize=(width_in, height_in), dpi=PICTURE_DPI, layout=layout)
 
 
 def save_png(fig: Figure, path: str | os.PathLike[str]) -> Path:
