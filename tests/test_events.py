@@ -131,11 +131,16 @@ def test_each_object_has_its_own_footprint_and_known_frame_counts():
     assert a.cleared_frames == EventFrames(fog=3, averaging=None)  # None: never
     assert a.floor_again_frames == EventFrames(fog=6, averaging=None)
     assert a.intermediate_floor_cells is UNSET
+    assert a.text() == (
+        "remove box_a (20 cells): cleared FOG 3 / averaging never; "
+        "floor again FOG 6 / averaging never (frames after the event)"
+    )
 
     assert (b.object, b.start_frame, b.footprint_cells, b.excluded_cells) == ("box_b", 20, 25, 0)
     assert b.seen == EventSeen(fog=True, averaging=False)
     assert b.cleared_frames == EventFrames(fog=5, averaging=None)  # None: not seen
     assert b.floor_again_frames == EventFrames(fog=5, averaging=None)
+    assert "cleared FOG 5 / averaging not seen; floor again FOG 5 / averaging not seen" in b.text()
 
     # The slider's footprint: the 27 × 3 cells it slid over less the 2 × 3 it ends on. It stands
     # on its footprint until it arrives at 6 s (frame 60); the maps follow it at once.
@@ -208,3 +213,4 @@ def test_an_event_after_the_last_frame_has_no_start_and_no_figure():
     assert result.start_frame is None and result.footprint_cells == 25
     assert result.seen == EventSeen(fog=True, averaging=True)
     assert result.cleared_frames == EventFrames(None, None)
+    assert result.text() == "remove box (25 cells): the run ended before the event"
