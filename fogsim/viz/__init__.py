@@ -1,1 +1,5 @@
-"""Layer 8 — pictures: the paper's figures and the run video from typed results."""
+"""Layer 8 — pictures: the paper's figures, the difference picture and the run video.
+
+Modules: ``style`` (backend, colours, extents, saving), ``pictures`` (Fig. 7, 3 and 5, the
+video, :func:`~fogsim.viz.pictures.write_pictures`) and ``difference`` (``difference.png``).
+"""

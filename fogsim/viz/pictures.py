@@ -1,27 +1,24 @@
 """Pictures of a run (matplotlib, Agg backend) and the optional MP4 (OpenCV).
 
-* ``fog_map.png`` — the paper's Fig. 7: the FOG over everything the robot mapped (each cell's
-  last value while it was inside the robot-centred grid): floor height in colour, obstacles
-  black with a cross coloured by their coarse height, unknown grey, a colour bar in mm.
-* ``fig3_panels.png`` — Fig. 3's four panels on the final grid: (a) the world (true floor and
-  obstacle heights), (b) the floor height map, (c) the 3-D occupancy grid (occupied cells),
-  (d) the FOG.
-* ``fig5_comparison.png`` — Fig. 5 for scenarios with events: camera image, averaging map and
-  FOG just before the first event and at the end of the run.
+Every map picture shows the whole archive (every cell that was ever inside the robot-centred
+grid, each with its last value there, :class:`fogsim.eval.maps.RunMaps`), not the last grid:
 
-Maps are arrays indexed ``[ix, iy]``; they are drawn with x to the right and y up, world
-metres on the axes.
+* ``fog_map.png`` — the paper's Fig. 7: the FOG: floor height in colour, obstacles black with a
+  cross coloured by their coarse height, unknown grey, a colour bar in mm.
+* ``fig3_panels.png`` — Fig. 3's four panels: (a) the world (true floor and obstacle heights),
+  (b) the floor height map, (c) the 3-D occupancy grid (occupied cells; the mapper keeps it for
+  the last grid only), (d) the FOG.
+* ``difference.png`` — runs with ground truth: the FOG against the truth
+  (:mod:`fogsim.viz.difference`).
+* ``fig5_comparison.png`` — Fig. 5 for scenarios with events: camera image, averaging map and
+  FOG just before the first event and at the end of the run, and each event's figures
+  (cleared, floor again) in the report's words.
 """
 
 from __future__ import annotations
 
 import os
-from collections.abc import Sequence
 from pathlib import Path
-
-import matplotlib
-
-matplotlib.use("Agg")
 
 import cv2
 import matplotlib.pyplot as plt
@@ -31,35 +28,23 @@ from matplotlib.colors import Normalize
 from matplotlib.figure import Figure
 from numpy.typing import NDArray
 
-from fogsim.atomic import write_atomic
 from fogsim.config import Scenario
 from fogsim.data.frame import Frame
-from fogsim.eval.archive import WorldArchive
+from fogsim.eval.maps import RunMaps, archive_maps
 from fogsim.eval.result import RunResult
 from fogsim.mapping.pipeline import Pipeline
+from fogsim.viz.difference import draw_difference
+from fogsim.viz.style import (
+    CMAP,
+    OBSTACLE_RGB,
+    UNKNOWN_RGB,
+    colorbar,
+    extent,
+    height_norm,
+    new_figure,
+    save_png,
+)
 from mapper.grid import CellType
-
-CMAP = "viridis"
-UNKNOWN_RGB = (0.62, 0.62, 0.62)
-OBSTACLE_RGB = (0.0, 0.0, 0.0)
-
-
-def _extent(centers: NDArray[np.float64], cell_m: float) -> tuple[float, float, float, float]:
-    return (
-        float(centers[0, 0, 0] - cell_m / 2),
-        float(centers[-1, 0, 0] + cell_m / 2),
-        float(centers[0, 0, 1] - cell_m / 2),
-        float(centers[0, -1, 1] + cell_m / 2),
-    )
-
-
-def _height_norm(*heights_m: NDArray[np.floating]) -> Normalize:
-    values = np.concatenate([np.asarray(h, dtype=np.float64).ravel() for h in heights_m])
-    values = values[np.isfinite(values)] * 1000.0
-    if not values.size:
-        return Normalize(0.0, 100.0)
-    low, high = float(np.min(values)), float(np.max(values))
-    return Normalize(low, max(high, low + 20.0))
 
 
 def fog_rgb(
@@ -94,7 +79,12 @@ def _draw_fog(
     cell_m: float,
     norm: Normalize,
 ) -> None:
-    ax.imshow(fog_rgb(types, heights, norm), origin="lower", extent=_extent(centers, cell_m))
+    ax.imshow(
+        fog_rgb(types, heights, norm),
+        origin="lower",
+        extent=extent(centers, cell_m),
+        interpolation="nearest",
+    )
     obstacle = np.asarray(types) == CellType.OBSTACLE
     if obstacle.any():
         xy = centers[obstacle]
@@ -113,77 +103,60 @@ def _draw_fog(
     ax.set_aspect("equal")
 
 
-def _colorbar(
-    fig: Figure, ax: Axes | Sequence[Axes], norm: Normalize, label: str = "height [mm]"
-) -> None:
-    fig.colorbar(plt.cm.ScalarMappable(norm=norm, cmap=CMAP), ax=ax, label=label, shrink=0.85)
+def _fog_norm(maps: RunMaps) -> Normalize:
+    """Height colours of a FOG: over its floor and obstacle heights."""
+    return height_norm(np.where(maps.fog_types != CellType.UNKNOWN, maps.fog_heights_m, np.nan))
 
 
-def _save(fig: Figure, path: Path) -> Path:
-    write_atomic(path, lambda handle: fig.savefig(handle, format="png", dpi=110))
-    plt.close(fig)
-    return path
-
-
-def _crop_to_visited(archive: WorldArchive) -> tuple[slice, slice]:
-    visited = archive.visited & (archive.fog_types != CellType.UNKNOWN)
-    if not visited.any():
-        return slice(None), slice(None)
-    ix, iy = np.nonzero(visited)
-    pad = 3
-    return (
-        slice(max(0, ix.min() - pad), ix.max() + pad + 1),
-        slice(max(0, iy.min() - pad), iy.max() + pad + 1),
-    )
-
-
-def draw_fog_map(result: RunResult, title: str, path: Path) -> Path:
-    """Fig. 7: the archived FOG of the run."""
-    archive = result.archive
-    sx, sy = _crop_to_visited(archive)
-    centers = archive.cell_centers_xy()[sx, sy]
-    types = archive.fog_types[sx, sy]
-    heights = archive.fog_heights_m[sx, sy]
-    floor_heights = np.where(types == CellType.FLOOR, heights, np.nan)
-    norm = _height_norm(floor_heights, np.where(types == CellType.OBSTACLE, heights, np.nan))
-    fig, ax = plt.subplots(figsize=(8, 6))
-    _draw_fog(ax, types, heights, centers, archive.cell_m, norm)
-    _colorbar(fig, ax, norm)
+def fog_map_figure(maps: RunMaps, title: str) -> tuple[Figure, Axes]:
+    """Fig. 7: the FOG of the whole archive, as a figure and its map axes."""
+    norm = _fog_norm(maps)
+    fig = new_figure(8.0, 6.0)
+    ax = fig.add_subplot()
+    _draw_fog(ax, maps.fog_types, maps.fog_heights_m, maps.cell_centers_xy, maps.cell_m, norm)
+    colorbar(fig, ax, norm)
     ax.set_title(f"{title}: floor and obstacle grid (grey unknown, black obstacle)")
-    return _save(fig, path)
+    return fig, ax
 
 
-def draw_fig3(result: RunResult, title: str, path: Path) -> Path:
-    """Fig. 3: world, floor map, 3-D occupancy grid, FOG on the final grid."""
+def draw_fog_map(maps: RunMaps, title: str, path: Path) -> Path:
+    """Write Fig. 7 (``fog_map.png``)."""
+    fig, _ = fog_map_figure(maps, title)
+    return save_png(fig, path)
+
+
+def draw_fig3(result: RunResult, maps: RunMaps, title: str, path: Path) -> Path:
+    """Fig. 3: world, floor map, 3-D occupancy grid (last grid), FOG of the whole archive."""
     mapper = result.mapper
     g = mapper.geometry
-    centers = g.cell_centers_xy()
-    cell_m = g.cell_m
-    floor = mapper.floor()
-    types, heights = mapper.fog()
-    truth = result.final_truth
-    norm = _height_norm(floor, heights)
-    fig = plt.figure(figsize=(12, 10))
+    centers, cell_m = maps.cell_centers_xy, maps.cell_m
+    area = extent(centers, cell_m)
+    norm = _fog_norm(maps)
+    fig = new_figure(12.0, 10.0)
     ax_a = fig.add_subplot(2, 2, 1)
-    if truth is not None:
+    if maps.truth is not None:
+        truth = maps.truth
         world = np.where(np.isfinite(truth.floor_m), truth.floor_m, truth.obstacle_top_m)
-        norm = _height_norm(floor, heights, world)
-        ax_a.imshow(heights_rgb(world, norm), origin="lower", extent=_extent(centers, cell_m))
+        norm = height_norm(maps.floor_m, maps.fog_heights_m, world)
+        ax_a.imshow(heights_rgb(world, norm), origin="lower", extent=area, interpolation="nearest")
         ax_a.set_title("(a) world: true floor / obstacle tops")
     elif result.last_depth_m is not None:
         ax_a.imshow(result.last_depth_m, cmap="magma")
         ax_a.set_title("(a) last depth image")
     ax_b = fig.add_subplot(2, 2, 2)
-    ax_b.imshow(heights_rgb(floor, norm), origin="lower", extent=_extent(centers, cell_m))
+    ax_b.imshow(
+        heights_rgb(maps.floor_m, norm), origin="lower", extent=area, interpolation="nearest"
+    )
     ax_b.set_title("(b) floor height map (grey invalid)")
     ax_c = fig.add_subplot(2, 2, 3, projection="3d")
     occupied = mapper.occupancy() > mapper.params.p_occ
     ix, iy, iz = np.nonzero(occupied)
     if ix.size:
+        grid_centers = g.cell_centers_xy()
         z = g.z_min_m + (iz + 0.5) * g.layer_m
         ax_c.scatter(
-            centers[ix, iy, 0],
-            centers[ix, iy, 1],
+            grid_centers[ix, iy, 0],
+            grid_centers[ix, iy, 1],
             z,
             c=z * 1000.0,
             cmap=CMAP,
@@ -192,51 +165,68 @@ def draw_fig3(result: RunResult, title: str, path: Path) -> Path:
             s=4,
             depthshade=False,
         )
-    ax_c.set_title("(c) 3-D occupancy grid (occupied cells)")
+    ax_c.set_xlim(area[0], area[1])
+    ax_c.set_ylim(area[2], area[3])
+    ax_c.set_title("(c) 3-D occupancy grid at the last frame (occupied cells)")
     ax_c.set_xlabel("x [m]")
     ax_c.set_ylabel("y [m]")
     ax_c.set_zlabel("z [m]")
     ax_d = fig.add_subplot(2, 2, 4)
-    _draw_fog(ax_d, types, heights, centers, cell_m, norm)
+    _draw_fog(ax_d, maps.fog_types, maps.fog_heights_m, centers, cell_m, norm)
     ax_d.set_title("(d) floor and obstacle grid")
     for ax in (ax_a, ax_b):
         ax.set_xlabel("x [m]")
         ax.set_ylabel("y [m]")
-    _colorbar(fig, [ax_b, ax_d], norm)
+    colorbar(fig, [ax_b, ax_d], norm)
     fig.suptitle(f"{title}: Fig. 3 panels")
-    return _save(fig, path)
+    return save_png(fig, path)
 
 
 def draw_fig5(result: RunResult, title: str, path: Path, cell_m: float) -> Path:
     """Fig. 5: camera, averaging baseline and FOG before the first event and at the end."""
     snaps = result.snapshots
     all_heights = [s.baseline_heights_m for s in snaps] + [s.fog_heights_m for s in snaps]
-    norm = _height_norm(*all_heights)
-    fig, axes = plt.subplots(len(snaps), 3, figsize=(14, 4.6 * len(snaps)), squeeze=False)
+    norm = height_norm(*all_heights)
+    fig = new_figure(14.0, 4.6 * len(snaps) + 0.3 * len(result.events))
+    axes = fig.subplots(len(snaps), 3, squeeze=False)
     for row, snap in zip(axes, snaps, strict=True):
         row[0].imshow(snap.depth_m, cmap="magma")
         row[0].set_title(f"{snap.label}: depth image, frame {snap.frame_index}")
         row[0].axis("off")
-        extent = _extent(snap.cell_centers_xy, cell_m)
-        row[1].imshow(heights_rgb(snap.baseline_heights_m, norm), origin="lower", extent=extent)
+        area = extent(snap.cell_centers_xy, cell_m)
+        row[1].imshow(heights_rgb(snap.baseline_heights_m, norm), origin="lower", extent=area)
         row[1].set_title(f"{snap.label}: averaging (Kagami)")
         _draw_fog(row[2], snap.fog_types, snap.fog_heights_m, snap.cell_centers_xy, cell_m, norm)
         row[2].set_title(f"{snap.label}: FOG (ours)")
-    _colorbar(fig, axes[:, 1:].ravel().tolist(), norm)
+    colorbar(fig, axes[:, 1:].ravel().tolist(), norm)
     fig.suptitle(f"{title}: averaging vs FOG (Fig. 5)")
-    return _save(fig, path)
+    fig.text(
+        0.5,
+        0.01,
+        "\n".join(event.text() for event in result.events),
+        ha="center",
+        va="bottom",
+        fontsize=9,
+    )
+    return save_png(fig, path)
 
 
 def write_pictures(
     result: RunResult, scenario: Scenario | None, out_dir: str | os.PathLike[str]
 ) -> list[Path]:
-    """Write the run's PNGs into ``out_dir``; returns their paths."""
+    """Write the run's PNGs into ``out_dir``; returns their paths.
+
+    ``result.final_truth`` must be the truth on the archive's cells (or None without truth).
+    """
     out = Path(out_dir)
     title = (scenario.name if scenario is not None else None) or "run"
+    maps = archive_maps(result.archive, result.final_truth)
     paths = [
-        draw_fog_map(result, title, out / "fog_map.png"),
-        draw_fig3(result, title, out / "fig3_panels.png"),
+        draw_fog_map(maps, title, out / "fog_map.png"),
+        draw_fig3(result, maps, title, out / "fig3_panels.png"),
     ]
+    if maps.truth is not None:
+        paths.append(draw_difference(maps, title, out / "difference.png"))
     if result.snapshots:
         paths.append(draw_fig5(result, title, out / "fig5_comparison.png", result.archive.cell_m))
     return paths

@@ -356,23 +356,62 @@ class IntermediateFloorCells:
 
 
 @dataclass(frozen=True)
+class EventFrames:
+    """One event figure of both maps, in frames from the event's start frame.
+
+    None = never; also None when the map never saw the object before the event
+    (:class:`EventSeen` tells the two apart).
+    """
+
+    fog: int | None
+    averaging: int | None
+
+    def text(self, seen: EventSeen) -> str:
+        """Both maps' figure as text: ``FOG 12 / averaging never`` (or ``not seen``)."""
+        return (
+            f"FOG {_frames_text(self.fog, seen.fog)} / "
+            f"averaging {_frames_text(self.averaging, seen.averaging)}"
+        )
+
+
+def _frames_text(frames: int | None, seen: bool) -> str:
+    """One map's event figure: the frame count, ``never``, or ``not seen`` (no figure)."""
+    if not seen:
+        return "not seen"
+    return "never" if frames is None else str(frames)
+
+
+@dataclass(frozen=True)
+class EventSeen:
+    """Per map, whether it showed the object on its footprint in a frame before the event."""
+
+    fog: bool
+    averaging: bool
+
+
+@dataclass(frozen=True)
 class EventResult:
-    """How fast each map forgot a removed or moved object (frame counts from ``start_frame``).
+    """How fast each map forgot a removed or moved object (:mod:`fogsim.eval.events`).
 
     Attributes:
         object: The object's name.
         kind: ``remove`` or ``move``.
         at_s: Event time [s].
         start_frame: First frame at or after the event (None if the run ended before it).
-        footprint_cells: Cells of the object's old footprint.
-        old_top_mm: Highest old top over the footprint [mm] (None without footprint).
-        fog_frames: Frames until the FOG no longer shows the object (None = never).
-        averaging_frames: The same for the averaging baseline.
-        fog_frames_to_floor: Frames until 90 % of the footprint is FOG floor at the true height
-            (None = never).
-        averaging_frames_to_floor: The same for the baseline.
+        footprint_cells: Cells of the object's own footprint: its cells at the event (and, for a
+            move, the cells it slid over, less those it covers at the end) that no other object
+            covers from the event on.
+        excluded_cells: Cells of the object's that were left out of the footprint because
+            another object covers them from the event on.
+        old_top_mm: The object's top [mm] (None without footprint).
+        seen: Per map, whether it showed the object on its footprint before the event; a map
+            that did not gets no figure.
+        cleared_frames: Frames until no footprint cell shows the object (no obstacle, no height
+            nearer its top than the floor).
+        floor_again_frames: Frames until at least 90 % of the footprint is floor within 10 mm
+            of the true height.
         intermediate_floor_cells: Moves only: floor cells at heights between the floor and the
-            old top in the swept area.
+            object's top in the footprint.
     """
 
     object: str
@@ -380,12 +419,26 @@ class EventResult:
     at_s: float
     start_frame: int | None
     footprint_cells: int
+    excluded_cells: int
     old_top_mm: float | None
-    fog_frames: int | None
-    averaging_frames: int | None
-    fog_frames_to_floor: int | None
-    averaging_frames_to_floor: int | None
+    seen: EventSeen
+    cleared_frames: EventFrames
+    floor_again_frames: EventFrames
     intermediate_floor_cells: IntermediateFloorCells | UnsetType = UNSET
+
+    def text(self) -> str:
+        """The event's figures in the words of the report, for the console and the pictures.
+
+        ``remove box (63 cells): cleared FOG 12 / averaging never; floor again FOG 9 /
+        averaging never (frames after the event)``.
+        """
+        head = f"{self.kind} {self.object} ({self.footprint_cells} cells)"
+        if self.start_frame is None:
+            return f"{head}: the run ended before the event"
+        return (
+            f"{head}: cleared {self.cleared_frames.text(self.seen)}; "
+            f"floor again {self.floor_again_frames.text(self.seen)} (frames after the event)"
+        )
 
 
 @dataclass(frozen=True)
