@@ -45,15 +45,18 @@ def test_run_replay_writes_report_pictures_video_and_prints_table1(
     )
     assert code == 0, capsys.readouterr().err
     text = capsys.readouterr().out
-    assert "ground" in text and "footprint cleared after FOG" in text
+    assert "ground" in text and "remove flat_box (" in text and "cleared FOG " in text
     report = json.loads((out / "report.json").read_text())
     assert report["source"] == "replay" and report["scenario"] == "box_removal"
     assert report["params"]["mapper"]["p_occ"] == 0.8
-    assert report["events"][0]["fog_frames"] <= 25
-    assert report["events"][0]["averaging_frames"] is None
-    for name in ("fog_map.png", "fig3_panels.png", "fig5_comparison.png", "run.mp4"):
+    (event,) = report["events"]
+    assert event["seen"] == {"fog": True, "averaging": True}
+    assert event["cleared_frames"]["fog"] <= 25
+    assert event["cleared_frames"]["averaging"] is None
+    pictures = ["fog_map.png", "fig3_panels.png", "difference.png", "fig5_comparison.png"]
+    for name in [*pictures, "run.mp4", "maps.npz"]:
         assert (out / name).stat().st_size > 1000, name
-    assert report["pictures"] == ["fog_map.png", "fig3_panels.png", "fig5_comparison.png"]
+    assert report["pictures"] == pictures
 
 
 def test_replay_is_deterministic(removal_recording, tmp_path):

@@ -58,7 +58,7 @@ def test_stage_matches_the_paper_course():
         abs=1e-12,
     )
     assert sum(not o.walkable for o in stage.objects) >= 3
-    assert stage.robot.start == (0.3, 0.5, 0.0)
+    assert stage.robot.start == (0.0, 0.5, 0.0)  # the stage's near edge: every box in view
     assert stage.camera.width == 88 and stage.camera.height == 72
     assert stage.camera.fov_deg == (47.0, 39.0)
 
@@ -190,14 +190,16 @@ def test_parameter_tables_are_checked_against_the_parameter_classes():
 # --------------------------------------------------------------------- known answers per file
 
 SHIPPED = {
-    # name: (seed, robot model, camera mode, (bias, noise, head bias, head noise) [deg], objects)
-    "box_removal": (2, "icub", "depth", (0.5, 0.2, 0.5, 0.2), 1),
-    "flat_floor": (5, "icub", "depth", (0.05, 0.02, 4.0, 0.3), 0),
-    "flat_floor_talos": (5, "talos", "depth", (0.05, 0.02, 4.0, 0.3), 0),
-    "moving_box": (3, "icub", "depth", (0.5, 0.2, 0.5, 0.2), 1),
-    "simulated_world": (4, "icub", "ideal", (0.0, 0.0, 0.0, 0.0), 4),
-    "stage": (1, "icub", "depth", (0.05, 0.02, 4.0, 0.3), 9),
-    "table": (6, "icub", "depth", (0.05, 0.02, 4.0, 0.3), 2),
+    # name: (seed, robot model, start x [m], camera mode,
+    #        (bias, noise, head bias, head noise) [deg], objects)
+    "box_removal": (2, "icub", 0.3, "depth", (0.5, 0.2, 0.5, 0.2), 1),
+    "flat_floor": (5, "icub", 0.3, "depth", (0.05, 0.02, 4.0, 0.3), 0),
+    "flat_floor_talos": (5, "talos", 0.3, "depth", (0.05, 0.02, 4.0, 0.3), 0),
+    "moving_box": (3, "icub", 0.3, "depth", (0.5, 0.2, 0.5, 0.2), 1),
+    "simulated_world": (4, "icub", 0.3, "ideal", (0.0, 0.0, 0.0, 0.0), 4),
+    "stage": (1, "icub", 0.0, "depth", (0.05, 0.02, 4.0, 0.3), 9),
+    "stairs": (1, "icub", 0.3, "depth", (0.05, 0.02, 4.0, 0.3), 4),
+    "table": (6, "icub", 0.3, "depth", (0.05, 0.02, 4.0, 0.3), 2),
 }
 
 
@@ -216,10 +218,10 @@ def _types(value: object) -> object:
 @pytest.mark.parametrize("path", find_scenario_files(), ids=lambda p: p.stem)
 def test_every_shipped_file_decodes_to_its_known_values(path):
     scenario = load_scenario(path)
-    seed, model, mode, encoders, n_objects = SHIPPED[path.stem]
+    seed, model, start_x, mode, encoders, n_objects = SHIPPED[path.stem]
     assert scenario.name == path.stem and scenario.source_path == path
     assert scenario.seed == seed and scenario.frame_rate_hz == 12.5
-    assert scenario.robot == RobotSpec(model=model, start=(0.3, 0.5, 0.0))
+    assert scenario.robot == RobotSpec(model=model, start=(start_x, 0.5, 0.0))
     assert scenario.camera.mode == mode and scenario.camera.fov_deg == (47.0, 39.0)
     e = scenario.encoders
     assert (e.bias_deg, e.noise_deg, e.head_bias_deg, e.head_noise_deg) == encoders
@@ -383,6 +385,6 @@ def test_find_scenario_files_by_name_path_directory_or_nothing(tmp_path):
         find_scenario_files("nope")
     with pytest.raises(ScenarioError, match=r"no scenario files \(\*\.toml\) in"):
         find_scenario_files(tmp_path)
-    with pytest.raises(ScenarioError, match="is a directory of 7 scenario files"):
+    with pytest.raises(ScenarioError, match="is a directory of 8 scenario files"):
         load_scenario(SCENARIOS_DIR)
     assert CAMERA_MODES == ("ideal", "depth", "stereo")

@@ -1,18 +1,25 @@
-"""Seeds: specs, mean and worst over seeds, the seeds runner, --strict; contract stand-ins."""
+"""Seeds: specs, mean and worst over seeds, the seeds runner, --strict."""
 
 from __future__ import annotations
 
 import dataclasses
 from collections.abc import Sequence
-from dataclasses import dataclass
 
 import pytest
-from report_factory import make_report, row
+from report_factory import GOOD, make_report, row, safety_with
+from report_factory import event as factory_event
 
 from fogsim.cli import main
 from fogsim.errors import FogsimError
 from fogsim.eval.report.io import load_json, load_report
-from fogsim.eval.report.schema import FogCellScores, Report
+from fogsim.eval.report.schema import (
+    ClassScores,
+    EventFrames,
+    EventResult,
+    EventSeen,
+    Report,
+    StepEdge,
+)
 from fogsim.run.baseline import NEVER_FRAMES
 from fogsim.run.seeds import (
     FigureStats,
@@ -26,99 +33,20 @@ from fogsim.run.seeds import (
     worst_lines,
 )
 
-# --- Stand-ins for the issue-10 contract's report additions (the score and events helpers'
-# schema). They carry the contract's field names so that hand-made reports reach the code that
-# reads them; once the schema lands, use its classes and let report_factory fill them.
-
-
-@dataclass(frozen=True)
-class ClassScores:
-    truth_seen: int
-    labelled: int
-    true_positive: int
-    recall: float | None
-    precision: float | None
-
-
-@dataclass(frozen=True)
-class FogClasses:
-    floor: ClassScores
-    obstacle: ClassScores
-
-
-@dataclass(frozen=True, kw_only=True)
-class ContractFogCellScores(FogCellScores):
-    classes: FogClasses
-
-
-@dataclass(frozen=True)
-class Percentiles:
-    p50: float | None
-    p90: float | None
-    p95: float | None
-    p99: float | None
-    max: float | None
-
-
-@dataclass(frozen=True)
-class Safety:
-    unsafe_cells: int
-    floor_on_obstacle: int
-    floor_height_off: int
-    height_tolerance_mm: float
-    positions_xy_m: tuple[tuple[float, float], ...]
-    floor_height_error_mm: Percentiles
-
-
-@dataclass(frozen=True)
-class StepEdge:
-    surface: str
-    edge: str
-    cells: int
-    median_error_mm: float | None
-    max_abs_error_mm: float | None
-
-
-@dataclass(frozen=True)
-class Quality:
-    withdrawn_fraction: float
-    frames_without_ground_plane: int
-    map_empty: bool
-    poor: bool
-    reasons: tuple[str, ...]
-
-
-@dataclass(frozen=True)
-class FogAveraging:
-    fog: int | None
-    averaging: int | None
-
-
-@dataclass(frozen=True)
-class ContractEvent:
-    object: str
-    kind: str
-    seen: bool
-    cleared_frames: FogAveraging
-    floor_again_frames: FogAveraging
-
-
-@dataclass(frozen=True, kw_only=True)
-class ContractReport(Report):
-    safety: Safety | None
-    step_edges: tuple[StepEdge, ...]
-    unseen_objects: tuple[str, ...]
-    ceiling: None
-    quality: Quality
+# --- Hand-made reports with the figures the seeds runner reads (report_factory fills the rest)
 
 
 def classes(recall: float | None, precision: float | None) -> ClassScores:
     return ClassScores(10, 10, 9, recall, precision)
 
 
-def event(name: str, cleared: int | None, floor_again: int | None, seen=True) -> ContractEvent:
-    return ContractEvent(
-        name, "remove", seen, FogAveraging(cleared, None), FogAveraging(floor_again, None)
+def event(name: str, cleared: int | None, floor_again: int | None, seen=True) -> EventResult:
+    """A remove event with the FOG's two figures (the averaging baseline never)."""
+    return dataclasses.replace(
+        factory_event(name, cleared),
+        seen=EventSeen(fog=seen, averaging=seen),
+        cleared_frames=EventFrames(fog=cleared, averaging=None),
+        floor_again_frames=EventFrames(fog=floor_again, averaging=None),
     )
 
 
@@ -129,38 +57,23 @@ def contract_report(
     obstacle=(None, None),
     unsafe: int | None = None,
     edges: Sequence[StepEdge] = (),
-    events: Sequence[ContractEvent] = (),
+    events: Sequence[EventResult] = (),
     poor: Sequence[str] = (),
     frame_ms_median: float | None = None,
     seed: int = 0,
 ) -> Report:
-    """report_factory's report with the contract's additions (quality poor when reasons given)."""
-    base = make_report(rows, frame_ms_median=frame_ms_median)
-    assert base.cells is not None
-    fog = base.cells.fog
-    cells = dataclasses.replace(
-        base.cells,
-        fog=ContractFogCellScores(
-            **{f.name: getattr(fog, f.name) for f in dataclasses.fields(FogCellScores)},
-            classes=FogClasses(classes(*floor), classes(*obstacle)),
-        ),
+    """report_factory's report with these figures (quality poor when reasons are given)."""
+    report = make_report(
+        rows,
+        frame_ms_median=frame_ms_median,
+        floor=classes(*floor),
+        obstacle=classes(*obstacle),
+        safety=safety_with(unsafe or 0),
+        step_edges=edges,
+        events=events,
+        quality=dataclasses.replace(GOOD, poor=bool(poor), reasons=tuple(poor)),
     )
-    no_errors = Percentiles(None, None, None, None, None)
-    safety = None if unsafe is None else Safety(unsafe, unsafe, 0, 20.0, (), no_errors)
-    fields = {f.name: getattr(base, f.name) for f in dataclasses.fields(Report)}
-    return ContractReport(
-        **{
-            **fields,
-            "seed": seed,
-            "cells": cells,
-            "events": tuple(events),
-            "safety": safety,
-            "step_edges": tuple(edges),
-            "unseen_objects": (),
-            "ceiling": None,
-            "quality": Quality(0.0, 0, False, bool(poor), tuple(poor)),
-        }
-    )
+    return dataclasses.replace(report, seed=seed)
 
 
 # --- Seed specs

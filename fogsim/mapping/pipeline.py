@@ -55,6 +55,7 @@ class FrameTiming:
         frame_ms: The whole frame [ms].
         withdrawn: The z-match rule withdrew the frame (no map update).
         z_matched: An accepted z shift was applied to the frame's data.
+        ground_plane_found: The segmentation found the ground plane (Sec. IV).
     """
 
     segmentation_ms: float
@@ -62,6 +63,7 @@ class FrameTiming:
     frame_ms: float
     withdrawn: bool
     z_matched: bool
+    ground_plane_found: bool
 
 
 class Pipeline:
@@ -131,6 +133,7 @@ class Pipeline:
             frame_ms=1000.0 * (time.perf_counter() - t0),
             withdrawn=withdrawn,
             z_matched=matched,
+            ground_plane_found=bool(seg.correction.ground_plane_found),
         )
 
     def maps(self) -> tuple[NDArray[np.int8], NDArray[np.float64], NDArray[np.float64]]:

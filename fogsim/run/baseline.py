@@ -153,7 +153,7 @@ def report_metrics(report: Report) -> dict[str, float]:
             name = f"step_edges.{edge.surface}.{edge.edge}.abs_error_mm"
             metrics[name] = abs(float(edge.median_error_mm))
     for event in report.events:
-        if event.seen:
+        if event.seen.fog:
             metrics[f"events.{event.object}.cleared_frames"] = _frames(event.cleared_frames.fog)
             metrics[f"events.{event.object}.floor_again_frames"] = _frames(
                 event.floor_again_frames.fog

@@ -62,7 +62,8 @@ def add_tune_arguments(
         default=[],
         metavar="NAME=VALUE",
         help="objective weight (repeatable): table1_mm, cell_error_pct, unknown_pct, "
-        "clearing_s, missing_row_mm, never_cleared_s; see fogsim.tune.objective",
+        "obstacle_missed_pct, unsafe_cells, clearing_s, missing_row_mm, never_cleared_s; "
+        "see fogsim.tune.objective",
     )
     parser.add_argument("--out", required=True, type=Path, help="output directory")
     parser.add_argument("--study-name", default="fogsim-tune")

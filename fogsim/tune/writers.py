@@ -20,10 +20,11 @@ from fogsim.atomic import write_text_atomic
 from fogsim.config import split_override_key
 from fogsim.errors import TuneError
 from fogsim.tune.config import TuneConfig
+from fogsim.tune.objective import TERM_NAMES
 from fogsim.tune.plots import plot_parameter
 from fogsim.tune.space import TUNED_TABLES, ParamSpec
 
-TERM_COLUMNS = ("table1_mm", "cell_error_pct", "unknown_pct", "clearing_s")
+TERM_COLUMNS = TERM_NAMES
 """The objective terms shown in ``trials.md`` (keys of a trial's ``terms`` user attribute)."""
 
 
@@ -105,7 +106,7 @@ def _cell(value: float | None) -> str:
 def top_trials_markdown(trials: Sequence[FrozenTrial], specs: Sequence[ParamSpec]) -> str:
     """A Markdown table of trials (best first): objective, mean terms, parameters."""
     header = ["rank", "trial", "objective", "table1 mm", "wrong cells %", "unknown %"]
-    header += ["clearing s"]
+    header += ["obstacles missed %", "unsafe cells", "clearing s"]
     header += [s.name for s in specs]
     lines = ["| " + " | ".join(header) + " |", "|" + "---|" * len(header)]
     for rank, trial in enumerate(trials, start=1):

@@ -7,6 +7,7 @@ import importlib.metadata
 import math
 import platform
 from collections.abc import Mapping
+from typing import TYPE_CHECKING
 
 import numpy as np
 from numpy.typing import NDArray
@@ -23,8 +24,10 @@ from fogsim.eval.report.schema import (
     TimeStats,
     Timing,
 )
-from fogsim.eval.result import RunResult
 from fogsim.eval.rounding import rounded
+
+if TYPE_CHECKING:  # result.py imports the schema, whose package imports this module: a cycle
+    from fogsim.eval.result import RunResult
 
 _PACKAGES = ("fogsim", "numpy", "numba", "mujoco", "dm-control", "opencv-python-headless", "pin")
 _TIME_DIGITS = 4
