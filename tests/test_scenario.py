@@ -263,7 +263,7 @@ def _error(tmp_path: Path, text: str) -> tuple[Path, str]:
         (("seed = 1", 'seed = "one"'), "seed: must be an integer in [0, 4294967295], got 'one'"),
         (
             ("seed = 1", "seed = 1\n[camera]\nwidth = 2.5"),
-            "camera.width: must be an integer in [8, 4096], got 2.5",
+            "camera.width: must be an integer in [8, 2048], got 2.5",
         ),
         # an out-of-range value
         (
