@@ -1,4 +1,4 @@
-"""The configuration layer's limits: what a scenario file may ask for without exhausting the machine.
+"""The configuration layer's limits: what a scenario may ask for without exhausting the machine.
 
 Each limit is far above every shipped scenario (largest: ``stage``, 3 KB, 9 objects, 88 × 72
 px at 12.5 Hz) and below what breaks or stalls a run; the docstrings say why the number. The
@@ -48,7 +48,13 @@ MAX_OBJECT_EXTENT_M = 100.0
 """Largest side of an object [m]: four times the floor's side."""
 
 MIN_CAMERA_SIDE_PX = 8
-"""Smallest camera width or height [px]: the stereo matcher's 5 px block needs a few pixels."""
+"""Smallest camera width or height [px]: an 8 × 8 image runs in the ``ideal`` and ``depth`` modes
+(no filter or block needs more); see :data:`MIN_STEREO_WIDTH_PX` for the ``stereo`` mode."""
+
+MIN_STEREO_WIDTH_PX = 18
+"""Smallest camera width [px] in the ``stereo`` mode: its matcher (``fogsim.sim.camera.stereo``)
+renders at twice the width and searches 32 px of disparity with a 5 px block; OpenCV's SGBM needs
+render width - 32 > 5 // 2, so 2 × 18 = 36 px is the least (narrower images crash OpenCV)."""
 
 MAX_CAMERA_SIDE_PX = 2048
 """Largest camera width or height [px]: Full HD (1920 × 1080) fits. The stereo mode renders at

@@ -80,7 +80,9 @@ def read_scenario_text(path: Path) -> str:
         with path.open("rb") as stream:
             raw = stream.read(MAX_SCENARIO_FILE_BYTES + 1)
     except OSError as exc:
-        raise ScenarioError(f"{path}: cannot read the scenario file: {exc.strerror or exc}") from exc
+        raise ScenarioError(
+            f"{path}: cannot read the scenario file: {exc.strerror or exc}"
+        ) from exc
     if len(raw) > MAX_SCENARIO_FILE_BYTES:
         raise ScenarioError(
             f"{path}: larger than {MAX_SCENARIO_FILE_BYTES} bytes; a scenario file may hold at "

@@ -34,6 +34,7 @@ from fogsim.config.limits import (
     MAX_OBJECT_EXTENT_M,
     MAX_OBJECTS,
     MIN_CAMERA_SIDE_PX,
+    MIN_STEREO_WIDTH_PX,
     SCENARIO_NAME,
     SCENARIO_NAME_PATTERN,
     WORLD_BOUND_M,
@@ -116,6 +117,12 @@ class CameraConfig:
         if self.range_m[0] >= self.range_m[1]:
             raise FieldRuleError(
                 "range_m", f"must be [min, max] with min < max, got {list(self.range_m)}"
+            )
+        if self.mode == "stereo" and self.width < MIN_STEREO_WIDTH_PX:
+            raise FieldRuleError(
+                "width",
+                f"must be at least {MIN_STEREO_WIDTH_PX} px in the stereo mode (its matcher "
+                f"searches 32 px of disparity at twice the resolution), got {self.width}",
             )
 
 
@@ -307,8 +314,9 @@ class Scenario:
         if not SCENARIO_NAME.fullmatch(self.name):
             raise FieldRuleError(
                 "name",
-                "must be a safe file name: 1-64 letters, digits, '_', '.' or '-', starting with "
-                f"a letter or digit, no '..' (pattern {SCENARIO_NAME_PATTERN}), got {shown(self.name)}",
+                "must be a safe file name: 1-64 letters, digits, '_', '.' or '-', starting "
+                f"with a letter or digit, no '..' (pattern {SCENARIO_NAME_PATTERN}), "
+                f"got {shown(self.name)}",
             )
         names = [o.name for o in self.objects]
         for i, name in enumerate(names):
