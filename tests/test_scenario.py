@@ -499,6 +499,10 @@ def test_huge_files_deep_nesting_and_huge_integers_name_the_file(tmp_path):
     assert got.endswith("seed: must be an integer in [0, 4294967295], got an integer of 12000 bits")
     _, got = _error(tmp_path, "name = 't'\n[mapper]\np_occ = 0x" + "f" * 3000)
     assert got.endswith("mapper.p_occ: must be a number, got an integer of 12000 bits")
+    for name in ("x" * 5000, "a\x00b"):  # too long for the file system; no file has a NUL
+        with pytest.raises(ScenarioError, match=r"^no scenario file ") as info:
+            load_scenario(name)
+        assert len(str(info.value)) < 400
 
 
 def test_long_values_and_keys_are_shortened_in_messages(tmp_path):

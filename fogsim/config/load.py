@@ -10,10 +10,13 @@ TOML, nested too deeply to parse, or breaking the schema — is a
 
 from __future__ import annotations
 
+import errno
 import os
+import stat
 import tomllib
 from pathlib import Path
 
+from fogsim.config.decode import shown
 from fogsim.config.limits import MAX_SCENARIO_FILE_BYTES
 from fogsim.config.schema import Scenario, scenario_from_dict
 from fogsim.errors import ScenarioError
@@ -35,20 +38,40 @@ def find_scenario_files(source: str | os.PathLike[str] | None = None) -> list[Pa
             directory holds no scenario file.
     """
     candidate = Path(SCENARIOS_DIR if source is None else source)
-    if candidate.is_dir():
+    mode = _file_mode(candidate)
+    if mode is not None and stat.S_ISDIR(mode):
         files = sorted(candidate.glob("*.toml"))
         if not files:
             raise ScenarioError(f"no scenario files (*.toml) in {candidate}")
         return files
-    if candidate.suffix != ".toml" and not candidate.exists():
+    if candidate.suffix != ".toml" and mode is None:
         candidate = SCENARIOS_DIR / f"{source}.toml"
-    if not candidate.is_file():
+        mode = _file_mode(candidate)
+    if mode is None or not stat.S_ISREG(mode):
         names = ", ".join(p.stem for p in sorted(SCENARIOS_DIR.glob("*.toml")))
         raise ScenarioError(
-            f"no scenario file {str(source)!r} (looked at {candidate}); "
+            f"no scenario file {shown(str(source))} (looked at {shown(str(candidate))}); "
             f"known scenarios: {names or '(none)'}"
         )
     return [candidate]
+
+
+def _file_mode(path: Path) -> int | None:
+    """``st_mode`` of what is at ``path`` (links followed), None if nothing can be there.
+
+    Raises:
+        ScenarioError: Something is there but cannot be looked at (e.g. no permission).
+    """
+    try:
+        return path.stat().st_mode
+    except ValueError:  # a NUL byte: no file has that name
+        return None
+    except OSError as exc:
+        if exc.errno in (errno.ENOENT, errno.ENOTDIR, errno.ENAMETOOLONG, errno.ELOOP):
+            return None
+        raise ScenarioError(
+            f"{shown(str(path))}: cannot look at the scenario path: {exc.strerror or exc}"
+        ) from exc
 
 
 def load_scenario(name_or_path: str | os.PathLike[str]) -> Scenario:
@@ -58,7 +81,8 @@ def load_scenario(name_or_path: str | os.PathLike[str]) -> Scenario:
         ScenarioError: the file is missing, unreadable, too large, no UTF-8 TOML, or breaks the
             contract; a directory is no single scenario.
     """
-    if Path(name_or_path).is_dir():
+    mode = _file_mode(Path(name_or_path))
+    if mode is not None and stat.S_ISDIR(mode):
         count = len(list(Path(name_or_path).glob("*.toml")))
         raise ScenarioError(
             f"{name_or_path} is a directory of {count} scenario files, not a scenario file; "
