@@ -52,6 +52,25 @@ def test_values_are_typed_by_the_field():
         (MapperParams(), {"p_occ": True}, "mapper", "mapper.p_occ: must be a number, got True"),
         (MapperParams(), {"p_occ": math.nan}, "mapper", "mapper.p_occ: must be a number, got nan"),
         (MapperParams(), {"nx": 2.5}, "mapper", "mapper.nx: must be an integer, got 2.5"),
+        # integers beyond the float range, strings of any length: shown short
+        (
+            MapperParams(),
+            {"p_occ": 2**2000},
+            "mapper",
+            "mapper.p_occ: must be a number, got an integer of 2001 bits",
+        ),
+        (
+            MapperParams(),
+            {"nx": 16**3000},
+            "mapper",
+            "mapper.nx: must be a number, got an integer of 12001 bits",
+        ),
+        (
+            MapperParams(),
+            {"p_occ": "x" * 10_000},
+            "mapper",
+            f"mapper.p_occ: must be a number, got '{'x' * 37}...{'x' * 38}'",
+        ),
         (
             MapperParams(),
             {"clear_outside": 2},

@@ -6,6 +6,7 @@ import dataclasses
 import tomllib
 from pathlib import Path
 
+import numpy as np
 import pytest
 
 from fogsim.config import (
@@ -20,8 +21,19 @@ from fogsim.config import (
     scenario_from_dict,
     scenario_from_toml,
 )
+from fogsim.config.limits import (
+    MAX_CAMERA_SIDE_PX,
+    MAX_EVENTS,
+    MAX_OBJECTS,
+    MAX_SCENARIO_FILE_BYTES,
+    MIN_STEREO_WIDTH_PX,
+    SCENARIO_NAME_PATTERN,
+)
 from fogsim.errors import ScenarioError
 from fogsim.paths import SCENARIOS_DIR
+from fogsim.robot import load_robot
+from fogsim.sim.camera import HeadCamera
+from fogsim.sim.scene import Scene
 
 MINIMAL = """
 name = "t"
@@ -263,7 +275,7 @@ def _error(tmp_path: Path, text: str) -> tuple[Path, str]:
         (("seed = 1", 'seed = "one"'), "seed: must be an integer in [0, 4294967295], got 'one'"),
         (
             ("seed = 1", "seed = 1\n[camera]\nwidth = 2.5"),
-            "camera.width: must be an integer in [8, 4096], got 2.5",
+            "camera.width: must be an integer in [8, 2048], got 2.5",
         ),
         # an out-of-range value
         (
@@ -313,6 +325,39 @@ def _error(tmp_path: Path, text: str) -> tuple[Path, str]:
         (
             ("seed = 1", "seed = 1\n[segmentation]\nmin_plane_pixels = 2.5"),
             "segmentation.min_plane_pixels: must be an integer, got 2.5",
+        ),
+        # resource bounds (issue 13): rates, image sides, positions and sizes, finite numbers
+        (
+            ("seed = 1", "seed = 1\nframe_rate_hz = 100.5"),
+            "frame_rate_hz: must be a number in [0.1, 100.0], got 100.5",
+        ),
+        (
+            ("seed = 1", "seed = 1\n[camera]\nheight = 4096"),
+            "camera.height: must be an integer in [8, 2048], got 4096",
+        ),
+        (
+            ("center = [1.0, 0.5]", "center = [nan, 1000.5]"),
+            "objects[0].center[0]: must be a number in [-1000.0, 1000.0], got nan",
+        ),
+        (
+            ("center = [1.0, 0.5]", "center = [1.0, inf]"),
+            "objects[0].center[1]: must be a number in [-1000.0, 1000.0], got inf",
+        ),
+        (
+            ("center = [1.0, 0.5]", "center = [1000.5, 0.5]"),
+            "objects[0].center[0]: must be a number in [-1000.0, 1000.0], got 1000.5",
+        ),
+        (
+            ("size = [0.2, 0.2, 0.1]", "size = [0.2, 100.5, 0.1]"),
+            "objects[0].size[1]: must be a number in [0.005, 100.0], got 100.5",
+        ),
+        (
+            ("walk_to = [1.0, 0.5]", "walk_to = [-inf, 0.5]"),
+            "route[0].walk_to[0]: must be a number in [-1000.0, 1000.0], got -inf",
+        ),
+        (
+            ("walk_to = [1.0, 0.5]", "wait = nan"),
+            "route[0].wait: must be a number in [0.001, 3600.0], got nan",
         ),
     ],
 )
@@ -388,3 +433,142 @@ def test_find_scenario_files_by_name_path_directory_or_nothing(tmp_path):
     with pytest.raises(ScenarioError, match="is a directory of 8 scenario files"):
         load_scenario(SCENARIOS_DIR)
     assert CAMERA_MODES == ("ideal", "depth", "stereo")
+
+
+# --------------------------------------------------------------------- hostile input (issue 13)
+
+
+@pytest.mark.parametrize(
+    "name", ["../../x", "/etc/passwd", "a/b", "..", ".", ".hidden", "-rf", "a..b", "x" * 65, ""]
+)
+def test_a_scenario_name_must_be_a_safe_file_name(tmp_path, name):
+    path, got = _error(tmp_path, MINIMAL.replace('name = "t"', f"name = {name!r}", 1))
+    assert got.startswith(f"{path}: name: must be a safe file name: ")
+    assert SCENARIO_NAME_PATTERN in got and got.endswith(f"got {name!r}")
+
+
+def test_safe_names_pass_and_every_way_to_a_name_is_checked():
+    assert scenario_from_dict({"name": "a.b-c_1"}).name == "a.b-c_1"
+    assert scenario_from_dict({"name": "x" * 64}).name == "x" * 64
+    embedded = 'name = "../../x"\n'  # a recording's scenario decodes through the same function
+    with pytest.raises(ScenarioError, match=r"^recording r\.npz: name: must be a safe file name"):
+        scenario_from_toml(embedded, where="recording r.npz")
+    with pytest.raises(ScenarioError, match=r"\(override\): name: must be a safe file name"):
+        load_scenario("stage").with_overrides(["name=../x"])
+    with pytest.raises(ScenarioError, match="name: must be a safe file name"):
+        dataclasses.replace(load_scenario("stage"), name="/tmp/x")
+
+
+def test_unreadable_or_non_text_files_name_the_file(tmp_path, monkeypatch):
+    binary = tmp_path / "binary.toml"
+    binary.write_bytes(b"name = 't'\n\x00\xff\xfe junk")
+    with pytest.raises(
+        ScenarioError, match=r"binary\.toml: not UTF-8 text \(byte 12 is b'\\xff'\)"
+    ):
+        load_scenario(binary)
+    latin = tmp_path / "latin.toml"
+    latin.write_bytes('name = "café"\n'.encode("latin-1"))
+    with pytest.raises(ScenarioError, match=r"latin\.toml: not UTF-8 text \(byte 11 is b'\\xe9'\)"):
+        load_scenario(latin)
+    (tmp_path / "folder.toml").mkdir()
+    with pytest.raises(ScenarioError, match=r"folder\.toml is a directory of 0 scenario files"):
+        load_scenario(tmp_path / "folder.toml")
+    locked = _write(tmp_path, MINIMAL)
+
+    def refuse(self, *args, **kwargs):  # the tests run as root: chmod 000 would not stop a read
+        raise PermissionError(13, "Permission denied", str(self))
+
+    monkeypatch.setattr(Path, "open", refuse)
+    with pytest.raises(
+        ScenarioError, match=r"bad\.toml: cannot read the scenario file: Permission"
+    ):
+        load_scenario(locked)
+
+
+def test_huge_files_deep_nesting_and_huge_integers_name_the_file(tmp_path):
+    huge = tmp_path / "huge.toml"
+    huge.write_bytes(b"#" * (MAX_SCENARIO_FILE_BYTES + 1))
+    with pytest.raises(ScenarioError, match=r"huge\.toml: larger than 1048576 bytes"):
+        load_scenario(huge)
+    deep = _write(tmp_path, "name = 't'\nx = " + "[" * 5000 + "]" * 5000)
+    with pytest.raises(ScenarioError, match=r"bad\.toml: arrays or tables nested too deeply"):
+        load_scenario(deep)
+    with pytest.raises(ScenarioError, match=r"not valid TOML: Exceeds the limit \(4300 digits\)"):
+        load_scenario(_write(tmp_path, "name = 't'\nseed = " + "9" * 5000))
+    _, got = _error(tmp_path, "name = 't'\nseed = 0x" + "f" * 3000)
+    assert got.endswith("seed: must be an integer in [0, 4294967295], got an integer of 12000 bits")
+    _, got = _error(tmp_path, "name = 't'\n[mapper]\np_occ = 0x" + "f" * 3000)
+    assert got.endswith("mapper.p_occ: must be a number, got an integer of 12000 bits")
+    for name in ("x" * 5000, "a\x00b"):  # too long for the file system; no file has a NUL
+        with pytest.raises(ScenarioError, match=r"^no scenario file ") as info:
+            load_scenario(name)
+        assert len(str(info.value)) < 400
+
+
+def test_long_values_and_keys_are_shortened_in_messages(tmp_path):
+    _, got = _error(tmp_path, f"name = 't'\ndescription = [{'1, ' * 10000}]")
+    assert got.endswith("description: must be a string, got an array of 10000 values")
+    _, got = _error(tmp_path, f"name = 't'\nseed = '{'x' * 100000}'")
+    assert len(got) < 300 and got.endswith("xxx'")
+    _, got = _error(tmp_path, f"name = 't'\n{'k' * 100000} = 1")
+    assert len(got) < 400 and f"{'k' * 40}...{'k' * 40}: unknown key" in got
+
+
+def _boxes(count: int) -> str:
+    return "".join(
+        f'[[objects]]\nname = "b{i}"\ncenter = [{i % 10}, {i // 10}]\nsize = [0.1, 0.1, 0.1]\n'
+        for i in range(count)
+    )
+
+
+def test_at_most_256_objects_and_256_events(tmp_path):
+    assert (MAX_OBJECTS, MAX_EVENTS) == (256, 256)
+    many = load_scenario(_write(tmp_path, 'name = "t"\n' + _boxes(MAX_OBJECTS)))
+    assert len(many.objects) == MAX_OBJECTS
+    path, got = _error(tmp_path, 'name = "t"\n' + _boxes(MAX_OBJECTS + 1))
+    assert (
+        got
+        == f"{path}: objects: must be an array of at most 256 tables, got an array of 257 values"
+    )
+    events = "".join(f'[[events]]\nat = {i}\nremove = "b0"\n' for i in range(MAX_EVENTS + 1))
+    path, got = _error(tmp_path, 'name = "t"\n' + _boxes(1) + events)
+    assert (
+        got == f"{path}: events: must be an array of at most 256 tables, got an array of 257 values"
+    )
+
+
+def test_the_stereo_mode_needs_a_wide_enough_image(tmp_path):
+    """OpenCV's matcher crashed on a 16 px wide stereo render (8 px camera)."""
+    path, got = _error(
+        tmp_path, MINIMAL.replace("seed = 1", "[camera]\nmode = 'stereo'\nwidth = 17")
+    )
+    assert got == (
+        f"{path}: camera.width: must be at least 18 px in the stereo mode (its matcher searches "
+        "32 px of disparity at twice the resolution), got 17"
+    )
+    with pytest.raises(ScenarioError, match=r"camera\.width: must be at least 18 px"):
+        load_scenario("stage").with_overrides(["camera.width=8", "camera.mode=stereo"])
+    assert load_scenario("stage").with_overrides(["camera.width=8"]).camera.width == 8
+
+
+@pytest.mark.parametrize(
+    "size_px", [(321, 72), (MAX_CAMERA_SIDE_PX, 8), (MIN_STEREO_WIDTH_PX, MAX_CAMERA_SIDE_PX)]
+)
+def test_every_allowed_camera_size_fits_the_scene_s_offscreen_buffer(size_px):
+    """321 × 72 crashed: the robot's MJCF held a 640 px buffer the stereo render (642) outgrew."""
+    width, height = size_px
+    scenario = load_scenario("flat_floor").with_overrides(
+        [f"camera.width={width}", f"camera.height={height}", "camera.mode=stereo"]
+    )
+    robot = load_robot(scenario.robot.model)
+    scene = Scene(scenario, robot)
+    assert (scene.model.vis.global_.offwidth, scene.model.vis.global_.offheight) == (
+        max(640, 2 * width),
+        max(480, 2 * height),
+    )
+    camera = HeadCamera(scene.model, scene.camera_ids, scenario.camera)
+    try:
+        depth = camera.capture(scene.data, np.random.default_rng(0))
+    finally:
+        camera.close()
+    assert depth.shape == (height, width)

@@ -7,6 +7,9 @@ import pytest
 from fogsim.config import load_scenario
 from fogsim.errors import RouteError
 from fogsim.robot import GaitParams, Stance, load_robot, plan_route
+from fogsim.robot.walking.body import BodyKinematics
+from fogsim.robot.walking.limits import MAX_TRAJECTORY_FRAMES
+from fogsim.robot.walking.route import FrameBudget
 from fogsim.world import SceneTruth
 from mapper.transforms import planar_pose_to_matrix
 
@@ -21,6 +24,10 @@ def stage_support(xy):
     for k, z in enumerate((0.031, 0.061, 0.092)):
         h = np.where((x >= 2.6 + 0.2 * k) & (x < 2.8 + 0.2 * k), z, h)
     return np.where((x >= 3.2) & (x <= 4.0), PLATFORM_M, h)
+
+
+def flat_support(xy):
+    return np.zeros(np.asarray(xy).shape[0])
 
 
 STAGE_ROUTE = [
@@ -147,11 +154,97 @@ def test_robot_pose_is_consistent_with_camera_kinematics(icub, stage):
         ([{}], "exactly one"),
         ([{"wait": -1}], "wait must be > 0"),
         ([{"look": (1,)}], "malformed"),
+        ([{"wait": 1.0}, {"walk_to": (math.nan, 0.0)}], r"route\[1\]: walk_to has a malformed"),
+        ([{"wait": math.inf}], "2 finite|1 finite"),
+        ([{"turn_to": "left"}], r"route\[0\]: turn_to has a malformed value 'left'"),
     ],
 )
 def test_bad_route_steps_are_rejected(icub, route, message):
-    with pytest.raises(RouteError, match=message):
-        plan_route(icub, (0.0, 0.0, 0.0), route, lambda xy: np.zeros(len(xy)), 12.5)
+    with pytest.raises(RouteError, match=message) as info:
+        plan_route(icub, (0.0, 0.0, 0.0), route, flat_support, 12.5, origin="x.toml")
+    assert str(info.value).startswith("x.toml: route[")
+
+
+def _tall_block(xy):
+    """A 1.3 m high block one can stand on, x in [1.0, 2.0] m: no leg reaches its top."""
+    x = np.asarray(xy, dtype=float)[:, 0]
+    return np.where((x >= 1.0) & (x <= 2.0), 1.3, 0.0)
+
+
+def test_an_unreachable_footstep_names_file_step_and_footstep_and_stops_early(icub, monkeypatch):
+    configurations = []
+    solve = BodyKinematics.configuration
+
+    def counted(self, *args):
+        configurations.append(args)
+        return solve(self, *args)
+
+    monkeypatch.setattr(BodyKinematics, "configuration", counted)
+    route = [{"wait": 0.2}, {"walk_to": (1.5, 0.5)}, {"wait": 600.0}]  # 7600+ frames in all
+    with pytest.raises(RouteError) as info:
+        plan_route(icub, (0.3, 0.5, 0.0), route, _tall_block, 12.5, origin="tall.toml")
+    message = str(info.value)
+    assert message.startswith("tall.toml: route[1] (walk_to 1.5, 0.5): the legs cannot reach ")
+    assert "footstep at (1.035, 0.568, 1.300) m" in message  # the first foot onto the block
+    assert "the other foot stands at z = 0.000 m" in message
+    assert "leg IK misses by" in message
+    assert len(configurations) < 100  # refused at the first frame that misses, ~6 s in
+
+
+def test_start_pose_errors_name_the_origin(icub):
+    def split_at(y_m):  # 0.1 m higher left of y_m
+        return lambda xy: np.where(np.asarray(xy)[:, 1] > y_m, 0.1, 0.0)
+
+    with pytest.raises(RouteError, match=r"^s\.toml: robot start \[0\.0, 0\.5, 0\.0\]: .*edge"):
+        plan_route(icub, (0.0, 0.5, 0.0), [], split_at(0.568), 12.5, origin="s.toml")
+    with pytest.raises(RouteError) as info:  # each foot flat, but 0.1 m apart in height
+        plan_route(icub, (0.0, 0.5, 0.0), [], split_at(0.5), 12.5, origin="s.toml")
+    assert str(info.value).startswith(
+        "s.toml: the start: the legs cannot reach the feet standing at "
+        "LEFT (-0.050, 0.568, 0.100) m and RIGHT (-0.050, 0.432, 0.000) m: leg IK misses by"
+    )
+
+
+def test_frame_budget_of_a_walk():
+    budget = FrameBudget(frame_rate_hz=12.5, max_frames=MAX_TRAJECTORY_FRAMES, final_stand_s=0.5)
+    assert MAX_TRAJECTORY_FRAMES == 20_000
+    assert budget.route_end_s == pytest.approx(19_999 / 12.5 - 0.5)
+    assert budget.refusal(2000.0) == (
+        "the walk would last 2000.0 s or more, 25001 frames at 12.5 Hz; at most 20000 frames "
+        "(1599.9 s at this rate) are allowed"
+    )
+
+
+@pytest.mark.parametrize(
+    ("route", "rate_hz", "step", "frames"),
+    [
+        # a one-hour wait at 100 Hz: refused before the wait is planned (exact)
+        ([{"wait": 3600.0}], 100.0, "route[0] (wait 3600)", 360_101),
+        # 900 m: refused before planning, by the lower bound (0.3 m per 0.7 s step)
+        ([{"walk_to": (900.0, 0.5)}], 12.5, "route[0] (walk_to 900, 0.5)", 26_254),
+        # the second wait crosses the budget
+        ([{"wait": 1000.0}, {"wait": 1000.0}], 12.5, "route[1] (wait 1000)", 25_013),
+        # turns of 180° (24 steps, 16.8 s each): the time of a turn is exact before it is planned
+        ([{"turn_to": 180.0}, {"turn_to": 0.0}] * 50, 12.5, "route[95] (turn_to 0)", 20_173),
+    ],
+)
+def test_a_walk_longer_than_the_frame_budget_is_refused_before_it_is_planned(
+    icub, route, rate_hz, step, frames
+):
+    with pytest.raises(RouteError) as info:
+        plan_route(icub, (0.0, 0.0, 0.0), route, flat_support, rate_hz, origin="long.toml")
+    message = str(info.value)
+    assert message.startswith(f"long.toml: {step}: the walk would last ")
+    assert f"{frames} frames at {rate_hz:g} Hz; at most 20000 frames" in message
+
+
+def test_a_walk_longer_than_its_lower_bound_is_refused_once_its_footsteps_are_planned(icub):
+    """210 m: at least 489 s by the lower bound (passes), 1633 s once planned (refused)."""
+    route = [{"walk_to": (210.0, 0.0)}]
+    with pytest.raises(
+        RouteError, match=r"^w\.toml: route\[0\] \(walk_to 210, 0\): the walk would last 16"
+    ):
+        plan_route(icub, (0.0, 0.0, 0.0), route, flat_support, 12.5, origin="w.toml")
 
 
 def test_bad_parameters_are_rejected():
@@ -166,10 +259,6 @@ def test_talos_walks_a_short_route():
     )
     assert traj.ik_residual_m.max() < 1e-3
     assert traj.robot_pose_true[-1, 0] == pytest.approx(0.5, abs=0.01)
-
-
-def flat_support(xy):
-    return np.zeros(np.asarray(xy).shape[0])
 
 
 @pytest.fixture(scope="module")

@@ -1,6 +1,7 @@
 """Layer 1 — configuration: the scenario schema, loading and writing scenario files, run parameters.
 
-Modules (each imports only those above it): ``decode`` (msgspec decoding with errors naming
+Modules (each imports only those above it): ``limits`` (what a scenario may ask for: name
+pattern, file size, frame rate, counts, sizes), ``decode`` (msgspec decoding with errors naming
 file, key, value and what is allowed), ``params`` (run parameters, the one mapping → parameter
 dataclass helper), ``overrides`` (``--set KEY=VALUE``), ``write`` (TOML with ``tomli_w``),
 ``schema`` (the scenario's frozen dataclasses), ``load`` (finding and loading scenario files).

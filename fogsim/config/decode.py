@@ -14,13 +14,15 @@ left out of equality, ``Scenario.source_path``), so :func:`decode` checks the ke
 dataclass fields itself before msgspec runs.
 
 Every error becomes a :class:`~fogsim.errors.ScenarioError` reading
-``<origin>: <dotted key>: must be <what is allowed>, got <value>``.
+``<origin>: <dotted key>: must be <what is allowed>, got <value>``; keys and values are shown
+shortened (:func:`shown`), so a megabyte of junk makes a one-line message.
 """
 
 from __future__ import annotations
 
 import dataclasses
 import re
+import reprlib
 from collections.abc import Mapping
 from typing import TypeVar, get_args, get_type_hints
 
@@ -40,6 +42,25 @@ _SEGMENT = re.compile(r"\.(?P<key>\w+)|\[(?P<index>\d+)\]")
 
 Segment = str | int
 """One step of a key path: a table key or an array index."""
+
+_SHOWN = reprlib.Repr()
+_SHOWN.maxstring = _SHOWN.maxother = 80
+_SHOWN.maxlevel = 3
+_LONGEST_KEY = 80
+"""Longest key (characters) a message shows whole; longer ones are cut in the middle."""
+
+
+_LARGEST_SHOWN_INT_BITS = 256
+"""Integers with more bits are shown by their size: Python refuses to print beyond 4300 digits."""
+
+
+def shown(value: object) -> str:
+    """``repr(value)`` for messages: strings and nesting cut short, a long array by its length."""
+    if isinstance(value, list | tuple) and len(value) > _SHOWN.maxlist:
+        return f"an array of {len(value)} values"
+    if isinstance(value, int) and value.bit_length() > _LARGEST_SHOWN_INT_BITS:
+        return f"an integer of {value.bit_length()} bits"
+    return _SHOWN.repr(value)
 
 
 def in_file(declared: dataclasses.Field[object]) -> bool:
@@ -85,8 +106,16 @@ def decode(data: Mapping[str, object], cls: type[T], origin: str) -> T:
 
 def dotted(segments: tuple[Segment, ...]) -> str:
     """The key path as written in messages: ``objects[2].size``."""
-    text = "".join(f"[{s}]" if isinstance(s, int) else f".{s}" for s in segments)
+    text = "".join(f"[{s}]" if isinstance(s, int) else f".{_clipped(s)}" for s in segments)
     return text.removeprefix(".")
+
+
+def _clipped(key: str) -> str:
+    """``key``, cut in the middle if longer than :data:`_LONGEST_KEY` characters."""
+    if len(key) <= _LONGEST_KEY:
+        return key
+    half = _LONGEST_KEY // 2
+    return f"{key[:half]}...{key[-half:]}"
 
 
 def _check_keys(value: object, info: mi.Type, path: tuple[Segment, ...], origin: str) -> None:
@@ -125,7 +154,7 @@ def _scenario_error(
         rule = "is required but missing"
     else:
         key = dotted(segments)
-        rule = f"must be {_allowed_at(info, segments)}, got {_value_at(data, segments)!r}"
+        rule = f"must be {_allowed_at(info, segments)}, got {shown(_value_at(data, segments))}"
     return ScenarioError(f"{origin}: {key or '(top level)'}: {rule}")
 
 

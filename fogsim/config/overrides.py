@@ -30,7 +30,7 @@ def parse_override(assignment: str, origin: str) -> tuple[list[str], object]:
         raise ScenarioError(f"{origin}: override {assignment!r} must look like key=value")
     try:
         value = tomllib.loads(f"v = {text.strip()}")["v"]
-    except tomllib.TOMLDecodeError:
+    except (ValueError, RecursionError):  # no TOML value (TOMLDecodeError is a ValueError)
         value = text.strip()  # a bare word: the documented string shorthand
     return key.split("."), value
 

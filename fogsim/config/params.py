@@ -17,6 +17,7 @@ from collections.abc import Mapping
 from dataclasses import dataclass, field
 from typing import TYPE_CHECKING, Any, TypeVar
 
+from fogsim.config.decode import shown
 from fogsim.errors import ParameterError
 from mapper import ElevationFilterParams, MapperParams
 from mapper.segmentation import SegmentationParams
@@ -89,12 +90,18 @@ def _typed(value: object, current: object, key: str) -> bool | int | float:
     if isinstance(current, bool):
         if isinstance(value, numbers.Real) and value in (0, 1):
             return bool(value)
-        raise ParameterError(f"{key}: must be true or false (or 1 / 0), got {value!r}")
-    if isinstance(value, bool) or not isinstance(value, numbers.Real) or math.isnan(float(value)):
-        raise ParameterError(f"{key}: must be a number, got {value!r}")
+        raise ParameterError(f"{key}: must be true or false (or 1 / 0), got {shown(value)}")
+    if isinstance(value, bool) or not isinstance(value, numbers.Real):
+        raise ParameterError(f"{key}: must be a number, got {shown(value)}")
+    try:
+        number = float(value)
+    except OverflowError as exc:  # an integer beyond the float range
+        raise ParameterError(f"{key}: must be a number, got {shown(value)}") from exc
+    if math.isnan(number):
+        raise ParameterError(f"{key}: must be a number, got {shown(value)}")
     if isinstance(current, int):
-        if not float(value).is_integer():
-            raise ParameterError(f"{key}: must be an integer, got {value!r}")
+        if not number.is_integer():
+            raise ParameterError(f"{key}: must be an integer, got {shown(value)}")
         return int(value)
     return value  # type: ignore[return-value]  # a Real: int or float as given
 

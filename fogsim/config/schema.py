@@ -26,7 +26,19 @@ from typing import Annotated, Literal, get_args
 
 from msgspec import Meta
 
-from fogsim.config.decode import NOT_IN_FILE, FieldRuleError, decode
+from fogsim.config.decode import NOT_IN_FILE, FieldRuleError, decode, shown
+from fogsim.config.limits import (
+    MAX_CAMERA_SIDE_PX,
+    MAX_EVENTS,
+    MAX_FRAME_RATE_HZ,
+    MAX_OBJECT_EXTENT_M,
+    MAX_OBJECTS,
+    MIN_CAMERA_SIDE_PX,
+    MIN_STEREO_WIDTH_PX,
+    SCENARIO_NAME,
+    SCENARIO_NAME_PATTERN,
+    WORLD_BOUND_M,
+)
 from fogsim.config.overrides import assign_overrides
 from fogsim.config.params import replace_params
 from fogsim.config.write import TomlValue, to_table, toml_text
@@ -45,16 +57,18 @@ SURFACES: tuple[str, ...] = get_args(Surface)
 ROUTE_KINDS = ("walk_to", "turn_to", "look", "wait")
 EVENT_KINDS = ("remove", "move")
 
-# The ranges a file may give (generous sanity bounds; the defaults are justified per field).
-Coordinate = Annotated[float, Meta(ge=-1e3, le=1e3)]
+# The ranges a file may give (generous sanity bounds, resource limits from fogsim.config.limits;
+# the defaults are justified per field).
+Coordinate = Annotated[float, Meta(ge=-WORLD_BOUND_M, le=WORLD_BOUND_M)]
 """A world x or y [m] (and the start yaw [deg]): within a kilometre of the origin."""
 FovDeg = Annotated[float, Meta(ge=1.0, le=170.0)]
 DepthM = Annotated[float, Meta(ge=0.01, le=100.0)]
-Pixels = Annotated[int, Meta(ge=8, le=4096)]
+Pixels = Annotated[int, Meta(ge=MIN_CAMERA_SIDE_PX, le=MAX_CAMERA_SIDE_PX)]
 JointErrorDeg = Annotated[float, Meta(ge=0.0, le=10.0)]
-ExtentM = Annotated[float, Meta(ge=0.005, le=100.0)]
+ExtentM = Annotated[float, Meta(ge=0.005, le=MAX_OBJECT_EXTENT_M)]
 HeadDeg = Annotated[float, Meta(ge=-90.0, le=90.0)]
-ObjectName = Annotated[str, Meta(pattern=r"^[\w-]+$", description="letters, digits, '_' or '-'")]
+# \Z, not $: "$" also matches before a final newline
+ObjectName = Annotated[str, Meta(pattern=r"^[\w-]+\Z", description="letters, digits, '_' or '-'")]
 ParameterTable = Mapping[str, bool | int | float]
 """``[mapper]`` / ``[segmentation]``: field name → value as written (an int stays an int)."""
 
@@ -103,6 +117,12 @@ class CameraConfig:
         if self.range_m[0] >= self.range_m[1]:
             raise FieldRuleError(
                 "range_m", f"must be [min, max] with min < max, got {list(self.range_m)}"
+            )
+        if self.mode == "stereo" and self.width < MIN_STEREO_WIDTH_PX:
+            raise FieldRuleError(
+                "width",
+                f"must be at least {MIN_STEREO_WIDTH_PX} px in the stereo mode (its matcher "
+                f"searches 32 px of disparity at twice the resolution), got {self.width}",
             )
 
 
@@ -253,7 +273,9 @@ class Scenario:
     """A validated scenario (see the module docstring and DESIGN.md "Scenario files").
 
     Attributes:
-        name: The scenario's name (the file stem of the shipped ones).
+        name: The scenario's name (the file stem of the shipped ones); a safe file name
+            (:data:`~fogsim.config.limits.SCENARIO_NAME_PATTERN`), as runs and caches are
+            stored under it.
         description: One line for listings.
         seed: Seed of every random stream of the run.
         frame_rate_hz: Camera frames per second (the paper's 12.5).
@@ -268,21 +290,34 @@ class Scenario:
         source_path: The file it was read from (not part of the file; ignored by ``==``).
     """
 
-    name: Annotated[str, Meta(min_length=1)]
+    name: str
     description: str = ""
     seed: Annotated[int, Meta(ge=0, le=2**32 - 1)] = 0
-    frame_rate_hz: Annotated[float, Meta(ge=0.1, le=1000.0)] = 12.5
+    frame_rate_hz: Annotated[float, Meta(ge=0.1, le=MAX_FRAME_RATE_HZ)] = 12.5
     robot: RobotSpec = field(default_factory=RobotSpec)
     camera: CameraConfig = field(default_factory=CameraConfig)
     encoders: EncoderConfig = field(default_factory=EncoderConfig)
-    objects: tuple[SceneObject, ...] = ()
+    objects: Annotated[
+        tuple[SceneObject, ...],
+        Meta(max_length=MAX_OBJECTS, description=f"an array of at most {MAX_OBJECTS} tables"),
+    ] = ()
     route: tuple[RouteStep, ...] = ()
-    events: tuple[Event, ...] = ()
+    events: Annotated[
+        tuple[Event, ...],
+        Meta(max_length=MAX_EVENTS, description=f"an array of at most {MAX_EVENTS} tables"),
+    ] = ()
     mapper: ParameterTable = field(default_factory=dict)
     segmentation: ParameterTable = field(default_factory=dict)
     source_path: Path | None = field(default=None, compare=False, metadata=NOT_IN_FILE)
 
     def __post_init__(self) -> None:
+        if not SCENARIO_NAME.fullmatch(self.name):
+            raise FieldRuleError(
+                "name",
+                "must be a safe file name: 1-64 letters, digits, '_', '.' or '-', starting "
+                f"with a letter or digit, no '..' (pattern {SCENARIO_NAME_PATTERN}), "
+                f"got {shown(self.name)}",
+            )
         names = [o.name for o in self.objects]
         for i, name in enumerate(names):
             if name in names[:i]:
@@ -302,11 +337,13 @@ class Scenario:
             if obj.name == name:
                 return obj
         raise ScenarioError(
-            f"{self._where()}: no object named {name!r}; objects: "
+            f"{self.origin}: no object named {name!r}; objects: "
             f"{', '.join(o.name for o in self.objects) or '(none)'}"
         )
 
-    def _where(self) -> str:
+    @property
+    def origin(self) -> str:
+        """How messages name the scenario: its file, else ``scenario '<name>'``."""
         return str(self.source_path) if self.source_path else f"scenario {self.name!r}"
 
     def to_dict(self) -> dict[str, TomlValue]:
@@ -327,7 +364,7 @@ class Scenario:
         Raises:
             ScenarioError: a malformed assignment, an unknown key or an invalid value.
         """
-        origin = f"{self._where()} (override)"
+        origin = f"{self.origin} (override)"
         tables = assign_overrides(self.to_dict(), assignments, origin)
         return scenario_from_dict(tables, source=self.source_path, where=origin)
 

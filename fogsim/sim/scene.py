@@ -34,13 +34,13 @@ from fogsim.geometry import MJ_FROM_CV
 from fogsim.robot import CAMERA_NAMES, Robot
 from fogsim.sim.assets import load_mjcf_piece
 from fogsim.sim.camera.depth import VISIBLE_GEOMGROUPS
+from fogsim.sim.camera.stereo import STEREO_RENDER_SCALE
 from fogsim.world import moving_objects, object_center_at
 
 WORLD_PIECES = ("visual", "lighting", "materials", "floor")
 """The MJCF pieces every scene starts from, in this order (element order sets MuJoCo's ids)."""
 MIN_OFFSCREEN_PX = (640, 480)
-"""Smallest off-screen buffer (width, height) [px]: MuJoCo's default; the stereo mode renders at
-twice the camera's resolution, so the buffer grows to hold that."""
+"""Smallest off-screen buffer (width, height) [px]: MuJoCo's default (see :func:`offscreen_px`)."""
 ROUGH_SAMPLE_M = 0.08
 """Spacing of the height-field samples of rough tops [m]: bumps several pixels wide at 2 m."""
 PARKED_Z_M = -50.0
@@ -78,6 +78,27 @@ def quat_wxyz_from_matrix(rotation: ArrayLike) -> NDArray[np.float64]:
 # ---------------------------------------------------------------------- building
 
 
+def offscreen_px(camera: CameraConfig) -> tuple[int, int]:
+    """(width, height) [px] of the off-screen buffer every renderer of ``camera`` fits in.
+
+    MuJoCo renders into one off-screen buffer per model and refuses images larger than it. The
+    largest image is the stereo mode's, ``STEREO_RENDER_SCALE`` × the camera's resolution
+    (whatever the mode, so one scene serves every mode); the buffer is never smaller than
+    :data:`MIN_OFFSCREEN_PX`. The camera's largest side (``fogsim.config.limits``) keeps it
+    within OpenGL's renderbuffer limit.
+    """
+    return (
+        max(MIN_OFFSCREEN_PX[0], STEREO_RENDER_SCALE * camera.width),
+        max(MIN_OFFSCREEN_PX[1], STEREO_RENDER_SCALE * camera.height),
+    )
+
+
+def _set_offscreen(root: mjcf.RootElement, size_px: tuple[int, int]) -> None:
+    """Size the model's off-screen buffer (``<visual><global offwidth offheight>``)."""
+    offscreen = getattr(root.visual, "global")
+    offscreen.offwidth, offscreen.offheight = size_px
+
+
 def _merge_piece(root: mjcf.RootElement, name: str) -> None:
     """Merge the MJCF piece ``name`` into ``root``, keeping the names of both."""
     model_name = root.model
@@ -90,9 +111,7 @@ def _world_root(scenario: Scenario) -> mjcf.RootElement:
     root = mjcf.RootElement(model=f"fogsim_{scenario.name}")
     for piece in WORLD_PIECES:
         _merge_piece(root, piece)
-    offscreen = getattr(root.visual, "global")
-    offscreen.offwidth = max(MIN_OFFSCREEN_PX[0], 2 * scenario.camera.width)
-    offscreen.offheight = max(MIN_OFFSCREEN_PX[1], 2 * scenario.camera.height)
+    _set_offscreen(root, offscreen_px(scenario.camera))
     return root
 
 
@@ -187,9 +206,16 @@ class _AttachedRobot:
     cameras: tuple[mjcf.Element, ...]
 
 
-def _attach_robot(root: mjcf.RootElement, robot: Robot) -> _AttachedRobot:
-    """Attach the robot's MJCF; its free joint moves onto the attachment frame."""
+def _attach_robot(
+    root: mjcf.RootElement, robot: Robot, offscreen_size_px: tuple[int, int]
+) -> _AttachedRobot:
+    """Attach the robot's MJCF; its free joint moves onto the attachment frame.
+
+    The robot's own MJCF sizes its off-screen buffer for itself; attaching demands equal
+    values, so it takes the scene's (``offscreen_size_px``).
+    """
     robot_model = mjcf.from_path(str(robot.mjcf_path))
+    _set_offscreen(robot_model, offscreen_size_px)
     free = robot_model.find("joint", "root")
     if free is None:
         raise FogsimError(f"{robot.mjcf_path}: the robot MJCF has no free joint named 'root'")
@@ -241,7 +267,7 @@ class Scene:
         attached: _AttachedRobot | None = None
         rig: mjcf.Element | None = None
         if robot is not None:
-            attached = _attach_robot(root, robot)
+            attached = _attach_robot(root, robot, offscreen_px(scenario.camera))
             camera_elements: Sequence[mjcf.Element] = attached.cameras
         else:
             rig, camera_elements = _add_camera_rig(root, scenario.camera)

@@ -58,6 +58,7 @@ class FootstepPlanner:
         self.half_width = 0.5 * float(np.linalg.norm(soles[0][:2, 3] - soles[1][:2, 3]))
         self.segments: list[Segment] = []
         self.footsteps: list[Footstep] = []
+        self.route_step: int | None = None  # the route step being planned (Segment.route_step)
         self.time_s = 0.0
         self.look = np.asarray(params.look_default_deg, dtype=np.float64)
         self.left = np.zeros(4)
@@ -119,6 +120,7 @@ class FootstepPlanner:
             Segment(
                 self.time_s, duration_s, None, self.left.copy(), self.left.copy(),
                 self.right.copy(), self.right.copy(), 0.0, self.look.copy(), target.copy(),
+                self.route_step,
             )
         )  # fmt: skip
         self.time_s += duration_s
@@ -138,7 +140,7 @@ class FootstepPlanner:
             Segment(
                 self.time_s, self.params.step_period_s, foot, self.left.copy(), new_left,
                 self.right.copy(), new_right, highest + self.params.swing_clearance_m,
-                self.look.copy(), self.look.copy(),
+                self.look.copy(), self.look.copy(), self.route_step,
             )
         )  # fmt: skip
         self.time_s += self.params.step_period_s
@@ -159,14 +161,36 @@ class FootstepPlanner:
         pose[2] = height
         return pose
 
+    # -------------------------------------------------------------- durations
+    def _turn_pairs(self, delta: float) -> int:
+        """Pairs of steps that turn the body by ``delta`` [rad] (0 for no turn)."""
+        if abs(delta) < 1e-9:
+            return 0
+        return max(1, math.ceil(abs(delta) / math.radians(self.params.turn_step_deg)))
+
+    def turn_duration_s(self, yaw: float) -> float:
+        """How long :meth:`turn_to` ``yaw`` [rad] takes from here [s] (exact)."""
+        pairs = self._turn_pairs(wrap_angle(yaw - self._heading()))
+        return 2 * pairs * self.params.step_period_s
+
+    def min_walk_duration_s(self, x: float, y: float) -> float:
+        """A lower bound of how long :meth:`walk_to` (x, y) [m] takes from here [s].
+
+        A foot lands at most ``max_step_m`` ahead of the other, so k steps advance the feet at
+        most k · ``max_step_m``; the walk ends with both feet at the goal, or (goal not flat)
+        at most one such step short of it. Turns towards the goal are not counted.
+        """
+        distance = float(np.linalg.norm(np.array([x, y]) - self._centre()))
+        return max(0.0, distance / self.params.max_step_m - 1.0) * self.params.step_period_s
+
     # -------------------------------------------------------------- route commands
     def turn_to(self, yaw: float) -> None:
         """Turn in place to face yaw [rad], in pairs of steps of at most ``turn_step_deg``."""
         heading = self._heading()
         delta = wrap_angle(yaw - heading)
-        if abs(delta) < 1e-9:
+        n = self._turn_pairs(delta)
+        if n == 0:
             return
-        n = max(1, math.ceil(abs(delta) / math.radians(self.params.turn_step_deg)))
         centre = self._centre()
         first, second = (Stance.LEFT, Stance.RIGHT) if delta > 0 else (Stance.RIGHT, Stance.LEFT)
         for i in range(1, n + 1):

@@ -39,6 +39,8 @@ class Segment:
         apex_z: Height the swing sole passes at [m] (unused when standing).
         look_from: Head look at the start [deg].
         look_to: Head look at the end [deg].
+        route_step: Index of the route step that made the segment; None for the stands
+            before and after the route.
     """
 
     start_s: float
@@ -51,6 +53,7 @@ class Segment:
     apex_z: float
     look_from: NDArray[np.float64]
     look_to: NDArray[np.float64]
+    route_step: int | None
 
 
 @dataclass(frozen=True)

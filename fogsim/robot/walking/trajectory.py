@@ -24,11 +24,15 @@ from fogsim.robot.planar import mean_angle
 from fogsim.robot.walking.body import BodyKinematics
 from fogsim.robot.walking.footsteps import Footstep, FootstepPlanner, SupportHeightFn
 from fogsim.robot.walking.gait import GaitParams
-from fogsim.robot.walking.route import RouteStepInput, apply_route
-from fogsim.robot.walking.timeline import SegmentSample, sample_segment
-
-MAX_IK_RESIDUAL_M = 1e-3
-"""A walk whose leg IK misses a footstep by more than this [m] is refused."""
+from fogsim.robot.walking.limits import MAX_IK_RESIDUAL_M, MAX_TRAJECTORY_FRAMES
+from fogsim.robot.walking.route import (
+    FrameBudget,
+    RouteCommand,
+    RouteStepInput,
+    apply_route,
+    route_commands,
+)
+from fogsim.robot.walking.timeline import Segment, SegmentSample, sample_segment
 
 
 @dataclass(frozen=True)
@@ -73,8 +77,14 @@ def plan_route(
     support_height_m: SupportHeightFn,
     frame_rate_hz: float,
     params: GaitParams | None = None,
+    origin: str = "plan_route",
 ) -> Trajectory:
     """Plan a kinematic walk along a route and sample it at the frame rate.
+
+    Work is refused as early as it can be: the route's steps are checked before planning, each
+    step's duration before the step is planned (the walk may have at most
+    :data:`~fogsim.robot.walking.limits.MAX_TRAJECTORY_FRAMES` frames), and the leg IK stops at
+    the first frame whose footstep the legs cannot reach.
 
     Args:
         robot: The humanoid (`fogsim.robot.model.load_robot`).
@@ -83,27 +93,37 @@ def plan_route(
         support_height_m: Height [m] of the highest standing surface at (N, 2) world xy.
         frame_rate_hz: Sample rate of the trajectory [Hz].
         params: Gait parameters (defaults suit iCub).
+        origin: How errors name the route's origin (the scenario file).
 
     Returns:
         The trajectory; deterministic for the same inputs.
 
     Raises:
-        RouteError: Malformed route step, or no flat footstep where the route goes.
+        RouteError: A malformed route step, no flat footstep where the route goes, a walk of
+            more than ``MAX_TRAJECTORY_FRAMES`` frames, or a footstep the legs cannot reach;
+            the message names ``origin``, the route step and the footstep.
     """
     params = params or GaitParams()
-    if not frame_rate_hz > 0.0:
-        raise RouteError(f"frame_rate_hz must be > 0, got {frame_rate_hz}")
+    if not 0.0 < frame_rate_hz < math.inf:
+        raise RouteError(f"{origin}: frame_rate_hz must be finite and > 0, got {frame_rate_hz}")
     start = np.asarray(start_pose_xy_yaw, dtype=np.float64).reshape(-1)
     if start.size != 3 or not np.all(np.isfinite(start)):
-        raise RouteError(f"start pose must be (x, y, yaw_deg), got {start_pose_xy_yaw!r}")
+        raise RouteError(f"{origin}: start pose must be (x, y, yaw_deg), got {start_pose_xy_yaw!r}")
+    commands = route_commands(route_steps, origin)
+    budget = FrameBudget(frame_rate_hz, MAX_TRAJECTORY_FRAMES, params.look_transition_s)
     planner = FootstepPlanner(robot, params, support_height_m)
-    planner.start(start[0], start[1], math.radians(start[2]))
+    try:
+        planner.start(start[0], start[1], math.radians(start[2]))
+    except RouteError as error:
+        raise RouteError(f"{origin}: robot start {start.tolist()}: {error}") from error
     planner.hold(params.look_transition_s)  # settle: stand still, head at the default look
-    apply_route(planner, route_steps)
+    apply_route(planner, commands, budget, origin)
     planner.hold(params.look_transition_s)
     segments = planner.segments
     duration = planner.time_s
     times = np.arange(0.0, duration + 1e-9, 1.0 / frame_rate_hz)
+    if times.size > budget.max_frames:
+        raise RouteError(f"{origin}: {budget.refusal(duration)}")
     body = BodyKinematics(robot, params)
     q_all = np.empty((times.size, robot.nq))
     pose_true = np.empty((times.size, 4))
@@ -122,6 +142,10 @@ def plan_route(
         q, residual = body.configuration(
             sample.left, sample.right, pelvis_xy, pelvis_z, yaw, sample.look_deg, swing
         )
+        if residual > MAX_IK_RESIDUAL_M:
+            raise RouteError(
+                _unreachable(origin, segments[seg_index], commands, float(t), residual)
+            )
         q_all[i] = q
         residuals[i] = residual
         stance[i] = int(Stance.DOUBLE if sample.support is None else sample.support)
@@ -129,9 +153,6 @@ def plan_route(
     reference = np.where(stance == Stance.RIGHT, Stance.RIGHT, Stance.LEFT).astype(np.int8)
     for i in range(times.size):
         pose_true[i] = robot.robot_frame_in_world(q_all[i], Stance(int(reference[i])))
-    worst = float(residuals.max()) if residuals.size else 0.0
-    if worst > MAX_IK_RESIDUAL_M:
-        raise RouteError(f"leg IK could not reach a footstep (residual {worst * 1e3:.1f} mm)")
     return Trajectory(
         times_s=times,
         q=q_all,
@@ -142,6 +163,39 @@ def plan_route(
         footsteps=tuple(planner.footsteps),
         ik_residual_m=residuals,
     )
+
+
+def _unreachable(
+    origin: str,
+    segment: Segment,
+    commands: Sequence[RouteCommand],
+    time_s: float,
+    residual_m: float,
+) -> str:
+    """Why the walk is refused: which route step, which footstep the legs cannot reach."""
+    step = "the start" if segment.route_step is None else str(commands[segment.route_step])
+    if segment.swing is None:
+        feet = {Stance.LEFT: segment.left_to, Stance.RIGHT: segment.right_to}
+        what = "the feet standing at " + " and ".join(
+            f"{foot.name} {_xyz(pose)}" for foot, pose in feet.items()
+        )
+    else:
+        target = segment.left_to if segment.swing == Stance.LEFT else segment.right_to
+        other = segment.right_to if segment.swing == Stance.LEFT else segment.left_to
+        what = (
+            f"the {segment.swing.name} footstep at {_xyz(target)} (the other foot stands at "
+            f"z = {other[2]:.3f} m)"
+        )
+    return (
+        f"{origin}: {step}: the legs cannot reach {what}: leg IK misses by "
+        f"{residual_m * 1e3:.1f} mm at t = {time_s:.2f} s (allowed: "
+        f"{MAX_IK_RESIDUAL_M * 1e3:g} mm); a step may rise or drop only as far as the legs reach"
+    )
+
+
+def _xyz(pose: NDArray[np.float64]) -> str:
+    """``(x, y, z) m`` of a sole pose, to the millimetre."""
+    return f"({pose[0]:.3f}, {pose[1]:.3f}, {pose[2]:.3f}) m"
 
 
 def _pelvis_position(
