@@ -72,6 +72,7 @@ class Simulation:
             scenario.route,
             initial_truth.support_height_m,
             scenario.frame_rate_hz,
+            origin=scenario.origin,
         )
         self.scene = Scene(scenario, self.robot)
         self.scene.set_robot_qpos(self.robot.qpos_mujoco(self.trajectory.q[0]))
