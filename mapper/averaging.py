@@ -139,8 +139,12 @@ class AveragingMap:
         return types, self.heights()
 
     def recenter(self, x_m: float, y_m: float) -> tuple[int, int]:
-        """Scroll by whole cells so world (x, y) lies in the central cell; entering cells empty."""
-        sx, sy = self._geometry.shift_to(float(x_m), float(y_m))
+        """Scroll by whole cells so world (x, y) lies in the central cell; entering cells empty.
+
+        Raises:
+            InvalidInputError: as `FloorObstacleMapper.recenter`.
+        """
+        sx, sy = self._geometry.shift_to(x_m, y_m)
         if sx == 0 and sy == 0:
             return (0, 0)
         for array in (self._sum_z, self._count, self._sum_h, self._floor_count):

@@ -13,7 +13,7 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass
 
-from mapper.errors import InvalidParameterError
+from mapper.validation import check_field, real_scalar
 
 
 @dataclass(frozen=True)
@@ -24,14 +24,17 @@ class ElevationFilterParams:
     gate_m: float = 0.025
 
     def __post_init__(self) -> None:
-        if not 0.0 < self.gain <= 1.0:
-            raise InvalidParameterError(
-                f"ElevationFilterParams.gain must be in (0, 1], got {self.gain}"
-            )
-        if not (math.isfinite(self.gate_m) and self.gate_m > 0):
-            raise InvalidParameterError(
-                f"ElevationFilterParams.gate_m must be a finite float > 0 [m], got {self.gate_m}"
-            )
+        check_field(
+            "ElevationFilterParams", "gain", self.gain, float, "in (0, 1]", lambda v: 0 < v <= 1
+        )
+        check_field(
+            "ElevationFilterParams",
+            "gate_m",
+            self.gate_m,
+            float,
+            "a finite float > 0 [m]",
+            lambda v: math.isfinite(v) and v > 0,
+        )
 
 
 class RobotElevationFilter:
@@ -42,7 +45,13 @@ class RobotElevationFilter:
         self.offset_m = 0.0
 
     def update(self, z_odometry_m: float, floor_at_robot_m: float) -> float:
-        """Filtered elevation [m] for odometry's ``z`` and ``Floor(x_R, y_R)`` (NaN = none)."""
+        """Filtered elevation [m] for odometry's ``z`` and ``Floor(x_R, y_R)`` (NaN = none).
+
+        Raises:
+            InvalidInputError: either argument is not one real number (e.g. complex).
+        """
+        real_scalar(z_odometry_m, "z_odometry_m")
+        real_scalar(floor_at_robot_m, "floor_at_robot_m")
         estimate = z_odometry_m + self.offset_m
         if math.isfinite(floor_at_robot_m):
             error = floor_at_robot_m - estimate

@@ -17,7 +17,9 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from mapper.errors import InvalidInputError
+from mapper.limits import MAX_COORDINATE_M
 from mapper.params import MapperParams
+from mapper.validation import coordinate_m, real_array
 
 
 class CellType(IntEnum):
@@ -58,8 +60,15 @@ class GridGeometry:
         """Geometry of ``params``' grid placed so that ``center_xy_m`` lies in the central cell.
 
         The central cell is ``(nx // 2, ny // 2)``.
+
+        Raises:
+            InvalidInputError: ``center_xy_m`` is not two finite coordinates within
+                ±`mapper.limits.MAX_COORDINATE_M`.
         """
-        cx, cy = (float(v) for v in np.asarray(center_xy_m, dtype=np.float64).reshape(2))
+        center = real_array(center_xy_m, "center_xy_m")
+        if center.shape != (2,):
+            raise InvalidInputError(f"center_xy_m must have shape (2,) [m], got {center.shape}")
+        cx, cy = (coordinate_m(v, "center_xy_m") for v in center)
         return cls(
             params.nx,
             params.ny,
@@ -82,7 +91,15 @@ class GridGeometry:
         return self.z_min_m + self.nz * self.layer_m
 
     def shift_to(self, x_m: float, y_m: float) -> tuple[int, int]:
-        """Whole-cell shift (sx, sy) that puts world (x, y) into the central cell."""
+        """Whole-cell shift (sx, sy) that puts world (x, y) into the central cell.
+
+        Raises:
+            InvalidInputError: ``x_m`` or ``y_m`` is not a finite coordinate within
+                ±`mapper.limits.MAX_COORDINATE_M` (NaN, inf or 1e300 would otherwise fail
+                without a name or scroll every cell out of the map).
+        """
+        x_m = coordinate_m(x_m, "x_m")
+        y_m = coordinate_m(y_m, "y_m")
         return (
             math.floor(x_m / self.cell_m) - self.nx // 2 - self.origin_ix,
             math.floor(y_m / self.cell_m) - self.ny // 2 - self.origin_iy,
@@ -111,7 +128,7 @@ class GridGeometry:
             (indices (N, 3) or (N, 2) int64, valid (N,) bool: finite and inside the grid).
             Indices of invalid points are -1.
         """
-        p = np.asarray(points_world, dtype=np.float64)
+        p = real_array(points_world, "points_world")
         if p.ndim != 2 or p.shape[1] not in (2, 3):
             raise InvalidInputError(f"points_world must have shape (N, 3) or (N, 2), got {p.shape}")
         ox, oy = self.origin_xy_m
@@ -133,11 +150,11 @@ class GridGeometry:
     ) -> NDArray[np.float64]:
         """World centre [m] of cells: (..., 2) for (ix, iy), (..., 3) when ``iz`` is given."""
         ox, oy = self.origin_xy_m
-        x = ox + (np.asarray(ix, dtype=np.float64) + 0.5) * self.cell_m
-        y = oy + (np.asarray(iy, dtype=np.float64) + 0.5) * self.cell_m
+        x = ox + (real_array(ix, "ix") + 0.5) * self.cell_m
+        y = oy + (real_array(iy, "iy") + 0.5) * self.cell_m
         if iz is None:
             return np.stack(np.broadcast_arrays(x, y), axis=-1)
-        z = self.z_min_m + (np.asarray(iz, dtype=np.float64) + 0.5) * self.layer_m
+        z = self.z_min_m + (real_array(iz, "iz") + 0.5) * self.layer_m
         return np.stack(np.broadcast_arrays(x, y, z), axis=-1)
 
     def cell_centers_xy(self) -> NDArray[np.float64]:
@@ -147,7 +164,7 @@ class GridGeometry:
 
     def layer_bottom_m(self, iz: ArrayLike) -> NDArray[np.float64]:
         """World z [m] of the bottom face of layer(s) ``iz``."""
-        return self.z_min_m + np.asarray(iz, dtype=np.float64) * self.layer_m
+        return self.z_min_m + real_array(iz, "iz") * self.layer_m
 
 
 @dataclass(frozen=True)
@@ -177,7 +194,8 @@ class UpdateResult:
     Attributes:
         affected_area: Columns whose 3D cells changed (steps 2–4 ran only there), None if none.
         points_used: Points inserted (finite and inside the grid).
-        points_dropped_nonfinite: Points with a NaN/inf coordinate, ignored.
+        points_dropped_nonfinite: Points with a NaN/inf coordinate, or one beyond
+            ±`mapper.limits.MAX_COORDINATE_M`, ignored.
         points_dropped_outside: Finite points (within ``max_range_m``) outside the grid in x,
             y or z: no hit, but with ``MapperParams.clear_outside`` their rays still clear the
             cells they cross inside the grid.
@@ -204,22 +222,43 @@ def validate_frame(
 ) -> tuple[NDArray[np.float64], NDArray[np.float64], NDArray[np.float64]]:
     """Check and convert the inputs of ``update`` (C-contiguous float64).
 
+    Rows of ``points`` with a coordinate beyond ±`mapper.limits.MAX_COORDINATE_M` become NaN
+    rows (dropped and counted as non-finite), floor heights beyond it NaN ("not floor"): the
+    kernels cast coordinates to cell indices, which such values would overflow. The caller's
+    arrays are never changed (a copy is made when a row must be replaced).
+
     Raises:
-        InvalidInputError: (a ValueError) naming the expected shape, or a non-finite origin.
+        InvalidInputError: (a ValueError) naming the expected shape, data that are not real
+            numbers (complex, bool, strings), or a sensor origin that is not finite or beyond
+            the coordinate limit.
     """
-    p = np.ascontiguousarray(points, dtype=np.float64)
+    p = np.ascontiguousarray(real_array(points, "points"))
     if p.ndim != 2 or p.shape[1] != 3:
         raise InvalidInputError(f"points must have shape (N, 3) [m, world frame], got {p.shape}")
-    h = np.ascontiguousarray(floor_heights, dtype=np.float64)
+    h = np.ascontiguousarray(real_array(floor_heights, "floor_heights"))
     if h.shape != (p.shape[0],):
         raise InvalidInputError(
             f"floor_heights must have shape (N,) = ({p.shape[0]},) matching points, got {h.shape}"
         )
-    o = np.ascontiguousarray(sensor_origin, dtype=np.float64)
+    o = np.ascontiguousarray(real_array(sensor_origin, "sensor_origin"))
     if o.shape != (3,):
         raise InvalidInputError(f"sensor_origin must have shape (3,), got {o.shape}")
-    if not np.all(np.isfinite(o)):
-        raise InvalidInputError(f"sensor_origin must be finite, got {o.tolist()}")
+    if not np.all(np.abs(o) <= MAX_COORDINATE_M):
+        raise InvalidInputError(
+            f"sensor_origin must be finite and within ±{MAX_COORDINATE_M:g} m "
+            f"(mapper.limits.MAX_COORDINATE_M), got {o.tolist()}"
+        )
+    # Two reductions first (NaN, inf or a far value make this fail): the per-row test costs
+    # 20 times more and is needed only then.
+    if not (p.max(initial=0.0) <= MAX_COORDINATE_M and p.min(initial=0.0) >= -MAX_COORDINATE_M):
+        far_rows = np.any(np.abs(p) > MAX_COORDINATE_M, axis=1)  # inf too; NaN is dropped anyway
+        if far_rows.any():
+            p = p.copy()
+            p[far_rows] = np.nan
+    far_heights = np.abs(h) > MAX_COORDINATE_M
+    if far_heights.any():
+        h = h.copy()
+        h[far_heights] = np.nan
     return p, h, o
 
 

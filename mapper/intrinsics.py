@@ -9,19 +9,26 @@ import numpy as np
 from numpy.typing import NDArray
 
 from mapper.errors import InvalidInputError, InvalidParameterError
+from mapper.limits import MAX_IMAGE_PIXELS, MAX_IMAGE_SIDE_PX
+from mapper.validation import check_field, real_array
 
 
 @dataclass(frozen=True)
 class PinholeIntrinsics:
-    """Pinhole intrinsics of a depth camera.
+    """Pinhole intrinsics of a depth camera, checked on construction.
 
     Attributes:
-        width: Image width [px].
-        height: Image height [px].
-        fx: Focal length along x [px].
-        fy: Focal length along y [px].
-        cx: Principal point x [px], pixel centres at integer coordinates.
-        cy: Principal point y [px].
+        width: Image width [px], an integer in [1, `mapper.limits.MAX_IMAGE_SIDE_PX`]; with
+            ``height``, at most `mapper.limits.MAX_IMAGE_PIXELS` pixels.
+        height: Image height [px], likewise.
+        fx: Focal length along x [px], finite and > 0.
+        fy: Focal length along y [px], finite and > 0.
+        cx: Principal point x [px], finite; pixel centres at integer coordinates.
+        cy: Principal point y [px], finite.
+
+    Raises:
+        InvalidParameterError: a field of the wrong type or out of range (NaN, inf, a
+            non-positive focal length), naming the field and the value.
     """
 
     width: int
@@ -32,13 +39,37 @@ class PinholeIntrinsics:
     cy: float
 
     def __post_init__(self) -> None:
-        if self.width <= 0 or self.height <= 0:
-            raise InvalidParameterError(
-                f"image size must be positive, got width={self.width}, height={self.height}"
+        for name in ("width", "height"):
+            check_field(
+                "PinholeIntrinsics",
+                name,
+                getattr(self, name),
+                int,
+                f"an integer in [1, {MAX_IMAGE_SIDE_PX}] px (mapper.limits.MAX_IMAGE_SIDE_PX)",
+                lambda v: 1 <= v <= MAX_IMAGE_SIDE_PX,
             )
-        if not (self.fx > 0 and self.fy > 0):
+        if self.width * self.height > MAX_IMAGE_PIXELS:
             raise InvalidParameterError(
-                f"focal lengths must be > 0 px, got fx={self.fx}, fy={self.fy}"
+                f"PinholeIntrinsics.width*height must be at most {MAX_IMAGE_PIXELS} pixels "
+                f"(mapper.limits.MAX_IMAGE_PIXELS), got {self.width}×{self.height}"
+            )
+        for name in ("fx", "fy"):
+            check_field(
+                "PinholeIntrinsics",
+                name,
+                getattr(self, name),
+                float,
+                "a finite float > 0 [px]",
+                lambda v: math.isfinite(v) and v > 0,
+            )
+        for name in ("cx", "cy"):
+            check_field(
+                "PinholeIntrinsics",
+                name,
+                getattr(self, name),
+                float,
+                "a finite float [px]",
+                math.isfinite,
             )
 
     @classmethod
@@ -47,8 +78,14 @@ class PinholeIntrinsics:
     ) -> PinholeIntrinsics:
         """Intrinsics of a centred pinhole camera with the given full fields of view [deg]."""
         for name, fov in (("hfov_deg", hfov_deg), ("vfov_deg", vfov_deg)):
-            if not 0.0 < fov < 180.0:
-                raise InvalidParameterError(f"{name} must be in (0, 180) degrees, got {fov}")
+            check_field(
+                "PinholeIntrinsics.from_fov",
+                name,
+                fov,
+                float,
+                "in (0, 180) degrees",
+                lambda v: 0.0 < v < 180.0,
+            )
         fx = 0.5 * width / math.tan(math.radians(hfov_deg) / 2.0)
         fy = 0.5 * height / math.tan(math.radians(vfov_deg) / 2.0)
         return cls(width, height, fx, fy, (width - 1) / 2.0, (height - 1) / 2.0)
@@ -85,7 +122,7 @@ class PinholeIntrinsics:
 
         Pixels without a measurement give NaN points.
         """
-        depth = np.asarray(depth_m, dtype=np.float64)
+        depth = real_array(depth_m, "depth_m")
         if depth.shape != self.shape:
             raise InvalidInputError(
                 f"depth image must have shape (height, width) = {self.shape}, got {depth.shape}"

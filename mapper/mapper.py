@@ -53,6 +53,8 @@ class FloorObstacleMapper:
 
     Raises:
         InvalidParameterError: ``column_marks=True`` with ``nz > 64``.
+        InvalidInputError: ``center_xy_m`` is not two finite coordinates within
+            ±`mapper.limits.MAX_COORDINATE_M`.
     """
 
     def __init__(
@@ -128,7 +130,9 @@ class FloorObstacleMapper:
             What was done (see `UpdateResult`). An empty or all-invalid frame changes nothing.
 
         Raises:
-            InvalidInputError: (ValueError) wrong shapes or a non-finite sensor origin.
+            InvalidInputError: (ValueError) wrong shapes, data that are not real numbers, or
+                a sensor origin that is not finite or beyond ±`mapper.limits.MAX_COORDINATE_M`
+                (see `mapper.grid.validate_frame`).
         """
         pts, heights, origin = validate_frame(points, floor_heights, sensor_origin)
         g = self._geometry
@@ -265,8 +269,12 @@ class FloorObstacleMapper:
 
         Returns:
             The shift (sx, sy) in cells that was applied (0, 0 if none was needed).
+
+        Raises:
+            InvalidInputError: ``x_m`` or ``y_m`` is not a finite coordinate within
+                ±`mapper.limits.MAX_COORDINATE_M` (the maps are left as they were).
         """
-        sx, sy = self._geometry.shift_to(float(x_m), float(y_m))
+        sx, sy = self._geometry.shift_to(x_m, y_m)
         if sx == 0 and sy == 0:
             return (0, 0)
         scroll_xy(self._og, sx, sy, LEVEL_UNKNOWN)

@@ -9,32 +9,48 @@ tested in ``tests/test_fog.py``.
 from __future__ import annotations
 
 import math
+import numbers
+import reprlib
 from dataclasses import dataclass
 
 from mapper.errors import InvalidParameterError
+from mapper.limits import MAX_CELL_M, MAX_CELLS, MAX_COLUMNS, MAX_COORDINATE_M, MIN_CELL_M
+from mapper.validation import check_field
 
 #: Number of 8-bit occupancy levels; level ``L`` means probability ``L / LEVELS`` (128 ↔ 0.5).
 LEVELS = 256
 #: The level of an unknown cell (probability exactly 0.5).
 LEVEL_UNKNOWN = 128
+#: The integer fields of `MapperParams`: cell and layer counts, and the pairs z matching needs.
+_COUNT_FIELDS = ("nx", "ny", "nz", "zmatch_min_pairs")
 
 
 def _require(ok: bool, name: str, value: object, allowed: str) -> None:
     if not ok:
-        raise InvalidParameterError(f"MapperParams.{name} must be {allowed}, got {value!r}")
+        raise InvalidParameterError(
+            f"MapperParams.{name} must be {allowed}, got {reprlib.repr(value)}"
+        )
 
 
 @dataclass(frozen=True)
 class MapperParams:
     """Grid geometry, sensor model and thresholds of the mapper.
 
+    Every field is checked on construction (type and range): a wrong one raises
+    `InvalidParameterError` naming the field, the value and what is allowed. Integer fields take
+    integers, float fields any real number but a bool (never NaN; inf only for
+    ``max_range_m``), ``clear_outside`` only a bool.
+
     Attributes:
         nx: Cells along world x (robot-centred, scrolled in whole cells).
-        ny: Cells along world y.
+        ny: Cells along world y. ``nx * ny`` is at most `mapper.limits.MAX_COLUMNS`.
         nz: Layers of the 3D occupancy grid along z (absolute, never scrolled).
-        cell_m: Side of a cell in x and y [m] (paper: 0.04).
-        layer_m: Height of a layer [m] (paper: 0.04).
-        z_min_m: World z of the grid's lower face [m]. Default -0.06 puts the ground (z = 0) in
+            ``nx * ny * nz`` is at most `mapper.limits.MAX_CELLS`.
+        cell_m: Side of a cell in x and y [m] (paper: 0.04), in
+            [`mapper.limits.MIN_CELL_M`, `mapper.limits.MAX_CELL_M`].
+        layer_m: Height of a layer [m] (paper: 0.04), within the same limits.
+        z_min_m: World z of the grid's lower face [m], within ±`mapper.limits.MAX_COORDINATE_M`.
+            Default -0.06 puts the ground (z = 0) in
             the middle of layer 1, so ±20 mm of noise or elevation drift stay in one cell, and
             leaves one layer below the ground for holes and negative drift; with 16 layers the
             grid reaches 0.58 m, enough for surfaces up to ~0.5 m (the paper's stage tops out
@@ -112,52 +128,50 @@ class MapperParams:
     zmatch_max_shift_m: float = 0.08
 
     def __post_init__(self) -> None:
-        for name in ("nx", "ny", "nz", "zmatch_min_pairs"):
-            value = getattr(self, name)
-            _require(
-                isinstance(value, int) and not isinstance(value, bool) and value > 0,
-                name,
-                value,
-                "a positive int",
-            )
+        def check(name: str, kind: type, allowed: str, ok=lambda _: True) -> None:
+            check_field("MapperParams", name, getattr(self, name), kind, allowed, ok)
+
+        for name in _COUNT_FIELDS:
+            check(name, int, "a positive int", lambda v: v > 0)
         _require(
-            self.nx * self.ny * self.nz < 2**31,
+            self.nx * self.ny <= MAX_COLUMNS,
+            "nx*ny",
+            self.nx * self.ny,
+            f"at most {MAX_COLUMNS} columns (mapper.limits.MAX_COLUMNS)",
+        )
+        _require(
+            self.cell_count <= MAX_CELLS,
             "nx*ny*nz",
-            self.nx * self.ny * self.nz,
-            "below 2**31 cells",
+            self.cell_count,
+            f"at most {MAX_CELLS} cells (mapper.limits.MAX_CELLS)",
         )
-        for name in ("cell_m", "layer_m", "zmatch_max_shift_m"):
-            value = getattr(self, name)
-            _require(math.isfinite(value) and value > 0, name, value, "a finite float > 0")
-        _require(math.isfinite(self.z_min_m), "z_min_m", self.z_min_m, "a finite float [m]")
-        _require(0.5 < self.p_occ < 1.0, "p_occ", self.p_occ, "in (0.5, 1)")
-        _require(0.5 < self.p_sense < 1.0, "p_sense", self.p_sense, "in (0.5, 1)")
-        _require(0.0 < self.p_min < 0.5, "p_min", self.p_min, "in (0, 0.5)")
-        _require(0.5 < self.p_max < 1.0, "p_max", self.p_max, "in (0.5, 1)")
-        _require(0.0 <= self.nu <= 1.0, "nu", self.nu, "in [0, 1]")
-        _require(math.isfinite(self.eps_m) and self.eps_m >= 0, "eps_m", self.eps_m, ">= 0 [m]")
-        _require(
-            math.isfinite(self.delta_m) and self.delta_m >= 0, "delta_m", self.delta_m, ">= 0 [m]"
+        for name in ("cell_m", "layer_m"):
+            check(
+                name,
+                float,
+                f"a float > 0 [m] in [{MIN_CELL_M}, {MAX_CELL_M}] (mapper.limits)",
+                lambda v: MIN_CELL_M <= v <= MAX_CELL_M,
+            )
+        check(
+            "z_min_m",
+            float,
+            f"a finite float [m] within ±{MAX_COORDINATE_M:g} (mapper.limits.MAX_COORDINATE_M)",
+            lambda v: abs(v) <= MAX_COORDINATE_M,
         )
-        _require(
-            math.isfinite(self.free_margin_m) and self.free_margin_m >= 0,
-            "free_margin_m",
-            self.free_margin_m,
-            ">= 0 [m]",
-        )
-        _require(
-            isinstance(self.max_range_m, int | float)
-            and not isinstance(self.max_range_m, bool)
-            and self.max_range_m > 0,
-            "max_range_m",
-            self.max_range_m,
-            "a float > 0 [m] (inf: no limit)",
-        )
-        _require(
-            isinstance(self.clear_outside, bool),
-            "clear_outside",
-            self.clear_outside,
-            "a bool",
+        check("p_occ", float, "in (0.5, 1)", lambda v: 0.5 < v < 1.0)
+        check("p_sense", float, "in (0.5, 1)", lambda v: 0.5 < v < 1.0)
+        check("p_min", float, "in (0, 0.5)", lambda v: 0.0 < v < 0.5)
+        check("p_max", float, "in (0.5, 1)", lambda v: 0.5 < v < 1.0)
+        check("nu", float, "in [0, 1]", lambda v: 0.0 <= v <= 1.0)
+        for name in ("eps_m", "delta_m", "free_margin_m"):
+            check(name, float, "a finite float >= 0 [m]", lambda v: math.isfinite(v) and v >= 0)
+        check("max_range_m", float, "a float > 0 [m] (inf: no limit)", lambda v: v > 0)
+        check("clear_outside", bool, "a bool")
+        check(
+            "zmatch_max_shift_m",
+            float,
+            "a finite float > 0 [m]",
+            lambda v: math.isfinite(v) and v > 0,
         )
         _require(
             self.occ_threshold_level < self.level_max,
@@ -211,9 +225,10 @@ class MapperParams:
             )
         values = {name: getattr(self, name) for name in fields}
         for name, value in changes.items():
-            if name in ("nx", "ny", "nz", "zmatch_min_pairs") and float(value).is_integer():
+            number = isinstance(value, numbers.Real) and not isinstance(value, bool)
+            if name in _COUNT_FIELDS and number and float(value).is_integer():
                 value = int(value)
-            if name == "clear_outside" and value in (0, 1):
+            if name == "clear_outside" and number and value in (0, 1):
                 value = bool(value)
             values[name] = value
         return MapperParams(**values)

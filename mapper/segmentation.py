@@ -42,18 +42,60 @@ from numpy.typing import NDArray
 from mapper import scanline
 from mapper.errors import InvalidInputError, InvalidParameterError
 from mapper.intrinsics import PinholeIntrinsics
+from mapper.limits import MAX_COORDINATE_M, MAX_SEGMENTATION_PASSES, MAX_WINDOW_PX
+from mapper.validation import check_field, real_array, rigid_transform
 
 __all__ = ["PoseCorrection", "SegmentationParams", "SegmentationResult", "segment_depth"]
+
+
+_POSITIVE_FIELDS = (
+    "max_depth_m",
+    "min_noise_m",
+    "split_sigma_factor",
+    "split_rms_sigma_factor",
+    "edge_sigma_factor",
+    "break_sigma_factor",
+    "grow_sigma_factor",
+    "rms_sigma_factor",
+    "ground_search_window_m",
+)
+"""`SegmentationParams` fields that must be finite and > 0."""
+_NON_NEGATIVE_FIELDS = (
+    "min_depth_m",
+    "tolerance_floor_m",
+    "fill_sigma_factor",
+    "min_plane_extent_m",
+    "noise_cap_factor",
+)
+"""`SegmentationParams` fields that must be finite and >= 0."""
+_INTEGER_RANGES: dict[str, tuple[int, int | None]] = {
+    "noise_window_px": (1, MAX_WINDOW_PX),
+    "edge_window_px": (2, MAX_WINDOW_PX),
+    "break_reach_px": (0, MAX_WINDOW_PX),
+    "fill_passes": (0, MAX_SEGMENTATION_PASSES),
+    "break_passes": (0, MAX_SEGMENTATION_PASSES),
+    "reassign_passes": (0, MAX_SEGMENTATION_PASSES),
+    "min_segment_pixels": (2, None),
+    "seed_min_pixels": (2, None),
+    "min_plane_pixels": (3, None),
+}
+"""Integer `SegmentationParams` fields: (lowest, highest or None) allowed. The windows' widths
+and the passes' counts are bounded (`mapper.limits`); the pixel counts only filter."""
 
 
 @dataclass(frozen=True)
 class SegmentationParams:
     """Parameters of `segment_depth` (lengths in metres, angles in degrees).
 
+    Every field is checked on construction (type and range); a wrong one raises
+    `InvalidParameterError` naming the field, the value and what is allowed.
+
     Attributes:
         min_depth_m: depths below this are no measurement [m].
         max_depth_m: depths above this are no measurement [m].
         noise_window_px: half width of the box (3 rows high) estimating local noise [px].
+            Windows and passes are bounded by `mapper.limits.MAX_WINDOW_PX` and
+            `mapper.limits.MAX_SEGMENTATION_PASSES` (their cost grows with them).
         min_noise_m: lower bound of the per-pixel depth noise [m].
         noise_cap_factor: the local noise is capped at this multiple of the image's typical
             noise at the same depth (rough surfaces can't widen their own tolerances); 0: off.
@@ -120,50 +162,22 @@ class SegmentationParams:
     correct_ground_shift: bool = True
 
     def __post_init__(self) -> None:
-        positive = (
-            "max_depth_m",
-            "min_noise_m",
-            "split_sigma_factor",
-            "split_rms_sigma_factor",
-            "edge_sigma_factor",
-            "break_sigma_factor",
-            "grow_sigma_factor",
-            "rms_sigma_factor",
-            "ground_search_window_m",
-        )
-        for name in positive:
-            value = getattr(self, name)
-            if not (isinstance(value, int | float) and math.isfinite(value) and value > 0):
-                raise InvalidParameterError(f"SegmentationParams.{name} must be > 0, got {value!r}")
-        non_negative = (
-            "min_depth_m",
-            "tolerance_floor_m",
-            "fill_sigma_factor",
-            "min_plane_extent_m",
-            "noise_cap_factor",
-        )
-        for name in non_negative:
-            value = getattr(self, name)
-            if not (isinstance(value, int | float) and math.isfinite(value) and value >= 0):
-                raise InvalidParameterError(
-                    f"SegmentationParams.{name} must be >= 0, got {value!r}"
-                )
-        integers = {
-            "noise_window_px": 1,
-            "edge_window_px": 2,
-            "fill_passes": 0,
-            "break_passes": 0,
-            "break_reach_px": 0,
-            "reassign_passes": 0,
-            "min_segment_pixels": 2,
-            "seed_min_pixels": 2,
-            "min_plane_pixels": 3,
-        }
-        for name, lowest in integers.items():
-            value = getattr(self, name)
-            if isinstance(value, bool) or not isinstance(value, int) or value < lowest:
-                raise InvalidParameterError(
-                    f"SegmentationParams.{name} must be an integer >= {lowest}, got {value!r}"
+        def check(name: str, kind: type, allowed: str, ok=lambda _: True) -> None:
+            check_field("SegmentationParams", name, getattr(self, name), kind, allowed, ok)
+
+        for name in _POSITIVE_FIELDS:
+            check(name, float, "a finite float > 0", lambda v: math.isfinite(v) and v > 0)
+        for name in _NON_NEGATIVE_FIELDS:
+            check(name, float, "a finite float >= 0", lambda v: math.isfinite(v) and v >= 0)
+        for name, (lowest, highest) in _INTEGER_RANGES.items():
+            if highest is None:
+                check(name, int, f"an integer >= {lowest}", lambda v, lo=lowest: v >= lo)
+            else:
+                check(
+                    name,
+                    int,
+                    f"an integer in [{lowest}, {highest}] (mapper.limits)",
+                    lambda v, lo=lowest, hi=highest: lo <= v <= hi,
                 )
         if self.min_depth_m >= self.max_depth_m:
             raise InvalidParameterError(
@@ -171,19 +185,15 @@ class SegmentationParams:
                 f"({self.max_depth_m})"
             )
         for name in ("floor_max_normal_angle_deg", "max_tilt_correction_deg", "tilt_consensus_deg"):
-            value = getattr(self, name)
-            if not (isinstance(value, int | float) and 0.0 <= value < 90.0):
-                raise InvalidParameterError(
-                    f"SegmentationParams.{name} must be in [0, 90) degrees, got {value!r}"
-                )
-        if not math.isfinite(self.expected_ground_z_m):
-            raise InvalidParameterError(
-                f"SegmentationParams.expected_ground_z_m must be finite, "
-                f"got {self.expected_ground_z_m!r}"
-            )
+            check(name, float, "in [0, 90) degrees", lambda v: 0.0 <= v < 90.0)
+        check(
+            "expected_ground_z_m",
+            float,
+            f"a finite float [m] within ±{MAX_COORDINATE_M:g} (mapper.limits.MAX_COORDINATE_M)",
+            lambda v: abs(v) <= MAX_COORDINATE_M,
+        )
         for name in ("correct_tilt", "correct_ground_shift"):
-            if not isinstance(getattr(self, name), bool):
-                raise InvalidParameterError(f"SegmentationParams.{name} must be a bool")
+            check(name, bool, "a bool")
 
     @classmethod
     def from_mapping(cls, values: Mapping[str, float | int | bool]) -> SegmentationParams:
@@ -352,15 +362,17 @@ def segment_depth(
         The `SegmentationResult`; an image without measurements gives an empty result.
 
     Raises:
-        InvalidInputError: wrong shapes or a transform that is not a rigid 4×4 matrix.
+        InvalidInputError: wrong shapes, complex or non-numeric data, or a transform that is
+            not a rigid 4×4 matrix (`mapper.validation.rigid_transform`: a reflection or a
+            shear is refused).
     """
     params = _DEFAULT_PARAMS if params is None else params
-    depth = np.asarray(depth_m, dtype=np.float64)
+    depth = real_array(depth_m, "depth_m")
     if depth.shape != intrinsics.shape:
         raise InvalidInputError(
             f"depth_m must have shape (height, width) = {intrinsics.shape}, got {depth.shape}"
         )
-    transform = _check_transform(transform_camera_to_robot)
+    transform = rigid_transform(transform_camera_to_robot, "transform_camera_to_robot")
     height, width = depth.shape
     pivot = transform[:3, 3].copy()
 
@@ -514,22 +526,6 @@ def _unit_z_rays(intrinsics: PinholeIntrinsics) -> NDArray[np.float64]:
     rays = intrinsics.ray_directions_camera().reshape(-1, 3)
     rays.flags.writeable = False
     return rays
-
-
-def _check_transform(transform: NDArray[np.floating]) -> NDArray[np.float64]:
-    t = np.asarray(transform, dtype=np.float64)
-    if t.shape != (4, 4) or not np.all(np.isfinite(t)):
-        raise InvalidInputError(
-            f"transform_camera_to_robot must be a finite 4×4 matrix, got shape {t.shape}"
-        )
-    r = t[:3, :3]
-    orthonormal = np.abs(r @ r.T - np.eye(3)).max() <= 1e-6
-    if not orthonormal or np.abs(t[3] - (0.0, 0.0, 0.0, 1.0)).max() > 1e-12:
-        raise InvalidInputError(
-            "transform_camera_to_robot must be a rigid transform (orthonormal rotation, "
-            "last row 0 0 0 1)"
-        )
-    return t
 
 
 def _within_deg_of_vertical(normals: NDArray[np.float64], angle_deg: float) -> NDArray[np.bool_]:

@@ -15,6 +15,7 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from mapper.intrinsics import PinholeIntrinsics
+from mapper.validation import real_array
 
 
 @dataclass(frozen=True)
@@ -90,8 +91,8 @@ def cast_frame(
     Returns:
         (points (N, 3) world [m], NaN rows for no hit; floor_heights (N,) [m], NaN = not floor).
     """
-    origin = np.asarray(camera_position, dtype=np.float64)
-    d = np.asarray(rays_world, dtype=np.float64)
+    origin = real_array(camera_position, "camera_position")
+    d = real_array(rays_world, "rays_world")
     n = d.shape[0]
     with np.errstate(divide="ignore", invalid="ignore"):
         t_best = np.where(d[:, 2] < 0, -origin[2] / d[:, 2], np.inf)

@@ -22,6 +22,7 @@ from numpy.typing import ArrayLike, NDArray
 
 from mapper.grid import GridGeometry
 from mapper.params import MapperParams
+from mapper.validation import real_array, real_scalar
 
 
 @dataclass(frozen=True)
@@ -57,8 +58,8 @@ def match_z(
     params: MapperParams,
 ) -> ZMatch:
     """Least-squares z shift of floor points onto ``floor_map`` (nx, ny) [m, NaN = invalid]."""
-    h = np.asarray(floor_heights, dtype=np.float64)
-    idx, valid = geometry.cell_of(np.asarray(points_world, dtype=np.float64)[:, :2])
+    h = real_array(floor_heights, "floor_heights")
+    idx, valid = geometry.cell_of(real_array(points_world, "points_world")[:, :2])
     valid &= np.isfinite(h)
     if not np.any(valid):
         return ZMatch(0.0, 0, float("nan"), False)
@@ -86,6 +87,7 @@ def apply_z_shift(
     points_world: ArrayLike, floor_heights: ArrayLike, shift_m: float
 ) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
     """Copies of the points and floor heights with ``shift_m`` added to z and h (NaN stays)."""
-    p = np.array(points_world, dtype=np.float64)
+    real_scalar(shift_m, "shift_m")
+    p = real_array(points_world, "points_world").copy()
     p[:, 2] += shift_m
-    return p, np.asarray(floor_heights, dtype=np.float64) + shift_m
+    return p, real_array(floor_heights, "floor_heights") + shift_m

@@ -57,6 +57,12 @@ def test_frozen():
         ("max_range_m", float("nan"), "> 0"),
         ("max_range_m", "3", "> 0"),
         ("clear_outside", 1, "a bool"),
+        ("cell_m", "0.04", "a float > 0 [m] in [0.001, 1.0]"),
+        ("cell_m", 1e-9, "in [0.001, 1.0]"),
+        ("layer_m", 1e9, "in [0.001, 1.0]"),
+        ("p_occ", True, "in (0.5, 1)"),
+        ("nx", 20000 * 20000, "at most 4194304 columns"),
+        ("z_min_m", 1e300, "finite"),
     ],
 )
 def test_invalid_values_name_field_and_range(field, value, allowed):

@@ -2,8 +2,12 @@
 
 from __future__ import annotations
 
+import contextlib
+import io
+import json
 import math
 import os
+import re
 import signal
 import sqlite3
 import subprocess
@@ -15,6 +19,8 @@ from dataclasses import dataclass
 from pathlib import Path
 
 import pytest
+from hypothesis import assume, given, settings
+from hypothesis import strategies as st
 from report_factory import class_scores, event, make_report, row, safety_with
 
 from fogsim.errors import FogsimError
@@ -35,6 +41,7 @@ from fogsim.tune.objective import (
 )
 
 NAMES = ("p_occ", "eps_m", "nu", "seg.min_points")
+NAMES_TUNABLE = ("p_occ", "nx", "cell_m", "seg.fill_passes", "seg.min_depth_m")
 DEFAULTS = {"p_occ": 0.6, "eps_m": 0.03, "seg.min_points": 20}
 TESTS_DIR = Path(__file__).resolve().parent
 
@@ -439,32 +446,42 @@ KILL_SCRIPT = textwrap.dedent(
     from fogsim.tune import TuneConfig, tune
     import test_tune as t
     cfg = TuneConfig(params=t.specs(), trials=40, out_dir=Path({out!r}), progress=False,
-                     heartbeat_s=1, grace_s=2)
-    tune(cfg, t.fake_suite(delay_s=0.1), report_function=t.fake_report, defaults=t.DEFAULTS)
+                     heartbeat_s=1, grace_s=2, workers={workers})
+    tune(cfg, t.fake_suite(delay_s={delay}), report_function=t.fake_report, defaults=t.DEFAULTS)
     """
 )
 
 
+def start_kill_script(out: Path, workers: int = 1, delay_s: float = 0.1) -> subprocess.Popen:
+    script = KILL_SCRIPT.format(
+        root=str(TESTS_DIR.parent), tests=str(TESTS_DIR), out=str(out), workers=workers,
+        delay=delay_s,
+    )  # fmt: skip
+    return subprocess.Popen(
+        [sys.executable, "-c", script], env={**os.environ, "PYTHONHASHSEED": "0"}
+    )
+
+
+def wait_for_completed_trials(proc: subprocess.Popen, db: Path, count: int) -> None:
+    deadline = time.monotonic() + 60
+    while time.monotonic() < deadline:
+        if db.exists():
+            try:
+                states = [s for _, s in read_trials(db)]
+            except sqlite3.OperationalError:
+                states = []
+            if states.count("COMPLETE") >= count:
+                return
+        assert proc.poll() is None, "the tune ended before it could be killed"
+        time.sleep(0.05)
+    pytest.fail("the tune made no progress in 60 s")
+
+
 def test_resume_after_kill_continues_the_trial_count(tmp_path):
     out = tmp_path / "run"
-    script = KILL_SCRIPT.format(root=str(TESTS_DIR.parent), tests=str(TESTS_DIR), out=str(out))
-    env = {**os.environ, "PYTHONHASHSEED": "0"}
-    proc = subprocess.Popen([sys.executable, "-c", script], env=env)
+    proc = start_kill_script(out)
     try:
-        deadline = time.monotonic() + 60
-        while time.monotonic() < deadline:
-            db = out / "tune.db"
-            if db.exists():
-                try:
-                    states = [s for _, s in read_trials(db)]
-                except sqlite3.OperationalError:
-                    states = []
-                if states.count("COMPLETE") >= 4:
-                    break
-            assert proc.poll() is None, "the tune ended before it could be killed"
-            time.sleep(0.05)
-        else:
-            pytest.fail("the tune made no progress in 60 s")
+        wait_for_completed_trials(proc, out / "tune.db", 4)
         proc.send_signal(signal.SIGKILL)
         proc.wait(timeout=10)
     finally:
@@ -671,3 +688,301 @@ def test_cli_tune_from_a_recording_file_and_resume(tmp_path, capsys):
     assert main([*argv, "--weight", "table1_mm=5"]) == 2  # other weights: refused
     assert "made with other weights" in capsys.readouterr().err
     assert main(["tune", str(suite_dir), "--param", "p_occ=0.9:0.5", "--out", "x"]) == 2
+
+
+# ----------------------------------------------------------------------------- hardening
+
+
+def process_children(pid: int) -> list[int]:
+    """Pids whose parent is ``pid`` (Linux /proc)."""
+    children = []
+    for stat in Path("/proc").glob("[0-9]*/stat"):
+        try:
+            text = stat.read_text()
+        except OSError:
+            continue
+        if int(text[text.rindex(")") + 2 :].split()[1]) == pid:
+            children.append(int(stat.parent.name))
+    return children
+
+
+def process_alive(pid: int) -> bool:
+    """The process exists and is not a zombie (Linux /proc)."""
+    try:
+        text = Path(f"/proc/{pid}/stat").read_text()
+    except OSError:
+        return False
+    return text[text.rindex(")") + 2] != "Z"
+
+
+@pytest.mark.skipif(not Path("/proc/self/stat").exists(), reason="needs Linux /proc")
+def test_killing_the_driver_ends_its_pool_workers(tmp_path):
+    from fogsim.tune.executors import PARENT_POLL_S
+
+    out = tmp_path / "run"
+    proc = start_kill_script(out, workers=2, delay_s=0.3)
+    try:
+        wait_for_completed_trials(proc, out / "tune.db", 2)
+        workers = process_children(proc.pid)
+        assert len(workers) == 2 and all(process_alive(w) for w in workers)
+        proc.send_signal(signal.SIGKILL)
+        proc.wait(timeout=10)
+    finally:
+        if proc.poll() is None:
+            proc.kill()
+    deadline = time.monotonic() + PARENT_POLL_S + 5.0
+    while any(process_alive(w) for w in workers) and time.monotonic() < deadline:
+        time.sleep(0.1)
+    assert not [w for w in workers if process_alive(w)], "orphaned tune workers still run"
+
+
+def test_a_run_restarted_within_the_grace_period_fails_the_killed_runs_trials(tmp_path):
+    import dataclasses
+    import warnings
+
+    import optuna
+    from optuna.trial import TrialState
+
+    from fogsim.tune.recovery import TrialHeartbeat, open_storage
+
+    cfg = TuneConfig(
+        params=specs(), trials=2, out_dir=tmp_path, progress=False, heartbeat_s=1, grace_s=2
+    )
+    tune(cfg, fake_suite(), report_function=fake_report, defaults=DEFAULTS)
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", optuna.exceptions.ExperimentalWarning)
+        warnings.filterwarnings("ignore", message="Heartbeat of storage", category=UserWarning)
+        storage = open_storage(cfg)
+        study = optuna.load_study(study_name=cfg.study_name, storage=storage)
+        killed, live = study.ask(), study.ask()
+        heartbeat_killed = TrialHeartbeat(storage, cfg.study_name, cfg.heartbeat_s)
+        heartbeat_live = TrialHeartbeat(storage, cfg.study_name, cfg.heartbeat_s)
+        heartbeat_killed.add(killed.number)  # a run killed while scoring it
+        heartbeat_live.add(live.number)  # a run that lives on
+        killed_params = {p.name: p.suggest(killed) for p in specs()}
+        for spec in specs():
+            spec.suggest(live)
+        heartbeat_killed.close()
+        try:
+            started = time.monotonic()
+            result = tune(  # restarted at once: the killed trial is not stale yet
+                dataclasses.replace(cfg, trials=3),
+                fake_suite(),
+                report_function=fake_report,
+                defaults=DEFAULTS,
+            )
+            waited_s = time.monotonic() - started
+        finally:
+            heartbeat_live.close()
+    trials = optuna.load_study(study_name=cfg.study_name, storage=storage).trials
+    assert result.complete == 3
+    assert trials[killed.number].state == TrialState.FAIL  # not left RUNNING forever
+    assert trials[live.number].state == TrialState.RUNNING  # it kept beating: left alone
+    retries = [t for t in trials if t.system_attrs.get("failed_trial") == killed.number]
+    assert [(t.state, t.params) for t in retries] == [(TrialState.WAITING, killed_params)]
+    assert waited_s < cfg.grace_s + cfg.heartbeat_s + 10.0  # bounded wait
+
+
+@pytest.mark.parametrize(
+    ("text", "message"),
+    [
+        ("p_occ=0.3:0.9", r"the lower bound 0\.3 is not allowed: mapper\.p_occ: .*\(0\.5, 1\)"),
+        ("p_occ=0.6:1.2", r"the upper bound 1\.2 is not allowed: .*in \(0\.5, 1\)"),
+        ("nx=50.5:120", r"nx is an integer parameter; write both bounds as integers"),
+        ("nx=50.0:120.0", r"nx is an integer parameter"),
+        ("nx=0:120", r"the lower bound 0 is not allowed: mapper\.nx: .*a positive int"),
+        ("nx=100:50000", r"the upper bound 50000 is not allowed: .*at most 4194304 columns"),
+        ("seg.fill_passes=1:100", r"the upper bound 100 .*fill_passes must be an integer in"),
+        ("cell_m=0.0001:0.04:log", r"the lower bound 0\.0001 .*\[0\.001, 1\.0\]"),
+        ("seg.min_depth_m=0.01:20", r"the upper bound 20\.0 .*min_depth_m .* must be < max_dep"),
+    ],
+)
+def test_ranges_outside_what_a_parameter_allows_are_refused_before_any_trial(
+    tmp_path, text, message
+):
+    from fogsim.tune import check_ranges
+
+    spec = ParamSpec.parse(text)
+    with pytest.raises(FogsimError, match=rf"--param {re.escape(spec.to_text())}: {message}"):
+        check_ranges([spec])
+    cfg = TuneConfig(params=(spec,), trials=3, out_dir=tmp_path / "out", progress=False)
+    with pytest.raises(FogsimError, match=message):
+        tune(cfg, fake_suite(), report_function=fake_report)  # library names: checked
+    assert not (tmp_path / "out").exists()  # refused before the study was made
+
+
+def test_ranges_a_parameter_allows_pass():
+    from fogsim.tune import check_ranges
+
+    texts = ("p_occ=0.55:0.95", "eps_m=0.005:0.05:log", "nx=50:120", "seg.grow_sigma_factor=1:9")
+    check_ranges([ParamSpec.parse(t) for t in texts])
+
+
+@pytest.mark.parametrize(
+    "address",
+    ["nohost", "host:0", "host:65536", "host:abc", ":6379", "", "ray://head:10001", "[zz]:1",
+     "head :6379", "10.0.0.5:6379:1"],
+)  # fmt: skip
+def test_invalid_ray_addresses_are_refused_naming_what_is_allowed(tmp_path, address):
+    with pytest.raises(FogsimError, match=r"must be auto, local or HOST:PORT with a port in"):
+        config(tmp_path, ray_address=address)
+
+
+@pytest.mark.parametrize(
+    "address", ["auto", "local", "10.0.0.5:6379", "[::1]:6379", "head-node.lan:6379"]
+)
+def test_valid_ray_addresses_are_accepted(tmp_path, address):
+    assert config(tmp_path, ray_address=address).ray_address == address
+
+
+def closed_port() -> int:
+    import socket
+
+    with socket.socket() as probe:
+        probe.bind(("127.0.0.1", 0))
+        return probe.getsockname()[1]
+
+
+def test_an_unreachable_ray_head_is_a_named_error_before_any_work(tmp_path, capsys):
+    from fogsim.cli import main
+
+    suite_dir = tmp_path / "suite"
+    suite_dir.mkdir()
+    address = f"127.0.0.1:{closed_port()}"
+    started = time.monotonic()
+    argv = ["tune", str(suite_dir), "--param", "p_occ=0.55:0.95", "--out", str(tmp_path / "out")]
+    assert main([*argv, "--ray", address, "--no-progress"]) == 2
+    assert time.monotonic() - started < 10.0
+    err = capsys.readouterr().err
+    assert f"--ray {address}: cannot reach a Ray head there" in err and "Traceback" not in err
+    assert not (tmp_path / "out").exists()
+    assert main([*argv, "--ray", "host:99999"]) == 2
+    assert "must be auto, local or HOST:PORT" in capsys.readouterr().err
+
+
+RAY_SCRIPT = textwrap.dedent(
+    """
+    import json, socket, sys, time
+    sys.path[:0] = [{root!r}]
+    from fogsim.errors import TuneError
+    from fogsim.tune.executors import RayExecutor
+    from fogsim.tune.objective import ObjectiveWeights
+    {body}
+    """
+)
+
+
+def run_ray_script(body: str) -> str:
+    pytest.importorskip("ray", reason="ray is not installed (optional extra 'ray')")
+    script = RAY_SCRIPT.format(root=str(TESTS_DIR.parent), body=textwrap.dedent(body))
+    done = subprocess.run(
+        [sys.executable, "-c", script], capture_output=True, text=True, timeout=120
+    )
+    assert done.returncode == 0, done.stderr[-2000:]
+    return done.stdout
+
+
+def test_a_ray_head_that_never_answers_is_given_up_after_the_timeout():
+    out = run_ray_script(
+        """
+        listener = socket.socket()  # accepts connections, never speaks Ray
+        listener.bind(("127.0.0.1", 0))
+        listener.listen(8)
+        address = "127.0.0.1:%d" % listener.getsockname()[1]
+        started = time.monotonic()
+        try:
+            RayExecutor([], ObjectiveWeights(), None, address, 1, connect_s=3.0)
+        except TuneError as exc:
+            print(json.dumps([time.monotonic() - started, str(exc)]))
+        """
+    )
+    elapsed_s, message = json.loads(out.strip().splitlines()[-1])
+    assert elapsed_s < 3.0 + 5.0
+    assert message.startswith("--ray 127.0.0.1:") and ("within 3 s" in message or "join" in message)
+
+
+def test_ray_local_listens_on_the_loopback_address_only():
+    out = run_ray_script(
+        """
+        try:
+            executor = RayExecutor([], ObjectiveWeights(), None, "local", 1)
+            import psutil  # Ray's dependency (vendored by Ray: importable once Ray is)
+        except Exception as exc:
+            print(json.dumps({"failed": repr(exc)}))
+            sys.exit(0)
+        try:
+            listening = set()
+            for proc in [psutil.Process(), *psutil.Process().children(recursive=True)]:
+                try:
+                    connections = proc.net_connections(kind="inet")
+                except psutil.Error:
+                    continue
+                listening |= {c.laddr.ip for c in connections if c.status == psutil.CONN_LISTEN}
+            print(json.dumps({"listening": sorted(listening)}))
+        finally:
+            executor.close()
+        """
+    )
+    result = json.loads(out.strip().splitlines()[-1])
+    if "failed" in result:
+        pytest.skip(f"Ray or psutil cannot run here: {result['failed']}")
+    assert result["listening"], "no Ray server found listening"
+    assert set(result["listening"]) <= {"127.0.0.1", "::ffff:127.0.0.1", "::1"}
+
+
+PARAM_TEXTS = st.one_of(
+    st.text(max_size=20),
+    st.builds(
+        "{}={}:{}{}".format,
+        st.sampled_from([*NAMES_TUNABLE, "bogus", ""]),
+        st.one_of(st.floats(), st.integers(-(10**6), 10**6), st.text(max_size=4)),
+        st.one_of(st.floats(), st.integers(-(10**6), 10**6), st.text(max_size=4)),
+        st.sampled_from(["", ":log", ":lin", ":"]),
+    ),
+)
+
+
+@settings(derandomize=True, max_examples=150, deadline=None)
+@given(text=PARAM_TEXTS)
+def test_any_param_text_is_accepted_or_refused_with_a_message(text):
+    from fogsim.tune import check_ranges
+
+    try:
+        spec = ParamSpec.parse(text)
+        check_ranges([spec])
+    except FogsimError as exc:
+        assert str(exc).startswith("--param") or "parameter" in str(exc)
+    else:
+        assert spec.low < spec.high and math.isfinite(spec.low) and math.isfinite(spec.high)
+
+
+@settings(derandomize=True, max_examples=40, deadline=None)
+@given(text=PARAM_TEXTS)
+def test_cli_tune_with_a_refused_range_exits_2_before_writing(tmp_path_factory, text):
+    from fogsim.cli import main
+    from fogsim.tune import check_ranges
+
+    try:
+        check_ranges([ParamSpec.parse(text)])
+        assume(False)  # an allowed range would start a tune: not this test's business
+    except FogsimError:
+        pass
+    out = tmp_path_factory.mktemp("cli") / "out"
+    err = io.StringIO()
+    with contextlib.redirect_stderr(err):
+        code = main(["tune", "stage", f"--param={text}", "--out", str(out), "--no-progress"])
+    assert code == 2 and err.getvalue().startswith("fogsim: error: ")
+    assert not out.exists()
+
+
+@settings(derandomize=True, max_examples=150, deadline=None)
+@given(address=st.one_of(st.text(max_size=24), st.from_regex(r"[a-z0-9.\[\]:]{0,12}:\d{0,6}")))
+def test_any_ray_address_is_accepted_or_refused_with_a_message(address):
+    from fogsim.tune.config import parse_ray_address
+
+    try:
+        endpoint = parse_ray_address(address)
+    except FogsimError as exc:
+        assert str(exc).startswith(f"--ray {address!r}: must be auto, local or HOST:PORT")
+    else:
+        assert endpoint is None or 1 <= endpoint.port <= 65535

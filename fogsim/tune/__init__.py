@@ -20,7 +20,12 @@ A tune from Python::
 
 from fogsim.tune.config import SamplerKind, TuneConfig
 from fogsim.tune.objective import ObjectiveWeights, SuiteEntry
-from fogsim.tune.space import ParamSpec, parameter_defaults, tunable_parameter_names
+from fogsim.tune.space import (
+    ParamSpec,
+    check_ranges,
+    parameter_defaults,
+    tunable_parameter_names,
+)
 from fogsim.tune.study import tune
 from fogsim.tune.suite import load_suite
 from fogsim.tune.writers import TuneResult, best_params_toml
@@ -33,6 +38,7 @@ __all__ = [
     "TuneConfig",
     "TuneResult",
     "best_params_toml",
+    "check_ranges",
     "load_suite",
     "parameter_defaults",
     "tunable_parameter_names",

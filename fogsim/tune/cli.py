@@ -7,8 +7,9 @@ from pathlib import Path
 
 from fogsim.run.runner import replay_report
 from fogsim.tune.config import RECORDINGS_DIR, SamplerKind, TuneConfig
+from fogsim.tune.executors import check_ray_address
 from fogsim.tune.objective import ObjectiveWeights
-from fogsim.tune.space import ParamSpec
+from fogsim.tune.space import ParamSpec, check_ranges
 from fogsim.tune.study import tune
 from fogsim.tune.suite import load_suite
 
@@ -54,7 +55,8 @@ def add_tune_arguments(
         "--ray",
         metavar="ADDRESS",
         default=None,
-        help="run trials on a Ray cluster (auto, HOST:PORT, or local)",
+        help="run trials on a Ray cluster: auto (this machine's), HOST:PORT (a head), or "
+        "local (a private instance on 127.0.0.1)",
     )
     parser.add_argument(
         "--weight",
@@ -77,6 +79,7 @@ def add_tune_arguments(
 def run_tune(args: argparse.Namespace) -> int:
     """Run ``fogsim tune`` from parsed arguments; prints the best block and the top table."""
     params = tuple(ParamSpec.parse(text) for text in args.param)
+    check_ranges(params)  # before the suite is recorded: errors come before long work
     config = TuneConfig(
         params=params,
         trials=args.trials,
@@ -92,6 +95,8 @@ def run_tune(args: argparse.Namespace) -> int:
         progress=not args.no_progress,
         pictures=not args.no_pictures,
     )
+    if config.ray_address is not None:
+        check_ray_address(config.ray_address)
     suite = load_suite(args.suite, config.out_dir / RECORDINGS_DIR, quick=args.quick)
     result = tune(config, suite, report_function=replay_report)
     print((result.out_dir / "best_params.toml").read_text(encoding="utf-8"))

@@ -8,12 +8,22 @@ from __future__ import annotations
 
 import concurrent.futures
 import multiprocessing
+import os
+import socket
+import threading
+import time
 from collections.abc import Iterator, Mapping, Sequence
 from dataclasses import dataclass
+from types import ModuleType
 from typing import Protocol
 
 from fogsim.errors import TuneError
-from fogsim.tune.config import TuneConfig
+from fogsim.tune.config import (
+    RAY_CONNECT_TIMEOUT_S,
+    RAY_REACH_TIMEOUT_S,
+    TuneConfig,
+    parse_ray_address,
+)
 from fogsim.tune.objective import (
     ObjectiveWeights,
     ReportFunction,
@@ -92,15 +102,43 @@ class InlineExecutor:
         """Nothing to release."""
 
 
+LOOPBACK = "127.0.0.1"
+"""The only address a ``--ray local`` instance listens on."""
+
 _WORKER_STATE: tuple[Sequence[SuiteEntry], ObjectiveWeights, ReportFunction] | None = None
 """A pool worker's suite, weights and report function, set once by :func:`_pool_init`."""
 
+PARENT_POLL_S = 1.0
+"""Seconds between a pool worker's checks that the driver that started it still lives. One
+wake-up a second costs nothing beside a trial's seconds of replay, and a killed driver's
+workers are gone within a second."""
+
 
 def _pool_init(
-    suite: Sequence[SuiteEntry], weights: ObjectiveWeights, report: ReportFunction
+    driver_pid: int, suite: Sequence[SuiteEntry], weights: ObjectiveWeights, report: ReportFunction
 ) -> None:
+    """Set up a pool worker: its state, and a thread ending it when the driver dies.
+
+    A worker never notices on its own that the driver was killed: it blocks on the call queue,
+    whose pipe it holds both ends of (so no end-of-file comes), or finishes a trial nobody will
+    read. The thread polls ``os.getppid()`` (POSIX and Windows alike) against the driver's pid,
+    which the driver passes in, so a driver that died before the worker started is noticed at
+    once. Linux's ``prctl(PR_SET_PDEATHSIG)`` would act at once but is Linux-only, needs ctypes,
+    and fires when the *thread* that forked the worker ends, not the driver process.
+    """
     global _WORKER_STATE
     _WORKER_STATE = (suite, weights, report)
+    watch = threading.Thread(
+        target=_exit_when_orphaned, args=(driver_pid,), name="tune-driver-watch", daemon=True
+    )
+    watch.start()
+
+
+def _exit_when_orphaned(driver_pid: int) -> None:
+    """End this process as soon as its parent is no longer ``driver_pid``."""
+    while os.getppid() == driver_pid:
+        time.sleep(PARENT_POLL_S)
+    os._exit(1)  # at once: no cleanup of a half-scored trial, nobody waits for it
 
 
 def _pool_score(overrides: Mapping[str, float]) -> TrialScore:
@@ -111,7 +149,11 @@ def _pool_score(overrides: Mapping[str, float]) -> TrialScore:
 
 
 class PoolExecutor:
-    """A local process pool; each worker receives the recordings once, at start."""
+    """A local process pool; each worker receives the recordings once, at start.
+
+    Workers end themselves within :data:`PARENT_POLL_S` when the driver is killed (see
+    :func:`_pool_init`), so a killed tune leaves no process behind.
+    """
 
     def __init__(
         self,
@@ -126,7 +168,7 @@ class PoolExecutor:
             max_workers=workers,
             mp_context=multiprocessing.get_context(method),
             initializer=_pool_init,
-            initargs=(suite, weights, report),
+            initargs=(os.getpid(), suite, weights, report),
         )
 
     def run(self, batch: Sequence[TrialRequest]) -> Iterator[TrialOutcome]:
@@ -151,7 +193,25 @@ def _ray_score(
 
 
 class RayExecutor:
-    """Ray tasks on a cluster; the recordings go to the object store once (``ray.put``)."""
+    """Ray tasks on a cluster; the recordings go to the object store once (``ray.put``).
+
+    Joining is bounded: a ``HOST:PORT`` head must accept a TCP connection within
+    :data:`~fogsim.tune.config.RAY_REACH_TIMEOUT_S` and Ray must join within ``connect_s``,
+    else :class:`TuneError` names the address. ``local`` starts a private instance whose
+    servers (GCS, raylet, workers, agents) all listen on 127.0.0.1 only.
+
+    Args:
+        suite: The recordings every trial replays.
+        weights: Objective weights.
+        report: ``(recording, overrides) -> report``.
+        address: ``auto``, ``local`` or ``HOST:PORT`` (:func:`parse_ray_address`).
+        workers: Trials at once; 1 = as many as the cluster has CPUs.
+        connect_s: Seconds to join the cluster.
+
+    Raises:
+        TuneError: an invalid or unreachable address, Ray not installed, or a ``local``
+            instance that could not be kept on the loopback address.
+    """
 
     def __init__(
         self,
@@ -160,7 +220,14 @@ class RayExecutor:
         report: ReportFunction,
         address: str,
         workers: int,
+        connect_s: float = RAY_CONNECT_TIMEOUT_S,
     ) -> None:
+        check_ray_address(address)
+        if address == "local":
+            # Read by Ray when it is imported (and by the processes it starts): off, Ray's node
+            # address is the loopback one, and every server it starts listens there only. The
+            # name says Windows and macOS, where it is off by default; Ray reads it everywhere.
+            os.environ[RAY_CLUSTER_SWITCH] = "0"
         # Ray is an optional extra (``fogsim[ray]``): imported only when --ray asks for it.
         try:
             import ray
@@ -172,9 +239,9 @@ class RayExecutor:
         self._owns_ray = not ray.is_initialized()
         if self._owns_ray:
             if address == "local":
-                ray.init(include_dashboard=False, log_to_driver=False)
+                _start_local_ray(ray)
             else:
-                ray.init(address=address, log_to_driver=False)
+                _join_ray(ray, address, connect_s)
         self._suite_ref = ray.put(list(suite))
         self._weights = weights
         self._report = report
@@ -205,12 +272,88 @@ class RayExecutor:
             self._ray.shutdown()
 
 
+RAY_CLUSTER_SWITCH = "RAY_ENABLE_WINDOWS_OR_OSX_CLUSTER"
+"""Ray's switch for multi-node clusters; ``--ray local`` turns it off (see :class:`RayExecutor`)."""
+
+
+def check_ray_address(address: str) -> None:
+    """Refuse an invalid ``--ray`` value, or a ``HOST:PORT`` head that is not reachable.
+
+    The head must accept a TCP connection within :data:`RAY_REACH_TIMEOUT_S` (``auto`` and
+    ``local`` are only checked when Ray joins them).
+
+    Raises:
+        TuneError: naming the address, what is allowed, or the timeout and the socket's error.
+    """
+    endpoint = parse_ray_address(address)
+    if endpoint is None:
+        return
+    try:
+        with socket.create_connection((endpoint.host, endpoint.port), timeout=RAY_REACH_TIMEOUT_S):
+            pass
+    except OSError as exc:
+        raise TuneError(
+            f"--ray {address}: cannot reach a Ray head there within {RAY_REACH_TIMEOUT_S:g} s "
+            f"({exc}); start one with `ray start --head --port={endpoint.port}` or check the "
+            "address"
+        ) from None
+
+
+def _start_local_ray(ray: ModuleType) -> None:
+    """Start a private Ray instance listening on 127.0.0.1 only (no dashboard)."""
+    ray.init(include_dashboard=False, dashboard_host=LOOPBACK, log_to_driver=False)
+    node_address = ray.util.get_node_ip_address()
+    if node_address != LOOPBACK:
+        ray.shutdown()
+        raise TuneError(
+            f"--ray local: Ray listens on {node_address}, not {LOOPBACK}: it was imported "
+            f"before fogsim could set {RAY_CLUSTER_SWITCH}=0; set it in the environment"
+        )
+
+
+def _join_ray(ray: ModuleType, address: str, connect_s: float) -> None:
+    """``ray.init(address=...)``, given up after ``connect_s`` seconds.
+
+    Ray retries an unresponsive head for many minutes; the join runs in a daemon thread so the
+    wait can be bounded (a join given up on keeps trying in the background until the process
+    exits). Ray then logs that it set no SIGTERM handler (it does so only in the main thread).
+
+    Raises:
+        TuneError: Ray refused the address or did not join in time.
+    """
+    failure: list[Exception] = []
+
+    def join() -> None:
+        try:
+            ray.init(address=address, log_to_driver=False)
+        except Exception as exc:  # reported by the caller's thread
+            failure.append(exc)
+
+    thread = threading.Thread(target=join, name="ray-join", daemon=True)
+    thread.start()
+    thread.join(connect_s)
+    if failure:
+        raise TuneError(f"--ray {address}: Ray cannot join: {failure[0]}") from failure[0]
+    if thread.is_alive():
+        raise TuneError(
+            f"--ray {address}: no Ray cluster answered within {connect_s:g} s "
+            "(fogsim.tune.config.RAY_CONNECT_TIMEOUT_S); is `ray start --head` running there?"
+        )
+
+
 def make_executor(
     config: TuneConfig, suite: Sequence[SuiteEntry], report: ReportFunction
 ) -> Executor:
     """The executor ``config`` asks for: Ray if an address is given, else inline or a pool."""
     if config.ray_address is not None:
-        return RayExecutor(suite, config.weights, report, config.ray_address, config.workers)
+        return RayExecutor(
+            suite,
+            config.weights,
+            report,
+            config.ray_address,
+            config.workers,
+            config.ray_connect_s,
+        )
     if config.workers == 1:
         return InlineExecutor(suite, config.weights, report)
     return PoolExecutor(suite, config.weights, report, config.workers)

@@ -13,18 +13,29 @@ parameters that started more than ``grace_s`` ago belongs to a dead run:
 :func:`fail_dead_trials` fails and retries it as Optuna would a stale one. (Not covered: a
 retried trial, which carries its parameters from the start, killed in that same gap stays
 RUNNING; it is not counted as scored, so the trial count is still reached.)
+
+A second gap: a run restarted less than ``grace_s`` after one was killed finds the dead run's
+trials not yet stale, and may reach its trial count before they are. Before it ends, a run
+therefore waits for the trials it did not start to go stale and fails them
+(:func:`fail_dead_trials_before_exit`), so none stays RUNNING after it; trials of a live run
+keep beating and are left alone.
 """
 
 from __future__ import annotations
 
 import datetime
 import threading
+import time
 
 import optuna
 from optuna.exceptions import UpdateFinishedTrialError
 from optuna.trial import TrialState
 
 from fogsim.tune.config import TuneConfig
+
+SETTLE_POLL_S = 1.0
+"""Seconds between two looks for stale trials while a run waits to end (Optuna stores
+heartbeats to the second)."""
 
 
 def open_storage(config: TuneConfig) -> optuna.storages.RDBStorage:
@@ -112,3 +123,30 @@ def fail_dead_trials(
             continue  # another run finished it first ("Cannot tell a FAIL trial")
         if retry is not None:
             retry(study, failed)
+
+
+def fail_dead_trials_before_exit(
+    study: optuna.Study, storage: optuna.storages.RDBStorage, config: TuneConfig
+) -> int:
+    """Wait for the RUNNING trials of killed runs to go stale, failing and retrying them.
+
+    Called when a run has told all of its own trials, so every RUNNING trial belongs to another
+    run. A killed run's last heartbeat is older than now, so its trials are stale within
+    ``grace_s`` (plus one heartbeat interval for Optuna's whole-second timestamps): that bounds
+    the wait. Their parameters are queued again (WAITING) for the next run.
+
+    Args:
+        study: The study.
+        storage: Its storage (:func:`open_storage`).
+        config: The run's settings (``grace_s``, ``heartbeat_s``).
+
+    Returns:
+        Trials still RUNNING at the end: those of runs that are alive (they keep beating).
+    """
+    deadline = time.monotonic() + config.grace_s + config.heartbeat_s
+    while True:
+        fail_dead_trials(study, storage, config.grace_s)
+        running = study.get_trials(deepcopy=False, states=(TrialState.RUNNING,))
+        if not running or time.monotonic() >= deadline:
+            return len(running)
+        time.sleep(SETTLE_POLL_S)

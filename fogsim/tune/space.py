@@ -15,7 +15,7 @@ from dataclasses import dataclass
 import numpy as np
 import optuna
 
-from fogsim.config import RunParams, override_key
+from fogsim.config import RunParams, override_key, replace_params, split_override_key
 from fogsim.errors import ParameterError
 
 TUNED_TABLES = ("mapper", "segmentation")
@@ -150,3 +150,36 @@ class ParamSpec:
         """The ``--param`` form of this spec."""
         fmt = (lambda v: str(int(v))) if self.integer else repr
         return f"{self.name}={fmt(self.low)}:{fmt(self.high)}" + (":log" if self.log else "")
+
+
+def check_ranges(specs: Sequence[ParamSpec]) -> None:
+    """Refuse ranges the parameters do not allow, before any trial runs.
+
+    Each bound goes through the parameter class's own validation (:func:`fogsim.config.
+    replace_params` on the library defaults, so the message says what is allowed), and an
+    integer parameter needs bounds written as integers. A range passing both ends holds only
+    allowed values: every parameter's allowed set is an interval. (A value may still be refused
+    together with other tuned values, e.g. ``p_occ`` above a tuned ``p_max``: that trial fails.)
+
+    Raises:
+        ParameterError: ``--param <range>: ...`` naming the parameter, the bound and what is
+            allowed.
+    """
+    defaults = RunParams()
+    for spec in specs:
+        group, name = split_override_key(spec.name)
+        params = getattr(defaults, group)
+        if isinstance(getattr(params, name), int) and not spec.integer:
+            raise ParameterError(
+                f"--param {spec.to_text()}: {spec.name} is an integer parameter; write both "
+                f"bounds as integers (e.g. {spec.name}={math.ceil(spec.low)}:"
+                f"{math.floor(spec.high)})"
+            )
+        for which, bound in (("lower", spec.low), ("upper", spec.high)):
+            value = int(bound) if spec.integer else bound
+            try:
+                replace_params(params, {name: value}, group)
+            except ParameterError as exc:
+                raise ParameterError(
+                    f"--param {spec.to_text()}: the {which} bound {value} is not allowed: {exc}"
+                ) from None

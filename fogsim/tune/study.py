@@ -9,9 +9,10 @@ process talks to it (ask, tell, heartbeats); workers only score. Every trial is 
 it finishes. A running trial carries a heartbeat; when a run is killed, the next run over the
 same ``OUT`` fails its stale trials and queues their parameters again
 (:mod:`fogsim.tune.recovery`), so a resumed run continues the trial count where the killed one
-stopped. ``--trials N`` is the total number of scored trials the study should hold, not the
-number to add. SQLite transactions keep two runs on one database from corrupting each other; a
-run whose search space, weights or suite differ from the stored study is refused.
+stopped (a run restarted within the grace period waits, before it ends, for the killed run's
+trials to go stale). ``--trials N`` is the total number of scored trials the study should hold,
+not the number to add. SQLite transactions keep two runs on one database from corrupting each
+other; a run whose search space, weights or suite differ from the stored study is refused.
 
 Determinism: the driver asks a batch of as many trials as the executor scores at once, waits for
 the whole batch and only then asks again, so with the same seed, suite and worker count the same
@@ -34,6 +35,7 @@ Outputs in ``OUT`` (:mod:`fogsim.tune.writers`): ``best_params.toml`` (``[mapper
 from __future__ import annotations
 
 import itertools
+import sys
 import warnings
 from collections.abc import Mapping, Sequence
 from typing import Any
@@ -47,8 +49,13 @@ from fogsim.errors import TuneError
 from fogsim.tune.config import SamplerKind, TuneConfig
 from fogsim.tune.executors import TrialOutcome, TrialRequest, make_executor
 from fogsim.tune.objective import ReportFunction, SuiteEntry
-from fogsim.tune.recovery import TrialHeartbeat, fail_dead_trials, open_storage
-from fogsim.tune.space import parameter_defaults
+from fogsim.tune.recovery import (
+    TrialHeartbeat,
+    fail_dead_trials,
+    fail_dead_trials_before_exit,
+    open_storage,
+)
+from fogsim.tune.space import check_ranges, parameter_defaults
 from fogsim.tune.writers import TuneResult, write_results
 
 _CONFIG_ATTR = "fogsim_config"
@@ -168,10 +175,14 @@ def tune(
 
     Raises:
         TuneError: invalid setup, a study made with other settings, or no trial scored.
+        ParameterError: a range the parameter does not allow (with ``defaults`` None:
+            :func:`fogsim.tune.space.check_ranges`).
     """
     if not suite:
         raise TuneError("the suite is empty")
     names = [p.name for p in config.params]
+    if defaults is None:  # the library's parameters: their classes say which values are allowed
+        check_ranges(config.params)
     first = dict(defaults) if defaults is not None else parameter_defaults(names)
     missing = [n for n in names if n not in first]
     if missing:
@@ -228,9 +239,26 @@ def _tune(
                     f"first error: {failures[0]}"
                 )
             done = _finished(study)
+        _settle_other_runs(study, storage, config)
     finally:
         heartbeat.close()
         executor.close()
         if progress is not None:
             progress.close()
     return write_results(study, config)
+
+
+def _settle_other_runs(
+    study: optuna.Study, storage: optuna.storages.RDBStorage, config: TuneConfig
+) -> None:
+    """Fail the trials a killed run left RUNNING before this run ends (see recovery)."""
+    others = len(study.get_trials(deepcopy=False, states=(TrialState.RUNNING,)))
+    if not others:
+        return
+    if config.progress:
+        tqdm.write(
+            f"waiting up to {config.grace_s + config.heartbeat_s} s for {others} running "
+            "trial(s) of another run to go stale",
+            file=sys.stderr,
+        )
+    fail_dead_trials_before_exit(study, storage, config)
