@@ -167,6 +167,11 @@ def write_atomic(path: str | os.PathLike[str], writer: Callable[[IO[bytes]], Non
     target = Path(path)
     try:
         target.parent.mkdir(parents=True, exist_ok=True)
+    except FileExistsError as exc:  # mkdir says "File exists" of a file among the folders
+        raise OutputError(f"cannot write {target}: {exc.filename} is a file, not a folder") from exc
+    except OSError as exc:
+        raise OutputError(f"cannot write {target}: {reason(exc)}") from exc
+    try:
         remove_stale_temporaries(target.parent)
         fd, tmp_name = tempfile.mkstemp(
             prefix=temporary_prefix(target), suffix=".tmp", dir=target.parent
