@@ -10,7 +10,8 @@ an :class:`~fogsim.atomic.OutputError` naming the argument, the path and what is
 :func:`child_path` is the defence for paths made from data (a scenario's name in
 ``runs/<name>`` or the suite's ``OUT/<name>/``): the result must stay inside its parent.
 
-The limits are named here, in one place: :data:`PSEUDO_FILESYSTEMS`, :data:`MIN_FREE_BYTES`.
+The limits are named here, in one place: :data:`PSEUDO_FILESYSTEMS`, :data:`MIN_FREE_BYTES`,
+:data:`NAME_MAX_BYTES`, :data:`PATH_MAX_BYTES`.
 """
 
 from __future__ import annotations
@@ -32,6 +33,12 @@ about 10 MiB; a ``--video`` some MiB more); 100 MiB leaves a margin of ten, and 
 less is full for practical purposes. A write that still finds the disk full fails with an
 OutputError and leaves nothing."""
 
+NAME_MAX_BYTES = 255
+"""Longest file or folder name [bytes]: Linux's ``NAME_MAX`` on ext4, XFS, Btrfs and tmpfs."""
+
+PATH_MAX_BYTES = 4096
+"""Longest path [bytes]: Linux's ``PATH_MAX``."""
+
 PathKind = Literal["folder", "file"]
 """What the path must be: a folder (``fogsim run --out``) or a file (``fogsim record --out``)."""
 
@@ -45,7 +52,7 @@ def resolve_output(path: str | os.PathLike[str], what: str) -> Path:
 
     Raises:
         OutputError: A NUL character, a loop of symbolic links, a path below ``/proc``,
-            ``/sys`` or ``/dev``, or the root folder.
+            ``/sys`` or ``/dev``, the root folder, a name or path too long for Linux.
     """
     text = os.fspath(path)
     if "\0" in text:
@@ -62,6 +69,17 @@ def resolve_output(path: str | os.PathLike[str], what: str) -> Path:
             )
     if resolved.parent == resolved:
         raise OutputError(f"{what} {text}: is the root folder; give a folder below it")
+    long_name = next((p for p in resolved.parts if len(os.fsencode(p)) > NAME_MAX_BYTES), None)
+    if long_name is not None:
+        raise OutputError(
+            f"{what} {text}: the name {long_name[:40]}... has {len(os.fsencode(long_name))} "
+            f"bytes; a file or folder name may have at most {NAME_MAX_BYTES}"
+        )
+    if len(os.fsencode(resolved)) > PATH_MAX_BYTES:
+        raise OutputError(
+            f"{what} {text[:80]}...: the path has {len(os.fsencode(resolved))} bytes; at most "
+            f"{PATH_MAX_BYTES} are allowed"
+        )
     return resolved
 
 
