@@ -20,6 +20,7 @@ import sys
 import time
 from pathlib import Path
 
+import pytest
 from test_pipeline import make_frames
 
 from fogsim.atomic import TEMPORARY, remove_stale_temporaries
@@ -78,6 +79,7 @@ def strays(folder: Path, keep: str) -> tuple[list[str], list[str]]:
     ]
 
 
+@pytest.mark.slow
 def test_kill_9_during_a_run_leaves_the_older_result_or_nothing(tmp_path):
     out = tmp_path / "X"
     run = fogsim("run", "flat_floor", "--out", str(out), "--quiet")
@@ -101,6 +103,7 @@ def test_kill_9_during_a_run_leaves_the_older_result_or_nothing(tmp_path):
     assert strays(tmp_path, "X") == ([], [])
 
 
+@pytest.mark.slow
 def test_kill_9_during_a_recording_leaves_the_older_file_or_nothing(tmp_path):
     path = tmp_path / "rec.npz"
     record = fogsim("record", "flat_floor", "--out", str(path), "--quiet")

@@ -322,6 +322,21 @@ def test_two_runs_into_one_folder_the_later_commit_wins_whole(tmp_path):
     assert temporaries(tmp_path) == []
 
 
+def test_a_file_that_comes_during_the_run_stops_the_commit(tmp_path):
+    out = tmp_path / "out"
+    with pytest.raises(OutputError) as caught, RunFolder(out) as folder:
+        (folder.path / "report.json").write_text("{}")
+        out.mkdir()
+        (out / "notes.txt").write_text("written while the run ran")
+        folder.commit("run")
+    message = str(caught.value)
+    assert message.startswith(f"output folder {out}: holds {out / 'notes.txt'}, which no run")
+    assert message.endswith("; nothing was written (an earlier result there is unchanged)")
+    assert message.count("output folder") == 1
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["out"]
+    assert [p.name for p in out.iterdir()] == ["notes.txt"]
+
+
 # --- Temporaries of killed runs are removed by the next run; a live run's never
 
 

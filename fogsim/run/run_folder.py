@@ -234,18 +234,19 @@ class RunFolder:
         exc: BaseException | None,
         traceback: TracebackType | None,
     ) -> None:
-        if self._committed:
+        if self._committed or self.path == self.target:
             return
         # A leftover is owned by this process: the next run into the parent removes it. The
         # error that brought us here matters more than one about removing it.
         shutil.rmtree(self.path, ignore_errors=True)
-        if isinstance(exc, OutputError):
-            said = str(exc).endswith(_UNCHANGED)  # by a run folder inside this one
-            raise OutputError(
-                f"{self.what} {self.target}: {exc}" + ("" if said else f"; {_UNCHANGED}")
-            ) from exc
         if isinstance(exc, OSError):
             where = f" {exc.filename}" if exc.filename is not None else ""
-            raise OutputError(
-                f"{self.what} {self.target}: cannot write{where}: {reason(exc)}; {_UNCHANGED}"
-            ) from exc
+            message = f"cannot write{where}: {reason(exc)}"
+        elif isinstance(exc, OutputError):
+            message = str(exc)
+        else:
+            return
+        prefix = f"{self.what} {self.target}: "
+        message = message if message.startswith(prefix) else prefix + message
+        said = message.endswith(_UNCHANGED)  # by a run folder inside this one
+        raise OutputError(message + ("" if said else f"; {_UNCHANGED}")) from exc
