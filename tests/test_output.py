@@ -269,6 +269,24 @@ def test_a_failing_run_leaves_the_older_result_and_nothing_else(
     assert temporaries(tmp_path) == []
 
 
+def test_ctrl_c_exits_130_and_leaves_the_older_result(
+    tmp_path, fake_simulation, monkeypatch, capsys
+):
+    out = tmp_path / "out"
+    assert run(out, "--no-pictures") == 0
+    before = assert_complete(out)
+
+    def interrupted(result, scenario, folder):
+        (Path(folder) / "fog_map.png").write_bytes(b"half a pic")
+        raise KeyboardInterrupt
+
+    monkeypatch.setattr("fogsim.run.runner.write_pictures", interrupted)
+    assert run(out) == 130
+    assert capsys.readouterr().err == "fogsim: interrupted; nothing of this run was written\n"
+    assert assert_complete(out) == before
+    assert temporaries(tmp_path) == []
+
+
 def test_seeds_folder_is_replaced_whole(tmp_path, fake_simulation):
     out = tmp_path / "out"
     args = ["run", "flat_floor", "--no-pictures", "--workers", "1", "--out", str(out)]
