@@ -239,50 +239,39 @@ def test_an_older_result_is_replaced_whole_never_mixed(tmp_path, fake_simulation
     assert temporaries(tmp_path) == []
 
 
+@pytest.mark.parametrize(
+    ("failure", "code", "message"),
+    [
+        (
+            OSError(errno.ENOSPC, os.strerror(errno.ENOSPC)),
+            2,
+            "No space left on device (ENOSPC); "
+            "nothing was written (an earlier result there is unchanged)",
+        ),
+        (KeyboardInterrupt(), 130, "fogsim: interrupted; nothing of this run was written"),
+        (RuntimeError("a bug"), None, ""),
+    ],
+    ids=["disk_full", "ctrl_c", "bug"],
+)
 def test_a_failing_run_leaves_the_older_result_and_nothing_else(
-    tmp_path, fake_simulation, monkeypatch, capsys
+    failure, code, message, tmp_path, fake_simulation, monkeypatch, capsys
 ):
     out = tmp_path / "out"
     assert run(out, "--no-pictures") == 0
     before = assert_complete(out)
 
-    def disk_full(result, scenario, folder):
-        (Path(folder) / "fog_map.png").write_bytes(b"half a pic")
-        raise OSError(errno.ENOSPC, os.strerror(errno.ENOSPC))
+    def fail(result, scenario, folder):
+        (Path(folder) / "fog_map.png").write_bytes(b"half a picture")
+        raise failure
 
-    monkeypatch.setattr("fogsim.run.runner.write_pictures", disk_full)
-    assert run(out) == 2
-    err = capsys.readouterr().err
-    assert "No space left on device (ENOSPC)" in err
-    assert "nothing was written (an earlier result there is unchanged)" in err
-    assert err.count("\n") == 1
-    assert assert_complete(out) == before
-    assert temporaries(tmp_path) == []
-
-    def bug(result, scenario, folder):
-        raise RuntimeError("a bug")
-
-    monkeypatch.setattr("fogsim.run.runner.write_pictures", bug)
-    with pytest.raises(RuntimeError, match="a bug"):
-        run_scenario(load_scenario("flat_floor"), out)
-    assert assert_complete(out) == before
-    assert temporaries(tmp_path) == []
-
-
-def test_ctrl_c_exits_130_and_leaves_the_older_result(
-    tmp_path, fake_simulation, monkeypatch, capsys
-):
-    out = tmp_path / "out"
-    assert run(out, "--no-pictures") == 0
-    before = assert_complete(out)
-
-    def interrupted(result, scenario, folder):
-        (Path(folder) / "fog_map.png").write_bytes(b"half a pic")
-        raise KeyboardInterrupt
-
-    monkeypatch.setattr("fogsim.run.runner.write_pictures", interrupted)
-    assert run(out) == 130
-    assert capsys.readouterr().err == "fogsim: interrupted; nothing of this run was written\n"
+    monkeypatch.setattr("fogsim.run.runner.write_pictures", fail)
+    if code is None:  # not an input error: a traceback is right
+        with pytest.raises(type(failure)):
+            run_scenario(load_scenario("flat_floor"), out)
+    else:
+        assert run(out) == code
+        err = capsys.readouterr().err
+        assert err.startswith("fogsim") and err.endswith(f"{message}\n") and err.count("\n") == 1
     assert assert_complete(out) == before
     assert temporaries(tmp_path) == []
 
