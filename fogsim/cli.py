@@ -2,8 +2,12 @@
 
 Exit codes: 0 success; 1 a ``--check`` found worse figures, a suite scenario failed (it raised
 or its map is poor) or a seed of ``run --seeds`` raised; 2 bad input (unknown scenario, invalid
-``--set`` or ``--seeds``, unreadable recording, missing baseline); 3 ``run --strict`` and a
-run's map is poor (the report's ``quality.poor``; the reasons are printed).
+``--set`` or ``--seeds``, unreadable recording, missing baseline, an argument argparse rejects,
+an output path that cannot be written — checked before any work — or a write that failed, e.g.
+a full disk); 3 ``run --strict`` and a run's map is poor (the report's ``quality.poor``; the
+reasons are printed); 130 interrupted (Ctrl-C). Every error is one line on standard error,
+never a traceback; a failed or interrupted run leaves nothing of itself (an earlier result in
+its folder stays as it was).
 """
 
 from __future__ import annotations
@@ -14,8 +18,8 @@ import sys
 import time
 from collections.abc import Sequence
 from pathlib import Path
+from typing import NoReturn
 
-from fogsim.atomic import write_text_atomic
 from fogsim.config import CAMERA_MODES, Scenario, find_scenario_files, load_scenario
 from fogsim.data.recording import load_recording
 from fogsim.errors import FogsimError
@@ -27,17 +31,27 @@ from fogsim.run.baseline import (
     poor_reasons,
     write_baseline,
 )
+from fogsim.run.output_paths import check_output_path, child_path
 from fogsim.run.record import record_scenario
+from fogsim.run.run_folder import check_run_folder
 from fogsim.run.runner import run_scenario
-from fogsim.run.seeds import SEEDS_ALLOWED, parse_seeds, run_seeds, worst_lines
-from fogsim.run.suite import check_against_baseline, run_suite, summary_markdown, update_baseline
+from fogsim.run.seeds import SEEDS_ALLOWED, check_workers, parse_seeds, run_seeds, worst_lines
+from fogsim.run.suite import check_against_baseline, run_suite, update_baseline
 from fogsim.sim.camera.depth import DEPTH_BACKENDS
 from fogsim.tune.cli import add_tune_arguments
 from mapper.errors import MapperError
 
 
+class _Parser(argparse.ArgumentParser):
+    """argparse with its errors on one line (``fogsim run: error: ...``), exit code 2."""
+
+    def error(self, message: str) -> NoReturn:
+        """Print the error and the help hint on one line and exit with code 2."""
+        self.exit(2, f"{self.prog}: error: {message} (see `{self.prog} --help`)\n")
+
+
 def _parser() -> argparse.ArgumentParser:
-    parser = argparse.ArgumentParser(
+    parser = _Parser(
         prog="fogsim",
         description="Floor and obstacle height map (Gutmann et al.) on a simulated humanoid.",
     )
@@ -132,13 +146,24 @@ def _with_options(scenario: Scenario, args: argparse.Namespace) -> Scenario:
     return scenario.with_overrides(assignments) if assignments else scenario
 
 
+def _out(args: argparse.Namespace, name: str) -> Path:
+    """The run's folder: ``--out``, or ``runs/<name>`` (a name from data must stay in runs/)."""
+    if args.out is not None:
+        return args.out
+    out = child_path(Path("runs"), name, "scenario name")
+    check_run_folder(out, "output folder (default of --out)")
+    return out
+
+
 def _cmd_list() -> int:
+    """Every scenario with its description; a file that does not load is listed as invalid."""
     for path in find_scenario_files():
         try:
             scenario = load_scenario(path)
             print(f"{scenario.name:<18} {scenario.description}")
         except FogsimError as exc:
-            print(f"{path.stem:<18} (invalid: {exc})")
+            reason = " ".join(str(exc).split())  # one line per file
+            print(f"{path.stem:<18} (invalid: {reason})")
     return 0
 
 
@@ -156,6 +181,8 @@ def _cmd_run(args: argparse.Namespace) -> int:
         return _cmd_run_seeds(args)
     if args.workers is not None:
         raise FogsimError("--workers sets the processes of --seeds; give --seeds SPEC too")
+    if args.out is not None:
+        check_run_folder(args.out, "--out")
     replay = None
     if args.replay is not None:
         replay = load_recording(args.replay)
@@ -174,7 +201,7 @@ def _cmd_run(args: argparse.Namespace) -> int:
     else:
         scenario = _load(args.scenario, args)
     name = scenario.name if scenario is not None else Path(args.replay).stem
-    out = args.out if args.out is not None else Path("runs") / name
+    out = _out(args, name)
     report = run_scenario(
         scenario,
         out,
@@ -205,13 +232,17 @@ def _cmd_run_seeds(args: argparse.Namespace) -> int:
     if args.scenario is None:
         raise FogsimError("run --seeds needs a SCENARIO (see `fogsim list`)")
     seeds = parse_seeds(args.seeds)
+    workers = args.workers if args.workers is not None else 2
+    check_workers(workers)
+    if args.out is not None:
+        check_run_folder(args.out, "--out")
     scenario = _load(args.scenario, args)
-    out = args.out if args.out is not None else Path("runs") / scenario.name
+    out = _out(args, scenario.name)
     summary = run_seeds(
         scenario,
         seeds,
         out,
-        workers=args.workers if args.workers is not None else 2,
+        workers=workers,
         pictures=not args.no_pictures,
         video=args.video,
         depth_backend=args.depth_backend,
@@ -234,6 +265,7 @@ def _cmd_run_seeds(args: argparse.Namespace) -> int:
 
 def _cmd_record(args: argparse.Namespace) -> int:
     start = time.perf_counter()
+    check_output_path(args.out, "file", "--out")
     scenario = _load(args.scenario, args)
     path, frames = record_scenario(
         scenario, args.out, depth_backend=args.depth_backend, progress=not args.quiet
@@ -248,6 +280,10 @@ def _cmd_record(args: argparse.Namespace) -> int:
 
 def _cmd_suite(args: argparse.Namespace) -> int:
     seeds = parse_seeds(args.seeds) if args.seeds is not None else None
+    check_workers(args.workers)
+    check_run_folder(args.out, "--out")
+    if args.write_baseline is not None:
+        check_output_path(args.write_baseline, "file", "--write-baseline")
     baseline = None
     if args.check is not None:
         if not args.check.is_file():
@@ -267,6 +303,7 @@ def _cmd_suite(args: argparse.Namespace) -> int:
         quick=args.quick,
         seeds=seeds,
         overrides=args.assignments,
+        baseline=baseline,
     )
     failures = summary.failures()
     for name, reasons in failures.items():
@@ -274,10 +311,9 @@ def _cmd_suite(args: argparse.Namespace) -> int:
             print(f"FAILED {name}: {reason}", file=sys.stderr)
     comparison = None
     if baseline is not None:
-        comparison = check_against_baseline(summary, baseline)
+        comparison = check_against_baseline(summary, baseline)  # as summary.md shows it
         for line in comparison:
             print(f"WORSE {line}", file=sys.stderr)
-    write_text_atomic(args.out / "summary.md", summary_markdown(summary, comparison))
     if args.write_baseline is not None:
         write_baseline(args.write_baseline, update_baseline(existing, summary))
     compared = (
@@ -314,6 +350,9 @@ def main(argv: Sequence[str] | None = None) -> int:
     except (FogsimError, MapperError) as exc:
         print(f"fogsim: error: {exc}", file=sys.stderr)
         return 2
+    except KeyboardInterrupt:
+        print("fogsim: interrupted; nothing of this run was written", file=sys.stderr)
+        return 130
 
 
 if __name__ == "__main__":

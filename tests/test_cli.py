@@ -7,8 +7,9 @@ import pytest
 from test_pipeline import make_frames, provider_removed_at
 
 from fogsim.cli import main
-from fogsim.config import load_scenario
+from fogsim.config import find_scenario_files, load_scenario
 from fogsim.data.recording import load_recording, save_recording
+from fogsim.paths import SCENARIOS_DIR
 
 
 @pytest.fixture(scope="module")
@@ -115,3 +116,45 @@ def test_real_data_recording_runs_unscored(tmp_path, capsys):
     report = json.loads((tmp_path / "o" / "report.json").read_text())
     assert report["table1"] is None and report["scenario"] is None
     assert np.isfinite(report["timing"]["update_ms"]["median"])
+
+
+DEEP = "x = " + "[" * 5000 + "]" * 5000 + "\n"
+"""TOML nested deeper than Python's recursion limit."""
+
+PARSE_ERRORS = "config: a file that cannot be parsed becomes a ScenarioError (issue 13)"
+
+
+@pytest.mark.parametrize(
+    ("content", "problem"),
+    [
+        (b'name = "broken\n', "not valid TOML"),
+        (b'name = "typed"\nseed = "five"\n', "seed"),
+        pytest.param(
+            b"\xff\xfe\x00\x01\x02binary",
+            "",
+            marks=pytest.mark.xfail(strict=True, reason=PARSE_ERRORS),
+        ),
+        pytest.param(
+            'name = "café"\n'.encode("latin-1"),
+            "",
+            marks=pytest.mark.xfail(strict=True, reason=PARSE_ERRORS),
+        ),
+        pytest.param(DEEP.encode(), "", marks=pytest.mark.xfail(strict=True, reason=PARSE_ERRORS)),
+    ],
+    ids=["broken", "wrong_type", "binary", "latin1", "deep"],
+)
+def test_list_marks_a_bad_file_and_lists_the_others(
+    content, problem, tmp_path, monkeypatch, capsys
+):
+    folder = tmp_path / "scenarios"
+    folder.mkdir()
+    (folder / "flat_floor.toml").write_bytes((SCENARIOS_DIR / "flat_floor.toml").read_bytes())
+    (folder / "bad.toml").write_bytes(content)
+    (folder / "zz_folder.toml").mkdir()  # a folder named like a scenario file
+    monkeypatch.setattr("fogsim.cli.find_scenario_files", lambda: find_scenario_files(folder))
+    assert main(["list"]) == 0
+    lines = capsys.readouterr().out.splitlines()
+    assert len(lines) == 3
+    assert lines[0].startswith("bad ") and "(invalid: " in lines[0] and problem in lines[0]
+    assert lines[1].startswith("flat_floor ") and "a few steps forward" in lines[1]
+    assert lines[2].startswith("zz_folder ") and "(invalid: " in lines[2]

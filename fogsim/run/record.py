@@ -2,6 +2,10 @@
 
 Thresholds do not change what the camera sees, so ``fogsim record`` and the tune's recording
 cache both simulate a scenario once with :func:`record_scenario` and replay the file after.
+
+The file is checked before the simulation (:func:`fogsim.run.output_paths.check_output_path`)
+and written atomically: killed at any point, the target holds the older complete recording or
+nothing; the owned temporary a killed run leaves is removed by the next write into the folder.
 """
 
 from __future__ import annotations
@@ -14,6 +18,7 @@ from tqdm import tqdm
 
 from fogsim.config import Scenario
 from fogsim.data.recording import save_recording
+from fogsim.run.output_paths import check_output_path
 from fogsim.sim.simulation import Simulation
 
 
@@ -36,7 +41,12 @@ def record_scenario(
 
     Returns:
         The written file and the number of frames in it.
+
+    Raises:
+        OutputError: ``path`` cannot be written (found before the simulation) or writing
+            failed (nothing is left; an older recording there is unchanged).
     """
+    check_output_path(path, "file", "recording file")
     simulation = Simulation(scenario, depth_backend=depth_backend)
     total = (
         simulation.frame_count if max_frames is None else min(max_frames, simulation.frame_count)

@@ -2,7 +2,8 @@
 
 :func:`run_scenario` does one run end to end: frames from a simulation or a recording →
 :func:`run_frames` (pipeline and scoring) → the typed report → ``maps.npz`` → pictures →
-``report.json``.
+``report.json`` → ``manifest.json``, all into a temporary folder that is renamed into place at
+the end (:class:`~fogsim.run.run_folder.RunFolder`).
 """
 
 from __future__ import annotations
@@ -33,6 +34,7 @@ from fogsim.eval.report.schema import Source
 from fogsim.eval.result import RunResult, Snapshot
 from fogsim.mapping.pipeline import FrameCallback, FrameTiming, Pipeline
 from fogsim.robot import load_description
+from fogsim.run.run_folder import RunFolder
 from fogsim.sim.simulation import Simulation
 from fogsim.viz.pictures import RunVideoWriter, write_pictures
 from fogsim.world.truth import TruthParams
@@ -277,7 +279,9 @@ def run_scenario(
     Args:
         scenario: A loaded Scenario (overrides already applied); None only with a
             recording of real data.
-        out_dir: Folder for ``report.json``, ``maps.npz``, the PNGs (and ``run.mp4``); None =
+        out_dir: Folder for ``report.json``, ``maps.npz``, the PNGs (and ``run.mp4``), written
+            whole (:class:`~fogsim.run.run_folder.RunFolder`: checked before the run, written
+            into a temporary folder with ``manifest.json`` last, renamed into place); None =
             write nothing.
         replay: A Recording to feed instead of simulating (no MuJoCo).
         pictures: Write the PNGs.
@@ -288,23 +292,60 @@ def run_scenario(
 
     Returns:
         The report, with the pictures and the video it wrote.
+
+    Raises:
+        OutputError: ``out_dir`` cannot be written (found before the run) or writing failed
+            (nothing of the run is left, an earlier result there is unchanged).
     """
     start = time.perf_counter()
     params = resolve_params(scenario)  # bad parameters fail here, before any simulation
-    source = _frame_source(scenario, replay, depth_backend, max_frames)
+    options = _RunOptions(replay, pictures, video, progress, max_frames, depth_backend)
+    if out_dir is None:
+        return _run_and_write(scenario, params, None, options, start)
+    with RunFolder(out_dir) as folder:
+        report = _run_and_write(scenario, params, folder.path, options, start)
+        folder.commit(
+            "run",
+            scenario=scenario.name if scenario is not None else None,
+            seed=scenario.seed if scenario is not None else None,
+        )
+    return report
+
+
+@dataclass(frozen=True)
+class _RunOptions:
+    """The options of :func:`run_scenario` (see there)."""
+
+    replay: Recording | None
+    pictures: bool
+    video: bool
+    progress: bool
+    max_frames: int | None
+    depth_backend: str
+
+
+def _run_and_write(
+    scenario: Scenario | None,
+    params: RunParams,
+    out: Path | None,
+    options: _RunOptions,
+    start: float,
+) -> Report:
+    """Run the frames and write the results into ``out`` (None: write nothing)."""
+    source = _frame_source(scenario, options.replay, options.depth_backend, options.max_frames)
     callbacks: list[FrameCallback] = []
     writer = None
     with ExitStack() as cleanup:
-        if progress:
+        if options.progress:
             name = scenario.name if scenario is not None else "run"
             bar = cleanup.enter_context(tqdm(total=source.frame_count, unit="frame", desc=name))
             callbacks.append(lambda frame, pipeline: bar.update(1))
-        if video and out_dir is not None:
+        if options.video and out is not None:
             if scenario is None:
                 raise FogsimError(
                     "--video needs the scenario's frame rate; this recording has none"
                 )
-            writer = RunVideoWriter(Path(out_dir) / "run.mp4", fps=scenario.frame_rate_hz)
+            writer = RunVideoWriter(out / "run.mp4", fps=scenario.frame_rate_hz)
             cleanup.callback(writer.close)
             callbacks.append(writer.add)
         result = run_frames(
@@ -321,11 +362,10 @@ def run_scenario(
         wall_s=time.perf_counter() - start,
         duration_s=result.frames / scenario.frame_rate_hz if scenario is not None else None,
     )
-    if out_dir is None:
+    if out is None:
         return report
-    out = Path(out_dir)
     write_maps(out / "maps.npz", result, result.final_truth)
-    if pictures:
+    if options.pictures:
         picture_start = time.perf_counter()
         names = tuple(path.name for path in write_pictures(result, scenario, out))
         timing = dataclasses.replace(

@@ -8,7 +8,10 @@ pictures), and ``OUT/summary.json`` (:class:`SeedsSummary`, through the one JSON
 (:func:`fogsim.run.baseline.report_metrics`), its mean and its worst over the seeds. "Worst"
 follows the figure's direction (:func:`fogsim.run.baseline.rule_for`): the largest error, the
 smallest recall. A run is deterministic for its seed, so the same seeds give the same reports
-bit for bit whatever the number of workers (timing and version fields aside).
+bit for bit whatever the number of workers (timing and version fields aside). ``OUT`` is
+written whole (:class:`~fogsim.run.run_folder.RunFolder`: a temporary folder renamed into place
+with its ``manifest.json``), so it never mixes seeds of two runs; each seed's folder inside is
+a run folder of its own.
 
 The suite (:mod:`fogsim.run.suite`) runs its scenarios and seeds through the same
 :func:`run_jobs`.
@@ -16,6 +19,7 @@ The suite (:mod:`fogsim.run.suite`) runs its scenarios and seeds through the sam
 
 from __future__ import annotations
 
+import collections
 import concurrent.futures
 import itertools
 import math
@@ -28,19 +32,32 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Literal
 
-from fogsim.atomic import write_text_atomic
+from fogsim.atomic import OutputError, write_text_atomic
 from fogsim.config import Scenario, resolve_params
 from fogsim.errors import FogsimError
 from fogsim.eval.report.io import write_json
 from fogsim.run.baseline import NEVER_FRAMES, poor_reasons, report_metrics, rule_for
+from fogsim.run.run_folder import RunFolder
 from fogsim.run.runner import run_scenario
 
 MAX_SEED = 2**32 - 1
 """The largest seed a scenario takes (``seed`` in the scenario schema)."""
 
+MAX_SEEDS = 1000
+"""Most seeds of one ``--seeds`` spec. Each seed is a whole run (seconds to minutes); a thousand
+runs of the stage take hours even on many cores, and the worst of a thousand seeds is more
+statistics than a regression check needs. A larger spec is a slip (``1-10000000``) that would
+otherwise build millions of jobs before the first run."""
+
+MAX_WORKERS = 64
+"""Most worker processes of ``--workers``. Each holds a MuJoCo model, an EGL context and the
+mapper (about 0.6 GB measured on ``flat_floor`` with pictures): 64 of them need some 40 GB, the
+most a machine with that many cores is likely to have; more processes than cores only slow
+each other down."""
+
 SEEDS_ALLOWED = (
     "a range 1-8, a list 1,3,5, a single seed 2, or a mix such as 1-4,9 "
-    f"(whole numbers 0 to {MAX_SEED}, each seed once)"
+    f"(whole numbers 0 to {MAX_SEED}, each seed once, at most {MAX_SEEDS} seeds)"
 )
 
 GROUP_ORDER = ("table1", "cells", "safety", "step_edges", "events", "timing")
@@ -56,8 +73,9 @@ def parse_seeds(spec: str) -> tuple[int, ...]:
         spec: Comma-separated seeds and inclusive ranges ``first-last``.
 
     Raises:
-        FogsimError: A malformed item, a backward range, a seed out of range or a repeated
-            seed; the message names the argument, the spec and what is allowed.
+        FogsimError: A malformed item, a backward range, a seed out of range, a repeated seed
+            or more than :data:`MAX_SEEDS` seeds; the message names the argument, the spec and
+            what is allowed.
     """
     seeds: list[int] = []
     for item in spec.split(","):
@@ -78,8 +96,12 @@ def parse_seeds(spec: str) -> tuple[int, ...]:
             raise FogsimError(
                 f"--seeds {spec!r}: seed {last} is above {MAX_SEED}; allowed: {SEEDS_ALLOWED}"
             )
+        if len(seeds) + last - first + 1 > MAX_SEEDS:
+            raise FogsimError(
+                f"--seeds {spec!r}: more than {MAX_SEEDS} seeds; allowed: {SEEDS_ALLOWED}"
+            )
         seeds.extend(range(first, last + 1))
-    repeated = sorted({s for s in seeds if seeds.count(s) > 1})
+    repeated = sorted(seed for seed, count in collections.Counter(seeds).items() if count > 1)
     if repeated:
         raise FogsimError(
             f"--seeds {spec!r}: seed {repeated[0]} is given twice; allowed: {SEEDS_ALLOWED}"
@@ -159,7 +181,8 @@ def run_seed(job: SeedJob) -> SeedRun:
     """Run one job (in a worker process) and return its summary entry.
 
     Any exception becomes the entry's ``error``: one failing seed or scenario must not stop
-    the others.
+    the others. An :class:`~fogsim.atomic.OutputError` (a full or read-only disk) is raised:
+    the other runs would fail the same way.
     """
     start = time.perf_counter()
     try:
@@ -180,6 +203,8 @@ def run_seed(job: SeedJob) -> SeedRun:
             poor=poor_reasons(report),
             error=None,
         )
+    except OutputError:
+        raise
     except Exception as exc:  # reported in the summary; the other jobs go on
         return SeedRun(
             seed=job.scenario.seed,
@@ -192,19 +217,32 @@ def run_seed(job: SeedJob) -> SeedRun:
         )
 
 
+def check_workers(workers: int) -> None:
+    """Raise :class:`FogsimError` unless ``1 <= workers <=`` :data:`MAX_WORKERS`."""
+    if workers < 1:
+        raise FogsimError(f"--workers must be >= 1, got {workers}")
+    if workers > MAX_WORKERS:
+        raise FogsimError(f"--workers must be <= {MAX_WORKERS}, got {workers}")
+
+
 def run_jobs(jobs: Sequence[SeedJob], workers: int) -> list[SeedRun]:
     """Run jobs in ``workers`` processes (inline for one); results in the jobs' order.
 
     Raises:
-        FogsimError: ``workers`` is below 1.
+        FogsimError: ``workers`` is out of range (:func:`check_workers`).
+        OutputError: A run cannot write its results; the jobs not yet started are cancelled.
     """
-    if workers < 1:
-        raise FogsimError(f"--workers must be >= 1, got {workers}")
+    check_workers(workers)
     if workers == 1:
         return [run_seed(job) for job in jobs]
     context = multiprocessing.get_context("spawn")  # MuJoCo/EGL state must not be forked
     with concurrent.futures.ProcessPoolExecutor(workers, mp_context=context) as pool:
-        return list(pool.map(run_seed, jobs))
+        futures = [pool.submit(run_seed, job) for job in jobs]
+        try:
+            return [future.result() for future in futures]
+        except BaseException:
+            pool.shutdown(cancel_futures=True)
+            raise
 
 
 @dataclass(frozen=True)
@@ -347,27 +385,35 @@ def run_seeds(
         depth_backend: Simulation depth backend.
 
     Raises:
-        FogsimError: ``workers`` below 1, an invalid seed or invalid parameters.
+        FogsimError: ``workers`` out of range, an invalid seed or invalid parameters.
+        OutputError: ``out_dir`` cannot be written (found before the runs) or writing failed.
     """
     resolve_params(scenario)  # bad parameters fail here, once, before any process starts
-    out = Path(out_dir)
-    jobs = seed_jobs(
-        scenario, seeds, out, pictures=pictures, video=video, depth_backend=depth_backend
-    )
-    start = time.perf_counter()
-    runs = run_jobs(jobs, workers)
-    summary = SeedsSummary(
-        format="fogsim-seeds",
-        version=1,
-        scenario=scenario.name,
-        seeds=format_seeds(seeds),
-        workers=workers,
-        wall_s=round(time.perf_counter() - start, 2),
-        runs=tuple(runs),
-        figures=figure_stats(runs),
-    )
-    write_json(out / "summary.json", summary)
-    write_text_atomic(out / "summary.md", seeds_markdown(summary))
+    check_workers(workers)
+    with RunFolder(out_dir) as folder:
+        jobs = seed_jobs(
+            scenario,
+            seeds,
+            folder.path,
+            pictures=pictures,
+            video=video,
+            depth_backend=depth_backend,
+        )
+        start = time.perf_counter()
+        runs = run_jobs(jobs, workers)
+        summary = SeedsSummary(
+            format="fogsim-seeds",
+            version=1,
+            scenario=scenario.name,
+            seeds=format_seeds(seeds),
+            workers=workers,
+            wall_s=round(time.perf_counter() - start, 2),
+            runs=tuple(runs),
+            figures=figure_stats(runs),
+        )
+        write_json(folder.path / "summary.json", summary)
+        write_text_atomic(folder.path / "summary.md", seeds_markdown(summary))
+        folder.commit("seeds", scenario=scenario.name, seeds=summary.seeds)
     return summary
 
 

@@ -10,7 +10,9 @@ seeds; :mod:`fogsim.run.baseline`) and lists every figure whose mean, or worst o
 got worse than its tolerance allows.
 
 Output folders: ``OUT/<scenario>/`` for a run at the scenario's own seed,
-``OUT/<scenario>/seed_<n>/`` for each of ``--seeds``.
+``OUT/<scenario>/seed_<n>/`` for each of ``--seeds``; a scenario whose name would lead out of
+``OUT`` fails (:func:`fogsim.run.output_paths.child_path`). ``OUT`` is written whole, with its
+``manifest.json`` (:class:`~fogsim.run.run_folder.RunFolder`).
 """
 
 from __future__ import annotations
@@ -34,10 +36,13 @@ from fogsim.run.baseline import (
     check_figures,
     set_name,
 )
+from fogsim.run.output_paths import child_path
+from fogsim.run.run_folder import RunFolder
 from fogsim.run.seeds import (
     FigureStats,
     SeedJob,
     SeedRun,
+    check_workers,
     figure_stats,
     figures_markdown,
     format_seeds,
@@ -114,13 +119,13 @@ def scenario_paths(directory: str | os.PathLike[str] | None, quick: bool) -> lis
 
 
 def _jobs(
-    scenario: Scenario, out: Path, seeds: Sequence[int] | None, max_frames: int | None
+    scenario: Scenario, folder: Path, seeds: Sequence[int] | None, max_frames: int | None
 ) -> list[SeedJob]:
-    """A scenario's jobs: one at its own seed into ``out/<name>/``, or one per seed."""
+    """A scenario's jobs: one at its own seed into ``folder``, or one per seed below it."""
     name = scenario.name
     if seeds is None:
-        return [SeedJob(scenario, out / name, f"{name}/report.json", max_frames=max_frames)]
-    return seed_jobs(scenario, seeds, out / name, prefix=f"{name}/", max_frames=max_frames)
+        return [SeedJob(scenario, folder, f"{name}/report.json", max_frames=max_frames)]
+    return seed_jobs(scenario, seeds, folder, prefix=f"{name}/", max_frames=max_frames)
 
 
 def run_suite(
@@ -131,8 +136,13 @@ def run_suite(
     quick: bool = False,
     seeds: Sequence[int] | None = None,
     overrides: Sequence[str] = (),
+    baseline: Baseline | None = None,
 ) -> SuiteSummary:
     """Run every scenario of a folder in parallel processes; write summary.json / summary.md.
+
+    ``out_dir`` is written whole (:class:`~fogsim.run.run_folder.RunFolder`: checked before the
+    runs, a temporary folder renamed into place with its ``manifest.json``), so it never mixes
+    two suite runs; each run's folder inside is a run folder of its own.
 
     Args:
         directory: Folder of scenario files (None = the project's ``scenarios/``).
@@ -141,46 +151,56 @@ def run_suite(
         quick: Only :data:`QUICK_SCENARIOS`, each cut after :data:`QUICK_MAX_FRAMES` frames.
         seeds: Run every scenario over these seeds (None = each at its own seed).
         overrides: ``key=value`` assignments applied to every scenario.
+        baseline: The baseline whose comparison (:func:`check_against_baseline`) summary.md
+            shows; None: "no baseline given".
 
     Raises:
-        FogsimError: No scenario file, ``workers`` below 1, two files with one scenario name.
+        FogsimError: No scenario file, ``workers`` out of range, two files with one scenario
+            name.
+        OutputError: ``out_dir`` cannot be written (found before the runs) or writing failed.
     """
     paths = scenario_paths(directory, quick)
-    out = Path(out_dir)
+    check_workers(workers)
     max_frames = QUICK_MAX_FRAMES if quick else None
-    start = time.perf_counter()
-    planned: dict[str, list[SeedJob] | str] = {}  # name → its jobs, or why it was not loaded
-    for path in paths:
-        try:
-            scenario = load_scenario(path)
-            if overrides:
-                scenario = scenario.with_overrides(list(overrides))
-        except FogsimError as exc:  # a broken file fails its scenario, not the suite
-            planned[path.stem] = f"{type(exc).__name__}: {exc}"
-            continue
-        if scenario.name in planned:
-            raise FogsimError(f"two scenario files in {path.parent} are named {scenario.name!r}")
-        planned[scenario.name] = _jobs(scenario, out, seeds, max_frames)
-    jobs = [job for entry in planned.values() if isinstance(entry, list) for job in entry]
-    runs = iter(run_jobs(jobs, workers))
-    scenarios = {}
-    for name, entry in planned.items():
-        if isinstance(entry, str):
-            scenarios[name] = ScenarioRuns(runs=(), figures={}, error=entry)
-            continue
-        own = tuple(next(runs) for _ in entry)
-        scenarios[name] = ScenarioRuns(runs=own, figures=figure_stats(own))
-    summary = SuiteSummary(
-        format="fogsim-suite",
-        version=2,
-        quick=quick,
-        seeds=format_seeds(seeds) if seeds is not None else None,
-        workers=workers,
-        wall_s=round(time.perf_counter() - start, 2),
-        scenarios=scenarios,
-    )
-    write_json(out / "summary.json", summary)
-    write_text_atomic(out / "summary.md", summary_markdown(summary))
+    with RunFolder(out_dir) as folder:
+        start = time.perf_counter()
+        planned: dict[str, list[SeedJob] | str] = {}  # name → its jobs, or why it was not loaded
+        for path in paths:
+            try:
+                scenario = load_scenario(path)
+                if overrides:
+                    scenario = scenario.with_overrides(list(overrides))
+                scenario_dir = child_path(folder.path, scenario.name, f"{path}: scenario name")
+            except FogsimError as exc:  # a broken file fails its scenario, not the suite
+                planned[path.stem] = f"{type(exc).__name__}: {exc}"
+                continue
+            if scenario.name in planned:
+                raise FogsimError(
+                    f"two scenario files in {path.parent} are named {scenario.name!r}"
+                )
+            planned[scenario.name] = _jobs(scenario, scenario_dir, seeds, max_frames)
+        jobs = [job for entry in planned.values() if isinstance(entry, list) for job in entry]
+        runs = iter(run_jobs(jobs, workers))
+        scenarios = {}
+        for name, entry in planned.items():
+            if isinstance(entry, str):
+                scenarios[name] = ScenarioRuns(runs=(), figures={}, error=entry)
+                continue
+            own = tuple(next(runs) for _ in entry)
+            scenarios[name] = ScenarioRuns(runs=own, figures=figure_stats(own))
+        summary = SuiteSummary(
+            format="fogsim-suite",
+            version=2,
+            quick=quick,
+            seeds=format_seeds(seeds) if seeds is not None else None,
+            workers=workers,
+            wall_s=round(time.perf_counter() - start, 2),
+            scenarios=scenarios,
+        )
+        comparison = check_against_baseline(summary, baseline) if baseline is not None else None
+        write_json(folder.path / "summary.json", summary)
+        write_text_atomic(folder.path / "summary.md", summary_markdown(summary, comparison))
+        folder.commit("suite", seeds=summary.seeds)
     return summary
 
 

@@ -28,6 +28,7 @@ from matplotlib.colors import Normalize
 from matplotlib.figure import Figure
 from numpy.typing import NDArray
 
+from fogsim.atomic import OutputError, reason, temporary_path
 from fogsim.config import Scenario
 from fogsim.data.frame import Frame
 from fogsim.eval.maps import RunMaps, archive_maps
@@ -243,7 +244,7 @@ class RunVideoWriter:
         self.fps = float(fps)
         self.height_px = int(height_px)
         self._writer: cv2.VideoWriter | None = None
-        self._tmp = self.path.with_name(f".{self.path.name}.tmp.mp4")
+        self._tmp = temporary_path(self.path, suffix=".mp4")  # OpenCV picks the format by it
         self._norm: Normalize | None = None
 
     def _to_bgr(self, rgb: NDArray[np.float64], height: int) -> NDArray[np.uint8]:
@@ -274,12 +275,19 @@ class RunVideoWriter:
                 str(self._tmp), fourcc, self.fps, (image.shape[1], image.shape[0])
             )
             if not self._writer.isOpened():
-                raise OSError(f"OpenCV cannot write an MP4 video to {self._tmp}")
+                raise OutputError(f"cannot write {self.path}: OpenCV cannot open {self._tmp}")
         self._writer.write(image)
 
     def close(self) -> None:
-        """Finish the file and move it into place (atomic: complete or absent)."""
+        """Finish the file and move it into place (atomic: complete or absent).
+
+        Raises:
+            OutputError: The video cannot be moved into place.
+        """
         if self._writer is not None:
             self._writer.release()
             self._writer = None
-            os.replace(self._tmp, self.path)
+            try:
+                os.replace(self._tmp, self.path)
+            except OSError as exc:
+                raise OutputError(f"cannot write {self.path}: {reason(exc)}") from exc
