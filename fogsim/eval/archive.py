@@ -16,6 +16,8 @@ allocated. The pipeline refuses implausible pose jumps first
 
 from __future__ import annotations
 
+from typing import Any
+
 import numpy as np
 from numpy.typing import NDArray
 
@@ -64,6 +66,16 @@ def cells_in_view(frame: Frame, geometry: GridGeometry) -> NDArray[np.bool_]:
     return seen
 
 
+class _Layer:
+    """A layer of the archive read as an attribute (:meth:`WorldArchive.layer`)."""
+
+    def __set_name__(self, owner: type, name: str) -> None:
+        self.name = name
+
+    def __get__(self, archive: WorldArchive, owner: type | None = None) -> NDArray[Any]:
+        return archive.layer(self.name)
+
+
 class WorldArchive:
     """World-fixed lattice of the mapper's cells: the last value of each map in each cell.
 
@@ -83,6 +95,15 @@ class WorldArchive:
         in_view: The camera saw the cell in some frame (:func:`cells_in_view`).
     """
 
+    fog_types = _Layer()
+    fog_heights_m = _Layer()
+    floor_m = _Layer()
+    obstacle_m = _Layer()
+    ceiling_m = _Layer()
+    baseline_heights_m = _Layer()
+    visited = _Layer()
+    in_view = _Layer()
+
     def __init__(self, cell_m: float) -> None:
         self.cell_m = float(cell_m)
         self._anchor_xy: NDArray[np.float64] | None = None
@@ -91,7 +112,7 @@ class WorldArchive:
         self._storage_lo = np.zeros(2, dtype=np.int64)  # lattice index of storage cell [0, 0]
         self._storage = {name: np.full((0, 0), fill, dtype) for name, dtype, fill in _LAYERS}
 
-    def _layer(self, name: str) -> NDArray[np.generic]:
+    def layer(self, name: str) -> NDArray[np.generic]:
         """Layer ``name`` over the bounding box, C-contiguous and read-only.
 
         Contiguous as a plain array of the box would be, so reductions over it add in the same
@@ -102,46 +123,6 @@ class WorldArchive:
         layer = np.ascontiguousarray(self._storage[name][ox : ox + nx, oy : oy + ny])
         layer.flags.writeable = False
         return layer
-
-    @property
-    def fog_types(self) -> NDArray[np.int8]:
-        """(nx, ny) last FOG label, UNKNOWN where never in a map."""
-        return self._layer("fog_types")
-
-    @property
-    def fog_heights_m(self) -> NDArray[np.float64]:
-        """(nx, ny) last FOG height [m]."""
-        return self._layer("fog_heights_m")
-
-    @property
-    def floor_m(self) -> NDArray[np.float64]:
-        """(nx, ny) last floor height of the floor map [m]."""
-        return self._layer("floor_m")
-
-    @property
-    def obstacle_m(self) -> NDArray[np.float64]:
-        """(nx, ny) last coarse obstacle height [m]."""
-        return self._layer("obstacle_m")
-
-    @property
-    def ceiling_m(self) -> NDArray[np.float64]:
-        """(nx, ny) last ceiling height [m]."""
-        return self._layer("ceiling_m")
-
-    @property
-    def baseline_heights_m(self) -> NDArray[np.float64]:
-        """(nx, ny) last averaging-baseline height [m]."""
-        return self._layer("baseline_heights_m")
-
-    @property
-    def visited(self) -> NDArray[np.bool_]:
-        """(nx, ny) the cell was inside the map in some frame."""
-        return self._layer("visited")
-
-    @property
-    def in_view(self) -> NDArray[np.bool_]:
-        """(nx, ny) the camera saw the cell in some frame."""
-        return self._layer("in_view")
 
     @property
     def storage_cells(self) -> int:
