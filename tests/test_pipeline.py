@@ -1,5 +1,8 @@
 """The pipeline on synthetic frames (ray-cast depth of boxes, known truth), no MuJoCo."""
 
+import dataclasses
+import tracemalloc
+
 import numpy as np
 import pytest
 from synthetic_depth import Box, add_depth_noise, look_down_camera, render_boxes
@@ -9,7 +12,7 @@ from fogsim.data.frame import Frame
 from fogsim.data.recording import Recording
 from fogsim.errors import FogsimError
 from fogsim.eval.archive import cells_in_view
-from fogsim.mapping.pipeline import FrameTiming, Pipeline
+from fogsim.mapping.pipeline import FrameError, FrameTiming, Pipeline
 from fogsim.run.runner import replay_report, run_frames, truth_params
 from fogsim.world.truth import ObjectState, SceneTruth, TruthParams
 from mapper import MapperParams
@@ -185,3 +188,52 @@ def test_truth_params_take_the_robots_foot_and_the_mappers_grid_top():
     assert (talos.foot_length_m, talos.foot_width_m) == pytest.approx((0.2, 0.13))
     assert talos.grid_top_m == pytest.approx(-0.06 + 10 * 0.04)
     assert truth_params(None, MapperParams(nz=10)) == TruthParams(grid_top_m=0.34)
+
+
+def _with_believed_pose(frames, first, pose):
+    """The frames with the believed robot pose of frames ``first`` onwards replaced."""
+    return [
+        dataclasses.replace(f, robot_pose_believed=np.asarray(pose)) if f.index >= first else f
+        for f in frames
+    ]
+
+
+@pytest.mark.parametrize(("bad", "shown"), [(np.nan, "nan"), (np.inf, "inf"), (1e30, "1e\\+30")])
+def test_a_believed_pose_not_finite_or_out_of_bounds_is_refused_naming_the_frame(bad, shown):
+    frames = _with_believed_pose(make_frames(4), 2, [bad, 0.5, 0.0, 0.0])
+    with pytest.raises(FrameError, match=rf"^frame 2: robot_pose_believed: x = {shown}, y = 0.5"):
+        run_frames(frames, None, None)
+    camera = np.array(CAMERA_IN_ROBOT)
+    camera[0, 3] = bad
+    frames = make_frames(3)
+    frames[1] = dataclasses.replace(frames[1], transform_camera_to_robot_believed=camera)
+    with pytest.raises(FrameError, match=r"^frame 1: transform_camera_to_robot_believed: "):
+        run_frames(frames, None, None)
+
+
+@pytest.mark.parametrize("jump_m", [100.0, 300.0, 3000.0])
+def test_a_believed_pose_jump_is_refused_before_the_maps_grow(jump_m):
+    """Once 0.8 GB, 5.3 GB and a 42 GiB allocation error (issue 13); now an error at once."""
+    frames = _with_believed_pose(make_frames(5), 3, ROBOT_POSE + np.array([0.0, jump_m, 0.0, 0.0]))
+    tracemalloc.start()
+    try:
+        with pytest.raises(
+            FrameError,
+            match=rf"^frame 3: robot_pose_believed: the believed position jumped {jump_m:g} m "
+            r"from the previous frame's \(0.3, 0.5, 0\).*at most 5 m",
+        ):
+            run_frames(frames, None, None)
+        _, peak = tracemalloc.get_traced_memory()
+    finally:
+        tracemalloc.stop()
+    assert peak < 100 << 20, peak
+
+
+def test_a_plausible_walk_is_mapped():
+    """Steps up to MAX_POSE_STEP_M pass: 0.1 m a frame along x."""
+    frames = make_frames(4)
+    walked = [
+        dataclasses.replace(f, robot_pose_believed=ROBOT_POSE + np.array([0.1 * f.index, 0, 0, 0]))
+        for f in frames
+    ]
+    assert run_frames(walked, None, None).frames == 4

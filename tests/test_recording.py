@@ -1,12 +1,19 @@
 """Recording format: round trip, truths, validation errors naming what is wrong."""
 
+import dataclasses
+import io
 import json
+import pickle
+import tracemalloc
+import zipfile
 
 import numpy as np
 import pytest
 
 from fogsim.config import load_scenario
 from fogsim.data.frame import Frame
+from fogsim.data.frames import RecordedFrames
+from fogsim.data.limits import MAX_FRAMES
 from fogsim.data.recording import FORMAT_VERSION, load_recording, save_recording
 from fogsim.errors import RecordingError
 from fogsim.world import ObjectState, SceneTruth
@@ -150,5 +157,306 @@ def test_save_rejects_mixed_intrinsics(tmp_path):
     other = PinholeIntrinsics.from_fov(8, 6, 60.0, 45.0)
     frames[1] = Frame(**{**frames[1].__dict__, "intrinsics": other})
     with pytest.raises(RecordingError, match="same for all frames"):
+        save_recording(tmp_path / "x.npz", frames)
+    assert not (tmp_path / "x.npz").exists()
+
+
+# --- Hardening (issue 13): every bad file is a RecordingError naming the file and the key. ---
+
+
+def _saved(tmp_path, n=4):
+    return save_recording(tmp_path / "ok.npz", make_frames(n))
+
+
+def _meta(path):
+    with np.load(path) as data:
+        return json.loads(str(data["meta_json"]))
+
+
+def _with_meta(path, out, meta):
+    _rewrite(path, out, meta_json=np.array(json.dumps(meta)))
+    return out
+
+
+def _refused(path, pattern):
+    with pytest.raises(RecordingError, match=pattern) as caught:
+        load_recording(path)
+    assert str(path) in str(caught.value)
+
+
+@pytest.mark.parametrize("keep", [0.0, 0.01, 0.3, 0.6, 0.99])
+def test_empty_truncated_and_foreign_files_are_refused(tmp_path, keep):
+    data = _saved(tmp_path).read_bytes()
+    cut = tmp_path / "cut.npz"
+    cut.write_bytes(data[: int(keep * len(data))])
+    _refused(cut, "not a readable .npz")
+
+
+def test_corrupt_depth_is_found_at_load_not_mid_replay(tmp_path):
+    data = bytearray(_saved(tmp_path).read_bytes())
+    with zipfile.ZipFile(tmp_path / "ok.npz") as archive:
+        info = archive.getinfo("depth_m.npy")
+    start = info.header_offset + 30 + len(info.filename) + len(info.extra) + 200
+    data[start : start + 8] = b"\xff" * 8
+    (tmp_path / "bad.npz").write_bytes(bytes(data))
+    _refused(tmp_path / "bad.npz", r"array 'depth_m' .*(corrupt|cannot be read)")
+
+
+@pytest.mark.parametrize(
+    ("key", "value", "pattern"),
+    [
+        ("width", "8", r"meta_json: intrinsics.width: Expected `int`, got `str`"),
+        ("fx", "nine", r"meta_json: intrinsics.fx: Expected `float`, got `str`"),
+        ("cx", float("nan"), r"meta_json: JSON is malformed"),  # JSON has no NaN
+        ("cx", 100.0, r"intrinsics: cx = 100.0 must lie in the image, in \[-0.5, 7.5\] px"),
+        ("fx", 0.0, r"intrinsics.fx: Expected `float` >= 1.0"),
+        ("width", 4000, r"intrinsics.width: Expected `int` <= 1280"),
+    ],
+)
+def test_wrong_types_and_values_in_meta_json_name_the_key(tmp_path, key, value, pattern):
+    path = _saved(tmp_path)
+    meta = _meta(path)
+    meta["intrinsics"][key] = value
+    _refused(_with_meta(path, tmp_path / "m.npz", meta), pattern)
+
+
+def test_meta_json_must_be_the_documented_object(tmp_path):
+    path = _saved(tmp_path)
+    meta = _meta(path)
+    _refused(_with_meta(path, tmp_path / "a.npz", [meta]), r"meta_json: Expected `object`")
+    _refused(_with_meta(path, tmp_path / "u.npz", {**meta, "scenario": "x"}), "unknown field")
+    truths = {**meta, "truths": [{"time_s": "0"}]}
+    _refused(_with_meta(path, tmp_path / "t.npz", truths), r"truths\[0\].time_s: Expected `float`")
+    huge = json.dumps(meta).replace('"cx": 3.5', '"cx": 1e400')
+    _rewrite(path, tmp_path / "h.npz", meta_json=np.array(huge))
+    _refused(tmp_path / "h.npz", r"meta_json: intrinsics.cx: Number out of range")
+    _rewrite(path, tmp_path / "n.npz", meta_json=np.array(5))
+    _refused(tmp_path / "n.npz", r"array 'meta_json' must hold text, got dtype int64")
+
+
+@pytest.mark.parametrize(
+    ("key", "value", "pattern"),
+    [
+        ("time_s", np.array(["0", "1", "2", "3"]), r"'time_s' must hold real numbers"),
+        ("robot_pose_believed", np.full((4, 4), "0"), r"'robot_pose_believed' must hold real"),
+        ("depth_m", np.ones((4, 6, 8), np.uint16), r"'depth_m' must hold floating-point numbers"),
+        ("truth_index", np.zeros(4), r"'truth_index' must hold integers, got dtype float64"),
+        ("robot_pose_true", np.zeros((4, 4), complex), r"'robot_pose_true' must hold real"),
+        ("time_s", np.array([0, 1, 2, "a"], dtype=object), r"'time_s' holds Python objects"),
+        ("extra", np.zeros(3), r"unknown arrays \['extra'\]; allowed"),
+        ("depth_m", np.ones((4, 8, 6), np.float32), r"'depth_m' must have shape \(4, 6, 8\)"),
+    ],
+)
+def test_strings_and_wrong_arrays_where_numbers_belong_name_the_array(
+    tmp_path, key, value, pattern
+):
+    path = _saved(tmp_path)
+    _rewrite(path, tmp_path / "x.npz", **{key: value})
+    _refused(tmp_path / "x.npz", pattern)
+
+
+def test_fortran_ordered_depth_is_refused(tmp_path):
+    path = _saved(tmp_path)
+    _rewrite(path, tmp_path / "f.npz", depth_m=np.asfortranarray(np.ones((4, 6, 8), np.float32)))
+    _refused(tmp_path / "f.npz", r"'depth_m' is stored in Fortran .* must be C order")
+
+
+def _npy(header_shape, descr, data):
+    out = io.BytesIO()
+    header = {"descr": descr, "fortran_order": False, "shape": header_shape}
+    np.lib.format.write_array_header_1_0(out, header)
+    return out.getvalue() + data
+
+
+def _replace_member(path, out, key, content):
+    with zipfile.ZipFile(path) as source, zipfile.ZipFile(out, "w") as target:
+        for info in source.infolist():
+            data = content if info.filename == f"{key}.npy" else source.read(info)
+            target.writestr(info.filename, data)
+
+
+@pytest.mark.parametrize(
+    ("key", "shape", "pattern"),
+    [
+        ("time_s", (10**12,), r"'time_s' declares shape \(1000000000000,\) .* holds 64 bytes"),
+        ("depth_m", (4, 10**6, 10**6), r"'depth_m' declares shape \(4, 1000000, 1000000\)"),
+        ("meta_json", (), r"'meta_json' declares shape \(\) of <U100000000 \(400000000 bytes"),
+    ],
+)
+def test_headers_declaring_huge_arrays_are_refused_before_reading(tmp_path, key, shape, pattern):
+    path = _saved(tmp_path)
+    descr = "<U100000000" if key == "meta_json" else "<f8"
+    _replace_member(path, tmp_path / "h.npz", key, _npy(shape, descr, b"\0" * 64))
+    tracemalloc.start()
+    try:
+        _refused(tmp_path / "h.npz", pattern)
+        _, peak = tracemalloc.get_traced_memory()
+    finally:
+        tracemalloc.stop()
+    assert peak < 4 << 20, peak
+
+
+def test_sizes_are_limited_by_the_frame_count(tmp_path):
+    """A consistent header of more frames than MAX_FRAMES, a meta_json too long for its frames."""
+    path = _saved(tmp_path)
+    frames = MAX_FRAMES + 1
+    huge = _npy((frames,), "<f8", b"\0" * (8 * frames))
+    _replace_member(path, tmp_path / "t.npz", "time_s", huge)
+    _refused(tmp_path / "t.npz", rf"'time_s' must have shape \(T,\) with 1 <= T <= {MAX_FRAMES}")
+    long_text = json.dumps({**_meta(path), "created_by": "x" * (2 << 20)})
+    _rewrite(path, tmp_path / "m.npz", meta_json=np.array(long_text))
+    _refused(tmp_path / "m.npz", r"'meta_json' declares \d+ characters; a recording of 4 frames")
+
+
+def _declare_size(path, key, size):
+    """Make the zip directory declare ``size`` uncompressed bytes for member ``key``."""
+    data = bytearray(path.read_bytes())
+    name = f"{key}.npy".encode()
+    at = 0
+    while True:
+        at = data.index(b"PK\x01\x02", at + 1)
+        if data[at + 46 : at + 46 + len(name)] == name:
+            break
+    data[at + 24 : at + 28] = size.to_bytes(4, "little")
+    path.write_bytes(bytes(data))
+
+
+def test_a_zip_directory_declaring_gigabytes_is_refused_before_reading(tmp_path):
+    path = _saved(tmp_path)
+    _declare_size(path, "depth_m", 0xFFFFFFF0)
+    _refused(path, r"'depth_m' declares shape \(4, 6, 8\) .* its zip entry holds \d{10} bytes")
+
+
+def _inflating_recording(path, count, height, width):
+    """A recording of ``count`` all-zero depth images (no measurement), deflated as it is
+    written, chunk by chunk: a small file that inflates to count × height × width × 4 bytes."""
+    arrays = {
+        "time_s": np.arange(count) / 12.5,
+        "transform_camera_to_robot_believed": np.tile(np.eye(4), (count, 1, 1)),
+        "robot_pose_believed": np.zeros((count, 4)),
+    }
+    meta = {
+        "format": "fogsim-recording",
+        "version": 2,
+        "intrinsics": {"width": width, "height": height, "fx": 500.0, "fy": 500.0}
+        | {"cx": (width - 1) / 2, "cy": (height - 1) / 2},
+    }
+    arrays["meta_json"] = np.array(json.dumps(meta))
+    with zipfile.ZipFile(path, "w", zipfile.ZIP_DEFLATED) as archive:
+        for key, array in arrays.items():
+            member = io.BytesIO()
+            np.save(member, array)
+            archive.writestr(f"{key}.npy", member.getvalue())
+        with archive.open("depth_m.npy", "w", force_zip64=True) as member:
+            header = {"descr": "<f4", "fortran_order": False, "shape": (count, height, width)}
+            np.lib.format.write_array_header_1_0(member, header)
+            zeros = bytes(height * width * 4)
+            for _ in range(count):
+                member.write(zeros)
+
+
+def test_a_small_file_inflating_to_many_frames_replays_in_one_frames_memory(tmp_path):
+    count, height, width = 60, 480, 640
+    path = tmp_path / "inflating.npz"
+    _inflating_recording(path, count, height, width)
+    frame_bytes = height * width * 4
+    assert path.stat().st_size < count * frame_bytes / 100  # 74 MB of depth in < 1 MB
+    tracemalloc.start()
+    try:
+        recording = load_recording(path)
+        replayed = sum(1 for frame in recording.frames if not frame.depth_m.any())
+        _, peak = tracemalloc.get_traced_memory()
+    finally:
+        tracemalloc.stop()
+    assert replayed == count
+    assert peak < 4 * frame_bytes, peak  # bounded by a frame, not by the 74 MB declared
+
+
+@pytest.mark.parametrize(
+    ("key", "row", "column", "value", "pattern"),
+    [
+        ("time_s", 2, None, np.nan, r"time_s\[2\] = nan must be a finite time"),
+        ("time_s", 3, None, np.inf, r"time_s\[3\] = inf must be a finite time"),
+        ("time_s", 2, None, 0.0, r"strictly increasing, got time_s\[2\] = 0.0 after time_s\[1\]"),
+        ("robot_pose_believed", 1, 0, np.nan, r"robot_pose_believed\[1\] \(frame 1\): x = nan"),
+        ("robot_pose_believed", 2, 1, -np.inf, r"robot_pose_believed\[2\] \(frame 2\): .*y = -inf"),
+        ("robot_pose_believed", 3, 2, 1e30, r"\(frame 3\): .*z = 1e\+30.* <= 10000 m"),
+        ("robot_pose_believed", 0, 3, 1e30, r"\(frame 0\): .*yaw = 1e\+30 rad"),
+        ("robot_pose_true", 2, 0, np.inf, r"robot_pose_true\[2\] \(frame 2\): x = inf"),
+        ("transform_camera_to_robot_believed", 1, 5, np.nan, r"\[1\] \(frame 1\): must be finite"),
+        ("transform_camera_to_world_true", 2, 3, 1e30, r"\[2\] \(frame 2\): translation"),
+        (
+            "self_filtered_pixels",
+            1,
+            None,
+            49,
+            r"self_filtered_pixels\[1\] = 49 must be in \[0, 48\]",
+        ),
+    ],
+)
+def test_values_out_of_their_limits_name_the_array_and_the_frame(
+    tmp_path, key, row, column, value, pattern
+):
+    path = _saved(tmp_path)
+    with np.load(path) as data:
+        array = data[key].astype(np.float64 if key != "self_filtered_pixels" else np.int32)
+    flat_row = array[row].reshape(-1) if array.ndim > 1 else array
+    flat_row[row if column is None else column] = value
+    _rewrite(path, tmp_path / "x.npz", **{key: array})
+    _refused(tmp_path / "x.npz", pattern)
+
+
+@pytest.mark.parametrize("jump_m", [100.0, 300.0, 3000.0])
+def test_a_believed_pose_jump_is_refused_naming_the_frame(tmp_path, jump_m):
+    path = _saved(tmp_path)
+    with np.load(path) as data:
+        poses = data["robot_pose_believed"].copy()
+    poses[2:, 0] += jump_m
+    _rewrite(path, tmp_path / "j.npz", robot_pose_believed=poses)
+    _refused(tmp_path / "j.npz", rf"\(frame 2\): the believed position jumped {jump_m:g}(\.\d+)? m")
+
+
+def test_reflected_or_partly_unknown_transforms_are_refused(tmp_path):
+    path = _saved(tmp_path)
+    mirror = np.tile(np.eye(4), (4, 1, 1))
+    mirror[1, 2, 2] = -1.0
+    _rewrite(path, tmp_path / "r.npz", transform_camera_to_robot_believed=mirror)
+    _refused(tmp_path / "r.npz", r"\(frame 1\): rotation block must be orthonormal .* reflection")
+    partly = np.tile(np.eye(4), (4, 1, 1))
+    partly[3, 0, 3] = np.nan
+    _rewrite(path, tmp_path / "p.npz", transform_camera_to_world_true=partly)
+    _refused(tmp_path / "p.npz", r"\(frame 3\): must be finite \(or all sixteen entries NaN")
+
+
+def test_frames_are_built_on_demand_and_pickle_with_their_depth(tmp_path):
+    frames = make_frames(5)
+    path = save_recording(tmp_path / "run.npz", frames)
+    rec = load_recording(path)
+    assert isinstance(rec.frames, RecordedFrames)
+    np.testing.assert_array_equal(rec.frames[3].depth_m, frames[3].depth_m)
+    assert [f.index for f in rec.frames[1:4]] == [1, 2, 3]
+    assert [f.index for f in rec.frames[::2]] == [0, 2, 4]
+    np.testing.assert_array_equal(rec.times_s, [f.time_s for f in frames])
+    copied = pickle.loads(
+        pickle.dumps(dataclasses.replace(rec, frames=rec.frames[1:3], truths=rec.truths[1:3]))
+    )
+    path.unlink()  # the copy holds its depth in memory, as tune's Ray workers need
+    assert [f.index for f in copied.frames] == [1, 2]
+    for a, b in zip(frames[1:3], copied.frames, strict=True):
+        np.testing.assert_array_equal(a.depth_m, b.depth_m)
+
+
+def test_a_file_changed_after_loading_is_refused_when_read(tmp_path):
+    path = save_recording(tmp_path / "run.npz", make_frames(3))
+    rec = load_recording(path)
+    save_recording(path, make_frames(4, seed=1))
+    with pytest.raises(RecordingError, match="changed since it was loaded; load it again"):
+        list(rec.frames)
+
+
+def test_save_refuses_what_load_would_refuse(tmp_path):
+    frames = make_frames(3)
+    frames[1] = Frame(**{**frames[1].__dict__, "robot_pose_believed": np.array([np.nan] * 4)})
+    with pytest.raises(RecordingError, match=r"robot_pose_believed\[1\] \(frame 1\)"):
         save_recording(tmp_path / "x.npz", frames)
     assert not (tmp_path / "x.npz").exists()

@@ -32,40 +32,85 @@ key                                      shape, dtype        meaning
                                                              at this frame, -1 = none
 =======================================  ==================  ======================================
 
-``meta_json`` keys: ``format`` (``"fogsim-recording"``), ``version`` (2), ``intrinsics``
-(``width``, ``height`` [px], ``fx``, ``fy``, ``cx``, ``cy`` [px], pixel centres at integer
-coordinates), ``scenario_toml`` (the scenario file text, or null for real data: the mapper then
-uses its default parameters and the run is not scored), ``truths`` (list of
-``SceneTruth.to_dict()`` objects, one per distinct world state; may be empty), ``created_by``.
+``meta_json`` keys (decoded strictly, :mod:`fogsim.data.meta`): ``format``
+(``"fogsim-recording"``), ``version`` (2), ``intrinsics`` (``width``, ``height`` [px], ``fx``,
+``fy``, ``cx``, ``cy`` [px], pixel centres at integer coordinates, the principal point inside
+the image), ``scenario_toml`` (the scenario file text, or null for real data: the mapper then
+uses its default parameters and the run is not scored), ``truths`` (list of world states, one
+per distinct state, :class:`~fogsim.data.meta.SceneTruthMeta`; may be empty), ``created_by``.
+No other key is allowed.
 
 Frames: world z up with the ground at z = 0; R on the ground between the robot's feet, x forward.
+
+Loading is bounded (limits in :mod:`fogsim.data.limits`): every array's ``.npy`` header is read
+and checked against the frame count and the per-frame limits (at most
+:data:`~fogsim.data.limits.MAX_FRAMES` frames of at most
+:data:`~fogsim.data.limits.MAX_IMAGE_PIXELS` pixels) before its data, and the sizes the zip
+directory declares must match; times must be finite and strictly increasing, poses and
+transforms finite, rigid and within the world's limits, the believed position may move at most
+:data:`~fogsim.data.limits.MAX_POSE_STEP_M` between frames. The depth images are checked
+(length, checksum) but not kept: :class:`~fogsim.data.frames.RecordedFrames` reads them one
+frame at a time when the frames are used. Every failure is a :class:`RecordingError` naming the
+file and the array or key.
 """
 
 from __future__ import annotations
 
-import io
-import json
 import os
 from collections.abc import Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
+import msgspec
 import numpy as np
 from numpy.typing import DTypeLike, NDArray
 
 from fogsim.atomic import write_atomic
 from fogsim.config import Scenario, scenario_from_toml
+from fogsim.data.checks import pose_problem, step_problem, transform_problem
 from fogsim.data.frame import Frame
-from fogsim.errors import RecordingError
+from fogsim.data.frames import (
+    DepthMember,
+    FrameColumns,
+    RecordedFrames,
+    file_stamp,
+    frame_times_s,
+)
+from fogsim.data.limits import (
+    MAX_CAMERA_OFFSET_M,
+    MAX_FRAMES,
+    MAX_POSITION_M,
+    META_JSON_CHARS_PER_FRAME,
+    META_JSON_FIXED_CHARS,
+)
+from fogsim.data.meta import (
+    FORMAT_NAME,
+    FORMAT_VERSION,
+    SUPPORTED_VERSIONS,
+    IntrinsicsMeta,
+    RecordingMeta,
+    SceneTruthMeta,
+    decode_meta,
+    decode_truths,
+    encode_meta,
+)
+from fogsim.data.npz import ArrayHeader, NpzArchive
+from fogsim.errors import FogsimError, RecordingError
 from fogsim.world import SceneTruth
 from mapper.intrinsics import PinholeIntrinsics
 
-FORMAT_NAME = "fogsim-recording"
-FORMAT_VERSION = 2
-"""2: ground-truth states name every scenario object (``object_names``, for per-object truth)."""
-SUPPORTED_VERSIONS = (1, 2)
-"""Version 1 files load when they hold no ground truth (real data); their truths are refused."""
+__all__ = [
+    "FORMAT_NAME",
+    "FORMAT_VERSION",
+    "OPTIONAL_ARRAYS",
+    "REQUIRED_ARRAYS",
+    "SUPPORTED_VERSIONS",
+    "Recording",
+    "load_recording",
+    "save_recording",
+]
+
 REQUIRED_ARRAYS = (
     "meta_json",
     "time_s",
@@ -73,6 +118,15 @@ REQUIRED_ARRAYS = (
     "transform_camera_to_robot_believed",
     "robot_pose_believed",
 )
+OPTIONAL_ARRAYS = (
+    "transform_camera_to_world_true",
+    "robot_pose_true",
+    "self_filtered_pixels",
+    "truth_index",
+)
+_REAL = "real numbers (float or int)"
+_KINDS = {_REAL: "fiu", "floating-point numbers": "f", "integers": "iu", "text": "U"}
+"""What an array may hold: numpy dtype kinds, by how messages name them."""
 
 
 @dataclass
@@ -80,26 +134,30 @@ class Recording:
     """A loaded recording.
 
     Attributes:
-        frames: The frames in order (``Frame.index`` = position in the list).
+        frames: The frames in order (``Frame.index`` = position in the file); a loaded file's
+            are :class:`~fogsim.data.frames.RecordedFrames`, built when used.
         scenario: The scenario the frames came from, or None (real robot data).
         truths: Ground truth per frame, None where unknown.
         intrinsics: Depth camera intrinsics shared by all frames.
         source_path: The file it was read from, if any.
-        meta: The file's ``meta_json`` object without ``truths`` (JSON values).
+        meta: The file's decoded ``meta_json``, if read from a file.
+        times_s: (T,) frame times [s] (set from ``frames``).
     """
 
-    frames: list[Frame]
+    frames: Sequence[Frame]
     scenario: Scenario | None
-    truths: list[SceneTruth | None]
+    truths: Sequence[SceneTruth | None]
     intrinsics: PinholeIntrinsics
     source_path: Path | None = None
-    meta: dict[str, Any] = field(default_factory=dict)
+    meta: RecordingMeta | None = None
+    times_s: NDArray[np.float64] = field(init=False, repr=False, compare=False)
 
     def __post_init__(self) -> None:
         if len(self.truths) != len(self.frames):
             raise RecordingError(
                 f"recording has {len(self.frames)} frames but {len(self.truths)} truth entries"
             )
+        self.times_s = frame_times_s(self.frames)
 
     @property
     def has_truth(self) -> bool:
@@ -108,14 +166,40 @@ class Recording:
 
     def truth_at(self, time_s: float) -> SceneTruth | None:
         """Ground truth of the last frame at or before ``time_s`` (the first frame if earlier)."""
-        times = np.array([f.time_s for f in self.frames])
-        i = int(np.searchsorted(times, time_s + 1e-9, side="right")) - 1
+        i = int(np.searchsorted(self.times_s, time_s + 1e-9, side="right")) - 1
         return self.truths[max(0, min(i, len(self.truths) - 1))]
 
 
 def _frame_array(frames: Sequence[Frame], name: str, dtype: DTypeLike) -> NDArray[Any]:
     """The per-frame array ``name`` of every frame stacked along a new first axis."""
     return np.stack([np.asarray(getattr(f, name), dtype=dtype) for f in frames])
+
+
+def _stored_truths(
+    truths: Sequence[SceneTruth | None], count: int
+) -> tuple[tuple[SceneTruthMeta, ...], NDArray[np.int32]]:
+    """The distinct world states and each frame's index into them (-1 = none).
+
+    States equal apart from their time are stored once.
+    """
+    stored: list[SceneTruthMeta] = []
+    keys: dict[bytes, int] = {}
+    truth_index = np.full(count, -1, dtype=np.int32)
+    seen_objects: dict[int, int] = {}
+    for i, truth in enumerate(truths):
+        if truth is None:
+            continue
+        if id(truth) in seen_objects:
+            truth_index[i] = seen_objects[id(truth)]
+            continue
+        state = SceneTruthMeta.from_truth(truth)
+        key = msgspec.json.encode(msgspec.structs.replace(state, time_s=0.0), order="sorted")
+        if key not in keys:
+            keys[key] = len(stored)
+            stored.append(state)
+        seen_objects[id(truth)] = keys[key]
+        truth_index[i] = keys[key]
+    return tuple(stored), truth_index
 
 
 def save_recording(
@@ -135,6 +219,10 @@ def save_recording(
 
     Returns:
         The written path.
+
+    Raises:
+        RecordingError: No frames, mixed intrinsics, or a value :func:`load_recording` would
+            refuse (the message names the frame and the array or key); nothing is written.
     """
     frames = list(frames)
     if not frames:
@@ -148,165 +236,266 @@ def save_recording(
             )
     if truths is not None and len(truths) != len(frames):
         raise RecordingError(f"got {len(truths)} truths for {len(frames)} frames")
-
-    truth_dicts: list[dict[str, Any]] = []
-    truth_keys: dict[str, int] = {}
-    truth_index = np.full(len(frames), -1, dtype=np.int32)
-    seen_objects: dict[int, int] = {}
-    for i, truth in enumerate(truths or []):
-        if truth is None:
-            continue
-        if id(truth) in seen_objects:
-            truth_index[i] = seen_objects[id(truth)]
-            continue
-        as_dict = truth.to_dict()
-        key = json.dumps({k: v for k, v in as_dict.items() if k != "time_s"}, sort_keys=True)
-        if key not in truth_keys:
-            truth_keys[key] = len(truth_dicts)
-            truth_dicts.append(as_dict)
-        seen_objects[id(truth)] = truth_keys[key]
-        truth_index[i] = truth_keys[key]
-
-    meta = {
-        "format": FORMAT_NAME,
-        "version": FORMAT_VERSION,
-        "intrinsics": {
-            "width": intrinsics.width,
-            "height": intrinsics.height,
-            "fx": intrinsics.fx,
-            "fy": intrinsics.fy,
-            "cx": intrinsics.cx,
-            "cy": intrinsics.cy,
-        },
-        "scenario_toml": scenario.to_toml() if scenario is not None else None,
-        "truths": truth_dicts,
-        "created_by": "fogsim",
-    }
-    arrays = {
-        "meta_json": np.array(json.dumps(meta)),
-        "time_s": np.array([f.time_s for f in frames], dtype=np.float64),
-        "depth_m": _frame_array(frames, "depth_m", np.float32),
-        "transform_camera_to_robot_believed": _frame_array(
+    stored_truths, truth_index = _stored_truths(truths or [], len(frames))
+    meta = RecordingMeta(
+        format=FORMAT_NAME,
+        version=FORMAT_VERSION,
+        intrinsics=IntrinsicsMeta.from_intrinsics(intrinsics),
+        scenario_toml=scenario.to_toml() if scenario is not None else None,
+        truths=stored_truths,
+        created_by="fogsim",
+    )
+    columns = FrameColumns(
+        intrinsics=intrinsics,
+        time_s=np.array([f.time_s for f in frames], dtype=np.float64),
+        transform_camera_to_robot_believed=_frame_array(
             frames, "transform_camera_to_robot_believed", np.float64
         ),
-        "robot_pose_believed": _frame_array(frames, "robot_pose_believed", np.float64),
-        "transform_camera_to_world_true": _frame_array(
+        robot_pose_believed=_frame_array(frames, "robot_pose_believed", np.float64),
+        transform_camera_to_world_true=_frame_array(
             frames, "transform_camera_to_world_true", np.float64
         ),
-        "robot_pose_true": _frame_array(frames, "robot_pose_true", np.float64),
-        "self_filtered_pixels": np.array([f.self_filtered_pixels for f in frames], dtype=np.int32),
+        robot_pose_true=_frame_array(frames, "robot_pose_true", np.float64),
+        self_filtered_pixels=np.array([f.self_filtered_pixels for f in frames], dtype=np.int64),
+    )
+    _check_columns(columns, str(path))
+    arrays = {
+        "meta_json": np.array(encode_meta(meta, f"{path}: meta_json")),
+        "time_s": columns.time_s,
+        "depth_m": _frame_array(frames, "depth_m", np.float32),
+        "transform_camera_to_robot_believed": columns.transform_camera_to_robot_believed,
+        "robot_pose_believed": columns.robot_pose_believed,
+        "transform_camera_to_world_true": columns.transform_camera_to_world_true,
+        "robot_pose_true": columns.robot_pose_true,
+        "self_filtered_pixels": columns.self_filtered_pixels.astype(np.int32),
         "truth_index": truth_index,
     }
     return write_atomic(path, lambda handle: np.savez_compressed(handle, **arrays))
 
 
-def _check_shape(name: str, array: NDArray[Any], shape: tuple[int, ...]) -> None:
-    if array.shape != shape:
-        raise RecordingError(f"recording array '{name}' must have shape {shape}, got {array.shape}")
+def _check_columns(columns: FrameColumns, origin: str) -> None:
+    """Check the per-frame arrays against the limits of :mod:`fogsim.data.limits`.
+
+    Times finite and strictly increasing; poses and transforms finite, rigid, in bounds;
+    believed steps plausible; self-filtered pixel counts within the image.
+
+    Raises:
+        RecordingError: Naming ``origin``, the array and the frame.
+    """
+    time_s = columns.time_s
+    infinite = np.flatnonzero(~np.isfinite(time_s))
+    if infinite.size:
+        i = int(infinite[0])
+        raise RecordingError(f"{origin}: time_s[{i}] = {time_s[i]} must be a finite time [s]")
+    backwards = np.flatnonzero(~(np.diff(time_s) > 0))
+    if backwards.size:
+        i = int(backwards[0])
+        raise RecordingError(
+            f"{origin}: time_s must be strictly increasing, got time_s[{i + 1}] = "
+            f"{time_s[i + 1]} after time_s[{i}] = {time_s[i]}"
+        )
+    problems = (
+        ("robot_pose_believed", pose_problem(columns.robot_pose_believed)),
+        ("robot_pose_believed", step_problem(columns.robot_pose_believed)),
+        (
+            "transform_camera_to_robot_believed",
+            transform_problem(
+                columns.transform_camera_to_robot_believed, max_translation_m=MAX_CAMERA_OFFSET_M
+            ),
+        ),
+        ("robot_pose_true", pose_problem(columns.robot_pose_true, unknown_allowed=True)),
+        (
+            "transform_camera_to_world_true",
+            transform_problem(
+                columns.transform_camera_to_world_true,
+                max_translation_m=MAX_POSITION_M,
+                unknown_allowed=True,
+            ),
+        ),
+    )
+    for key, problem in problems:
+        if problem is not None:
+            raise RecordingError(
+                f"{origin}: {key}[{problem.row}] (frame {problem.row}): {problem.what}"
+            )
+    pixels = columns.intrinsics.width * columns.intrinsics.height
+    filtered = columns.self_filtered_pixels
+    outside = np.flatnonzero((filtered < 0) | (filtered > pixels))
+    if outside.size:
+        i = int(outside[0])
+        raise RecordingError(
+            f"{origin}: self_filtered_pixels[{i}] = {filtered[i]} must be in [0, {pixels}] "
+            "(the image's pixels)"
+        )
+
+
+def _checked_header(
+    archive: NpzArchive, key: str, shape: tuple[int, ...], holds: str
+) -> ArrayHeader:
+    """The header of array ``key``: it must declare ``shape`` and elements of ``holds``.
+
+    ``holds`` is a key of ``_KINDS``.
+    """
+    header = archive.header(key)
+    if header.dtype.kind not in _KINDS[holds]:
+        raise RecordingError(
+            f"{archive.path}: array '{key}' must hold {holds}, got dtype {header.dtype}"
+        )
+    if header.shape != shape:
+        raise RecordingError(
+            f"{archive.path}: recording array '{key}' must have shape {shape}, got {header.shape}"
+        )
+    return header
+
+
+def _column(
+    archive: NpzArchive,
+    key: str,
+    shape: tuple[int, ...],
+    holds: str,
+    dtype: DTypeLike,
+    absent: float,
+) -> NDArray[Any]:
+    """Array ``key`` read after its header was checked, as ``dtype``.
+
+    An optional array missing from the file is filled with ``absent``.
+    """
+    if key not in archive.keys:
+        return np.full(shape, absent, dtype=dtype)
+    return archive.read(_checked_header(archive, key, shape, holds)).astype(dtype)
+
+
+def _frame_count(archive: NpzArchive) -> int:
+    """The number of frames, from the ``time_s`` header (1 to :data:`MAX_FRAMES`)."""
+    header = archive.header("time_s")
+    count = header.shape[0] if len(header.shape) == 1 else -1
+    if count == 0:
+        raise RecordingError(f"{archive.path}: recording has no frames")
+    if not 1 <= count <= MAX_FRAMES:
+        raise RecordingError(
+            f"{archive.path}: recording array 'time_s' must have shape (T,) with 1 <= T <= "
+            f"{MAX_FRAMES} frames (MAX_FRAMES), got {header.shape}"
+        )
+    return count
+
+
+def _read_meta(archive: NpzArchive, count: int) -> RecordingMeta:
+    """``meta_json``, decoded; its size is checked before it is read.
+
+    At most :data:`META_JSON_FIXED_CHARS` plus :data:`META_JSON_CHARS_PER_FRAME` per frame.
+    """
+    header = _checked_header(archive, "meta_json", (), "text")
+    chars = header.dtype.itemsize // np.dtype("U1").itemsize
+    allowed = META_JSON_FIXED_CHARS + count * META_JSON_CHARS_PER_FRAME
+    if chars > allowed:
+        raise RecordingError(
+            f"{archive.path}: array 'meta_json' declares {chars} characters; a recording of "
+            f"{count} frames may hold at most {allowed}"
+        )
+    text = str(archive.read(header)[()])
+    return decode_meta(text, f"{archive.path}: meta_json")
+
+
+def _read_columns(
+    archive: NpzArchive, count: int, intrinsics: PinholeIntrinsics
+) -> tuple[FrameColumns, NDArray[np.int64]]:
+    """Every per-frame array but the depth, and ``truth_index``, shapes and types checked."""
+    columns = FrameColumns(
+        intrinsics=intrinsics,
+        time_s=_column(archive, "time_s", (count,), _REAL, np.float64, np.nan),
+        transform_camera_to_robot_believed=_column(
+            archive, "transform_camera_to_robot_believed", (count, 4, 4), _REAL, np.float64, 0
+        ),
+        robot_pose_believed=_column(
+            archive, "robot_pose_believed", (count, 4), _REAL, np.float64, 0
+        ),
+        transform_camera_to_world_true=_column(
+            archive, "transform_camera_to_world_true", (count, 4, 4), _REAL, np.float64, np.nan
+        ),
+        robot_pose_true=_column(archive, "robot_pose_true", (count, 4), _REAL, np.float64, np.nan),
+        self_filtered_pixels=_column(
+            archive, "self_filtered_pixels", (count,), "integers", np.int64, 0
+        ),
+    )
+    truth_index = _column(archive, "truth_index", (count,), "integers", np.int64, -1)
+    return columns, truth_index
+
+
+def _truths_per_frame(
+    meta: RecordingMeta, truth_index: NDArray[np.int64], origin: str
+) -> list[SceneTruth | None]:
+    """Each frame's world state (None where ``truth_index`` is -1)."""
+    outside = np.flatnonzero((truth_index < -1) | (truth_index >= len(meta.truths)))
+    if outside.size:
+        i = int(outside[0])
+        raise RecordingError(
+            f"{origin}: truth_index[{i}] = {truth_index[i]} must be -1 or in "
+            f"[0, {len(meta.truths)}) (meta.truths)"
+        )
+    states = decode_truths(meta, f"{origin}: meta_json")
+    return [states[i] if i >= 0 else None for i in truth_index.tolist()]
 
 
 def load_recording(path: str | os.PathLike[str]) -> Recording:
     """Read a recording written by :func:`save_recording` (or by hand, see the module doc).
 
+    The frames' depth images are checked but not kept: they are read from the file, one
+    frame at a time, when the frames are used.
+
     Raises:
-        RecordingError: The file is missing, not a recording, of an unsupported version, or an
-            array has the wrong shape (the message names it).
+        RecordingError: The file is missing, not a zip archive, truncated or corrupt, not a
+            recording, of an unsupported version, or an array or key is missing, unknown, of
+            the wrong type or shape, too large or holds a value out of its limits (the message
+            names the file, the array or key, and the frame).
     """
     source = Path(path)
     if not source.is_file():
         raise RecordingError(f"recording file not found: {source}")
-    try:
-        raw = source.read_bytes()
-        with np.load(io.BytesIO(raw), allow_pickle=False) as data:
-            arrays = {key: data[key] for key in data.files}
-    except (OSError, ValueError) as exc:
-        raise RecordingError(f"{source} is not a readable .npz recording: {exc}") from exc
-    missing = [key for key in REQUIRED_ARRAYS if key not in arrays]
-    if missing:
-        raise RecordingError(
-            f"{source} lacks required arrays {missing}; a recording needs {list(REQUIRED_ARRAYS)}"
+    stamp = file_stamp(source)
+    with NpzArchive(source) as archive:
+        missing = [key for key in REQUIRED_ARRAYS if key not in archive.keys]
+        if missing:
+            raise RecordingError(
+                f"{source} lacks required arrays {missing}; a recording needs "
+                f"{list(REQUIRED_ARRAYS)}"
+            )
+        unknown = [key for key in archive.keys if key not in REQUIRED_ARRAYS + OPTIONAL_ARRAYS]
+        if unknown:
+            raise RecordingError(
+                f"{source} holds unknown arrays {unknown}; allowed: "
+                f"{list(REQUIRED_ARRAYS + OPTIONAL_ARRAYS)}"
+            )
+        count = _frame_count(archive)
+        meta = _read_meta(archive, count)
+        intrinsics = meta.intrinsics.to_intrinsics()
+        depth = _checked_header(
+            archive,
+            "depth_m",
+            (count, intrinsics.height, intrinsics.width),
+            "floating-point numbers",
         )
-    try:
-        meta = json.loads(str(arrays["meta_json"]))
-    except json.JSONDecodeError as exc:
-        raise RecordingError(f"{source}: meta_json is not valid JSON: {exc}") from exc
-    if meta.get("format") != FORMAT_NAME:
-        raise RecordingError(f"{source}: meta.format must be '{FORMAT_NAME}'")
-    if meta.get("version") not in SUPPORTED_VERSIONS:
-        raise RecordingError(
-            f"{source}: recording version {meta.get('version')!r} is not supported; "
-            f"supported versions: {list(SUPPORTED_VERSIONS)}"
-        )
-    if meta["version"] == 1 and meta.get("truths"):
-        raise RecordingError(
-            f"{source}: a version 1 recording's ground truth lacks the scenario's object names "
-            "(version 2 scores per object); record the scenario again with `fogsim record`"
-        )
-    try:
-        k = meta["intrinsics"]
-        intrinsics = PinholeIntrinsics(
-            int(k["width"]), int(k["height"]), k["fx"], k["fy"], k["cx"], k["cy"]
-        )
-    except (KeyError, TypeError, ValueError) as exc:
-        raise RecordingError(
-            f"{source}: meta.intrinsics needs width, height, fx, fy, cx, cy: {exc}"
-        ) from exc
-
-    time_s = arrays["time_s"].astype(np.float64)
-    count = time_s.shape[0]
-    _check_shape("time_s", time_s, (count,))
-    if count == 0:
-        raise RecordingError(f"{source}: recording has no frames")
-    if np.any(np.diff(time_s) <= 0):
-        raise RecordingError(f"{source}: time_s must be strictly increasing")
-    _check_shape("depth_m", arrays["depth_m"], (count, intrinsics.height, intrinsics.width))
-    _check_shape(
-        "transform_camera_to_robot_believed",
-        arrays["transform_camera_to_robot_believed"],
-        (count, 4, 4),
-    )
-    _check_shape("robot_pose_believed", arrays["robot_pose_believed"], (count, 4))
-    nan44 = np.full((count, 4, 4), np.nan)
-    camera_true = arrays.get("transform_camera_to_world_true", nan44)
-    robot_true = arrays.get("robot_pose_true", np.full((count, 4), np.nan))
-    filtered = arrays.get("self_filtered_pixels", np.zeros(count, dtype=np.int32))
-    truth_index = arrays.get("truth_index", np.full(count, -1, dtype=np.int32))
-    _check_shape("transform_camera_to_world_true", camera_true, (count, 4, 4))
-    _check_shape("robot_pose_true", robot_true, (count, 4))
-    _check_shape("self_filtered_pixels", filtered, (count,))
-    _check_shape("truth_index", truth_index, (count,))
-
-    truth_dicts = meta.get("truths") or []
-    if np.any(truth_index >= len(truth_dicts)) or np.any(truth_index < -1):
-        raise RecordingError(
-            f"{source}: truth_index must be -1 or in [0, {len(truth_dicts)}) (meta.truths)"
-        )
-    truth_objects = [SceneTruth.from_dict(d) for d in truth_dicts]
-    truths = [truth_objects[i] if i >= 0 else None for i in truth_index.tolist()]
-
-    depth = arrays["depth_m"].astype(np.float32)
-    frames = [
-        Frame(
-            index=i,
-            time_s=float(time_s[i]),
-            depth_m=depth[i],
-            intrinsics=intrinsics,
-            transform_camera_to_robot_believed=arrays["transform_camera_to_robot_believed"][i],
-            robot_pose_believed=arrays["robot_pose_believed"][i],
-            transform_camera_to_world_true=camera_true[i],
-            robot_pose_true=robot_true[i],
-            self_filtered_pixels=int(filtered[i]),
-        )
-        for i in range(count)
-    ]
-    scenario = None
-    if meta.get("scenario_toml"):
-        scenario = scenario_from_toml(meta["scenario_toml"], where=f"recording {source}")
+        if depth.fortran_order:
+            raise RecordingError(
+                f"{source}: array 'depth_m' is stored in Fortran (column-major) order; frames "
+                "are read one at a time, so it must be C order (numpy.ascontiguousarray)"
+            )
+        columns, truth_index = _read_columns(archive, count, intrinsics)
+        _check_columns(columns, str(source))
+        truths = _truths_per_frame(meta, truth_index, str(source))
+        scenario = None
+        if meta.scenario_toml:
+            try:
+                scenario = scenario_from_toml(
+                    meta.scenario_toml, where=f"{source}: meta_json scenario_toml"
+                )
+            except FogsimError as exc:
+                raise RecordingError(str(exc)) from exc
+        archive.verify(depth)
     return Recording(
-        frames=frames,
+        frames=RecordedFrames(columns, DepthMember(source, depth, stamp), range(count)),
         scenario=scenario,
         truths=truths,
         intrinsics=intrinsics,
         source_path=source,
-        meta={k: v for k, v in meta.items() if k != "truths"},
+        meta=meta,
     )

@@ -16,6 +16,14 @@ Per frame (paper Fig. 1, 2 and Sec. IV), with the pose the robot *believes*:
 6. Robot elevation filter (``mapper.RobotElevationFilter``): the offset on odometry's z is
    pulled towards ``Floor(x_R, y_R)`` when the floor map has a height under the robot.
 
+Every frame is checked first: a believed robot pose or camera transform that is not finite or
+lies beyond the world's limits, or a believed position that jumps more than
+:data:`~fogsim.data.limits.MAX_POSE_STEP_M` from the previous frame's, raises
+:class:`FrameError` naming the frame. Such a frame is an odometry failure or corrupt data, not
+noise: skipping it would map the following frames in the same wrong place, and mapping it would
+grow the maps and the scoring archive to the bounding box of the jump. Nothing is changed by a
+refused frame.
+
 Scoring is not done here: :func:`fogsim.run.runner.run_frames` hands every frame's maps to the
 evaluation layer (:mod:`fogsim.eval`).
 """
@@ -30,7 +38,10 @@ import numpy as np
 from numpy.typing import NDArray
 
 from fogsim.config import RunParams
+from fogsim.data.checks import pose_problem, step_problem, transform_problem
 from fogsim.data.frame import Frame
+from fogsim.data.limits import MAX_CAMERA_OFFSET_M
+from fogsim.errors import FogsimError
 from mapper import (
     AveragingMap,
     FloorObstacleMapper,
@@ -43,6 +54,10 @@ from mapper.transforms import apply_transform, planar_pose_to_matrix
 
 FrameCallback = Callable[[Frame, "Pipeline"], None]
 """Called after every frame with the frame and the pipeline (progress bars, video)."""
+
+
+class FrameError(FogsimError, ValueError):
+    """A frame's believed pose cannot be mapped; the message names the frame and the value."""
 
 
 @dataclass(frozen=True)
@@ -77,6 +92,34 @@ class Pipeline:
         self.mapper = FloorObstacleMapper(self.mapper_params)
         self.baseline = AveragingMap(self.mapper_params)
         self.elevation = RobotElevationFilter(self.run_params.elevation)
+        self._last_pose_believed: NDArray[np.float64] | None = None
+
+    def check_frame(self, frame: Frame) -> None:
+        """Refuse a frame whose believed pose is not finite, out of bounds or a jump.
+
+        Raises:
+            FrameError: Naming the frame, the value and what is allowed.
+        """
+        pose = np.asarray(frame.robot_pose_believed, dtype=np.float64)
+        camera = np.asarray(frame.transform_camera_to_robot_believed, dtype=np.float64)
+        if pose.shape != (4,) or camera.shape != (4, 4):
+            raise FrameError(
+                f"frame {frame.index}: robot_pose_believed must have shape (4,) and "
+                f"transform_camera_to_robot_believed (4, 4), got {pose.shape} and {camera.shape}"
+            )
+        previous = self._last_pose_believed
+        poses = pose[None] if previous is None else np.stack([previous, pose])
+        problems = (
+            ("robot_pose_believed", pose_problem(pose[None])),
+            (
+                "transform_camera_to_robot_believed",
+                transform_problem(camera[None], max_translation_m=MAX_CAMERA_OFFSET_M),
+            ),
+            ("robot_pose_believed", step_problem(poses)),
+        )
+        for key, problem in problems:
+            if problem is not None:
+                raise FrameError(f"frame {frame.index}: {key}: {problem.what}")
 
     def robot_pose(self, frame: Frame) -> NDArray[np.float64]:
         """Believed robot pose (x, y, z, yaw) with the elevation filter's z."""
@@ -86,8 +129,14 @@ class Pipeline:
         return pose
 
     def process(self, frame: Frame) -> FrameTiming:
-        """Run one frame through segmentation, z-match and both maps."""
+        """Run one frame through segmentation, z-match and both maps.
+
+        Raises:
+            FrameError: The frame's believed pose is refused (:meth:`check_frame`).
+        """
         t0 = time.perf_counter()
+        self.check_frame(frame)
+        self._last_pose_believed = np.asarray(frame.robot_pose_believed, dtype=np.float64)
         seg = segment_depth(
             frame.depth_m,
             frame.intrinsics,
