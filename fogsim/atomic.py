@@ -28,7 +28,7 @@ from collections.abc import Callable
 from pathlib import Path
 from typing import IO
 
-from fogsim.errors import FogsimError
+from fogsim.errors import OutputError
 
 NAME_BYTES = 80
 """Bytes of the target's name kept in a temporary's name: a name may have 255 bytes, and the
@@ -47,15 +47,6 @@ TEMPORARY = re.compile(
     re.DOTALL,
 )
 """The name of a temporary the testbed created (matched whole)."""
-
-
-class OutputError(FogsimError):
-    """An output path cannot be written.
-
-    A file where a folder is needed, a read-only or full disk, a kernel pseudo-filesystem, a
-    folder holding files of something else, or a path from data that leaves its folder. The
-    message names the argument or path, the problem and what is allowed.
-    """
 
 
 def _host() -> str:

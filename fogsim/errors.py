@@ -35,8 +35,25 @@ class CameraError(FogsimError, ValueError):
     """A camera configuration the renderer or the matcher cannot serve."""
 
 
+class OutputError(FogsimError):
+    """An output path cannot be written.
+
+    A file where a folder is needed, a read-only or full disk, a kernel pseudo-filesystem, a
+    folder holding files of something else, or a path from data that leaves its folder. The
+    message names the argument or path, the problem and what is allowed.
+    """
+
+
 class RecordingError(FogsimError, ValueError):
     """A recording file is missing, corrupt or of an unsupported version."""
+
+
+class FrameError(FogsimError, ValueError):
+    """A frame's believed pose cannot be mapped; the message names the frame and the value."""
+
+
+class ArchiveExtentError(FogsimError, ValueError):
+    """Storing a grid would make the world archive span more than ``MAX_ARCHIVE_CELLS`` cells."""
 
 
 class ReportError(FogsimError, ValueError):

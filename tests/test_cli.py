@@ -121,25 +121,15 @@ def test_real_data_recording_runs_unscored(tmp_path, capsys):
 DEEP = "x = " + "[" * 5000 + "]" * 5000 + "\n"
 """TOML nested deeper than Python's recursion limit."""
 
-PARSE_ERRORS = "config: a file that cannot be parsed becomes a ScenarioError (issue 13)"
-
 
 @pytest.mark.parametrize(
     ("content", "problem"),
     [
         (b'name = "broken\n', "not valid TOML"),
         (b'name = "typed"\nseed = "five"\n', "seed"),
-        pytest.param(
-            b"\xff\xfe\x00\x01\x02binary",
-            "",
-            marks=pytest.mark.xfail(strict=True, reason=PARSE_ERRORS),
-        ),
-        pytest.param(
-            'name = "café"\n'.encode("latin-1"),
-            "",
-            marks=pytest.mark.xfail(strict=True, reason=PARSE_ERRORS),
-        ),
-        pytest.param(DEEP.encode(), "", marks=pytest.mark.xfail(strict=True, reason=PARSE_ERRORS)),
+        (b"\xff\xfe\x00\x01\x02binary", "UTF-8"),
+        ('name = "café"\n'.encode("latin-1"), "UTF-8"),
+        (DEEP.encode(), "nested"),
     ],
     ids=["broken", "wrong_type", "binary", "latin1", "deep"],
 )

@@ -81,6 +81,7 @@ def test_rules_allow_the_tolerance_and_flag_beyond_it():
         assert frames.worse_by(NEVER_FRAMES, 11.0) > 0
     timing = rule_for("timing.frame_ms_median")
     assert timing.worse_by(16.9, 6.0) < 0 and timing.worse_by(17.1, 6.0) > 0  # 2x + 5 ms
+    assert not timing.checked  # reported, never checked: speed is measured in bench/
     with pytest.raises(FogsimError, match=r"no tolerance rule for figure 'cells\.accuracy'"):
         rule_for("cells.accuracy")
 
@@ -135,6 +136,13 @@ def test_check_compares_mean_and_worst_and_names_each_figure():
         "stage: table1.sill.abs_error_mm worst got worse: 4.2 vs baseline 3 "
         "(lower is better, tolerance 1)",
     ]
+
+
+def test_check_never_fails_on_wall_clock_time():
+    runs = [seed_run(1, {"table1.sill.abs_error_mm": 1.0, "timing.frame_ms_median": 3.0})]
+    base = update_baseline(None, suite_of({"stage": runs}, seeds="1"))
+    slow = [seed_run(1, {"table1.sill.abs_error_mm": 1.0, "timing.frame_ms_median": 300.0})]
+    assert check_against_baseline(suite_of({"stage": slow}, seeds="1"), base) == []
 
 
 def test_check_of_one_seed_compares_the_value_once_and_skips_failed_runs():

@@ -22,7 +22,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from fogsim.data.frame import Frame
-from fogsim.errors import FogsimError
+from fogsim.errors import ArchiveExtentError, FogsimError
 from mapper import CellType
 from mapper.grid import GridGeometry
 from mapper.transforms import apply_transform
@@ -43,10 +43,6 @@ _LAYERS = (
     ("in_view", np.bool_, False),
 )
 """The archive's layers: name, element type and the value of a cell never stored."""
-
-
-class ArchiveExtentError(FogsimError, ValueError):
-    """Storing a grid would make the archive span more than :data:`MAX_ARCHIVE_CELLS` cells."""
 
 
 def cells_in_view(frame: Frame, geometry: GridGeometry) -> NDArray[np.bool_]:

@@ -41,7 +41,7 @@ from fogsim.config import RunParams
 from fogsim.data.checks import pose_problem, step_problem, transform_problem
 from fogsim.data.frame import Frame
 from fogsim.data.limits import MAX_CAMERA_OFFSET_M
-from fogsim.errors import FogsimError
+from fogsim.errors import FrameError
 from mapper import (
     AveragingMap,
     FloorObstacleMapper,
@@ -54,10 +54,6 @@ from mapper.transforms import apply_transform, planar_pose_to_matrix
 
 FrameCallback = Callable[[Frame, "Pipeline"], None]
 """Called after every frame with the frame and the pipeline (progress bars, video)."""
-
-
-class FrameError(FogsimError, ValueError):
-    """A frame's believed pose cannot be mapped; the message names the frame and the value."""
 
 
 @dataclass(frozen=True)

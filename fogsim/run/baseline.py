@@ -22,7 +22,7 @@ figure                                        direction  tolerance    meaning
                                                                       shows the object
 ``events.<object>.floor_again_frames``        lower      3 frames     until ≥ 90 % of it is
                                                                       floor within 10 mm
-``timing.frame_ms_median``                    lower      ×2 + 5 ms    pipeline time per frame
+``timing.frame_ms_median``                    lower      not checked  pipeline time per frame
 ============================================  =========  ===========  =========================
 
 Why these tolerances. A run is deterministic for its seed, so the tolerance is not noise
@@ -42,7 +42,8 @@ point) may move a figure before the check calls it a regression.
 * Event frames are counted at 12.5 Hz: 3 frames (0.24 s) is one odd frame (a withdrawn frame,
   a late ray) at either end of the count; a footprint that never clears or never becomes
   floor again counts as :data:`NEVER_FRAMES`.
-* Frame times are wall-clock: only gross regressions count.
+* Frame times are wall-clock: reported in the summary, never checked (a loaded machine would
+  fail the check; speed is measured in ``bench/``).
 
 An event whose object the map never saw before its event has no figure (the report says
 ``seen: false``): it is left out, and a baseline that has it reports it missing.
@@ -92,11 +93,14 @@ class MetricRule:
         direction: ``"lower"`` or ``"higher"`` is better.
         absolute: Allowed slack in the figure's unit.
         relative: Further slack as a fraction of ``|baseline|``.
+        checked: Whether ``--check`` compares it (wall-clock figures are reported, not checked:
+            speed is measured in ``bench/``, never asserted, since a loaded machine fails it).
     """
 
     direction: Literal["lower", "higher"]
     absolute: float
     relative: float = 0.0
+    checked: bool = True
 
     def worse_by(self, current: float, baseline: float) -> float:
         """How much worse ``current`` is than ``baseline`` beyond the tolerance (> 0 = fail)."""
@@ -119,7 +123,7 @@ def rule_for(metric: str) -> MetricRule:
     if metric.endswith((".cleared_frames", ".floor_again_frames")):
         return MetricRule("lower", 3.0)
     if metric.startswith("timing."):
-        return MetricRule("lower", 5.0, 1.0)
+        return MetricRule("lower", 5.0, 1.0, checked=False)
     raise FogsimError(f"no tolerance rule for figure {metric!r}")
 
 
@@ -254,6 +258,8 @@ def check_figures(
             problems.append(f"{name}: {metric} missing (baseline mean {base.mean:g})")
             continue
         rule = rule_for(metric)
+        if not rule.checked:
+            continue
         pairs = [("mean", now.mean, base.mean)]
         if worst:
             pairs.append(("worst", now.worst, base.worst))

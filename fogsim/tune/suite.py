@@ -16,6 +16,7 @@ from pathlib import Path
 from fogsim.config import Scenario, load_scenario
 from fogsim.data.recording import FORMAT_VERSION, Recording, load_recording
 from fogsim.errors import TuneError
+from fogsim.run.output_paths import child_path
 from fogsim.run.record import record_scenario
 from fogsim.run.suite import QUICK_MAX_FRAMES, QUICK_SCENARIOS
 from fogsim.tune.objective import SuiteEntry
@@ -43,7 +44,7 @@ def _frame_rate_hz(recording: Recording) -> float:
     """The recording's frame rate [Hz]: its scenario's, else from the frame times."""
     if recording.scenario is not None:
         return float(recording.scenario.frame_rate_hz)
-    times = [frame.time_s for frame in recording.frames]
+    times = recording.times_s.tolist()
     if len(times) < 2:
         raise TuneError("cannot tell the frame rate of a one-frame recording without scenario")
     return float((len(times) - 1) / (times[-1] - times[0]))
@@ -114,7 +115,9 @@ def load_suite(
         if quick and scenario.name not in QUICK_SCENARIOS:
             continue
         suffix = "" if max_frames is None else f"-{max_frames}f"
-        cached = Path(cache_dir) / f"{scenario.name}-{scenario_hash(scenario)}{suffix}.npz"
+        cached = child_path(
+            cache_dir, f"{scenario.name}-{scenario_hash(scenario)}{suffix}.npz", "scenario name"
+        )
         if not cached.is_file():
             print(f"fogsim tune: recording {scenario.name} once into {cached}", file=sys.stderr)
             record_scenario(scenario, cached, max_frames=max_frames)
