@@ -35,6 +35,7 @@ from fogsim.eval.result import RunResult, Snapshot
 from fogsim.mapping.pipeline import FrameCallback, FrameTiming, Pipeline
 from fogsim.robot import load_description
 from fogsim.run.run_folder import RunFolder
+from fogsim.run.warmup import warm_up_kernels
 from fogsim.sim.simulation import Simulation
 from fogsim.viz.pictures import RunVideoWriter, write_pictures
 from fogsim.world.truth import TruthParams
@@ -286,7 +287,9 @@ def run_scenario(
         replay: A Recording to feed instead of simulating (no MuJoCo).
         pictures: Write the PNGs.
         video: Write ``run.mp4`` (camera image beside the growing map).
-        progress: Show a tqdm progress bar.
+        progress: Show a tqdm progress bar, after compiling the kernels
+            (:func:`~fogsim.run.warmup.warm_up_kernels`: a message on standard error when
+            numba's cache is cold).
         max_frames: Stop after this many frames (the suite's quick mode).
         depth_backend: Simulation depth backend (``renderer`` or ``raycast``).
 
@@ -337,6 +340,9 @@ def _run_and_write(
     writer = None
     with ExitStack() as cleanup:
         if options.progress:
+            # Compiled (or loaded) now, saying so when numba's cache is cold, not in frame 1:
+            # the bar's rate then measures frames only.
+            warm_up_kernels(params)
             name = scenario.name if scenario is not None else "run"
             bar = cleanup.enter_context(tqdm(total=source.frame_count, unit="frame", desc=name))
             callbacks.append(lambda frame, pipeline: bar.update(1))

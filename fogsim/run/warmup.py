@@ -1,0 +1,195 @@
+"""Compile the mapper's numba kernels before a run, and say so when numba's cache is cold.
+
+The kernels (``cache=True``) are compiled on a machine's first run and loaded from numba's cache
+afterwards. Compiling them inside the first frame takes seconds the user is not told about and
+makes a progress bar's first estimate absurd; :func:`warm_up_kernels` compiles them up front on
+three tiny synthetic frames of a flat floor, group by group, printing which group and how long
+it took on standard error when the cache holds no compiled version of a group's kernels.
+
+Where the cache is: numba keeps it beside the sources (``__pycache__/*.nbi`` index files and
+``*.nbc`` code) and, when that folder is not writable (a wheel in a read-only site-packages),
+in its user-wide cache folder (``~/.cache/numba``, numba's ``UserWideCacheLocator``), or in
+``NUMBA_CACHE_DIR`` when that is set; :func:`cold_modules` asks numba's own cache objects where
+each kernel's index file is, so it follows the same choice.
+"""
+
+from __future__ import annotations
+
+import math
+import sys
+import time
+from dataclasses import dataclass
+from pathlib import Path
+from types import ModuleType
+from typing import TextIO
+
+import numpy as np
+from numba.core.dispatcher import Dispatcher
+from numpy.typing import NDArray
+
+import mapper.averaging
+import mapper.floor_map
+import mapper.fog
+import mapper.occupancy
+import mapper.scanline
+from fogsim.config import RunParams
+from fogsim.data.frame import Frame
+from fogsim.mapping.pipeline import Pipeline
+from mapper.intrinsics import PinholeIntrinsics
+from mapper.segmentation import segment_depth
+
+MESSAGE = "compiling kernels (first run only)"
+"""What standard error says before the first kernel group is compiled."""
+
+_INTRINSICS = PinholeIntrinsics.from_fov(32, 24, 47.0, 39.0)
+"""A camera with the stage camera's field of view [deg] on 32 × 24 pixels: big enough for the
+segmentation to find the floor plane, small enough that running it costs nothing."""
+
+_CAMERA_HEIGHT_M = 0.9
+"""Warm-up camera's height above the floor [m] (the stage robot's head height)."""
+
+_PITCH_DOWN_DEG = 35.0
+"""Warm-up camera's pitch below the horizon [deg]: every pixel sees the floor."""
+
+_FRAMES = 3
+"""Warm-up frames: the third is the first that z-matching compares with a floor map."""
+
+
+@dataclass(frozen=True)
+class KernelGroup:
+    """Kernels compiled together, named in the progress message.
+
+    Attributes:
+        name: What the message calls them.
+        modules: The modules defining the group's numba kernels.
+    """
+
+    name: str
+    modules: tuple[ModuleType, ...]
+
+
+SEGMENTATION = KernelGroup("segmentation", (mapper.scanline,))
+"""The depth-image segmentation's scan-line kernels."""
+
+MAPPER = KernelGroup("mapper", (mapper.occupancy, mapper.floor_map, mapper.fog, mapper.averaging))
+"""The map update kernels: occupancy, floor map, FOG types, the averaging baseline."""
+
+
+def warm_up_kernels(params: RunParams, stream: TextIO | None = sys.stderr) -> float:
+    """Compile (or load from numba's cache) the kernels a run of ``params`` uses.
+
+    Runs :data:`SEGMENTATION`, then :data:`MAPPER` (a throwaway :class:`Pipeline`) on synthetic
+    frames. Nothing of the run's own state is touched.
+
+    Args:
+        params: The run's parameters (the kernels are compiled for their types).
+        stream: Where to report progress when a group's cache is cold; None = say nothing.
+
+    Returns:
+        The warm-up's wall time [s].
+    """
+    start = time.perf_counter()
+    frames = _floor_frames()
+    steps = (
+        (SEGMENTATION, lambda: _segment(frames[0], params)),
+        (MAPPER, lambda: _map(frames, params)),
+    )
+    announced = False
+    for group, step in steps:
+        cold = stream is not None and bool(cold_modules(group))
+        if cold and not announced:
+            print(f"fogsim: {MESSAGE}", file=stream, flush=True)
+            announced = True
+        if cold:
+            print(f"  {group.name} kernels ...", end="", file=stream, flush=True)
+        group_start = time.perf_counter()
+        step()
+        if cold:
+            print(f" {time.perf_counter() - group_start:.1f} s", file=stream, flush=True)
+    elapsed_s = time.perf_counter() - start
+    if announced:
+        print(f"  compiled in {elapsed_s:.1f} s", file=stream, flush=True)
+    return elapsed_s
+
+
+def cold_modules(group: KernelGroup) -> tuple[str, ...]:
+    """The group's modules none of whose kernels has a cache index file (``*.nbi``).
+
+    A module counts as warm when any of its kernels is cached: not every kernel of a module is
+    used by a run (``mapper.occupancy`` keeps a second insertion kernel for comparison), and
+    kernels inlined into others (``inline="always"``) are never compiled on their own. A cache
+    made stale by edited sources is recompiled by numba without the message (a developer's
+    case; a fresh install has no cache at all).
+    """
+    return tuple(
+        module.__name__
+        for module in group.modules
+        if not any(_index_path(kernel).exists() for kernel in _kernels(module))
+    )
+
+
+def _kernels(module: ModuleType) -> list[Dispatcher]:
+    """The cached, not inlined numba kernels defined in ``module``."""
+    return [
+        value
+        for value in vars(module).values()
+        if isinstance(value, Dispatcher)
+        and value.py_func.__module__ == module.__name__
+        and value.targetoptions.get("inline", "never") == "never"
+    ]
+
+
+def _index_path(kernel: Dispatcher) -> Path:
+    """Where numba's cache keeps ``kernel``'s index file (its locator's choice of folder).
+
+    numba has no public call for this; its cache object (``FunctionCache``) knows the file.
+    """
+    return Path(kernel._cache._cache_file._index_path)
+
+
+def _floor_frames() -> tuple[Frame, ...]:
+    """:data:`_FRAMES` frames of a standing robot's camera looking at a flat floor."""
+    pitch = math.radians(_PITCH_DOWN_DEG)
+    forward = np.array([math.cos(pitch), 0.0, -math.sin(pitch)])
+    right = np.array([0.0, -1.0, 0.0])
+    transform_camera_to_robot = np.eye(4)
+    transform_camera_to_robot[:3, :3] = np.stack([right, np.cross(forward, right), forward], 1)
+    transform_camera_to_robot[:3, 3] = (0.0, 0.0, _CAMERA_HEIGHT_M)
+    depth_m = _floor_depth_m(transform_camera_to_robot)
+    pose = np.zeros(4)
+    return tuple(
+        Frame(
+            index=i,
+            time_s=0.1 * i,
+            depth_m=depth_m,
+            intrinsics=_INTRINSICS,
+            transform_camera_to_robot_believed=transform_camera_to_robot,
+            robot_pose_believed=pose,
+            transform_camera_to_world_true=transform_camera_to_robot,
+            robot_pose_true=pose,
+        )
+        for i in range(_FRAMES)
+    )
+
+
+def _floor_depth_m(transform_camera_to_world: NDArray[np.float64]) -> NDArray[np.float32]:
+    """Depth [m] along the optical axis of the floor z = 0 (rays have unit camera z)."""
+    rays_world = _INTRINSICS.ray_directions_camera() @ transform_camera_to_world[:3, :3].T
+    return (-transform_camera_to_world[2, 3] / rays_world[..., 2]).astype(np.float32)
+
+
+def _segment(frame: Frame, params: RunParams) -> None:
+    segment_depth(
+        frame.depth_m,
+        frame.intrinsics,
+        frame.transform_camera_to_robot_believed,
+        params.segmentation,
+    )
+
+
+def _map(frames: tuple[Frame, ...], params: RunParams) -> None:
+    pipeline = Pipeline(params)
+    for frame in frames:
+        pipeline.process(frame)
+    pipeline.maps()
+    pipeline.mapper.floor(), pipeline.mapper.obstacle(), pipeline.mapper.ceiling()
