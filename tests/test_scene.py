@@ -209,6 +209,7 @@ def test_cached_scene_is_the_compiled_scene_and_a_changed_scenario_misses(tmp_pa
     assert first.camera_ids == second.camera_ids
     assert first._mocap_ids == second._mocap_ids
     assert first._rig_mocap_id == second._rig_mocap_id
+    assert second.physics.data.ptr is second.data  # dm_control's view shares the state
 
     moved = scenario.objects[0]
     changed = dataclasses.replace(

@@ -19,6 +19,7 @@ floor). Rough tops are height fields whose bumps are drawn from the scenario see
 
 from __future__ import annotations
 
+import functools
 import math
 from importlib.metadata import version
 from pathlib import Path
@@ -27,6 +28,8 @@ from xml.etree import ElementTree
 import mujoco
 import numpy as np
 from dm_control import mjcf
+from dm_control import mujoco as dm_mujoco
+from dm_control.mujoco import wrapper as dm_wrapper
 from numpy.typing import ArrayLike, NDArray
 
 from fogsim.config import CameraConfig, Scenario, SceneObject
@@ -282,6 +285,7 @@ class Scene:
         scenario: The scenario it was built from.
         model: The compiled ``mujoco.MjModel``.
         data: Its ``mujoco.MjData``.
+        physics: dm_control's view of ``model`` and ``data`` (made on first use).
         has_robot: True if a robot is attached, False for the free camera rig.
         camera_ids: MuJoCo camera id of each of ``CAMERA_NAMES``.
         render_geomgroups: Geom groups the renderer draws (0, 1, 2); ray casts use the same.
@@ -310,6 +314,14 @@ class Scene:
         self._rig_mocap_id = self._mocap_id("camera_rig") if robot is None else None
         self.set_time(0.0)
         self.forward()
+
+    @functools.cached_property
+    def physics(self) -> dm_mujoco.Physics:
+        """A ``dm_control.mujoco.Physics`` over this scene's model and data (shared, not copied).
+
+        For dm_control's renderer and named indexing; creating it runs one ``mj_forward``.
+        """
+        return dm_mujoco.Physics(dm_wrapper.MjData(self.data))
 
     def _mocap_id(self, body_name: str) -> int:
         """Mocap id of the mocap body ``body_name``."""
