@@ -227,6 +227,15 @@ def test_cached_scene_is_the_compiled_scene_and_a_changed_scenario_misses(tmp_pa
     assert len(list(model_cache_dir().glob("*.mjb"))) == 2
     reseeded = dataclasses.replace(scenario, seed=scenario.seed + 1)
     assert scene_key(reseeded, None) != scene_key(scenario, None)
+    narrower = dataclasses.replace(scenario.camera, fov_deg=(40.0, 30.0))
+    assert scene_key(dataclasses.replace(scenario, camera=narrower), None) != scene_key(
+        scenario, None
+    )
+    # The camera's mode and noise do not enter the model: the compiled scene is reused.
+    stereo = dataclasses.replace(scenario.camera, mode="stereo", dropout=0.5)
+    assert scene_key(dataclasses.replace(scenario, camera=stereo), None) == scene_key(
+        scenario, None
+    )
 
 
 def test_model_cache_keeps_the_most_recently_used(tmp_path, monkeypatch):

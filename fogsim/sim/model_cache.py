@@ -22,9 +22,10 @@ from fogsim.atomic import write_atomic
 from fogsim.errors import FogsimError
 from fogsim.robot.mjcf import cache_root
 
-MAX_CACHED_MODELS = 32
-"""Most compiled models kept (a stage scene with the iCub is ~1 MB): every shipped scenario
-and robot pair fits, with room for edited variants; older ones are removed."""
+MAX_CACHED_MODELS = 16
+"""Most compiled models kept, the least recently used removed first: the 9 shipped scenarios
+with their robots fit, with room for edited variants. A scene with the iCub is ~10 MB (its
+meshes), so the folder stays under ~170 MB."""
 
 
 def model_cache_dir() -> Path:
@@ -41,11 +42,27 @@ def content_key(parts: tuple[bytes, ...]) -> str:
     return digest.hexdigest()
 
 
+def _mtime_ns(path: Path) -> int:
+    """Last use of a cached file, 0 if another process removed it meanwhile."""
+    try:
+        return path.stat().st_mtime_ns
+    except FileNotFoundError:
+        return 0
+
+
 def _prune(folder: Path, keep: int) -> None:
     """Remove all but the ``keep`` most recently used ``.mjb`` files of ``folder``."""
-    files = sorted(folder.glob("*.mjb"), key=lambda p: p.stat().st_mtime_ns, reverse=True)
+    files = sorted(folder.glob("*.mjb"), key=_mtime_ns, reverse=True)
     for stale in files[keep:]:
         stale.unlink(missing_ok=True)
+
+
+def _save(model: mujoco.MjModel, path: Path) -> None:
+    """Write ``model`` as MuJoCo's binary model file, atomically, then bound the folder."""
+    buffer = np.empty(mujoco.mj_sizeModel(model), dtype=np.uint8)
+    mujoco.mj_saveModel(model, None, buffer)
+    write_atomic(path, lambda f: f.write(buffer.tobytes()))
+    _prune(path.parent, MAX_CACHED_MODELS)
 
 
 def load_or_compile(key: str, compile_model: Callable[[], mujoco.MjModel]) -> mujoco.MjModel:
@@ -58,14 +75,10 @@ def load_or_compile(key: str, compile_model: Callable[[], mujoco.MjModel]) -> mu
         FogsimError: A cached file cannot be loaded (the message names it).
     """
     path = model_cache_dir() / f"{key}.mjb"
-    if path.exists():
+    try:
         os.utime(path)  # marks it recently used for _prune
-    else:
-        model = compile_model()
-        buffer = np.empty(mujoco.mj_sizeModel(model), dtype=np.uint8)
-        mujoco.mj_saveModel(model, None, buffer)
-        write_atomic(path, lambda f: f.write(buffer.tobytes()))
-        _prune(path.parent, MAX_CACHED_MODELS)
+    except FileNotFoundError:  # not cached yet, or pruned by another process
+        _save(compile_model(), path)
     try:
         return mujoco.MjModel.from_binary_path(str(path))
     except ValueError as exc:

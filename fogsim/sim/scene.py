@@ -242,16 +242,33 @@ def compile_scene(scenario: Scenario, robot: Robot | None) -> mujoco.MjModel:
     return mujoco.MjModel.from_xml_string(root.to_xml_string(), root.get_assets())
 
 
+def _scene_inputs(scenario: Scenario) -> tuple[object, ...]:
+    """What :func:`build_scene_mjcf` reads of the scenario.
+
+    The camera's mode and noise, the encoders and the route do not enter the model, so
+    changing them reuses the compiled scene.
+    """
+    camera = scenario.camera
+    return (
+        scenario.name,
+        scenario.seed,
+        scenario.objects,
+        (camera.width, camera.height, camera.fov_deg, camera.baseline_m),
+        tuple(sorted(moving_objects(scenario))),
+    )
+
+
 def scene_key(scenario: Scenario, robot: Robot | None) -> str:
     """Content key of the compiled scene: everything :func:`compile_scene` reads.
 
-    The scenario (its ``repr``: every field), the robot's MJCF file (meshes are inlined in
-    it), every MJCF piece, the source of this module and the MuJoCo and dm_control versions.
+    The scenario's part that builds the model (its ``repr``), the robot's MJCF file (meshes
+    are inlined in it), every MJCF piece, the source of this module and the MuJoCo and
+    dm_control versions.
     """
     pieces = tuple(path.read_bytes() for path in sorted(MJCF_DIR.glob("*.xml")))
     return content_key(
         (
-            repr(scenario).encode(),
+            repr(_scene_inputs(scenario)).encode(),
             robot.mjcf_path.read_bytes() if robot is not None else b"",
             *pieces,
             Path(__file__).read_bytes(),
