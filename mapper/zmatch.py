@@ -101,10 +101,15 @@ def match_z(
     residual = _residuals(
         points, h, real_array(floor_map, "floor_map"), origin_x, origin_y, geometry.cell_m
     )
-    if residual.size == 0:
+    return shift_from_residuals(residual, params)
+
+
+def shift_from_residuals(residual_m: NDArray[np.float64], params: MapperParams) -> ZMatch:
+    """The gated least-squares shift of the matched pairs' residuals ``Floor − h`` [m]."""
+    if residual_m.size == 0:
         return ZMatch(0.0, 0, float("nan"), False)
-    centre = float(np.median(residual))
-    kept = residual[np.abs(residual - centre) <= params.eps_m]
+    centre = float(np.median(residual_m))
+    kept = residual_m[np.abs(residual_m - centre) <= params.eps_m]
     shift = float(np.mean(kept))
     rms = float(np.sqrt(np.mean((kept - shift) ** 2)))
     accepted = kept.size >= params.zmatch_min_pairs and abs(shift) <= params.zmatch_max_shift_m

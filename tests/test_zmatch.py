@@ -9,14 +9,14 @@ from fogsim.run.runner import run_scenario
 from mapper import MapperParams, ZDecision, ZMatch, apply_z_shift, frame_decision
 from mapper.errors import InvalidInputError
 from mapper.grid import GridGeometry
-from mapper.zmatch import match_z
+from mapper.zmatch import match_z, shift_from_residuals
 
 P = MapperParams()
 G = GridGeometry.from_params(P)
 
 
 def match_z_numpy(points_world, floor_heights, floor_map, geometry, params):
-    """The plain numpy formulation the compiled `match_z` must equal bit for bit."""
+    """The plain numpy gathering of pairs (as before numba) the compiled `match_z` must equal."""
     h = np.asarray(floor_heights, dtype=np.float64)
     idx, valid = geometry.cell_of(np.asarray(points_world, dtype=np.float64)[:, :2])
     valid &= np.isfinite(h)
@@ -24,15 +24,7 @@ def match_z_numpy(points_world, floor_heights, floor_map, geometry, params):
         return ZMatch(0.0, 0, float("nan"), False)
     stored = floor_map[idx[valid, 0], idx[valid, 1]]
     residual = stored - h[valid]
-    residual = residual[np.isfinite(residual)]
-    if residual.size == 0:
-        return ZMatch(0.0, 0, float("nan"), False)
-    centre = float(np.median(residual))
-    kept = residual[np.abs(residual - centre) <= params.eps_m]
-    shift = float(np.mean(kept))
-    rms = float(np.sqrt(np.mean((kept - shift) ** 2)))
-    accepted = kept.size >= params.zmatch_min_pairs and abs(shift) <= params.zmatch_max_shift_m
-    return ZMatch(shift, int(kept.size), rms, bool(accepted))
+    return shift_from_residuals(residual[np.isfinite(residual)], params)
 
 
 def same_bits(a: ZMatch, b: ZMatch) -> bool:
