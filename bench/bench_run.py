@@ -6,8 +6,9 @@ Usage:
 Prints, side by side in one process: the full run (setup included: robot loading, scene
 building, rendering, segmentation, mapping, scoring; pictures excluded) and the replay of the
 recorded frames (pipeline + scoring only), each as the median of N repeats, plus the
-per-frame pipeline times from the report. The first repeat also pays numba's compile (or cache
-load); the median hides it for N >= 3.
+per-frame pipeline times from the report, the scene set-up compiled from MJCF against loaded
+from the compiled-model cache, and the load average (``os.getloadavg``) before and after. The
+first repeat also pays numba's compile (or cache load); the median hides it for N >= 3.
 """
 
 import argparse
@@ -25,8 +26,15 @@ sys.path.insert(0, str(Path(__file__).resolve().parent.parent))
 
 from fogsim.config import load_scenario
 from fogsim.data.recording import load_recording, save_recording
+from fogsim.robot import load_robot
 from fogsim.run.runner import run_scenario
+from fogsim.sim.scene import Scene, compile_scene
 from fogsim.sim.simulation import Simulation
+
+
+def load_note() -> str:
+    """The 1, 5 and 15 minute load averages."""
+    return "load " + " / ".join(f"{x:.2f}" for x in os.getloadavg())
 
 
 def main() -> None:
@@ -36,6 +44,7 @@ def main() -> None:
     parser.add_argument("--backend", default="renderer", choices=("renderer", "raycast"))
     args = parser.parse_args()
     scenario = load_scenario(args.scenario)
+    load_before = load_note()
 
     full, reports = [], []
     for _ in range(args.repeats):
@@ -55,6 +64,16 @@ def main() -> None:
             run_scenario(scenario, None, replay=rec)
             replay.append(time.perf_counter() - start)
 
+    robot = load_robot(scenario.robot.model)
+    compiled, cached = [], []
+    for _ in range(args.repeats):
+        start = time.perf_counter()
+        compile_scene(scenario, robot)
+        compiled.append(time.perf_counter() - start)
+        start = time.perf_counter()
+        Scene(scenario, robot)
+        cached.append(time.perf_counter() - start)
+
     timing = reports[-1].timing
     duration = timing.frames / scenario.frame_rate_hz
     print(
@@ -69,6 +88,11 @@ def main() -> None:
         f"  replay (load + pipeline) median {statistics.median(replay):7.2f} s   "
         f"all {[round(t, 2) for t in replay]}"
     )
+    print(
+        f"  scene: compiled from MJCF median {statistics.median(compiled):.3f} s, "
+        f"from the model cache median {statistics.median(cached):.3f} s"
+    )
+    print(f"  {load_before} before, {load_note()} after (2 cores)")
     for key in ("segmentation_ms", "update_ms", "frame_ms"):
         s = getattr(timing, key)
         print(f"  {key:<16} median {s.median:.2f} ms  p99 {s.p99:.2f} ms  max {s.max:.2f}")

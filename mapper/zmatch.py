@@ -17,9 +17,11 @@ from __future__ import annotations
 from dataclasses import dataclass
 from enum import IntEnum
 
+import numba
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
+from mapper.errors import InvalidInputError
 from mapper.grid import GridGeometry
 from mapper.params import MapperParams
 from mapper.validation import real_array, real_scalar
@@ -50,6 +52,29 @@ class ZDecision(IntEnum):
     WITHDRAW = 2
 
 
+@numba.njit(cache=True)
+def _residuals(points, heights, floor_map, origin_x, origin_y, cell):
+    """``Floor − h`` of the matched pairs, in point order (numba).
+
+    A pair is a point with finite ``h`` whose (x, y) falls in a cell of ``floor_map`` (the
+    convention of `GridGeometry.cell_of`: ``ix = floor((x - origin_x) / cell)``) and whose
+    residual is finite (the column has a valid floor height).
+    """
+    nx, ny = floor_map.shape
+    out = np.empty(points.shape[0])
+    n = 0
+    for i in range(points.shape[0]):
+        gx = np.floor((points[i, 0] - origin_x) / cell)
+        gy = np.floor((points[i, 1] - origin_y) / cell)
+        if not (gx >= 0 and gx < nx and gy >= 0 and gy < ny and np.isfinite(heights[i])):
+            continue  # NaN and ±inf fail the range tests
+        residual = floor_map[int(gx), int(gy)] - heights[i]
+        if np.isfinite(residual):
+            out[n] = residual
+            n += 1
+    return out[:n]
+
+
 def match_z(
     points_world: NDArray[np.float64],
     floor_heights: NDArray[np.float64],
@@ -57,19 +82,34 @@ def match_z(
     geometry: GridGeometry,
     params: MapperParams,
 ) -> ZMatch:
-    """Least-squares z shift of floor points onto ``floor_map`` (nx, ny) [m, NaN = invalid]."""
+    """Least-squares z shift of floor points onto ``floor_map`` (nx, ny) [m, NaN = invalid].
+
+    The pairs are gathered by a numba kernel; the median, gate and means stay numpy's (its
+    pairwise summation), so the result is bit for bit that of the plain numpy formulation.
+    """
     h = real_array(floor_heights, "floor_heights")
-    idx, valid = geometry.cell_of(real_array(points_world, "points_world")[:, :2])
-    valid &= np.isfinite(h)
-    if not np.any(valid):
+    points = real_array(points_world, "points_world")
+    if points.ndim != 2 or points.shape[1] not in (2, 3):
+        raise InvalidInputError(
+            f"points_world must have shape (N, 3) or (N, 2), got {points.shape}"
+        )
+    if h.shape != (points.shape[0],):
+        raise InvalidInputError(
+            f"floor_heights must have shape ({points.shape[0]},) like the points, got {h.shape}"
+        )
+    origin_x, origin_y = geometry.origin_xy_m
+    residual = _residuals(
+        points, h, real_array(floor_map, "floor_map"), origin_x, origin_y, geometry.cell_m
+    )
+    return shift_from_residuals(residual, params)
+
+
+def shift_from_residuals(residual_m: NDArray[np.float64], params: MapperParams) -> ZMatch:
+    """The gated least-squares shift of the matched pairs' residuals ``Floor − h`` [m]."""
+    if residual_m.size == 0:
         return ZMatch(0.0, 0, float("nan"), False)
-    stored = floor_map[idx[valid, 0], idx[valid, 1]]
-    residual = stored - h[valid]
-    residual = residual[np.isfinite(residual)]
-    if residual.size == 0:
-        return ZMatch(0.0, 0, float("nan"), False)
-    centre = float(np.median(residual))
-    kept = residual[np.abs(residual - centre) <= params.eps_m]
+    centre = float(np.median(residual_m))
+    kept = residual_m[np.abs(residual_m - centre) <= params.eps_m]
     shift = float(np.mean(kept))
     rms = float(np.sqrt(np.mean((kept - shift) ** 2)))
     accepted = kept.size >= params.zmatch_min_pairs and abs(shift) <= params.zmatch_max_shift_m

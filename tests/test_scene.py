@@ -2,6 +2,9 @@
 
 from __future__ import annotations
 
+import dataclasses
+import time
+
 import mujoco
 import numpy as np
 import pytest
@@ -9,8 +12,10 @@ import pytest
 from fogsim.config import load_scenario
 from fogsim.errors import FogsimError
 from fogsim.robot.model import CAMERA_NAMES, load_robot
+from fogsim.sim import model_cache
 from fogsim.sim.assets import MJCF_DIR, load_mjcf_piece
-from fogsim.sim.scene import Scene, rough_elevation
+from fogsim.sim.model_cache import content_key, model_cache_dir
+from fogsim.sim.scene import Scene, compile_scene, rough_elevation, scene_key
 from fogsim.world import SceneTruth, object_center_at
 
 
@@ -37,13 +42,12 @@ def ray_down(scene: Scene, xy) -> np.ndarray:
 def test_every_object_is_named_and_placed():
     scenario = load_scenario("stage")
     scene = Scene(scenario)
-    named = scene.physics.named
     for obj in scenario.objects:
         assert scene.model.body(f"obj_{obj.name}").id > 0
         # A box geom sits at the box centre; a rough top's height field at the base of its bumps.
         z_geom = obj.size[2] - obj.roughness_m if obj.surface == "rough" else obj.size[2] / 2
         np.testing.assert_allclose(
-            named.data.geom_xpos[f"geom_{obj.name}"],
+            scene.data.geom(f"geom_{obj.name}").xpos,
             [*obj.center, obj.base + z_geom],
             atol=1e-12,
         )
@@ -77,9 +81,7 @@ def test_events_remove_and_move_objects():
         scene.set_time(t)
         scene.forward()
         expected = object_center_at(moving, "flat_box", t)
-        np.testing.assert_allclose(
-            scene.physics.named.data.geom_xpos["geom_flat_box"][:2], expected, atol=1e-12
-        )
+        np.testing.assert_allclose(scene.data.geom("geom_flat_box").xpos[:2], expected, atol=1e-12)
 
 
 def test_rough_tops_are_bumpy_deterministic_and_bounded():
@@ -147,7 +149,7 @@ def test_attached_robot_cameras_match_pinocchio(robot):
 def test_render_and_depth_buffer_settings_come_from_the_asset_pieces():
     scene = Scene(load_scenario("simulated_world"))
     model = scene.model
-    assert scene.mjcf_model.model == "fogsim_simulated_world"
+    assert model.names.split(b"\0", 1)[0] == b"fogsim_simulated_world"
     # Depth buffer: 5 cm near and 20 m far plane (MuJoCo scales both by the extent; float32).
     assert model.stat.extent == 10.0
     assert model.vis.map.znear * model.stat.extent == pytest.approx(0.05, rel=1e-6)
@@ -186,3 +188,74 @@ def test_every_piece_loads_and_an_unknown_piece_names_the_pieces():
         assert load_mjcf_piece(name).model == name
     with pytest.raises(FogsimError, match=r"no MJCF piece 'sky'.*camera_rig, floor, lighting"):
         load_mjcf_piece("sky")
+
+
+def _model_bytes(model: mujoco.MjModel) -> bytes:
+    buffer = np.empty(mujoco.mj_sizeModel(model), dtype=np.uint8)
+    mujoco.mj_saveModel(model, None, buffer)
+    return buffer.tobytes()
+
+
+def test_cached_scene_is_the_compiled_scene_and_a_changed_scenario_misses(tmp_path, monkeypatch):
+    monkeypatch.setenv("FOGSIM_CACHE", str(tmp_path))
+    scenario = load_scenario("stage")
+    first = Scene(scenario)  # compiles and saves
+    files = sorted(model_cache_dir().glob("*.mjb"))
+    assert [f.name for f in files] == [f"{scene_key(scenario, None)}.mjb"]
+    second = Scene(scenario)  # loads
+    assert sorted(model_cache_dir().glob("*.mjb")) == files
+    fresh = compile_scene(scenario, None)
+    assert _model_bytes(first.model) == _model_bytes(second.model) == _model_bytes(fresh)
+    assert first.camera_ids == second.camera_ids
+    assert first._mocap_ids == second._mocap_ids
+    assert first._rig_mocap_id == second._rig_mocap_id
+    assert second.physics.data.ptr is second.data  # dm_control's view shares the state
+
+    moved = scenario.objects[0]
+    changed = dataclasses.replace(
+        scenario,
+        objects=(
+            dataclasses.replace(moved, center=(moved.center[0] + 0.01, moved.center[1])),
+            *scenario.objects[1:],
+        ),
+    )
+    assert scene_key(changed, None) != scene_key(scenario, None)
+    body = f"obj_{moved.name}"
+    assert Scene(changed).model.body(body).pos[0] == pytest.approx(
+        first.model.body(body).pos[0] + 0.01
+    )
+    assert len(list(model_cache_dir().glob("*.mjb"))) == 2
+    reseeded = dataclasses.replace(scenario, seed=scenario.seed + 1)
+    assert scene_key(reseeded, None) != scene_key(scenario, None)
+    narrower = dataclasses.replace(scenario.camera, fov_deg=(40.0, 30.0))
+    assert scene_key(dataclasses.replace(scenario, camera=narrower), None) != scene_key(
+        scenario, None
+    )
+    # The camera's mode and noise do not enter the model: the compiled scene is reused.
+    stereo = dataclasses.replace(scenario.camera, mode="stereo", dropout=0.5)
+    assert scene_key(dataclasses.replace(scenario, camera=stereo), None) == scene_key(
+        scenario, None
+    )
+
+
+def test_model_cache_keeps_the_most_recently_used(tmp_path, monkeypatch):
+    monkeypatch.setenv("FOGSIM_CACHE", str(tmp_path))
+    monkeypatch.setattr(model_cache, "MAX_CACHED_MODELS", 2)
+    compiled = []
+
+    def compile_box(size: float):
+        compiled.append(size)
+        return mujoco.MjModel.from_xml_string(
+            f'<mujoco><worldbody><geom type="box" size="{size} 1 1"/></worldbody></mujoco>'
+        )
+
+    for size in (1.0, 2.0):
+        model_cache.load_or_compile(f"k{size}", lambda size=size: compile_box(size))
+        time.sleep(0.01)
+    model = model_cache.load_or_compile("k1.0", lambda: compile_box(9.0))  # hit: used again
+    assert model.geom_size[0, 0] == 1.0 and compiled == [1.0, 2.0]
+    time.sleep(0.01)
+    model_cache.load_or_compile("k3.0", lambda: compile_box(3.0))
+    names = sorted(p.name for p in model_cache_dir().glob("*.mjb"))
+    assert names == ["k1.0.mjb", "k3.0.mjb"]
+    assert content_key((b"ab", b"c")) != content_key((b"a", b"bc"))

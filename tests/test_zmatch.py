@@ -3,12 +3,36 @@
 import numpy as np
 import pytest
 
+import mapper.mapper
+from fogsim.config import load_scenario
+from fogsim.run.runner import run_scenario
 from mapper import MapperParams, ZDecision, ZMatch, apply_z_shift, frame_decision
+from mapper.errors import InvalidInputError
 from mapper.grid import GridGeometry
-from mapper.zmatch import match_z
+from mapper.zmatch import match_z, shift_from_residuals
 
 P = MapperParams()
 G = GridGeometry.from_params(P)
+
+
+def match_z_numpy(points_world, floor_heights, floor_map, geometry, params):
+    """The plain numpy gathering of pairs (as before numba) the compiled `match_z` must equal."""
+    h = np.asarray(floor_heights, dtype=np.float64)
+    idx, valid = geometry.cell_of(np.asarray(points_world, dtype=np.float64)[:, :2])
+    valid &= np.isfinite(h)
+    if not np.any(valid):
+        return ZMatch(0.0, 0, float("nan"), False)
+    stored = floor_map[idx[valid, 0], idx[valid, 1]]
+    residual = stored - h[valid]
+    return shift_from_residuals(residual[np.isfinite(residual)], params)
+
+
+def same_bits(a: ZMatch, b: ZMatch) -> bool:
+    return (
+        np.float64(a.shift_m).tobytes() == np.float64(b.shift_m).tobytes()
+        and np.float64(a.rms_m).tobytes() == np.float64(b.rms_m).tobytes()
+        and (a.pairs, a.accepted) == (b.pairs, b.accepted)
+    )
 
 
 def floor_map():
@@ -74,3 +98,33 @@ def test_apply_z_shift():
     p2, h2 = apply_z_shift(pts, [np.nan], 0.5)
     assert p2.tolist() == [[1.0, 2.0, 3.5]] and np.isnan(h2[0])
     assert pts[0, 2] == 3.0  # input untouched
+
+
+def test_compiled_match_equals_numpy_on_edge_cases():
+    rng = np.random.default_rng(4)
+    pts, h = points_on(rng, 500, (-0.5, 6.0), (-3.0, 3.0), 0.01)
+    pts[::7, 0] = np.nan
+    pts[::11, 1] = np.inf
+    h[::5] = np.nan
+    fmap = floor_map()
+    fmap[70, 45] = np.inf
+    for case in ((pts, h), (pts[:, :2], h), (pts[:0], h[:0]), (pts[:3], h[:3])):
+        assert same_bits(match_z(*case, fmap, G, P), match_z_numpy(*case, fmap, G, P))
+    with pytest.raises(InvalidInputError, match="floor_heights must have shape"):
+        match_z(pts, h[:-1], fmap, G, P)
+
+
+def test_compiled_match_equals_numpy_on_the_stage_frames(monkeypatch):
+    compiled = mapper.mapper.match_z
+    matches = []
+
+    def both(points, heights, floor, geometry, params):
+        match = compiled(points, heights, floor, geometry, params)
+        assert same_bits(match, match_z_numpy(points, heights, floor, geometry, params))
+        matches.append(match)
+        return match
+
+    monkeypatch.setattr(mapper.mapper, "match_z", both)
+    scenario = load_scenario("stage")
+    run_scenario(scenario, None)
+    assert len(matches) > 50 and sum(m.accepted for m in matches) > 25

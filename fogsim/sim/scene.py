@@ -19,22 +19,27 @@ floor). Rough tops are height fields whose bumps are drawn from the scenario see
 
 from __future__ import annotations
 
+import functools
 import math
-from collections.abc import Sequence
-from dataclasses import dataclass
+from importlib.metadata import version
+from pathlib import Path
+from xml.etree import ElementTree
 
 import mujoco
 import numpy as np
 from dm_control import mjcf
+from dm_control import mujoco as dm_mujoco
+from dm_control.mujoco import wrapper as dm_wrapper
 from numpy.typing import ArrayLike, NDArray
 
 from fogsim.config import CameraConfig, Scenario, SceneObject
-from fogsim.errors import FogsimError
+from fogsim.errors import FogsimError, RobotModelError
 from fogsim.geometry import MJ_FROM_CV
 from fogsim.robot import CAMERA_NAMES, Robot
-from fogsim.sim.assets import load_mjcf_piece
+from fogsim.sim.assets import MJCF_DIR, load_mjcf_piece
 from fogsim.sim.camera.depth import VISIBLE_GEOMGROUPS
 from fogsim.sim.camera.stereo import STEREO_RENDER_SCALE
+from fogsim.sim.model_cache import content_key, load_or_compile
 from fogsim.world import moving_objects, object_center_at
 
 WORLD_PIECES = ("visual", "lighting", "materials", "floor")
@@ -173,42 +178,36 @@ def _find(root: mjcf.RootElement, kind: str, name: str, source: str) -> mjcf.Ele
     return element
 
 
-def _add_camera_rig(
-    root: mjcf.RootElement, camera: CameraConfig
-) -> tuple[mjcf.Element, list[mjcf.Element]]:
-    """Merge in the camera rig piece, set up for the scenario's camera; (rig body, cameras).
+def _add_camera_rig(root: mjcf.RootElement, camera: CameraConfig) -> None:
+    """Merge in the camera rig piece, set up for the scenario's camera.
 
     The left and right cameras sit half the stereo baseline left and right of ``head_camera``
     (MuJoCo camera frame: x right).
     """
     _merge_piece(root, "camera_rig")
-    rig = _find(root, "body", "camera_rig", "assets/mjcf/camera_rig.xml")
+    _find(root, "body", "camera_rig", "assets/mjcf/camera_rig.xml")
     cameras = [_find(root, "camera", name, "assets/mjcf/camera_rig.xml") for name in CAMERA_NAMES]
     offsets_m = (0.0, -0.5 * camera.baseline_m, 0.5 * camera.baseline_m)
     for element, dx in zip(cameras, offsets_m, strict=True):
         element.pos = [dx, 0.0, 0.0]
         element.fovy = camera.fov_deg[1]
-    return rig, cameras
 
 
-@dataclass(frozen=True)
-class _AttachedRobot:
-    """The robot's elements in the scene.
+def _robot_namespace(robot: Robot) -> str:
+    """The robot MJCF's model name: dm_control prefixes the robot's names with ``<name>/``.
 
-    Attributes:
-        free_joint: The free joint on the attachment frame.
-        joints: The robot's joints in its standalone qpos order (after the free joint).
-        cameras: The cameras of ``CAMERA_NAMES``.
+    Raises:
+        RobotModelError: The robot MJCF's root has no ``model`` attribute.
     """
+    for _, element in ElementTree.iterparse(robot.mjcf_path, events=("start",)):
+        name = element.get("model")
+        if not name:
+            raise RobotModelError(f"{robot.mjcf_path}: the <mujoco> root has no model name")
+        return name
+    raise RobotModelError(f"{robot.mjcf_path}: empty MJCF")
 
-    free_joint: mjcf.Element
-    joints: tuple[mjcf.Element, ...]
-    cameras: tuple[mjcf.Element, ...]
 
-
-def _attach_robot(
-    root: mjcf.RootElement, robot: Robot, offscreen_size_px: tuple[int, int]
-) -> _AttachedRobot:
+def _attach_robot(root: mjcf.RootElement, robot: Robot, offscreen_size_px: tuple[int, int]) -> None:
     """Attach the robot's MJCF; its free joint moves onto the attachment frame.
 
     The robot's own MJCF sizes its off-screen buffer for itself; attaching demands equal
@@ -221,23 +220,79 @@ def _attach_robot(
         raise FogsimError(f"{robot.mjcf_path}: the robot MJCF has no free joint named 'root'")
     free.remove()
     frame = root.attach(robot_model)
-    free_joint = frame.add("freejoint", name="root")
-    joint_names = robot.mujoco_joint_names[1:]
-    joints = [robot_model.find("joint", name) for name in joint_names]
-    missing = [name for name, joint in zip(joint_names, joints, strict=True) if joint is None]
-    if missing:
-        raise FogsimError(f"{robot.mjcf_path}: joints {missing} not found in the MJCF")
-    cameras = [robot_model.find("camera", name) for name in CAMERA_NAMES]
-    if any(c is None for c in cameras):
-        raise FogsimError(f"{robot.mjcf_path}: the robot needs cameras {CAMERA_NAMES}")
-    return _AttachedRobot(free_joint, tuple(joints), tuple(cameras))
+    frame.add("freejoint", name="root")
+
+
+def build_scene_mjcf(scenario: Scenario, robot: Robot | None) -> mjcf.RootElement:
+    """The scene's MJCF: world pieces, one body per object, the robot or the camera rig."""
+    root = _world_root(scenario)
+    moving = moving_objects(scenario)
+    for index, obj in enumerate(scenario.objects):
+        _add_object(root, obj, index, scenario.seed, obj.name in moving)
+    if robot is not None:
+        _attach_robot(root, robot, offscreen_px(scenario.camera))
+    else:
+        _add_camera_rig(root, scenario.camera)
+    return root
+
+
+def compile_scene(scenario: Scenario, robot: Robot | None) -> mujoco.MjModel:
+    """Compile the scene's MJCF as ``dm_control.mjcf.Physics.from_mjcf_model`` does."""
+    root = build_scene_mjcf(scenario, robot)
+    return mujoco.MjModel.from_xml_string(root.to_xml_string(), root.get_assets())
+
+
+def _scene_inputs(scenario: Scenario) -> tuple[object, ...]:
+    """What :func:`build_scene_mjcf` reads of the scenario.
+
+    The camera's mode and noise, the encoders and the route do not enter the model, so
+    changing them reuses the compiled scene.
+    """
+    camera = scenario.camera
+    return (
+        scenario.name,
+        scenario.seed,
+        scenario.objects,
+        (camera.width, camera.height, camera.fov_deg, camera.baseline_m),
+        tuple(sorted(moving_objects(scenario))),
+    )
+
+
+def scene_key(scenario: Scenario, robot: Robot | None) -> str:
+    """Content key of the compiled scene: everything :func:`compile_scene` reads.
+
+    The scenario's part that builds the model (its ``repr``), the robot's MJCF file (meshes
+    are inlined in it), every MJCF piece, the source of this module and the MuJoCo and
+    dm_control versions.
+    """
+    pieces = tuple(path.read_bytes() for path in sorted(MJCF_DIR.glob("*.xml")))
+    return content_key(
+        (
+            repr(_scene_inputs(scenario)).encode(),
+            robot.mjcf_path.read_bytes() if robot is not None else b"",
+            *pieces,
+            Path(__file__).read_bytes(),
+            f"mujoco {mujoco.__version__} dm_control {version('dm_control')}".encode(),
+        )
+    )
+
+
+def _id(model: mujoco.MjModel, kind: mujoco.mjtObj, name: str) -> int:
+    """MuJoCo id of the element ``kind`` named ``name``; raises if the model has none."""
+    element_id = mujoco.mj_name2id(model, kind, name)
+    if element_id < 0:
+        raise FogsimError(f"compiled scene: no {kind.name} named {name!r}")
+    return element_id
 
 
 # ---------------------------------------------------------------------- the scene
 
 
 class Scene:
-    """A compiled scene: dm_control ``Physics`` plus by-name access to its state.
+    """A compiled scene and by-name access to its state.
+
+    The compiled model comes from the content-keyed cache (:mod:`fogsim.sim.model_cache`):
+    the MJCF is built and compiled only when the scenario, robot, pieces or this module change.
 
     Args:
         scenario: The scenario to build.
@@ -245,10 +300,9 @@ class Scene:
 
     Attributes:
         scenario: The scenario it was built from.
-        mjcf_model: The dm_control MJCF root element.
-        physics: ``dm_control.mjcf.Physics`` of the compiled model.
-        model: The raw ``mujoco.MjModel``.
-        data: The raw ``mujoco.MjData``.
+        model: The compiled ``mujoco.MjModel``.
+        data: Its ``mujoco.MjData``.
+        physics: dm_control's view of ``model`` and ``data`` (made on first use).
         has_robot: True if a robot is attached, False for the free camera rig.
         camera_ids: MuJoCo camera id of each of ``CAMERA_NAMES``.
         render_geomgroups: Geom groups the renderer draws (0, 1, 2); ray casts use the same.
@@ -258,43 +312,49 @@ class Scene:
         self.scenario = scenario
         self.has_robot = robot is not None
         self._moving = moving_objects(scenario)
-        root = _world_root(scenario)
-        self.mjcf_model = root
-        object_bodies = {
-            obj.name: _add_object(root, obj, index, scenario.seed, obj.name in self._moving)
-            for index, obj in enumerate(scenario.objects)
-        }
-        attached: _AttachedRobot | None = None
-        rig: mjcf.Element | None = None
-        if robot is not None:
-            attached = _attach_robot(root, robot, offscreen_px(scenario.camera))
-            camera_elements: Sequence[mjcf.Element] = attached.cameras
-        else:
-            rig, camera_elements = _add_camera_rig(root, scenario.camera)
-        self.physics = mjcf.Physics.from_mjcf_model(root)
-        self.model: mujoco.MjModel = self.physics.model.ptr
-        self.data: mujoco.MjData = self.physics.data.ptr
+        self.model: mujoco.MjModel = load_or_compile(
+            scene_key(scenario, robot), lambda: compile_scene(scenario, robot)
+        )
+        self.data = mujoco.MjData(self.model)
+        # dm_control's Physics ran one mj_forward on a fresh MjData; kept so the state matches.
+        mujoco.mj_forward(self.model, self.data)
+        prefix = f"{_robot_namespace(robot)}/" if robot is not None else ""
         self.camera_ids = {
-            name: int(self.physics.bind(element).element_id)
-            for name, element in zip(CAMERA_NAMES, camera_elements, strict=True)
+            name: _id(self.model, mujoco.mjtObj.mjOBJ_CAMERA, prefix + name)
+            for name in CAMERA_NAMES
         }
         self.render_geomgroups = VISIBLE_GEOMGROUPS
-        self._mocap_ids = {
-            name: int(self.physics.bind(object_bodies[name]).mocapid) for name in self._moving
-        }
+        self._mocap_ids = {name: self._mocap_id(f"obj_{name}") for name in self._moving}
         self._robot_qpos_address = (
-            self._robot_qpos_addresses(attached) if attached is not None else None
+            self._robot_qpos_addresses(robot, prefix) if robot is not None else None
         )
-        self._rig_mocap_id = int(self.physics.bind(rig).mocapid) if rig is not None else None
+        self._rig_mocap_id = self._mocap_id("camera_rig") if robot is None else None
         self.set_time(0.0)
         self.forward()
 
-    def _robot_qpos_addresses(self, attached: _AttachedRobot) -> NDArray[np.intp]:
-        """Scene qpos index of every entry of the robot's standalone qpos."""
-        free_address = int(self.physics.bind(attached.free_joint).qposadr)
+    @functools.cached_property
+    def physics(self) -> dm_mujoco.Physics:
+        """A ``dm_control.mujoco.Physics`` over this scene's model and data (shared, not copied).
+
+        For dm_control's renderer and named indexing; creating it runs one ``mj_forward``.
+        """
+        return dm_mujoco.Physics(dm_wrapper.MjData(self.data))
+
+    def _mocap_id(self, body_name: str) -> int:
+        """Mocap id of the mocap body ``body_name``."""
+        return int(self.model.body_mocapid[_id(self.model, mujoco.mjtObj.mjOBJ_BODY, body_name)])
+
+    def _robot_qpos_addresses(self, robot: Robot, prefix: str) -> NDArray[np.intp]:
+        """Scene qpos index of every entry of the robot's standalone qpos.
+
+        The free joint on dm_control's attachment frame is named ``<prefix>root/``.
+        """
+        free = _id(self.model, mujoco.mjtObj.mjOBJ_JOINT, f"{prefix}root/")
+        free_address = int(self.model.jnt_qposadr[free])
         addresses = list(range(free_address, free_address + 7))
-        for joint in attached.joints:
-            addresses.append(int(self.physics.bind(joint).qposadr))
+        for name in robot.mujoco_joint_names[1:]:
+            joint = _id(self.model, mujoco.mjtObj.mjOBJ_JOINT, prefix + name)
+            addresses.append(int(self.model.jnt_qposadr[joint]))
         return np.asarray(addresses, dtype=np.intp)
 
     # ------------------------------------------------------------------ state
