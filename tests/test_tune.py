@@ -513,10 +513,12 @@ def test_resume_after_kill_continues_the_trial_count(tmp_path):
             if t.system_attrs.get("failed_trial") == number and t.state.name == "COMPLETE"
         ]
         assert len(retried) == 1
-        # A trial killed between Optuna's ask and its suggestions has no parameters yet: its
-        # retry samples afresh. One killed after them is retried with the same parameters.
-        if study.trials[number].params:
-            assert retried[0].params == study.trials[number].params
+        # A trial is retried with every parameter it had been given. Killed between Optuna's
+        # ask and its suggestions (or between two suggestions) it has none (or some): the retry
+        # keeps those and samples the rest; killed after them, all are the same.
+        killed = study.trials[number].params
+        assert killed.items() <= retried[0].params.items()
+        assert set(retried[0].params) == {spec.name for spec in specs()}
     assert study.trials[0].params == DEFAULTS
 
 
