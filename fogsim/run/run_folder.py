@@ -124,7 +124,11 @@ def check_run_folder(target: str | os.PathLike[str], what: str) -> Path:
             or holds a file no run wrote (:func:`foreign_file`).
     """
     resolved = check_output_path(target, "folder", what)
-    _refuse_foreign(resolved, what)
+    if not resolved.parent.is_dir():
+        return resolved  # nothing there yet
+    # Under the parent's lock: another run's commit swaps the folder and its manifest together.
+    with _locked(resolved.parent):
+        _refuse_foreign(resolved, what)
     return resolved
 
 
