@@ -97,7 +97,10 @@ def decode(data: Mapping[str, object], cls: type[T], origin: str) -> T:
             path, the value and what is allowed.
     """
     info = mi.type_info(cls)
-    _check_keys(data, info, (), origin)
+    unknown = unknown_key(data, cls)
+    if unknown is not None:
+        path, allowed = unknown
+        raise ScenarioError(f"{origin}: {dotted(path)}: unknown key; allowed: {', '.join(allowed)}")
     try:
         return msgspec.convert(data, cls, strict=True)
     except msgspec.ValidationError as exc:
@@ -118,8 +121,26 @@ def _clipped(key: str) -> str:
     return f"{key[:half]}...{key[-half:]}"
 
 
-def _check_keys(value: object, info: mi.Type, path: tuple[Segment, ...], origin: str) -> None:
-    """Raise a ScenarioError for the first key no dataclass field (of the file) accepts."""
+def unknown_key(value: object, cls: type) -> tuple[tuple[Segment, ...], tuple[str, ...]] | None:
+    """The first key in ``value`` that no dataclass field of ``cls`` accepts.
+
+    msgspec decodes dataclasses without refusing unknown keys, so every loader of a typed file
+    (scenarios, robot descriptions, reports) asks this first.
+
+    Args:
+        value: Parsed data (TOML or JSON: dicts, lists, scalars).
+        cls: The dataclass the data is meant for (nested dataclasses, lists and tuples of them
+            are followed; fields marked :data:`NOT_IN_FILE` are not accepted).
+
+    Returns:
+        The key's path and the keys allowed beside it, or None when every key is known.
+    """
+    return _first_unknown(value, mi.type_info(cls), ())
+
+
+def _first_unknown(
+    value: object, info: mi.Type, path: tuple[Segment, ...]
+) -> tuple[tuple[Segment, ...], tuple[str, ...]] | None:
     info = _bare(info)
     if isinstance(info, mi.DataclassType) and isinstance(value, Mapping):
         types = {
@@ -129,13 +150,16 @@ def _check_keys(value: object, info: mi.Type, path: tuple[Segment, ...], origin:
         }
         for key, item in value.items():
             if key not in types:
-                raise ScenarioError(
-                    f"{origin}: {dotted((*path, key))}: unknown key; allowed: {', '.join(types)}"
-                )
-            _check_keys(item, types[key], (*path, key), origin)
+                return (*path, key), tuple(types)
+            found = _first_unknown(item, types[key], (*path, key))
+            if found is not None:
+                return found
     elif isinstance(info, mi.VarTupleType | mi.ListType) and isinstance(value, list):
         for index, item in enumerate(value):
-            _check_keys(item, info.item_type, (*path, index), origin)
+            found = _first_unknown(item, info.item_type, (*path, index))
+            if found is not None:
+                return found
+    return None
 
 
 def _scenario_error(

@@ -11,15 +11,15 @@ from __future__ import annotations
 import math
 import re
 import tomllib
-import typing
 from collections.abc import Mapping
-from dataclasses import dataclass, is_dataclass
+from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Annotated
 
 import msgspec
 import numpy as np
 
+from fogsim.config.decode import NOT_IN_FILE, dotted, unknown_key
 from fogsim.errors import RobotModelError
 from fogsim.paths import ROBOT_NAMES, ROBOTS_DIR
 
@@ -145,7 +145,7 @@ class RobotDescription:
         arm_pose_rad: Joint name → angle [rad] of a relaxed arm pose (table ``[arm_pose_rad]``).
     """
 
-    name: str
+    name: str = field(metadata=NOT_IN_FILE)  # the data file's name, not a key in it
     example_robot_data: str
     feet: FeetDescription
     legs: LegsDescription
@@ -180,9 +180,9 @@ def read_description(path: Path) -> RobotDescription:
         raise RobotModelError(f"{path}: cannot read the robot description ({error})") from error
     except tomllib.TOMLDecodeError as error:
         raise RobotModelError(f"{path}: not valid TOML ({error})") from error
-    unknown = _unknown_keys(table, RobotDescription, "")
-    if unknown:
-        key, allowed = unknown[0]
+    unknown = unknown_key(table, RobotDescription)
+    if unknown is not None:
+        key, allowed = dotted(unknown[0]), unknown[1]
         raise RobotModelError(f"{path}: unknown key {key}; allowed there: {', '.join(allowed)}")
     try:
         description = msgspec.convert({**table, "name": path.stem}, RobotDescription)
@@ -190,20 +190,6 @@ def read_description(path: Path) -> RobotDescription:
         raise RobotModelError(f"{path}: {_dotted(str(error))}") from error
     _check_values(description, path)
     return description
-
-
-def _unknown_keys(
-    table: Mapping[str, object], schema: type, prefix: str
-) -> list[tuple[str, tuple[str, ...]]]:
-    """Keys of ``table`` and its sub-tables that ``schema`` lacks: (dotted key, allowed keys)."""
-    hints = typing.get_type_hints(schema)
-    allowed = tuple(key for key in hints if key != "name")
-    unknown = [(f"{prefix}{key}", allowed) for key in table if key not in allowed]
-    for key, value in table.items():
-        kind = hints.get(key)
-        if isinstance(kind, type) and is_dataclass(kind) and isinstance(value, Mapping):
-            unknown += _unknown_keys(value, kind, f"{prefix}{key}.")
-    return unknown
 
 
 def _dotted(message: str) -> str:

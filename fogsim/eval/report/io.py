@@ -12,11 +12,12 @@ from __future__ import annotations
 
 import os
 from pathlib import Path
-from typing import Any, TypeVar
+from typing import TypeVar
 
 import msgspec
 
 from fogsim.atomic import write_atomic
+from fogsim.config.decode import unknown_key
 from fogsim.errors import ReportError
 from fogsim.eval.report.schema import Report
 
@@ -37,23 +38,6 @@ def write_json(path: str | os.PathLike[str], value: object, *, sort_keys: bool =
     encoded = msgspec.json.encode(value, order="sorted" if sort_keys else None)
     data = msgspec.json.format(encoded, indent=_INDENT) + b"\n"
     return write_atomic(path, lambda handle: handle.write(data))
-
-
-def _unknown_key(raw: Any, typed: Any, where: str) -> str | None:
-    """Path of the first key of ``raw`` (decoded JSON) that ``typed`` (the schema's view) lacks."""
-    if isinstance(raw, dict) and isinstance(typed, dict):
-        for key, value in raw.items():
-            if key not in typed:
-                return f"{where}.{key}"
-            found = _unknown_key(value, typed[key], f"{where}.{key}")
-            if found is not None:
-                return found
-    if isinstance(raw, list) and isinstance(typed, list | tuple):
-        for index, (value, known) in enumerate(zip(raw, typed, strict=True)):
-            found = _unknown_key(value, known, f"{where}[{index}]")
-            if found is not None:
-                return found
-    return None
 
 
 def load_json(path: str | os.PathLike[str], schema: type[T], what: str) -> T:
@@ -79,9 +63,10 @@ def load_json(path: str | os.PathLike[str], schema: type[T], what: str) -> T:
         raise ReportError(f"{what} {path} does not match the {what} schema: {exc}") from exc
     except msgspec.DecodeError as exc:
         raise ReportError(f"{what} {path} is not valid JSON: {exc}") from exc
-    unknown = _unknown_key(msgspec.json.decode(data), msgspec.to_builtins(value), "$")
+    unknown = unknown_key(msgspec.json.decode(data), schema)
     if unknown is not None:
-        raise ReportError(f"{what} {path} has a key the {what} schema does not know: `{unknown}`")
+        where = "$" + "".join(f"[{s}]" if isinstance(s, int) else f".{s}" for s in unknown[0])
+        raise ReportError(f"{what} {path} has a key the {what} schema does not know: `{where}`")
     return value
 
 
