@@ -178,7 +178,7 @@ def _with_meta(path, out, meta):
     return out
 
 
-def _refused(path, pattern):
+def assert_refused(path, pattern):
     with pytest.raises(RecordingError, match=pattern) as caught:
         load_recording(path)
     assert str(path) in str(caught.value)
@@ -189,7 +189,7 @@ def test_empty_truncated_and_foreign_files_are_refused(tmp_path, keep):
     data = _saved(tmp_path).read_bytes()
     cut = tmp_path / "cut.npz"
     cut.write_bytes(data[: int(keep * len(data))])
-    _refused(cut, "not a readable .npz")
+    assert_refused(cut, "not a readable .npz")
 
 
 def test_corrupt_depth_is_found_at_load_not_mid_replay(tmp_path):
@@ -199,7 +199,7 @@ def test_corrupt_depth_is_found_at_load_not_mid_replay(tmp_path):
     start = info.header_offset + 30 + len(info.filename) + len(info.extra) + 200
     data[start : start + 8] = b"\xff" * 8
     (tmp_path / "bad.npz").write_bytes(bytes(data))
-    _refused(tmp_path / "bad.npz", r"array 'depth_m' .*(corrupt|cannot be read)")
+    assert_refused(tmp_path / "bad.npz", r"array 'depth_m' .*(corrupt|cannot be read)")
 
 
 @pytest.mark.parametrize(
@@ -217,21 +217,23 @@ def test_wrong_types_and_values_in_meta_json_name_the_key(tmp_path, key, value, 
     path = _saved(tmp_path)
     meta = _meta(path)
     meta["intrinsics"][key] = value
-    _refused(_with_meta(path, tmp_path / "m.npz", meta), pattern)
+    assert_refused(_with_meta(path, tmp_path / "m.npz", meta), pattern)
 
 
 def test_meta_json_must_be_the_documented_object(tmp_path):
     path = _saved(tmp_path)
     meta = _meta(path)
-    _refused(_with_meta(path, tmp_path / "a.npz", [meta]), r"meta_json: Expected `object`")
-    _refused(_with_meta(path, tmp_path / "u.npz", {**meta, "scenario": "x"}), "unknown field")
+    assert_refused(_with_meta(path, tmp_path / "a.npz", [meta]), r"meta_json: Expected `object`")
+    assert_refused(_with_meta(path, tmp_path / "u.npz", {**meta, "scenario": "x"}), "unknown field")
     truths = {**meta, "truths": [{"time_s": "0"}]}
-    _refused(_with_meta(path, tmp_path / "t.npz", truths), r"truths\[0\].time_s: Expected `float`")
+    assert_refused(
+        _with_meta(path, tmp_path / "t.npz", truths), r"truths\[0\].time_s: Expected `float`"
+    )
     huge = json.dumps(meta).replace('"cx": 3.5', '"cx": 1e400')
     _rewrite(path, tmp_path / "h.npz", meta_json=np.array(huge))
-    _refused(tmp_path / "h.npz", r"meta_json: intrinsics.cx: Number out of range")
+    assert_refused(tmp_path / "h.npz", r"meta_json: intrinsics.cx: Number out of range")
     _rewrite(path, tmp_path / "n.npz", meta_json=np.array(5))
-    _refused(tmp_path / "n.npz", r"array 'meta_json' must hold text, got dtype int64")
+    assert_refused(tmp_path / "n.npz", r"array 'meta_json' must hold text, got dtype int64")
 
 
 @pytest.mark.parametrize(
@@ -252,13 +254,13 @@ def test_strings_and_wrong_arrays_where_numbers_belong_name_the_array(
 ):
     path = _saved(tmp_path)
     _rewrite(path, tmp_path / "x.npz", **{key: value})
-    _refused(tmp_path / "x.npz", pattern)
+    assert_refused(tmp_path / "x.npz", pattern)
 
 
 def test_fortran_ordered_depth_is_refused(tmp_path):
     path = _saved(tmp_path)
     _rewrite(path, tmp_path / "f.npz", depth_m=np.asfortranarray(np.ones((4, 6, 8), np.float32)))
-    _refused(tmp_path / "f.npz", r"'depth_m' is stored in Fortran .* must be C order")
+    assert_refused(tmp_path / "f.npz", r"'depth_m' is stored in Fortran .* must be C order")
 
 
 def _npy(header_shape, descr, data):
@@ -289,7 +291,7 @@ def test_headers_declaring_huge_arrays_are_refused_before_reading(tmp_path, key,
     _replace_member(path, tmp_path / "h.npz", key, _npy(shape, descr, b"\0" * 64))
     tracemalloc.start()
     try:
-        _refused(tmp_path / "h.npz", pattern)
+        assert_refused(tmp_path / "h.npz", pattern)
         _, peak = tracemalloc.get_traced_memory()
     finally:
         tracemalloc.stop()
@@ -302,10 +304,14 @@ def test_sizes_are_limited_by_the_frame_count(tmp_path):
     frames = MAX_FRAMES + 1
     huge = _npy((frames,), "<f8", b"\0" * (8 * frames))
     _replace_member(path, tmp_path / "t.npz", "time_s", huge)
-    _refused(tmp_path / "t.npz", rf"'time_s' must have shape \(T,\) with 1 <= T <= {MAX_FRAMES}")
+    assert_refused(
+        tmp_path / "t.npz", rf"'time_s' must have shape \(T,\) with 1 <= T <= {MAX_FRAMES}"
+    )
     long_text = json.dumps({**_meta(path), "created_by": "x" * (2 << 20)})
     _rewrite(path, tmp_path / "m.npz", meta_json=np.array(long_text))
-    _refused(tmp_path / "m.npz", r"'meta_json' declares \d+ characters; a recording of 4 frames")
+    assert_refused(
+        tmp_path / "m.npz", r"'meta_json' declares \d+ characters; a recording of 4 frames"
+    )
 
 
 def _declare_size(path, key, size):
@@ -324,7 +330,9 @@ def _declare_size(path, key, size):
 def test_a_zip_directory_declaring_gigabytes_is_refused_before_reading(tmp_path):
     path = _saved(tmp_path)
     _declare_size(path, "depth_m", 0xFFFFFFF0)
-    _refused(path, r"'depth_m' declares shape \(4, 6, 8\) .* its zip entry holds \d{10} bytes")
+    assert_refused(
+        path, r"'depth_m' declares shape \(4, 6, 8\) .* its zip entry holds \d{10} bytes"
+    )
 
 
 def _inflating_recording(path, count, height, width):
@@ -403,7 +411,7 @@ def test_values_out_of_their_limits_name_the_array_and_the_frame(
     flat_row = array[row].reshape(-1) if array.ndim > 1 else array
     flat_row[row if column is None else column] = value
     _rewrite(path, tmp_path / "x.npz", **{key: array})
-    _refused(tmp_path / "x.npz", pattern)
+    assert_refused(tmp_path / "x.npz", pattern)
 
 
 @pytest.mark.parametrize("jump_m", [100.0, 300.0, 3000.0])
@@ -413,7 +421,9 @@ def test_a_believed_pose_jump_is_refused_naming_the_frame(tmp_path, jump_m):
         poses = data["robot_pose_believed"].copy()
     poses[2:, 0] += jump_m
     _rewrite(path, tmp_path / "j.npz", robot_pose_believed=poses)
-    _refused(tmp_path / "j.npz", rf"\(frame 2\): the believed position jumped {jump_m:g}(\.\d+)? m")
+    assert_refused(
+        tmp_path / "j.npz", rf"\(frame 2\): the believed position jumped {jump_m:g}(\.\d+)? m"
+    )
 
 
 def test_reflected_or_partly_unknown_transforms_are_refused(tmp_path):
@@ -421,11 +431,13 @@ def test_reflected_or_partly_unknown_transforms_are_refused(tmp_path):
     mirror = np.tile(np.eye(4), (4, 1, 1))
     mirror[1, 2, 2] = -1.0
     _rewrite(path, tmp_path / "r.npz", transform_camera_to_robot_believed=mirror)
-    _refused(tmp_path / "r.npz", r"\(frame 1\): rotation block must be orthonormal .* reflection")
+    assert_refused(
+        tmp_path / "r.npz", r"\(frame 1\): rotation block must be orthonormal .* reflection"
+    )
     partly = np.tile(np.eye(4), (4, 1, 1))
     partly[3, 0, 3] = np.nan
     _rewrite(path, tmp_path / "p.npz", transform_camera_to_world_true=partly)
-    _refused(tmp_path / "p.npz", r"\(frame 3\): must be finite \(or all sixteen entries NaN")
+    assert_refused(tmp_path / "p.npz", r"\(frame 3\): must be finite \(or all sixteen entries NaN")
 
 
 def test_frames_are_built_on_demand_and_pickle_with_their_depth(tmp_path):
