@@ -43,6 +43,12 @@ from mapper import scanline
 from mapper.errors import InvalidInputError, InvalidParameterError
 from mapper.intrinsics import PinholeIntrinsics
 from mapper.limits import MAX_COORDINATE_M, MAX_SEGMENTATION_PASSES, MAX_WINDOW_PX
+from mapper.pose_correction import (
+    PoseCorrection,
+    estimate_tilt,
+    ground_shift,
+    within_deg_of_vertical,
+)
 from mapper.validation import check_field, real_array, rigid_transform
 
 __all__ = ["PoseCorrection", "SegmentationParams", "SegmentationResult", "segment_depth"]
@@ -223,47 +229,6 @@ class SegmentationParams:
             else:
                 kwargs[key] = value
         return cls(**kwargs)
-
-
-@dataclass(frozen=True)
-class PoseCorrection:
-    """The correction `segment_depth` applied to the believed robot-frame data.
-
-    Corrected point = pivot + rotation·(point − pivot) + (0, 0, z_shift_m).
-
-    Attributes:
-        rotation: 3×3 rotation (tilt only, no yaw component beyond the minimal rotation).
-        pivot_m: (3,) rotation centre [m], the believed camera centre in the robot frame.
-        z_shift_m: shift added to z after the rotation [m] (0 if no ground plane was found).
-        ground_plane_found: a floor plane was found within the ground search window.
-        tilt_planes: how many near-horizontal planes steered the rotation (0: none applied).
-    """
-
-    rotation: NDArray[np.float64]
-    pivot_m: NDArray[np.float64]
-    z_shift_m: float
-    ground_plane_found: bool
-    tilt_planes: int
-
-    @property
-    def rotation_deg(self) -> float:
-        """Angle of the rotation [deg]."""
-        c = (np.trace(self.rotation) - 1.0) / 2.0
-        return math.degrees(math.acos(min(1.0, max(-1.0, c))))
-
-    @property
-    def transform(self) -> NDArray[np.float64]:
-        """4×4 map from believed robot-frame points to corrected ones."""
-        out = np.eye(4)
-        out[:3, :3] = self.rotation
-        out[:3, 3] = self.pivot_m - self.rotation @ self.pivot_m
-        out[2, 3] += self.z_shift_m
-        return out
-
-    @staticmethod
-    def identity(pivot_m: NDArray[np.float64]) -> PoseCorrection:
-        """No correction."""
-        return PoseCorrection(np.eye(3), np.asarray(pivot_m, dtype=np.float64), 0.0, False, 0)
 
 
 @dataclass(frozen=True)
@@ -487,11 +452,11 @@ def segment_depth(
     # RMS depth residual of the plane fit (inverse-depth residual scaled at the centroid).
     rms = np.sqrt(plane_table[:, 3]) * centroids_camera[:, 2] ** 2
 
-    correction = _estimate_correction(normals, areas, eigen, counts, pivot, params)
+    correction = estimate_tilt(normals, areas, eigen, counts, pivot, params)
     centroids_c = (centroids - pivot) @ correction.rotation.T + pivot
     normals_c = normals @ correction.rotation.T
     is_floor_shape = _floor_shape(normals_c, eigen, counts, params)
-    correction = _ground_shift(correction, centroids_c[:, 2], areas, is_floor_shape, params)
+    correction = ground_shift(correction, centroids_c[:, 2], areas, is_floor_shape, params)
     heights = centroids_c[:, 2] + correction.z_shift_m
 
     transform_corrected = correction.transform @ transform
@@ -528,88 +493,13 @@ def _unit_z_rays(intrinsics: PinholeIntrinsics) -> NDArray[np.float64]:
     return rays
 
 
-def _within_deg_of_vertical(normals: NDArray[np.float64], angle_deg: float) -> NDArray[np.bool_]:
-    """Unit normals (P, 3) within ``angle_deg`` of ±z."""
-    return np.abs(normals[:, 2]) >= math.cos(math.radians(angle_deg))
-
-
 def _floor_shape(normals, eigen, counts, params: SegmentationParams) -> NDArray[np.bool_]:
     """Planes that are horizontal, large and wide enough to be floor."""
     minor_extent = np.sqrt(12.0 * np.maximum(eigen[:, 1], 0.0))
     return (
-        _within_deg_of_vertical(normals, params.floor_max_normal_angle_deg)
+        within_deg_of_vertical(normals, params.floor_max_normal_angle_deg)
         & (counts >= params.min_plane_pixels)
         & (minor_extent >= params.min_plane_extent_m)
-    )
-
-
-def _estimate_correction(normals, areas, eigen, counts, pivot, params) -> PoseCorrection:
-    """Rotation that makes the near-horizontal planes' mean normal vertical.
-
-    Candidates: planes large enough to be floor whose normal is within
-    `max_tilt_correction_deg` of vertical. The largest-area candidate is the reference; the
-    candidates whose normal agrees with it within `tilt_consensus_deg` are averaged, weighted
-    by their footprint area (small, noisy or contaminated planes barely count).
-    """
-    identity = PoseCorrection.identity(pivot)
-    if not params.correct_tilt or normals.shape[0] == 0:
-        return identity
-    minor_extent = np.sqrt(12.0 * np.maximum(eigen[:, 1], 0.0))
-    candidates = (
-        _within_deg_of_vertical(normals, params.max_tilt_correction_deg)
-        & (counts >= params.min_plane_pixels)
-        & (minor_extent >= params.min_plane_extent_m)
-    )
-    if not candidates.any():
-        return identity
-    reference = normals[int(np.argmax(np.where(candidates, areas, -1.0)))]
-    candidates &= normals @ reference >= math.cos(math.radians(params.tilt_consensus_deg))
-    mean = (normals[candidates] * areas[candidates, None]).sum(axis=0)
-    mean /= np.linalg.norm(mean)
-    if not _within_deg_of_vertical(mean[None], params.max_tilt_correction_deg)[0]:
-        return identity
-    return PoseCorrection(
-        rotation=_rotation_to_vertical(mean),
-        pivot_m=pivot,
-        z_shift_m=0.0,
-        ground_plane_found=False,
-        tilt_planes=int(candidates.sum()),
-    )
-
-
-def _ground_shift(correction, heights, areas, is_floor, params) -> PoseCorrection:
-    """Shift so the floor plane nearest the expected ground plane lies on it.
-
-    Only floor planes within `ground_search_window_m` of `expected_ground_z_m` and with at
-    least a quarter of the largest such plane's area compete (a sliver of ground next to a
-    step must not outvote the ground itself).
-    """
-    offsets = heights - params.expected_ground_z_m
-    near = is_floor & (np.abs(offsets) <= params.ground_search_window_m)
-    if not near.any():
-        return correction
-    near &= areas >= 0.25 * areas[near].max()
-    nearest = int(np.argmin(np.where(near, np.abs(offsets), np.inf)))
-    shift = -float(offsets[nearest]) if params.correct_ground_shift else 0.0
-    return PoseCorrection(
-        correction.rotation, correction.pivot_m, shift, True, correction.tilt_planes
-    )
-
-
-def _rotation_to_vertical(normal: NDArray[np.float64]) -> NDArray[np.float64]:
-    """Smallest rotation taking the unit vector ``normal`` (z > 0) to +z (Rodrigues)."""
-    nx, ny, nz = (float(v) for v in normal)
-    s = math.hypot(nx, ny)  # sin of the angle; axis = normal × z = (ny, -nx, 0) / s
-    if s < 1e-12:
-        return np.eye(3)
-    kx, ky = ny / s, -nx / s
-    one_c = 1.0 - nz
-    return np.array(
-        [
-            [1.0 - one_c * ky * ky, one_c * kx * ky, s * ky],
-            [one_c * kx * ky, 1.0 - one_c * kx * kx, -s * kx],
-            [-s * ky, s * kx, nz],
-        ]
     )
 
 

@@ -1,0 +1,139 @@
+"""The pose correction of a segmented depth image: tilt rotation and ground-plane z shift.
+
+The paper (Sec. IV) absorbs camera rotation errors of the joint encoders by rotating the range
+data "according to the direction of planes that are approximately horizontal", and searches "for
+the plane that is closest to an expected ground plane, and, if found, shifts all data points
+accordingly". `segment_depth` fits the planes; this module decides the correction from the
+per-plane table (normals, heights, areas) in the robot frame R (z up, origin on the ground below
+the robot).
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+from typing import TYPE_CHECKING
+
+import numpy as np
+from numpy.typing import NDArray
+
+if TYPE_CHECKING:
+    pass
+
+__all__ = ["PoseCorrection", "estimate_tilt", "ground_shift", "within_deg_of_vertical"]
+
+
+@dataclass(frozen=True)
+class PoseCorrection:
+    """The correction `segment_depth` applied to the believed robot-frame data.
+
+    Corrected point = pivot + rotation·(point − pivot) + (0, 0, z_shift_m).
+
+    Attributes:
+        rotation: 3×3 rotation (tilt only, no yaw component beyond the minimal rotation).
+        pivot_m: (3,) rotation centre [m], the believed camera centre in the robot frame.
+        z_shift_m: shift added to z after the rotation [m] (0 if no ground plane was found).
+        ground_plane_found: a floor plane was found within the ground search window.
+        tilt_planes: how many near-horizontal planes steered the rotation (0: none applied).
+    """
+
+    rotation: NDArray[np.float64]
+    pivot_m: NDArray[np.float64]
+    z_shift_m: float
+    ground_plane_found: bool
+    tilt_planes: int
+
+    @property
+    def rotation_deg(self) -> float:
+        """Angle of the rotation [deg]."""
+        c = (np.trace(self.rotation) - 1.0) / 2.0
+        return math.degrees(math.acos(min(1.0, max(-1.0, c))))
+
+    @property
+    def transform(self) -> NDArray[np.float64]:
+        """4×4 map from believed robot-frame points to corrected ones."""
+        out = np.eye(4)
+        out[:3, :3] = self.rotation
+        out[:3, 3] = self.pivot_m - self.rotation @ self.pivot_m
+        out[2, 3] += self.z_shift_m
+        return out
+
+    @staticmethod
+    def identity(pivot_m: NDArray[np.float64]) -> PoseCorrection:
+        """No correction."""
+        return PoseCorrection(np.eye(3), np.asarray(pivot_m, dtype=np.float64), 0.0, False, 0)
+
+
+def within_deg_of_vertical(normals: NDArray[np.float64], angle_deg: float) -> NDArray[np.bool_]:
+    """Unit normals (P, 3) within ``angle_deg`` of ±z."""
+    return np.abs(normals[:, 2]) >= math.cos(math.radians(angle_deg))
+
+
+def estimate_tilt(normals, areas, eigen, counts, pivot, params) -> PoseCorrection:
+    """Rotation that makes the near-horizontal planes' mean normal vertical.
+
+    Candidates: planes large enough to be floor whose normal is within
+    `max_tilt_correction_deg` of vertical. The largest-area candidate is the reference; the
+    candidates whose normal agrees with it within `tilt_consensus_deg` are averaged, weighted
+    by their footprint area (small, noisy or contaminated planes barely count).
+    """
+    identity = PoseCorrection.identity(pivot)
+    if not params.correct_tilt or normals.shape[0] == 0:
+        return identity
+    minor_extent = np.sqrt(12.0 * np.maximum(eigen[:, 1], 0.0))
+    candidates = (
+        within_deg_of_vertical(normals, params.max_tilt_correction_deg)
+        & (counts >= params.min_plane_pixels)
+        & (minor_extent >= params.min_plane_extent_m)
+    )
+    if not candidates.any():
+        return identity
+    reference = normals[int(np.argmax(np.where(candidates, areas, -1.0)))]
+    candidates &= normals @ reference >= math.cos(math.radians(params.tilt_consensus_deg))
+    mean = (normals[candidates] * areas[candidates, None]).sum(axis=0)
+    mean /= np.linalg.norm(mean)
+    if not within_deg_of_vertical(mean[None], params.max_tilt_correction_deg)[0]:
+        return identity
+    return PoseCorrection(
+        rotation=_rotation_to_vertical(mean),
+        pivot_m=pivot,
+        z_shift_m=0.0,
+        ground_plane_found=False,
+        tilt_planes=int(candidates.sum()),
+    )
+
+
+def ground_shift(correction, heights, areas, is_floor, params) -> PoseCorrection:
+    """Shift so the floor plane nearest the expected ground plane lies on it.
+
+    Only floor planes within `ground_search_window_m` of `expected_ground_z_m` and with at
+    least a quarter of the largest such plane's area compete (a sliver of ground next to a
+    step must not outvote the ground itself).
+    """
+    offsets = heights - params.expected_ground_z_m
+    near = is_floor & (np.abs(offsets) <= params.ground_search_window_m)
+    if not near.any():
+        return correction
+    near &= areas >= 0.25 * areas[near].max()
+    nearest = int(np.argmin(np.where(near, np.abs(offsets), np.inf)))
+    shift = -float(offsets[nearest]) if params.correct_ground_shift else 0.0
+    return PoseCorrection(
+        correction.rotation, correction.pivot_m, shift, True, correction.tilt_planes
+    )
+
+
+def _rotation_to_vertical(normal: NDArray[np.float64]) -> NDArray[np.float64]:
+    """Smallest rotation taking the unit vector ``normal`` (z > 0) to +z (Rodrigues)."""
+    nx, ny, nz = (float(v) for v in normal)
+    s = math.hypot(nx, ny)  # sin of the angle; axis = normal × z = (ny, -nx, 0) / s
+    if s < 1e-12:
+        return np.eye(3)
+    kx, ky = ny / s, -nx / s
+    one_c = 1.0 - nz
+    return np.array(
+        [
+            [1.0 - one_c * ky * ky, one_c * kx * ky, s * ky],
+            [one_c * kx * ky, 1.0 - one_c * kx * kx, -s * kx],
+            [-s * ky, s * kx, nz],
+        ]
+    )
