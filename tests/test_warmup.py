@@ -11,7 +11,7 @@ from test_pipeline import INTR, make_frames, provider_removed_at
 
 from fogsim.data.recording import Recording
 from fogsim.run.runner import run_scenario
-from fogsim.run.warmup import MAPPER, MESSAGE, SEGMENTATION, cold_modules
+from fogsim.run.warmup import MAPPER, MESSAGE, SEGMENTATION, SELF_FILTER, cold_modules
 
 ROOT = Path(__file__).resolve().parent.parent
 
@@ -37,6 +37,7 @@ def test_message_with_a_cold_cache_only(tmp_path):
     assert MESSAGE in cold
     assert "segmentation kernels ..." in cold
     assert "mapper kernels ..." in cold
+    assert "self-filter kernels ..." in cold
     assert "compiled in" in cold
     assert list(tmp_path.rglob("*.nbi")), "the warm-up filled the cache"
     assert _warm_up_stderr(tmp_path) == ""
@@ -46,6 +47,7 @@ def test_a_run_with_progress_leaves_the_cache_warm():
     run_scenario(None, None, replay=_recording(), pictures=False, progress=True)
     assert cold_modules(SEGMENTATION) == ()
     assert cold_modules(MAPPER) == ()
+    assert cold_modules(SELF_FILTER) == ()
 
 
 def _recording():

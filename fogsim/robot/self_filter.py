@@ -108,6 +108,27 @@ def _mask_kernel(
     return inside
 
 
+def compile_mask_kernel() -> None:
+    """Compile (or load from numba's cache) the mask kernel on a 2 × 2 image and one box.
+
+    Called by the run's kernel warm-up (`fogsim.run.warmup`) so that the first frame of a
+    simulated run does not compile it silently.
+    """
+    eye = np.eye(3)[None]
+    _mask_kernel(
+        np.ones((2, 2)),
+        1.0,
+        1.0,
+        0.5,
+        0.5,
+        eye,
+        np.array([[0.0, 0.0, 1.0]]),
+        np.full((1, 3), 0.1),
+        np.array([0.0, 0.0, 0.0, 1e9]),
+        0.0,
+    )
+
+
 class SelfFilter:
     """Flags depth pixels that lie on the robot at the configuration it believes it has.
 

@@ -35,6 +35,7 @@ import mapper.scanline
 from fogsim.config import RunParams
 from fogsim.data.frame import Frame
 from fogsim.mapping.pipeline import Pipeline
+from fogsim.robot import self_filter
 from mapper.intrinsics import PinholeIntrinsics
 from mapper.segmentation import segment_depth
 
@@ -74,12 +75,15 @@ SEGMENTATION = KernelGroup("segmentation", (mapper.scanline,))
 MAPPER = KernelGroup("mapper", (mapper.occupancy, mapper.floor_map, mapper.fog, mapper.averaging))
 """The map update kernels: occupancy, floor map, FOG types, the averaging baseline."""
 
+SELF_FILTER = KernelGroup("self-filter", (self_filter,))
+"""The kernel removing the robot's body from simulated depth images."""
+
 
 def warm_up_kernels(params: RunParams, stream: TextIO | None = sys.stderr) -> float:
     """Compile (or load from numba's cache) the kernels a run of ``params`` uses.
 
     Runs :data:`SEGMENTATION`, then :data:`MAPPER` (a throwaway :class:`Pipeline`) on synthetic
-    frames. Nothing of the run's own state is touched.
+    frames, then :data:`SELF_FILTER` on a 2 × 2 image. Nothing of the run's own state is touched.
 
     Args:
         params: The run's parameters (the kernels are compiled for their types).
@@ -93,6 +97,7 @@ def warm_up_kernels(params: RunParams, stream: TextIO | None = sys.stderr) -> fl
     steps = (
         (SEGMENTATION, lambda: _segment(frames[0], params)),
         (MAPPER, lambda: _map(frames, params)),
+        (SELF_FILTER, self_filter.compile_mask_kernel),
     )
     announced = False
     for group, step in steps:
