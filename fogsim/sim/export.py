@@ -4,9 +4,9 @@
 (or the free camera rig) exactly as :func:`fogsim.sim.scene.build_scene_mjcf` builds them —
 robot meshes and height fields inline, textures built in, no other file needed. The file holds
 one keyframe, ``start``: the robot standing at the first sample of its planned walk and every
-moving object where the events put it at time 0 (load it in the viewer's *Simulation* panel,
-*Key* then *Load key*; the viewer opens at the model's reference pose, and its physics lets the
-robot fall, since the testbed only ever poses it).
+moving object where the events put it at time 0. Load it in the viewer's *Simulation* panel
+(*Key*, then *Load key*): the viewer opens at the model's reference pose, and its physics lets
+the robot fall, since the testbed only ever poses it.
 """
 
 from __future__ import annotations
@@ -44,6 +44,7 @@ def scene_xml(scenario: Scenario) -> str:
     data = simulation.scene.data
     key = root.keyframe.add("key", name=START_KEYFRAME, time=0.0, qpos=data.qpos.copy())
     if data.mocap_pos.size:  # MuJoCo refuses empty mocap attributes
+        # The MJCF places mocap bodies at the scenario's positions; an event at time 0 differs.
         key.mpos = data.mocap_pos.ravel().copy()
         key.mquat = data.mocap_quat.ravel().copy()
     return root.to_xml_string()
