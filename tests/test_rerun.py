@@ -10,7 +10,7 @@ from synthetic_depth import Box, render_scene
 from test_pipeline import CAMERA_IN_ROBOT, INTR, RATE_HZ, ROBOT_POSE, camera_in_world
 
 from fogsim.data.frame import Frame
-from fogsim.errors import FogsimError
+from fogsim.errors import FogsimError, OutputError
 from fogsim.run.runner import run_frames
 from fogsim.viz.rerun_log import RerunLogger
 from fogsim.viz.style import CMAP
@@ -214,3 +214,13 @@ def test_without_rerun_the_error_says_how_to_install_it(tmp_path, monkeypatch):
     with pytest.raises(FogsimError, match=r"pip install 'fogsim\[viewer\]'"):
         RerunLogger(tmp_path / "run.rrd", "test")
     assert list(tmp_path.iterdir()) == []
+
+
+def test_the_folder_is_made_and_an_unwritable_path_is_an_output_error(tmp_path):
+    rerun_chunk()
+    frames, _ = frames_and_rendering(1)
+    log_run(tmp_path / "new" / "folder" / "run.rrd", frames, None)
+    assert (tmp_path / "new" / "folder" / "run.rrd").is_file()
+    (tmp_path / "file").write_text("")
+    with pytest.raises(OutputError, match=r"cannot write .*file/run\.rrd"):
+        RerunLogger(tmp_path / "file" / "run.rrd", "test")

@@ -133,6 +133,7 @@ class RerunLogger:
 
     Raises:
         FogsimError: rerun-sdk is not installed.
+        OutputError: The file's folder cannot be made or the file cannot be created.
     """
 
     def __init__(
@@ -150,7 +151,13 @@ class RerunLogger:
         )
         self._rr.set_log_time_enabled(False, recording=self._stream)
         self._rr.set_log_tick_enabled(False, recording=self._stream)
-        self._stream.save(str(self._tmp))
+        try:
+            self.path.parent.mkdir(parents=True, exist_ok=True)
+            self._stream.save(str(self._tmp))
+        except OSError as exc:
+            raise OutputError(f"cannot write {self.path}: {reason(exc)}") from exc
+        except RuntimeError as exc:  # Rerun's file sink reports its OS error as text
+            raise OutputError(f"cannot write {self.path}: {exc}") from exc
         self._stream.log("world", self._rr.ViewCoordinates.RIGHT_HAND_Z_UP, static=True)
         self._norm: Normalize | None = None
         self._objects: tuple[ObjectState, ...] | None = None
