@@ -28,8 +28,8 @@ Work per frame is bounded by the image and the robot-centred grid (the occupancy
 
 The labelled points are the logger's own segmentation of the frame (``segment_depth`` with the
 pipeline's parameters), placed with the pipeline's believed robot pose after the frame: the
-pipeline keeps neither its points nor the frame's z shift, so these points lack that shift
-(accepted shifts are a few millimetres) and sit where the robot then believes it stands.
+pipeline keeps neither its points nor the frame's z shift, so these points lack that shift (at
+most ``MapperParams.zmatch_max_shift_m``) and sit where the robot then believes it stands.
 
 ``rerun-sdk`` is an optional dependency (the ``viewer`` extra, a 170 MB wheel): it is imported
 when a logger is made, and its absence is a :class:`~fogsim.errors.FogsimError` saying how to
