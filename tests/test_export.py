@@ -1,0 +1,78 @@
+"""The scene exported for MuJoCo's viewer: one file, the built model, the first frame's state."""
+
+import dataclasses
+from xml.etree import ElementTree
+
+import mujoco
+import numpy as np
+import pytest
+
+from fogsim.config import load_scenario
+from fogsim.sim.export import START_KEYFRAME, export_scene
+from fogsim.sim.scene import PARKED_Z_M
+from fogsim.sim.simulation import Simulation
+
+OBJECT_KINDS = (
+    mujoco.mjtObj.mjOBJ_BODY,
+    mujoco.mjtObj.mjOBJ_GEOM,
+    mujoco.mjtObj.mjOBJ_JOINT,
+    mujoco.mjtObj.mjOBJ_CAMERA,
+    mujoco.mjtObj.mjOBJ_MESH,
+    mujoco.mjtObj.mjOBJ_HFIELD,
+    mujoco.mjtObj.mjOBJ_MATERIAL,
+    mujoco.mjtObj.mjOBJ_TEXTURE,
+)
+COUNTS = {
+    mujoco.mjtObj.mjOBJ_BODY: "nbody",
+    mujoco.mjtObj.mjOBJ_GEOM: "ngeom",
+    mujoco.mjtObj.mjOBJ_JOINT: "njnt",
+    mujoco.mjtObj.mjOBJ_CAMERA: "ncam",
+    mujoco.mjtObj.mjOBJ_MESH: "nmesh",
+    mujoco.mjtObj.mjOBJ_HFIELD: "nhfield",
+    mujoco.mjtObj.mjOBJ_MATERIAL: "nmat",
+    mujoco.mjtObj.mjOBJ_TEXTURE: "ntex",
+}
+
+
+def names(model, kind):
+    return [mujoco.mj_id2name(model, kind, i) for i in range(getattr(model, COUNTS[kind]))]
+
+
+# stage: rough tops (height fields), the robot's meshes; box_removal: a mocap object.
+@pytest.mark.parametrize("name", ["stage", "box_removal"])
+def test_the_saved_scene_is_the_built_model_and_starts_at_the_first_frame(tmp_path, name):
+    scenario = load_scenario(name)
+    path = export_scene(scenario, tmp_path / "scene.xml")
+    assert list(tmp_path.iterdir()) == [path]  # one file, no temporary left
+    assert not [e.tag for e in ElementTree.parse(path).iter() if "file" in e.attrib]
+
+    saved = mujoco.MjModel.from_xml_path(str(path))
+    simulation = Simulation(scenario, depth_backend="raycast")  # at its first frame
+    built = simulation.scene.model
+    for kind in OBJECT_KINDS:
+        assert names(saved, kind) == names(built, kind), kind
+    assert names(saved, mujoco.mjtObj.mjOBJ_BODY)[-1].startswith(f"{scenario.robot.model}/")
+    assert saved.nhfield == sum(o.surface == "rough" for o in scenario.objects)
+    assert (saved.nq, saved.nv, saved.nmocap) == (built.nq, built.nv, built.nmocap)
+    for field in ("body_pos", "body_quat", "geom_size", "geom_pos", "geom_rgba", "mesh_vertnum"):
+        np.testing.assert_array_equal(getattr(saved, field), getattr(built, field), err_msg=field)
+    np.testing.assert_array_equal(saved.hfield_data, built.hfield_data)
+
+    assert saved.nkey == 1 and saved.key(0).name == START_KEYFRAME
+    data = mujoco.MjData(saved)
+    mujoco.mj_resetDataKeyframe(saved, data, 0)
+    mujoco.mj_kinematics(saved, data)
+    np.testing.assert_allclose(data.xpos, simulation.scene.data.xpos, atol=1e-12)
+    np.testing.assert_allclose(data.xmat, simulation.scene.data.xmat, atol=1e-12)
+    assert not np.allclose(data.qpos[7:], 0.0)  # the walk's first pose, not the reference one
+
+
+def test_an_object_removed_at_time_zero_starts_parked(tmp_path):
+    scenario = load_scenario("box_removal")
+    (event,) = scenario.events
+    scenario = dataclasses.replace(scenario, events=(dataclasses.replace(event, at=0.0),))
+    saved = mujoco.MjModel.from_xml_path(str(export_scene(scenario, tmp_path / "scene.xml")))
+    data = mujoco.MjData(saved)
+    mujoco.mj_resetDataKeyframe(saved, data, 0)
+    mujoco.mj_kinematics(saved, data)
+    assert data.body(f"obj_{event.remove}").xpos[2] == PARKED_Z_M  # out of view, as in the run
