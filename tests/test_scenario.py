@@ -208,10 +208,13 @@ SHIPPED = {
     "flat_floor": (5, "icub", 0.3, "depth", (0.05, 0.02, 4.0, 0.3), 0),
     "flat_floor_talos": (5, "talos", 0.3, "depth", (0.05, 0.02, 4.0, 0.3), 0),
     "moving_box": (3, "icub", 0.3, "depth", (0.5, 0.2, 0.5, 0.2), 1),
+    "room": (2, "icub", 0.3, "depth", (0.05, 0.02, 4.0, 0.3), 8),
     "simulated_world": (4, "icub", 0.3, "ideal", (0.0, 0.0, 0.0, 0.0), 4),
     "stage": (1, "icub", 0.0, "depth", (0.05, 0.02, 4.0, 0.3), 9),
+    "stage_zigzag": (1, "icub", -0.3, "depth", (0.05, 0.02, 4.0, 0.3), 9),
     "stairs": (1, "icub", 0.3, "depth", (0.05, 0.02, 4.0, 0.3), 4),
     "table": (6, "icub", 0.3, "depth", (0.05, 0.02, 4.0, 0.3), 2),
+    "talos_course": (3, "talos", 0.3, "depth", (0.05, 0.02, 4.0, 0.3), 9),
 }
 
 
@@ -430,7 +433,7 @@ def test_find_scenario_files_by_name_path_directory_or_nothing(tmp_path):
         find_scenario_files("nope")
     with pytest.raises(ScenarioError, match=r"no scenario files \(\*\.toml\) in"):
         find_scenario_files(tmp_path)
-    with pytest.raises(ScenarioError, match="is a directory of 8 scenario files"):
+    with pytest.raises(ScenarioError, match=f"is a directory of {len(shipped)} scenario files"):
         load_scenario(SCENARIOS_DIR)
     assert CAMERA_MODES == ("ideal", "depth", "stereo")
 
