@@ -1,10 +1,21 @@
 """The ``stereo`` mode's sensor: left and right images rendered and matched by OpenCV.
 
-As QRIO's stereo hardware did (it matched at 176 × 144 for 88 × 72 output), the left and right
-grey images are rendered at ``scale`` × the output resolution, matched with OpenCV's
-StereoSGBM, turned into depth along the *left* camera's optical axis and median-pooled
-``scale`` × ``scale`` down to the output size. The cameras' intrinsics at the render
-resolution must be written into the model first (:mod:`fogsim.sim.camera.intrinsics`).
+The head: two cameras ``head_camera_left`` and ``head_camera_right`` on the head, parallel
+optical axes, ``baseline_m`` apart along the left camera's x axis (iCub: 68 mm, its eyes;
+``assets/robots/*.toml``, key ``camera.stereo_baseline_m``). The depth image belongs to the left
+camera.
+
+As QRIO's stereo hardware did (it matched at 176 × 144 for its 88 × 72 output), the grey images
+are rendered at :data:`STEREO_RENDER_SCALE` × the output resolution, matched with OpenCV's
+StereoSGBM and the disparity is reduced ``scale`` × ``scale`` to the output size, then turned
+into depth ``z = f·b/d`` with the rendered images' true focal length ``f`` and the rig's
+baseline ``b``. Without a match: NaN.
+
+No empty strip: a left pixel at disparity ``d`` is seen ``d`` pixels further left in the right
+image, so the left-most :data:`DISPARITY_RANGE_PX` columns of a left image have no partner to
+search and SGBM marks them invalid. Both cameras therefore render a wider image — the same focal
+length, :data:`DISPARITY_RANGE_PX` more columns on each side (MuJoCo renders centred principal
+points only) — and the output is the middle: the 88 × 72 output covers the whole 47° × 39° field.
 """
 
 from __future__ import annotations
@@ -21,21 +32,90 @@ from mapper.intrinsics import PinholeIntrinsics
 
 STEREO_RENDER_SCALE = 2
 """Render resolution / output resolution of the stereo mode: QRIO matched at 176 × 144 for its
-88 × 72 output."""
+88 × 72 output. Matching at 2× and reducing gives 2 × 2 render pixels per output pixel to
+vote (the median); 4× (352 × 288) costs four times the render and match for precision the 88 × 72
+output cannot show."""
+DISPARITY_RANGE_PX = 32
+"""Disparities searched [px at the render resolution], 0..31 (SGBM wants a multiple of 16):
+reaches down to ``f·b/31`` = 0.44 m for the 68 mm baseline at 176 × 144 (f = 202 px); nearer
+things (the robot's own arms and chest, which the self filter removes) are not matched. Also the
+margin rendered on each side."""
+REFINE_STEPS = 2
+"""Lucas-Kanade steps refining SGBM's disparity (:meth:`StereoMatcher.refine`): the first takes
+out nearly all of the pixel locking, the second the rest of the linearisation error."""
+MAX_REFINE_PX = 1.0
+"""Largest total refinement [render px]: SGBM is right to a pixel where it matched; a larger step
+is a window straddling an edge or without texture, and its pixel is withdrawn."""
+IMAGE_NOISE_GREY = 1.5
+"""Std of the sensor noise added to each rendered 8-bit grey image [grey levels]: a small CMOS
+camera indoors (read and shot noise of about 0.5 % of full scale). A render is noise free, and
+SGBM on noise-free images matches unrealistically well."""
+
+
+def stereo_render_px(width: int, height: int) -> tuple[int, int]:
+    """(width, height) [px] of the images the stereo mode renders for a width × height output."""
+    return (
+        STEREO_RENDER_SCALE * width + 2 * DISPARITY_RANGE_PX,
+        STEREO_RENDER_SCALE * height,
+    )
+
+
+def widened(intrinsics: PinholeIntrinsics, margin_px: int) -> PinholeIntrinsics:
+    """The same centred camera with ``margin_px`` more columns on each side (same focal length)."""
+    width = intrinsics.width + 2 * margin_px
+    return PinholeIntrinsics(
+        width, intrinsics.height, intrinsics.fx, intrinsics.fy, (width - 1) / 2.0, intrinsics.cy
+    )
+
+
+def render_intrinsics(intrinsics: PinholeIntrinsics) -> PinholeIntrinsics:
+    """Intrinsics of the images the stereo mode renders for output ``intrinsics``.
+
+    ``STEREO_RENDER_SCALE`` × the resolution over the same field (output pixel ``u`` covers
+    render pixels ``s·u`` .. ``s·u + s − 1`` of the middle part), widened by
+    :data:`DISPARITY_RANGE_PX` columns on each side.
+    """
+    scaled = PinholeIntrinsics.from_fov(
+        STEREO_RENDER_SCALE * intrinsics.width,
+        STEREO_RENDER_SCALE * intrinsics.height,
+        intrinsics.hfov_deg,
+        intrinsics.vfov_deg,
+    )
+    return widened(scaled, DISPARITY_RANGE_PX)
 
 
 class StereoMatcher:
     """Depth from rendered left/right images matched by OpenCV's StereoSGBM (``stereo`` mode).
 
+    The matcher's settings, each for a reason:
+
+    * ``blockSize`` 5 [render px]: the matching window, 2.5 output pixels; larger windows fatten
+      edges further (the foreground bleeds over a half window) and smooth small steps away,
+      smaller ones match noise. The smoothness penalties are OpenCV's recommended
+      ``P1 = 8·block²``, ``P2 = 32·block²`` (one grey channel).
+    * mode ``SGBM`` (5 paths, one pass): the 8-path ``HH`` mode costs twice as much for no gain
+      on these textures.
+    * ``uniquenessRatio`` 10 [%]: the best cost must beat the second best by 10 % (OpenCV: 5–15);
+      it withdraws ambiguous matches (weak texture, repeated patterns).
+    * ``disp12MaxDiff`` 1 [px]: the left-right consistency check — the right-to-left match must
+      agree within a pixel, which removes occluded pixels beside foreground edges.
+    * speckle filter, window 50 render px (about 12 output pixels), range 2 px: islands of
+      disparity this small that differ from their surroundings are mismatches, not objects.
+    * sub-pixel disparity: SGBM's own parabola fit through its costs "pixel-locks" — on a
+      textured plane its disparities sit within 2/16 px of whole pixels, so a plane at 3 m
+      (4.72 px) reads 5.0 px, 6 % too near (measured, ``tests/test_stereo.py``). Its disparity
+      is therefore refined by :data:`REFINE_STEPS` Lucas-Kanade steps along the row
+      (:meth:`StereoMatcher.refine`: the shift that best aligns the two images over the
+      matching window, from the image gradient), which is unbiased within a pixel; the reduction to
+      the output takes the median of the valid disparities of each ``s × s`` block (mean of the
+      middle two for an even count) and needs at least half of them valid — a lone valid render
+      pixel is most often an edge or a speckle that survived.
+
     Args:
-        model: The compiled model (left/right intrinsics at the render resolution in it).
+        model: The compiled model; the left/right cameras' intrinsics at
+            :func:`render_intrinsics` are written into it first.
         intrinsics: Intrinsics of the output depth image.
         baseline_m: Distance between the left and right cameras [m].
-        scale: Render resolution / output resolution.
-        num_disparities: SGBM disparity search range [px at the render resolution]; 32 px
-            reaches down to ``f·b/32`` (about 0.4 m for a 7 cm baseline at 176 × 144).
-        block_size: SGBM matching block side [px]; its smoothness penalties are OpenCV's
-            recommended ``P1 = 8·block²``, ``P2 = 32·block²`` (one grey channel).
         geomgroups: Geom groups that are visible.
     """
 
@@ -44,31 +124,29 @@ class StereoMatcher:
         model: mujoco.MjModel,
         intrinsics: PinholeIntrinsics,
         baseline_m: float,
-        scale: int = STEREO_RENDER_SCALE,
-        num_disparities: int = 32,
-        block_size: int = 5,
         geomgroups: tuple[int, ...] = VISIBLE_GEOMGROUPS,
     ) -> None:
         self.intrinsics = intrinsics
-        self.scale = scale
-        self.intrinsics_render = PinholeIntrinsics.from_fov(
-            intrinsics.width * scale,
-            intrinsics.height * scale,
-            intrinsics.hfov_deg,
-            intrinsics.vfov_deg,
-        )
+        self.scale = STEREO_RENDER_SCALE
+        self.intrinsics_render = render_intrinsics(intrinsics)
         self.baseline_m = baseline_m
+        self.focal_baseline_px_m = self.intrinsics_render.fx * baseline_m
+        """``f·b`` at the render resolution [px·m]: depth = this / disparity [render px]."""
         self._renderer = mujoco.Renderer(
             model, self.intrinsics_render.height, self.intrinsics_render.width
         )
         self._finalizer = weakref.finalize(self, self._renderer.close)
         self._option = scene_option(geomgroups)
+        block = 5
+        self._block = block
+        self._columns = np.arange(self.intrinsics_render.width, dtype=np.float32)[None, :]
+        self._rows = np.arange(self.intrinsics_render.height, dtype=np.float32)[:, None]
         self._matcher = cv2.StereoSGBM_create(
             minDisparity=0,
-            numDisparities=num_disparities,
-            blockSize=block_size,
-            P1=8 * block_size**2,
-            P2=32 * block_size**2,
+            numDisparities=DISPARITY_RANGE_PX,
+            blockSize=block,
+            P1=8 * block**2,
+            P2=32 * block**2,
             disp12MaxDiff=1,
             uniquenessRatio=10,
             speckleWindowSize=50,
@@ -76,34 +154,80 @@ class StereoMatcher:
             mode=cv2.STEREO_SGBM_MODE_SGBM,
         )
 
-    def grey_image(self, data: mujoco.MjData, camera_id: int) -> NDArray[np.uint8]:
-        """Rendered grey image (render resolution) of one camera."""
+    def grey_image(
+        self, data: mujoco.MjData, camera_id: int, rng: np.random.Generator
+    ) -> NDArray[np.uint8]:
+        """Rendered grey image (render resolution) of one camera, with sensor noise from ``rng``."""
         self._renderer.update_scene(data, camera=camera_id, scene_option=self._option)
-        return cv2.cvtColor(self._renderer.render(), cv2.COLOR_RGB2GRAY)
+        grey = cv2.cvtColor(self._renderer.render(), cv2.COLOR_RGB2GRAY).astype(np.float32)
+        grey += rng.normal(0.0, IMAGE_NOISE_GREY, size=grey.shape).astype(np.float32)
+        return np.clip(np.round(grey), 0, 255).astype(np.uint8)
+
+    def disparity_render(self, left: NDArray[np.uint8], right: NDArray[np.uint8]) -> NDArray:
+        """Refined disparity [render px] of the middle (un-widened) part; NaN = no match."""
+        raw = self._matcher.compute(left, right)
+        disparity = raw.astype(np.float32) / 16.0
+        disparity[raw <= 0] = np.nan  # OpenCV's "no match" is minDisparity - 1 (x16); 0 = infinity
+        refined = self.refine(left, right, disparity)
+        return refined[:, DISPARITY_RANGE_PX:-DISPARITY_RANGE_PX]
+
+    def refine(
+        self,
+        left: NDArray[np.uint8],
+        right: NDArray[np.uint8],
+        disparity: NDArray[np.float32],
+    ) -> NDArray[np.float32]:
+        """Disparity refined by Lucas-Kanade steps along the rows [render px]; NaN stays NaN.
+
+        With the right image shifted by the current disparity, ``R_d(x) = R(x − d(x))``, a
+        further shift ``δ`` changes it by ``−δ·∂R/∂x``; the ``δ`` that best matches the left
+        image over the matching window (least squares) is ``−Σ(L − R_d)·g / Σ g²`` with
+        ``g = ∂R/∂x`` at the shifted position. Pixels whose total step exceeds
+        :data:`MAX_REFINE_PX`, or whose window has no gradient, are withdrawn.
+        """
+        left_f = left.astype(np.float32)
+        right_f = right.astype(np.float32)
+        gradient = cv2.Sobel(right_f, cv2.CV_32F, 1, 0, ksize=3, scale=0.125)
+        window = (self._block, self._block)
+        start = np.nan_to_num(disparity, nan=0.0)
+        current = start.copy()
+        for _ in range(REFINE_STEPS):
+            map_x = self._columns - current
+            map_y = np.broadcast_to(self._rows, current.shape).astype(np.float32)
+            shifted = cv2.remap(right_f, map_x, map_y, cv2.INTER_LINEAR, cv2.BORDER_REPLICATE)
+            g = cv2.remap(gradient, map_x, map_y, cv2.INTER_LINEAR, cv2.BORDER_REPLICATE)
+            eg = cv2.boxFilter((left_f - shifted) * g, -1, window, normalize=False)
+            gg = cv2.boxFilter(g * g, -1, window, normalize=False)
+            with np.errstate(divide="ignore", invalid="ignore"):
+                current = current - eg / gg
+        current[~(np.abs(current - start) <= MAX_REFINE_PX)] = np.nan
+        current[np.isnan(disparity)] = np.nan
+        return current
+
+    def reduce(self, disparity_render: NDArray[np.float32]) -> NDArray[np.float32]:
+        """Output-resolution disparity [render px]: block medians, NaN with < half valid."""
+        h, w, s = self.intrinsics.height, self.intrinsics.width, self.scale
+        blocks = disparity_render.reshape(h, s, w, s).transpose(0, 2, 1, 3).reshape(h, w, s * s)
+        valid = np.sum(np.isfinite(blocks), axis=-1)
+        ordered = np.sort(blocks, axis=-1)  # NaN sort last
+        low = np.take_along_axis(ordered, np.maximum(valid - 1, 0)[..., None] // 2, axis=-1)
+        high = np.take_along_axis(ordered, (valid // 2)[..., None], axis=-1)
+        reduced = 0.5 * (low[..., 0] + high[..., 0])
+        reduced[2 * valid < s * s] = np.nan
+        return reduced
 
     def depth(
-        self, data: mujoco.MjData, left_camera_id: int, right_camera_id: int
+        self,
+        data: mujoco.MjData,
+        left_camera_id: int,
+        right_camera_id: int,
+        rng: np.random.Generator,
     ) -> NDArray[np.float32]:
         """(H, W) depth [m] along the left camera's optical axis; NaN where unmatched."""
-        left = self.grey_image(data, left_camera_id)
-        right = self.grey_image(data, right_camera_id)
-        disparity = self._matcher.compute(left, right).astype(np.float32) / 16.0
-        with np.errstate(divide="ignore"):
-            depth = np.where(
-                disparity > 0.5,
-                np.float32(self.intrinsics_render.fx * self.baseline_m) / disparity,
-                np.float32(np.nan),
-            )
-        h, w = self.intrinsics.shape
-        blocks = depth.reshape(h, self.scale, w, self.scale).transpose(0, 2, 1, 3)
-        blocks = blocks.reshape(h, w, self.scale * self.scale)
-        valid = np.sum(np.isfinite(blocks), axis=-1)
-        with np.errstate(all="ignore"):
-            pooled = np.sort(blocks, axis=-1)  # NaN sort last
-            index = np.maximum(valid - 1, 0) // 2
-            out = np.take_along_axis(pooled, index[..., None], axis=-1)[..., 0]
-        out[valid == 0] = np.nan
-        return out.astype(np.float32)
+        left = self.grey_image(data, left_camera_id, rng)
+        right = self.grey_image(data, right_camera_id, rng)
+        disparity = self.reduce(self.disparity_render(left, right))
+        return (np.float32(self.focal_baseline_px_m) / disparity).astype(np.float32)
 
     def close(self) -> None:
         """Free the OpenGL context (idempotent)."""
