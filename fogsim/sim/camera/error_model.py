@@ -1,14 +1,20 @@
 """The ``depth`` mode's sensor: exact depth through the errors of a stereo depth camera.
 
-Disparity ``d = f·b/z``, plus Gaussian noise, quantised to a step, back to ``z``; depths outside
-``range_m`` and a random fraction of pixels (``dropout``) are lost. The depth error thus grows
-with the square of the distance, as a stereo camera's does (``σ_z = z²·σ_d/(f·b)``).
+In order: edge fattening (within ``edge_fattening_px`` of a depth edge the background takes the
+foreground's depth, as a matching window straddling the edge does), occlusion (pixels the right
+camera cannot see, beside the left of a nearer surface, lose their measurement, as SGBM's
+left-right check withdraws them), then disparity ``d = f·b/z`` plus Gaussian noise, quantised to
+a step, back to ``z``; depths outside ``range_m`` and a random fraction of pixels (``dropout``)
+are lost. The depth error thus grows with the square of the distance, as a stereo camera's does
+(``σ_z = z²·σ_d/(f·b)``). ``bench/stereo_stats.py`` measures these figures for the stereo head
+on the stage.
 """
 
 from __future__ import annotations
 
 from dataclasses import dataclass
 
+import cv2
 import numpy as np
 from numpy.typing import NDArray
 
@@ -27,6 +33,10 @@ class StereoErrorModel:
         disparity_step_px: Disparity quantisation step [px] (0 = none).
         dropout: Fraction of pixels randomly without a measurement.
         range_m: (min, max) depth kept [m].
+        edge_fattening_px: How far [px] the nearer side of a depth edge spreads over the
+            farther one (0 = none).
+        occlusion: True: pixels hidden from a right camera ``baseline_m`` to the right lose
+            their measurement.
 
     No defaults: the scenario's camera table holds them (:meth:`from_config`).
 
@@ -40,6 +50,8 @@ class StereoErrorModel:
     disparity_step_px: float
     dropout: float
     range_m: tuple[float, float]
+    edge_fattening_px: int
+    occlusion: bool
 
     def __post_init__(self) -> None:
         if not (self.focal_px > 0 and self.baseline_m > 0):
@@ -55,6 +67,10 @@ class StereoErrorModel:
             raise CameraError(f"dropout must be in [0, 1), got {self.dropout}")
         if not 0.0 < self.range_m[0] < self.range_m[1]:
             raise CameraError(f"range_m must be (min, max) with 0 < min < max, got {self.range_m}")
+        if not 0 <= self.edge_fattening_px <= 8:
+            raise CameraError(
+                f"edge_fattening_px must be an integer in [0, 8] px, got {self.edge_fattening_px}"
+            )
 
     @classmethod
     def from_config(cls, config: CameraConfig, focal_px: float) -> StereoErrorModel:
@@ -66,23 +82,61 @@ class StereoErrorModel:
             disparity_step_px=config.disparity_step_px,
             dropout=config.dropout,
             range_m=config.range_m,
+            edge_fattening_px=config.edge_fattening_px,
+            occlusion=config.occlusion,
         )
 
     def depth_sigma_m(self, depth_m: float) -> float:
         """Std of the depth error at ``depth_m`` from disparity noise alone [m] (z²σ/(f b))."""
         return depth_m**2 * self.disparity_noise_px / (self.focal_px * self.baseline_m)
 
+    def fattened(self, depth_m: NDArray[np.floating]) -> NDArray[np.float64]:
+        """Depth with each depth edge's nearer side spread ``edge_fattening_px`` over the farther.
+
+        A pixel takes the nearest depth within ``edge_fattening_px`` (a square window) only where
+        that is more than 5 % nearer — an edge, not the slope of a surface seen at a slant.
+        """
+        depth = depth_m.astype(np.float64)
+        if self.edge_fattening_px == 0:
+            return depth
+        side = 2 * self.edge_fattening_px + 1
+        finite = np.nan_to_num(depth, nan=np.inf)
+        nearest = cv2.erode(
+            finite, np.ones((side, side), np.uint8), borderType=cv2.BORDER_REPLICATE
+        )
+        return np.where(nearest < 0.95 * finite, nearest, depth)
+
+    def occluded(self, depth_m: NDArray[np.float64]) -> NDArray[np.bool_]:
+        """Pixels of the (left) camera a right camera ``baseline_m`` to the right cannot see.
+
+        Pixel ``u`` of a row with disparity ``d`` appears at ``u − d`` in the right image; a
+        pixel further right whose surface is nearer appears at or left of it (by half a pixel)
+        and hides it.
+        """
+        width = depth_m.shape[1]
+        disparity = self.focal_px * self.baseline_m / depth_m
+        right_position = np.where(
+            np.isfinite(disparity), np.arange(width)[None, :] - disparity, np.inf
+        )
+        leftmost_further_right = np.minimum.accumulate(right_position[:, ::-1], axis=1)[:, ::-1]
+        hidden = np.zeros(depth_m.shape, dtype=bool)
+        hidden[:, :-1] = leftmost_further_right[:, 1:] < right_position[:, :-1] - 0.5
+        return hidden
+
     def apply(self, depth_m: NDArray[np.floating], rng: np.random.Generator) -> NDArray[np.float32]:
         """Noisy depth (float32, NaN = none) from exact depth; draws from ``rng``."""
         fb = self.focal_px * self.baseline_m
-        disparity = fb / depth_m.astype(np.float64)
+        exact = self.fattened(depth_m)
+        hidden = self.occluded(exact) if self.occlusion else np.zeros(exact.shape, dtype=bool)
+        disparity = fb / exact
         disparity += rng.normal(0.0, self.disparity_noise_px, size=depth_m.shape)
         if self.disparity_step_px > 0.0:
             disparity = np.round(disparity / self.disparity_step_px) * self.disparity_step_px
         with np.errstate(divide="ignore", invalid="ignore"):
             depth = np.where(disparity > 0.0, fb / disparity, np.nan)
         lost = (
-            ~(depth >= self.range_m[0])
+            hidden
+            | ~(depth >= self.range_m[0])
             | ~(depth <= self.range_m[1])
             | (rng.random(depth_m.shape) < self.dropout)
         )

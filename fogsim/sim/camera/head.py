@@ -48,6 +48,8 @@ class HeadCamera:
         depth_camera: Which camera the depth image belongs to (``head_camera``, or
             ``head_camera_left`` in ``stereo`` mode).
         noise: The stereo error model of the ``depth`` mode.
+        baseline_m: Stereo baseline of the left/right pair [m] (``baseline_m``, else the
+            scenario's).
 
     Raises:
         CameraError: An unknown backend, or ``stereo`` mode without the renderer.
@@ -77,6 +79,7 @@ class HeadCamera:
         for camera_id in camera_ids.values():
             set_model_intrinsics(model, camera_id, self.intrinsics)
         self._camera_ids = camera_ids
+        self.baseline_m = baseline_m or config.baseline_m
         self.depth_camera = "head_camera_left" if self.mode == "stereo" else "head_camera"
         self._stereo: StereoMatcher | None = None
         self._margin_px = 0
@@ -84,7 +87,7 @@ class HeadCamera:
             for name in ("head_camera_left", "head_camera_right"):
                 set_model_intrinsics(model, camera_ids[name], render_intrinsics(self.intrinsics))
             self._stereo = StereoMatcher(
-                model, self.intrinsics, baseline_m or config.baseline_m, geomgroups=geomgroups
+                model, self.intrinsics, self.baseline_m, geomgroups=geomgroups
             )
             # The left camera renders a widened field: its exact depth is the middle of a
             # widened output-resolution image.
