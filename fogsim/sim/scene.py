@@ -128,7 +128,7 @@ def offscreen_px(camera: CameraConfig) -> tuple[int, int]:
 
     MuJoCo renders into one off-screen buffer per model and refuses images larger than it. The
     largest image is the stereo mode's (:func:`fogsim.sim.camera.stereo.stereo_render_px`: twice
-    the camera's resolution, widened by the disparity search range on each side), whatever the
+    the camera's resolution, extended by the disparity search range and a margin), whatever the
     mode, so one scene serves every mode; the buffer is never smaller than
     :data:`MIN_OFFSCREEN_PX`. The camera's largest side (``fogsim.config.limits``) keeps it
     within OpenGL's renderbuffer limit.

@@ -23,10 +23,11 @@ from fogsim.sim.camera.error_model import StereoErrorModel
 from fogsim.sim.camera.intrinsics import camera_intrinsics, set_model_intrinsics
 from fogsim.sim.camera.stereo import (
     DISPARITY_RANGE_PX,
+    RIGHT_MARGIN_PX,
     STEREO_RENDER_SCALE,
     StereoMatcher,
+    extended,
     render_intrinsics,
-    widened,
 )
 
 
@@ -82,17 +83,20 @@ class HeadCamera:
         self.baseline_m = baseline_m or config.baseline_m
         self.depth_camera = "head_camera_left" if self.mode == "stereo" else "head_camera"
         self._stereo: StereoMatcher | None = None
-        self._margin_px = 0
+        self._margins_px = (0, 0)
         if self.mode == "stereo":
             for name in ("head_camera_left", "head_camera_right"):
                 set_model_intrinsics(model, camera_ids[name], render_intrinsics(self.intrinsics))
             self._stereo = StereoMatcher(
                 model, self.intrinsics, self.baseline_m, geomgroups=geomgroups
             )
-            # The left camera renders a widened field: its exact depth is the middle of a
-            # widened output-resolution image.
-            self._margin_px = DISPARITY_RANGE_PX // STEREO_RENDER_SCALE
-        exact_intrinsics = widened(self.intrinsics, self._margin_px)
+            # The left camera renders an extended field: its exact depth is the part between
+            # the margins of a likewise extended output-resolution image.
+            self._margins_px = (
+                DISPARITY_RANGE_PX // STEREO_RENDER_SCALE,
+                RIGHT_MARGIN_PX // STEREO_RENDER_SCALE,
+            )
+        exact_intrinsics = extended(self.intrinsics, *self._margins_px)
         self._depth: RendererDepth | RaycastDepth
         if backend == "renderer":
             self._depth = RendererDepth(model, exact_intrinsics, geomgroups)
@@ -103,7 +107,8 @@ class HeadCamera:
     def exact_depth(self, data: mujoco.MjData) -> NDArray[np.float32]:
         """Exact depth of the camera the depth images belong to (:attr:`depth_camera`)."""
         depth = self._depth.render(data, self._camera_ids[self.depth_camera])
-        return depth[:, self._margin_px : depth.shape[1] - self._margin_px]
+        left, right = self._margins_px
+        return depth[:, left : depth.shape[1] - right]
 
     def capture(self, data: mujoco.MjData, rng: np.random.Generator) -> NDArray[np.float32]:
         """One depth image of the current scene state (call the scene's ``forward`` first)."""
