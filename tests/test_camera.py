@@ -130,17 +130,23 @@ def test_rough_tops_render_like_raycast():
     cam.close()
 
 
-def test_error_model_statistics_known_answers():
-    model = StereoErrorModel(
+def error_model(**changes) -> StereoErrorModel:
+    """f = 100 px, b = 0.1 m (f b = 10 px m), no noise: only what ``changes`` turns on."""
+    values = dict(
         focal_px=100.0,
         baseline_m=0.1,
-        disparity_noise_px=0.1,
+        disparity_noise_px=0.0,
         disparity_step_px=0.0,
         dropout=0.0,
         range_m=(0.1, 10.0),
         edge_fattening_px=0,
         occlusion=False,
     )
+    return StereoErrorModel(**(values | changes))
+
+
+def test_error_model_statistics_known_answers():
+    model = error_model(disparity_noise_px=0.1)
     depth = np.full((400, 500), 2.0, dtype=np.float32)
     noisy = model.apply(depth, np.random.default_rng(7))
     # d = f b / z = 5 px; sigma_z ~ z^2 sigma_d / (f b) = 4 * 0.1 / 10 = 0.04 m.

@@ -7,7 +7,7 @@ import dataclasses
 import cv2
 import numpy as np
 import pytest
-from test_camera import look_transform
+from test_camera import error_model, look_transform
 
 from fogsim.config import load_scenario, scenario_from_dict
 from fogsim.sim.camera import HeadCamera, RaycastDepth, StereoErrorModel
@@ -98,21 +98,6 @@ def test_refinement_removes_sgbm_pixel_locking():
     assert np.isfinite(refined).mean() > 0.99
     assert np.nanmedian(refined) == pytest.approx(shift_px, abs=0.02)
     assert np.isnan(refine_disparity(left, right, start, 5)[:5, :5]).all()
-
-
-def error_model(**changes) -> StereoErrorModel:
-    """f = 100 px, b = 0.1 m (f b = 10 px m), no noise: only what ``changes`` turns on."""
-    values = dict(
-        focal_px=100.0,
-        baseline_m=0.1,
-        disparity_noise_px=0.0,
-        disparity_step_px=0.0,
-        dropout=0.0,
-        range_m=(0.1, 10.0),
-        edge_fattening_px=0,
-        occlusion=False,
-    )
-    return StereoErrorModel(**(values | changes))
 
 
 def square_scene() -> np.ndarray:
