@@ -111,14 +111,22 @@ class HeadCamera:
         return depth[:, left : depth.shape[1] - right]
 
     def capture(self, data: mujoco.MjData, rng: np.random.Generator) -> NDArray[np.float32]:
-        """One depth image of the current scene state (call the scene's ``forward`` first)."""
+        """One depth image of the current scene state (call the scene's ``forward`` first).
+
+        In the ``stereo`` and ``depth`` modes depths outside the camera's ``range_m`` are NaN:
+        beyond it a stereo head's depth is too noisy to use (at 8 m one tenth of a pixel of
+        disparity is 0.9 m), and both modes keep the same range.
+        """
         if self._stereo is not None:
-            return self._stereo.depth(
+            depth = self._stereo.depth(
                 data,
                 self._camera_ids["head_camera_left"],
                 self._camera_ids["head_camera_right"],
                 rng,
             )
+            low, high = self.config.range_m
+            depth[~((depth >= low) & (depth <= high))] = np.nan
+            return depth
         depth = self.exact_depth(data)
         if self.mode == "ideal":
             return depth
