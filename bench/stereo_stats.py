@@ -11,6 +11,8 @@ columns can be compared. Reported, in output pixels of disparity ``d = f·b/z``:
   bias, noise     median and robust std (1.4826·MAD) of d_measured − d_true on surfaces
                   (pixels at least 2 px from a depth edge), overall and per range bin
   gross           fraction of surface pixels off by more than 1 px
+  correlation     of the surface pixels' errors with their neighbours' at a few lags (rows,
+                  columns): stereo errors are smooth over the matching window, white noise not
   dropout         fraction of surface pixels without a measurement, per range bin
   edge            near depth edges (1–2 px, background side): dropout, and how often the
                   measurement is nearer the foreground's depth (nearest within 2 px) than the
@@ -38,6 +40,8 @@ from fogsim.sim.simulation import Simulation
 
 RANGE_BINS_M = (0.5, 1.0, 1.5, 2.0, 3.0, 4.0)
 """Edges of the depth bins [m] the range dependence is reported in."""
+CORRELATION_LAGS_PX = ((0, 1), (0, 2), (0, 4), (0, 8), (1, 0), (2, 0), (4, 0))
+"""(rows, columns) lags at which the disparity errors' correlation is reported."""
 ROBOT_BASELINE_M = 0.068
 """The stage robot's (iCub's) stereo baseline [m], ``assets/robots/icub.toml``: disparities are
 in its output pixels."""
@@ -110,6 +114,11 @@ def statistics(
         tag = f"{low:.1f}-{high:.1f}m"
         result[f"noise_px {tag}"] = float(1.4826 * np.median(np.abs(e - np.median(e))))
         result[f"dropout {tag}"] = float(1.0 - good.sum() / max(part.sum(), 1))
+    for dy, dx in CORRELATION_LAGS_PX:
+        pair = ok[:, dy:, dx:] & ok[:, : ok.shape[1] - dy, : ok.shape[2] - dx]
+        a = error[:, dy:, dx:][pair]
+        b = error[:, : ok.shape[1] - dy, : ok.shape[2] - dx][pair]
+        result[f"correlation lag {dy},{dx} px"] = float(np.corrcoef(a, b)[0, 1])
     edge = in_range & far & (distance < 2.5) & (distance > 0)
     edge_ok = edge & np.isfinite(measured)
     result["edge dropout"] = float(1.0 - edge_ok.sum() / max(edge.sum(), 1))
@@ -125,6 +134,7 @@ def main() -> None:
     parser.add_argument("--every", type=int, default=8, help="sample every n-th frame")
     parser.add_argument("--noise-px", type=float, help="depth mode: disparity noise")
     parser.add_argument("--dropout", type=float, help="depth mode: random dropout")
+    parser.add_argument("--correlation-px", type=float, help="depth mode: noise smoothing")
     parser.add_argument("--step-px", type=float, help="depth mode: disparity step")
     parser.add_argument("--fattening-px", type=int, help="depth mode: edge fattening")
     parser.add_argument("--occlusion", action="store_true", help="depth mode: occlusion loss")
@@ -132,6 +142,7 @@ def main() -> None:
     base = load_scenario("stage").camera
     given = {
         "disparity_noise_px": args.noise_px,
+        "disparity_noise_correlation_px": args.correlation_px,
         "disparity_step_px": args.step_px,
         "dropout": args.dropout,
         "edge_fattening_px": args.fattening_px,

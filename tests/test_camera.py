@@ -139,6 +139,7 @@ def error_model(**changes) -> StereoErrorModel:
         disparity_step_px=0.0,
         dropout=0.0,
         range_m=(0.1, 10.0),
+        disparity_noise_correlation_px=0.0,
         edge_fattening_px=0,
         occlusion=False,
     )
@@ -160,7 +161,7 @@ def test_error_model_statistics_known_answers():
 
 def test_error_model_quantisation_range_and_dropout():
     step = 0.25
-    model = StereoErrorModel(100.0, 0.1, 0.0, step, 0.1, (0.5, 3.0), 0, False)
+    model = StereoErrorModel(100.0, 0.1, 0.0, step, 0.1, (0.5, 3.0), 0.0, 0, False)
     depth = np.linspace(0.2, 5.0, 200_000, dtype=np.float32).reshape(400, 500)
     noisy = model.apply(depth, np.random.default_rng(1))
     valid = np.isfinite(noisy)
@@ -171,7 +172,7 @@ def test_error_model_quantisation_range_and_dropout():
         10.0 / (np.round(10.0 / depth / step) * step) <= 3.0
     )
     assert (~valid[in_range]).mean() == pytest.approx(0.1, abs=0.005)
-    exact = StereoErrorModel(100.0, 0.1, 0.0, 0.0, 0.0, (0.1, 10.0), 0, False)
+    exact = StereoErrorModel(100.0, 0.1, 0.0, 0.0, 0.0, (0.1, 10.0), 0.0, 0, False)
     np.testing.assert_allclose(
         exact.apply(depth, np.random.default_rng(0))[depth >= 0.1], depth[depth >= 0.1], rtol=1e-6
     )
@@ -221,9 +222,9 @@ def test_bad_camera_requests_raise(stage_scene):
             backend="raycast",
         )
     with pytest.raises(CameraError, match="dropout"):
-        StereoErrorModel(100.0, 0.1, 0.05, 0.0625, 1.5, (0.15, 4.0), 0, False)
+        StereoErrorModel(100.0, 0.1, 0.05, 0.0625, 1.5, (0.15, 4.0), 0.0, 0, False)
     with pytest.raises(CameraError, match="edge_fattening_px"):
-        StereoErrorModel(100.0, 0.1, 0.05, 0.0625, 0.01, (0.15, 4.0), 9, False)
+        StereoErrorModel(100.0, 0.1, 0.05, 0.0625, 0.01, (0.15, 4.0), 0.0, 9, False)
     off_centre = PinholeIntrinsics(88, 72, 100.0, 100.0, 40.0, 30.0)
     with pytest.raises(CameraError, match=r"cy=30.0 for a 88x72 image, allowed cy=35.5"):
         set_model_intrinsics(stage_scene.model, 0, off_centre)

@@ -3,7 +3,8 @@
 In order: edge fattening (within ``edge_fattening_px`` of a depth edge the background takes the
 foreground's depth, as a matching window straddling the edge does), occlusion (pixels the right
 camera cannot see, beside the left of a nearer surface, lose their measurement, as SGBM's
-left-right check withdraws them), then disparity ``d = f·b/z`` plus Gaussian noise, quantised to
+left-right check withdraws them), then disparity ``d = f·b/z`` plus Gaussian noise (white, or
+smoothed over ``disparity_noise_correlation_px`` as a matcher's window smooths it), quantised to
 a step, back to ``z``; depths outside ``range_m`` and a random fraction of pixels (``dropout``)
 are lost. The depth error thus grows with the square of the distance, as a stereo camera's does
 (``σ_z = z²·σ_d/(f·b)``). ``bench/stereo_stats.py`` measures these figures for the stereo head
@@ -30,6 +31,10 @@ class StereoErrorModel:
         focal_px: Focal length the disparities are measured with [px].
         baseline_m: Stereo baseline [m].
         disparity_noise_px: Std of the Gaussian disparity noise [px].
+        disparity_noise_correlation_px: Std [px] of the Gaussian kernel that smooths the noise
+            field (0 = white noise); neighbours' errors then correlate by
+            ``exp(−lag²/(4·σ²))`` (0.5 at one pixel for 0.6 px). The std stays
+            ``disparity_noise_px``.
         disparity_step_px: Disparity quantisation step [px] (0 = none).
         dropout: Fraction of pixels randomly without a measurement.
         range_m: (min, max) depth kept [m].
@@ -50,6 +55,7 @@ class StereoErrorModel:
     disparity_step_px: float
     dropout: float
     range_m: tuple[float, float]
+    disparity_noise_correlation_px: float
     edge_fattening_px: int
     occlusion: bool
 
@@ -67,6 +73,11 @@ class StereoErrorModel:
             raise CameraError(f"dropout must be in [0, 1), got {self.dropout}")
         if not 0.0 < self.range_m[0] < self.range_m[1]:
             raise CameraError(f"range_m must be (min, max) with 0 < min < max, got {self.range_m}")
+        if not 0.0 <= self.disparity_noise_correlation_px <= 5.0:
+            raise CameraError(
+                "disparity_noise_correlation_px must be in [0, 5] px, got "
+                f"{self.disparity_noise_correlation_px}"
+            )
         if not 0 <= self.edge_fattening_px <= 8:
             raise CameraError(
                 f"edge_fattening_px must be an integer in [0, 8] px, got {self.edge_fattening_px}"
@@ -82,6 +93,7 @@ class StereoErrorModel:
             disparity_step_px=config.disparity_step_px,
             dropout=config.dropout,
             range_m=config.range_m,
+            disparity_noise_correlation_px=config.disparity_noise_correlation_px,
             edge_fattening_px=config.edge_fattening_px,
             occlusion=config.occlusion,
         )
@@ -123,13 +135,28 @@ class StereoErrorModel:
         hidden[:, :-1] = leftmost_further_right[:, 1:] < right_position[:, :-1] - 0.5
         return hidden
 
+    def noise_px(self, shape: tuple[int, ...], rng: np.random.Generator) -> NDArray[np.float64]:
+        """A disparity noise field [px]: std ``disparity_noise_px``, smoothed if asked.
+
+        White noise filtered with a normalised Gaussian kernel of std ``σ`` keeps a std of
+        ``|k|₂`` (the kernel's root sum of squares); dividing by it restores the std.
+        """
+        white = rng.standard_normal(shape)
+        sigma = self.disparity_noise_correlation_px
+        if sigma == 0.0:
+            return self.disparity_noise_px * white
+        size = 2 * int(np.ceil(3.0 * sigma)) + 1
+        kernel = cv2.getGaussianKernel(size, sigma, cv2.CV_64F)
+        smooth = cv2.sepFilter2D(white, cv2.CV_64F, kernel, kernel, borderType=cv2.BORDER_REFLECT)
+        return self.disparity_noise_px / float(np.sum(kernel**2)) * smooth
+
     def apply(self, depth_m: NDArray[np.floating], rng: np.random.Generator) -> NDArray[np.float32]:
         """Noisy depth (float32, NaN = none) from exact depth; draws from ``rng``."""
         fb = self.focal_px * self.baseline_m
         exact = self.fattened(depth_m)
         hidden = self.occluded(exact) if self.occlusion else np.zeros(exact.shape, dtype=bool)
         disparity = fb / exact
-        disparity += rng.normal(0.0, self.disparity_noise_px, size=depth_m.shape)
+        disparity = disparity + self.noise_px(depth_m.shape, rng)
         if self.disparity_step_px > 0.0:
             disparity = np.round(disparity / self.disparity_step_px) * self.disparity_step_px
         with np.errstate(divide="ignore", invalid="ignore"):
