@@ -16,14 +16,16 @@ from fogsim.sim.scene import Scene
 
 CALIBRATED = {
     "disparity_noise_px": 0.077,
+    "disparity_noise_correlation_px": 0.6,
     "disparity_step_px": 0.0,
     "dropout": 0.003,
     "edge_fattening_px": 1,
     "occlusion": False,
 }
 """The depth mode's error model as ``bench/stereo_stats.py`` measured the stereo head on the stage
-(seeds 1-3, every 16th frame): disparity noise 0.077 output px (robust std), no quantisation
-left after the sub-pixel refinement, 0.3 % of surface pixels lost, edges fattened by a pixel
+(seeds 1-3, every 16th frame): disparity noise 0.077 output px (robust std), correlated 0.50 and
+0.40 with the next pixel along rows and columns (the model: 0.445), no quantisation left after
+the sub-pixel refinement, 0.3 % of surface pixels lost, edges fattened by a pixel
 (9 % of the pixels 1-2 px behind an edge take the foreground's depth; the model: 5 %, 2 px:
 92 %). Occlusion off: the matcher keeps most occluded pixels (edge dropout 1.0 %; the occlusion
 model would drop 2.4 %)."""
@@ -137,6 +139,30 @@ def disparity_errors(measured, exact, fb):
     return fb / measured[both] - fb / exact[both], 1.0 - both.sum() / np.isfinite(exact).sum()
 
 
+def test_correlated_noise_known_answer():
+    """Noise smoothed by a Gaussian of 0.6 px: std kept; neighbours correlate as the sampled
+    5-tap kernel k_i = exp(-i^2 / 0.72) says, sum k_i k_(i+1) / sum k_i^2 = 0.445."""
+    taps = np.exp(-(np.arange(-2, 3) ** 2) / 0.72)
+    expected = np.sum(taps[1:] * taps[:-1]) / np.sum(taps**2)
+    assert expected == pytest.approx(0.445, abs=0.001)
+    model = error_model(disparity_noise_px=0.1, disparity_noise_correlation_px=0.6)
+    noise = model.noise_px((300, 400), np.random.default_rng(2))
+    assert noise.std() == pytest.approx(0.1, rel=0.02)
+    for lag_rows, lag_columns in ((0, 1), (1, 0)):
+        a = noise[lag_rows:, lag_columns:].ravel()
+        b = noise[: 300 - lag_rows, : 400 - lag_columns].ravel()
+        assert np.corrcoef(a, b)[0, 1] == pytest.approx(expected, abs=0.02)
+    white = error_model(disparity_noise_px=0.1).noise_px((300, 400), np.random.default_rng(2))
+    assert abs(np.corrcoef(white[:, 1:].ravel(), white[:, :-1].ravel())[0, 1]) < 0.01
+
+
+def neighbour_correlation(measured, exact, fb):
+    """Correlation of the disparity errors of horizontally adjacent pixels."""
+    error = fb / measured - fb / exact
+    both = np.isfinite(error[:, 1:]) & np.isfinite(error[:, :-1])
+    return np.corrcoef(error[:, 1:][both], error[:, :-1][both])[0, 1]
+
+
 def test_calibrated_depth_mode_errors_match_the_stereo_heads():
     """One stage view (boxes, sill, floor at 0.8-3 m): the calibrated depth mode applied to the
     exact depth errs like the stereo head — same noise, bias, losses and error quantiles."""
@@ -162,6 +188,8 @@ def test_calibrated_depth_mode_errors_match_the_stereo_heads():
     sigma_s, sigma_m = (1.4826 * np.median(np.abs(e - np.median(e))) for e in (err_s, err_m))
     assert sigma_m == pytest.approx(sigma_s, rel=0.3)
     assert lost_m == pytest.approx(lost_s, abs=0.02)
+    rho_s, rho_m = (neighbour_correlation(e, exact, fb) for e in (measured, modelled))
+    assert rho_m == pytest.approx(rho_s, abs=0.15)
     for q in (50, 90):
         assert np.percentile(np.abs(err_m), q) == pytest.approx(
             np.percentile(np.abs(err_s), q), rel=0.35

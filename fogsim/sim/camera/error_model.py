@@ -33,8 +33,8 @@ class StereoErrorModel:
         disparity_noise_px: Std of the Gaussian disparity noise [px].
         disparity_noise_correlation_px: Std [px] of the Gaussian kernel that smooths the noise
             field (0 = white noise); neighbours' errors then correlate by
-            ``exp(−lag²/(4·σ²))`` (0.5 at one pixel for 0.6 px). The std stays
-            ``disparity_noise_px``.
+            ``Σ k_i·k_(i+1) / Σ k_i²`` of the sampled kernel ``k`` (0.445 for 0.6 px; about
+            ``exp(−1/(4·σ²))`` for wide kernels). The std stays ``disparity_noise_px``.
         disparity_step_px: Disparity quantisation step [px] (0 = none).
         dropout: Fraction of pixels randomly without a measurement.
         range_m: (min, max) depth kept [m].
