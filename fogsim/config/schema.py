@@ -11,7 +11,8 @@ rules across fields are checked in ``__post_init__``. Every mistake raises
 
 Our extensions to DESIGN.md's table (all optional, with defaults):
     ``[camera]``: ``baseline_m``, ``disparity_noise_px``, ``disparity_step_px``,
-        ``dropout``, ``range_m`` — the stereo error model of the ``depth`` mode.
+        ``dropout``, ``range_m``, ``disparity_noise_correlation_px``, ``edge_fattening_px``,
+        ``occlusion`` — the stereo error model of the ``depth`` mode.
     ``[encoders]``: ``head_bias_deg``, ``head_noise_deg`` — the neck joints' error levels.
     ``[[objects]]``: ``roughness_m`` — bump height of a rough top.
     ``[segmentation]``: parameter overrides of the plane segmentation.
@@ -101,6 +102,12 @@ class CameraConfig:
         disparity_step_px: Disparity quantisation step [px] (OpenCV's SGBM: 1/16).
         dropout: Fraction of pixels randomly without a measurement.
         range_m: (min, max) measurable depth along the optical axis [m].
+        disparity_noise_correlation_px: ``depth`` mode: std [px] of the Gaussian kernel that
+            smooths the disparity noise, as a matching window does (0 = white noise).
+        edge_fattening_px: ``depth`` mode: how far [px] the nearer side of a depth edge spreads
+            over the farther, as a stereo matching window does (0 = none).
+        occlusion: ``depth`` mode: True drops the pixels a right camera ``baseline_m`` away
+            cannot see, as a stereo matcher's left-right check does.
     """
 
     mode: CameraMode = "depth"
@@ -112,6 +119,9 @@ class CameraConfig:
     disparity_step_px: Annotated[float, Meta(ge=0.0, le=4.0)] = 0.0625
     dropout: Annotated[float, Meta(ge=0.0, le=0.9)] = 0.01
     range_m: tuple[DepthM, DepthM] = (0.15, 4.0)
+    disparity_noise_correlation_px: Annotated[float, Meta(ge=0.0, le=5.0)] = 0.0
+    edge_fattening_px: Annotated[int, Meta(ge=0, le=8)] = 0
+    occlusion: bool = False
 
     def __post_init__(self) -> None:
         if self.range_m[0] >= self.range_m[1]:

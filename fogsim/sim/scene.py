@@ -2,15 +2,17 @@
 
 The scene is the world of DESIGN.md: z up, a textured ground plane at z = 0 reaching well
 beyond the 4 × 1 m stage, one body per scenario object (``obj_<name>``, geom
-``geom_<name>``, material ``mat_<name>``, rough tops' height field ``hf_<name>``), the robot
+``geom_<name>``, material ``mat_<name>``; a flat box is a mesh ``mesh_<name>`` with texture
+coordinates, a rough top a height field ``hf_<name>``), the robot
 attached from its standalone MJCF (names prefixed ``<model>/``, its free joint moved onto the
 attachment frame), or, without a robot, a free-floating camera rig (mocap body
 ``camera_rig``) carrying ``head_camera``, ``head_camera_left`` and ``head_camera_right``.
 
 What does not depend on the scenario is data: the MJCF pieces in ``assets/mjcf/``
-(:data:`WORLD_PIECES`: render and depth-buffer settings, the light, textures and materials,
-the floor; and the camera rig), merged in through :func:`fogsim.sim.assets.load_mjcf_piece`.
-Each piece's file says why its values are what they are.
+(:data:`WORLD_PIECES`: render and depth-buffer settings, the light, materials, the floor; and
+the camera rig), merged in through :func:`fogsim.sim.assets.load_mjcf_piece`, and the
+procedural textures of ``assets/mjcf/textures.toml`` (:func:`fogsim.sim.assets.scene_textures`).
+Each file says why its values are what they are.
 
 Objects some event moves or removes are mocap bodies: :meth:`Scene.set_time` places them where
 :func:`fogsim.world.object_center_at` says (a removed object is parked far away below the
@@ -36,9 +38,10 @@ from fogsim.config import CameraConfig, Scenario, SceneObject
 from fogsim.errors import FogsimError, RobotModelError
 from fogsim.geometry import MJ_FROM_CV
 from fogsim.robot import CAMERA_NAMES, Robot
-from fogsim.sim.assets import MJCF_DIR, load_mjcf_piece
+from fogsim.sim import assets
+from fogsim.sim.assets import MJCF_DIR, load_mjcf_piece, scene_textures
 from fogsim.sim.camera.depth import VISIBLE_GEOMGROUPS
-from fogsim.sim.camera.stereo import STEREO_RENDER_SCALE
+from fogsim.sim.camera.stereo import stereo_render_px
 from fogsim.sim.model_cache import content_key, load_or_compile
 from fogsim.world import moving_objects, object_center_at
 
@@ -73,6 +76,43 @@ def rough_elevation(obj: SceneObject, seed: int, index: int) -> NDArray[np.float
     return (z - z.min()) / (z.max() - z.min())
 
 
+def box_mesh(
+    size_m: ArrayLike,
+) -> tuple[NDArray[np.float64], NDArray[np.int32], NDArray[np.float64]]:
+    """A box centred at the origin as a mesh with texture coordinates in metres.
+
+    Each of the six faces has its own four vertices, so its texture coordinates are the face's
+    own in-plane coordinates [m]: a 2D texture (scaled by the material's ``texrepeat``) lies on
+    every face undistorted, at the same scale as on the ground. MuJoCo's primitive box takes
+    only cube maps, which streak on flat boxes.
+
+    Args:
+        size_m: Full (x, y, z) side lengths [m].
+
+    Returns:
+        Vertices (24, 3) [m], triangles (12, 3) (counter-clockwise seen from outside) and
+        texture coordinates (24, 2) [m].
+    """
+    half = 0.5 * np.asarray(size_m, dtype=np.float64)
+    axes = np.eye(3)
+    vertices, triangles, texcoords = [], [], []
+    for normal_axis in range(3):
+        u_axis, v_axis = (normal_axis + 1) % 3, (normal_axis + 2) % 3
+        for sign in (1.0, -1.0):
+            normal, u, v = sign * axes[normal_axis], axes[u_axis], sign * axes[v_axis]
+            first = len(vertices)
+            for a, b in ((-1.0, -1.0), (1.0, -1.0), (1.0, 1.0), (-1.0, 1.0)):
+                corner = (normal + a * u + b * v) * half
+                vertices.append(corner)
+                texcoords.append((corner @ u, corner @ v))
+            triangles += [(first, first + 1, first + 2), (first, first + 2, first + 3)]
+    return (
+        np.asarray(vertices),
+        np.asarray(triangles, dtype=np.int32),
+        np.asarray(texcoords),
+    )
+
+
 def quat_wxyz_from_matrix(rotation: ArrayLike) -> NDArray[np.float64]:
     """MuJoCo quaternion (w, x, y, z) of a 3×3 rotation."""
     quat = np.empty(4)
@@ -87,15 +127,14 @@ def offscreen_px(camera: CameraConfig) -> tuple[int, int]:
     """(width, height) [px] of the off-screen buffer every renderer of ``camera`` fits in.
 
     MuJoCo renders into one off-screen buffer per model and refuses images larger than it. The
-    largest image is the stereo mode's, ``STEREO_RENDER_SCALE`` × the camera's resolution
-    (whatever the mode, so one scene serves every mode); the buffer is never smaller than
+    largest image is the stereo mode's (:func:`fogsim.sim.camera.stereo.stereo_render_px`: twice
+    the camera's resolution, extended by the disparity search range and a margin), whatever the
+    mode, so one scene serves every mode; the buffer is never smaller than
     :data:`MIN_OFFSCREEN_PX`. The camera's largest side (``fogsim.config.limits``) keeps it
     within OpenGL's renderbuffer limit.
     """
-    return (
-        max(MIN_OFFSCREEN_PX[0], STEREO_RENDER_SCALE * camera.width),
-        max(MIN_OFFSCREEN_PX[1], STEREO_RENDER_SCALE * camera.height),
-    )
+    width, height = stereo_render_px(camera.width, camera.height)
+    return (max(MIN_OFFSCREEN_PX[0], width), max(MIN_OFFSCREEN_PX[1], height))
 
 
 def _set_offscreen(root: mjcf.RootElement, size_px: tuple[int, int]) -> None:
@@ -114,6 +153,8 @@ def _merge_piece(root: mjcf.RootElement, name: str) -> None:
 def _world_root(scenario: Scenario) -> mjcf.RootElement:
     """The scene's root: the world pieces, the off-screen buffer for the scenario's camera."""
     root = mjcf.RootElement(model=f"fogsim_{scenario.name}")
+    for name, texture in scene_textures().items():
+        root.asset.add("texture", name=name, type="2d", file=mjcf.Asset(texture.png(), ".png"))
     for piece in WORLD_PIECES:
         _merge_piece(root, piece)
     _set_offscreen(root, offscreen_px(scenario.camera))
@@ -123,7 +164,7 @@ def _world_root(scenario: Scenario) -> mjcf.RootElement:
 def _add_object(
     root: mjcf.RootElement, obj: SceneObject, index: int, seed: int, mocap: bool
 ) -> mjcf.Element:
-    """Add one scenario object (a box, or a height field for a rough top); returns its body."""
+    """Add one scenario object (a box mesh, or a height field for a rough top); returns its body."""
     material = root.asset.add(
         "material",
         name=f"mat_{obj.name}",
@@ -158,11 +199,19 @@ def _add_object(
             group=0,
         )
     else:
+        vertices, triangles, texcoords = box_mesh(obj.size)
+        mesh = root.asset.add(
+            "mesh",
+            name=f"mesh_{obj.name}",
+            vertex=vertices.ravel(),
+            face=triangles.ravel(),
+            texcoord=texcoords.ravel(),
+        )
         body.add(
             "geom",
             name=f"geom_{obj.name}",
-            type="box",
-            size=[0.5 * sx, 0.5 * sy, 0.5 * sz],
+            type="mesh",
+            mesh=mesh,
             pos=[0.0, 0.0, 0.5 * sz],
             material=material,
             group=0,
@@ -262,16 +311,18 @@ def scene_key(scenario: Scenario, robot: Robot | None) -> str:
     """Content key of the compiled scene: everything :func:`compile_scene` reads.
 
     The scenario's part that builds the model (its ``repr``), the robot's MJCF file (meshes
-    are inlined in it), every MJCF piece, the source of this module and the MuJoCo and
+    are inlined in it), every file of ``assets/mjcf`` (pieces, textures), the source of this
+    module and of :mod:`fogsim.sim.assets` (which generates the textures) and the MuJoCo and
     dm_control versions.
     """
-    pieces = tuple(path.read_bytes() for path in sorted(MJCF_DIR.glob("*.xml")))
+    pieces = tuple(path.read_bytes() for path in sorted(MJCF_DIR.iterdir()) if path.is_file())
     return content_key(
         (
             repr(_scene_inputs(scenario)).encode(),
             robot.mjcf_path.read_bytes() if robot is not None else b"",
             *pieces,
             Path(__file__).read_bytes(),
+            Path(assets.__file__).read_bytes(),
             f"mujoco {mujoco.__version__} dm_control {version('dm_control')}".encode(),
         )
     )

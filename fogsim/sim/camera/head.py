@@ -5,6 +5,9 @@ Modes:
     ``depth``: exact depth through the stereo error model (:mod:`fogsim.sim.camera.error_model`).
     ``stereo``: left and right images matched with OpenCV (:mod:`fogsim.sim.camera.stereo`);
         the depth image belongs to ``head_camera_left``.
+
+In every mode :meth:`HeadCamera.exact_depth` gives the exact depth of the camera the depth image
+belongs to, pixel for pixel: the truth to measure a mode's errors against.
 """
 
 from __future__ import annotations
@@ -18,7 +21,14 @@ from fogsim.errors import CameraError
 from fogsim.sim.camera.depth import DEPTH_BACKENDS, VISIBLE_GEOMGROUPS, RaycastDepth, RendererDepth
 from fogsim.sim.camera.error_model import StereoErrorModel
 from fogsim.sim.camera.intrinsics import camera_intrinsics, set_model_intrinsics
-from fogsim.sim.camera.stereo import STEREO_RENDER_SCALE, StereoMatcher
+from fogsim.sim.camera.stereo import (
+    DISPARITY_RANGE_PX,
+    RIGHT_MARGIN_PX,
+    STEREO_RENDER_SCALE,
+    StereoMatcher,
+    extended,
+    render_intrinsics,
+)
 
 
 class HeadCamera:
@@ -39,6 +49,8 @@ class HeadCamera:
         depth_camera: Which camera the depth image belongs to (``head_camera``, or
             ``head_camera_left`` in ``stereo`` mode).
         noise: The stereo error model of the ``depth`` mode.
+        baseline_m: Stereo baseline of the left/right pair [m] (``baseline_m``, else the
+            scenario's).
 
     Raises:
         CameraError: An unknown backend, or ``stereo`` mode without the renderer.
@@ -68,35 +80,53 @@ class HeadCamera:
         for camera_id in camera_ids.values():
             set_model_intrinsics(model, camera_id, self.intrinsics)
         self._camera_ids = camera_ids
+        self.baseline_m = baseline_m or config.baseline_m
         self.depth_camera = "head_camera_left" if self.mode == "stereo" else "head_camera"
-        self._depth: RendererDepth | RaycastDepth | None = None
         self._stereo: StereoMatcher | None = None
+        self._margins_px = (0, 0)
         if self.mode == "stereo":
             for name in ("head_camera_left", "head_camera_right"):
-                set_model_intrinsics(
-                    model, camera_ids[name], camera_intrinsics(config, STEREO_RENDER_SCALE)
-                )
+                set_model_intrinsics(model, camera_ids[name], render_intrinsics(self.intrinsics))
             self._stereo = StereoMatcher(
-                model, self.intrinsics, baseline_m or config.baseline_m, geomgroups=geomgroups
+                model, self.intrinsics, self.baseline_m, geomgroups=geomgroups
             )
-        elif backend == "renderer":
-            self._depth = RendererDepth(model, self.intrinsics, geomgroups)
+            # The left camera renders an extended field: its exact depth is the part between
+            # the margins of a likewise extended output-resolution image.
+            self._margins_px = (
+                DISPARITY_RANGE_PX // STEREO_RENDER_SCALE,
+                RIGHT_MARGIN_PX // STEREO_RENDER_SCALE,
+            )
+        exact_intrinsics = extended(self.intrinsics, *self._margins_px)
+        self._depth: RendererDepth | RaycastDepth
+        if backend == "renderer":
+            self._depth = RendererDepth(model, exact_intrinsics, geomgroups)
         else:
-            self._depth = RaycastDepth(model, self.intrinsics, geomgroups)
+            self._depth = RaycastDepth(model, exact_intrinsics, geomgroups)
         self.noise = StereoErrorModel.from_config(config, self.intrinsics.fx)
 
     def exact_depth(self, data: mujoco.MjData) -> NDArray[np.float32]:
-        """Exact depth of ``head_camera`` (not in ``stereo`` mode)."""
-        if self._depth is None:
-            raise CameraError("exact depth is not rendered in 'stereo' mode")
-        return self._depth.render(data, self._camera_ids["head_camera"])
+        """Exact depth of the camera the depth images belong to (:attr:`depth_camera`)."""
+        depth = self._depth.render(data, self._camera_ids[self.depth_camera])
+        left, right = self._margins_px
+        return depth[:, left : depth.shape[1] - right]
 
     def capture(self, data: mujoco.MjData, rng: np.random.Generator) -> NDArray[np.float32]:
-        """One depth image of the current scene state (call the scene's ``forward`` first)."""
+        """One depth image of the current scene state (call the scene's ``forward`` first).
+
+        In the ``stereo`` and ``depth`` modes depths outside the camera's ``range_m`` are NaN:
+        beyond it a stereo head's depth is too noisy to use (at 8 m one tenth of a pixel of
+        disparity is 0.9 m), and both modes keep the same range.
+        """
         if self._stereo is not None:
-            return self._stereo.depth(
-                data, self._camera_ids["head_camera_left"], self._camera_ids["head_camera_right"]
+            depth = self._stereo.depth(
+                data,
+                self._camera_ids["head_camera_left"],
+                self._camera_ids["head_camera_right"],
+                rng,
             )
+            low, high = self.config.range_m
+            depth[~((depth >= low) & (depth <= high))] = np.nan
+            return depth
         depth = self.exact_depth(data)
         if self.mode == "ideal":
             return depth

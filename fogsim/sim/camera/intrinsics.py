@@ -2,7 +2,10 @@
 
 MuJoCo renders a camera with the intrinsics in its model (``cam_resolution``,
 ``cam_sensorsize``, ``cam_intrinsic``): writing :func:`camera_intrinsics` there makes the
-renderer use exactly ``PinholeIntrinsics.from_fov(...)``, fx ≠ fy allowed.
+renderer use exactly ``PinholeIntrinsics.from_fov(...)``, fx ≠ fy allowed. A principal point
+left or right of the image centre renders too (the stereo mode's images extend to the left):
+MuJoCo's principal offset is the centre minus ``cx``, in sensor metres (checked against ray
+casting in tests/test_camera.py); a vertical offset is refused.
 """
 
 from __future__ import annotations
@@ -35,19 +38,18 @@ def camera_intrinsics(config: CameraConfig, scale: int = 1) -> PinholeIntrinsics
 def set_model_intrinsics(
     model: mujoco.MjModel, camera_id: int, intrinsics: PinholeIntrinsics
 ) -> None:
-    """Make MuJoCo render camera ``camera_id`` with exactly these (centred) intrinsics.
+    """Make MuJoCo render camera ``camera_id`` with exactly these intrinsics.
 
     Raises:
-        CameraError: The principal point is not the image centre (MuJoCo cannot render that).
+        CameraError: The principal point is not at the image's vertical centre (only horizontal
+            offsets are supported).
     """
-    if not (
-        math.isclose(intrinsics.cx, (intrinsics.width - 1) / 2.0)
-        and math.isclose(intrinsics.cy, (intrinsics.height - 1) / 2.0)
-    ):
+    centre_x, centre_y = (intrinsics.width - 1) / 2.0, (intrinsics.height - 1) / 2.0
+    if not math.isclose(intrinsics.cy, centre_y):
         raise CameraError(
-            f"only centred principal points can be rendered: got cx={intrinsics.cx}, "
+            f"only principal points at the vertical centre can be rendered: got "
             f"cy={intrinsics.cy} for a {intrinsics.width}x{intrinsics.height} image, allowed "
-            f"cx={(intrinsics.width - 1) / 2.0}, cy={(intrinsics.height - 1) / 2.0}"
+            f"cy={centre_y}"
         )
     model.cam_resolution[camera_id] = (intrinsics.width, intrinsics.height)
     model.cam_sensorsize[camera_id] = (
@@ -57,7 +59,7 @@ def set_model_intrinsics(
     model.cam_intrinsic[camera_id] = (
         intrinsics.fx * PIXEL_PITCH_M,
         intrinsics.fy * PIXEL_PITCH_M,
-        0.0,
+        (centre_x - intrinsics.cx) * PIXEL_PITCH_M,
         0.0,
     )
     model.cam_fovy[camera_id] = intrinsics.vfov_deg
