@@ -33,6 +33,7 @@ from fogsim.errors import ScenarioError
 from fogsim.paths import SCENARIOS_DIR
 from fogsim.robot import load_robot
 from fogsim.sim.camera import HeadCamera
+from fogsim.sim.camera.stereo import stereo_render_px
 from fogsim.sim.scene import Scene
 
 MINIMAL = """
@@ -558,16 +559,18 @@ def test_the_stereo_mode_needs_a_wide_enough_image(tmp_path):
     "size_px", [(321, 72), (MAX_CAMERA_SIDE_PX, 8), (MIN_STEREO_WIDTH_PX, MAX_CAMERA_SIDE_PX)]
 )
 def test_every_allowed_camera_size_fits_the_scene_s_offscreen_buffer(size_px):
-    """321 × 72 crashed: the robot's MJCF held a 640 px buffer the stereo render (642) outgrew."""
+    """321 × 72 crashed: the robot's MJCF held a 640 px buffer the stereo render (678) outgrew."""
     width, height = size_px
+    render_width, render_height = stereo_render_px(width, height)
+    assert (render_width, render_height) == (2 * width + 36, 2 * height)  # + 32 px left, 4 right
     scenario = load_scenario("flat_floor").with_overrides(
         [f"camera.width={width}", f"camera.height={height}", "camera.mode=stereo"]
     )
     robot = load_robot(scenario.robot.model)
     scene = Scene(scenario, robot)
     assert (scene.model.vis.global_.offwidth, scene.model.vis.global_.offheight) == (
-        max(640, 2 * width),
-        max(480, 2 * height),
+        max(640, render_width),
+        max(480, render_height),
     )
     camera = HeadCamera(scene.model, scene.camera_ids, scenario.camera)
     try:
