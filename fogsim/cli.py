@@ -230,7 +230,7 @@ def _cmd_run(args: argparse.Namespace) -> int:
     if args.out is not None:
         check_run_folder(args.out, "--out")
     if args.mcap is not None:
-        check_bag_target(check_output_path(args.mcap, "folder", "--mcap"), "--mcap")
+        check_output_path(check_bag_target(args.mcap, "--mcap"), "folder", "--mcap")
     replay = None
     if args.replay is not None:
         replay = load_recording(args.replay)
