@@ -94,19 +94,22 @@ def direct_frames():
         pose = robot_pose(stamp)
         camera = camera_in_footprint(stamp)
         depth = render_boxes(INTR, planar_pose_to_matrix(pose) @ camera, BOXES)
-        frames.append(
-            Frame(
-                index=i,
-                time_s=stamp / 1e9,
-                depth_m=depth.astype(np.float32),
-                intrinsics=INTR,
-                transform_camera_to_robot_believed=camera,
-                robot_pose_believed=pose,
-                transform_camera_to_world_true=np.full((4, 4), np.nan),
-                robot_pose_true=np.full(4, np.nan),
-            )
-        )
+        frames.append(real_frame(i, stamp / 1e9, depth, camera, pose))
     return frames
+
+
+def real_frame(index, time_s, depth_m, camera_in_robot, robot_pose):
+    """A frame as real data has it: believed poses only, the true ones unknown (NaN)."""
+    return Frame(
+        index=index,
+        time_s=time_s,
+        depth_m=np.asarray(depth_m, dtype=np.float32),
+        intrinsics=INTR,
+        transform_camera_to_robot_believed=camera_in_robot,
+        robot_pose_believed=robot_pose,
+        transform_camera_to_world_true=np.full((4, 4), np.nan),
+        robot_pose_true=np.full(4, np.nan),
+    )
 
 
 def quaternion_xyzw(rotation):
@@ -128,6 +131,7 @@ class BagSpec:
     camera_info: bool = True
     tf_gap_ns: tuple[int, int] | None = None  # odom tf left out in [start, stop)
     frame_id_prefix: str = ""  # ROS 1 bags often name frames "/odom"
+    second_parent: bool = False  # base_footprint also published under "map"
 
 
 class BagBuilder:
@@ -220,6 +224,10 @@ class BagBuilder:
                 odom = planar_pose_to_matrix(robot_pose(stamp))
                 transforms.append(
                     self.transform_stamped(stamp, name("odom"), name("base_footprint"), odom)
+                )
+            if spec.second_parent:
+                transforms.append(
+                    self.transform_stamped(stamp, name("map"), name("base_footprint"), np.eye(4))
                 )
             out.append(("/tf", stamp, transforms))
         for frame, stamp in zip(direct_frames(), image_stamps(), strict=True):
@@ -408,8 +416,20 @@ def test_tf_interpolates_between_samples_and_chains_frames():
             BagOptions(base_frame="base_foot"),
             r"tf frame 'base_foot' is not in /tf or /tf_static",
         ),
+        (
+            BagSpec(second_parent=True),
+            BagOptions(),
+            r"tf frame 'base_footprint' has several parents \['map', 'odom'\]",
+        ),
     ],
-    ids=["missing topic", "no CameraInfo", "bad encoding", "tf gap", "unknown frame"],
+    ids=[
+        "missing topic",
+        "no CameraInfo",
+        "bad encoding",
+        "tf gap",
+        "unknown frame",
+        "two parents",
+    ],
 )
 def test_broken_bags_get_named_errors(tmp_path, spec, options, message):
     bag = BagBuilder("mcap").write(tmp_path / "broken", spec)

@@ -11,19 +11,17 @@ import numpy as np
 import pytest
 from rosbags.highlevel import AnyReader
 from synthetic_depth import Box, look_down_camera, render_boxes
+from test_bags import INTR, real_frame
 
 from fogsim.bags.gridmap import LAYERS, grid_map_data, grid_map_index
 from fogsim.bags.write import GRID_MAP_TOPIC, POSE_TOPIC, McapMapWriter
 from fogsim.cli import main
-from fogsim.data.frame import Frame
 from fogsim.data.recording import Recording, save_recording
 from fogsim.errors import OutputError
 from fogsim.eval.maps import load_maps
 from fogsim.run.runner import run_scenario
-from mapper.intrinsics import PinholeIntrinsics
 from mapper.transforms import planar_pose_to_matrix
 
-INTR = PinholeIntrinsics.from_fov(88, 72, 47.0, 39.0)
 CAMERA_IN_ROBOT = look_down_camera((0.0, 0.0, 0.3), pitch_down_deg=8.0)
 BOXES = [
     Box((1.0, -0.3), (0.3, 0.4, 0.06)),
@@ -46,16 +44,7 @@ def walk_frames():
         pose = np.array([0.3 + 0.02 * i, 0.1, 0.0, 0.1])
         world = planar_pose_to_matrix(pose) @ CAMERA_IN_ROBOT
         frames.append(
-            Frame(
-                index=i,
-                time_s=i / 12.5,
-                depth_m=render_boxes(INTR, world, BOXES).astype(np.float32),
-                intrinsics=INTR,
-                transform_camera_to_robot_believed=CAMERA_IN_ROBOT,
-                robot_pose_believed=pose,
-                transform_camera_to_world_true=np.full((4, 4), np.nan),
-                robot_pose_true=np.full(4, np.nan),
-            )
+            real_frame(i, i / 12.5, render_boxes(INTR, world, BOXES), CAMERA_IN_ROBOT, pose)
         )
     return frames
 

@@ -242,11 +242,10 @@ def read_bag_frames(path: str | os.PathLike[str], options: BagOptions | None = N
         )
         intrinsics = _intrinsics(reader, info_connections, source, options.info_topic)
         images = _depth_images(reader, depth_connections, source, options.depth_topic, intrinsics)
-        tree = TfTree(
-            _tf_samples(reader, _connections(reader, TF_TOPIC, None, source)),
-            _tf_samples(reader, _connections(reader, TF_STATIC_TOPIC, None, source)),
-        )
+        moving = _tf_samples(reader, _connections(reader, TF_TOPIC, None, source))
+        static = _tf_samples(reader, _connections(reader, TF_STATIC_TOPIC, None, source))
     try:
+        tree = TfTree(moving, static)
         odom_to_base = tree.lookup(
             options.odom_frame, options.base_frame, images.stamps_ns, options.max_dt_ns
         )

@@ -112,6 +112,11 @@ class McapMapWriter:
         """Write the frame's GridMap and robot pose at the frame's stamp."""
         assert self._writer is not None, "use McapMapWriter as a context manager"
         stamp_ns = round(frame.time_s * 1e9)
+        if stamp_ns < 0:
+            raise OutputError(
+                f"--mcap {self.path}: frame {frame.index} has time_s = {frame.time_s} s; a bag's "
+                "stamps start at 0 (ROS time)"
+            )
         types, heights = pipeline.mapper.fog()
         layers = {
             "fog_height": heights,
