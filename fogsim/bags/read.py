@@ -254,11 +254,18 @@ def read_bag_frames(path: str | os.PathLike[str], options: BagOptions | None = N
         )
     except BagError as exc:
         raise BagError(f"{source}: {exc}") from exc
+    return _frames(images, intrinsics, odom_to_base, base_to_camera)
+
+
+def _frames(
+    images: _DepthImages,
+    intrinsics: PinholeIntrinsics,
+    odom_to_base: NDArray[np.float64],
+    base_to_camera: NDArray[np.float64],
+) -> list[Frame]:
+    """One frame per image: R = the base levelled, the camera's pose in the world kept exact."""
     poses = np.column_stack(
-        [
-            odom_to_base[:, :3, 3],
-            np.arctan2(odom_to_base[:, 1, 0], odom_to_base[:, 0, 0]),
-        ]
+        [odom_to_base[:, :3, 3], np.arctan2(odom_to_base[:, 1, 0], odom_to_base[:, 0, 0])]
     )
     unknown_pose, unknown_transform = np.full(4, np.nan), np.full((4, 4), np.nan)
     frames = []
