@@ -8,6 +8,7 @@ mapping the frames directly.
 """
 
 import math
+import sqlite3
 from dataclasses import dataclass
 
 import numpy as np
@@ -337,6 +338,15 @@ def test_the_command_line_imports_lists_and_replays(tmp_path, capsys):
         == 0
     )
     assert "no ground truth" in capsys.readouterr().out
+
+
+def test_a_ros2_bag_without_message_definitions_is_read_with_humbles(tmp_path):
+    bag = BagBuilder("sqlite3").write(tmp_path / "old")
+    (db,) = bag.glob("*.db3")
+    with sqlite3.connect(db) as connection:  # as rosbag2 before Iron wrote them
+        connection.execute("DELETE FROM message_definitions")
+    frames = read_bag_frames(bag)
+    np.testing.assert_array_equal(frames[7].depth_m, direct_frames()[7].depth_m)
 
 
 def test_16bit_millimetre_depth_is_read_in_metres(tmp_path):

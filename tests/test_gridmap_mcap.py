@@ -163,6 +163,9 @@ def test_run_mcap_on_the_command_line(tmp_path, capsys):
     argv = ["run", "--replay", str(recording), "--quiet", "--no-pictures", "--out", str(out)]
     assert main([*argv, "--mcap", str(bag)]) == 0
     assert len([m for m in read_bag(bag) if m[0] == GRID_MAP_TOPIC]) == FRAMES
+    first = (bag / "fog.mcap").read_bytes()
+    assert main([*argv, "--mcap", str(bag)]) == 0  # replaces the earlier bag whole
+    assert (bag / "fog.mcap").read_bytes() == first  # bit for bit the same
     (tmp_path / "file").write_text("x")
     assert main([*argv, "--mcap", str(tmp_path / "file")]) == 2
     assert "is a file; a bag is a folder" in capsys.readouterr().err

@@ -33,6 +33,7 @@ from numpy.typing import NDArray
 from rosbags.highlevel import AnyReader, AnyReaderError
 from rosbags.rosbag1 import ReaderError as Ros1ReaderError
 from rosbags.rosbag2 import ReaderError as Ros2ReaderError
+from rosbags.typesys import Stores, get_typestore
 
 from fogsim.bags.images import depth_m_from_image, intrinsics_from_camera_info
 from fogsim.bags.tf import TfTree, TransformSample, frame_name, rigid_inverse
@@ -46,6 +47,10 @@ IMAGE_TYPE = "sensor_msgs/msg/Image"
 CAMERA_INFO_TYPE = "sensor_msgs/msg/CameraInfo"
 TF_TOPIC = "/tf"
 TF_STATIC_TOPIC = "/tf_static"
+DEFAULT_TYPE_STORE = Stores.ROS2_HUMBLE
+"""Message definitions for ROS 2 bags that carry none (rosbag2 before Iron stored only type
+names): Humble's. Image, CameraInfo and TFMessage are the same in every ROS 2 release; bags
+that carry definitions (ROS 1, newer ROS 2) are read with their own."""
 _MESSAGE_ERRORS = (AnyReaderError, Ros1ReaderError, Ros2ReaderError)
 """What rosbags raises for a message it cannot read or deserialise."""
 _OPEN_ERRORS = (*_MESSAGE_ERRORS, OSError, KeyError, ValueError)
@@ -93,7 +98,7 @@ def _open_bag(path: str | os.PathLike[str]) -> Iterator[AnyReader]:
     if not source.exists():
         raise BagError(f"bag not found: {source} (a ROS 1 .bag file or a ROS 2 bag folder)")
     try:
-        reader = AnyReader([source])
+        reader = AnyReader([source], default_typestore=get_typestore(DEFAULT_TYPE_STORE))
         reader.open()
     except _OPEN_ERRORS as exc:
         raise BagError(f"{source} is not a readable ROS 1 or ROS 2 bag: {exc}") from exc
