@@ -24,6 +24,7 @@ from fogsim.bags.read import bag_topics, import_bag
 from fogsim.bags.topics import (
     DEFAULT_BASE_FRAME,
     DEFAULT_DEPTH_TOPIC,
+    DEFAULT_JOINT_STATES_TOPIC,
     DEFAULT_MAX_DT_MS,
     DEFAULT_ODOM_FRAME,
     BagOptions,
@@ -165,6 +166,18 @@ def _parser() -> argparse.ArgumentParser:
         "--base-frame",
         default=DEFAULT_BASE_FRAME,
         help=f"robot frame on the ground (default {DEFAULT_BASE_FRAME})",
+    )
+    bag.add_argument(
+        "--urdf",
+        type=Path,
+        metavar="FILE",
+        help="the robot's URDF: the camera in the base frame from joint states through it "
+        "(default: from /tf)",
+    )
+    bag.add_argument(
+        "--joint-states-topic",
+        default=DEFAULT_JOINT_STATES_TOPIC,
+        help=f"JointState topic read with --urdf (default {DEFAULT_JOINT_STATES_TOPIC})",
     )
     bag.add_argument(
         "--max-dt-ms",
@@ -395,6 +408,8 @@ def _cmd_import_bag(args: argparse.Namespace) -> int:
         odom_frame=args.odom_frame,
         base_frame=args.base_frame,
         max_dt_ms=args.max_dt_ms,
+        urdf_path=args.urdf,
+        joint_states_topic=args.joint_states_topic,
     )
     imported = import_bag(args.bag, args.out, options)
     intrinsics = imported.intrinsics

@@ -133,6 +133,7 @@ class BagSpec:
     tf_gap_ns: tuple[int, int] | None = None  # odom tf left out in [start, stop)
     frame_id_prefix: str = ""  # ROS 1 bags often name frames "/odom"
     second_parent: bool = False  # base_footprint also published under "map"
+    camera_on_tf: bool = True  # False: only odom -> base_footprint on tf, the neck on /joint_states
 
 
 class BagBuilder:
@@ -178,6 +179,16 @@ class BagBuilder:
             data=np.frombuffer(data.tobytes(), dtype=np.uint8),
         )
 
+    def joint_state(self, stamp_ns):
+        """The neck's pitch and an arm joint off the camera's chain."""
+        return self.types["sensor_msgs/msg/JointState"](
+            header=self.header(stamp_ns, ""),
+            name=["arm", "neck"],
+            position=np.array([0.3, head_pitch_rad(stamp_ns)]),
+            velocity=np.zeros(0),
+            effort=np.zeros(0),
+        )
+
     def camera_info(self, stamp_ns, frame_id):
         k = [INTR.fx, 0.0, INTR.cx, 0.0, INTR.fy, INTR.cy, 0.0, 0.0, 1.0]
         p = [INTR.fx, 0.0, INTR.cx, 0.0, 0.0, INTR.fy, INTR.cy, 0.0, 0.0, 0.0, 1.0, 0.0]
@@ -203,6 +214,8 @@ class BagBuilder:
             ("base_footprint", "base_link", transform(np.eye(3), (0, 0, FOOTPRINT_TO_LINK_Z))),
             ("head", "camera_depth_optical_frame", transform(OPTICAL, HEAD_TO_CAMERA)),
         ]
+        if not spec.camera_on_tf:
+            static = [("odom", "world_origin", np.eye(4))]  # /tf_static still has something
         out.append(
             (
                 "/tf_static",
@@ -212,14 +225,15 @@ class BagBuilder:
         )
         last = image_stamps()[-1] + 3 * TF_NS
         for stamp in range(T0_NS - 2 * TF_NS + 3_000_000, last, TF_NS):
-            transforms = [
-                self.transform_stamped(
-                    stamp + 4_000_000,
-                    name("base_link"),
-                    name("head"),
-                    transform(rot_y(head_pitch_rad(stamp + 4_000_000)), (0, 0, 0)),
+            neck_stamp = stamp + 4_000_000
+            transforms = []
+            if spec.camera_on_tf:
+                neck = transform(rot_y(head_pitch_rad(neck_stamp)), (0, 0, 0))
+                transforms.append(
+                    self.transform_stamped(neck_stamp, name("base_link"), name("head"), neck)
                 )
-            ]
+            else:
+                out.append(("/joint_states", neck_stamp, self.joint_state(neck_stamp)))
             gap = spec.tf_gap_ns
             if gap is None or not gap[0] <= stamp < gap[1]:
                 odom = planar_pose_to_matrix(robot_pose(stamp))
@@ -248,6 +262,7 @@ class BagBuilder:
             "/tf_static": "tf2_msgs/msg/TFMessage",
             DEPTH_TOPIC: "sensor_msgs/msg/Image",
             INFO_TOPIC: "sensor_msgs/msg/CameraInfo",
+            "/joint_states": "sensor_msgs/msg/JointState",
         }
         if self.ros1:
             writer = Writer1(path)
@@ -347,6 +362,45 @@ def test_a_ros2_bag_without_message_definitions_is_read_with_humbles(tmp_path):
         connection.execute("DELETE FROM message_definitions")
     frames = read_bag_frames(bag)
     np.testing.assert_array_equal(frames[7].depth_m, direct_frames()[7].depth_m)
+
+
+URDF = """<robot name="walker">
+  <link name="base_footprint"/> <link name="base_link"/> <link name="head"/> <link name="arm"/>
+  <link name="camera_depth_optical_frame"/>
+  <joint name="lift" type="fixed"><parent link="base_footprint"/><child link="base_link"/>
+    <origin xyz="0 0 0.55"/></joint>
+  <joint name="neck" type="NECK"><parent link="base_link"/><child link="head"/>
+    <axis xyz="0 1 0"/><limit lower="-1.5" upper="1.5" effort="10" velocity="2"/></joint>
+  <joint name="arm" type="revolute"><parent link="base_link"/><child link="arm"/>
+    <axis xyz="1 0 0"/><limit lower="-1.5" upper="1.5" effort="10" velocity="2"/></joint>
+  <joint name="optical" type="fixed"><parent link="head"/><child link="camera_depth_optical_frame"/>
+    <origin xyz="0.06 0 0.3" rpy="-1.5707963267948966 0 -1.5707963267948966"/></joint>
+</robot>
+"""
+"""The walk's robot: the optical frame's rpy is OPTICAL (x right, y down, z forward)."""
+
+
+@pytest.mark.parametrize("neck", ["revolute", "continuous"])
+def test_the_camera_from_joint_states_through_the_urdf(tmp_path, neck):
+    bag = BagBuilder("mcap").write(tmp_path / "joints", BagSpec(camera_on_tf=False))
+    urdf = tmp_path / "walker.urdf"
+    urdf.write_text(URDF.replace("NECK", neck))
+    with pytest.raises(BagError, match="tf frame 'camera_depth_optical_frame' is not in /tf"):
+        read_bag_frames(bag)
+    frames = read_bag_frames(bag, BagOptions(urdf_path=urdf))
+    for got, want in zip(frames, direct_frames(), strict=True):
+        np.testing.assert_allclose(got.robot_pose_believed, want.robot_pose_believed, atol=1e-9)
+        np.testing.assert_allclose(
+            got.transform_camera_to_robot_believed,
+            want.transform_camera_to_robot_believed,
+            atol=1e-9,
+        )
+    urdf.write_text(URDF.replace("NECK", neck).replace('name="neck"', 'name="nod"'))
+    with pytest.raises(BagError, match=r"joint 'nod' has no joint states; .*\['arm', 'neck'\]"):
+        read_bag_frames(bag, BagOptions(urdf_path=urdf))
+    urdf.write_text("<robot>")
+    with pytest.raises(BagError, match="not a URDF model pinocchio can read"):
+        read_bag_frames(bag, BagOptions(urdf_path=urdf))
 
 
 def test_16bit_millimetre_depth_is_read_in_metres(tmp_path):

@@ -8,6 +8,8 @@ Python).
   :class:`BagError`;
 * :mod:`fogsim.bags.tf` — :class:`TfTree`: ``/tf`` + ``/tf_static`` looked up at many stamps
   at once, interpolated in time;
+* :mod:`fogsim.bags.urdf` — :class:`UrdfChain`: the camera in the base frame from joint
+  states through the robot's URDF (pinocchio), for bags without it on tf;
 * :mod:`fogsim.bags.images` — ``sensor_msgs/Image`` depth and ``CameraInfo`` decoded;
 * :mod:`fogsim.bags.read` — :func:`bag_topics` (``--list``), :func:`read_bag_frames`,
   :func:`import_bag`: a ROS 1 or ROS 2 bag → the recording ``fogsim run --replay`` maps;

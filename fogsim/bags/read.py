@@ -15,8 +15,8 @@ yaw) of ``T_odom_base``, and ``transform_camera_to_robot_believed`` =
 ``planar(pose)⁻¹ · T_odom_base · T_base_camera``, so the camera's pose in the world is exactly
 the bag's even when the base rolls or pitches. A real bag has no ground truth: the true poses
 are NaN and there is no scenario, so ``fogsim run --replay`` maps it with default parameters
-and says "no ground truth". Joint states through the robot's URDF are not read: the camera pose
-must be on ``/tf``.
+and says "no ground truth". With a URDF (``BagOptions.urdf_path``) ``T_base_camera`` comes from
+the joint states through it instead (:mod:`fogsim.bags.urdf`); ``T_odom_base`` is always tf's.
 """
 
 from __future__ import annotations
@@ -38,6 +38,7 @@ from rosbags.typesys import Stores, get_typestore
 from fogsim.bags.images import depth_m_from_image, intrinsics_from_camera_info
 from fogsim.bags.tf import TfTree, TransformSample, frame_name, rigid_inverse
 from fogsim.bags.topics import BagError, BagOptions
+from fogsim.bags.urdf import JointSample, UrdfChain
 from fogsim.data.frame import Frame
 from fogsim.data.recording import save_recording
 from mapper.intrinsics import PinholeIntrinsics
@@ -45,6 +46,7 @@ from mapper.transforms import planar_pose_to_matrix
 
 IMAGE_TYPE = "sensor_msgs/msg/Image"
 CAMERA_INFO_TYPE = "sensor_msgs/msg/CameraInfo"
+JOINT_STATE_TYPE = "sensor_msgs/msg/JointState"
 TF_TOPIC = "/tf"
 TF_STATIC_TOPIC = "/tf_static"
 DEFAULT_TYPE_STORE = Stores.ROS2_HUMBLE
@@ -168,6 +170,19 @@ def _tf_samples(reader: AnyReader, connections: list) -> list[TransformSample]:
     return samples
 
 
+def _joint_samples(reader: AnyReader, connections: list) -> list[JointSample]:
+    """Every joint position of the JointState messages on ``connections``, in bag order."""
+    samples = []
+    for connection, _, raw in reader.messages(connections=connections):
+        message = reader.deserialize(raw, connection.msgtype)
+        stamp = _stamp_ns(message)
+        samples.extend(
+            JointSample(stamp, str(name), float(position))
+            for name, position in zip(message.name, message.position, strict=False)
+        )
+    return samples
+
+
 def _intrinsics(
     reader: AnyReader, connections: list, source: Path, topic: str
 ) -> PinholeIntrinsics:
@@ -238,6 +253,13 @@ def read_bag_frames(path: str | os.PathLike[str], options: BagOptions | None = N
     """
     options = options or BagOptions()
     source = Path(path)
+    chain = None
+    if options.urdf_path is not None:
+        try:
+            text = Path(options.urdf_path).read_text(encoding="utf-8")
+        except (OSError, UnicodeDecodeError) as exc:
+            raise BagError(f"cannot read the URDF {options.urdf_path}: {exc}") from exc
+        chain = UrdfChain(text, str(options.urdf_path))
     with _open_bag(source) as reader:
         depth_connections = _required(
             reader, options.depth_topic, IMAGE_TYPE, source, "--depth-topic"
@@ -249,14 +271,25 @@ def read_bag_frames(path: str | os.PathLike[str], options: BagOptions | None = N
         images = _depth_images(reader, depth_connections, source, options.depth_topic, intrinsics)
         moving = _tf_samples(reader, _connections(reader, TF_TOPIC, None, source))
         static = _tf_samples(reader, _connections(reader, TF_STATIC_TOPIC, None, source))
+        joints = []
+        if chain is not None:
+            topic = options.joint_states_topic
+            joints = _joint_samples(
+                reader, _required(reader, topic, JOINT_STATE_TYPE, source, "--joint-states-topic")
+            )
     try:
         tree = TfTree(moving, static)
         odom_to_base = tree.lookup(
             options.odom_frame, options.base_frame, images.stamps_ns, options.max_dt_ns
         )
-        base_to_camera = tree.lookup(
-            options.base_frame, images.frame_id, images.stamps_ns, options.max_dt_ns
-        )
+        if chain is None:
+            base_to_camera = tree.lookup(
+                options.base_frame, images.frame_id, images.stamps_ns, options.max_dt_ns
+            )
+        else:
+            base_to_camera = chain.transforms(
+                options.base_frame, images.frame_id, joints, images.stamps_ns, options.max_dt_ns
+            )
     except BagError as exc:
         raise BagError(f"{source}: {exc}") from exc
     return _frames(images, intrinsics, odom_to_base, base_to_camera)

@@ -108,17 +108,19 @@ def _transforms(
     return out
 
 
+def last_per_stamp(stamps_ns: NDArray[np.int64]) -> NDArray[np.intp]:
+    """Indices of the samples to keep, by increasing stamp: a stamp given twice keeps its last."""
+    order = np.argsort(stamps_ns, kind="stable")
+    return order[np.append(stamps_ns[order][1:] != stamps_ns[order][:-1], True)]
+
+
 def _build_edge(samples: Sequence[TransformSample], static: bool) -> _Edge:
     """One edge from its samples in bag order; a stamp given twice keeps its last sample."""
     stamps = np.array([s.stamp_ns for s in samples], dtype=np.int64)
     translations = np.array([s.translation_m for s in samples], dtype=np.float64)
     rotations = np.array([s.rotation_xyzw for s in samples], dtype=np.float64)
-    if static:  # a static transform holds always; republished, the last one counts
-        keep = np.array([len(samples) - 1])
-    else:
-        order = np.argsort(stamps, kind="stable")
-        last_of_stamp = np.append(stamps[order][1:] != stamps[order][:-1], True)
-        keep = order[last_of_stamp]
+    # A static transform holds always: republished, the last one counts.
+    keep = np.array([len(samples) - 1]) if static else last_per_stamp(stamps)
     bad = ~np.all(np.isfinite(translations[keep]), axis=1) | ~np.all(
         np.isfinite(rotations[keep]), axis=1
     )
@@ -138,6 +140,42 @@ def _build_edge(samples: Sequence[TransformSample], static: bool) -> _Edge:
         translations[keep],
         rotations[keep],
     )
+
+
+def bracket(
+    samples_ns: NDArray[np.int64], stamps_ns: NDArray[np.int64], max_dt_ns: int, what: str
+) -> tuple[NDArray[np.intp], NDArray[np.intp], NDArray[np.float64]]:
+    """The samples around each stamp and the fraction between them (see the module doc).
+
+    Args:
+        samples_ns: (M,) sample stamps, strictly increasing.
+        stamps_ns: (N,) stamps to interpolate at.
+        max_dt_ns: The nearest sample must be at most this far from each stamp.
+        what: Names the samples in errors (``tf odom -> base_footprint``).
+
+    Returns:
+        (lo, hi, u): indices of the samples before and after each stamp (equal before the first
+        or after the last sample) and the fraction in [0, 1] from ``lo`` to ``hi``.
+
+    Raises:
+        BagError: A stamp farther than ``max_dt_ns`` from every sample (naming the stamp).
+    """
+    after = np.searchsorted(samples_ns, stamps_ns, side="left")  # first sample >= stamp
+    lo = np.clip(after - 1, 0, len(samples_ns) - 1)
+    hi = np.clip(after, 0, len(samples_ns) - 1)
+    gap_ns = np.minimum(np.abs(stamps_ns - samples_ns[lo]), np.abs(samples_ns[hi] - stamps_ns))
+    late = np.flatnonzero(gap_ns > max_dt_ns)
+    if late.size:
+        i = int(late[0])
+        raise BagError(
+            f"{what}: no sample within {max_dt_ns / 1e6:g} ms of stamp {int(stamps_ns[i])} ns "
+            f"(the nearest is {gap_ns[i] / 1e6:.6g} ms away; samples from {int(samples_ns[0])} "
+            f"to {int(samples_ns[-1])} ns); raise --max-dt-ms or cut the bag to where they are "
+            "published"
+        )
+    span = (samples_ns[hi] - samples_ns[lo]).astype(np.float64)
+    u = np.where(span > 0, (stamps_ns - samples_ns[lo]) / np.where(span > 0, span, 1.0), 0.0)
+    return lo, hi, np.clip(u, 0.0, 1.0)
 
 
 class TfTree:
@@ -198,23 +236,9 @@ class TfTree:
             return np.broadcast_to(
                 _transforms(edge.translations_m, edge.rotations_xyzw), (len(stamps_ns), 4, 4)
             )
-        samples = edge.stamps_ns
-        after = np.searchsorted(samples, stamps_ns, side="left")  # first sample >= stamp
-        lo = np.clip(after - 1, 0, len(samples) - 1)
-        hi = np.clip(after, 0, len(samples) - 1)
-        gap_ns = np.minimum(np.abs(stamps_ns - samples[lo]), np.abs(samples[hi] - stamps_ns))
-        late = np.flatnonzero(gap_ns > max_dt_ns)
-        if late.size:
-            i = int(late[0])
-            raise BagError(
-                f"tf {edge.parent} -> {edge.child}: no sample within {max_dt_ns / 1e6:g} ms of "
-                f"stamp {int(stamps_ns[i])} ns (the nearest is {gap_ns[i] / 1e6:.6g} ms away; "
-                f"samples from {int(samples[0])} to {int(samples[-1])} ns); raise --max-dt-ms "
-                "or cut the bag to where tf is published"
-            )
-        span = (samples[hi] - samples[lo]).astype(np.float64)
-        u = np.where(span > 0, (stamps_ns - samples[lo]) / np.where(span > 0, span, 1.0), 0.0)
-        u = np.clip(u, 0.0, 1.0)
+        lo, hi, u = bracket(
+            edge.stamps_ns, stamps_ns, max_dt_ns, f"tf {edge.parent} -> {edge.child}"
+        )
         translations = (1.0 - u[:, None]) * edge.translations_m[lo] + u[
             :, None
         ] * edge.translations_m[hi]

@@ -10,6 +10,7 @@ from __future__ import annotations
 
 import posixpath
 from dataclasses import dataclass
+from pathlib import Path
 
 from fogsim.errors import RecordingError
 
@@ -30,6 +31,9 @@ DEFAULT_MAX_DT_MS = 50.0
 transform it needs. Transforms are interpolated between the samples around the stamp, so 50 ms
 accepts tf publishers down to 10 Hz; a humanoid walking 0.5 m/s moves 25 mm in 50 ms, which the
 interpolation (not the nearest sample) covers. A larger gap means the pose is unknown there."""
+
+DEFAULT_JOINT_STATES_TOPIC = "/joint_states"
+"""Where ``robot_state_publisher`` and ROS drivers publish ``sensor_msgs/JointState``."""
 
 MAX_DT_LIMIT_MS = 1000.0
 """Largest ``max_dt_ms`` accepted: beyond a second an interpolated pose is a guess."""
@@ -56,6 +60,10 @@ class BagOptions:
         base_frame: The robot frame R (on the ground); default :data:`DEFAULT_BASE_FRAME`.
         max_dt_ms: Time tolerance [ms], in (0, :data:`MAX_DT_LIMIT_MS`]; default
             :data:`DEFAULT_MAX_DT_MS`.
+        urdf_path: The robot's URDF: the camera in the base frame comes from the joint states
+            through it (:mod:`fogsim.bags.urdf`) instead of from tf; None (default) = tf.
+        joint_states_topic: ``sensor_msgs/JointState`` topic read with ``urdf_path``; default
+            :data:`DEFAULT_JOINT_STATES_TOPIC`.
 
     Raises:
         BagError: A topic that is not an absolute ROS name, an empty frame, a tolerance out of
@@ -67,9 +75,11 @@ class BagOptions:
     odom_frame: str = DEFAULT_ODOM_FRAME
     base_frame: str = DEFAULT_BASE_FRAME
     max_dt_ms: float = DEFAULT_MAX_DT_MS
+    urdf_path: Path | None = None
+    joint_states_topic: str = DEFAULT_JOINT_STATES_TOPIC
 
     def __post_init__(self) -> None:
-        for name in ("depth_topic", "camera_info_topic"):
+        for name in ("depth_topic", "camera_info_topic", "joint_states_topic"):
             topic = getattr(self, name)
             if topic is not None and not (topic.startswith("/") and len(topic) > 1):
                 raise BagError(
