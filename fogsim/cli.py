@@ -183,7 +183,8 @@ def _parser() -> argparse.ArgumentParser:
         "--max-dt-ms",
         type=float,
         default=DEFAULT_MAX_DT_MS,
-        help=f"largest gap from an image's stamp to tf [ms] (default {DEFAULT_MAX_DT_MS:g})",
+        help=f"largest gap from an image's stamp to a tf or joint state sample [ms] "
+        f"(default {DEFAULT_MAX_DT_MS:g})",
     )
     add_tune_arguments(sub)
     return parser
