@@ -1,4 +1,4 @@
-"""The ``fogsim`` command line: ``list``, ``run``, ``record``, ``suite``.
+"""The ``fogsim`` command line: ``list``, ``run``, ``record``, ``suite``, ``import-bag``.
 
 Exit codes: 0 success; 1 a ``--check`` found worse figures, a suite scenario failed (it raised
 or its map is poor) or a seed of ``run --seeds`` raised; 2 bad input (unknown scenario, invalid
@@ -20,6 +20,16 @@ from collections.abc import Sequence
 from pathlib import Path
 from typing import NoReturn
 
+from fogsim.bags.read import bag_topics, import_bag
+from fogsim.bags.topics import (
+    DEFAULT_BASE_FRAME,
+    DEFAULT_DEPTH_TOPIC,
+    DEFAULT_JOINT_STATES_TOPIC,
+    DEFAULT_MAX_DT_MS,
+    DEFAULT_ODOM_FRAME,
+    BagOptions,
+)
+from fogsim.bags.write import check_bag_target
 from fogsim.config import CAMERA_MODES, Scenario, find_scenario_files, load_scenario
 from fogsim.data.recording import load_recording
 from fogsim.errors import FogsimError
@@ -94,6 +104,13 @@ def _parser() -> argparse.ArgumentParser:
     run.add_argument(
         "--strict", action="store_true", help="exit 3 when a run's map is poor (quality.poor)"
     )
+    run.add_argument(
+        "--mcap",
+        type=Path,
+        metavar="BAG",
+        help="also write the FOG per frame as grid_map_msgs/GridMap (+ robot pose) into the "
+        "rosbag2 bag folder BAG, MCAP storage",
+    )
 
     record = sub.add_parser("record", help="simulate a scenario and save every frame to FILE")
     record.add_argument("scenario", help="scenario name or TOML path")
@@ -125,6 +142,49 @@ def _parser() -> argparse.ArgumentParser:
         default=[],
         metavar="KEY=VALUE",
         help="override a value in every scenario",
+    )
+    bag = sub.add_parser(
+        "import-bag", help="turn a ROS 1 / ROS 2 bag into a recording that run --replay maps"
+    )
+    bag.add_argument("bag", type=Path, help="ROS 1 .bag file or ROS 2 bag folder (sqlite3, MCAP)")
+    bag.add_argument("--out", type=Path, metavar="FILE", help="recording file to write (.npz)")
+    bag.add_argument("--list", action="store_true", help="list the bag's topics and stop")
+    bag.add_argument(
+        "--depth-topic",
+        default=DEFAULT_DEPTH_TOPIC,
+        help=f"depth images, 32FC1 [m] or 16UC1 [mm] (default {DEFAULT_DEPTH_TOPIC})",
+    )
+    bag.add_argument(
+        "--camera-info-topic", help="CameraInfo topic (default: camera_info beside the depth topic)"
+    )
+    bag.add_argument(
+        "--odom-frame",
+        default=DEFAULT_ODOM_FRAME,
+        help=f"world frame (default {DEFAULT_ODOM_FRAME})",
+    )
+    bag.add_argument(
+        "--base-frame",
+        default=DEFAULT_BASE_FRAME,
+        help=f"robot frame on the ground (default {DEFAULT_BASE_FRAME})",
+    )
+    bag.add_argument(
+        "--urdf",
+        type=Path,
+        metavar="FILE",
+        help="the robot's URDF: the camera in the base frame from joint states through it "
+        "(default: from /tf)",
+    )
+    bag.add_argument(
+        "--joint-states-topic",
+        default=DEFAULT_JOINT_STATES_TOPIC,
+        help=f"JointState topic read with --urdf (default {DEFAULT_JOINT_STATES_TOPIC})",
+    )
+    bag.add_argument(
+        "--max-dt-ms",
+        type=float,
+        default=DEFAULT_MAX_DT_MS,
+        help=f"largest gap from an image's stamp to a tf or joint state sample [ms] "
+        f"(default {DEFAULT_MAX_DT_MS:g})",
     )
     add_tune_arguments(sub)
     return parser
@@ -183,6 +243,8 @@ def _cmd_run(args: argparse.Namespace) -> int:
         raise FogsimError("--workers sets the processes of --seeds; give --seeds SPEC too")
     if args.out is not None:
         check_run_folder(args.out, "--out")
+    if args.mcap is not None:
+        check_output_path(check_bag_target(args.mcap, "--mcap"), "folder", "--mcap")
     replay = None
     if args.replay is not None:
         replay = load_recording(args.replay)
@@ -210,6 +272,7 @@ def _cmd_run(args: argparse.Namespace) -> int:
         video=args.video,
         progress=not args.quiet,
         depth_backend=args.depth_backend,
+        mcap=args.mcap,
     )
     print(format_table1(report))
     timing = report.timing
@@ -229,6 +292,8 @@ def _cmd_run_seeds(args: argparse.Namespace) -> int:
         )
     if args.seed is not None:
         raise FogsimError("give either --seed N or --seeds SPEC, not both")
+    if args.mcap is not None:
+        raise FogsimError("--mcap writes one run's maps; give --seed N instead of --seeds SPEC")
     if args.scenario is None:
         raise FogsimError("run --seeds needs a SCENARIO (see `fogsim list`)")
     seeds = parse_seeds(args.seeds)
@@ -329,6 +394,34 @@ def _cmd_suite(args: argparse.Namespace) -> int:
     return 1 if failures or comparison else 0
 
 
+def _cmd_import_bag(args: argparse.Namespace) -> int:
+    """``fogsim import-bag BAG --out FILE`` (or ``--list``)."""
+    if args.list:
+        for topic in bag_topics(args.bag):
+            print(f"{topic.name:<40} {topic.msgtype:<36} {topic.count:>8}")
+        return 0
+    if args.out is None:
+        raise FogsimError("import-bag needs --out FILE (the recording to write) or --list")
+    check_output_path(args.out, "file", "--out")
+    options = BagOptions(
+        depth_topic=args.depth_topic,
+        camera_info_topic=args.camera_info_topic,
+        odom_frame=args.odom_frame,
+        base_frame=args.base_frame,
+        max_dt_ms=args.max_dt_ms,
+        urdf_path=args.urdf,
+        joint_states_topic=args.joint_states_topic,
+    )
+    imported = import_bag(args.bag, args.out, options)
+    intrinsics = imported.intrinsics
+    print(
+        f"imported {imported.frames} frames ({intrinsics.width}×{intrinsics.height}, "
+        f"{imported.last_s - imported.first_s:.2f} s) of {args.bag} to {imported.path}; map "
+        f"them with `fogsim run --replay {imported.path}`"
+    )
+    return 0
+
+
 def main(argv: Sequence[str] | None = None) -> int:
     """Entry point of the ``fogsim`` command; returns the exit code.
 
@@ -346,6 +439,8 @@ def main(argv: Sequence[str] | None = None) -> int:
             return _cmd_record(args)
         if args.command == "tune":
             return args.func(args)
+        if args.command == "import-bag":
+            return _cmd_import_bag(args)
         return _cmd_suite(args)
     except (FogsimError, MapperError) as exc:
         print(f"fogsim: error: {exc}", file=sys.stderr)

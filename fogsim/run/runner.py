@@ -20,6 +20,7 @@ import numpy as np
 from numpy.typing import NDArray
 from tqdm import tqdm
 
+from fogsim.bags.write import McapMapWriter
 from fogsim.config import RunParams, Scenario, resolve_params
 from fogsim.data.frame import Frame
 from fogsim.data.recording import Recording
@@ -274,6 +275,7 @@ def run_scenario(
     progress: bool = False,
     max_frames: int | None = None,
     depth_backend: str = "renderer",
+    mcap: Path | None = None,
 ) -> Report:
     """Run one scenario end to end and write its results.
 
@@ -292,6 +294,8 @@ def run_scenario(
             numba's cache is cold).
         max_frames: Stop after this many frames (the suite's quick mode).
         depth_backend: Simulation depth backend (``renderer`` or ``raycast``).
+        mcap: Also write every frame's FOG and robot pose as a rosbag2 bag in MCAP storage
+            there (:class:`~fogsim.bags.write.McapMapWriter`, renamed into place at the end).
 
     Returns:
         The report, with the pictures and the video it wrote.
@@ -302,7 +306,7 @@ def run_scenario(
     """
     start = time.perf_counter()
     params = resolve_params(scenario)  # bad parameters fail here, before any simulation
-    options = _RunOptions(replay, pictures, video, progress, max_frames, depth_backend)
+    options = _RunOptions(replay, pictures, video, progress, max_frames, depth_backend, mcap)
     if out_dir is None:
         return _run_and_write(scenario, params, None, options, start)
     with RunFolder(out_dir) as folder:
@@ -325,6 +329,7 @@ class _RunOptions:
     progress: bool
     max_frames: int | None
     depth_backend: str
+    mcap: Path | None
 
 
 def _run_and_write(
@@ -354,6 +359,8 @@ def _run_and_write(
             writer = RunVideoWriter(out / "run.mp4", fps=scenario.frame_rate_hz)
             cleanup.callback(writer.close)
             callbacks.append(writer.add)
+        if options.mcap is not None:
+            callbacks.append(cleanup.enter_context(McapMapWriter(options.mcap)).add)
         result = run_frames(
             source.frames,
             source.truth_at,
