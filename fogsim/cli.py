@@ -1,4 +1,4 @@
-"""The ``fogsim`` command line: ``list``, ``run``, ``record``, ``suite``, ``import-bag``.
+"""The ``fogsim`` command line: ``list``, ``run``, ``record``, ``suite``, ``import-bag``, ``scene``.
 
 Exit codes: 0 success; 1 a ``--check`` found worse figures, a suite scenario failed (it raised
 or its map is poor) or a seed of ``run --seeds`` raised; 2 bad input (unknown scenario, invalid
@@ -48,6 +48,7 @@ from fogsim.run.runner import run_scenario
 from fogsim.run.seeds import SEEDS_ALLOWED, check_workers, parse_seeds, run_seeds, worst_lines
 from fogsim.run.suite import check_against_baseline, run_suite, update_baseline
 from fogsim.sim.camera.depth import DEPTH_BACKENDS
+from fogsim.sim.export import export_scene
 from fogsim.tune.cli import add_tune_arguments
 from mapper.errors import MapperError
 
@@ -93,6 +94,12 @@ def _parser() -> argparse.ArgumentParser:
     scenario_options(run)
     run.add_argument("--replay", type=Path, metavar="FILE", help="feed a recording instead")
     run.add_argument("--video", action="store_true", help="also write run.mp4")
+    run.add_argument(
+        "--rerun",
+        type=Path,
+        metavar="FILE.rrd",
+        help="also log every frame for the Rerun viewer (needs fogsim[viewer])",
+    )
     run.add_argument("--no-pictures", action="store_true", help="skip the PNGs")
     run.add_argument("--quiet", action="store_true", help="no progress bar")
     run.add_argument(
@@ -117,6 +124,13 @@ def _parser() -> argparse.ArgumentParser:
     record.add_argument("--out", type=Path, required=True, metavar="FILE", help="recording file")
     scenario_options(record)
     record.add_argument("--quiet", action="store_true", help="no progress bar")
+
+    scene = sub.add_parser(
+        "scene", help="save the built MuJoCo scene for `python -m mujoco.viewer --mjcf FILE`"
+    )
+    scene.add_argument("scenario", help="scenario name or TOML path")
+    scene.add_argument("--out", type=Path, required=True, metavar="FILE", help="MJCF file")
+    scenario_options(scene)
 
     suite = sub.add_parser("suite", help="run every scenario in parallel and summarise")
     suite.add_argument("directory", nargs="?", type=Path, help="scenario folder")
@@ -245,6 +259,8 @@ def _cmd_run(args: argparse.Namespace) -> int:
         check_run_folder(args.out, "--out")
     if args.mcap is not None:
         check_output_path(check_bag_target(args.mcap, "--mcap"), "folder", "--mcap")
+    if args.rerun is not None:
+        check_output_path(args.rerun, "file", "--rerun")
     replay = None
     if args.replay is not None:
         replay = load_recording(args.replay)
@@ -273,6 +289,7 @@ def _cmd_run(args: argparse.Namespace) -> int:
         progress=not args.quiet,
         depth_backend=args.depth_backend,
         mcap=args.mcap,
+        rerun=args.rerun,
     )
     print(format_table1(report))
     timing = report.timing
@@ -294,6 +311,8 @@ def _cmd_run_seeds(args: argparse.Namespace) -> int:
         raise FogsimError("give either --seed N or --seeds SPEC, not both")
     if args.mcap is not None:
         raise FogsimError("--mcap writes one run's maps; give --seed N instead of --seeds SPEC")
+    if args.rerun is not None:
+        raise FogsimError("--rerun logs one run: give --seed N instead of --seeds SPEC")
     if args.scenario is None:
         raise FogsimError("run --seeds needs a SCENARIO (see `fogsim list`)")
     seeds = parse_seeds(args.seeds)
@@ -339,6 +358,18 @@ def _cmd_record(args: argparse.Namespace) -> int:
     print(
         f"recorded {frames} frames of {scenario.name} to {path} "
         f"({size_mb:.1f} MB, {time.perf_counter() - start:.1f} s)"
+    )
+    return 0
+
+
+def _cmd_scene(args: argparse.Namespace) -> int:
+    check_output_path(args.out, "file", "--out")
+    scenario = _load(args.scenario, args)
+    path = export_scene(scenario, args.out)
+    size_mb = os.path.getsize(path) / 1e6
+    print(
+        f"saved the scene of {scenario.name} to {path} ({size_mb:.1f} MB); "
+        f"open it with `python -m mujoco.viewer --mjcf {path}`"
     )
     return 0
 
@@ -441,6 +472,8 @@ def main(argv: Sequence[str] | None = None) -> int:
             return args.func(args)
         if args.command == "import-bag":
             return _cmd_import_bag(args)
+        if args.command == "scene":
+            return _cmd_scene(args)
         return _cmd_suite(args)
     except (FogsimError, MapperError) as exc:
         print(f"fogsim: error: {exc}", file=sys.stderr)

@@ -1,4 +1,4 @@
-"""The scene exported for MuJoCo's viewer: one file, the built model, the first frame's state."""
+"""The scene exported for MuJoCo's viewer: the XML and its textures, the built model, frame 0."""
 
 import dataclasses
 from xml.etree import ElementTree
@@ -7,6 +7,7 @@ import mujoco
 import numpy as np
 import pytest
 
+from fogsim.cli import main
 from fogsim.config import load_scenario
 from fogsim.sim.export import START_KEYFRAME, export_scene
 from fogsim.sim.scene import PARKED_Z_M
@@ -43,8 +44,10 @@ def names(model, kind):
 def test_the_saved_scene_is_the_built_model_and_starts_at_the_first_frame(tmp_path, name):
     scenario = load_scenario(name)
     path = export_scene(scenario, tmp_path / "scene.xml")
-    assert list(tmp_path.iterdir()) == [path]  # one file, no temporary left
-    assert not [e.tag for e in ElementTree.parse(path).iter() if "file" in e.attrib]
+    named = sorted(e.attrib["file"] for e in ElementTree.parse(path).iter() if "file" in e.attrib)
+    assert named and all(name.endswith(".png") for name in named)  # the generated textures
+    # The XML and the textures it names, nothing else (no temporary left).
+    assert sorted(p.name for p in tmp_path.iterdir()) == sorted({*named, "scene.xml"})
 
     saved = mujoco.MjModel.from_xml_path(str(path))
     simulation = Simulation(scenario, depth_backend="raycast")  # at its first frame
@@ -76,3 +79,12 @@ def test_an_object_removed_at_time_zero_starts_parked(tmp_path):
     mujoco.mj_resetDataKeyframe(saved, data, 0)
     mujoco.mj_kinematics(saved, data)
     assert data.body(f"obj_{event.remove}").xpos[2] == PARKED_Z_M  # out of view, as in the run
+
+
+def test_fogsim_scene_saves_a_file_mujoco_loads(tmp_path, capsys):
+    path = tmp_path / "scene.xml"
+    assert main(["scene", "flat_floor", "--out", str(path), "--seed", "3"]) == 0
+    assert f"python -m mujoco.viewer --mjcf {path}" in capsys.readouterr().out
+    assert mujoco.MjModel.from_xml_path(str(path)).nkey == 1
+    assert main(["scene", "flat_floor", "--out", str(tmp_path)]) == 2  # a folder
+    assert "--out" in capsys.readouterr().err

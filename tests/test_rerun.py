@@ -9,7 +9,9 @@ import pytest
 from synthetic_depth import Box, render_scene
 from test_pipeline import CAMERA_IN_ROBOT, INTR, RATE_HZ, ROBOT_POSE, camera_in_world
 
+from fogsim.cli import main
 from fogsim.data.frame import Frame
+from fogsim.data.recording import save_recording
 from fogsim.errors import FogsimError, OutputError
 from fogsim.run.runner import run_frames
 from fogsim.viz.rerun_log import RerunLogger
@@ -224,3 +226,22 @@ def test_the_folder_is_made_and_an_unwritable_path_is_an_output_error(tmp_path):
     (tmp_path / "file").write_text("")
     with pytest.raises(OutputError, match=r"cannot write .*file/run\.rrd"):
         RerunLogger(tmp_path / "file" / "run.rrd", "test")
+
+
+def test_fogsim_run_rerun_writes_the_file_beside_the_run(tmp_path, capsys):
+    rerun_chunk()
+    frames, _ = frames_and_rendering(FRAMES)
+    recording = save_recording(tmp_path / "rec.npz", frames, truths=[TRUTH] * FRAMES)
+    rrd = tmp_path / "view" / "run.rrd"
+    args = ["run", "--replay", str(recording), "--out", str(tmp_path / "run"), "--quiet"]
+    assert main([*args, "--no-pictures", "--rerun", str(rrd)]) == 0, capsys.readouterr().err
+    rows = read_rrd(rrd)
+    assert set(rows) == ENTITIES and len(rows["/camera/depth"]) == FRAMES
+    assert (tmp_path / "run" / "report.json").is_file()
+
+
+def test_fogsim_run_rerun_refuses_a_folder_and_seeds(tmp_path, capsys):
+    assert main(["run", "stage", "--rerun", str(tmp_path), "--quiet"]) == 2
+    assert "--rerun" in capsys.readouterr().err
+    assert main(["run", "stage", "--seeds", "1-2", "--rerun", str(tmp_path / "a.rrd")]) == 2
+    assert "--rerun logs one run" in capsys.readouterr().err

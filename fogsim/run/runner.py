@@ -39,6 +39,7 @@ from fogsim.run.run_folder import RunFolder
 from fogsim.run.warmup import warm_up_kernels
 from fogsim.sim.simulation import Simulation
 from fogsim.viz.pictures import RunVideoWriter, write_pictures
+from fogsim.viz.rerun_log import RerunLogger
 from fogsim.world.truth import TruthParams
 from mapper import MapperParams
 from mapper.segmentation import SegmentationParams
@@ -276,6 +277,7 @@ def run_scenario(
     max_frames: int | None = None,
     depth_backend: str = "renderer",
     mcap: Path | None = None,
+    rerun: Path | None = None,
 ) -> Report:
     """Run one scenario end to end and write its results.
 
@@ -296,6 +298,8 @@ def run_scenario(
         depth_backend: Simulation depth backend (``renderer`` or ``raycast``).
         mcap: Also write every frame's FOG and robot pose as a rosbag2 bag in MCAP storage
             there (:class:`~fogsim.bags.write.McapMapWriter`, renamed into place at the end).
+        rerun: Also write this Rerun ``.rrd`` file (:class:`~fogsim.viz.rerun_log.RerunLogger`;
+            needs the ``viewer`` extra), whether or not ``out_dir`` is given.
 
     Returns:
         The report, with the pictures and the video it wrote.
@@ -306,7 +310,7 @@ def run_scenario(
     """
     start = time.perf_counter()
     params = resolve_params(scenario)  # bad parameters fail here, before any simulation
-    options = _RunOptions(replay, pictures, video, progress, max_frames, depth_backend, mcap)
+    options = _RunOptions(replay, pictures, video, progress, max_frames, depth_backend, mcap, rerun)
     if out_dir is None:
         return _run_and_write(scenario, params, None, options, start)
     with RunFolder(out_dir) as folder:
@@ -330,6 +334,7 @@ class _RunOptions:
     max_frames: int | None
     depth_backend: str
     mcap: Path | None
+    rerun: Path | None
 
 
 def _run_and_write(
@@ -361,6 +366,10 @@ def _run_and_write(
             callbacks.append(writer.add)
         if options.mcap is not None:
             callbacks.append(cleanup.enter_context(McapMapWriter(options.mcap)).add)
+        if options.rerun is not None:
+            run_id = f"{scenario.name}-seed{scenario.seed}" if scenario is not None else "run"
+            logger = RerunLogger(options.rerun, run_id, source.truth_at)
+            callbacks.append(cleanup.enter_context(logger).add)
         result = run_frames(
             source.frames,
             source.truth_at,

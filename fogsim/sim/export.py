@@ -1,8 +1,10 @@
-"""A scenario's built MuJoCo scene as one self-contained MJCF file, for MuJoCo's own viewer.
+"""A scenario's built MuJoCo scene as an MJCF file (and its textures), for MuJoCo's own viewer.
 
 ``python -m mujoco.viewer --mjcf scene.xml`` opens the file: the stage, its objects and the robot
 (or the free camera rig) exactly as :func:`fogsim.sim.scene.build_scene_mjcf` builds them —
-robot meshes and height fields inline, textures built in, no other file needed. The file holds
+robot meshes and height fields inline. The generated surface textures (``assets/mjcf/
+textures.toml``) are PNG files the MJCF names by their content hash; they are written beside the
+XML file, so the folder holding ``scene.xml`` is all the viewer needs. The file holds
 one keyframe, ``start``: the robot standing at the first sample of its planned walk and every
 moving object where the events put it at time 0. Load it in the viewer's *Simulation* panel
 (*Key*, then *Load key*): the viewer opens at the model's reference pose, and its physics lets
@@ -14,9 +16,8 @@ from __future__ import annotations
 import os
 from pathlib import Path
 
-from fogsim.atomic import write_text_atomic
+from fogsim.atomic import write_atomic, write_text_atomic
 from fogsim.config import Scenario
-from fogsim.errors import FogsimError
 from fogsim.sim.scene import build_scene_mjcf
 from fogsim.sim.simulation import Simulation
 
@@ -24,37 +25,41 @@ START_KEYFRAME = "start"
 """Name of the keyframe holding the state at the run's first frame."""
 
 
-def scene_xml(scenario: Scenario) -> str:
-    """The MJCF text of the scenario's scene with the ``start`` keyframe.
+def scene_xml(scenario: Scenario) -> tuple[str, dict[str, bytes]]:
+    """The MJCF text of the scenario's scene with the ``start`` keyframe, and its asset files.
 
     The state comes from a :class:`~fogsim.sim.simulation.Simulation` at its first frame
     (ray-cast depth backend: no OpenGL needed).
 
-    Raises:
-        FogsimError: The scene refers to asset files (the text would not stand alone).
+    Returns:
+        The MJCF text and the files it names (file name → content), to be written beside it.
     """
     simulation = Simulation(scenario, depth_backend="raycast")
     root = build_scene_mjcf(scenario, simulation.robot)
-    assets = sorted(root.get_assets())
-    if assets:
-        raise FogsimError(
-            f"scene of {scenario.name!r} refers to asset files {assets}; the export writes one "
-            "self-contained MJCF file"
-        )
+    assets = dict(sorted(root.get_assets().items()))
     data = simulation.scene.data
     key = root.keyframe.add("key", name=START_KEYFRAME, time=0.0, qpos=data.qpos.copy())
     if data.mocap_pos.size:  # MuJoCo refuses empty mocap attributes
         # The MJCF places mocap bodies at the scenario's positions; an event at time 0 differs.
         key.mpos = data.mocap_pos.ravel().copy()
         key.mquat = data.mocap_quat.ravel().copy()
-    return root.to_xml_string()
+    return root.to_xml_string(), assets
 
 
 def export_scene(scenario: Scenario, path: str | os.PathLike[str]) -> Path:
-    """Write the scenario's scene (:func:`scene_xml`) to ``path`` atomically; returns the path.
+    """Write the scenario's scene (:func:`scene_xml`) to ``path`` and its assets beside it.
+
+    Every file is written atomically, the assets first (their names are content hashes, so an
+    earlier export's are either the same bytes or not named by the new XML file).
+
+    Returns:
+        The path of the XML file.
 
     Raises:
-        FogsimError: See :func:`scene_xml`.
-        OutputError: The file cannot be written.
+        OutputError: A file cannot be written.
     """
-    return write_text_atomic(path, scene_xml(scenario))
+    text, assets = scene_xml(scenario)
+    folder = Path(path).parent
+    for name, content in assets.items():
+        write_atomic(folder / name, lambda stream, data=content: stream.write(data))
+    return write_text_atomic(path, text)
