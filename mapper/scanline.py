@@ -10,7 +10,7 @@ total-least-squares fit of ray-smeared points is; every tolerance is a depth dif
 1. `local_noise_depth_m`: noise-adaptive part. On a plane the second difference of inverse
    depth along a row is pure noise; a clipped box mean of it gives the local depth noise,
    capped at 1.5× the image's typical noise at the same depth (so a rough surface, whose bumps
-   look like noise, cannot widen its own tolerances).
+   look like noise, cannot widen its own tolerances); the typical noise is returned too.
 2. `split_rows`: every row is cut into runs of valid pixels and each run recursively split
    until a weighted line fits every pixel within ``split_factor·sigma + floor``, its RMS
    residual is within ``rms_factor·sigma`` and no depth step shows in its residuals (mean
@@ -92,10 +92,12 @@ def local_noise_depth_m(inv_depth, window, min_noise_m, cap_factor):
         window: half width [px] of the averaging box along the row.
         min_noise_m: lower bound of the returned noise [m].
         cap_factor: if > 0, cap every estimate at this multiple of the image's typical noise
-            at the same depth (see `_cap_by_range_profile`).
+            at the same depth (see `_range_profile`).
 
     Returns:
-        (H, W) depth noise [m]; NaN where the depth is invalid.
+        (H, W) local depth noise [m] and (H, W) the image's typical noise at each pixel's
+        depth [m] (`_range_profile`, at least ``min_noise_m``); both NaN where the depth is
+        invalid.
     """
     height, width = inv_depth.shape
     second = np.full((height, width), np.nan)
@@ -125,21 +127,27 @@ def local_noise_depth_m(inv_depth, window, min_noise_m, cap_factor):
             if m != m:  # NaN
                 m = fallback
             out[r, c] = max(m * _CLIPPED_MEAN_TO_SIGMA / (z * z), min_noise_m)
+    typical = _range_profile(out, inv_depth, min_noise_m)
     if cap_factor > 0.0:
-        _cap_by_range_profile(out, inv_depth, cap_factor, min_noise_m)
-    return out
+        for r in range(height):
+            for c in range(width):
+                if out[r, c] == out[r, c]:
+                    out[r, c] = max(min(out[r, c], cap_factor * typical[r, c]), min_noise_m)
+    return out, typical
 
 
 @numba.njit(cache=True)
-def _cap_by_range_profile(sigma, inv_depth, cap_factor, min_noise_m):
-    """Cap local noise at ``cap_factor`` × the image's typical noise at the same depth.
+def _range_profile(sigma, inv_depth, min_noise_m):
+    """The image's typical depth noise at each pixel's depth [m] (NaN where invalid).
 
-    The typical noise is a robust (twice clipped) mean of the local estimates in 16 depth bins,
-    interpolated linearly in depth. A rough surface raises its own local estimate (its bumps
-    look like noise at the pixel scale); the cap keeps it from widening its tolerances beyond
-    what the sensor shows elsewhere at that range. Works in place.
+    The typical noise is a robust (twice clipped) mean of the local estimates ``sigma`` in 16
+    depth bins, interpolated linearly in depth; bins with fewer than 20 pixels take their
+    neighbour's level, and with no usable bin at all the local estimate itself is returned. A
+    rough surface raises its own local estimate (its bumps look like noise at the pixel scale);
+    this profile is what the sensor shows elsewhere at that range.
     """
     height, width = sigma.shape
+    typical = sigma.copy()
     n_bins = 16
     d_min = np.inf
     d_max = 0.0
@@ -150,7 +158,7 @@ def _cap_by_range_profile(sigma, inv_depth, cap_factor, min_noise_m):
                 d_min = min(d_min, 1.0 / z)
                 d_max = max(d_max, 1.0 / z)
     if not d_max > d_min:
-        return
+        return typical
     step = (d_max - d_min) / n_bins
     level = np.full(n_bins, np.inf)
     for _ in range(3):
@@ -179,12 +187,13 @@ def _cap_by_range_profile(sigma, inv_depth, cap_factor, min_noise_m):
             if lo == np.inf and hi == np.inf:
                 continue
             if lo == np.inf:
-                typical = hi
+                level_here = hi
             elif hi == np.inf:
-                typical = lo
+                level_here = lo
             else:
-                typical = (1.0 - t) * lo + t * hi
-            sigma[r, c] = max(min(sigma[r, c], cap_factor * typical), min_noise_m)
+                level_here = (1.0 - t) * lo + t * hi
+            typical[r, c] = max(level_here, min_noise_m)
+    return typical
 
 
 @numba.njit(cache=True)

@@ -72,6 +72,9 @@ _NON_NEGATIVE_FIELDS = (
     "fill_sigma_factor",
     "min_plane_extent_m",
     "noise_cap_factor",
+    "floor_max_rms_ratio",
+    "ground_relabel_sigma_factor",
+    "floor_snap_sigma_factor",
 )
 """`SegmentationParams` fields that must be finite and >= 0."""
 _INTEGER_RANGES: dict[str, tuple[int, int | None]] = {
@@ -124,6 +127,23 @@ class SegmentationParams:
         min_plane_pixels: planes with fewer pixels are dissolved (their pixels: no plane).
         min_plane_extent_m: a floor plane's footprint must be at least this wide in every
             direction (sqrt(12)·std of its points along the minor in-plane axis) [m].
+        floor_max_rms_ratio: a floor plane's RMS depth residual is at most this multiple of
+            the image's typical noise at its pixels' depths (the range profile, not the local
+            estimate a rough surface widens). 1.3: a flat surface's ratio is about 1 (the
+            typical noise is the same estimator's robust mean at that range; a plane of 20
+            pixels has it within ±0.3 at 2 sigma), while groups of tilted facets on a rough
+            top that noise merged into one plane exceed it; 0 turns the test off.
+        ground_relabel_sigma_factor: a point on no floor plane whose depth is within this many
+            sigma (the typical noise at its depth) of where its ray meets the ground plane is
+            a ground point (labelled with the ground's height). 3: far, noisy ground that
+            formed no plane then lies on the ground instead of becoming obstacle points below
+            it, while an obstacle's points are farther from the ground than 3 sigma but at
+            its very foot. 0: off; nothing is relabelled without a ground plane.
+        floor_snap_sigma_factor: every floor point whose ray meets its floor height within
+            this many sigma (typical noise at its depth) of its measured depth is moved there
+            along its ray (depth noise lies along the ray: the point then has the right x, y
+            and z = its height, so a tread's points never spill onto its neighbours). 3 (as
+            above); 0: off, points stay where measured.
         floor_max_normal_angle_deg: a floor plane's normal is within this angle of vertical
             after the tilt correction [deg].
         max_tilt_correction_deg: planes whose normal is within this angle of vertical (before
@@ -159,6 +179,9 @@ class SegmentationParams:
     seed_min_pixels: int = 4
     min_plane_pixels: int = 20
     min_plane_extent_m: float = 0.08
+    floor_max_rms_ratio: float = 1.3
+    ground_relabel_sigma_factor: float = 3.0
+    floor_snap_sigma_factor: float = 3.0
     floor_max_normal_angle_deg: float = 5.0
     max_tilt_correction_deg: float = 12.0
     tilt_consensus_deg: float = 1.5
@@ -350,7 +373,7 @@ def segment_depth(
     x = (np.arange(width) - intrinsics.cx) / intrinsics.fx
     y = (np.arange(height) - intrinsics.cy) / intrinsics.fy
     inv_depth = 1.0 / depth
-    sigma = scanline.local_noise_depth_m(
+    sigma, typical_sigma = scanline.local_noise_depth_m(
         inv_depth, params.noise_window_px, params.min_noise_m, params.noise_cap_factor
     )
     seg_rows, seg_starts, seg_stops, seg_table = scanline.split_rows(
@@ -451,18 +474,42 @@ def segment_depth(
     centroids = centroids_camera @ rotation.T + pivot
     # RMS depth residual of the plane fit (inverse-depth residual scaled at the centroid).
     rms = np.sqrt(plane_table[:, 3]) * centroids_camera[:, 2] ** 2
-
-    correction = estimate_tilt(normals, areas, eigen, counts, pivot, params)
+    depths = depth.reshape(-1)[pixel_index]
+    typical = typical_sigma.reshape(-1)[pixel_index]
+    rms_ratio = _rms_ratio(plane_table, x, y, pixel_index, width, depths, typical, plane_ids)
+    smooth = (params.floor_max_rms_ratio == 0.0) | (rms_ratio <= params.floor_max_rms_ratio)
+    # Rough planes neither steer the tilt nor count as floor: no pixels for `estimate_tilt`.
+    correction = estimate_tilt(normals, areas, eigen, np.where(smooth, counts, 0), pivot, params)
     centroids_c = (centroids - pivot) @ correction.rotation.T + pivot
     normals_c = normals @ correction.rotation.T
-    is_floor_shape = _floor_shape(normals_c, eigen, counts, params)
+    is_floor_shape = _floor_shape(normals_c, eigen, counts, params) & smooth
     correction = ground_shift(correction, centroids_c[:, 2], areas, is_floor_shape, params)
     heights = centroids_c[:, 2] + correction.z_shift_m
 
     transform_corrected = correction.transform @ transform
-    corrected = points_camera @ transform_corrected[:3, :3].T + transform_corrected[:3, 3]
+    origin = transform_corrected[:3, 3]
+    rays = _unit_z_rays(intrinsics)[pixel_index] @ transform_corrected[:3, :3].T
     floor_of_plane = np.append(np.where(is_floor_shape, heights, np.nan), np.nan)
     floor_heights = floor_of_plane[plane_ids]  # id -1 → the appended NaN
+    if correction.ground_plane_found and params.ground_relabel_sigma_factor > 0.0:
+        ground_m = heights[
+            np.argmin(
+                np.where(is_floor_shape, np.abs(heights - params.expected_ground_z_m), np.inf)
+            )
+        ]
+        floor_heights = _relabel_ground(
+            floor_heights,
+            float(ground_m),
+            origin,
+            rays,
+            depths,
+            typical,
+            params.ground_relabel_sigma_factor,
+        )
+    depths = _snap_to_floors(
+        floor_heights, origin, rays, depths, typical, params.floor_snap_sigma_factor
+    )
+    corrected = origin + rays * depths[:, None]
 
     planes = PlaneTable(
         pixel_counts=counts,
@@ -491,6 +538,46 @@ def _unit_z_rays(intrinsics: PinholeIntrinsics) -> NDArray[np.float64]:
     rays = intrinsics.ray_directions_camera().reshape(-1, 3)
     rays.flags.writeable = False
     return rays
+
+
+def _rms_ratio(plane_table, x, y, pixel_index, width, depths, typical, plane_ids):
+    """(P,) RMS over each plane's pixels of (depth residual / typical noise at that depth)."""
+    n_planes = plane_table.shape[0]
+    on_plane = plane_ids >= 0
+    ids = plane_ids[on_plane]
+    index = pixel_index[on_plane]
+    coefficients = plane_table[ids, :3]
+    inv_predicted = (
+        coefficients[:, 0] * x[index % width] + coefficients[:, 1] * y[index // width]
+    ) + coefficients[:, 2]
+    ratio = (depths[on_plane] - 1.0 / inv_predicted) / typical[on_plane]
+    sums = np.bincount(ids, weights=ratio * ratio, minlength=n_planes)
+    counts = np.bincount(ids, minlength=n_planes)
+    return np.sqrt(sums / np.maximum(counts, 1))
+
+
+def _relabel_ground(floor_heights, ground_m, origin, rays, depths, typical, factor):
+    """Floor heights with points of no floor plane lying on the ground (within noise) added."""
+    with np.errstate(divide="ignore", invalid="ignore"):
+        ground_depths = (ground_m - origin[2]) / rays[:, 2]
+    on_ground = (
+        np.isnan(floor_heights)
+        & (rays[:, 2] < 0.0)
+        & (np.abs(depths - ground_depths) <= factor * typical)
+    )
+    return np.where(on_ground, ground_m, floor_heights)
+
+
+def _snap_to_floors(floor_heights, origin, rays, depths, typical, factor):
+    """Depths of the points, floor points moved along their ray onto their floor height.
+
+    Only where the ray meets the height going down and within ``factor`` sigma of the measured
+    depth (beyond that the difference is no depth noise); other points keep their depth.
+    """
+    with np.errstate(divide="ignore", invalid="ignore"):
+        floor_depths = (floor_heights - origin[2]) / rays[:, 2]
+    snap = (rays[:, 2] < 0.0) & (np.abs(depths - floor_depths) <= factor * typical)
+    return np.where(snap, floor_depths, depths)
 
 
 def _floor_shape(normals, eigen, counts, params: SegmentationParams) -> NDArray[np.bool_]:
