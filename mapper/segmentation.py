@@ -34,7 +34,7 @@ from __future__ import annotations
 import functools
 import math
 from collections.abc import Mapping
-from dataclasses import dataclass, fields
+from dataclasses import dataclass, fields, replace
 
 import numpy as np
 from numpy.typing import NDArray
@@ -75,6 +75,8 @@ _NON_NEGATIVE_FIELDS = (
     "floor_max_rms_ratio",
     "ground_relabel_sigma_factor",
     "floor_snap_sigma_factor",
+    "floor_height_tolerance_m",
+    "floor_max_segment_chi2",
 )
 """`SegmentationParams` fields that must be finite and >= 0."""
 _INTEGER_RANGES: dict[str, tuple[int, int | None]] = {
@@ -139,6 +141,15 @@ class SegmentationParams:
             formed no plane then lies on the ground instead of becoming obstacle points below
             it, while an obstacle's points are farther from the ground than 3 sigma but at
             its very foot. 0: off; nothing is relabelled without a ground plane.
+        floor_height_tolerance_m: constant added to the height tolerance of growing and
+            filling floor regions [m]. 5 mm: the residual tilt after the correction (a few
+            tenths of a degree) bends a large ground region by that much, while it stays below
+            half the 31 mm smallest step of the paper's staircase, so a region never climbs one.
+        floor_max_segment_chi2: a floor's row segments' mean heights scatter about a plane
+            fitted to them with a reduced chi² of at most this (`_segment_chi2`). 3: about
+            the 95th percentile for a floor of 5 segments (chi² with 2 degrees of freedom
+            over 2), lower for larger floors; a rough top's bumps, which a segment's mean
+            does not average away, exceed it; 0: off.
         floor_snap_sigma_factor: every floor point whose ray meets its floor height within
             this many sigma (typical noise at its depth) of its measured depth is moved there
             along its ray (depth noise lies along the ray: the point then has the right x, y
@@ -179,9 +190,11 @@ class SegmentationParams:
     seed_min_pixels: int = 4
     min_plane_pixels: int = 20
     min_plane_extent_m: float = 0.08
-    floor_max_rms_ratio: float = 1.3
+    floor_max_rms_ratio: float = 1.15
     ground_relabel_sigma_factor: float = 3.0
     floor_snap_sigma_factor: float = 3.0
+    floor_height_tolerance_m: float = 0.005
+    floor_max_segment_chi2: float = 3.0
     floor_max_normal_angle_deg: float = 5.0
     max_tilt_correction_deg: float = 12.0
     tilt_consensus_deg: float = 1.5
@@ -281,6 +294,31 @@ class PlaneTable:
 
 
 @dataclass(frozen=True)
+class FloorTable:
+    """Per-floor-region results (index = floor id): level regions of the image.
+
+    Attributes:
+        pixel_counts: (F,) pixels of each region.
+        heights_m: (F,) weighted mean corrected z of the region's points [m].
+        extents_m: (F, 2) footprint widths, minor first (sqrt(12)·std of the points moved
+            onto the height along their rays) [m].
+        areas_m2: (F,) footprint area of the region's pixels on a horizontal plane [m²].
+        rms_ratio: (F,) RMS height residual in units of the typical noise along z.
+        is_floor: (F,) the region is a floor (enough pixels, wide, smooth).
+    """
+
+    pixel_counts: NDArray[np.int64]
+    heights_m: NDArray[np.float64]
+    extents_m: NDArray[np.float64]
+    areas_m2: NDArray[np.float64]
+    rms_ratio: NDArray[np.float64]
+    is_floor: NDArray[np.bool_]
+
+    def __len__(self) -> int:
+        return int(self.pixel_counts.shape[0])
+
+
+@dataclass(frozen=True)
 class SegmentationResult:
     """Labelled range points of one depth image.
 
@@ -288,9 +326,11 @@ class SegmentationResult:
         points: (N, 3) corrected robot-frame points [m] of all valid pixels, row-major order.
         floor_heights: (N,) height of the floor plane of each point [m], NaN = not floor.
         plane_ids: (N,) plane index of each point, -1 for none.
+        floor_ids: (N,) floor region of each point, -1 for none.
         pixel_index: (N,) index of each point into the flattened (height·width) image.
         correction: the tilt rotation and z shift applied.
-        planes: per-plane table.
+        planes: per-plane table (free planes: they steer the tilt correction).
+        floors: per-floor-region table (level regions: they give the floor heights).
         image_shape: (height, width) of the depth image.
         transform_camera_to_robot: 4×4 corrected camera pose in the robot frame.
     """
@@ -298,9 +338,11 @@ class SegmentationResult:
     points: NDArray[np.float64]
     floor_heights: NDArray[np.float64]
     plane_ids: NDArray[np.int64]
+    floor_ids: NDArray[np.int64]
     pixel_index: NDArray[np.int64]
     correction: PoseCorrection
     planes: PlaneTable
+    floors: FloorTable
     image_shape: tuple[int, int]
     transform_camera_to_robot: NDArray[np.float64]
 
@@ -309,21 +351,22 @@ class SegmentationResult:
 
         Args:
             kind: "plane" → plane id per pixel (int64, -1 none, -2 no measurement);
+                "floor_region" → floor region id per pixel (the same codes);
                 "floor" → floor height per pixel [m] (float, NaN elsewhere).
 
         Raises:
             InvalidParameterError: for another kind.
         """
         size = self.image_shape[0] * self.image_shape[1]
-        if kind == "plane":
+        if kind in ("plane", "floor_region"):
             image = np.full(size, -2, dtype=np.int64)
-            image[self.pixel_index] = self.plane_ids
+            image[self.pixel_index] = self.plane_ids if kind == "plane" else self.floor_ids
         elif kind == "floor":
             image = np.full(size, np.nan)
             image[self.pixel_index] = self.floor_heights
         else:
             raise InvalidParameterError(
-                f"labels_image kind must be 'plane' or 'floor', got {kind!r}"
+                f"labels_image kind must be 'plane', 'floor_region' or 'floor', got {kind!r}"
             )
         return image.reshape(self.image_shape)
 
@@ -478,23 +521,40 @@ def segment_depth(
     typical = typical_sigma.reshape(-1)[pixel_index]
     rms_ratio = _rms_ratio(plane_table, x, y, pixel_index, width, depths, typical, plane_ids)
     smooth = (params.floor_max_rms_ratio == 0.0) | (rms_ratio <= params.floor_max_rms_ratio)
-    # Rough planes neither steer the tilt nor count as floor: no pixels for `estimate_tilt`.
+    # Rough planes don't steer the tilt: no pixels for `estimate_tilt`.
     correction = estimate_tilt(normals, areas, eigen, np.where(smooth, counts, 0), pivot, params)
     centroids_c = (centroids - pivot) @ correction.rotation.T + pivot
     normals_c = normals @ correction.rotation.T
     is_floor_shape = _floor_shape(normals_c, eigen, counts, params) & smooth
-    correction = ground_shift(correction, centroids_c[:, 2], areas, is_floor_shape, params)
-    heights = centroids_c[:, 2] + correction.z_shift_m
 
-    transform_corrected = correction.transform @ transform
-    origin = transform_corrected[:3, 3]
-    rays = _unit_z_rays(intrinsics)[pixel_index] @ transform_corrected[:3, :3].T
-    floor_of_plane = np.append(np.where(is_floor_shape, heights, np.nan), np.nan)
-    floor_heights = floor_of_plane[plane_ids]  # id -1 → the appended NaN
+    # Floors: level regions grown with the horizontal model in the tilt-corrected frame.
+    transform_tilted = correction.transform @ transform
+    origin = transform_tilted[:3, 3]
+    rays = _unit_z_rays(intrinsics)[pixel_index] @ transform_tilted[:3, :3].T
+    floor_ids, floors = _floor_regions(
+        origin,
+        rays,
+        depths,
+        typical,
+        (height, width),
+        pixel_index,
+        (seg_rows, seg_starts, seg_stops),
+        intrinsics,
+        params,
+    )
+    correction = ground_shift(
+        correction, floors.heights_m, floors.areas_m2, floors.is_floor, params
+    )
+    floors = replace(floors, heights_m=floors.heights_m + correction.z_shift_m)
+    origin = origin + np.array([0.0, 0.0, correction.z_shift_m])
+    floor_of_region = np.append(np.where(floors.is_floor, floors.heights_m, np.nan), np.nan)
+    floor_heights = floor_of_region[floor_ids]  # id -1 → the appended NaN
     if correction.ground_plane_found and params.ground_relabel_sigma_factor > 0.0:
-        ground_m = heights[
+        ground_m = floors.heights_m[
             np.argmin(
-                np.where(is_floor_shape, np.abs(heights - params.expected_ground_z_m), np.inf)
+                np.where(
+                    floors.is_floor, np.abs(floors.heights_m - params.expected_ground_z_m), np.inf
+                )
             )
         ]
         floor_heights = _relabel_ground(
@@ -513,7 +573,7 @@ def segment_depth(
 
     planes = PlaneTable(
         pixel_counts=counts,
-        heights_m=heights,
+        heights_m=centroids_c[:, 2] + correction.z_shift_m,
         normals=normals_c,
         extents_m=np.sqrt(12.0 * np.maximum(eigen[:, 1:], 0.0)),
         areas_m2=areas,
@@ -524,11 +584,200 @@ def segment_depth(
         points=corrected,
         floor_heights=floor_heights,
         plane_ids=plane_ids,
+        floor_ids=floor_ids,
         pixel_index=pixel_index,
         correction=correction,
         planes=planes,
+        floors=floors,
         image_shape=(height, width),
-        transform_camera_to_robot=transform_corrected,
+        transform_camera_to_robot=correction.transform @ transform,
+    )
+
+
+def _floor_regions(
+    origin, rays, depths, typical, shape, pixel_index, segments, intrinsics, params
+) -> tuple[NDArray[np.int64], FloorTable]:
+    """Level regions of the image (`scanline.grow_floors`) and their table.
+
+    Args:
+        origin: (3,) camera centre in the tilt-corrected robot frame [m].
+        rays: (N, 3) rays of the valid pixels in that frame, unit optical-axis component.
+        depths: (N,) measured depths [m].
+        typical: (N,) the image's typical depth noise at each pixel's depth [m].
+        shape: (height, width) of the image.
+        pixel_index: (N,) index of each valid pixel in the flattened image.
+        segments: rows, starts, stops of the row segments.
+        intrinsics: the camera's intrinsics (pixel footprints).
+        params: segmentation parameters.
+
+    Returns:
+        (N,) floor region of each point (-1: none) and the `FloorTable` (heights before the
+        ground shift).
+    """
+    size = shape[0] * shape[1]
+    points = np.full((size, 3), np.nan)
+    points[pixel_index] = origin + depths[:, None] * rays
+    sigma_z = np.full(size, np.nan)
+    sigma_z[pixel_index] = np.maximum(typical * np.abs(rays[:, 2]), params.min_noise_m)
+    points, sigma_z = points.reshape(*shape, 3), sigma_z.reshape(shape)
+    z = points[..., 2]
+    seg_rows, seg_starts, seg_stops = scanline.split_level(
+        z, sigma_z, *segments, params.edge_sigma_factor, params.min_segment_pixels
+    )
+    sums = scanline.horizontal_sums(points, sigma_z, seg_rows, seg_starts, seg_stops)
+    floor_of_segment = scanline.grow_floors(
+        seg_rows,
+        seg_starts,
+        seg_stops,
+        sums,
+        shape[0],
+        params.grow_sigma_factor,
+        params.rms_sigma_factor,
+        params.floor_height_tolerance_m,
+        params.seed_min_pixels,
+    )
+    n_floors = int(floor_of_segment.max(initial=-1)) + 1
+    valid = np.zeros(size, dtype=bool)
+    valid[pixel_index] = True
+    labels = scanline.segment_labels(
+        valid.reshape(shape), seg_rows, seg_starts, seg_stops, floor_of_segment
+    )
+    grown_ids = labels.reshape(-1)[pixel_index]
+    if n_floors > 0 and params.fill_passes > 0:
+        weights = 1.0 / sigma_z.reshape(-1)[pixel_index] ** 2
+        on = grown_ids >= 0
+        grown_heights = np.bincount(
+            grown_ids[on], weights=(weights * z.reshape(-1)[pixel_index])[on], minlength=n_floors
+        ) / np.bincount(grown_ids[on], weights=weights[on], minlength=n_floors)
+        scanline.fill_floors(
+            z,
+            sigma_z,
+            labels,
+            grown_heights,
+            params.fill_sigma_factor,
+            params.floor_height_tolerance_m,
+            params.fill_passes,
+        )
+    floor_ids = labels.reshape(-1)[pixel_index]
+    return floor_ids, _floor_table(
+        floor_ids,
+        grown_ids,
+        _segment_chi2(sums, floor_of_segment, n_floors, params.floor_height_tolerance_m),
+        n_floors,
+        origin,
+        rays,
+        depths,
+        z.reshape(-1)[pixel_index],
+        sigma_z.reshape(-1)[pixel_index],
+        intrinsics,
+        params,
+    )
+
+
+def _segment_chi2(sums, floor_of_segment, n_floors, tolerance_m):
+    """(F,) reduced chi² of each floor's segment mean heights about a plane fitted to them.
+
+    A floor is a plane (a tenth of a degree of residual tilt allowed): its segments' mean
+    heights scatter about it by their standard errors (chi² ≈ 1; ``tolerance_m`` is added to
+    every standard error, as in growing: rows blending a tread with its riser count less). On
+    a rough top they scatter by the bumps, which a segment's mean does not average away.
+    Floors of fewer than 4 segments have no degrees of freedom left: 0.
+    """
+    member = floor_of_segment >= 0
+    ids = floor_of_segment[member]
+    w = sums[member, 0]
+    mean = sums[member, 1] / w
+    x = sums[member, 4] / w
+    y = sums[member, 5] / w
+    x = (
+        x
+        - (
+            np.bincount(ids, weights=w * x, minlength=n_floors)
+            / np.bincount(ids, weights=w, minlength=n_floors)
+        )[ids]
+    )
+    y = (
+        y
+        - (
+            np.bincount(ids, weights=w * y, minlength=n_floors)
+            / np.bincount(ids, weights=w, minlength=n_floors)
+        )[ids]
+    )
+    basis = np.stack([np.ones_like(x), x, y], axis=1)
+    normal = np.zeros((n_floors, 3, 3))
+    right = np.zeros((n_floors, 3))
+    np.add.at(normal, ids, w[:, None, None] * basis[:, :, None] * basis[:, None, :])
+    np.add.at(right, ids, (w * mean)[:, None] * basis)
+    normal += 1e-9 * np.eye(3) * normal[:, :1, :1]  # regions one segment wide: ridge
+    coefficients = np.linalg.solve(normal, right[..., None])[..., 0]
+    residual = mean - (basis * coefficients[ids]).sum(axis=1)
+    chi2 = np.bincount(
+        ids, weights=residual * residual / (1.0 / w + tolerance_m**2), minlength=n_floors
+    )
+    dof = np.bincount(ids, minlength=n_floors) - 3
+    return np.where(dof >= 1, chi2 / np.maximum(dof, 1), 0.0)
+
+
+def _floor_table(
+    floor_ids,
+    grown_ids,
+    segment_chi2,
+    n_floors,
+    origin,
+    rays,
+    depths,
+    z,
+    sigma_z,
+    intrinsics,
+    params,
+):
+    """`FloorTable` of the level regions ``floor_ids``.
+
+    Heights are the weighted mean z of the grown segments' points (``grown_ids``); the pixel
+    fill adds labels, not evidence.
+    """
+    grown = grown_ids >= 0
+    w_grown = 1.0 / sigma_z[grown] ** 2
+    heights = np.bincount(
+        grown_ids[grown], weights=w_grown * z[grown], minlength=n_floors
+    ) / np.bincount(grown_ids[grown], weights=w_grown, minlength=n_floors)
+    on = floor_ids >= 0
+    ids = floor_ids[on]
+
+    def total(values):
+        return np.bincount(ids, weights=values, minlength=n_floors)
+
+    counts = np.bincount(ids, minlength=n_floors)
+    residual = (z[on] - heights[ids]) / sigma_z[on]
+    rms_ratio = np.sqrt(total(residual * residual) / np.maximum(counts, 1))
+    # Footprint: the points moved onto their floor's height along their rays.
+    depth_on = (heights[ids] - origin[2]) / rays[on, 2]
+    depth_on = np.where(np.isfinite(depth_on) & (depth_on > 0.0), depth_on, depths[on])
+    xy = origin[:2] + rays[on, :2] * depth_on[:, None]
+    n = np.maximum(counts, 1)
+    mean_x, mean_y = total(xy[:, 0]) / n, total(xy[:, 1]) / n
+    cxx = total(xy[:, 0] ** 2) / n - mean_x**2
+    cyy = total(xy[:, 1] ** 2) / n - mean_y**2
+    cxy = total(xy[:, 0] * xy[:, 1]) / n - mean_x * mean_y
+    half_trace, root = (cxx + cyy) / 2.0, np.sqrt(((cxx - cyy) / 2.0) ** 2 + cxy**2)
+    extents = np.sqrt(12.0 * np.maximum(np.stack([half_trace - root, half_trace + root], 1), 0.0))
+    # Pixel footprint on a horizontal plane: depth²/(fx·fy·|ray_z|), incidence capped at 0.1.
+    ray_norm = np.linalg.norm(rays[on], axis=1)
+    incidence = np.maximum(np.abs(rays[on, 2]), 0.1 * ray_norm)
+    areas = total(depths[on] ** 2 / (intrinsics.fx * intrinsics.fy * incidence))
+    is_floor = (
+        (counts >= params.min_plane_pixels)
+        & (extents[:, 0] >= params.min_plane_extent_m)
+        & ((params.floor_max_rms_ratio == 0.0) | (rms_ratio <= params.floor_max_rms_ratio))
+        & ((params.floor_max_segment_chi2 == 0.0) | (segment_chi2 <= params.floor_max_segment_chi2))
+    )
+    return FloorTable(
+        pixel_counts=counts,
+        heights_m=heights,
+        extents_m=extents,
+        areas_m2=areas,
+        rms_ratio=rms_ratio,
+        is_floor=is_floor,
     )
 
 
@@ -600,13 +849,23 @@ def _empty_result(pivot, transform, shape) -> SegmentationResult:
         rms_m=np.zeros(0),
         is_floor=np.zeros(0, dtype=bool),
     )
+    empty_floors = FloorTable(
+        pixel_counts=np.zeros(0, dtype=np.int64),
+        heights_m=np.zeros(0),
+        extents_m=np.zeros((0, 2)),
+        areas_m2=np.zeros(0),
+        rms_ratio=np.zeros(0),
+        is_floor=np.zeros(0, dtype=bool),
+    )
     return SegmentationResult(
         points=np.zeros((0, 3)),
         floor_heights=np.zeros(0),
         plane_ids=np.zeros(0, dtype=np.int64),
+        floor_ids=np.zeros(0, dtype=np.int64),
         pixel_index=np.zeros(0, dtype=np.int64),
         correction=PoseCorrection.identity(pivot),
         planes=empty_planes,
+        floors=empty_floors,
         image_shape=shape,
         transform_camera_to_robot=transform.copy(),
     )
