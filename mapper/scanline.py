@@ -1457,3 +1457,182 @@ def split_level(z, sigma_z, seg_rows, seg_starts, seg_stops, step_factor, min_pi
             stops[count] = b
             count += 1
     return rows[:count].copy(), starts[:count].copy(), stops[:count].copy()
+
+
+@numba.njit(cache=True)
+def floor_segment_fit(seg_hsums, floor_of_segment, n_floors, tolerance_m, prior_extent_m):
+    """Plane fits of every floor's segment mean heights (see `grow_floors`).
+
+    Each floor's segments' mean heights are fitted by ``z = h + a·x + b·y`` (weights: their
+    inverse squared standard errors, x and y the segments' weighted centroids relative to the
+    floor's). The slopes have a prior of zero worth a floor ``prior_extent_m`` wide in every
+    direction, so a floor a few rows deep does not get its slope across from noise.
+
+    Returns:
+        (F,) reduced chi² of the segment means about the plane, with ``tolerance_m`` added to
+        every standard error (0 with fewer than 4 segments), (F,) slope ``sqrt(a² + b²)``
+        and (F,) int64 segment counts.
+    """
+    n_seg = floor_of_segment.shape[0]
+    w_sum = np.zeros(n_floors)
+    x_sum = np.zeros(n_floors)
+    y_sum = np.zeros(n_floors)
+    n_segments = np.zeros(n_floors, np.int64)
+    for i in range(n_seg):
+        f = floor_of_segment[i]
+        if f < 0:
+            continue
+        w = seg_hsums[i, 0]
+        w_sum[f] += w
+        x_sum[f] += seg_hsums[i, 4]
+        y_sum[f] += seg_hsums[i, 5]
+        n_segments[f] += 1
+    # Normal equations of (h, a, b): sums of w·[1, x, y]ᵀ[1, x, y] and w·m·[1, x, y].
+    normal = np.zeros((n_floors, 6))  # 11, 1x, 1y, xx, xy, yy
+    right = np.zeros((n_floors, 3))
+    for i in range(n_seg):
+        f = floor_of_segment[i]
+        if f < 0:
+            continue
+        w = seg_hsums[i, 0]
+        m = seg_hsums[i, 1] / w
+        x = seg_hsums[i, 4] / w - x_sum[f] / w_sum[f]
+        y = seg_hsums[i, 5] / w - y_sum[f] / w_sum[f]
+        normal[f, 0] += w
+        normal[f, 1] += w * x
+        normal[f, 2] += w * y
+        normal[f, 3] += w * x * x
+        normal[f, 4] += w * x * y
+        normal[f, 5] += w * y * y
+        right[f, 0] += w * m
+        right[f, 1] += w * m * x
+        right[f, 2] += w * m * y
+    coefficients = np.zeros((n_floors, 3))
+    slope = np.zeros(n_floors)
+    for f in range(n_floors):
+        s00 = normal[f, 0]
+        s01 = normal[f, 1]
+        s02 = normal[f, 2]
+        s11 = normal[f, 3]
+        s12 = normal[f, 4]
+        s22 = normal[f, 5]
+        ridge = s00 * prior_extent_m * prior_extent_m / 12.0
+        s11 += ridge
+        s22 += ridge
+        c00 = s11 * s22 - s12 * s12
+        c01 = s02 * s12 - s01 * s22
+        c02 = s01 * s12 - s02 * s11
+        det = s00 * c00 + s01 * c01 + s02 * c02
+        if not det > 0.0:
+            coefficients[f, 0] = right[f, 0] / s00
+            continue
+        c11 = s00 * s22 - s02 * s02
+        c12 = s01 * s02 - s00 * s12
+        c22 = s00 * s11 - s01 * s01
+        r0 = right[f, 0]
+        r1 = right[f, 1]
+        r2 = right[f, 2]
+        coefficients[f, 0] = (c00 * r0 + c01 * r1 + c02 * r2) / det
+        coefficients[f, 1] = (c01 * r0 + c11 * r1 + c12 * r2) / det
+        coefficients[f, 2] = (c02 * r0 + c12 * r1 + c22 * r2) / det
+        slope[f] = math.hypot(coefficients[f, 1], coefficients[f, 2])
+    chi2 = np.zeros(n_floors)
+    for i in range(n_seg):
+        f = floor_of_segment[i]
+        if f < 0:
+            continue
+        w = seg_hsums[i, 0]
+        x = seg_hsums[i, 4] / w - x_sum[f] / w_sum[f]
+        y = seg_hsums[i, 5] / w - y_sum[f] / w_sum[f]
+        residual = seg_hsums[i, 1] / w - (
+            coefficients[f, 0] + coefficients[f, 1] * x + coefficients[f, 2] * y
+        )
+        chi2[f] += residual * residual / (1.0 / w + tolerance_m * tolerance_m)
+    for f in range(n_floors):
+        chi2[f] = chi2[f] / (n_segments[f] - 3) if n_segments[f] >= 4 else 0.0
+    return chi2, slope, n_segments
+
+
+@numba.njit(cache=True)
+def floor_statistics(
+    labels, grown, points, sigma_z, depth, rays, origin_z, fx, fy, n_floors, tolerance_m
+):
+    """Per-floor pixel statistics of the level regions.
+
+    Args:
+        labels: (H, W) floor of each pixel after the fill (-1 none, -2 invalid).
+        grown: (H, W) floor of each pixel before the fill (its segments').
+        points: (H, W, 3) points in the tilt-corrected robot frame [m].
+        sigma_z: (H, W) their noise along z [m].
+        depth: (H, W) measured depths [m].
+        rays: (H, W, 3) rays in that frame with unit optical-axis component.
+        origin_z: z of the camera centre [m].
+        fx: focal length along x [px].
+        fy: focal length along y [px].
+        n_floors: F.
+        tolerance_m: added to sigma_z for the RMS (exact data) [m].
+
+    Returns:
+        pixel counts (F,) int64, heights (F,) [m] (weighted mean z of the grown pixels), RMS
+        height residual over all pixels in sigma units, each squared residual clipped at 9 (a
+        few pixels of a riser or a side joined to a floor do not make it rough) (F,),
+        footprint widths (F, 2) minor first [m] (sqrt(12)·std of the points moved onto the
+        height along their rays) and footprint areas (F,) [m²] (pixel footprints on a
+        horizontal plane, incidence capped at cos 0.1).
+    """
+    height, width = labels.shape
+    w_sum = np.zeros(n_floors)
+    wz_sum = np.zeros(n_floors)
+    for r in range(height):
+        for c in range(width):
+            f = grown[r, c]
+            if f >= 0:
+                w = 1.0 / (sigma_z[r, c] * sigma_z[r, c])
+                w_sum[f] += w
+                wz_sum[f] += w * points[r, c, 2]
+    heights = np.zeros(n_floors)
+    for f in range(n_floors):
+        heights[f] = wz_sum[f] / w_sum[f] if w_sum[f] > 0.0 else np.nan
+    counts = np.zeros(n_floors, np.int64)
+    square = np.zeros(n_floors)
+    moments = np.zeros((n_floors, 5))  # x, y, xx, xy, yy of the points on the height
+    areas = np.zeros(n_floors)
+    for r in range(height):
+        for c in range(width):
+            f = labels[r, c]
+            if f < 0:
+                continue
+            counts[f] += 1
+            residual = (points[r, c, 2] - heights[f]) / (sigma_z[r, c] + tolerance_m)
+            square[f] += min(residual * residual, 9.0)
+            ray_z = rays[r, c, 2]
+            d = depth[r, c]
+            d_on = (heights[f] - origin_z) / ray_z if ray_z != 0.0 else -1.0
+            if not d_on > 0.0:
+                d_on = d
+            x = points[r, c, 0] + (d_on - d) * rays[r, c, 0]
+            y = points[r, c, 1] + (d_on - d) * rays[r, c, 1]
+            moments[f, 0] += x
+            moments[f, 1] += y
+            moments[f, 2] += x * x
+            moments[f, 3] += x * y
+            moments[f, 4] += y * y
+            norm = math.sqrt(rays[r, c, 0] ** 2 + rays[r, c, 1] ** 2 + ray_z * ray_z)
+            areas[f] += d * d / (fx * fy * max(abs(ray_z), 0.1 * norm))
+    rms = np.zeros(n_floors)
+    extents = np.zeros((n_floors, 2))
+    for f in range(n_floors):
+        n = counts[f]
+        if n == 0:
+            continue
+        rms[f] = math.sqrt(square[f] / n)
+        mx = moments[f, 0] / n
+        my = moments[f, 1] / n
+        cxx = moments[f, 2] / n - mx * mx
+        cxy = moments[f, 3] / n - mx * my
+        cyy = moments[f, 4] / n - my * my
+        half = 0.5 * (cxx + cyy)
+        root = math.sqrt(0.25 * (cxx - cyy) ** 2 + cxy * cxy)
+        extents[f, 0] = math.sqrt(12.0 * max(half - root, 0.0))
+        extents[f, 1] = math.sqrt(12.0 * max(half + root, 0.0))
+    return counts, heights, rms, extents, areas

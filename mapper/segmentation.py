@@ -146,7 +146,8 @@ class SegmentationParams:
             tenths of a degree) bends a large ground region by that much, while it stays below
             half the 31 mm smallest step of the paper's staircase, so a region never climbs one.
         floor_max_segment_chi2: a floor's row segments' mean heights scatter about a plane
-            fitted to them with a reduced chi² of at most this (`_segment_chi2`). 3: about
+            fitted to them with a reduced chi² of at most this
+            (`scanline.floor_segment_fit`). 3: about
             the 95th percentile for a floor of 5 segments (chi² with 2 degrees of freedom
             over 2), lower for larger floors; a rough top's bumps, which a segment's mean
             does not average away, exceed it; 0: off.
@@ -303,7 +304,8 @@ class FloorTable:
         extents_m: (F, 2) footprint widths, minor first (sqrt(12)·std of the points moved
             onto the height along their rays) [m].
         areas_m2: (F,) footprint area of the region's pixels on a horizontal plane [m²].
-        rms_ratio: (F,) RMS height residual in units of the typical noise along z.
+        rms_ratio: (F,) RMS height residual in units of the typical noise along z (squared
+            residuals clipped at 9).
         is_floor: (F,) the region is a floor (enough pixels, wide, smooth).
     """
 
@@ -519,29 +521,26 @@ def segment_depth(
     rms = np.sqrt(plane_table[:, 3]) * centroids_camera[:, 2] ** 2
     depths = depth.reshape(-1)[pixel_index]
     typical = typical_sigma.reshape(-1)[pixel_index]
-    rms_ratio = _rms_ratio(plane_table, x, y, pixel_index, width, depths, typical, plane_ids)
-    smooth = (params.floor_max_rms_ratio == 0.0) | (rms_ratio <= params.floor_max_rms_ratio)
-    # Rough planes don't steer the tilt: no pixels for `estimate_tilt`.
-    correction = estimate_tilt(normals, areas, eigen, np.where(smooth, counts, 0), pivot, params)
+    correction = estimate_tilt(normals, areas, eigen, counts, pivot, params)
     centroids_c = (centroids - pivot) @ correction.rotation.T + pivot
     normals_c = normals @ correction.rotation.T
-    is_floor_shape = _floor_shape(normals_c, eigen, counts, params) & smooth
+    is_floor_shape = _floor_shape(normals_c, eigen, counts, params)
 
     # Floors: level regions grown with the horizontal model in the tilt-corrected frame.
     transform_tilted = correction.transform @ transform
     origin = transform_tilted[:3, 3]
-    rays = _unit_z_rays(intrinsics)[pixel_index] @ transform_tilted[:3, :3].T
-    floor_ids, floors = _floor_regions(
+    rays_image = (_unit_z_rays(intrinsics) @ transform_tilted[:3, :3].T).reshape(height, width, 3)
+    floor_labels, floors = _floor_regions(
         origin,
-        rays,
-        depths,
-        typical,
-        (height, width),
-        pixel_index,
+        rays_image,
+        depth,
+        typical_sigma,
         (seg_rows, seg_starts, seg_stops),
         intrinsics,
         params,
     )
+    floor_ids = floor_labels.reshape(-1)[pixel_index]
+    rays = rays_image.reshape(-1, 3)[pixel_index]
     correction = ground_shift(
         correction, floors.heights_m, floors.areas_m2, floors.is_floor, params
     )
@@ -594,33 +593,25 @@ def segment_depth(
     )
 
 
-def _floor_regions(
-    origin, rays, depths, typical, shape, pixel_index, segments, intrinsics, params
-) -> tuple[NDArray[np.int64], FloorTable]:
+def _floor_regions(origin, rays, depth, typical, segments, intrinsics, params):
     """Level regions of the image (`scanline.grow_floors`) and their table.
 
     Args:
         origin: (3,) camera centre in the tilt-corrected robot frame [m].
-        rays: (N, 3) rays of the valid pixels in that frame, unit optical-axis component.
-        depths: (N,) measured depths [m].
-        typical: (N,) the image's typical depth noise at each pixel's depth [m].
-        shape: (height, width) of the image.
-        pixel_index: (N,) index of each valid pixel in the flattened image.
+        rays: (H, W, 3) pixel rays in that frame with unit optical-axis component.
+        depth: (H, W) measured depths [m], NaN = none.
+        typical: (H, W) the image's typical depth noise at each pixel's depth [m].
         segments: rows, starts, stops of the row segments.
         intrinsics: the camera's intrinsics (pixel footprints).
         params: segmentation parameters.
 
     Returns:
-        (N,) floor region of each point (-1: none) and the `FloorTable` (heights before the
-        ground shift).
+        (H, W) floor region of each pixel (-1: none, -2: no measurement) and the
+        `FloorTable` (heights before the ground shift).
     """
-    size = shape[0] * shape[1]
-    points = np.full((size, 3), np.nan)
-    points[pixel_index] = origin + depths[:, None] * rays
-    sigma_z = np.full(size, np.nan)
-    sigma_z[pixel_index] = np.maximum(typical * np.abs(rays[:, 2]), params.min_noise_m)
-    points, sigma_z = points.reshape(*shape, 3), sigma_z.reshape(shape)
-    z = points[..., 2]
+    points = origin + depth[..., None] * rays
+    sigma_z = np.maximum(typical * np.abs(rays[..., 2]), params.min_noise_m)
+    z = np.ascontiguousarray(points[..., 2])
     seg_rows, seg_starts, seg_stops = scanline.split_level(
         z, sigma_z, *segments, params.edge_sigma_factor, params.min_segment_pixels
     )
@@ -630,155 +621,66 @@ def _floor_regions(
         seg_starts,
         seg_stops,
         sums,
-        shape[0],
+        depth.shape[0],
         params.grow_sigma_factor,
         params.rms_sigma_factor,
         params.floor_height_tolerance_m,
         params.seed_min_pixels,
     )
     n_floors = int(floor_of_segment.max(initial=-1)) + 1
-    valid = np.zeros(size, dtype=bool)
-    valid[pixel_index] = True
-    labels = scanline.segment_labels(
-        valid.reshape(shape), seg_rows, seg_starts, seg_stops, floor_of_segment
+    grown = scanline.segment_labels(
+        np.isfinite(depth), seg_rows, seg_starts, seg_stops, floor_of_segment
     )
-    grown_ids = labels.reshape(-1)[pixel_index]
+    labels = grown
     if n_floors > 0 and params.fill_passes > 0:
-        weights = 1.0 / sigma_z.reshape(-1)[pixel_index] ** 2
-        on = grown_ids >= 0
+        # Heights come from the grown segments only; the pixel fill adds labels.
+        labels = grown.copy()
+        member = floor_of_segment >= 0
         grown_heights = np.bincount(
-            grown_ids[on], weights=(weights * z.reshape(-1)[pixel_index])[on], minlength=n_floors
-        ) / np.bincount(grown_ids[on], weights=weights[on], minlength=n_floors)
+            floor_of_segment[member], weights=sums[member, 1], minlength=n_floors
+        ) / np.bincount(floor_of_segment[member], weights=sums[member, 0], minlength=n_floors)
         scanline.fill_floors(
             z,
             sigma_z,
             labels,
             grown_heights,
             params.fill_sigma_factor,
-            params.floor_height_tolerance_m,
+            params.tolerance_floor_m,
             params.fill_passes,
         )
-    floor_ids = labels.reshape(-1)[pixel_index]
-    return floor_ids, _floor_table(
-        floor_ids,
-        grown_ids,
-        _segment_chi2(sums, floor_of_segment, n_floors, params.floor_height_tolerance_m),
-        n_floors,
-        origin,
+    counts, heights, rms, extents, areas = scanline.floor_statistics(
+        labels,
+        grown,
+        points,
+        sigma_z,
+        depth,
         rays,
-        depths,
-        z.reshape(-1)[pixel_index],
-        sigma_z.reshape(-1)[pixel_index],
-        intrinsics,
-        params,
+        origin[2],
+        intrinsics.fx,
+        intrinsics.fy,
+        n_floors,
+        params.tolerance_floor_m,
     )
-
-
-def _segment_chi2(sums, floor_of_segment, n_floors, tolerance_m):
-    """(F,) reduced chi² of each floor's segment mean heights about a plane fitted to them.
-
-    A floor is a plane (a tenth of a degree of residual tilt allowed): its segments' mean
-    heights scatter about it by their standard errors (chi² ≈ 1; ``tolerance_m`` is added to
-    every standard error, as in growing: rows blending a tread with its riser count less). On
-    a rough top they scatter by the bumps, which a segment's mean does not average away.
-    Floors of fewer than 4 segments have no degrees of freedom left: 0.
-    """
-    member = floor_of_segment >= 0
-    ids = floor_of_segment[member]
-    w = sums[member, 0]
-    mean = sums[member, 1] / w
-    x = sums[member, 4] / w
-    y = sums[member, 5] / w
-    x = (
-        x
-        - (
-            np.bincount(ids, weights=w * x, minlength=n_floors)
-            / np.bincount(ids, weights=w, minlength=n_floors)
-        )[ids]
+    chi2, slope, n_segments = scanline.floor_segment_fit(
+        sums, floor_of_segment, n_floors, params.floor_height_tolerance_m, params.min_plane_extent_m
     )
-    y = (
-        y
-        - (
-            np.bincount(ids, weights=w * y, minlength=n_floors)
-            / np.bincount(ids, weights=w, minlength=n_floors)
-        )[ids]
-    )
-    basis = np.stack([np.ones_like(x), x, y], axis=1)
-    normal = np.zeros((n_floors, 3, 3))
-    right = np.zeros((n_floors, 3))
-    np.add.at(normal, ids, w[:, None, None] * basis[:, :, None] * basis[:, None, :])
-    np.add.at(right, ids, (w * mean)[:, None] * basis)
-    normal += 1e-9 * np.eye(3) * normal[:, :1, :1]  # regions one segment wide: ridge
-    coefficients = np.linalg.solve(normal, right[..., None])[..., 0]
-    residual = mean - (basis * coefficients[ids]).sum(axis=1)
-    chi2 = np.bincount(
-        ids, weights=residual * residual / (1.0 / w + tolerance_m**2), minlength=n_floors
-    )
-    dof = np.bincount(ids, minlength=n_floors) - 3
-    return np.where(dof >= 1, chi2 / np.maximum(dof, 1), 0.0)
-
-
-def _floor_table(
-    floor_ids,
-    grown_ids,
-    segment_chi2,
-    n_floors,
-    origin,
-    rays,
-    depths,
-    z,
-    sigma_z,
-    intrinsics,
-    params,
-):
-    """`FloorTable` of the level regions ``floor_ids``.
-
-    Heights are the weighted mean z of the grown segments' points (``grown_ids``); the pixel
-    fill adds labels, not evidence.
-    """
-    grown = grown_ids >= 0
-    w_grown = 1.0 / sigma_z[grown] ** 2
-    heights = np.bincount(
-        grown_ids[grown], weights=w_grown * z[grown], minlength=n_floors
-    ) / np.bincount(grown_ids[grown], weights=w_grown, minlength=n_floors)
-    on = floor_ids >= 0
-    ids = floor_ids[on]
-
-    def total(values):
-        return np.bincount(ids, weights=values, minlength=n_floors)
-
-    counts = np.bincount(ids, minlength=n_floors)
-    residual = (z[on] - heights[ids]) / sigma_z[on]
-    rms_ratio = np.sqrt(total(residual * residual) / np.maximum(counts, 1))
-    # Footprint: the points moved onto their floor's height along their rays.
-    depth_on = (heights[ids] - origin[2]) / rays[on, 2]
-    depth_on = np.where(np.isfinite(depth_on) & (depth_on > 0.0), depth_on, depths[on])
-    xy = origin[:2] + rays[on, :2] * depth_on[:, None]
-    n = np.maximum(counts, 1)
-    mean_x, mean_y = total(xy[:, 0]) / n, total(xy[:, 1]) / n
-    cxx = total(xy[:, 0] ** 2) / n - mean_x**2
-    cyy = total(xy[:, 1] ** 2) / n - mean_y**2
-    cxy = total(xy[:, 0] * xy[:, 1]) / n - mean_x * mean_y
-    half_trace, root = (cxx + cyy) / 2.0, np.sqrt(((cxx - cyy) / 2.0) ** 2 + cxy**2)
-    extents = np.sqrt(12.0 * np.maximum(np.stack([half_trace - root, half_trace + root], 1), 0.0))
-    # Pixel footprint on a horizontal plane: depth²/(fx·fy·|ray_z|), incidence capped at 0.1.
-    ray_norm = np.linalg.norm(rays[on], axis=1)
-    incidence = np.maximum(np.abs(rays[on, 2]), 0.1 * ray_norm)
-    areas = total(depths[on] ** 2 / (intrinsics.fx * intrinsics.fy * incidence))
     is_floor = (
         (counts >= params.min_plane_pixels)
+        & (n_segments >= 3)
         & (extents[:, 0] >= params.min_plane_extent_m)
-        & ((params.floor_max_rms_ratio == 0.0) | (rms_ratio <= params.floor_max_rms_ratio))
-        & ((params.floor_max_segment_chi2 == 0.0) | (segment_chi2 <= params.floor_max_segment_chi2))
+        & (slope <= math.tan(math.radians(params.floor_max_normal_angle_deg)))
+        & ((params.floor_max_rms_ratio == 0.0) | (rms <= params.floor_max_rms_ratio))
+        & ((params.floor_max_segment_chi2 == 0.0) | (chi2 <= params.floor_max_segment_chi2))
     )
-    return FloorTable(
+    floors = FloorTable(
         pixel_counts=counts,
         heights_m=heights,
         extents_m=extents,
         areas_m2=areas,
-        rms_ratio=rms_ratio,
+        rms_ratio=rms,
         is_floor=is_floor,
     )
+    return labels, floors
 
 
 @functools.lru_cache(maxsize=8)
@@ -787,22 +689,6 @@ def _unit_z_rays(intrinsics: PinholeIntrinsics) -> NDArray[np.float64]:
     rays = intrinsics.ray_directions_camera().reshape(-1, 3)
     rays.flags.writeable = False
     return rays
-
-
-def _rms_ratio(plane_table, x, y, pixel_index, width, depths, typical, plane_ids):
-    """(P,) RMS over each plane's pixels of (depth residual / typical noise at that depth)."""
-    n_planes = plane_table.shape[0]
-    on_plane = plane_ids >= 0
-    ids = plane_ids[on_plane]
-    index = pixel_index[on_plane]
-    coefficients = plane_table[ids, :3]
-    inv_predicted = (
-        coefficients[:, 0] * x[index % width] + coefficients[:, 1] * y[index // width]
-    ) + coefficients[:, 2]
-    ratio = (depths[on_plane] - 1.0 / inv_predicted) / typical[on_plane]
-    sums = np.bincount(ids, weights=ratio * ratio, minlength=n_planes)
-    counts = np.bincount(ids, minlength=n_planes)
-    return np.sqrt(sums / np.maximum(counts, 1))
 
 
 def _relabel_ground(floor_heights, ground_m, origin, rays, depths, typical, factor):
