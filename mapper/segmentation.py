@@ -146,16 +146,18 @@ class SegmentationParams:
             tenths of a degree) bends a large ground region by that much, while it stays below
             half the 31 mm smallest step of the paper's staircase, so a region never climbs one.
         floor_max_segment_chi2: a floor's row segments' mean heights scatter about a plane
-            fitted to them with a reduced chi² of at most this
-            (`scanline.floor_segment_fit`). 3: about
-            the 95th percentile for a floor of 5 segments (chi² with 2 degrees of freedom
-            over 2), lower for larger floors; a rough top's bumps, which a segment's mean
-            does not average away, exceed it; 0: off.
+            fitted to them with a reduced chi² (the growing tolerance added to every standard
+            error, `scanline.floor_segment_fit`) of at most this times 1 + 3·sqrt(2/dof), the
+            reduced chi²'s mean plus three standard deviations for dof = segments − 3. 1.0:
+            a flat floor's segments scatter by their errors (chi² about 0.5 with the
+            tolerance on stage recordings), while on a rough top they scatter by the bumps,
+            which a segment's mean does not average away; 0: off.
         floor_snap_sigma_factor: every floor point whose ray meets its floor height within
             this many sigma (typical noise at its depth) of its measured depth is moved there
             along its ray (depth noise lies along the ray: the point then has the right x, y
-            and z = its height, so a tread's points never spill onto its neighbours). 3 (as
-            above); 0: off, points stay where measured.
+            and z = its height, so a tread's points never spill onto its neighbours); a floor
+            point whose ray does not is no floor point. 3 (as above); 0: off, points stay where
+            measured.
         floor_max_normal_angle_deg: a floor plane's normal is within this angle of vertical
             after the tilt correction [deg].
         max_tilt_correction_deg: planes whose normal is within this angle of vertical (before
@@ -195,7 +197,7 @@ class SegmentationParams:
     ground_relabel_sigma_factor: float = 3.0
     floor_snap_sigma_factor: float = 3.0
     floor_height_tolerance_m: float = 0.005
-    floor_max_segment_chi2: float = 3.0
+    floor_max_segment_chi2: float = 1.0
     floor_max_normal_angle_deg: float = 5.0
     max_tilt_correction_deg: float = 12.0
     tilt_consensus_deg: float = 1.5
@@ -565,7 +567,7 @@ def segment_depth(
             typical,
             params.ground_relabel_sigma_factor,
         )
-    depths = _snap_to_floors(
+    depths, floor_heights = _snap_to_floors(
         floor_heights, origin, rays, depths, typical, params.floor_snap_sigma_factor
     )
     corrected = origin + rays * depths[:, None]
@@ -664,13 +666,17 @@ def _floor_regions(origin, rays, depth, typical, segments, intrinsics, params):
     chi2, slope, n_segments = scanline.floor_segment_fit(
         sums, floor_of_segment, n_floors, params.floor_height_tolerance_m, params.min_plane_extent_m
     )
+    dof = np.maximum(n_segments - 3, 1)
     is_floor = (
         (counts >= params.min_plane_pixels)
         & (n_segments >= 3)
         & (extents[:, 0] >= params.min_plane_extent_m)
         & (slope <= math.tan(math.radians(params.floor_max_normal_angle_deg)))
         & ((params.floor_max_rms_ratio == 0.0) | (rms <= params.floor_max_rms_ratio))
-        & ((params.floor_max_segment_chi2 == 0.0) | (chi2 <= params.floor_max_segment_chi2))
+        & (
+            (params.floor_max_segment_chi2 == 0.0)
+            | (chi2 <= params.floor_max_segment_chi2 * (1.0 + 3.0 * np.sqrt(2.0 / dof)))
+        )
     )
     floors = FloorTable(
         pixel_counts=counts,
@@ -704,15 +710,18 @@ def _relabel_ground(floor_heights, ground_m, origin, rays, depths, typical, fact
 
 
 def _snap_to_floors(floor_heights, origin, rays, depths, typical, factor):
-    """Depths of the points, floor points moved along their ray onto their floor height.
+    """Depths and floor heights of the points, floor points moved onto their floor height.
 
-    Only where the ray meets the height going down and within ``factor`` sigma of the measured
-    depth (beyond that the difference is no depth noise); other points keep their depth.
+    A floor point whose ray meets its height going down within ``factor`` sigma of the
+    measured depth is moved there; one that does not lies farther from its floor than depth
+    noise explains and is no floor point (it keeps its depth). ``factor`` 0: nothing changes.
     """
+    if factor == 0.0:
+        return depths, floor_heights
     with np.errstate(divide="ignore", invalid="ignore"):
         floor_depths = (floor_heights - origin[2]) / rays[:, 2]
     snap = (rays[:, 2] < 0.0) & (np.abs(depths - floor_depths) <= factor * typical)
-    return np.where(snap, floor_depths, depths)
+    return np.where(snap, floor_depths, depths), np.where(snap, floor_heights, np.nan)
 
 
 def _floor_shape(normals, eigen, counts, params: SegmentationParams) -> NDArray[np.bool_]:
