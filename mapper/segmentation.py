@@ -521,8 +521,6 @@ def segment_depth(
     centroids = centroids_camera @ rotation.T + pivot
     # RMS depth residual of the plane fit (inverse-depth residual scaled at the centroid).
     rms = np.sqrt(plane_table[:, 3]) * centroids_camera[:, 2] ** 2
-    depths = depth.reshape(-1)[pixel_index]
-    typical = typical_sigma.reshape(-1)[pixel_index]
     correction = estimate_tilt(normals, areas, eigen, counts, pivot, params)
     centroids_c = (centroids - pivot) @ correction.rotation.T + pivot
     normals_c = normals @ correction.rotation.T
@@ -530,47 +528,47 @@ def segment_depth(
 
     # Floors: level regions grown with the horizontal model in the tilt-corrected frame.
     transform_tilted = correction.transform @ transform
-    origin = transform_tilted[:3, 3]
-    rays_image = (_unit_z_rays(intrinsics) @ transform_tilted[:3, :3].T).reshape(height, width, 3)
+    origin = transform_tilted[:3, 3].copy()
+    rays, points_tilted, sigma_z = scanline.level_geometry(
+        depth,
+        _unit_z_rays(intrinsics),
+        transform_tilted[:3, :3].copy(),
+        origin,
+        typical_sigma,
+        params.min_noise_m,
+    )
     floor_labels, floors = _floor_regions(
         origin,
-        rays_image,
+        rays,
+        points_tilted,
+        sigma_z,
         depth,
-        typical_sigma,
         (seg_rows, seg_starts, seg_stops),
         intrinsics,
         params,
     )
-    floor_ids = floor_labels.reshape(-1)[pixel_index]
-    rays = rays_image.reshape(-1, 3)[pixel_index]
     correction = ground_shift(
         correction, floors.heights_m, floors.areas_m2, floors.is_floor, params
     )
     floors = replace(floors, heights_m=floors.heights_m + correction.z_shift_m)
-    origin = origin + np.array([0.0, 0.0, correction.z_shift_m])
-    floor_of_region = np.append(np.where(floors.is_floor, floors.heights_m, np.nan), np.nan)
-    floor_heights = floor_of_region[floor_ids]  # id -1 → the appended NaN
+    origin[2] += correction.z_shift_m
+    ground_m = np.nan
     if correction.ground_plane_found and params.ground_relabel_sigma_factor > 0.0:
-        ground_m = floors.heights_m[
-            np.argmin(
-                np.where(
-                    floors.is_floor, np.abs(floors.heights_m - params.expected_ground_z_m), np.inf
-                )
-            )
-        ]
-        floor_heights = _relabel_ground(
-            floor_heights,
-            float(ground_m),
-            origin,
-            rays,
-            depths,
-            typical,
-            params.ground_relabel_sigma_factor,
-        )
-    depths, floor_heights = _snap_to_floors(
-        floor_heights, origin, rays, depths, typical, params.floor_snap_sigma_factor
+        offsets = np.abs(floors.heights_m - params.expected_ground_z_m)
+        ground_m = float(floors.heights_m[np.argmin(np.where(floors.is_floor, offsets, np.inf))])
+    corrected, floor_heights = scanline.floor_points(
+        pixel_index,
+        floor_labels,
+        np.where(floors.is_floor, floors.heights_m, np.nan),
+        ground_m,
+        rays,
+        depth,
+        typical_sigma,
+        origin,
+        params.ground_relabel_sigma_factor,
+        params.floor_snap_sigma_factor,
     )
-    corrected = origin + rays * depths[:, None]
+    floor_ids = floor_labels.reshape(-1)[pixel_index]
 
     planes = PlaneTable(
         pixel_counts=counts,
@@ -595,14 +593,15 @@ def segment_depth(
     )
 
 
-def _floor_regions(origin, rays, depth, typical, segments, intrinsics, params):
+def _floor_regions(origin, rays, points, sigma_z, depth, segments, intrinsics, params):
     """Level regions of the image (`scanline.grow_floors`) and their table.
 
     Args:
         origin: (3,) camera centre in the tilt-corrected robot frame [m].
         rays: (H, W, 3) pixel rays in that frame with unit optical-axis component.
+        points: (H, W, 3) the pixels' points in that frame [m] (NaN: no depth).
+        sigma_z: (H, W) their noise along z [m].
         depth: (H, W) measured depths [m], NaN = none.
-        typical: (H, W) the image's typical depth noise at each pixel's depth [m].
         segments: rows, starts, stops of the row segments.
         intrinsics: the camera's intrinsics (pixel footprints).
         params: segmentation parameters.
@@ -611,8 +610,6 @@ def _floor_regions(origin, rays, depth, typical, segments, intrinsics, params):
         (H, W) floor region of each pixel (-1: none, -2: no measurement) and the
         `FloorTable` (heights before the ground shift).
     """
-    points = origin + depth[..., None] * rays
-    sigma_z = np.maximum(typical * np.abs(rays[..., 2]), params.min_noise_m)
     z = np.ascontiguousarray(points[..., 2])
     seg_rows, seg_starts, seg_stops = scanline.split_level(
         z, sigma_z, *segments, params.edge_sigma_factor, params.min_segment_pixels
@@ -695,33 +692,6 @@ def _unit_z_rays(intrinsics: PinholeIntrinsics) -> NDArray[np.float64]:
     rays = intrinsics.ray_directions_camera().reshape(-1, 3)
     rays.flags.writeable = False
     return rays
-
-
-def _relabel_ground(floor_heights, ground_m, origin, rays, depths, typical, factor):
-    """Floor heights with points of no floor plane lying on the ground (within noise) added."""
-    with np.errstate(divide="ignore", invalid="ignore"):
-        ground_depths = (ground_m - origin[2]) / rays[:, 2]
-    on_ground = (
-        np.isnan(floor_heights)
-        & (rays[:, 2] < 0.0)
-        & (np.abs(depths - ground_depths) <= factor * typical)
-    )
-    return np.where(on_ground, ground_m, floor_heights)
-
-
-def _snap_to_floors(floor_heights, origin, rays, depths, typical, factor):
-    """Depths and floor heights of the points, floor points moved onto their floor height.
-
-    A floor point whose ray meets its height going down within ``factor`` sigma of the
-    measured depth is moved there; one that does not lies farther from its floor than depth
-    noise explains and is no floor point (it keeps its depth). ``factor`` 0: nothing changes.
-    """
-    if factor == 0.0:
-        return depths, floor_heights
-    with np.errstate(divide="ignore", invalid="ignore"):
-        floor_depths = (floor_heights - origin[2]) / rays[:, 2]
-    snap = (rays[:, 2] < 0.0) & (np.abs(depths - floor_depths) <= factor * typical)
-    return np.where(snap, floor_depths, depths), np.where(snap, floor_heights, np.nan)
 
 
 def _floor_shape(normals, eigen, counts, params: SegmentationParams) -> NDArray[np.bool_]:
