@@ -1470,8 +1470,7 @@ def floor_segment_fit(seg_hsums, floor_of_segment, n_floors, tolerance_m, prior_
 
     Returns:
         (F,) reduced chi² of the segment means about the plane, with ``tolerance_m`` added to
-        every standard error (0 with fewer than 4 segments), (F,) slope ``sqrt(a² + b²)``
-        and (F,) int64 segment counts.
+        every standard error (0 with fewer than 4 segments), and (F,) int64 segment counts.
     """
     n_seg = floor_of_segment.shape[0]
     w_sum = np.zeros(n_floors)
@@ -1508,7 +1507,6 @@ def floor_segment_fit(seg_hsums, floor_of_segment, n_floors, tolerance_m, prior_
         right[f, 1] += w * m * x
         right[f, 2] += w * m * y
     coefficients = np.zeros((n_floors, 3))
-    slope = np.zeros(n_floors)
     for f in range(n_floors):
         s00 = normal[f, 0]
         s01 = normal[f, 1]
@@ -1535,7 +1533,6 @@ def floor_segment_fit(seg_hsums, floor_of_segment, n_floors, tolerance_m, prior_
         coefficients[f, 0] = (c00 * r0 + c01 * r1 + c02 * r2) / det
         coefficients[f, 1] = (c01 * r0 + c11 * r1 + c12 * r2) / det
         coefficients[f, 2] = (c02 * r0 + c12 * r1 + c22 * r2) / det
-        slope[f] = math.hypot(coefficients[f, 1], coefficients[f, 2])
     chi2 = np.zeros(n_floors)
     for i in range(n_seg):
         f = floor_of_segment[i]
@@ -1550,7 +1547,7 @@ def floor_segment_fit(seg_hsums, floor_of_segment, n_floors, tolerance_m, prior_
         chi2[f] += residual * residual / (1.0 / w + tolerance_m * tolerance_m)
     for f in range(n_floors):
         chi2[f] = chi2[f] / (n_segments[f] - 3) if n_segments[f] >= 4 else 0.0
-    return chi2, slope, n_segments
+    return chi2, n_segments
 
 
 @numba.njit(cache=True)
@@ -1574,11 +1571,13 @@ def floor_statistics(
 
     Returns:
         pixel counts (F,) int64, heights (F,) [m] (weighted mean z of the grown pixels), RMS
-        height residual over all pixels in sigma units, each squared residual clipped at 9 (a
-        few pixels of a riser or a side joined to a floor do not make it rough) (F,),
+        height residual over all pixels in units of sqrt(sigma_z² + tolerance_m²), squared
+        residuals clipped at 9 (F,),
         footprint widths (F, 2) minor first [m] (sqrt(12)·std of the points moved onto the
         height along their rays) and footprint areas (F,) [m²] (pixel footprints on a
-        horizontal plane, incidence capped at cos 0.1).
+        horizontal plane, incidence capped at cos 0.1) and slopes (F,) ``|(a, b)|`` of the
+        weighted fit ``z = h + a·x + b·y`` over the points moved onto the height (their x, y
+        carry no depth noise).
     """
     height, width = labels.shape
     w_sum = np.zeros(n_floors)
@@ -1596,6 +1595,7 @@ def floor_statistics(
     counts = np.zeros(n_floors, np.int64)
     square = np.zeros(n_floors)
     moments = np.zeros((n_floors, 5))  # x, y, xx, xy, yy of the points on the height
+    fit = np.zeros((n_floors, 9))  # weighted sums for the slope: 1 x y xx xy yy z xz yz
     areas = np.zeros(n_floors)
     for r in range(height):
         for c in range(width):
@@ -1603,8 +1603,10 @@ def floor_statistics(
             if f < 0:
                 continue
             counts[f] += 1
-            residual = (points[r, c, 2] - heights[f]) / (sigma_z[r, c] + tolerance_m)
-            square[f] += min(residual * residual, 9.0)
+            sigma = sigma_z[r, c]
+            residual = points[r, c, 2] - heights[f]
+            # Clipped at 3 sigma: a row of riser pixels joined to a tread is no roughness.
+            square[f] += min(residual * residual / (sigma * sigma + tolerance_m**2), 9.0)
             ray_z = rays[r, c, 2]
             d = depth[r, c]
             d_on = (heights[f] - origin_z) / ray_z if ray_z != 0.0 else -1.0
@@ -1617,15 +1619,30 @@ def floor_statistics(
             moments[f, 2] += x * x
             moments[f, 3] += x * y
             moments[f, 4] += y * y
+            # Weighted fit z = h + a·x + b·y over (x, y) on the height: free of the depth
+            # noise, which moves a point along its ray in z and x, y together.
+            w = 1.0 / (sigma * sigma)
+            dz = residual
+            fit[f, 0] += w
+            fit[f, 1] += w * x
+            fit[f, 2] += w * y
+            fit[f, 3] += w * x * x
+            fit[f, 4] += w * x * y
+            fit[f, 5] += w * y * y
+            fit[f, 6] += w * dz
+            fit[f, 7] += w * x * dz
+            fit[f, 8] += w * y * dz
             norm = math.sqrt(rays[r, c, 0] ** 2 + rays[r, c, 1] ** 2 + ray_z * ray_z)
             areas[f] += d * d / (fx * fy * max(abs(ray_z), 0.1 * norm))
     rms = np.zeros(n_floors)
     extents = np.zeros((n_floors, 2))
+    slope = np.zeros(n_floors)
     for f in range(n_floors):
         n = counts[f]
         if n == 0:
             continue
         rms[f] = math.sqrt(square[f] / n)
+        slope[f] = _fit_slope(fit[f])
         mx = moments[f, 0] / n
         my = moments[f, 1] / n
         cxx = moments[f, 2] / n - mx * mx
@@ -1635,7 +1652,35 @@ def floor_statistics(
         root = math.sqrt(0.25 * (cxx - cyy) ** 2 + cxy * cxy)
         extents[f, 0] = math.sqrt(12.0 * max(half - root, 0.0))
         extents[f, 1] = math.sqrt(12.0 * max(half + root, 0.0))
-    return counts, heights, rms, extents, areas
+    return counts, heights, rms, extents, areas, slope
+
+
+@numba.njit(cache=True)
+def _fit_slope(sums):
+    """|(a, b)| of the weighted least squares ``z = h + a·x + b·y`` from sums (0 if singular)."""
+    s0, sx, sy, sxx, sxy, syy, sz, sxz, syz = (
+        sums[0],
+        sums[1],
+        sums[2],
+        sums[3],
+        sums[4],
+        sums[5],
+        sums[6],
+        sums[7],
+        sums[8],
+    )
+    # Centre x and y: the slope needs only the 2×2 system of the centred sums.
+    cxx = sxx - sx * sx / s0
+    cxy = sxy - sx * sy / s0
+    cyy = syy - sy * sy / s0
+    cxz = sxz - sx * sz / s0
+    cyz = syz - sy * sz / s0
+    det = cxx * cyy - cxy * cxy
+    if not det > 1e-12 * max(cxx * cyy, 1e-300):
+        return 0.0
+    a = (cyy * cxz - cxy * cyz) / det
+    b = (cxx * cyz - cxy * cxz) / det
+    return math.hypot(a, b)
 
 
 @numba.njit(cache=True)
@@ -1689,9 +1734,10 @@ def floor_points(
 ):
     """Corrected points and floor heights of the valid pixels (see `segment_depth`).
 
-    A pixel on no floor whose depth lies within ``relabel_factor`` sigma (``typical``) of
-    where its ray meets the ground height ``ground_m`` becomes a ground point (ground_m NaN
-    or factor 0: none). A floor point whose ray meets its height going down within
+    A pixel in no level region (not even one that failed the floor tests: it has a height of
+    its own) whose depth lies within ``relabel_factor`` sigma (``typical``) of where its ray
+    meets the ground height ``ground_m`` becomes a ground point (ground_m NaN or factor 0:
+    none). A floor point whose ray meets its height going down within
     ``snap_factor`` sigma of its depth is moved there along the ray; one that does not loses
     its floor label (factor 0: points stay, labels too).
 
@@ -1711,7 +1757,7 @@ def floor_points(
         f = floor_labels[r, c]
         h = floor_of_region[f] if f >= 0 else np.nan
         if (
-            h != h
+            f == -1
             and relabel_factor > 0.0
             and ground_m == ground_m
             and ray_z < 0.0
