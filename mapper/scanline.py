@@ -10,7 +10,7 @@ total-least-squares fit of ray-smeared points is; every tolerance is a depth dif
 1. `local_noise_depth_m`: noise-adaptive part. On a plane the second difference of inverse
    depth along a row is pure noise; a clipped box mean of it gives the local depth noise,
    capped at 1.5× the image's typical noise at the same depth (so a rough surface, whose bumps
-   look like noise, cannot widen its own tolerances).
+   look like noise, cannot widen its own tolerances); the typical noise is returned too.
 2. `split_rows`: every row is cut into runs of valid pixels and each run recursively split
    until a weighted line fits every pixel within ``split_factor·sigma + floor``, its RMS
    residual is within ``rms_factor·sigma`` and no depth step shows in its residuals (mean
@@ -92,10 +92,12 @@ def local_noise_depth_m(inv_depth, window, min_noise_m, cap_factor):
         window: half width [px] of the averaging box along the row.
         min_noise_m: lower bound of the returned noise [m].
         cap_factor: if > 0, cap every estimate at this multiple of the image's typical noise
-            at the same depth (see `_cap_by_range_profile`).
+            at the same depth (see `_range_profile`).
 
     Returns:
-        (H, W) depth noise [m]; NaN where the depth is invalid.
+        (H, W) local depth noise [m] and (H, W) the image's typical noise at each pixel's
+        depth [m] (`_range_profile`, at least ``min_noise_m``); both NaN where the depth is
+        invalid.
     """
     height, width = inv_depth.shape
     second = np.full((height, width), np.nan)
@@ -125,21 +127,27 @@ def local_noise_depth_m(inv_depth, window, min_noise_m, cap_factor):
             if m != m:  # NaN
                 m = fallback
             out[r, c] = max(m * _CLIPPED_MEAN_TO_SIGMA / (z * z), min_noise_m)
+    typical = _range_profile(out, inv_depth, min_noise_m)
     if cap_factor > 0.0:
-        _cap_by_range_profile(out, inv_depth, cap_factor, min_noise_m)
-    return out
+        for r in range(height):
+            for c in range(width):
+                if out[r, c] == out[r, c]:
+                    out[r, c] = max(min(out[r, c], cap_factor * typical[r, c]), min_noise_m)
+    return out, typical
 
 
 @numba.njit(cache=True)
-def _cap_by_range_profile(sigma, inv_depth, cap_factor, min_noise_m):
-    """Cap local noise at ``cap_factor`` × the image's typical noise at the same depth.
+def _range_profile(sigma, inv_depth, min_noise_m):
+    """The image's typical depth noise at each pixel's depth [m] (NaN where invalid).
 
-    The typical noise is a robust (twice clipped) mean of the local estimates in 16 depth bins,
-    interpolated linearly in depth. A rough surface raises its own local estimate (its bumps
-    look like noise at the pixel scale); the cap keeps it from widening its tolerances beyond
-    what the sensor shows elsewhere at that range. Works in place.
+    The typical noise is a robust (twice clipped) mean of the local estimates ``sigma`` in 16
+    depth bins, interpolated linearly in depth; bins with fewer than 20 pixels take their
+    neighbour's level, and with no usable bin at all the local estimate itself is returned. A
+    rough surface raises its own local estimate (its bumps look like noise at the pixel scale);
+    this profile is what the sensor shows elsewhere at that range.
     """
     height, width = sigma.shape
+    typical = sigma.copy()
     n_bins = 16
     d_min = np.inf
     d_max = 0.0
@@ -150,7 +158,7 @@ def _cap_by_range_profile(sigma, inv_depth, cap_factor, min_noise_m):
                 d_min = min(d_min, 1.0 / z)
                 d_max = max(d_max, 1.0 / z)
     if not d_max > d_min:
-        return
+        return typical
     step = (d_max - d_min) / n_bins
     level = np.full(n_bins, np.inf)
     for _ in range(3):
@@ -179,12 +187,13 @@ def _cap_by_range_profile(sigma, inv_depth, cap_factor, min_noise_m):
             if lo == np.inf and hi == np.inf:
                 continue
             if lo == np.inf:
-                typical = hi
+                level_here = hi
             elif hi == np.inf:
-                typical = lo
+                level_here = lo
             else:
-                typical = (1.0 - t) * lo + t * hi
-            sigma[r, c] = max(min(sigma[r, c], cap_factor * typical), min_noise_m)
+                level_here = (1.0 - t) * lo + t * hi
+            typical[r, c] = max(level_here, min_noise_m)
+    return typical
 
 
 @numba.njit(cache=True)
@@ -1133,3 +1142,635 @@ def segment_labels(valid, seg_rows, seg_starts, seg_stops, plane_of):
             for c in range(seg_starts[i], seg_stops[i]):
                 labels[seg_rows[i], c] = p
     return labels
+
+
+@numba.njit(cache=True)
+def horizontal_sums(points, sigma_z, seg_rows, seg_starts, seg_stops):
+    """(S, 6) sums of every segment for the horizontal model ``z = h``.
+
+    Columns: Σw, Σw·z, Σw·z², n, Σw·x, Σw·y with w = 1/sigma_z² (points: (H, W, 3) points
+    of the pixels in the tilt-corrected robot frame [m], sigma_z: their noise along z [m]).
+    """
+    n_seg = seg_rows.shape[0]
+    out = np.zeros((n_seg, 6))
+    for i in range(n_seg):
+        r = seg_rows[i]
+        for c in range(seg_starts[i], seg_stops[i]):
+            w = 1.0 / (sigma_z[r, c] * sigma_z[r, c])
+            z = points[r, c, 2]
+            out[i, 0] += w
+            out[i, 1] += w * z
+            out[i, 2] += w * z * z
+            out[i, 3] += 1.0
+            out[i, 4] += w * points[r, c, 0]
+            out[i, 5] += w * points[r, c, 1]
+    return out
+
+
+@numba.njit(cache=True)
+def grow_floors(
+    seg_rows,
+    seg_starts,
+    seg_stops,
+    seg_hsums,
+    height,
+    sigma_factor,
+    chi_factor,
+    tolerance_m,
+    seed_min_pixels,
+):
+    """Region growing of horizontal floors (``z = h``, one parameter) over row segments.
+
+    A segment is *level* when its points' heights scatter about their mean within
+    ``chi_factor`` times their noise (RMS in sigma units). Level segments seed floors, the
+    best-determined first (smallest standard error of the mean height), and floors grow
+    breadth-first into touching level segments (rows above, below, same row) whose mean height
+    agrees with the floor's running mean within ``sigma_factor`` standard errors (of both)
+    plus ``tolerance_m``. The model cannot tilt, so it cannot creep up a staircase tread by
+    tread as a free plane can when noise hides each small step.
+
+    Args:
+        seg_rows: (S,) row of each segment (output of `split_rows`).
+        seg_starts: (S,) first column of each segment.
+        seg_stops: (S,) column after the last of each segment.
+        seg_hsums: (S, 4) sums of `horizontal_sums`.
+        height: image height [px].
+        sigma_factor: mean heights must agree within this many standard errors.
+        chi_factor: a level segment's RMS height residual is at most this many sigma.
+        tolerance_m: constant added to the height tolerance [m].
+        seed_min_pixels: minimum length of a seed segment.
+
+    Returns:
+        (S,) int64 floor index of every segment, -1 for none; floors numbered in creation
+        order.
+    """
+    n_seg = seg_rows.shape[0]
+    floor_of = np.full(n_seg, -1, np.int64)
+    if n_seg == 0:
+        return floor_of
+    row_first = _row_index(seg_rows, height)
+    mean = np.zeros(n_seg)
+    variance = np.full(n_seg, np.inf)  # squared standard error of the mean height
+    level = np.zeros(n_seg, np.bool_)
+    for i in range(n_seg):
+        w, wz, wzz, n = seg_hsums[i, 0], seg_hsums[i, 1], seg_hsums[i, 2], seg_hsums[i, 3]
+        if not w > 0.0 or n < 3.0:
+            continue
+        mean[i] = wz / w
+        variance[i] = 1.0 / w
+        chi2 = max(wzz - wz * mean[i], 0.0) / (n - 1.0)
+        level[i] = chi2 <= chi_factor * chi_factor
+    order = np.argsort(variance, kind="mergesort")
+    queue = np.empty(n_seg, np.int64)
+    n_floors = 0
+    for s in order:
+        if not level[s] or floor_of[s] >= 0 or seg_stops[s] - seg_starts[s] < seed_min_pixels:
+            continue
+        label = n_floors
+        n_floors += 1
+        floor_of[s] = label
+        total_w = seg_hsums[s, 0]
+        total_wz = seg_hsums[s, 1]
+        head = 0
+        tail = 1
+        queue[0] = s
+        while head < tail:
+            q = queue[head]
+            head += 1
+            rq = seg_rows[q]
+            for rr in (rq - 1, rq, rq + 1):
+                if rr < 0 or rr >= height:
+                    continue
+                gap = 1 if rr == rq else 0
+                for t in range(row_first[rr], row_first[rr + 1]):
+                    if floor_of[t] >= 0 or not level[t]:
+                        continue
+                    if not _overlap(seg_starts[q], seg_stops[q], seg_starts[t], seg_stops[t], gap):
+                        continue
+                    floor_mean = total_wz / total_w
+                    tol = sigma_factor * math.sqrt(variance[t] + 1.0 / total_w) + tolerance_m
+                    if abs(mean[t] - floor_mean) <= tol:
+                        floor_of[t] = label
+                        queue[tail] = t
+                        tail += 1
+                        total_w += seg_hsums[t, 0]
+                        total_wz += seg_hsums[t, 1]
+        # Members that took part while the mean was still uncertain and no longer fit the
+        # final one leave the floor (the rows blending a tread with its riser).
+        floor_mean = total_wz / total_w
+        for k in range(tail):
+            t = queue[k]
+            tol = sigma_factor * math.sqrt(variance[t] + 1.0 / total_w) + tolerance_m
+            if abs(mean[t] - floor_mean) > tol:
+                floor_of[t] = -2
+    for i in range(n_seg):
+        if floor_of[i] == -2:
+            floor_of[i] = -1
+    _merge_floors(
+        floor_of,
+        n_floors,
+        seg_rows,
+        seg_starts,
+        seg_stops,
+        seg_hsums,
+        height,
+        sigma_factor,
+        tolerance_m,
+    )
+    return floor_of
+
+
+@numba.njit(cache=True)
+def _merge_floors(
+    floor_of,
+    n_floors,
+    seg_rows,
+    seg_starts,
+    seg_stops,
+    seg_hsums,
+    height,
+    sigma_factor,
+    tolerance_m,
+):
+    """Merge touching floors whose mean heights agree as growing requires (in place).
+
+    Growing compares segments with the running mean, so a large level surface whose far rows
+    sit a few millimetres off its near ones (residual tilt) can end up in two floors; their
+    means still agree within the growing tolerance. Only floors of at least 3 segments merge
+    (a row blending a tread with its riser must not bridge the two). Floors are renumbered in
+    order of their first segment.
+    """
+    if n_floors < 2:
+        return
+    parent = np.arange(n_floors)
+    total_w = np.zeros(n_floors)
+    total_wz = np.zeros(n_floors)
+    n_segments = np.zeros(n_floors, np.int64)
+    for i in range(seg_rows.shape[0]):
+        if floor_of[i] >= 0:
+            total_w[floor_of[i]] += seg_hsums[i, 0]
+            total_wz[floor_of[i]] += seg_hsums[i, 1]
+            n_segments[floor_of[i]] += 1
+    row_first = _row_index(seg_rows, height)
+    for i in range(seg_rows.shape[0]):
+        if floor_of[i] < 0:
+            continue
+        r = seg_rows[i]
+        for rr in (r, r + 1):
+            if rr >= height:
+                continue
+            gap = 1 if rr == r else 0
+            for t in range(row_first[rr], row_first[rr + 1]):
+                if floor_of[t] < 0 or t == i:
+                    continue
+                if not _overlap(seg_starts[i], seg_stops[i], seg_starts[t], seg_stops[t], gap):
+                    continue
+                a = floor_of[i]
+                while parent[a] != a:
+                    a = parent[a]
+                b = floor_of[t]
+                while parent[b] != b:
+                    b = parent[b]
+                if a == b or n_segments[a] < 3 or n_segments[b] < 3:
+                    continue
+                difference = abs(total_wz[a] / total_w[a] - total_wz[b] / total_w[b])
+                tol = sigma_factor * math.sqrt(1.0 / total_w[a] + 1.0 / total_w[b]) + tolerance_m
+                if difference <= tol:
+                    keep, gone = min(a, b), max(a, b)
+                    parent[gone] = keep
+                    total_w[keep] += total_w[gone]
+                    total_wz[keep] += total_wz[gone]
+                    n_segments[keep] += n_segments[gone]
+    new_id = np.full(n_floors, -1, np.int64)
+    count = 0
+    for i in range(seg_rows.shape[0]):
+        if floor_of[i] < 0:
+            continue
+        a = floor_of[i]
+        while parent[a] != a:
+            a = parent[a]
+        if new_id[a] < 0:
+            new_id[a] = count
+            count += 1
+        floor_of[i] = new_id[a]
+
+
+@numba.njit(cache=True)
+def fill_floors(z, sigma_z, labels, heights, factor, tolerance_m, passes):
+    """Let unassigned pixels join a 4-neighbour's floor if their height lies on it.
+
+    Like `fill_pixels` for the horizontal model: a pixel joins when its height is within
+    ``factor·sigma_z + tolerance_m`` of the floor's. ``labels`` (H, W) int64 (-1 = none,
+    -2 = invalid) is updated in place; a floor spreads by at most ``passes`` pixels.
+    """
+    height, width = labels.shape
+    for _ in range(passes):
+        before = labels.copy()
+        for r in range(height):
+            for c in range(width):
+                if before[r, c] != -1:
+                    continue
+                best = -1
+                best_gap = 1e30
+                tol = factor * sigma_z[r, c] + tolerance_m
+                for dr, dc in ((-1, 0), (1, 0), (0, -1), (0, 1)):
+                    rr = r + dr
+                    cc = c + dc
+                    if rr < 0 or rr >= height or cc < 0 or cc >= width:
+                        continue
+                    p = before[rr, cc]
+                    if p < 0:
+                        continue
+                    gap = abs(z[r, c] - heights[p])
+                    if gap <= tol and gap < best_gap:
+                        best = p
+                        best_gap = gap
+                if best >= 0:
+                    labels[r, c] = best
+
+
+@numba.njit(cache=True)
+def split_level(z, sigma_z, seg_rows, seg_starts, seg_stops, step_factor, min_pixels):
+    """Split row segments where their height steps (for the horizontal model).
+
+    A row running along a low step's side edge is one straight line in depth when noise
+    hides the small depth jump there, but its heights then step by the step's height. Each
+    segment is split, recursively, at the boundary with the largest difference of the
+    weighted mean heights left and right of it, when that difference exceeds ``step_factor``
+    of its standard error; pieces keep at least ``min_pixels`` pixels.
+
+    Args:
+        z: (H, W) heights of the pixels' points [m] (tilt-corrected robot frame).
+        sigma_z: (H, W) their noise along z [m].
+        seg_rows: (S,) row of each segment (output of `split_rows`).
+        seg_starts: (S,) first column of each segment.
+        seg_stops: (S,) column after the last of each segment.
+        step_factor: a height step of more than this many standard errors splits.
+        min_pixels: shortest piece.
+
+    Returns:
+        rows, starts, stops of the pieces (int64, sorted by row then column).
+    """
+    width = z.shape[1]
+    n_seg = seg_rows.shape[0]
+    cap = n_seg + n_seg * (width // max(min_pixels, 1) + 1)
+    rows = np.empty(cap, np.int64)
+    starts = np.empty(cap, np.int64)
+    stops = np.empty(cap, np.int64)
+    count = 0
+    stack = np.empty((width + 2, 2), np.int64)
+    w_pre = np.zeros(width + 1)
+    wz_pre = np.zeros(width + 1)
+    for i in range(n_seg):
+        r = seg_rows[i]
+        stack[0, 0] = seg_starts[i]
+        stack[0, 1] = seg_stops[i]
+        top = 1
+        while top > 0:  # depth first, left piece on top: pieces come out left to right
+            top -= 1
+            a = stack[top, 0]
+            b = stack[top, 1]
+            n = b - a
+            for k in range(a, b):
+                w = 1.0 / (sigma_z[r, k] * sigma_z[r, k])
+                w_pre[k - a + 1] = w_pre[k - a] + w
+                wz_pre[k - a + 1] = wz_pre[k - a] + w * z[r, k]
+            best = 0.0
+            split = -1
+            for m in range(min_pixels, n - min_pixels + 1):
+                w_left = w_pre[m]
+                w_right = w_pre[n] - w_pre[m]
+                difference = (wz_pre[n] - wz_pre[m]) / w_right - wz_pre[m] / w_left
+                t = abs(difference) / math.sqrt(1.0 / w_left + 1.0 / w_right)
+                if t > best:
+                    best = t
+                    split = a + m
+            if split > 0 and best > step_factor:
+                stack[top, 0] = split
+                stack[top, 1] = b
+                stack[top + 1, 0] = a
+                stack[top + 1, 1] = split
+                top += 2
+                continue
+            rows[count] = r
+            starts[count] = a
+            stops[count] = b
+            count += 1
+    return rows[:count].copy(), starts[:count].copy(), stops[:count].copy()
+
+
+@numba.njit(cache=True)
+def floor_segment_fit(seg_hsums, floor_of_segment, n_floors, tolerance_m, prior_extent_m):
+    """Plane fits of every floor's segment mean heights (see `grow_floors`).
+
+    Each floor's segments' mean heights are fitted by ``z = h + a·x + b·y`` (weights: their
+    inverse squared standard errors, x and y the segments' weighted centroids relative to the
+    floor's). The slopes have a prior of zero worth a floor ``prior_extent_m`` wide in every
+    direction, so a floor a few rows deep does not get its slope across from noise.
+
+    Returns:
+        (F,) reduced chi² of the segment means about the plane, with ``tolerance_m`` added to
+        every standard error (0 with fewer than 4 segments), and (F,) int64 segment counts.
+    """
+    n_seg = floor_of_segment.shape[0]
+    w_sum = np.zeros(n_floors)
+    x_sum = np.zeros(n_floors)
+    y_sum = np.zeros(n_floors)
+    n_segments = np.zeros(n_floors, np.int64)
+    for i in range(n_seg):
+        f = floor_of_segment[i]
+        if f < 0:
+            continue
+        w = seg_hsums[i, 0]
+        w_sum[f] += w
+        x_sum[f] += seg_hsums[i, 4]
+        y_sum[f] += seg_hsums[i, 5]
+        n_segments[f] += 1
+    # Normal equations of (h, a, b): sums of w·[1, x, y]ᵀ[1, x, y] and w·m·[1, x, y].
+    normal = np.zeros((n_floors, 6))  # 11, 1x, 1y, xx, xy, yy
+    right = np.zeros((n_floors, 3))
+    for i in range(n_seg):
+        f = floor_of_segment[i]
+        if f < 0:
+            continue
+        w = seg_hsums[i, 0]
+        m = seg_hsums[i, 1] / w
+        x = seg_hsums[i, 4] / w - x_sum[f] / w_sum[f]
+        y = seg_hsums[i, 5] / w - y_sum[f] / w_sum[f]
+        normal[f, 0] += w
+        normal[f, 1] += w * x
+        normal[f, 2] += w * y
+        normal[f, 3] += w * x * x
+        normal[f, 4] += w * x * y
+        normal[f, 5] += w * y * y
+        right[f, 0] += w * m
+        right[f, 1] += w * m * x
+        right[f, 2] += w * m * y
+    coefficients = np.zeros((n_floors, 3))
+    for f in range(n_floors):
+        s00 = normal[f, 0]
+        s01 = normal[f, 1]
+        s02 = normal[f, 2]
+        s11 = normal[f, 3]
+        s12 = normal[f, 4]
+        s22 = normal[f, 5]
+        ridge = s00 * prior_extent_m * prior_extent_m / 12.0
+        s11 += ridge
+        s22 += ridge
+        c00 = s11 * s22 - s12 * s12
+        c01 = s02 * s12 - s01 * s22
+        c02 = s01 * s12 - s02 * s11
+        det = s00 * c00 + s01 * c01 + s02 * c02
+        if not det > 0.0:
+            coefficients[f, 0] = right[f, 0] / s00
+            continue
+        c11 = s00 * s22 - s02 * s02
+        c12 = s01 * s02 - s00 * s12
+        c22 = s00 * s11 - s01 * s01
+        r0 = right[f, 0]
+        r1 = right[f, 1]
+        r2 = right[f, 2]
+        coefficients[f, 0] = (c00 * r0 + c01 * r1 + c02 * r2) / det
+        coefficients[f, 1] = (c01 * r0 + c11 * r1 + c12 * r2) / det
+        coefficients[f, 2] = (c02 * r0 + c12 * r1 + c22 * r2) / det
+    chi2 = np.zeros(n_floors)
+    for i in range(n_seg):
+        f = floor_of_segment[i]
+        if f < 0:
+            continue
+        w = seg_hsums[i, 0]
+        x = seg_hsums[i, 4] / w - x_sum[f] / w_sum[f]
+        y = seg_hsums[i, 5] / w - y_sum[f] / w_sum[f]
+        residual = seg_hsums[i, 1] / w - (
+            coefficients[f, 0] + coefficients[f, 1] * x + coefficients[f, 2] * y
+        )
+        chi2[f] += residual * residual / (1.0 / w + tolerance_m * tolerance_m)
+    for f in range(n_floors):
+        chi2[f] = chi2[f] / (n_segments[f] - 3) if n_segments[f] >= 4 else 0.0
+    return chi2, n_segments
+
+
+@numba.njit(cache=True)
+def floor_statistics(
+    labels, grown, points, sigma_z, depth, rays, origin_z, fx, fy, n_floors, tolerance_m
+):
+    """Per-floor pixel statistics of the level regions.
+
+    Args:
+        labels: (H, W) floor of each pixel after the fill (-1 none, -2 invalid).
+        grown: (H, W) floor of each pixel before the fill (its segments').
+        points: (H, W, 3) points in the tilt-corrected robot frame [m].
+        sigma_z: (H, W) their noise along z [m].
+        depth: (H, W) measured depths [m].
+        rays: (H, W, 3) rays in that frame with unit optical-axis component.
+        origin_z: z of the camera centre [m].
+        fx: focal length along x [px].
+        fy: focal length along y [px].
+        n_floors: F.
+        tolerance_m: added to sigma_z for the RMS (exact data) [m].
+
+    Returns:
+        pixel counts (F,) int64, heights (F,) [m] (weighted mean z of the grown pixels), RMS
+        height residual over all pixels in units of sqrt(sigma_z² + tolerance_m²), squared
+        residuals clipped at 9 (F,),
+        footprint widths (F, 2) minor first [m] (sqrt(12)·std of the points moved onto the
+        height along their rays) and footprint areas (F,) [m²] (pixel footprints on a
+        horizontal plane, incidence capped at cos 0.1) and slopes (F,) ``|(a, b)|`` of the
+        weighted fit ``z = h + a·x + b·y`` over the points moved onto the height (their x, y
+        carry no depth noise).
+    """
+    height, width = labels.shape
+    w_sum = np.zeros(n_floors)
+    wz_sum = np.zeros(n_floors)
+    for r in range(height):
+        for c in range(width):
+            f = grown[r, c]
+            if f >= 0:
+                w = 1.0 / (sigma_z[r, c] * sigma_z[r, c])
+                w_sum[f] += w
+                wz_sum[f] += w * points[r, c, 2]
+    heights = np.zeros(n_floors)
+    for f in range(n_floors):
+        heights[f] = wz_sum[f] / w_sum[f] if w_sum[f] > 0.0 else np.nan
+    counts = np.zeros(n_floors, np.int64)
+    square = np.zeros(n_floors)
+    moments = np.zeros((n_floors, 5))  # x, y, xx, xy, yy of the points on the height
+    fit = np.zeros((n_floors, 9))  # weighted sums for the slope: 1 x y xx xy yy z xz yz
+    areas = np.zeros(n_floors)
+    for r in range(height):
+        for c in range(width):
+            f = labels[r, c]
+            if f < 0:
+                continue
+            counts[f] += 1
+            sigma = sigma_z[r, c]
+            residual = points[r, c, 2] - heights[f]
+            # Clipped at 3 sigma: a row of riser pixels joined to a tread is no roughness.
+            square[f] += min(residual * residual / (sigma * sigma + tolerance_m**2), 9.0)
+            ray_z = rays[r, c, 2]
+            d = depth[r, c]
+            d_on = (heights[f] - origin_z) / ray_z if ray_z != 0.0 else -1.0
+            if not d_on > 0.0:
+                d_on = d
+            x = points[r, c, 0] + (d_on - d) * rays[r, c, 0]
+            y = points[r, c, 1] + (d_on - d) * rays[r, c, 1]
+            moments[f, 0] += x
+            moments[f, 1] += y
+            moments[f, 2] += x * x
+            moments[f, 3] += x * y
+            moments[f, 4] += y * y
+            # Weighted fit z = h + a·x + b·y over (x, y) on the height: free of the depth
+            # noise, which moves a point along its ray in z and x, y together.
+            w = 1.0 / (sigma * sigma)
+            dz = residual
+            fit[f, 0] += w
+            fit[f, 1] += w * x
+            fit[f, 2] += w * y
+            fit[f, 3] += w * x * x
+            fit[f, 4] += w * x * y
+            fit[f, 5] += w * y * y
+            fit[f, 6] += w * dz
+            fit[f, 7] += w * x * dz
+            fit[f, 8] += w * y * dz
+            norm = math.sqrt(rays[r, c, 0] ** 2 + rays[r, c, 1] ** 2 + ray_z * ray_z)
+            areas[f] += d * d / (fx * fy * max(abs(ray_z), 0.1 * norm))
+    rms = np.zeros(n_floors)
+    extents = np.zeros((n_floors, 2))
+    slope = np.zeros(n_floors)
+    for f in range(n_floors):
+        n = counts[f]
+        if n == 0:
+            continue
+        rms[f] = math.sqrt(square[f] / n)
+        slope[f] = _fit_slope(fit[f])
+        mx = moments[f, 0] / n
+        my = moments[f, 1] / n
+        cxx = moments[f, 2] / n - mx * mx
+        cxy = moments[f, 3] / n - mx * my
+        cyy = moments[f, 4] / n - my * my
+        half = 0.5 * (cxx + cyy)
+        root = math.sqrt(0.25 * (cxx - cyy) ** 2 + cxy * cxy)
+        extents[f, 0] = math.sqrt(12.0 * max(half - root, 0.0))
+        extents[f, 1] = math.sqrt(12.0 * max(half + root, 0.0))
+    return counts, heights, rms, extents, areas, slope
+
+
+@numba.njit(cache=True)
+def _fit_slope(sums):
+    """|(a, b)| of the weighted least squares ``z = h + a·x + b·y`` from sums (0 if singular)."""
+    s0, sx, sy, sxx, sxy, syy, sz, sxz, syz = (
+        sums[0],
+        sums[1],
+        sums[2],
+        sums[3],
+        sums[4],
+        sums[5],
+        sums[6],
+        sums[7],
+        sums[8],
+    )
+    # Centre x and y: the slope needs only the 2×2 system of the centred sums.
+    cxx = sxx - sx * sx / s0
+    cxy = sxy - sx * sy / s0
+    cyy = syy - sy * sy / s0
+    cxz = sxz - sx * sz / s0
+    cyz = syz - sy * sz / s0
+    det = cxx * cyy - cxy * cxy
+    if not det > 1e-12 * max(cxx * cyy, 1e-300):
+        return 0.0
+    a = (cyy * cxz - cxy * cyz) / det
+    b = (cxx * cyz - cxy * cxz) / det
+    return math.hypot(a, b)
+
+
+@numba.njit(cache=True)
+def level_geometry(depth, unit_rays, rotation, origin, typical, min_noise_m):
+    """Pixel rays, points and height noise in a rotated frame, for the horizontal model.
+
+    Args:
+        depth: (H, W) depths [m], NaN = none.
+        unit_rays: (H·W, 3) camera-frame rays with unit z, row-major.
+        rotation: 3×3 rotation from the camera frame to the frame.
+        origin: (3,) camera centre in the frame [m].
+        typical: (H, W) typical depth noise at each pixel's depth [m].
+        min_noise_m: lower bound of the height noise [m].
+
+    Returns:
+        rays (H, W, 3) in the frame (unit optical-axis component), points (H, W, 3) [m] and
+        sigma_z (H, W) [m] = max(typical·|ray_z|, min_noise_m) (depth noise lies along the
+        ray); points and sigma_z NaN where there is no depth.
+    """
+    height, width = depth.shape
+    rays = np.empty((height, width, 3))
+    points = np.full((height, width, 3), np.nan)
+    sigma_z = np.full((height, width), np.nan)
+    for r in range(height):
+        for c in range(width):
+            u = unit_rays[r * width + c]
+            for k in range(3):
+                rays[r, c, k] = (
+                    rotation[k, 0] * u[0] + rotation[k, 1] * u[1] + rotation[k, 2] * u[2]
+                )
+            d = depth[r, c]
+            if d == d:
+                for k in range(3):
+                    points[r, c, k] = origin[k] + d * rays[r, c, k]
+                sigma_z[r, c] = max(typical[r, c] * abs(rays[r, c, 2]), min_noise_m)
+    return rays, points, sigma_z
+
+
+@numba.njit(cache=True)
+def floor_points(
+    pixel_index,
+    floor_labels,
+    floor_of_region,
+    ground_m,
+    rays,
+    depth,
+    typical,
+    origin,
+    relabel_factor,
+    snap_factor,
+):
+    """Corrected points and floor heights of the valid pixels (see `segment_depth`).
+
+    A pixel in no level region (not even one that failed the floor tests: it has a height of
+    its own) whose depth lies within ``relabel_factor`` sigma (``typical``) of where its ray
+    meets the ground height ``ground_m`` becomes a ground point (ground_m NaN or factor 0:
+    none). A floor point whose ray meets its height going down within
+    ``snap_factor`` sigma of its depth is moved there along the ray; one that does not loses
+    its floor label (factor 0: points stay, labels too).
+
+    Returns:
+        (N, 3) points [m] and (N,) floor heights [m] (NaN: not floor).
+    """
+    n = pixel_index.shape[0]
+    width = depth.shape[1]
+    points = np.empty((n, 3))
+    heights = np.full(n, np.nan)
+    for i in range(n):
+        r = pixel_index[i] // width
+        c = pixel_index[i] - r * width
+        d = depth[r, c]
+        ray_z = rays[r, c, 2]
+        tol = typical[r, c]
+        f = floor_labels[r, c]
+        h = floor_of_region[f] if f >= 0 else np.nan
+        if (
+            f == -1
+            and relabel_factor > 0.0
+            and ground_m == ground_m
+            and ray_z < 0.0
+            and abs(d - (ground_m - origin[2]) / ray_z) <= relabel_factor * tol
+        ):
+            h = ground_m
+        if h == h and snap_factor > 0.0:
+            d_on = (h - origin[2]) / ray_z if ray_z < 0.0 else np.inf
+            if abs(d - d_on) <= snap_factor * tol:
+                d = d_on
+            else:
+                h = np.nan
+        heights[i] = h
+        for k in range(3):
+            points[i, k] = origin[k] + d * rays[r, c, k]
+    return points, heights

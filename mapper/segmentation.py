@@ -11,19 +11,34 @@ grouped into planes by scan-line grouping (Jiang & Bunke; details in `mapper.sca
   and leftover pixels next to a plane join it if they fit.
 
 Planes are fitted as inverse depth affine in the image coordinates, so errors are measured
-along the viewing ray, where a depth camera has them. The labelled points are then
+along the viewing ray, where a depth camera has them. Then
 
-1. rotated about the camera centre so that the near-horizontal planes become exactly horizontal
-   (area-weighted mean normal of the planes agreeing with the largest one; absorbs camera
-   rotation errors of the joint encoders), and
-2. shifted in z so that the floor plane nearest the expected ground plane (among those with
-   at least a quarter of the largest candidate's area) lies on it; if none is within the
-   search window, nothing is shifted and `PoseCorrection.ground_plane_found` is False.
+1. the data are rotated about the camera centre so that the near-horizontal planes become
+   exactly horizontal (area-weighted mean normal of the planes agreeing with the largest one;
+   absorbs camera rotation errors of the joint encoders);
+2. floors are grown in that frame with the one-parameter model ``z = h``
+   (`scanline.split_level`, `scanline.grow_floors`): row pieces split where their heights
+   step, level pieces (heights scattering by their noise along z, the typical depth noise
+   times the ray's z component) joined to touching level pieces of the same mean height.
+   A free plane can tilt and creep up a staircase tread by tread when 1-2 % depth noise hides
+   each small step; a level region cannot. A region is a floor when it has at least
+   `min_plane_pixels` pixels in 3 or more segments, a footprint at least
+   `min_plane_extent_m` wide in every direction (room for a foot), a slope within
+   `floor_max_normal_angle_deg`, and is smooth: its RMS height residual against the typical
+   noise at that range (`floor_max_rms_ratio`) and the scatter of its segments' mean heights
+   (`floor_max_segment_chi2`) rule out rough tops that noise makes look level;
+3. everything is shifted in z so that the floor nearest the expected ground plane (among
+   those with at least a quarter of the largest candidate's area) lies on it; if none is
+   within the search window, nothing is shifted and `PoseCorrection.ground_plane_found` is
+   False;
+4. points in no level region whose depth lies within noise of the ground become ground points
+   (far noisy ground is floor, never an obstacle below it), and every floor point is moved
+   along its ray to its floor's height (depth noise lies along the ray: the point gets its
+   true x, y, so a higher tread's points never land on the lower one); a floor point that
+   lies farther from its floor than noise explains loses its label.
 
-A plane is floor when its normal is within `floor_max_normal_angle_deg` of vertical, it has at
-least `min_plane_pixels` pixels and its footprint is at least `min_plane_extent_m` wide in
-every direction (room for a foot). Every point of a floor plane is labelled with the plane's
-height (mean corrected z of its points); all other points are obstacle (``NaN``).
+Every floor point is labelled with its region's height (weighted mean corrected z of the
+grown segments' points); all other points are obstacle (``NaN``).
 
 Frames: camera = OpenCV optical frame (x right, y down, z forward); robot frame R = z up,
 origin on the ground below the robot.
@@ -34,7 +49,7 @@ from __future__ import annotations
 import functools
 import math
 from collections.abc import Mapping
-from dataclasses import dataclass, fields
+from dataclasses import dataclass, fields, replace
 
 import numpy as np
 from numpy.typing import NDArray
@@ -72,6 +87,11 @@ _NON_NEGATIVE_FIELDS = (
     "fill_sigma_factor",
     "min_plane_extent_m",
     "noise_cap_factor",
+    "floor_max_rms_ratio",
+    "ground_relabel_sigma_factor",
+    "floor_snap_sigma_factor",
+    "floor_height_tolerance_m",
+    "floor_max_segment_chi2",
 )
 """`SegmentationParams` fields that must be finite and >= 0."""
 _INTEGER_RANGES: dict[str, tuple[int, int | None]] = {
@@ -124,6 +144,37 @@ class SegmentationParams:
         min_plane_pixels: planes with fewer pixels are dissolved (their pixels: no plane).
         min_plane_extent_m: a floor plane's footprint must be at least this wide in every
             direction (sqrt(12)·std of its points along the minor in-plane axis) [m].
+        floor_max_rms_ratio: a floor region's RMS height residual is at most this multiple of
+            the image's typical noise along z at its pixels (the range profile, not the local
+            estimate a rough surface widens; squared residuals clipped at 9, so a row of riser
+            pixels joined to a tread does not count as roughness). 1.05: a flat surface's
+            ratio is about 0.95; on stage recordings (seeds 1, 2) 99.5 % of the floor pixels
+            in regions passing the other tests lie in regions below 1.05, while 93 % of the
+            regions on the rough box tops lie above it (a rough top labelled floor in one
+            frame stays floor in the map: eq. 9 keeps the highest floor); 0: off.
+        ground_relabel_sigma_factor: a point in no level region whose depth is within this many
+            sigma (the typical noise at its depth) of where its ray meets the ground plane is
+            a ground point (labelled with the ground's height). 3: far, noisy ground that
+            formed no plane then lies on the ground instead of becoming obstacle points below
+            it, while an obstacle's points are farther from the ground than 3 sigma but at
+            its very foot. 0: off; nothing is relabelled without a ground plane.
+        floor_height_tolerance_m: constant added to the height tolerance of growing and
+            filling floor regions [m]. 5 mm: the residual tilt after the correction (a few
+            tenths of a degree) bends a large ground region by that much, while it stays below
+            half the 31 mm smallest step of the paper's staircase, so a region never climbs one.
+        floor_max_segment_chi2: a floor's row segments' mean heights scatter about a plane
+            fitted to them with a reduced chi² (the growing tolerance added to every standard
+            error, `scanline.floor_segment_fit`) of at most this times 1 + 3·sqrt(2/dof), the
+            reduced chi²'s mean plus three standard deviations for dof = segments − 3. 1.0:
+            a flat floor's segments scatter by their errors (chi² about 0.5 with the
+            tolerance on stage recordings), while on a rough top they scatter by the bumps,
+            which a segment's mean does not average away; 0: off.
+        floor_snap_sigma_factor: every floor point whose ray meets its floor height within
+            this many sigma (typical noise at its depth) of its measured depth is moved there
+            along its ray (depth noise lies along the ray: the point then has the right x, y
+            and z = its height, so a tread's points never spill onto its neighbours); a floor
+            point whose ray does not is no floor point. 3 (as above); 0: off, points stay where
+            measured.
         floor_max_normal_angle_deg: a floor plane's normal is within this angle of vertical
             after the tilt correction [deg].
         max_tilt_correction_deg: planes whose normal is within this angle of vertical (before
@@ -159,6 +210,11 @@ class SegmentationParams:
     seed_min_pixels: int = 4
     min_plane_pixels: int = 20
     min_plane_extent_m: float = 0.08
+    floor_max_rms_ratio: float = 1.05
+    ground_relabel_sigma_factor: float = 3.0
+    floor_snap_sigma_factor: float = 3.0
+    floor_height_tolerance_m: float = 0.005
+    floor_max_segment_chi2: float = 1.0
     floor_max_normal_angle_deg: float = 5.0
     max_tilt_correction_deg: float = 12.0
     tilt_consensus_deg: float = 1.5
@@ -258,6 +314,33 @@ class PlaneTable:
 
 
 @dataclass(frozen=True)
+class FloorTable:
+    """Per-floor-region results (index = floor id): level regions of the image.
+
+    Attributes:
+        pixel_counts: (F,) pixels of each region.
+        heights_m: (F,) weighted mean corrected z of the region's points [m].
+        extents_m: (F, 2) footprint widths, minor first (sqrt(12)·std of the points moved
+            onto the height along their rays) [m].
+        areas_m2: (F,) footprint area of the region's pixels on a horizontal plane [m²].
+        rms_ratio: (F,) RMS height residual in units of the typical noise along z (plus
+            `SegmentationParams.tolerance_floor_m` in quadrature; squared residuals clipped at
+            9).
+        is_floor: (F,) the region is a floor (enough pixels, wide, smooth).
+    """
+
+    pixel_counts: NDArray[np.int64]
+    heights_m: NDArray[np.float64]
+    extents_m: NDArray[np.float64]
+    areas_m2: NDArray[np.float64]
+    rms_ratio: NDArray[np.float64]
+    is_floor: NDArray[np.bool_]
+
+    def __len__(self) -> int:
+        return int(self.pixel_counts.shape[0])
+
+
+@dataclass(frozen=True)
 class SegmentationResult:
     """Labelled range points of one depth image.
 
@@ -265,9 +348,11 @@ class SegmentationResult:
         points: (N, 3) corrected robot-frame points [m] of all valid pixels, row-major order.
         floor_heights: (N,) height of the floor plane of each point [m], NaN = not floor.
         plane_ids: (N,) plane index of each point, -1 for none.
+        floor_ids: (N,) floor region of each point, -1 for none.
         pixel_index: (N,) index of each point into the flattened (height·width) image.
         correction: the tilt rotation and z shift applied.
-        planes: per-plane table.
+        planes: per-plane table (free planes: they steer the tilt correction).
+        floors: per-floor-region table (level regions: they give the floor heights).
         image_shape: (height, width) of the depth image.
         transform_camera_to_robot: 4×4 corrected camera pose in the robot frame.
     """
@@ -275,9 +360,11 @@ class SegmentationResult:
     points: NDArray[np.float64]
     floor_heights: NDArray[np.float64]
     plane_ids: NDArray[np.int64]
+    floor_ids: NDArray[np.int64]
     pixel_index: NDArray[np.int64]
     correction: PoseCorrection
     planes: PlaneTable
+    floors: FloorTable
     image_shape: tuple[int, int]
     transform_camera_to_robot: NDArray[np.float64]
 
@@ -286,21 +373,22 @@ class SegmentationResult:
 
         Args:
             kind: "plane" → plane id per pixel (int64, -1 none, -2 no measurement);
+                "floor_region" → floor region id per pixel (the same codes);
                 "floor" → floor height per pixel [m] (float, NaN elsewhere).
 
         Raises:
             InvalidParameterError: for another kind.
         """
         size = self.image_shape[0] * self.image_shape[1]
-        if kind == "plane":
+        if kind in ("plane", "floor_region"):
             image = np.full(size, -2, dtype=np.int64)
-            image[self.pixel_index] = self.plane_ids
+            image[self.pixel_index] = self.plane_ids if kind == "plane" else self.floor_ids
         elif kind == "floor":
             image = np.full(size, np.nan)
             image[self.pixel_index] = self.floor_heights
         else:
             raise InvalidParameterError(
-                f"labels_image kind must be 'plane' or 'floor', got {kind!r}"
+                f"labels_image kind must be 'plane', 'floor_region' or 'floor', got {kind!r}"
             )
         return image.reshape(self.image_shape)
 
@@ -350,7 +438,7 @@ def segment_depth(
     x = (np.arange(width) - intrinsics.cx) / intrinsics.fx
     y = (np.arange(height) - intrinsics.cy) / intrinsics.fy
     inv_depth = 1.0 / depth
-    sigma = scanline.local_noise_depth_m(
+    sigma, typical_sigma = scanline.local_noise_depth_m(
         inv_depth, params.noise_window_px, params.min_noise_m, params.noise_cap_factor
     )
     seg_rows, seg_starts, seg_stops, seg_table = scanline.split_rows(
@@ -451,22 +539,58 @@ def segment_depth(
     centroids = centroids_camera @ rotation.T + pivot
     # RMS depth residual of the plane fit (inverse-depth residual scaled at the centroid).
     rms = np.sqrt(plane_table[:, 3]) * centroids_camera[:, 2] ** 2
-
     correction = estimate_tilt(normals, areas, eigen, counts, pivot, params)
     centroids_c = (centroids - pivot) @ correction.rotation.T + pivot
     normals_c = normals @ correction.rotation.T
     is_floor_shape = _floor_shape(normals_c, eigen, counts, params)
-    correction = ground_shift(correction, centroids_c[:, 2], areas, is_floor_shape, params)
-    heights = centroids_c[:, 2] + correction.z_shift_m
 
-    transform_corrected = correction.transform @ transform
-    corrected = points_camera @ transform_corrected[:3, :3].T + transform_corrected[:3, 3]
-    floor_of_plane = np.append(np.where(is_floor_shape, heights, np.nan), np.nan)
-    floor_heights = floor_of_plane[plane_ids]  # id -1 → the appended NaN
+    # Floors: level regions grown with the horizontal model in the tilt-corrected frame.
+    transform_tilted = correction.transform @ transform
+    origin = transform_tilted[:3, 3].copy()
+    rays, points_tilted, sigma_z = scanline.level_geometry(
+        depth,
+        _unit_z_rays(intrinsics),
+        transform_tilted[:3, :3].copy(),
+        origin,
+        typical_sigma,
+        params.min_noise_m,
+    )
+    floor_labels, floors = _floor_regions(
+        origin,
+        rays,
+        points_tilted,
+        sigma_z,
+        depth,
+        (seg_rows, seg_starts, seg_stops),
+        intrinsics,
+        params,
+    )
+    correction = ground_shift(
+        correction, floors.heights_m, floors.areas_m2, floors.is_floor, params
+    )
+    floors = replace(floors, heights_m=floors.heights_m + correction.z_shift_m)
+    origin[2] += correction.z_shift_m
+    ground_m = np.nan
+    if correction.ground_plane_found and params.ground_relabel_sigma_factor > 0.0:
+        offsets = np.abs(floors.heights_m - params.expected_ground_z_m)
+        ground_m = float(floors.heights_m[np.argmin(np.where(floors.is_floor, offsets, np.inf))])
+    corrected, floor_heights = scanline.floor_points(
+        pixel_index,
+        floor_labels,
+        np.where(floors.is_floor, floors.heights_m, np.nan),
+        ground_m,
+        rays,
+        depth,
+        typical_sigma,
+        origin,
+        params.ground_relabel_sigma_factor,
+        params.floor_snap_sigma_factor,
+    )
+    floor_ids = floor_labels.reshape(-1)[pixel_index]
 
     planes = PlaneTable(
         pixel_counts=counts,
-        heights_m=heights,
+        heights_m=centroids_c[:, 2] + correction.z_shift_m,
         normals=normals_c,
         extents_m=np.sqrt(12.0 * np.maximum(eigen[:, 1:], 0.0)),
         areas_m2=areas,
@@ -477,12 +601,110 @@ def segment_depth(
         points=corrected,
         floor_heights=floor_heights,
         plane_ids=plane_ids,
+        floor_ids=floor_ids,
         pixel_index=pixel_index,
         correction=correction,
         planes=planes,
+        floors=floors,
         image_shape=(height, width),
-        transform_camera_to_robot=transform_corrected,
+        transform_camera_to_robot=correction.transform @ transform,
     )
+
+
+def _floor_regions(origin, rays, points, sigma_z, depth, segments, intrinsics, params):
+    """Level regions of the image (`scanline.grow_floors`) and their table.
+
+    Args:
+        origin: (3,) camera centre in the tilt-corrected robot frame [m].
+        rays: (H, W, 3) pixel rays in that frame with unit optical-axis component.
+        points: (H, W, 3) the pixels' points in that frame [m] (NaN: no depth).
+        sigma_z: (H, W) their noise along z [m].
+        depth: (H, W) measured depths [m], NaN = none.
+        segments: rows, starts, stops of the row segments.
+        intrinsics: the camera's intrinsics (pixel footprints).
+        params: segmentation parameters.
+
+    Returns:
+        (H, W) floor region of each pixel (-1: none, -2: no measurement) and the
+        `FloorTable` (heights before the ground shift).
+    """
+    z = np.ascontiguousarray(points[..., 2])
+    seg_rows, seg_starts, seg_stops = scanline.split_level(
+        z, sigma_z, *segments, params.edge_sigma_factor, params.min_segment_pixels
+    )
+    sums = scanline.horizontal_sums(points, sigma_z, seg_rows, seg_starts, seg_stops)
+    floor_of_segment = scanline.grow_floors(
+        seg_rows,
+        seg_starts,
+        seg_stops,
+        sums,
+        depth.shape[0],
+        params.grow_sigma_factor,
+        params.rms_sigma_factor,
+        params.floor_height_tolerance_m,
+        params.seed_min_pixels,
+    )
+    n_floors = int(floor_of_segment.max(initial=-1)) + 1
+    grown = scanline.segment_labels(
+        np.isfinite(depth), seg_rows, seg_starts, seg_stops, floor_of_segment
+    )
+    labels = grown
+    if n_floors > 0 and params.fill_passes > 0:
+        # Heights come from the grown segments only; the pixel fill adds labels.
+        labels = grown.copy()
+        member = floor_of_segment >= 0
+        grown_heights = np.bincount(
+            floor_of_segment[member], weights=sums[member, 1], minlength=n_floors
+        ) / np.bincount(floor_of_segment[member], weights=sums[member, 0], minlength=n_floors)
+        scanline.fill_floors(
+            z,
+            sigma_z,
+            labels,
+            grown_heights,
+            params.fill_sigma_factor,
+            params.tolerance_floor_m,
+            params.fill_passes,
+        )
+    counts, heights, rms, extents, areas, slope = scanline.floor_statistics(
+        labels,
+        grown,
+        points,
+        sigma_z,
+        depth,
+        rays,
+        origin[2],
+        intrinsics.fx,
+        intrinsics.fy,
+        n_floors,
+        params.tolerance_floor_m,
+    )
+    chi2, n_segments = scanline.floor_segment_fit(
+        sums, floor_of_segment, n_floors, params.floor_height_tolerance_m, params.min_plane_extent_m
+    )
+    dof = np.maximum(n_segments - 3, 1)
+    is_floor = (
+        (counts >= params.min_plane_pixels)
+        & (n_segments >= 3)
+        & (extents[:, 0] >= params.min_plane_extent_m)
+        & (slope <= math.tan(math.radians(params.floor_max_normal_angle_deg)))
+        & ((params.floor_max_rms_ratio == 0.0) | (rms <= params.floor_max_rms_ratio))
+        & (
+            (params.floor_max_segment_chi2 == 0.0)
+            | (
+                chi2
+                <= params.floor_max_segment_chi2 * np.minimum(1.0 + 3.0 * np.sqrt(2.0 / dof), 2.5)
+            )
+        )
+    )
+    floors = FloorTable(
+        pixel_counts=counts,
+        heights_m=heights,
+        extents_m=extents,
+        areas_m2=areas,
+        rms_ratio=rms,
+        is_floor=is_floor,
+    )
+    return labels, floors
 
 
 @functools.lru_cache(maxsize=8)
@@ -513,13 +735,23 @@ def _empty_result(pivot, transform, shape) -> SegmentationResult:
         rms_m=np.zeros(0),
         is_floor=np.zeros(0, dtype=bool),
     )
+    empty_floors = FloorTable(
+        pixel_counts=np.zeros(0, dtype=np.int64),
+        heights_m=np.zeros(0),
+        extents_m=np.zeros((0, 2)),
+        areas_m2=np.zeros(0),
+        rms_ratio=np.zeros(0),
+        is_floor=np.zeros(0, dtype=bool),
+    )
     return SegmentationResult(
         points=np.zeros((0, 3)),
         floor_heights=np.zeros(0),
         plane_ids=np.zeros(0, dtype=np.int64),
+        floor_ids=np.zeros(0, dtype=np.int64),
         pixel_index=np.zeros(0, dtype=np.int64),
         correction=PoseCorrection.identity(pivot),
         planes=empty_planes,
+        floors=empty_floors,
         image_shape=shape,
         transform_camera_to_robot=transform.copy(),
     )
