@@ -14,16 +14,15 @@ correction that makes the frames agree.
 `max_keyframes`). A keyframe holds its *structure points*: the non-floor points (risers, box
 sides, obstacles) within `max_range_m` of the camera and `min_height_m`..`max_height_m` above the
 robot's ground, in the robot frame after the tilt correction, relative to the camera centre.
-Whenever a keyframe is added and the keyframes' camera positions span `min_baseline_m`, every
+After every `estimate_every` new keyframes, if the keyframes' cameras span `min_baseline_m`, every
 candidate correction ``δ`` (a grid of `coarse_step_deg` within ±`max_correction_deg`, refined by
 `fine_step_deg` around the best) is scored by how well the keyframes' world structure points
 coincide: the number of pairs of points of *different* keyframes sharing a `cell_m` × `cell_m`
 × `layer_m` voxel (a frame's agreement with itself does not depend on ``δ``), summed over two
 voxel grids offset by half a voxel (one grid's boundaries would cut a riser or a box side for
-one ``δ`` and not for the next). The best candidate
-becomes the correction when its score stands out of the grid's median by `min_contrast`;
-otherwise (a featureless scene, one place only) the correction stays at its previous value, from
-its prior `prior_deg`. Each frame is corrected by rotating its points and camera pose about the
+one ``δ`` and not for the next). The best candidate becomes the correction when its score
+stands out of the grid's median by `min_contrast`; otherwise (a featureless scene, one place
+only) the correction stays at its previous value, from its prior `prior_deg`. Each frame is corrected by rotating its points and camera pose about the
 vertical axis through the camera centre by the correction.
 
 Frames: robot frame R (z up, origin on the ground below the robot); the robot's pose in the
@@ -70,6 +69,8 @@ class HeadingParams:
             time); 96 cover a 4 m walk there and back with some looking around.
         max_points_per_keyframe: A keyframe keeps at most this many structure points (every
             n-th, in image order); 600 keep the score at a few ms per keyframe.
+        estimate_every: Re-estimate after every this many new keyframes (the score over all
+            keyframes costs tens of ms; a keyframe adds a fraction of the evidence): 4.
         min_points: Frames with fewer structure points are no keyframes (nothing to align).
         min_height_m: Structure points lie at least this high above the robot's ground [m];
             1 cm keeps ground-plane noise out.
@@ -94,6 +95,7 @@ class HeadingParams:
     keyframe_sector_deg: float = 45.0
     max_keyframes: int = 96
     max_points_per_keyframe: int = 600
+    estimate_every: int = 4
     min_points: int = 100
     min_height_m: float = 0.01
     max_height_m: float = 1.0
@@ -146,6 +148,7 @@ class HeadingParams:
             "an integer in [1, 100000]",
             lambda v: 1 <= v <= 100_000,
         )
+        check("estimate_every", int, "an integer in [1, 1000]", lambda v: 1 <= v <= 1000)
         check(
             "min_points",
             int,
@@ -252,6 +255,7 @@ class HeadingEstimator:
         self.params = params if params is not None else HeadingParams()
         self.correction_rad = math.radians(self.params.prior_deg)
         self.estimates = 0
+        self._added = 0  # keyframes ever added
         self.transform_camera_to_robot: NDArray[np.float64] | None = None
         self._keyframes: list[_Keyframe] = []
 
@@ -280,8 +284,10 @@ class HeadingEstimator:
             updated) correction, to apply to the points and the camera pose.
         """
         transform = np.asarray(transform_camera_to_robot, dtype=np.float64)
-        if self.params.correct_heading and self._add_keyframe(
-            points_robot, floor_heights_m, transform, robot_pose
+        if (
+            self.params.correct_heading
+            and self._add_keyframe(points_robot, floor_heights_m, transform, robot_pose)
+            and self._added % self.params.estimate_every == 0
         ):
             self._estimate()
         correction = yaw_about_pivot(self.correction_rad, transform[:3, 3])
@@ -321,6 +327,7 @@ class HeadingEstimator:
             )
         )
         del self._keyframes[: -p.max_keyframes]
+        self._added += 1
         return True
 
     def _estimate(self) -> None:
