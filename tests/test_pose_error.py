@@ -4,10 +4,11 @@ import math
 
 import numpy as np
 import pytest
+from msgspec import UNSET
 
 from fogsim.data.frame import Frame
 from fogsim.eval.pose_error import PoseErrorAccumulator, heading_error_deg
-from fogsim.eval.report.schema import UNSET, MedianMax, PoseErrorStats
+from fogsim.eval.report.schema import MedianMax, PoseErrorStats
 from mapper.intrinsics import PinholeIntrinsics
 from mapper.transforms import planar_pose_to_matrix
 
