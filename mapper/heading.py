@@ -22,8 +22,9 @@ coincide: the number of pairs of points of *different* keyframes sharing a `cell
 voxel grids offset by half a voxel (one grid's boundaries would cut a riser or a box side for
 one ``δ`` and not for the next). The best candidate becomes the correction when its score
 stands out of the grid's median by `min_contrast`; otherwise (a featureless scene, one place
-only) the correction stays at its previous value, from its prior `prior_deg`. Each frame is corrected by rotating its points and camera pose about the
-vertical axis through the camera centre by the correction.
+only) the correction stays at its previous value, from its prior `prior_deg`. Each frame is
+corrected by rotating its points and camera pose about the vertical axis through the camera
+centre by the correction.
 
 Frames: robot frame R (z up, origin on the ground below the robot); the robot's pose in the
 world is (x, y, z, yaw); camera centre = translation of the corrected camera-to-robot transform.
