@@ -44,7 +44,7 @@ from mapper.validation import check_field
 __all__ = ["HeadingEstimator", "HeadingParams", "heading_scores", "yaw_about_pivot"]
 
 _HASH_BITS = 20
-"""The voxel counts live in a hash table of 2**20 entries (4 MiB): far more than the at most
+"""The voxel counts live in a hash table of 2**20 int64 entries (8 MiB): far more than the at most
 `max_keyframes` · `max_points_per_keyframe` points it holds at once, so collisions are rare."""
 
 
