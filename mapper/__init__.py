@@ -4,6 +4,7 @@ from mapper.averaging import AveragingMap
 from mapper.elevation import ElevationFilterParams, RobotElevationFilter
 from mapper.errors import InvalidInputError, InvalidParameterError, MapperError
 from mapper.grid import AffectedArea, CellType, GridGeometry, UpdateResult
+from mapper.heading import HeadingEstimator, HeadingParams
 from mapper.intrinsics import PinholeIntrinsics
 from mapper.mapper import FloorObstacleMapper
 from mapper.params import MapperParams
@@ -22,6 +23,8 @@ __all__ = [
     "ElevationFilterParams",
     "FloorObstacleMapper",
     "GridGeometry",
+    "HeadingEstimator",
+    "HeadingParams",
     "InvalidInputError",
     "InvalidParameterError",
     "MapperError",

@@ -4,9 +4,10 @@ import math
 
 import numpy as np
 import pytest
+from msgspec import UNSET
 
 from fogsim.data.frame import Frame
-from fogsim.eval.pose_error import PoseErrorAccumulator
+from fogsim.eval.pose_error import PoseErrorAccumulator, heading_error_deg
 from fogsim.eval.report.schema import MedianMax, PoseErrorStats
 from mapper.intrinsics import PinholeIntrinsics
 from mapper.transforms import planar_pose_to_matrix
@@ -58,3 +59,35 @@ def test_encoder_and_odometry_offsets_give_known_statistics():
     world_mm = 1000.0 * math.hypot(0.03, 0.01)  # 31.6228 mm
     assert stats.camera_in_world.translation_mm.max == pytest.approx(world_mm, abs=1e-4)
     assert stats.camera_in_world.translation_mm.median == pytest.approx(world_mm / 2, abs=1e-4)
+
+
+def test_residual_heading_is_the_yaw_left_after_the_corrections():
+    errors = PoseErrorAccumulator()
+    # Believed 4° off; the pipeline's corrected pose is 0.5° off on frame 0, −1.5° on frame 1.
+    errors.add(frame(0, camera_in_robot(yaw_deg=4.0)), camera_in_robot(yaw_deg=0.5))
+    errors.add(frame(1, camera_in_robot(yaw_deg=4.0)), camera_in_robot(yaw_deg=-1.5))
+    errors.add(frame(2, camera_in_robot(), true_pose=False), camera_in_robot(yaw_deg=9.0))
+    stats = errors.stats()
+    assert stats.frames == 2
+    assert stats.camera_in_robot.rotation_deg == MedianMax(4.0, 4.0)
+    assert stats.residual_heading_deg == MedianMax(1.0, 1.5)  # of |yaw|: 0.5 and 1.5
+
+
+def test_no_corrected_pose_leaves_the_residual_heading_out():
+    errors = PoseErrorAccumulator()
+    errors.add(frame(0, camera_in_robot(yaw_deg=2.0)))
+    assert errors.stats().residual_heading_deg is UNSET
+
+
+def test_heading_error_ignores_a_small_tilt_and_keeps_the_sign():
+    tilt = math.radians(3.0)
+    tilted = np.array(
+        [
+            [1.0, 0.0, 0.0],
+            [0.0, math.cos(tilt), -math.sin(tilt)],
+            [0.0, math.sin(tilt), math.cos(tilt)],
+        ]
+    )
+    yawed = camera_in_robot(yaw_deg=-2.0)[:3, :3]
+    assert heading_error_deg(yawed, np.eye(3)) == pytest.approx(-2.0, abs=1e-9)
+    assert heading_error_deg(tilted, np.eye(3)) == pytest.approx(0.0, abs=1e-9)

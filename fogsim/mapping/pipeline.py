@@ -45,6 +45,8 @@ from fogsim.errors import FrameError
 from mapper import (
     AveragingMap,
     FloorObstacleMapper,
+    HeadingEstimator,
+    HeadingParams,
     RobotElevationFilter,
     ZDecision,
     frame_decision,
@@ -88,6 +90,7 @@ class Pipeline:
         self.mapper = FloorObstacleMapper(self.mapper_params)
         self.baseline = AveragingMap(self.mapper_params)
         self.elevation = RobotElevationFilter(self.run_params.elevation)
+        self.heading = HeadingEstimator(HeadingParams())
         self._last_pose_believed: NDArray[np.float64] | None = None
 
     def check_frame(self, frame: Frame) -> None:
@@ -141,7 +144,10 @@ class Pipeline:
         )
         t1 = time.perf_counter()
         pose = self.robot_pose(frame)
-        transform_robot_to_world = planar_pose_to_matrix(pose)
+        # Heading correction (mapper.heading): a yaw about the camera centre, before the pose.
+        transform_robot_to_world = planar_pose_to_matrix(pose) @ self.heading.correct(
+            seg.points, seg.floor_heights, seg.transform_camera_to_robot, pose
+        )
         points_world = apply_transform(transform_robot_to_world, seg.points)
         floor_world = np.asarray(seg.floor_heights, dtype=np.float64) + pose[2]
         # Camera centre after the segmentation's own correction, so rays match the points.

@@ -502,11 +502,15 @@ class PoseErrorStats:
         camera_in_robot: Camera in the robot frame: what the encoders cause (the paper's 7° and
             10 mm).
         camera_in_world: Camera in the world: encoders plus odometry drift.
+        residual_heading_deg: |Yaw| [deg] of the camera orientation after the pipeline's
+            corrections (tilt, heading) against the true one, in the robot frame: the heading
+            error the maps still see (absent when no frame gave a corrected pose).
     """
 
     frames: int
     camera_in_robot: PoseErrorPair | UnsetType = UNSET
     camera_in_world: PoseErrorPair | UnsetType = UNSET
+    residual_heading_deg: MedianMax | UnsetType = UNSET
 
 
 @dataclass(frozen=True)

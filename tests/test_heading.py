@@ -1,0 +1,181 @@
+"""Heading correction: a known camera yaw error on a synthetic scene is recovered; without
+structure (a flat floor) or without motion the correction stays at its prior."""
+
+import math
+
+import numpy as np
+import pytest
+
+from mapper import HeadingEstimator, HeadingParams, InvalidParameterError
+from mapper.heading import heading_scores, yaw_about_pivot
+
+CAMERA_IN_ROBOT_M = np.array([0.05, 0.0, 0.9])
+"""Camera centre in the robot frame (iCub-like head height)."""
+_C, _S = math.cos(math.radians(30.0)), math.sin(math.radians(30.0))
+CAMERA_ROTATION = np.array([[0.0, -_S, _C], [-1.0, 0.0, 0.0], [0.0, -_C, -_S]])
+"""OpenCV camera (x right, y down, z forward) looking along the robot's x, 30° down."""
+BOXES = (  # (x, y, half size x, half size y, height) [m], sides axis-aligned in the world
+    (1.2, 0.85, 0.12, 0.12, 0.25),
+    (1.3, 0.15, 0.15, 0.12, 0.2),
+    (2.0, 0.9, 0.15, 0.11, 0.3),
+    (2.2, 0.1, 0.12, 0.1, 0.22),
+)
+
+
+def box_points_world(rng):
+    """Points on the four sides and the top of every box, 1 cm apart, 3 mm noise."""
+    out = []
+    for cx, cy, hx, hy, h in BOXES:
+        z = np.arange(0.015, h, 0.01)
+        for sx in (-hx, hx):
+            y = np.arange(cy - hy, cy + hy, 0.01)
+            yy, zz = np.meshgrid(y, z)
+            out.append(np.stack([np.full(yy.size, cx + sx), yy.ravel(), zz.ravel()], 1))
+        for sy in (-hy, hy):
+            x = np.arange(cx - hx, cx + hx, 0.01)
+            xx, zz = np.meshgrid(x, z)
+            out.append(np.stack([xx.ravel(), np.full(xx.size, cy + sy), zz.ravel()], 1))
+        xx, yy = np.meshgrid(np.arange(cx - hx, cx + hx, 0.01), np.arange(cy - hy, cy + hy, 0.01))
+        out.append(np.stack([xx.ravel(), yy.ravel(), np.full(xx.size, h)], 1))
+    points = np.concatenate(out)
+    return points + rng.normal(0.0, 0.003, points.shape)
+
+
+def floor_points_world(x0):
+    """A flat floor ahead of the robot at x0: 2 cm grid, 0.3–2 m ahead, 1.4 m wide."""
+    xx, yy = np.meshgrid(np.arange(x0 + 0.3, x0 + 2.0, 0.02), np.arange(-0.2, 1.2, 0.02))
+    return np.stack([xx.ravel(), yy.ravel(), np.zeros(xx.size)], 1)
+
+
+def frame(points_world, floor_world, robot_pose, yaw_error_deg):
+    """What the pipeline hands the estimator for a robot at ``robot_pose`` whose camera yaw
+    is believed ``yaw_error_deg`` off: points in view (±25° of the robot's x, within 2.5 m)."""
+    x, y, yaw = robot_pose
+    c, s = math.cos(yaw), math.sin(yaw)
+    points = np.concatenate([points_world, floor_world])
+    heights = np.concatenate([np.full(len(points_world), np.nan), np.zeros(len(floor_world))])
+    relative = points[:, :2] - [x, y]
+    robot = np.stack(
+        [c * relative[:, 0] + s * relative[:, 1], -s * relative[:, 0] + c * relative[:, 1]], 1
+    )
+    offsets = robot - CAMERA_IN_ROBOT_M[:2]
+    bearing = np.degrees(np.arctan2(offsets[:, 1], offsets[:, 0]))
+    in_view = (np.abs(bearing) <= 25.0) & (np.hypot(offsets[:, 0], offsets[:, 1]) <= 2.5)
+    points_robot = np.column_stack([robot, points[:, 2]])[in_view]
+    camera = np.eye(4)
+    camera[:3, :3] = CAMERA_ROTATION
+    camera[:3, 3] = CAMERA_IN_ROBOT_M
+    believed = yaw_about_pivot(math.radians(yaw_error_deg), CAMERA_IN_ROBOT_M)
+    return (
+        points_robot @ believed[:3, :3].T + believed[:3, 3],
+        heights[in_view],
+        believed @ camera,
+        np.array([x, y, 0.0, yaw]),
+    )
+
+
+WALK = [(0.0, 0.5, 0.0), (0.3, 0.5, 0.02), (0.6, 0.5, -0.01), (0.9, 0.52, 0.0)]
+"""Robot poses (x [m], y [m], yaw [rad]) of the walk: 0.3 m steps towards the boxes."""
+
+
+@pytest.mark.parametrize("yaw_error_deg", [3.0, -5.5])
+def test_a_known_yaw_error_is_recovered_within_half_a_degree(yaw_error_deg):
+    rng = np.random.default_rng(11)
+    boxes = box_points_world(rng)
+    estimator = HeadingEstimator(HeadingParams(estimate_every=1))
+    for x, y, yaw in WALK:
+        correction = estimator.correct(
+            *frame(boxes, floor_points_world(x), (x, y, yaw), yaw_error_deg)
+        )
+    assert estimator.estimates == 2  # from the third pose on the cameras span 0.5 m
+    # The correction undoes the error: the corrected optical axis points along the robot's x
+    # (its true heading) within 0.5°.
+    assert math.degrees(estimator.correction_rad) == pytest.approx(-yaw_error_deg, abs=0.5)
+    axis = estimator.transform_camera_to_robot[:3, 2]
+    assert math.degrees(math.atan2(axis[1], axis[0])) == pytest.approx(0.0, abs=0.5)
+    # The correction turns about the camera centre: the centre stays where it was.
+    np.testing.assert_allclose(
+        correction[:3, :3] @ CAMERA_IN_ROBOT_M + correction[:3, 3], CAMERA_IN_ROBOT_M, atol=1e-12
+    )
+
+
+def test_two_robot_positions_suffice():
+    rng = np.random.default_rng(3)
+    boxes = box_points_world(rng)
+    estimator = HeadingEstimator(HeadingParams(estimate_every=1))
+    for x, y, yaw in (WALK[0], WALK[2]):
+        estimator.correct(*frame(boxes, floor_points_world(x), (x, y, yaw), 4.0))
+    assert estimator.estimates == 1
+    assert math.degrees(estimator.correction_rad) == pytest.approx(-4.0, abs=0.5)
+
+
+def test_a_flat_floor_leaves_the_prior():
+    estimator = HeadingEstimator(HeadingParams(prior_deg=1.5, estimate_every=1))
+    no_structure = np.zeros((0, 3))
+    for x, y, yaw in WALK:
+        correction = estimator.correct(
+            *frame(no_structure, floor_points_world(x), (x, y, yaw), 4.0)
+        )
+    assert estimator.keyframes == 0 and estimator.estimates == 0
+    assert estimator.correction_rad == math.radians(1.5)
+    np.testing.assert_allclose(correction, yaw_about_pivot(math.radians(1.5), CAMERA_IN_ROBOT_M))
+
+
+def test_structure_seen_from_one_place_only_leaves_the_prior():
+    rng = np.random.default_rng(5)
+    boxes = box_points_world(rng)
+    estimator = HeadingEstimator(HeadingParams(estimate_every=1))
+    for yaw in (0.0, -0.35, 0.35):  # turning on the spot: new sectors, no baseline
+        estimator.correct(*frame(boxes, floor_points_world(0.0), (0.0, 0.5, yaw), 4.0))
+    assert estimator.keyframes >= 2 and estimator.estimates == 0
+    assert estimator.correction_rad == 0.0
+
+
+def test_switched_off_never_changes():
+    rng = np.random.default_rng(11)
+    boxes = box_points_world(rng)
+    estimator = HeadingEstimator(HeadingParams(correct_heading=False, estimate_every=1))
+    for x, y, yaw in WALK:
+        estimator.correct(*frame(boxes, floor_points_world(x), (x, y, yaw), 3.0))
+    assert estimator.keyframes == 0 and estimator.correction_rad == 0.0
+
+
+def test_yaw_about_pivot_turns_about_the_vertical_through_the_pivot():
+    pivot = np.array([1.0, 2.0, 0.9])
+    turn = yaw_about_pivot(math.pi / 2, pivot)
+    point = np.array([2.0, 2.0, 0.3])  # 1 m ahead of the pivot in x
+    np.testing.assert_allclose(turn[:3, :3] @ point + turn[:3, 3], [1.0, 3.0, 0.3], atol=1e-12)
+
+
+def test_scores_count_pairs_of_different_keyframes_in_one_voxel():
+    # Keyframe 0 at the origin, keyframe 1 one metre to the side, both seeing the world point
+    # (1.010, 0.005, 0.01); keyframe 0 also sees a second point in the same voxel (no pair
+    # with itself counts). δ = 0: 2 pairs per voxel grid, 2 grids → 4. At 10° the two
+    # keyframes' points are 17 cm apart (the rotation is about each camera): no pair.
+    offsets = np.array([[1.010, 0.005], [1.012, 0.007], [1.010, -0.995]])
+    z = np.full(3, 0.01)
+    starts = np.array([0, 2, 3])
+    cameras = np.array([[0.0, 0.0], [0.0, 1.0]])
+    scores = heading_scores(
+        offsets, z, starts, cameras, np.zeros(2), np.radians([0.0, 10.0]), 0.03, 0.04
+    )
+    np.testing.assert_array_equal(scores, [4.0, 0.0])
+
+
+@pytest.mark.parametrize(
+    ("field", "value"),
+    [
+        ("max_correction_deg", 0.0),
+        ("prior_deg", 20.0),
+        ("fine_step_deg", 1.0),
+        ("cell_m", -0.03),
+        ("max_height_m", 0.0),
+        ("max_keyframes", 1),
+        ("estimate_every", 0),
+        ("min_contrast", 1.0),
+        ("correct_heading", 1),
+    ],
+)
+def test_bad_parameters_are_refused_by_name(field, value):
+    with pytest.raises(InvalidParameterError, match=f"HeadingParams.{field}"):
+        HeadingParams(**{field: value})
