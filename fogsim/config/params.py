@@ -19,7 +19,7 @@ from typing import TYPE_CHECKING, Any, TypeVar
 
 from fogsim.config.decode import shown
 from fogsim.errors import ParameterError
-from mapper import ElevationFilterParams, MapperParams
+from mapper import ElevationFilterParams, HeadingParams, MapperParams
 from mapper.segmentation import SegmentationParams
 
 if TYPE_CHECKING:  # for the annotation only: the schema imports this module
@@ -125,12 +125,14 @@ class RunParams:
         segmentation: Plane segmentation (``seg.<field>``).
         elevation: Robot elevation filter (``elev.<field>``).
         pipeline: The pipeline's own switches (``pipe.<field>``).
+        heading: Camera heading correction (``head.<field>``, `mapper.heading`).
     """
 
     mapper: MapperParams = field(default_factory=MapperParams)
     segmentation: SegmentationParams = field(default_factory=SegmentationParams)
     elevation: ElevationFilterParams = field(default_factory=ElevationFilterParams)
     pipeline: PipelineParams = field(default_factory=PipelineParams)
+    heading: HeadingParams = field(default_factory=HeadingParams)
 
     def to_dict(self) -> dict[str, dict[str, Any]]:
         """Plain ``{"mapper": {...}, "segmentation": {...}, ...}``."""
@@ -148,6 +150,7 @@ OVERRIDE_PREFIXES: dict[str, str] = {
     "segmentation": "seg.",
     "elevation": "elev.",
     "pipeline": "pipe.",
+    "heading": "head.",
 }
 """Prefix of each :class:`RunParams` group in override keys (``mapper.`` is also accepted)."""
 
@@ -179,7 +182,7 @@ def resolve_params(
     Args:
         scenario: A Scenario (its ``mapper`` and ``segmentation`` tables) or None.
         overrides: Keys ``"<mapper field>"`` (e.g. ``"p_occ"``, or ``"mapper.p_occ"``),
-            ``"seg.<field>"``, ``"elev.<field>"`` and ``"pipe.<field>"``.
+            ``"seg.<field>"``, ``"elev.<field>"``, ``"pipe.<field>"`` and ``"head.<field>"``.
 
     Raises:
         ParameterError: An unknown key (the message lists the allowed ones) or a bad value.
@@ -189,6 +192,7 @@ def resolve_params(
         "segmentation": dict(scenario.segmentation) if scenario is not None else {},
         "elevation": {},
         "pipeline": {},
+        "heading": {},
     }
     for key, value in (overrides or {}).items():
         group, name = split_override_key(key)

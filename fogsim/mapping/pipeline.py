@@ -46,7 +46,6 @@ from mapper import (
     AveragingMap,
     FloorObstacleMapper,
     HeadingEstimator,
-    HeadingParams,
     RobotElevationFilter,
     ZDecision,
     frame_decision,
@@ -90,7 +89,7 @@ class Pipeline:
         self.mapper = FloorObstacleMapper(self.mapper_params)
         self.baseline = AveragingMap(self.mapper_params)
         self.elevation = RobotElevationFilter(self.run_params.elevation)
-        self.heading = HeadingEstimator(HeadingParams())
+        self.heading = HeadingEstimator(self.run_params.heading)
         self._last_pose_believed: NDArray[np.float64] | None = None
 
     def check_frame(self, frame: Frame) -> None:

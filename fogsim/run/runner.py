@@ -153,7 +153,7 @@ def run_frames(
     last: Frame | None = None
     for frame in frames:
         timings.append(pipeline.process(frame))
-        pose_errors.add(frame)
+        pose_errors.add(frame, pipeline.heading.transform_camera_to_robot)
         centers = pipeline.cell_centers_xy()
         types, fog_heights, base_heights = pipeline.maps()
         archive.store(

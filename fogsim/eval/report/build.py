@@ -75,6 +75,7 @@ def param_tables(params: RunParams) -> ParamTables:
         segmentation=_param_table(dataclasses.asdict(params.segmentation)),
         elevation=_param_table(dataclasses.asdict(params.elevation)),
         pipeline=_param_table(dataclasses.asdict(params.pipeline)),
+        heading=_param_table(dataclasses.asdict(params.heading)),
     )
 
 

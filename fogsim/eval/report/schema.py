@@ -521,6 +521,7 @@ class ParamTables:
     segmentation: dict[str, ParamValue]
     elevation: dict[str, ParamValue]
     pipeline: dict[str, ParamValue]
+    heading: dict[str, ParamValue] | UnsetType = UNSET
 
 
 @dataclass(frozen=True)
