@@ -73,9 +73,11 @@ def estimate_tilt(normals, areas, eigen, counts, pivot, params) -> PoseCorrectio
     """Rotation that makes the near-horizontal planes' mean normal vertical.
 
     Candidates: planes large enough to be floor whose normal is within
-    `max_tilt_correction_deg` of vertical. The largest-area candidate is the reference; the
-    candidates whose normal agrees with it within `tilt_consensus_deg` are averaged, weighted
-    by their footprint area (small, noisy or contaminated planes barely count).
+    `max_tilt_correction_deg` of vertical. The reference is the candidate whose consensus (the
+    candidates whose normal agrees with it within `tilt_consensus_deg`) has the largest total
+    area, so one large ramp or slanted top cannot outvote the horizontal planes agreeing with
+    each other; the consensus is averaged, weighted by footprint area (small, noisy or
+    contaminated planes barely count).
     """
     identity = PoseCorrection.identity(pivot)
     if not params.correct_tilt or normals.shape[0] == 0:
@@ -88,8 +90,11 @@ def estimate_tilt(normals, areas, eigen, counts, pivot, params) -> PoseCorrectio
     )
     if not candidates.any():
         return identity
-    reference = normals[int(np.argmax(np.where(candidates, areas, -1.0)))]
-    candidates &= normals @ reference >= math.cos(math.radians(params.tilt_consensus_deg))
+    agree = (normals @ normals.T >= math.cos(math.radians(params.tilt_consensus_deg))) & (
+        candidates[:, None] & candidates[None, :]
+    )
+    support = agree.astype(np.float64) @ areas
+    candidates &= agree[int(np.argmax(np.where(candidates, support, -1.0)))]
     mean = (normals[candidates] * areas[candidates, None]).sum(axis=0)
     mean /= np.linalg.norm(mean)
     if not within_deg_of_vertical(mean[None], params.max_tilt_correction_deg)[0]:

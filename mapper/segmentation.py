@@ -178,9 +178,11 @@ class SegmentationParams:
         floor_max_normal_angle_deg: a floor plane's normal is within this angle of vertical
             after the tilt correction [deg].
         max_tilt_correction_deg: planes whose normal is within this angle of vertical (before
-            correction) steer the tilt correction, which is at most this large [deg].
+            correction) steer the tilt correction, which is at most this large [deg]. 20: neck
+            encoder errors reach 13.8° on the stage (issue 11); the largest-area group of
+            agreeing planes keeps a ramp from steering it.
         tilt_consensus_deg: of those, only planes whose normal is within this angle of the
-            largest one's normal are averaged [deg].
+            reference (the largest-area consensus) are averaged [deg].
         expected_ground_z_m: z of the ground plane in the robot frame [m].
         ground_search_window_m: the ground plane is searched within this distance of
             `expected_ground_z_m` [m] (after the tilt correction).
@@ -216,7 +218,7 @@ class SegmentationParams:
     floor_height_tolerance_m: float = 0.005
     floor_max_segment_chi2: float = 1.0
     floor_max_normal_angle_deg: float = 5.0
-    max_tilt_correction_deg: float = 12.0
+    max_tilt_correction_deg: float = 20.0
     tilt_consensus_deg: float = 1.5
     expected_ground_z_m: float = 0.0
     ground_search_window_m: float = 0.05

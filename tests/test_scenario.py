@@ -203,19 +203,20 @@ def test_parameter_tables_are_checked_against_the_parameter_classes():
 # --------------------------------------------------------------------- known answers per file
 
 SHIPPED = {
-    # name: (seed, robot model, start x [m], camera mode,
+    # name: (seed, robot model, start (x [m], y [m], yaw [deg]), camera mode,
     #        (bias, noise, head bias, head noise) [deg], objects)
-    "box_removal": (2, "icub", 0.3, "depth", (0.5, 0.2, 0.5, 0.2), 1),
-    "flat_floor": (5, "icub", 0.3, "depth", (0.05, 0.02, 4.0, 0.3), 0),
-    "flat_floor_talos": (5, "talos", 0.3, "depth", (0.05, 0.02, 4.0, 0.3), 0),
-    "moving_box": (3, "icub", 0.3, "depth", (0.5, 0.2, 0.5, 0.2), 1),
-    "room": (2, "icub", 0.3, "depth", (0.05, 0.02, 4.0, 0.3), 8),
-    "simulated_world": (4, "icub", 0.3, "ideal", (0.0, 0.0, 0.0, 0.0), 4),
-    "stage": (1, "icub", 0.0, "depth", (0.05, 0.02, 4.0, 0.3), 9),
-    "stage_zigzag": (1, "icub", -0.3, "depth", (0.05, 0.02, 4.0, 0.3), 9),
-    "stairs": (1, "icub", 0.3, "depth", (0.05, 0.02, 4.0, 0.3), 4),
-    "table": (6, "icub", 0.3, "depth", (0.05, 0.02, 4.0, 0.3), 2),
-    "talos_course": (3, "talos", 0.3, "depth", (0.05, 0.02, 4.0, 0.3), 9),
+    "box_removal": (2, "icub", (0.3, 0.5, 0.0), "depth", (0.5, 0.2, 0.5, 0.2), 1),
+    "flat_floor": (5, "icub", (0.3, 0.5, 0.0), "depth", (0.05, 0.02, 4.0, 0.3), 0),
+    "flat_floor_talos": (5, "talos", (0.3, 0.5, 0.0), "depth", (0.05, 0.02, 4.0, 0.3), 0),
+    "moving_box": (3, "icub", (0.3, 0.5, 0.0), "depth", (0.5, 0.2, 0.5, 0.2), 1),
+    "room": (2, "icub", (0.3, 0.5, 0.0), "depth", (0.05, 0.02, 4.0, 0.3), 8),
+    "simulated_world": (4, "icub", (0.3, 0.5, 0.0), "ideal", (0.0, 0.0, 0.0, 0.0), 4),
+    "stage": (1, "icub", (0.0, 0.5, 0.0), "depth", (0.05, 0.02, 4.0, 0.3), 9),
+    "stage_down": (1, "icub", (3.75, 0.5, 180.0), "depth", (0.05, 0.02, 4.0, 0.3), 9),
+    "stage_zigzag": (1, "icub", (-0.3, 0.5, 0.0), "depth", (0.05, 0.02, 4.0, 0.3), 9),
+    "stairs": (1, "icub", (0.3, 0.5, 0.0), "depth", (0.05, 0.02, 4.0, 0.3), 4),
+    "table": (6, "icub", (0.3, 0.5, 0.0), "depth", (0.05, 0.02, 4.0, 0.3), 2),
+    "talos_course": (3, "talos", (0.3, 0.5, 0.0), "depth", (0.05, 0.02, 4.0, 0.3), 9),
 }
 
 
@@ -234,10 +235,10 @@ def _types(value: object) -> object:
 @pytest.mark.parametrize("path", find_scenario_files(), ids=lambda p: p.stem)
 def test_every_shipped_file_decodes_to_its_known_values(path):
     scenario = load_scenario(path)
-    seed, model, start_x, mode, encoders, n_objects = SHIPPED[path.stem]
+    seed, model, start, mode, encoders, n_objects = SHIPPED[path.stem]
     assert scenario.name == path.stem and scenario.source_path == path
     assert scenario.seed == seed and scenario.frame_rate_hz == 12.5
-    assert scenario.robot == RobotSpec(model=model, start=(start_x, 0.5, 0.0))
+    assert scenario.robot == RobotSpec(model=model, start=start)
     assert scenario.camera.mode == mode and scenario.camera.fov_deg == (47.0, 39.0)
     e = scenario.encoders
     assert (e.bias_deg, e.noise_deg, e.head_bias_deg, e.head_noise_deg) == encoders
