@@ -152,6 +152,30 @@ def test_process_returns_the_frames_timing_and_decisions():
         assert 0 < t.segmentation_ms + t.update_ms <= t.frame_ms
 
 
+def test_last_points_are_the_frames_points_as_the_maps_received_them():
+    pipeline = Pipeline()
+    assert pipeline.last_points is None
+    frame = make_frames(1)[0]
+    pipeline.process(frame)
+    labelled = pipeline.last_points
+    assert not labelled.withdrawn
+    valid = np.isfinite(frame.depth_m) & (frame.depth_m > 0)
+    assert labelled.points_world.shape == (int(valid.sum()), 3)
+    # Exact depth: the floor points lie on the ground or the box top, at their floor height.
+    floor = np.isfinite(labelled.floor_heights_m)
+    assert floor.sum() > 0.9 * floor.size
+    np.testing.assert_allclose(
+        labelled.points_world[floor, 2], labelled.floor_heights_m[floor], atol=1e-6
+    )
+    on_box = BOX_STATE.contains(labelled.points_world[floor, :2], margin_m=-0.02)
+    np.testing.assert_allclose(labelled.floor_heights_m[floor][on_box], 0.05, atol=1e-3)
+    np.testing.assert_allclose(
+        labelled.floor_heights_m[floor][~on_box & (labelled.points_world[floor, 0] < 1.1)],
+        0.0,
+        atol=1e-3,
+    )
+
+
 def _frame_looking_down(depth, transform_camera_to_world):
     """A 2 x 2 pixel frame whose rays leave the camera at ±0.5 m per metre of depth."""
     return Frame(

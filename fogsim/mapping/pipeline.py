@@ -5,15 +5,18 @@ Per frame (paper Fig. 1, 2 and Sec. IV), with the pose the robot *believes*:
 1. ``segment_depth`` labels the (already self-filtered) depth image: points in the robot frame
    R with the height ``h`` of the horizontal plane each belongs to (NaN = not floor), after the
    segmentation's own rotation / ground-plane correction.
-2. Points and heights go to the world with the believed robot pose (x, y, yaw from odometry,
+2. Heading correction (``mapper.HeadingEstimator``, beyond the paper): the camera's yaw error,
+   estimated from how well the structure seen from different places agrees, is taken out by a
+   rotation about the vertical through the camera centre.
+3. Points and heights go to the world with the believed robot pose (x, y, yaw from odometry,
    z from the *elevation filter* below): ``h_G = h_R + z_R``.
-3. The grids follow the robot: both maps ``recenter`` on the believed (x, y).
-4. z-shift matching against the floor map (``match_z``): an accepted shift is added to the
+4. The grids follow the robot: both maps ``recenter`` on the believed (x, y).
+5. z-shift matching against the floor map (``match_z``): an accepted shift is added to the
    points' z, their floor heights and the camera origin. If it is not accepted (few pairs or an
    implausible shift) and the segmentation found no ground plane either, the frame is
    *withdrawn* (Sec. IV); otherwise the unshifted data are used.
-5. ``FloorObstacleMapper.update`` and ``AveragingMap.update`` get exactly the same data.
-6. Robot elevation filter (``mapper.RobotElevationFilter``): the offset on odometry's z is
+6. ``FloorObstacleMapper.update`` and ``AveragingMap.update`` get exactly the same data.
+7. Robot elevation filter (``mapper.RobotElevationFilter``): the offset on odometry's z is
    pulled towards ``Floor(x_R, y_R)`` when the floor map has a height under the robot.
 
 Every frame is checked first: a believed robot pose or camera transform that is not finite or
@@ -78,8 +81,27 @@ class FrameTiming:
     ground_plane_found: bool
 
 
+@dataclass(frozen=True)
+class LabelledPoints:
+    """One frame's points as the maps received them (viewers, debugging).
+
+    Attributes:
+        points_world: (N, 3) world points [m], every correction and the z shift applied.
+        floor_heights_m: (N,) world floor height of each point [m], NaN = not floor.
+        withdrawn: The frame was withdrawn: the maps did not receive these points.
+    """
+
+    points_world: NDArray[np.float64]
+    floor_heights_m: NDArray[np.float64]
+    withdrawn: bool
+
+
 class Pipeline:
-    """Stateful per-frame processing: the two maps and the robot elevation filter."""
+    """Stateful per-frame processing: the two maps, the heading estimate, the elevation filter.
+
+    Attributes:
+        last_points: The last processed frame's labelled points (None before the first).
+    """
 
     def __init__(self, params: RunParams | None = None) -> None:
         self.run_params = params or RunParams()
@@ -91,6 +113,7 @@ class Pipeline:
         self.elevation = RobotElevationFilter(self.run_params.elevation)
         self.heading = HeadingEstimator(self.run_params.heading)
         self._last_pose_believed: NDArray[np.float64] | None = None
+        self.last_points: LabelledPoints | None = None
 
     def check_frame(self, frame: Frame) -> None:
         """Refuse a frame whose believed pose is not finite, out of bounds or a jump.
@@ -167,6 +190,7 @@ class Pipeline:
                 sensor_origin = sensor_origin + np.array([0.0, 0.0, shift])
                 matched = True
             withdrawn = decision == ZDecision.WITHDRAW
+        self.last_points = LabelledPoints(points_world, floor_world, withdrawn)
         update_ms = float("nan")
         if not withdrawn:
             t2 = time.perf_counter()

@@ -26,10 +26,9 @@ entity                        what
 Work per frame is bounded by the image and the robot-centred grid (the occupancy grid's
 ``nx·ny·nz`` cells are scanned once), never by the run's length.
 
-The labelled points are the logger's own segmentation of the frame (``segment_depth`` with the
-pipeline's parameters), placed with the pipeline's believed robot pose after the frame: the
-pipeline keeps neither its points nor the frame's z shift, so these points lack that shift (at
-most ``MapperParams.zmatch_max_shift_m``) and sit where the robot then believes it stands.
+The labelled points are the pipeline's own (``Pipeline.last_points``): the frame's points as the
+maps received them, with the heading correction and the z shift applied (a withdrawn frame's
+points are logged too: what the maps refused).
 
 ``rerun-sdk`` is an optional dependency (the ``viewer`` extra, a 170 MB wheel): it is imported
 when a logger is made, and its absence is a :class:`~fogsim.errors.FogsimError` saying how to
@@ -59,8 +58,7 @@ from fogsim.viz.style import CMAP, OBSTACLE_RGB, height_norm
 from fogsim.world.timeline import ObjectState
 from mapper import MapperParams
 from mapper.grid import CellType
-from mapper.segmentation import segment_depth
-from mapper.transforms import apply_transform, planar_pose_to_matrix
+from mapper.transforms import planar_pose_to_matrix
 
 APPLICATION_ID = "fogsim"
 """Rerun application id of every recording the testbed writes."""
@@ -194,7 +192,7 @@ class RerunLogger:
             stream.log("world/truth", _truth_boxes(rr, truth.objects))
         pose = pipeline.robot_pose(frame)
         self._log_camera(frame, pose)
-        self._log_points(frame, pipeline, pose, self._norm)
+        self._log_points(pipeline, self._norm)
         self._log_maps(pipeline, self._norm)
         self._path_believed.append(pose[:3].copy())
         self._path_true.append(np.asarray(frame.robot_pose_true, dtype=np.float64)[:3].copy())
@@ -223,19 +221,13 @@ class RerunLogger:
             ),
         )
 
-    def _log_points(
-        self, frame: Frame, pipeline: Pipeline, pose: NDArray[np.float64], norm: Normalize
-    ) -> None:
+    def _log_points(self, pipeline: Pipeline, norm: Normalize) -> None:
         """The frame's points in the world: on a floor plane by its height, the others red."""
         rr, stream = self._rr, self._stream
-        seg = segment_depth(
-            frame.depth_m,
-            frame.intrinsics,
-            frame.transform_camera_to_robot_believed,
-            pipeline.segmentation_params,
-        )
-        points_world = apply_transform(planar_pose_to_matrix(pose), seg.points)
-        floor_heights_m = np.asarray(seg.floor_heights, dtype=np.float64) + pose[2]
+        labelled = pipeline.last_points
+        if labelled is None:
+            return
+        points_world, floor_heights_m = labelled.points_world, labelled.floor_heights_m
         on_floor = np.isfinite(floor_heights_m)
         stream.log(
             "world/points/floor",
