@@ -110,6 +110,8 @@ def shift_from_residuals(residual_m: NDArray[np.float64], params: MapperParams) 
         return ZMatch(0.0, 0, float("nan"), False)
     centre = float(np.median(residual_m))
     kept = residual_m[np.abs(residual_m - centre) <= params.eps_m]
+    if kept.size == 0:  # an even count whose two middle residuals are more than 2·eps apart
+        return ZMatch(0.0, 0, float("nan"), False)
     shift = float(np.mean(kept))
     rms = float(np.sqrt(np.mean((kept - shift) ** 2)))
     accepted = kept.size >= params.zmatch_min_pairs and abs(shift) <= params.zmatch_max_shift_m

@@ -128,3 +128,12 @@ def test_compiled_match_equals_numpy_on_the_stage_frames(monkeypatch):
     scenario = load_scenario("stage")
     run_scenario(scenario, None)
     assert len(matches) > 50 and sum(m.accepted for m in matches) > 25
+
+
+def test_two_surfaces_far_apart_around_an_even_median_give_no_shift():
+    # Residuals 0 and 0.1 m: the median (0.05 m) is more than eps (0.01 m) from both, so no pair
+    # survives the gate; the match is empty and refused, never a NaN shift.
+    params = MapperParams()
+    match = shift_from_residuals(np.array([0.0, 0.0, 0.1, 0.1]), params)
+    assert match == ZMatch(0.0, 0, match.rms_m, False)
+    assert np.isnan(match.rms_m)
