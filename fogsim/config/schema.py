@@ -84,12 +84,12 @@ UNSET_SIZE = (0.0, 0.0, 0.0)
 """The ``size`` of an object whose file gives none (a heightfield's comes from its image)."""
 
 
-@functools.cache
 def read_heightfield(relative_path: str) -> NDArray[np.uint8]:
     """The 8-bit elevation image ``assets/<relative_path>`` as (rows, columns) values 0-255.
 
     Colour images must be grey (R = G = B, as the ETH elevation maps are); their first channel
-    is read. Row 0 is the image's top, the object's +y edge; column 0 its -x edge.
+    is read. Row 0 is the image's top, the object's +y edge; column 0 its -x edge. Each file is
+    read once per process.
 
     Raises:
         FieldRuleError: (key ``heightfield``) a path outside ``assets/``, a missing or unreadable
@@ -103,6 +103,12 @@ def read_heightfield(relative_path: str) -> NDArray[np.uint8]:
             f"must be an image file inside {root} (a path relative to it), "
             f"got {shown(relative_path)}",
         )
+    return _read_elevation_image(path, relative_path)
+
+
+@functools.cache
+def _read_elevation_image(path: Path, relative_path: str) -> NDArray[np.uint8]:
+    """The checked, read-only image of :func:`read_heightfield` (``relative_path`` for errors)."""
     image = cv2.imread(str(path), cv2.IMREAD_UNCHANGED)
     if image is None or image.dtype != np.uint8:
         kind = "unreadable" if image is None else f"{image.dtype} values"

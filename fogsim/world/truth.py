@@ -283,8 +283,8 @@ class SceneTruth:
         reach = 0.5 * math.sqrt(2.0) * cell_m
         near = np.zeros(xy.shape[0], dtype=bool)
         for obj in self.objects:
-            inner = obj.contains(xy, -reach) if obj.heightfield is None else False
-            near |= obj.contains(xy, reach) & ~inner
+            reached = obj.contains(xy, reach)
+            near |= reached if obj.heightfield is not None else reached & ~obj.contains(xy, -reach)
         return near
 
     def rasterize(
