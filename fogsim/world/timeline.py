@@ -19,6 +19,7 @@ from numpy.typing import ArrayLike, NDArray
 
 from fogsim.config import Scenario, SceneObject
 from fogsim.config.schema import read_heightfield
+from fogsim.errors import FogsimError
 
 
 @dataclass(frozen=True)
@@ -74,7 +75,7 @@ class ObjectState:
     def heights_m(self) -> NDArray[np.float64]:
         """A terrain's sample heights (rows, columns) [m]; row 0 at +y, column 0 at -x."""
         if self.heightfield is None:
-            raise ValueError(f"object {self.name!r} is a box, not a heightfield")
+            raise FogsimError(f"object {self.name!r} is a box, not a heightfield")
         return read_heightfield(self.heightfield) * (self.max_height_m / 255.0)
 
     def top_at_m(self, xy: ArrayLike) -> NDArray[np.float64]:
@@ -98,6 +99,13 @@ class ObjectState:
         near_row = heights[row, column] * (1 - fc) + heights[row, column + 1] * fc
         far_row = heights[row + 1, column] * (1 - fc) + heights[row + 1, column + 1] * fc
         return self.base_m + near_row * (1 - fr) + far_row * fr
+
+    def footprint_corners_xy(self) -> NDArray[np.float64]:
+        """(4, 2) world corners of the footprint, counter-clockwise."""
+        hx, hy = 0.5 * self.size[0], 0.5 * self.size[1]
+        local = np.array([[hx, hy], [-hx, hy], [-hx, -hy], [hx, -hy]])
+        c, s = math.cos(self.yaw_rad), math.sin(self.yaw_rad)
+        return local @ np.array([[c, s], [-s, c]]) + np.asarray(self.center_xy)
 
     @classmethod
     def from_object(cls, obj: SceneObject, center_xy: Sequence[float]) -> ObjectState:
