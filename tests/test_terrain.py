@@ -69,17 +69,17 @@ def cell_centers(n: int) -> np.ndarray:
 def test_the_real_staircase_image_gives_value_over_255_times_the_max_height():
     (stairs,) = load_scenario("eth_stairs").objects
     heights = stairs.heightfield_m()
-    assert heights.shape == (71, 122)
-    # Pixel (row 18, column 12) of real_stairs_125cm.png reads 192 (R = G = B; checked with
-    # an image viewer): a tread 192 / 255 × 1.25 = 0.941 m up.
+    assert heights.shape == (71, 64)
+    # Pixel (row 18, column 12) of ETH's real_stairs_125cm.png reads 192 (R = G = B; printed
+    # with OpenCV from /work/shared/data/eth_terrain): the top tread, 192 / 255 × 1.25 m up.
     assert heights[18, 12] == pytest.approx(192 / 255 * 1.25)
     assert heights[0, 0] == 0.0  # no data in the map: the ground
-    # The footprint spans the samples: 121 × 0.04 m by 70 × 0.04 m, up to the highest (194).
-    assert stairs.size == pytest.approx((4.84, 2.8, 194 / 255 * 1.25))
+    # The footprint spans the samples: 63 × 0.04 m by 70 × 0.04 m, up to the highest (194).
+    assert stairs.size == pytest.approx((2.52, 2.8, 194 / 255 * 1.25))
     # The truth reads the same sample where it lies in the world: yaw 180° puts local
-    # (x, y) = (-2.42 + 12 × 0.04, 1.4 - 18 × 0.04) at centre - local.
+    # (x, y) = (-1.26 + 12 × 0.04, 1.4 - 18 × 0.04) at centre - local.
     truth = SceneTruth.from_scenario(load_scenario("eth_stairs"), 0.0)
-    world = np.array([[3.42 + 2.42 - 0.48, 0.5 - 1.4 + 0.72]])
+    world = np.array([[2.26 + 1.26 - 0.48, 0.5 - 1.4 + 0.72]])
     assert truth.support_height_m(world)[0] == pytest.approx(192 / 255 * 1.25)
 
 
