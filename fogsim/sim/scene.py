@@ -187,49 +187,49 @@ def _add_object(
         heights_m = obj.heightfield_m()  # row 0 at +y in both (MuJoCo flips its rows)
         low_m, high_m = float(heights_m.min()), float(heights_m.max())
         span_m = max(high_m - low_m, TERRAIN_MIN_SPAN_M)
-        _add_height_field(root, body, obj, material, (heights_m - low_m) / span_m, span_m, low_m)
+        shape = _height_field(root, obj, (heights_m - low_m) / span_m, span_m, low_m)
+        kind, z = "hfield", low_m
     elif obj.surface == "rough":
+        bumps_from_m = sz - obj.roughness_m
         elevation = rough_elevation(obj, seed, index)
-        _add_height_field(
-            root, body, obj, material, elevation, obj.roughness_m, sz - obj.roughness_m
-        )
+        shape = _height_field(root, obj, elevation, obj.roughness_m, bumps_from_m)
+        kind, z = "hfield", bumps_from_m
     else:
         vertices, triangles, texcoords = box_mesh(obj.size)
-        mesh = root.asset.add(
+        shape = root.asset.add(
             "mesh",
             name=f"mesh_{obj.name}",
             vertex=vertices.ravel(),
             face=triangles.ravel(),
             texcoord=texcoords.ravel(),
         )
-        body.add(
-            "geom",
-            name=f"geom_{obj.name}",
-            type="mesh",
-            mesh=mesh,
-            pos=[0.0, 0.0, 0.5 * sz],
-            material=material,
-            group=0,
-        )
+        kind, z = "mesh", 0.5 * sz
+    body.add(
+        "geom",
+        name=f"geom_{obj.name}",
+        type=kind,
+        pos=[0.0, 0.0, z],
+        material=material,
+        group=0,
+        **{kind: shape},
+    )
     return body
 
 
-def _add_height_field(
+def _height_field(
     root: mjcf.RootElement,
-    body: mjcf.Element,
     obj: SceneObject,
-    material: mjcf.Element,
     elevation: NDArray[np.float64],
     span_m: float,
     low_m: float,
-) -> None:
-    """Give ``body`` the geom of a height field over ``obj``'s footprint.
+) -> mjcf.Element:
+    """The asset ``hf_<name>``: a height field over ``obj``'s footprint.
+
+    Its geom goes ``low_m`` above the object's base (the body's origin, on the footprint centre).
 
     Args:
-        root: The scene's root (the asset ``hf_<name>`` goes there).
-        body: The object's body (its origin on the footprint centre at the object's base).
+        root: The scene's root.
         obj: The object (name and x, y size).
-        material: The object's material.
         elevation: (rows, columns) heights in [0, 1], row 0 at the object's +y edge, column 0
             at its -x edge (as an image seen from above: MuJoCo's ``elevation`` order, whose
             rows it flips); the outer samples lie on the footprint's edges.
@@ -238,7 +238,7 @@ def _add_height_field(
             down to the base, or :data:`TERRAIN_MIN_SPAN_M` below the base when ``low_m`` is 0
             (MuJoCo needs a base).
     """
-    hfield = root.asset.add(
+    return root.asset.add(
         "hfield",
         name=f"hf_{obj.name}",
         nrow=elevation.shape[0],
@@ -250,15 +250,6 @@ def _add_height_field(
             low_m if low_m > 0.0 else TERRAIN_MIN_SPAN_M,
         ],
         elevation=elevation.ravel(),
-    )
-    body.add(
-        "geom",
-        name=f"geom_{obj.name}",
-        type="hfield",
-        hfield=hfield,
-        pos=[0.0, 0.0, low_m],
-        material=material,
-        group=0,
     )
 
 
