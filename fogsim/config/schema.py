@@ -14,18 +14,23 @@ Our extensions to DESIGN.md's table (all optional, with defaults):
         ``dropout``, ``range_m``, ``disparity_noise_correlation_px``, ``edge_fattening_px``,
         ``occlusion`` — the stereo error model of the ``depth`` mode.
     ``[encoders]``: ``head_bias_deg``, ``head_noise_deg`` — the neck joints' error levels.
-    ``[[objects]]``: ``roughness_m`` — bump height of a rough top.
+    ``[[objects]]``: ``roughness_m`` — bump height of a rough top; ``heightfield``,
+        ``cell_m``, ``max_height_m`` — a terrain whose top is an 8-bit elevation image.
     ``[segmentation]``: parameter overrides of the plane segmentation.
 """
 
 from __future__ import annotations
 
+import functools
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field, replace
 from pathlib import Path
 from typing import Annotated, Literal, get_args
 
+import cv2
+import numpy as np
 from msgspec import Meta
+from numpy.typing import NDArray
 
 from fogsim.config.decode import NOT_IN_FILE, FieldRuleError, decode, shown
 from fogsim.config.limits import (
@@ -44,7 +49,7 @@ from fogsim.config.overrides import assign_overrides
 from fogsim.config.params import replace_params
 from fogsim.config.write import TomlValue, to_table, toml_text
 from fogsim.errors import ParameterError, ScenarioError
-from fogsim.paths import ROBOT_NAMES
+from fogsim.paths import ASSETS_DIR, ROBOT_NAMES
 from mapper import MapperParams
 from mapper.segmentation import SegmentationParams
 
@@ -72,6 +77,61 @@ HeadDeg = Annotated[float, Meta(ge=-90.0, le=90.0)]
 ObjectName = Annotated[str, Meta(pattern=r"^[\w-]+\Z", description="letters, digits, '_' or '-'")]
 ParameterTable = Mapping[str, bool | int | float]
 """``[mapper]`` / ``[segmentation]``: field name → value as written (an int stays an int)."""
+HEIGHTFIELD_SIDE_PX = (3, 512)
+"""(min, max) side of a heightfield image [px]: 3 samples make one interior cell; 512 × 512
+samples (a 20 m square at 0.04 m) keep the MuJoCo model and the truth's arrays small."""
+UNSET_SIZE = (0.0, 0.0, 0.0)
+"""The ``size`` of an object whose file gives none (a heightfield's comes from its image)."""
+
+
+def read_heightfield(relative_path: str) -> NDArray[np.uint8]:
+    """The 8-bit elevation image ``assets/<relative_path>`` as (rows, columns) values 0-255.
+
+    Colour images must be grey (R = G = B, as the ETH elevation maps are); their first channel
+    is read. Row 0 is the image's top, the object's +y edge; column 0 its -x edge. Each file is
+    read once per process.
+
+    Raises:
+        FieldRuleError: (key ``heightfield``) a path outside ``assets/``, a missing or unreadable
+            file, an image that is not 8-bit grey, or a side outside ``HEIGHTFIELD_SIDE_PX``.
+    """
+    root = ASSETS_DIR.resolve()
+    path = (root / relative_path).resolve()
+    if not path.is_relative_to(root) or not path.is_file():
+        raise FieldRuleError(
+            "heightfield",
+            f"must be an image file inside {root} (a path relative to it), "
+            f"got {shown(relative_path)}",
+        )
+    return _read_elevation_image(path, relative_path)
+
+
+@functools.cache
+def _read_elevation_image(path: Path, relative_path: str) -> NDArray[np.uint8]:
+    """The checked, read-only image of :func:`read_heightfield` (``relative_path`` for errors)."""
+    image = cv2.imread(str(path), cv2.IMREAD_UNCHANGED)
+    if image is None or image.dtype != np.uint8:
+        kind = "unreadable" if image is None else f"{image.dtype} values"
+        raise FieldRuleError(
+            "heightfield", f"must be an 8-bit image, got {shown(relative_path)} ({kind})"
+        )
+    if image.ndim == 3:
+        grey = image[..., : min(3, image.shape[2])]
+        if np.any(grey != grey[..., :1]):
+            raise FieldRuleError(
+                "heightfield", f"must be grey (R = G = B), got colours in {shown(relative_path)}"
+            )
+        image = grey[..., 0]
+    low, high = HEIGHTFIELD_SIDE_PX
+    if not (low <= min(image.shape) and max(image.shape) <= high):
+        raise FieldRuleError(
+            "heightfield",
+            f"must have {low} to {high} pixels a side, got {image.shape[1]} × {image.shape[0]} "
+            f"in {shown(relative_path)}",
+        )
+    image = np.ascontiguousarray(image)
+    image.flags.writeable = False
+    return image
 
 
 @dataclass(frozen=True)
@@ -160,35 +220,60 @@ class EncoderConfig:
     head_noise_deg: JointErrorDeg = 0.3
 
 
+_HEIGHTFIELD_DEFAULTS = {"cell_m": 0.04, "max_height_m": 1.0}
+"""A heightfield's keys → their defaults (see :class:`SceneObject`); boxes leave them out."""
+
 _HEAD_DEFAULTS = {"head_bias_deg": "bias_deg", "head_noise_deg": "noise_deg"}
 """Head key → the body key whose value it takes when a file gives only the body key."""
 
 
 @dataclass(frozen=True)
 class SceneObject:
-    """A box of the scene.
+    """A box of the scene, or a terrain whose top is an elevation image.
 
     Attributes:
         name: Unique name (the MuJoCo body is called ``obj_<name>``).
         center: (x, y) of the footprint centre in the world [m].
-        size: (x, y, z) extent [m].
+        size: (x, y, z) extent [m]. Required for a box; a heightfield's is its image's extent
+            ((columns - 1) × ``cell_m``, (rows - 1) × ``cell_m``, its highest value's height),
+            filled in when the file omits it and checked when the file gives it.
         yaw_deg: Rotation about the world z axis [deg].
         base: z of the bottom face [m]; > 0 hangs in the air (a table top, a curtain).
         walkable: Its top is a floor (a row of Table I).
         surface: ``flat`` or ``rough`` (a bumpy top that is no plane; never walkable).
         roughness_m: Bump height of a rough top [m] (the top is at ``base + size z``).
+        heightfield: Path inside ``assets/`` of an 8-bit elevation image (see
+            :func:`read_heightfield`); None for a box. Each pixel is a height sample, ``cell_m``
+            apart: height = value / 255 × ``max_height_m`` above the ground (the ETH elevation
+            maps' convention). A heightfield rests on the ground (``base`` 0), its ``surface``
+            is ``flat`` and it is never ``walkable`` (no Table I row: its floors are many).
+        cell_m: Spacing of a heightfield's samples [m] (heightfield only). Default: 0.04 m, the
+            ETH maps' cell.
+        max_height_m: Height of the value 255 [m] (heightfield only). Default: 1.0 m, the ETH
+            demo's default.
     """
 
     name: ObjectName
     center: tuple[Coordinate, Coordinate]
-    size: tuple[ExtentM, ExtentM, ExtentM]
+    size: tuple[ExtentM, ExtentM, ExtentM] = UNSET_SIZE
     yaw_deg: Annotated[float, Meta(ge=-360.0, le=360.0)] = 0.0
     base: Annotated[float, Meta(ge=0.0, le=10.0)] = 0.0
     walkable: bool = False
     surface: Surface = "flat"
     roughness_m: Annotated[float, Meta(ge=0.002, le=1.0)] = 0.02
+    heightfield: str | None = None
+    cell_m: Annotated[float, Meta(ge=0.005, le=1.0)] | None = None
+    max_height_m: Annotated[float, Meta(ge=0.01, le=10.0)] | None = None
 
     def __post_init__(self) -> None:
+        if self.heightfield is not None:
+            self._check_heightfield()
+        else:
+            for key in _HEIGHTFIELD_DEFAULTS:
+                if getattr(self, key) is not None:
+                    raise FieldRuleError(key, "is only allowed with heightfield")
+            if self.size == UNSET_SIZE:
+                raise FieldRuleError("size", "is required (an [x, y, z] extent [m]) but missing")
         if self.surface != "rough":
             return
         if self.walkable:
@@ -201,6 +286,45 @@ class SceneObject:
                 f"must be smaller than the object's height {self.size[2]} m, "
                 f"got {self.roughness_m}",
             )
+
+    def _check_heightfield(self) -> None:
+        """Heightfield rules; fills ``size`` from the image when the file gives none."""
+        for key, allowed in (("base", 0.0), ("walkable", False), ("surface", "flat")):
+            if getattr(self, key) != allowed:
+                raise FieldRuleError(
+                    key,
+                    f"must be {shown(allowed)} for a heightfield (it rests on the ground and "
+                    f"is no single surface), got {shown(getattr(self, key))}",
+                )
+        for key, default in _HEIGHTFIELD_DEFAULTS.items():
+            if getattr(self, key) is None:
+                object.__setattr__(self, key, default)
+        derived = self.heightfield_size_m()
+        if self.size == UNSET_SIZE:
+            object.__setattr__(self, "size", derived)
+        elif self.size != derived:
+            raise FieldRuleError(
+                "size",
+                f"of a heightfield comes from its image: omit it or give {list(derived)}, "
+                f"got {list(self.size)}",
+            )
+
+    def heightfield_m(self) -> NDArray[np.float64]:
+        """A heightfield's sample heights (rows, columns) above the ground [m].
+
+        Row 0 is the object's +y edge, column 0 its -x edge (the image as seen from above).
+        """
+        if self.heightfield is None or self.max_height_m is None:
+            raise FieldRuleError("heightfield", f"object {self.name!r} is a box, not a heightfield")
+        return read_heightfield(self.heightfield) * (self.max_height_m / 255.0)
+
+    def heightfield_size_m(self) -> tuple[float, float, float]:
+        """A heightfield's (x, y, z) extent [m]: samples at its corners, z its highest sample."""
+        heights = self.heightfield_m()
+        rows, columns = heights.shape
+        top = max(float(heights.max()), 0.005)  # an all-zero image still has an extent
+        cell_m = float(self.cell_m or 0.0)
+        return ((columns - 1) * cell_m, (rows - 1) * cell_m, top)
 
     @property
     def top_m(self) -> float:

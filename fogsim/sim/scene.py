@@ -3,7 +3,7 @@
 The scene is the world of DESIGN.md: z up, a textured ground plane at z = 0 reaching well
 beyond the 4 × 1 m stage, one body per scenario object (``obj_<name>``, geom
 ``geom_<name>``, material ``mat_<name>``; a flat box is a mesh ``mesh_<name>`` with texture
-coordinates, a rough top a height field ``hf_<name>``), the robot
+coordinates, a rough top or a terrain a height field ``hf_<name>``), the robot
 attached from its standalone MJCF (names prefixed ``<model>/``, its free joint moved onto the
 attachment frame), or, without a robot, a free-floating camera rig (mocap body
 ``camera_rig``) carrying ``head_camera``, ``head_camera_left`` and ``head_camera_right``.
@@ -51,6 +51,10 @@ MIN_OFFSCREEN_PX = (640, 480)
 """Smallest off-screen buffer (width, height) [px]: MuJoCo's default (see :func:`offscreen_px`)."""
 ROUGH_SAMPLE_M = 0.08
 """Spacing of the height-field samples of rough tops [m]: bumps several pixels wide at 2 m."""
+TERRAIN_MIN_SPAN_M = 0.005
+"""Smallest height span and base thickness of a terrain's height field [m]: MuJoCo needs both
+positive; a terrain whose lowest samples are at the ground gets a 5 mm base hidden under it, a
+flat one (every sample equal) a 5 mm span whose top is never reached."""
 PARKED_Z_M = -50.0
 """Where removed objects go [m]: below the opaque floor, out of every view."""
 
@@ -164,14 +168,14 @@ def _world_root(scenario: Scenario) -> mjcf.RootElement:
 def _add_object(
     root: mjcf.RootElement, obj: SceneObject, index: int, seed: int, mocap: bool
 ) -> mjcf.Element:
-    """Add one scenario object (a box mesh, or a height field for a rough top); returns its body."""
+    """Add one scenario object (a box mesh, a height field for a rough top or a terrain)."""
     material = root.asset.add(
         "material",
         name=f"mat_{obj.name}",
         dclass="object",
         rgba=_object_colour(index, obj.walkable),
     )
-    sx, sy, sz = obj.size
+    sz = obj.size[2]
     body = root.worldbody.add(
         "body",
         name=f"obj_{obj.name}",
@@ -179,44 +183,74 @@ def _add_object(
         euler=[0.0, 0.0, math.radians(obj.yaw_deg)],
         mocap=mocap,
     )
-    if obj.surface == "rough":
+    if obj.heightfield is not None:
+        heights_m = obj.heightfield_m()  # row 0 at +y in both (MuJoCo flips its rows)
+        low_m, high_m = float(heights_m.min()), float(heights_m.max())
+        span_m = max(high_m - low_m, TERRAIN_MIN_SPAN_M)
+        shape = _height_field(root, obj, (heights_m - low_m) / span_m, span_m, low_m)
+        kind, z = "hfield", low_m
+    elif obj.surface == "rough":
+        bumps_from_m = sz - obj.roughness_m
         elevation = rough_elevation(obj, seed, index)
-        hfield = root.asset.add(
-            "hfield",
-            name=f"hf_{obj.name}",
-            nrow=elevation.shape[0],
-            ncol=elevation.shape[1],
-            size=[0.5 * sx, 0.5 * sy, obj.roughness_m, sz - obj.roughness_m],
-            elevation=elevation.ravel(),
-        )
-        body.add(
-            "geom",
-            name=f"geom_{obj.name}",
-            type="hfield",
-            hfield=hfield,
-            pos=[0.0, 0.0, sz - obj.roughness_m],
-            material=material,
-            group=0,
-        )
+        shape = _height_field(root, obj, elevation, obj.roughness_m, bumps_from_m)
+        kind, z = "hfield", bumps_from_m
     else:
         vertices, triangles, texcoords = box_mesh(obj.size)
-        mesh = root.asset.add(
+        shape = root.asset.add(
             "mesh",
             name=f"mesh_{obj.name}",
             vertex=vertices.ravel(),
             face=triangles.ravel(),
             texcoord=texcoords.ravel(),
         )
-        body.add(
-            "geom",
-            name=f"geom_{obj.name}",
-            type="mesh",
-            mesh=mesh,
-            pos=[0.0, 0.0, 0.5 * sz],
-            material=material,
-            group=0,
-        )
+        kind, z = "mesh", 0.5 * sz
+    body.add(
+        "geom",
+        name=f"geom_{obj.name}",
+        type=kind,
+        pos=[0.0, 0.0, z],
+        material=material,
+        group=0,
+        **{kind: shape},
+    )
     return body
+
+
+def _height_field(
+    root: mjcf.RootElement,
+    obj: SceneObject,
+    elevation: NDArray[np.float64],
+    span_m: float,
+    low_m: float,
+) -> mjcf.Element:
+    """The asset ``hf_<name>``: a height field over ``obj``'s footprint.
+
+    Its geom goes ``low_m`` above the object's base (the body's origin, on the footprint centre).
+
+    Args:
+        root: The scene's root.
+        obj: The object (name and x, y size).
+        elevation: (rows, columns) heights in [0, 1], row 0 at the object's +y edge, column 0
+            at its -x edge (as an image seen from above: MuJoCo's ``elevation`` order, whose
+            rows it flips); the outer samples lie on the footprint's edges.
+        span_m: Height of the elevation 1 above the elevation 0 [m].
+        low_m: Height of the elevation 0 above the object's base [m]; the solid below it goes
+            down to the base, or :data:`TERRAIN_MIN_SPAN_M` below the base when ``low_m`` is 0
+            (MuJoCo needs a base).
+    """
+    return root.asset.add(
+        "hfield",
+        name=f"hf_{obj.name}",
+        nrow=elevation.shape[0],
+        ncol=elevation.shape[1],
+        size=[
+            0.5 * obj.size[0],
+            0.5 * obj.size[1],
+            span_m,
+            low_m if low_m > 0.0 else TERRAIN_MIN_SPAN_M,
+        ],
+        elevation=elevation.ravel(),
+    )
 
 
 def _find(root: mjcf.RootElement, kind: str, name: str, source: str) -> mjcf.Element:
@@ -312,15 +346,19 @@ def scene_key(scenario: Scenario, robot: Robot | None) -> str:
 
     The scenario's part that builds the model (its ``repr``), the robot's MJCF file (meshes
     are inlined in it), every file of ``assets/mjcf`` (pieces, textures), the source of this
-    module and of :mod:`fogsim.sim.assets` (which generates the textures) and the MuJoCo and
-    dm_control versions.
+    module and of :mod:`fogsim.sim.assets` (which generates the textures), the MuJoCo and
+    dm_control versions and the heights of every terrain's image.
     """
     pieces = tuple(path.read_bytes() for path in sorted(MJCF_DIR.iterdir()) if path.is_file())
+    terrains = tuple(
+        obj.heightfield_m().tobytes() for obj in scenario.objects if obj.heightfield is not None
+    )
     return content_key(
         (
             repr(_scene_inputs(scenario)).encode(),
             robot.mjcf_path.read_bytes() if robot is not None else b"",
             *pieces,
+            *terrains,
             Path(__file__).read_bytes(),
             Path(assets.__file__).read_bytes(),
             f"mujoco {mujoco.__version__} dm_control {version('dm_control')}".encode(),

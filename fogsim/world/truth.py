@@ -39,6 +39,15 @@ one may (the cell lies within half a cell diagonal of an outline), 5 × 5 sample
 * ``interior``: every sample has the centre's highest thing — the whole cell lies on one
   surface; Table I leaves the other cells out (DESIGN.md).
 
+Terrains (objects with a ``heightfield``): their top at a point is the height field's surface
+there (:meth:`ObjectState.top_at_m`), a support and a highest thing like any top. "Horizontal and
+planar" has to allow the terrain's measurement noise and 8-bit steps, so a cell whose centre lies
+on a terrain is FLOOR when every sample is floor and the samples' tops span at most
+:data:`TERRAIN_STEP_M` (the FOG's own δ: a rise within δ of the floor is floor in eq. 11, one
+above it an obstacle), at the centre's height; OBSTACLE where the terrain rises more within the
+cell (a step's edge, a slope steeper than δ per cell, a rail) or above the grid top. Every cell
+over a terrain is sampled, as its outline and its steps may cross any cell.
+
 Objects thinner than the sample spacing (a quarter cell) can fall between the samples.
 ``walkable`` only chooses the Table I rows (``surface_names``); it never changes a label.
 """
@@ -58,6 +67,7 @@ from fogsim.errors import FogsimError
 from fogsim.world.timeline import ObjectState, object_center_at
 from fogsim.world.truth_params import TruthParams
 from mapper.grid import CellType
+from mapper.params import MapperParams
 
 __all__ = [
     "GROUND",
@@ -74,6 +84,9 @@ SAME_HEIGHT_M = 1e-3
 beneath it rests on it, a cell whose samples' tops are this close holds no step, a bottom or a
 top this close to the grid top is at it. Far above the rounding of scenario heights, far below
 any step the mapper resolves (its layers are 40 mm)."""
+TERRAIN_STEP_M = MapperParams().delta_m
+"""Largest rise within a cell of a terrain that is still floor [m]: the default FOG's δ (eq. 11),
+0.05 m (see the module docstring)."""
 _INTERIOR_SAMPLES = 5
 _DEFAULT_PARAMS = TruthParams()
 
@@ -212,13 +225,18 @@ class SceneTruth:
             return np.zeros((0, xy.shape[0]), dtype=bool)
         return np.stack([obj.contains(xy) for obj in self.objects])
 
-    def _support(self, inside: NDArray[np.bool_]) -> NDArray[np.float64]:
-        """(M,) support height [m] at points, given :meth:`_inside` of them."""
+    def _tops(self, xy: NDArray[np.float64]) -> NDArray[np.float64]:
+        """(objects, M) each object's top at world points (M, 2) [m] (terrains vary)."""
+        if not self.objects:
+            return np.zeros((0, xy.shape[0]))
+        return np.stack([obj.top_at_m(xy) for obj in self.objects])
+
+    def _support(self, inside: NDArray[np.bool_], tops: NDArray[np.float64]) -> NDArray[np.float64]:
+        """(M,) support height [m] at points, given :meth:`_inside` and :meth:`_tops` of them."""
         support = np.zeros(inside.shape[1])
         for k in sorted(range(len(self.objects)), key=lambda k: self.objects[k].base_m):
-            obj = self.objects[k]
-            rests = inside[k] & (obj.base_m <= support + SAME_HEIGHT_M)
-            support = np.where(rests & (obj.top_m > support), obj.top_m, support)
+            rests = inside[k] & (self.objects[k].base_m <= support + SAME_HEIGHT_M)
+            support = np.where(rests & (tops[k] > support), tops[k], support)
         return support
 
     def support_height_m(self, xy: ArrayLike) -> NDArray[np.float64]:
@@ -229,41 +247,44 @@ class SceneTruth:
         """
         p = np.asarray(xy, dtype=np.float64)
         flat = p.reshape(-1, 2)
-        return self._support(self._inside(flat)).reshape(p.shape[:-1])
+        return self._support(self._inside(flat), self._tops(flat)).reshape(p.shape[:-1])
 
     def _point_truth(self, xy: NDArray[np.float64], params: TruthParams) -> _PointTruth:
         """The truth at world points (M, 2) (rules of the module docstring)."""
         inside = self._inside(xy)
-        support = self._support(inside)
-        tops = np.array([o.top_m for o in self.objects])
+        tops = self._tops(xy)
+        support = self._support(inside, tops)
         bases = np.array([o.base_m for o in self.objects])
         counted = inside & (bases < params.grid_top_m - SAME_HEIGHT_M)[:, None]
         # Row 0 is the ground; row k + 1 object k (-inf where it is not over the point).
-        heights = np.vstack([np.zeros((1, xy.shape[0])), np.where(counted, tops[:, None], -np.inf)])
+        heights = np.vstack([np.zeros((1, xy.shape[0])), np.where(counted, tops, -np.inf)])
         row = np.argmax(heights, axis=0)
-        is_floor = np.array(
+        flat_with_room = np.array(
             [True]
             + [
-                o.surface == "flat"
-                and params.has_room_for_foot(o.size[0], o.size[1])
-                and o.top_m <= params.grid_top_m + SAME_HEIGHT_M
+                o.surface == "flat" and params.has_room_for_foot(o.size[0], o.size[1])
                 for o in self.objects
             ]
         )
+        top_m = np.take_along_axis(heights, row[None], axis=0)[0]
         hangs = counted & (bases[:, None] > support + SAME_HEIGHT_M)
         return _PointTruth(
-            top_m=np.take_along_axis(heights, row[None], axis=0)[0],
+            top_m=top_m,
             owner=row - 1,
-            floor=is_floor[row],
+            floor=flat_with_room[row] & (top_m <= params.grid_top_m + SAME_HEIGHT_M),
             ceiling_m=_lowest(np.where(hangs, bases[:, None], np.nan), axis=0),
         )
 
     def _near_outline(self, xy: NDArray[np.float64], cell_m: float) -> NDArray[np.bool_]:
-        """(M,) whether an object outline may cross the axis-aligned cell centred at each point."""
+        """(M,) whether the axis-aligned cell centred at each point needs sampling.
+
+        It does where an object's outline may cross it, or over a terrain (whose steps may).
+        """
         reach = 0.5 * math.sqrt(2.0) * cell_m
         near = np.zeros(xy.shape[0], dtype=bool)
         for obj in self.objects:
-            near |= obj.contains(xy, reach) & ~obj.contains(xy, -reach)
+            reached = obj.contains(xy, reach)
+            near |= reached if obj.heightfield is not None else reached & ~obj.contains(xy, -reach)
         return near
 
     def rasterize(
@@ -310,7 +331,12 @@ class SceneTruth:
         owners = per_cell(sampled.owner, center.owner)
         cell_owner[near] = np.take_along_axis(owners, highest[:, None], axis=1)[:, 0]
         ceiling[near] = _lowest(per_cell(sampled.ceiling_m, center.ceiling_m), axis=1)
-        level = np.abs(tops - tops[:, :1]) <= SAME_HEIGHT_M
+        on_terrain = np.array([o.heightfield is not None for o in self.objects] + [False])
+        level = np.where(
+            on_terrain[owners[:, 0]][:, None],
+            np.ptp(tops, axis=1, keepdims=True) <= TERRAIN_STEP_M,
+            np.abs(tops - tops[:, :1]) <= SAME_HEIGHT_M,
+        )
         floor[near] &= np.all(per_cell(sampled.floor, center.floor) & level, axis=1)
         interior[near] = np.all(owners == owners[:, :1], axis=1)
 
@@ -360,6 +386,15 @@ class SceneTruth:
                     "walkable": o.walkable,
                     "surface": o.surface,
                     "roughness_m": o.roughness_m,
+                    **(
+                        {}
+                        if o.heightfield is None
+                        else {
+                            "heightfield": o.heightfield,
+                            "cell_m": o.cell_m,
+                            "max_height_m": o.max_height_m,
+                        }
+                    ),
                 }
                 for o in self.objects
             ],
@@ -387,6 +422,9 @@ class SceneTruth:
                     walkable=bool(o["walkable"]),
                     surface=str(o.get("surface", "flat")),
                     roughness_m=float(o.get("roughness_m", 0.0)),
+                    heightfield=None if o.get("heightfield") is None else str(o["heightfield"]),
+                    cell_m=float(o.get("cell_m", 0.0)),
+                    max_height_m=float(o.get("max_height_m", 0.0)),
                 )
                 for o in data["objects"]
             )
