@@ -23,7 +23,8 @@ total-least-squares fit of ray-smeared points is; every tolerance is a depth dif
    tolerances made of the segment's noise and the plane's prediction uncertainty; the plane
    is refit (from per-segment moment sums) after every accepted segment.
 4. `reassign_segments`: segments move to a touching plane that fits them clearly better.
-5. `fill_pixels`: leftover pixels next to a plane join it if they lie on it within tolerance.
+5. `fill_pixels`: leftover pixels next to a plane (or a level floor) join it if they lie on it
+   within tolerance.
 6. `plane_fits`, `plane_moments`, `segment_labels`: per-plane parameters and geometry.
 """
 
@@ -926,11 +927,16 @@ def plane_fits(inv_depth, x, y, labels, n_planes):
 
 
 @numba.njit(cache=True)
-def fill_pixels(inv_depth, x, y, labels, sigma, planes, factor, tolerance_floor_m, passes):
-    """Let unassigned pixels join a 4-neighbour's plane if they lie on it within tolerance.
+def fill_pixels(values, x, y, labels, sigma, model, factor, tolerance_floor_m, passes, inverse):
+    """Let unassigned pixels join a 4-neighbour's label if they lie on it within tolerance.
 
-    Each pass looks only at the labels of the previous pass, so a plane spreads by at most
-    ``passes`` pixels. ``labels`` (H, W) int64 (-1 = none, -2 = invalid) is updated in place.
+    Label ``p`` predicts ``model[p, 0]·x + model[p, 1]·y + model[p, 2]`` at a pixel. With
+    ``inverse`` the values and predictions are inverse depths (the planes of `plane_fits`) and
+    the gap is their depth difference; otherwise they are heights (the level floors: model
+    ``(0, 0, h)``) and the gap is the height difference. A pixel joins the best-fitting
+    neighbour within ``factor·sigma + tolerance_floor_m``. Each pass looks only at the labels
+    of the previous pass, so a label spreads by at most ``passes`` pixels. ``labels`` (H, W)
+    int64 (-1 = none, -2 = invalid) is updated in place.
     """
     height, width = labels.shape
     for _ in range(passes):
@@ -950,10 +956,13 @@ def fill_pixels(inv_depth, x, y, labels, sigma, planes, factor, tolerance_floor_
                     p = before[rr, cc]
                     if p < 0:
                         continue
-                    inv_plane = planes[p, 0] * x[c] + planes[p, 1] * y[r] + planes[p, 2]
-                    if not inv_plane > 0.0:
-                        continue
-                    gap = _depth_gap(inv_depth[r, c], inv_plane)
+                    predicted = model[p, 0] * x[c] + model[p, 1] * y[r] + model[p, 2]
+                    if inverse:
+                        if not predicted > 0.0:
+                            continue
+                        gap = _depth_gap(values[r, c], predicted)
+                    else:
+                        gap = abs(values[r, c] - predicted)
                     if gap <= tol and gap < best_gap:
                         best = p
                         best_gap = gap
@@ -1353,40 +1362,6 @@ def _merge_floors(
             new_id[a] = count
             count += 1
         floor_of[i] = new_id[a]
-
-
-@numba.njit(cache=True)
-def fill_floors(z, sigma_z, labels, heights, factor, tolerance_m, passes):
-    """Let unassigned pixels join a 4-neighbour's floor if their height lies on it.
-
-    Like `fill_pixels` for the horizontal model: a pixel joins when its height is within
-    ``factor·sigma_z + tolerance_m`` of the floor's. ``labels`` (H, W) int64 (-1 = none,
-    -2 = invalid) is updated in place; a floor spreads by at most ``passes`` pixels.
-    """
-    height, width = labels.shape
-    for _ in range(passes):
-        before = labels.copy()
-        for r in range(height):
-            for c in range(width):
-                if before[r, c] != -1:
-                    continue
-                best = -1
-                best_gap = 1e30
-                tol = factor * sigma_z[r, c] + tolerance_m
-                for dr, dc in ((-1, 0), (1, 0), (0, -1), (0, 1)):
-                    rr = r + dr
-                    cc = c + dc
-                    if rr < 0 or rr >= height or cc < 0 or cc >= width:
-                        continue
-                    p = before[rr, cc]
-                    if p < 0:
-                        continue
-                    gap = abs(z[r, c] - heights[p])
-                    if gap <= tol and gap < best_gap:
-                        best = p
-                        best_gap = gap
-                if best >= 0:
-                    labels[r, c] = best
 
 
 @numba.njit(cache=True)

@@ -518,6 +518,7 @@ def segment_depth(
             params.fill_sigma_factor,
             params.tolerance_floor_m,
             params.fill_passes,
+            True,
         )
     # Dissolve small or degenerate planes and renumber the rest in creation order.
     keep = (counts >= params.min_plane_pixels) & np.isfinite(plane_table[:, 0])
@@ -658,14 +659,19 @@ def _floor_regions(origin, rays, points, sigma_z, depth, segments, intrinsics, p
         grown_heights = np.bincount(
             floor_of_segment[member], weights=sums[member, 1], minlength=n_floors
         ) / np.bincount(floor_of_segment[member], weights=sums[member, 0], minlength=n_floors)
-        scanline.fill_floors(
+        level_model = np.zeros((n_floors, 3))
+        level_model[:, 2] = grown_heights
+        scanline.fill_pixels(
             z,
-            sigma_z,
+            np.zeros(z.shape[1]),
+            np.zeros(z.shape[0]),
             labels,
-            grown_heights,
+            sigma_z,
+            level_model,
             params.fill_sigma_factor,
             params.tolerance_floor_m,
             params.fill_passes,
+            False,
         )
     counts, heights, rms, extents, areas, slope = scanline.floor_statistics(
         labels,
