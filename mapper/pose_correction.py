@@ -12,13 +12,9 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
-from typing import TYPE_CHECKING
 
 import numpy as np
 from numpy.typing import NDArray
-
-if TYPE_CHECKING:
-    pass
 
 __all__ = ["PoseCorrection", "estimate_tilt", "ground_shift", "within_deg_of_vertical"]
 
