@@ -18,6 +18,8 @@ from __future__ import annotations
 import argparse
 from pathlib import Path
 
+import msgspec
+
 from fogsim.eval.report.io import load_json
 from fogsim.run.seeds import FigureStats, SeedsSummary
 from fogsim.run.suite import SuiteSummary
@@ -26,9 +28,15 @@ _ORDER = ("table1.", "cells.", "safety.", "events.", "pose_error.", "step_edges.
 """Figure groups in the order the tables list them."""
 
 
+class _Format(msgspec.Struct):
+    """The ``format`` key every summary carries (the other keys are ignored here)."""
+
+    format: str
+
+
 def _figures(path: Path) -> dict[str, dict[str, FigureStats]]:
     """Scenario → figure → statistics, from a suite or a seeds summary."""
-    if '"fogsim-seeds"' in path.read_text(encoding="utf-8")[:200]:
+    if msgspec.json.decode(path.read_bytes(), type=_Format).format == "fogsim-seeds":
         seeds = load_json(path, SeedsSummary, "seeds summary")
         return {seeds.scenario: seeds.figures}
     suite = load_json(path, SuiteSummary, "suite summary")
