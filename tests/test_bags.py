@@ -134,6 +134,7 @@ class BagSpec:
     frame_id_prefix: str = ""  # ROS 1 bags often name frames "/odom"
     second_parent: bool = False  # base_footprint also published under "map"
     camera_on_tf: bool = True  # False: only odom -> base_footprint on tf, the neck on /joint_states
+    images_reversed: bool = False  # images received (bag time) in reverse order of their stamps
 
 
 class BagBuilder:
@@ -245,11 +246,11 @@ class BagBuilder:
                     self.transform_stamped(stamp, name("map"), name("base_footprint"), np.eye(4))
                 )
             out.append(("/tf", stamp, transforms))
-        for frame, stamp in zip(direct_frames(), image_stamps(), strict=True):
+        stamps = image_stamps()
+        received = stamps[::-1] if spec.images_reversed else stamps
+        for frame, stamp, at in zip(direct_frames(), stamps, received, strict=True):
             optical = name("camera_depth_optical_frame")
-            out.append(
-                (DEPTH_TOPIC, stamp, self.image(stamp, frame.depth_m, spec.encoding, optical))
-            )
+            out.append((DEPTH_TOPIC, at, self.image(stamp, frame.depth_m, spec.encoding, optical)))
             if spec.camera_info:
                 out.append((INFO_TOPIC, stamp, self.camera_info(stamp, optical)))
         out.sort(key=lambda item: item[1])
@@ -312,6 +313,15 @@ def test_a_bag_gives_back_its_frames(tmp_path, kind):
         )
         assert np.isnan(got.robot_pose_true).all()
         assert np.isnan(got.transform_camera_to_world_true).all()
+
+
+def test_images_received_out_of_stamp_order_come_out_in_time_order(tmp_path):
+    path = BagBuilder("mcap").write(tmp_path / "late", BagSpec(images_reversed=True))
+    frames = read_bag_frames(path, spool_folder=tmp_path)
+    assert [f.time_s for f in frames] == sorted(f.time_s for f in frames)
+    for got, want in zip(frames, direct_frames(), strict=True):
+        np.testing.assert_array_equal(got.depth_m, want.depth_m)
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["late"]  # the spool left nothing
 
 
 @pytest.mark.parametrize("kind", KINDS)

@@ -22,6 +22,16 @@ from mapper.intrinsics import PinholeIntrinsics
 INTR = PinholeIntrinsics.from_fov(8, 6, 47.0, 39.0)
 
 
+def traced_peak(call):
+    """Peak of Python and numpy allocations [bytes] while ``call()`` runs."""
+    tracemalloc.start()
+    try:
+        call()
+        return tracemalloc.get_traced_memory()[1]
+    finally:
+        tracemalloc.stop()
+
+
 def make_frames(n=4, seed=0):
     rng = np.random.default_rng(seed)
     frames = []
@@ -289,12 +299,7 @@ def test_headers_declaring_huge_arrays_are_refused_before_reading(tmp_path, key,
     path = _saved(tmp_path)
     descr = "<U100000000" if key == "meta_json" else "<f8"
     _replace_member(path, tmp_path / "h.npz", key, _npy(shape, descr, b"\0" * 64))
-    tracemalloc.start()
-    try:
-        assert_refused(tmp_path / "h.npz", pattern)
-        _, peak = tracemalloc.get_traced_memory()
-    finally:
-        tracemalloc.stop()
+    peak = traced_peak(lambda: assert_refused(tmp_path / "h.npz", pattern))
     assert peak < 4 << 20, peak
 
 
@@ -472,3 +477,27 @@ def test_save_refuses_what_load_would_refuse(tmp_path):
     with pytest.raises(RecordingError, match=r"robot_pose_believed\[1\] \(frame 1\)"):
         save_recording(tmp_path / "x.npz", frames)
     assert not (tmp_path / "x.npz").exists()
+
+
+def test_saving_holds_one_frame_not_the_run(tmp_path):
+    """60 VGA frames (74 MB of depth) sharing one image: the stack goes to disk, not memory."""
+    intrinsics = PinholeIntrinsics.from_fov(640, 480, 47.0, 39.0)
+    depth = np.full(intrinsics.shape, 2.0, dtype=np.float32)
+    frames = [
+        dataclasses.replace(f, index=i, time_s=0.1 * i, depth_m=depth, intrinsics=intrinsics)
+        for i, f in enumerate(make_frames(1) * 60)
+    ]
+    peak = traced_peak(lambda: save_recording(tmp_path / "big.npz", frames))
+    assert peak < 48 << 20, peak  # numpy writes in 16 MB chunks; the stack alone is 74 MB
+    assert list(tmp_path.iterdir()) == [tmp_path / "big.npz"]  # the spool left nothing
+    loaded = load_recording(tmp_path / "big.npz")
+    assert len(loaded.frames) == 60
+    np.testing.assert_array_equal(loaded.frames[59].depth_m, depth)
+
+
+def test_a_depth_image_of_another_size_is_refused_naming_the_frame(tmp_path):
+    frames = make_frames(3)
+    frames[2] = dataclasses.replace(frames[2], depth_m=np.ones((6, 7), dtype=np.float32))
+    with pytest.raises(RecordingError, match=r"frame 2: depth_m has shape \(6, 7\), the intrin"):
+        save_recording(tmp_path / "r.npz", frames)
+    assert not list(tmp_path.iterdir())

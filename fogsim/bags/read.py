@@ -35,12 +35,15 @@ from rosbags.rosbag1 import ReaderError as Ros1ReaderError
 from rosbags.rosbag2 import ReaderError as Ros2ReaderError
 from rosbags.typesys import Stores, get_typestore
 
+from fogsim.atomic import reason
 from fogsim.bags.images import depth_m_from_image, intrinsics_from_camera_info
 from fogsim.bags.tf import TfTree, TransformSample, frame_name, rigid_inverse
 from fogsim.bags.topics import BagError, BagOptions
 from fogsim.bags.urdf import JointSample, UrdfChain
 from fogsim.data.frame import Frame
 from fogsim.data.recording import save_recording
+from fogsim.data.spool import spooled_array
+from fogsim.errors import OutputError
 from mapper.intrinsics import PinholeIntrinsics
 from mapper.transforms import planar_pose_to_matrix
 
@@ -204,46 +207,85 @@ def _intrinsics(
 
 @dataclass(frozen=True)
 class _DepthImages:
-    """The depth topic's images by increasing stamp."""
+    """The depth topic's images by increasing stamp.
+
+    Attributes:
+        stamps_ns: (T,) stamps [ns], increasing.
+        depth_m: (T, H, W) images [m] on disk (:func:`~fogsim.data.spool.spooled_array`).
+        frame_id: The images' camera frame.
+    """
 
     stamps_ns: NDArray[np.int64]
-    depth_m: list[NDArray[np.float32]]
+    depth_m: NDArray[np.float32]
     frame_id: str
 
 
-def _depth_images(
-    reader: AnyReader, connections: list, source: Path, topic: str, intrinsics: PinholeIntrinsics
-) -> _DepthImages:
-    """Every depth image of the topic, decoded, sorted by stamp (stamps must be distinct)."""
-    stamps, images, frame_ids = [], [], set()
+def _depth_stamps(
+    reader: AnyReader, connections: list, source: Path, topic: str
+) -> tuple[NDArray[np.int64], str]:
+    """The stamps of the topic's images in bag order and their one camera frame (first pass)."""
+    stamps, frame_ids = [], set()
     for connection, _, raw in reader.messages(connections=connections):
         message = reader.deserialize(raw, connection.msgtype)
-        stamp = _stamp_ns(message)
-        where = f"{source}: {topic} at stamp {stamp} ns"
-        depth = depth_m_from_image(message, where)
-        if depth.shape != intrinsics.shape:
-            raise BagError(
-                f"{where}: a {depth.shape[1]}×{depth.shape[0]} image, but the CameraInfo says "
-                f"{intrinsics.width}×{intrinsics.height}"
-            )
-        stamps.append(stamp)
-        images.append(depth)
+        stamps.append(_stamp_ns(message))
         frame_ids.add(frame_name(message.header.frame_id))
     if len(frame_ids) != 1:
         raise BagError(f"{source}: {topic} names several camera frames {sorted(frame_ids)}")
-    order = np.argsort(np.array(stamps, dtype=np.int64), kind="stable")
-    sorted_stamps = np.array(stamps, dtype=np.int64)[order]
+    return np.array(stamps, dtype=np.int64), frame_ids.pop()
+
+
+def _depth_images(
+    reader: AnyReader,
+    connections: list,
+    source: Path,
+    topic: str,
+    intrinsics: PinholeIntrinsics,
+    spool_folder: Path | None,
+) -> _DepthImages:
+    """Every depth image of the topic, decoded, sorted by stamp (stamps must be distinct).
+
+    Two passes over the topic: the stamps first, to know each image's place in time order,
+    then the images, each decoded straight into its row of an array on disk — memory holds one
+    image whatever the bag's length, and a bag whose images are out of stamp order is sorted
+    without holding it.
+    """
+    stamps, frame_id = _depth_stamps(reader, connections, source, topic)
+    order = np.argsort(stamps, kind="stable")
+    sorted_stamps = stamps[order]
     repeated = np.flatnonzero(np.diff(sorted_stamps) == 0)
     if repeated.size:
         raise BagError(
             f"{source}: two images on {topic} have the stamp {int(sorted_stamps[repeated[0]])} "
             "ns; frames need distinct times"
         )
-    return _DepthImages(sorted_stamps, [images[i] for i in order], frame_ids.pop())
+    rank = np.empty_like(order)
+    rank[order] = np.arange(order.size)
+    images = spooled_array((order.size, *intrinsics.shape), np.float32, spool_folder)
+    messages = reader.messages(connections=connections)
+    for k, (connection, _, raw) in enumerate(messages):
+        message = reader.deserialize(raw, connection.msgtype)
+        where = f"{source}: {topic} at stamp {_stamp_ns(message)} ns"
+        depth = depth_m_from_image(message, where)
+        if depth.shape != intrinsics.shape:
+            raise BagError(
+                f"{where}: a {depth.shape[1]}×{depth.shape[0]} image, but the CameraInfo says "
+                f"{intrinsics.width}×{intrinsics.height}"
+            )
+        images[rank[k]] = depth
+    return _DepthImages(sorted_stamps, images, frame_id)
 
 
-def read_bag_frames(path: str | os.PathLike[str], options: BagOptions | None = None) -> list[Frame]:
+def read_bag_frames(
+    path: str | os.PathLike[str],
+    options: BagOptions | None = None,
+    *,
+    spool_folder: str | os.PathLike[str] | None = None,
+) -> list[Frame]:
     """The frames of a bag, one per depth image, in time order (see the module doc).
+
+    The frames' depth images are rows of one array on an anonymous temporary file in
+    ``spool_folder`` (None = the system's temp folder), freed with the last frame: reading a
+    bag holds one image in memory whatever its length.
 
     Raises:
         BagError: The bag is missing or unreadable; the depth or CameraInfo topic is missing,
@@ -268,7 +310,14 @@ def read_bag_frames(path: str | os.PathLike[str], options: BagOptions | None = N
             reader, options.info_topic, CAMERA_INFO_TYPE, source, "--camera-info-topic"
         )
         intrinsics = _intrinsics(reader, info_connections, source, options.info_topic)
-        images = _depth_images(reader, depth_connections, source, options.depth_topic, intrinsics)
+        images = _depth_images(
+            reader,
+            depth_connections,
+            source,
+            options.depth_topic,
+            intrinsics,
+            None if spool_folder is None else Path(spool_folder),
+        )
         moving = _tf_samples(reader, _connections(reader, TF_TOPIC, None, source))
         static = _tf_samples(reader, _connections(reader, TF_STATIC_TOPIC, None, source))
         joints = []
@@ -335,7 +384,12 @@ def import_bag(
         RecordingError: A frame the recording format refuses (e.g. a pose beyond its limits).
         OutputError: ``out`` cannot be written (nothing is left).
     """
-    frames = read_bag_frames(path, options)
+    folder = Path(out).parent
+    try:
+        folder.mkdir(parents=True, exist_ok=True)
+    except OSError as exc:
+        raise OutputError(f"cannot write {out}: {reason(exc)}") from exc
+    frames = read_bag_frames(path, options, spool_folder=folder)
     written = save_recording(out, frames)
     return ImportedBag(
         written, len(frames), frames[0].time_s, frames[-1].time_s, frames[0].intrinsics

@@ -60,7 +60,7 @@ import os
 from collections.abc import Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Any
+from typing import IO, Any
 
 import msgspec
 import numpy as np
@@ -96,6 +96,7 @@ from fogsim.data.meta import (
     encode_meta,
 )
 from fogsim.data.npz import ArrayHeader, NpzArchive
+from fogsim.data.spool import spooled_array
 from fogsim.errors import FogsimError, RecordingError
 from fogsim.world import SceneTruth
 from mapper.intrinsics import PinholeIntrinsics
@@ -173,6 +174,32 @@ class Recording:
 def _frame_array(frames: Sequence[Frame], name: str, dtype: DTypeLike) -> NDArray[Any]:
     """The per-frame array ``name`` of every frame stacked along a new first axis."""
     return np.stack([np.asarray(getattr(f, name), dtype=dtype) for f in frames])
+
+
+def _check_depth_shapes(frames: Sequence[Frame], intrinsics: PinholeIntrinsics) -> None:
+    """Raise :class:`RecordingError` naming the first frame whose depth is not H×W."""
+    shape = (intrinsics.height, intrinsics.width)
+    for f in frames:
+        if np.shape(f.depth_m) != shape:
+            raise RecordingError(
+                f"frame {f.index}: depth_m has shape {np.shape(f.depth_m)}, the intrinsics "
+                f"say {shape} (height, width)"
+            )
+
+
+def _spooled_depth(
+    frames: Sequence[Frame], intrinsics: PinholeIntrinsics, folder: Path
+) -> NDArray[np.float32]:
+    """Every frame's depth stacked in a :func:`~fogsim.data.spool.spooled_array` (not in memory).
+
+    ``numpy.savez_compressed`` writes such an array in 16 MB chunks, so saving a recording holds
+    one frame's images at a time whatever the frame count.
+    """
+    shape = (intrinsics.height, intrinsics.width)
+    stack = spooled_array((len(frames), *shape), np.float32, folder)
+    for i, f in enumerate(frames):
+        stack[i] = f.depth_m
+    return stack
 
 
 def _stored_truths(
@@ -259,10 +286,10 @@ def save_recording(
         self_filtered_pixels=np.array([f.self_filtered_pixels for f in frames], dtype=np.int64),
     )
     _check_columns(columns, str(path))
+    _check_depth_shapes(frames, intrinsics)
     arrays = {
         "meta_json": np.array(encode_meta(meta, f"{path}: meta_json")),
         "time_s": columns.time_s,
-        "depth_m": _frame_array(frames, "depth_m", np.float32),
         "transform_camera_to_robot_believed": columns.transform_camera_to_robot_believed,
         "robot_pose_believed": columns.robot_pose_believed,
         "transform_camera_to_world_true": columns.transform_camera_to_world_true,
@@ -270,7 +297,12 @@ def save_recording(
         "self_filtered_pixels": columns.self_filtered_pixels.astype(np.int32),
         "truth_index": truth_index,
     }
-    return write_atomic(path, lambda handle: np.savez_compressed(handle, **arrays))
+
+    def write(handle: IO[bytes]) -> None:
+        depth_m = _spooled_depth(frames, intrinsics, Path(path).parent)
+        np.savez_compressed(handle, depth_m=depth_m, **arrays)
+
+    return write_atomic(path, write)
 
 
 def _check_columns(columns: FrameColumns, origin: str) -> None:
