@@ -57,6 +57,7 @@ from mapper.segmentation import SegmentationParams
 RobotModel = Literal[ROBOT_NAMES]  # type: ignore[valid-type]
 CameraMode = Literal["ideal", "depth", "stereo"]
 Surface = Literal["flat", "rough"]
+Texture = Literal["noise", "none"]
 ROBOT_MODELS: tuple[str, ...] = get_args(RobotModel)
 CAMERA_MODES: tuple[str, ...] = get_args(CameraMode)
 SURFACES: tuple[str, ...] = get_args(Surface)
@@ -251,6 +252,9 @@ class SceneObject:
             ETH maps' cell.
         max_height_m: Height of the value 255 [m] (heightfield only). Default: 1.0 m, the ETH
             demo's default.
+        texture: ``noise`` (the 1/f grey noise of ``assets/mjcf/textures.toml``, as on every
+            shipped surface) or ``none``: one flat colour, nothing for a stereo matcher to match
+            (the known failure mode of stereo; ``depth`` and ``ideal`` modes do not see it).
     """
 
     name: ObjectName
@@ -264,6 +268,7 @@ class SceneObject:
     heightfield: str | None = None
     cell_m: Annotated[float, Meta(ge=0.005, le=1.0)] | None = None
     max_height_m: Annotated[float, Meta(ge=0.01, le=10.0)] | None = None
+    texture: Texture = "noise"
 
     def __post_init__(self) -> None:
         if self.heightfield is not None:

@@ -169,11 +169,9 @@ def _add_object(
     root: mjcf.RootElement, obj: SceneObject, index: int, seed: int, mocap: bool
 ) -> mjcf.Element:
     """Add one scenario object (a box mesh, a height field for a rough top or a terrain)."""
+    textured = {"dclass": "object"} if obj.texture == "noise" else {}  # the class's texture
     material = root.asset.add(
-        "material",
-        name=f"mat_{obj.name}",
-        dclass="object",
-        rgba=_object_colour(index, obj.walkable),
+        "material", name=f"mat_{obj.name}", rgba=_object_colour(index, obj.walkable), **textured
     )
     sz = obj.size[2]
     body = root.worldbody.add(
