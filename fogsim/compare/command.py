@@ -15,7 +15,7 @@ from dataclasses import dataclass
 from pathlib import Path
 
 from fogsim.atomic import write_atomic
-from fogsim.compare.maps import MapSettings
+from fogsim.compare.maps import MapSettings, parse_maps
 from fogsim.compare.pictures import draw_comparison
 from fogsim.compare.replay import RunComparison, compare_frames
 from fogsim.compare.scans import HeightScanParams
@@ -23,6 +23,8 @@ from fogsim.compare.table import comparison_json, comparison_markdown, timing_ma
 from fogsim.config import load_scenario, resolve_params
 from fogsim.data.recording import load_recording
 from fogsim.errors import FogsimError
+from fogsim.run.output_paths import check_output_path
+from fogsim.run.seeds import parse_seeds
 from fogsim.sim.simulation import Simulation
 
 
@@ -53,15 +55,18 @@ def _runs(
             scenario = recording.scenario
             group = scenario.name if scenario is not None else Path(item).stem
             name = f"{group}_s{scenario.seed}" if scenario is not None else Path(item).stem
-            yield group, compare_frames(
-                name,
-                recording.frames,
-                recording.truth_at,
-                scenario,
-                resolve_params(scenario),
-                maps,
-                settings,
-                scan,
+            yield (
+                group,
+                compare_frames(
+                    name,
+                    recording.frames,
+                    recording.truth_at,
+                    scenario,
+                    resolve_params(scenario),
+                    maps,
+                    settings,
+                    scan,
+                ),
             )
             continue
         if seeds is None:
@@ -72,15 +77,18 @@ def _runs(
         for seed in seeds:
             scenario = base.with_overrides([f"seed={seed}"])
             simulation = Simulation(scenario)
-            yield base.name, compare_frames(
-                f"{base.name}_s{seed}",
-                simulation.frames(),
-                simulation.truth_at,
-                scenario,
-                resolve_params(scenario),
-                maps,
-                settings,
-                scan,
+            yield (
+                base.name,
+                compare_frames(
+                    f"{base.name}_s{seed}",
+                    simulation.frames(),
+                    simulation.truth_at,
+                    scenario,
+                    resolve_params(scenario),
+                    maps,
+                    settings,
+                    scan,
+                ),
             )
 
 
@@ -127,5 +135,44 @@ def run_compare(
         for name, text in texts.items()
     ]
     if pictures:
-        files += [draw_comparison(runs[0], folder / f"{runs[0].name}.png") for runs in groups.values()]
+        files += [
+            draw_comparison(runs[0], folder / f"{runs[0].name}.png") for runs in groups.values()
+        ]
     return CompareResult(groups, tuple(files))
+
+
+def compare_main(
+    inputs: Sequence[str],
+    maps: str,
+    out: str | os.PathLike[str],
+    *,
+    seeds: str | None = None,
+    pictures: bool = True,
+    quiet: bool = False,
+) -> int:
+    """``fogsim compare INPUTS --maps SPEC --out DIR [--seeds SPEC]``: check, run, print.
+
+    Args:
+        inputs: Recording files and scenario names.
+        maps: ``--maps`` (``fog,averaging,elevation,octomap,last``).
+        out: ``--out``, checked before any work.
+        seeds: ``--seeds`` for the scenario names.
+        pictures: Draw each group's first run.
+        quiet: Print only the files written, not the tables.
+
+    Returns:
+        The exit code (0).
+
+    Raises:
+        FogsimError: Bad ``--maps``, ``--seeds`` or inputs (exit 2 in the command line).
+        OutputError: ``out`` cannot be written.
+    """
+    names = parse_maps(maps)
+    seed_list = parse_seeds(seeds) if seeds is not None else None
+    folder = check_output_path(out, "folder", "--out")
+    result = run_compare(inputs, names, folder, seeds=seed_list, pictures=pictures)
+    if not quiet:
+        print((folder / "compare.md").read_text(encoding="utf-8"))
+        print((folder / "timing.md").read_text(encoding="utf-8"))
+    print("wrote " + ", ".join(str(path) for path in result.files))
+    return 0

@@ -58,7 +58,11 @@ def draw_comparison(run: RunComparison, path: str | os.PathLike[str]) -> Path:
                 )
             else:
                 ax.imshow(
-                    np.ma.masked_invalid(values).T, origin="lower", extent=box, cmap=cmap, norm=scale
+                    np.ma.masked_invalid(values).T,
+                    origin="lower",
+                    extent=box,
+                    cmap=cmap,
+                    norm=scale,
                 )
         axes[0, k].set_title(name)
         axes[1, k].set_xlabel("x [m]")

@@ -221,7 +221,8 @@ def compare_frames(
             for m, r in records.items()
         },
         scores={
-            row: score_archive(r.archive, final, truth_grid, grid.layer_m) for row, r in rows.items()
+            row: score_archive(r.archive, final, truth_grid, grid.layer_m)
+            for row, r in rows.items()
         },
         events={row: r.tracker.results() if r.tracker else () for row, r in rows.items()},
         archives={row: r.archive for row, r in rows.items()},

@@ -62,8 +62,8 @@ def scan_pattern_robot(params: HeightScanParams) -> NDArray[np.float64]:
     Points every ``spacing_m`` from ``-length/2`` to ``+length/2`` (and likewise across),
     both ends included: 17 × 11 points for the default.
     """
-    nx = int(math.floor(params.length_m / params.spacing_m + 1e-9)) + 1
-    ny = int(math.floor(params.width_m / params.spacing_m + 1e-9)) + 1
+    nx = math.floor(params.length_m / params.spacing_m + 1e-9) + 1
+    ny = math.floor(params.width_m / params.spacing_m + 1e-9) + 1
     x = (np.arange(nx) - 0.5 * (nx - 1)) * params.spacing_m
     y = (np.arange(ny) - 0.5 * (ny - 1)) * params.spacing_m
     gx, gy = np.meshgrid(x, y, indexing="ij")
