@@ -23,7 +23,8 @@ from typing import Protocol, runtime_checkable
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from mapper.grid import CellType, GridGeometry, UpdateResult
+from mapper.grid import AffectedArea, CellType, GridGeometry, UpdateResult, scroll_xy
+from mapper.params import MapperParams
 from mapper.validation import check_field
 
 
@@ -49,6 +50,84 @@ class HeightMapBackend(Protocol):
     def fog(self) -> tuple[NDArray[np.int8], NDArray[np.float64]]:
         """(nx, ny) `CellType` labels and heights [m] (NaN = none) of the current grid."""
         ...
+
+
+@dataclass(frozen=True)
+class FrameCells:
+    """Where a frame's points fall on a grid (the first step of every map's ``update``).
+
+    Attributes:
+        ix: (M,) x index of each point inside the grid, in point order.
+        iy: (M,) y index of each.
+        inside: (N,) the point is finite and inside the grid's x, y and z range.
+        nonfinite: Points with a coordinate that is not finite.
+        outside: Finite points outside the grid.
+        area: Bounding box of the cells hit, None when no point is inside.
+    """
+
+    ix: NDArray[np.int64]
+    iy: NDArray[np.int64]
+    inside: NDArray[np.bool_]
+    nonfinite: int
+    outside: int
+    area: AffectedArea | None
+
+    def result(self, cells_updated: int) -> UpdateResult:
+        """The ``UpdateResult`` of a map without floor points: these counts and the area."""
+        used = int(self.inside.sum())
+        return UpdateResult(self.area, used, self.nonfinite, self.outside, 0, 0, cells_updated)
+
+
+def frame_cells(points: NDArray[np.float64], geometry: GridGeometry) -> FrameCells:
+    """The cells of a frame's (N, 3) world points [m] (``GridGeometry.cell_of``'s convention)."""
+    index, inside = geometry.cell_of(points)
+    finite = np.isfinite(points).all(axis=1)
+    ix, iy = index[inside, 0], index[inside, 1]
+    area = (
+        AffectedArea(int(ix.min()), int(ix.max()) + 1, int(iy.min()), int(iy.max()) + 1)
+        if ix.size
+        else None
+    )
+    return FrameCells(ix, iy, inside, int((~finite).sum()), int((finite & ~inside).sum()), area)
+
+
+class ScrollingGrid:
+    """A robot-centred grid of per-cell arrays that scroll together (the maps' ``recenter``).
+
+    Args:
+        params: The grid geometry fields (the FOG's, so cells coincide).
+        center_xy_m: World (x, y) [m] that lies in the central cell initially.
+    """
+
+    def __init__(self, params: MapperParams, center_xy_m: ArrayLike = (0.0, 0.0)) -> None:
+        self._geometry = GridGeometry.from_params(params, center_xy_m)
+        self._layers: list[tuple[NDArray[np.generic], float]] = []
+
+    def _layer(self, fill: float, dtype: type = np.float64) -> NDArray[np.generic]:
+        """A new (nx, ny) array filled with ``fill`` that scrolls with the grid."""
+        g = self._geometry
+        array = np.full((g.nx, g.ny), fill, dtype=dtype)
+        self._layers.append((array, fill))
+        return array
+
+    @property
+    def geometry(self) -> GridGeometry:
+        """Where the grid currently lies in the world."""
+        return self._geometry
+
+    def recenter(self, x_m: float, y_m: float) -> tuple[int, int]:
+        """Scroll by whole cells so world (x, y) lies in the central cell; entering cells empty.
+
+        Raises:
+            InvalidInputError: as `FloorObstacleMapper.recenter`.
+        """
+        sx, sy = self._geometry.shift_to(x_m, y_m)
+        if sx == 0 and sy == 0:
+            return (0, 0)
+        for array, fill in self._layers:
+            scroll_xy(array, sx, sy, fill)
+        self._geometry = self._geometry.shifted(sx, sy)
+        return (sx, sy)
 
 
 @dataclass(frozen=True)

@@ -41,9 +41,8 @@ import numba
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from mapper.backends import StepRuleParams, label_by_step
-from mapper.grid import AffectedArea, GridGeometry, UpdateResult, scroll_xy, validate_frame
-from mapper.occupancy import NONFINITE, OUTSIDE, grid_point
+from mapper.backends import ScrollingGrid, StepRuleParams, frame_cells, label_by_step
+from mapper.grid import UpdateResult, validate_frame
 from mapper.params import MapperParams
 from mapper.validation import check_field
 
@@ -117,7 +116,9 @@ def point_height_variance_m2(
 
 
 @numba.njit(cache=True)
-def _visibility_cleanup(points, point_var, origin, origin_x, origin_y, cell, height, variance, gate):
+def _visibility_cleanup(
+    points, point_var, origin, origin_x, origin_y, cell, height, variance, gate
+):
     """Mark cells whose height lies above a ray of the frame by more than the gate.
 
     Rays are walked cell by cell in x, y (Amanatides–Woo in 2-D) from the camera's cell to the
@@ -167,57 +168,49 @@ def _visibility_cleanup(points, point_var, origin, origin_x, origin_y, cell, hei
 
 
 @numba.njit(cache=True)
-def _fuse(points, point_var, origin_x, origin_y, z_min, cell, layer, nz, height, variance,
-          stamp, frame, gate, multi_height_noise, min_var, max_var):  # fmt: skip
-    """Fuse the frame's points into the cells (module: fusion and gating).
+def _fuse(
+    ix, iy, heights, point_var, height, variance, stamp, frame, gate, noise, min_var, max_var
+):
+    """Fuse the frame's points, in order, into their cells (module: fusion and gating).
 
-    Returns (used, nonfinite, outside, ix0, ix1, iy0, iy1).
+    Args:
+        ix: (M,) x index of each point inside the grid.
+        iy: (M,) y index.
+        heights: (M,) its z [m].
+        point_var: (M,) its height variance [m²].
+        height: (nx, ny) cell heights [m], updated.
+        variance: (nx, ny) cell variances [m²], updated.
+        stamp: (nx, ny) frame that last wrote each cell, updated.
+        frame: This frame's number.
+        gate: Mahalanobis threshold.
+        noise: Multi-height noise [m²].
+        min_var: Smallest variance [m²].
+        max_var: Largest variance [m²].
     """
-    nx, ny = height.shape
-    used = 0
-    nonfinite = 0
-    outside = 0
-    ix0 = nx
-    ix1 = -1
-    iy0 = ny
-    iy1 = -1
-    for i in range(points.shape[0]):
-        p = points[i, 2]
-        status, _, _, _, ix, iy, _ = grid_point(
-            points[i, 0], points[i, 1], p, origin_x, origin_y, z_min, cell, layer, nx, ny, nz
-        )
-        if status < 0:
-            nonfinite += status == NONFINITE
-            outside += status == OUTSIDE
-            continue
-        used += 1
-        ix0 = min(ix0, ix)
-        ix1 = max(ix1, ix)
-        iy0 = min(iy0, iy)
-        iy1 = max(iy1, iy)
+    for i in range(ix.shape[0]):
+        x = ix[i]
+        y = iy[i]
+        p = heights[i]
         var_p = min(max(point_var[i], min_var), max_var)
-        h = height[ix, iy]
-        var = variance[ix, iy]
+        h = height[x, y]
+        var = variance[x, y]
         if not np.isfinite(h):
-            height[ix, iy] = p
-            variance[ix, iy] = var_p
-            stamp[ix, iy] = frame
-            continue
-        if abs(p - h) > gate * np.sqrt(var):
-            if stamp[ix, iy] == frame:
-                if p > h:
-                    height[ix, iy] = p
-                    variance[ix, iy] = var_p
-            else:
-                variance[ix, iy] = min(var + multi_height_noise, max_var)
-            continue
-        height[ix, iy] = (var * p + var_p * h) / (var + var_p)
-        variance[ix, iy] = min(max(var * var_p / (var + var_p), min_var), max_var)
-        stamp[ix, iy] = frame
-    return used, nonfinite, outside, ix0, ix1 + 1, iy0, iy1 + 1
+            height[x, y] = p
+            variance[x, y] = var_p
+            stamp[x, y] = frame
+        elif abs(p - h) > gate * np.sqrt(var):
+            if stamp[x, y] != frame:
+                variance[x, y] = min(var + noise, max_var)
+            elif p > h:
+                height[x, y] = p
+                variance[x, y] = var_p
+        else:
+            height[x, y] = (var * p + var_p * h) / (var + var_p)
+            variance[x, y] = min(max(var * var_p / (var + var_p), min_var), max_var)
+            stamp[x, y] = frame
 
 
-class ElevationMap:
+class ElevationMap(ScrollingGrid):
     """Height and variance per cell, Kalman-fused, gated and cleaned by rays (see the module).
 
     Args:
@@ -237,17 +230,11 @@ class ElevationMap:
         self.params = params if params is not None else ElevationMapParams()
         self.grid = grid if grid is not None else MapperParams()
         self.rule = rule if rule is not None else StepRuleParams()
-        self._geometry = GridGeometry.from_params(self.grid, center_xy_m)
-        shape = (self.grid.nx, self.grid.ny)
-        self._height = np.full(shape, np.nan)
-        self._variance = np.full(shape, np.nan)
-        self._stamp = np.full(shape, -1, dtype=np.int64)
+        super().__init__(self.grid, center_xy_m)
+        self._height = self._layer(np.nan)
+        self._variance = self._layer(np.nan)
+        self._stamp = self._layer(-1, np.int64)
         self._frames = 0
-
-    @property
-    def geometry(self) -> GridGeometry:
-        """Where the grid currently lies in the world."""
-        return self._geometry
 
     def update(
         self, points: ArrayLike, floor_heights: ArrayLike, sensor_origin: ArrayLike
@@ -275,15 +262,12 @@ class ElevationMap:
         self._height[remove] = np.nan
         self._variance[remove] = np.nan
         self._stamp[remove] = -1
-        used, nonfinite, outside, ix0, ix1, iy0, iy1 = _fuse(
-            pts,
-            point_var,
-            ox,
-            oy,
-            g.z_min_m,
-            g.cell_m,
-            g.layer_m,
-            g.nz,
+        cells = frame_cells(pts, g)
+        _fuse(
+            cells.ix,
+            cells.iy,
+            pts[cells.inside, 2],
+            point_var[cells.inside],
             self._height,
             self._variance,
             self._stamp,
@@ -294,8 +278,7 @@ class ElevationMap:
             p.max_variance_m2,
         )
         self._frames += 1
-        area = AffectedArea(int(ix0), int(ix1), int(iy0), int(iy1)) if used else None
-        return UpdateResult(area, used, nonfinite, outside, 0, 0, int(remove.sum()))
+        return cells.result(int(remove.sum()))
 
     def heights(self) -> NDArray[np.float64]:
         """(nx, ny) fused height per cell [m], NaN where none."""
@@ -309,18 +292,3 @@ class ElevationMap:
         """(labels by :func:`~mapper.backends.label_by_step`, heights [m] NaN = none)."""
         heights = self.heights()
         return label_by_step(heights, self.rule), heights
-
-    def recenter(self, x_m: float, y_m: float) -> tuple[int, int]:
-        """Scroll by whole cells so world (x, y) lies in the central cell; entering cells empty.
-
-        Raises:
-            InvalidInputError: as `FloorObstacleMapper.recenter`.
-        """
-        sx, sy = self._geometry.shift_to(x_m, y_m)
-        if sx == 0 and sy == 0:
-            return (0, 0)
-        scroll_xy(self._height, sx, sy, np.nan)
-        scroll_xy(self._variance, sx, sy, np.nan)
-        scroll_xy(self._stamp, sx, sy, -1)
-        self._geometry = self._geometry.shifted(sx, sy)
-        return (sx, sy)

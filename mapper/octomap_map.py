@@ -22,9 +22,9 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from mapper.backends import StepRuleParams, label_by_step
+from mapper.backends import ScrollingGrid, StepRuleParams, label_by_step
 from mapper.errors import InvalidParameterError
-from mapper.grid import GridGeometry, UpdateResult, validate_frame
+from mapper.grid import UpdateResult, validate_frame
 from mapper.params import MapperParams
 from mapper.validation import check_field
 
@@ -69,11 +69,16 @@ class OctoMapParams:
             lambda v: self.clamping_min <= v <= self.clamping_max,
         )
         check_field(
-            "OctoMapParams", "max_range_m", self.max_range_m, float, "> 0 [m] or inf", lambda v: v > 0
+            "OctoMapParams",
+            "max_range_m",
+            self.max_range_m,
+            float,
+            "> 0 [m] or inf",
+            lambda v: v > 0,
         )
 
 
-class OctoMapHeights:
+class OctoMapHeights(ScrollingGrid):
     """An OctoMap read out as the top of the highest occupied voxel per column (see the module).
 
     Args:
@@ -104,7 +109,7 @@ class OctoMapHeights:
                 f"OctoMapHeights needs cubic voxels: MapperParams.layer_m must equal cell_m "
                 f"({self.grid.cell_m!r}), got {self.grid.layer_m!r}"
             )
-        self._geometry = GridGeometry.from_params(self.grid, center_xy_m)
+        super().__init__(self.grid, center_xy_m)  # no layers: the tree keeps every voxel
         p = self.params
         tree = octomap.OcTree(self.grid.cell_m)
         tree.setProbHit(p.prob_hit)
@@ -114,11 +119,6 @@ class OctoMapHeights:
         tree.setOccupancyThres(p.occupancy_threshold)
         self.tree = tree
         self._shift = np.array([0.0, 0.0, self.grid.z_min_m])
-
-    @property
-    def geometry(self) -> GridGeometry:
-        """Where the read-out window currently lies in the world."""
-        return self._geometry
 
     def update(
         self, points: ArrayLike, floor_heights: ArrayLike, sensor_origin: ArrayLike
@@ -166,14 +166,3 @@ class OctoMapHeights:
         """(labels by :func:`~mapper.backends.label_by_step`, heights [m] NaN = none)."""
         heights = self.heights()
         return label_by_step(heights, self.rule), heights
-
-    def recenter(self, x_m: float, y_m: float) -> tuple[int, int]:
-        """Move the read-out window by whole cells so world (x, y) lies in its central cell.
-
-        Raises:
-            InvalidInputError: as `FloorObstacleMapper.recenter`.
-        """
-        sx, sy = self._geometry.shift_to(x_m, y_m)
-        if sx or sy:
-            self._geometry = self._geometry.shifted(sx, sy)
-        return (sx, sy)

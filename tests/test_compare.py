@@ -61,11 +61,11 @@ def test_the_step_rule_by_hand():
         ]
     )
     labels = label_by_step(heights)
-    F, O, U = CellType.FLOOR, CellType.OBSTACLE, CellType.UNKNOWN  # noqa: N806
-    expected = [[F, F, F, F, F], [F, F, F, O, U], [F, F, F, O, O]]
+    F, X, U = CellType.FLOOR, CellType.OBSTACLE, CellType.UNKNOWN
+    expected = [[F, F, F, F, F], [F, F, F, X, U], [F, F, F, X, X]]
     np.testing.assert_array_equal(labels, expected)  # 4 cm within δ = 5 cm: still floor
     wide = label_by_step(heights, StepRuleParams(window_cells=5, max_step_m=0.05))
-    assert wide[2, 2] == O and wide[0, 0] == F  # 0.20 m now two cells away is in the window
+    assert wide[2, 2] == X and wide[0, 0] == F  # 0.20 m now two cells away is in the window
     with pytest.raises(InvalidParameterError, match="window_cells"):
         StepRuleParams(window_cells=2)
 

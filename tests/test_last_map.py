@@ -29,7 +29,7 @@ def test_points_outside_the_grid_are_dropped_and_fog_uses_the_rule():
     m = LastMeasurementMap(MapperParams(nx=20, ny=20))
     result = frame(m, [[0.02, 0.02, 0.0], [0.06, 0.02, 0.0], [5.0, 0.0, 0.0], [0.0, 0.0, 9.0]])
     assert (result.points_used, result.points_dropped_outside) == (2, 2)
-    types, heights = m.fog()
+    types, _ = m.fog()
     assert types[10, 10] == CellType.FLOOR and types[11, 10] == CellType.FLOOR
     frame(m, [[0.10, 0.02, 0.2]])  # a 20 cm top beside them: the window spans 0.2 m > 0.05 m
     types, _ = m.fog()

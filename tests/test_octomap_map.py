@@ -5,8 +5,8 @@ import pytest
 
 pytest.importorskip("octomap", reason="octomap-python not installed")
 
-from mapper import CellType, InvalidParameterError, MapperParams  # noqa: E402
-from mapper.octomap_map import OctoMapHeights, OctoMapParams  # noqa: E402
+from mapper import CellType, InvalidParameterError, MapperParams
+from mapper.octomap_map import OctoMapHeights, OctoMapParams
 
 
 def insert(m, points, origin):
