@@ -37,7 +37,9 @@ def draw_comparison(run: RunComparison, path: str | os.PathLike[str]) -> Path:
     centers = archives[0].cell_centers_xy()
     box = extent(centers, archives[0].cell_m)
     norm = height_norm(*(a.fog_heights_m for a in archives))
-    fig = new_figure(3.0 * len(names) + 1.5, 6.0)
+    nx, ny = centers.shape[:2]
+    panel_in = 3.5
+    fig = new_figure(panel_in * len(names) + 1.5, 2.0 * panel_in * ny / nx + 1.2, constrained=True)
     axes = fig.subplots(2, len(names), squeeze=False, sharex=True, sharey=True)
     for k, (name, archive) in enumerate(zip(names, archives, strict=True)):
         heights_mm = 1000.0 * np.asarray(archive.fog_heights_m)
