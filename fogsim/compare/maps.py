@@ -75,7 +75,12 @@ def build_map(name: str, grid: MapperParams, settings: MapSettings) -> HeightMap
     if name == "elevation":
         return ElevationMap(settings.elevation, grid, settings.rule)
     if name == "octomap":
-        return OctoMapHeights(settings.octomap, grid, settings.rule)
+        try:
+            return OctoMapHeights(settings.octomap, grid, settings.rule)
+        except ModuleNotFoundError as exc:
+            raise FogsimError(
+                "--maps octomap needs octomap-python (pip install -e '.[octomap]')"
+            ) from exc
     if name == "last":
         return LastMeasurementMap(grid, settings.rule)
     raise FogsimError(f"no map {name!r} to build; allowed: {', '.join(MAP_NAMES[1:])}")
