@@ -1,0 +1,148 @@
+"""The comparison: the step rule, height scans, one run of every map on a synthetic scene with
+known truth, and the same recording giving the same table twice, bit for bit."""
+
+import json
+
+import numpy as np
+import pytest
+from synthetic_depth import Box, render_scene
+from test_pipeline import CAMERA_IN_ROBOT, INTR, RATE_HZ, ROBOT_POSE, camera_in_world
+
+from fogsim.compare.command import run_compare
+from fogsim.compare.maps import parse_maps, row_names
+from fogsim.compare.replay import compare_frames
+from fogsim.compare.scans import (
+    HeightScanParams,
+    sample_heights,
+    scan_pattern_robot,
+    scan_points_world,
+)
+from fogsim.compare.table import run_figures
+from fogsim.config import resolve_params
+from fogsim.data.frame import Frame
+from fogsim.data.recording import save_recording
+from fogsim.errors import FogsimError
+from fogsim.world.truth import ObjectState, SceneTruth
+from mapper import CellType, GridGeometry, InvalidParameterError, MapperParams
+from mapper.backends import StepRuleParams, label_by_step
+
+TOP_M = 0.3
+BOX = Box((1.35, 0.5), (0.3, 0.4, TOP_M))
+STATE = ObjectState("tall_box", (1.35, 0.5), (0.3, 0.4, TOP_M), 0.0, 0.0, True)
+TRUTH = SceneTruth(0.0, (STATE,), ("ground", "tall_box"), {"ground": 0.0, "tall_box": TOP_M})
+FRAMES = 6
+MAPS = ("fog", "averaging", "elevation", "last")  # OctoMap: tests/test_octomap_map.py
+
+
+def make_frames(count=FRAMES):
+    depth = render_scene(INTR, camera_in_world(), [BOX]).depth_m.astype(np.float32)
+    return [
+        Frame(
+            index=i,
+            time_s=i / RATE_HZ,
+            depth_m=depth,
+            intrinsics=INTR,
+            transform_camera_to_robot_believed=CAMERA_IN_ROBOT,
+            robot_pose_believed=ROBOT_POSE,
+            transform_camera_to_world_true=camera_in_world(),
+            robot_pose_true=ROBOT_POSE,
+        )
+        for i in range(count)
+    ]
+
+
+def test_the_step_rule_by_hand():
+    nan = np.nan
+    heights = np.array(
+        [
+            [0.00, 0.00, 0.00, 0.00, 0.00],
+            [0.00, 0.04, 0.00, 0.00, nan],
+            [0.00, 0.00, 0.00, 0.00, 0.20],
+        ]
+    )
+    labels = label_by_step(heights)
+    F, X, U = CellType.FLOOR, CellType.OBSTACLE, CellType.UNKNOWN
+    expected = [[F, F, F, F, F], [F, F, F, X, U], [F, F, F, X, X]]
+    np.testing.assert_array_equal(labels, expected)  # 4 cm within δ = 5 cm: still floor
+    wide = label_by_step(heights, StepRuleParams(window_cells=5, max_step_m=0.05))
+    assert wide[2, 2] == X and wide[0, 0] == F  # 0.20 m now two cells away is in the window
+    with pytest.raises(InvalidParameterError, match="window_cells"):
+        StepRuleParams(window_cells=2)
+
+
+def test_the_scan_pattern_is_the_common_rl_grid_placed_with_the_robot_pose():
+    pattern = scan_pattern_robot(HeightScanParams())
+    assert pattern.shape == (17 * 11, 2)
+    np.testing.assert_allclose(pattern.min(axis=0), [-0.8, -0.5])
+    np.testing.assert_allclose(pattern.max(axis=0), [0.8, 0.5])
+    world = scan_points_world(np.array([[0.8, 0.0]]), np.array([1.0, 2.0, 0.0, np.pi / 2]))
+    np.testing.assert_allclose(world, [[1.0, 2.8]], atol=1e-12)  # ahead = +y at yaw 90°
+    geometry = GridGeometry.from_params(MapperParams(nx=10, ny=10))
+    heights = np.full((10, 10), np.nan)
+    heights[5, 5] = 0.1
+    values = sample_heights(heights, geometry, np.array([[0.02, 0.02], [0.06, 0.02], [9.0, 0]]))
+    np.testing.assert_array_equal(values, [0.1, np.nan, np.nan])
+    with pytest.raises(FogsimError, match="every_frames"):
+        HeightScanParams(every_frames=0)
+
+
+def test_maps_are_parsed_in_table_order_with_the_fog_always_first():
+    assert parse_maps("last,elevation") == ("fog", "elevation", "last")
+    assert row_names(("fog", "averaging", "last")) == (
+        "fog",
+        "fog+rule",
+        "averaging",
+        "averaging+rule",
+        "last",
+    )
+    with pytest.raises(FogsimError, match="unknown map 'voxblox'"):
+        parse_maps("fog,voxblox")
+
+
+@pytest.fixture(scope="module")
+def compared():
+    return compare_frames(
+        "synthetic", make_frames(), lambda t: TRUTH, None, resolve_params(None), MAPS
+    )
+
+
+def test_every_map_is_scored_against_the_same_truth_on_the_same_cells(compared):
+    assert set(compared.scores) == set(row_names(MAPS))
+    assert compared.frames == FRAMES and compared.withdrawn == 0
+    shapes = {a.fog_heights_m.shape for a in compared.archives.values()}
+    assert len(shapes) == 1  # one lattice for all
+    for m in MAPS:  # every map is updated on every frame, timed
+        assert compared.maps[m].update_ms.shape == (FRAMES,)
+        assert np.isfinite(compared.maps[m].update_ms).all()
+    figures = run_figures(compared)
+    for row in ("fog", "elevation", "last"):
+        # exact depth of a flat floor and a flat 0.3 m top: Table I within 5 mm
+        assert figures[row]["table1_worst_abs_error_mm"] < 5.0, row
+        assert figures[row]["floor_height_median_mm"] < 5.0, row
+    box_rows = {r.name: r for r in compared.scores["elevation"].table1.fog}
+    assert box_rows["tall_box"].estimated_mm == pytest.approx(300.0, abs=5.0)
+    # the robot stands 1 m before the box looking at it: the scan's near half is unseen
+    assert 0.0 < figures["fog"]["scan_coverage"] < 0.6
+    assert figures["fog"]["scan_median_abs_error_mm"] < 5.0
+
+
+def test_the_same_recording_gives_the_same_tables_twice_bit_for_bit(tmp_path):
+    frames = make_frames(4)
+    path = save_recording(tmp_path / "rec.npz", frames, scenario=None, truths=[TRUTH] * 4)
+    outputs = []
+    for k in range(2):
+        out = tmp_path / f"out{k}"
+        run_compare([str(path)], ("fog", "elevation", "last"), out, pictures=k == 0)
+        outputs.append(((out / "compare.json").read_bytes(), (out / "compare.md").read_bytes()))
+    assert outputs[0] == outputs[1]
+    data = json.loads(outputs[0][0])
+    assert data["format"] == "fogsim-compare-1" and list(data["groups"]) == ["rec"]
+    assert (tmp_path / "out0" / "rec.png").stat().st_size > 0
+    rows = data["groups"]["rec"]["rows"]
+    assert set(rows) == {"fog", "fog+rule", "elevation", "last"}
+    assert rows["fog"]["unsafe_cells"]["runs"] == 1
+
+
+def test_a_name_that_is_no_file_needs_seeds(tmp_path):
+    with pytest.raises(FogsimError, match="--seeds"):
+        run_compare(["stage"], ("fog",), tmp_path / "out")
