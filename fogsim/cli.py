@@ -1,4 +1,4 @@
-"""The ``fogsim`` command line: ``list``, ``run``, ``record``, ``suite``, ``import-bag``, ``scene``.
+"""The ``fogsim`` command line: list, run, record, suite, import-bag, scene, compare.
 
 Exit codes: 0 success; 1 a ``--check`` found worse figures, a suite scenario failed (it raised
 or its map is poor) or a seed of ``run --seeds`` raised; 2 bad input (unknown scenario, invalid
@@ -30,6 +30,8 @@ from fogsim.bags.topics import (
     BagOptions,
 )
 from fogsim.bags.write import check_bag_target
+from fogsim.compare.command import compare_main
+from fogsim.compare.maps import MAP_NAMES
 from fogsim.config import CAMERA_MODES, Scenario, find_scenario_files, load_scenario
 from fogsim.data.recording import load_recording
 from fogsim.errors import FogsimError
@@ -200,6 +202,26 @@ def _parser() -> argparse.ArgumentParser:
         help=f"largest gap from an image's stamp to a tf or joint state sample [ms] "
         f"(default {DEFAULT_MAX_DT_MS:g})",
     )
+    compare = sub.add_parser(
+        "compare", help="replay recordings into every height map and score them with the truth"
+    )
+    compare.add_argument(
+        "inputs",
+        nargs="+",
+        metavar="RECORDING|SCENARIO",
+        help="recordings, or scenarios to simulate",
+    )
+    compare.add_argument("--out", type=Path, required=True, help="folder for the tables")
+    compare.add_argument(
+        "--maps",
+        default=",".join(MAP_NAMES),
+        help=f"maps to compare, the FOG always among them (default {','.join(MAP_NAMES)})",
+    )
+    compare.add_argument(
+        "--seeds", metavar="SPEC", help=f"seeds of SCENARIO inputs: {SEEDS_ALLOWED}"
+    )
+    compare.add_argument("--no-pictures", action="store_true", help="skip the PNGs")
+    compare.add_argument("--quiet", action="store_true", help="print only the files written")
     add_tune_arguments(sub)
     return parser
 
@@ -474,6 +496,15 @@ def main(argv: Sequence[str] | None = None) -> int:
             return _cmd_import_bag(args)
         if args.command == "scene":
             return _cmd_scene(args)
+        if args.command == "compare":
+            return compare_main(
+                args.inputs,
+                args.maps,
+                args.out,
+                seeds=args.seeds,
+                pictures=not args.no_pictures,
+                quiet=args.quiet,
+            )
         return _cmd_suite(args)
     except (FogsimError, MapperError) as exc:
         print(f"fogsim: error: {exc}", file=sys.stderr)

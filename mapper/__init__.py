@@ -1,11 +1,14 @@
 """Floor and obstacle height map (Gutmann, Fukuchi, Fujita) as a library; no MuJoCo dependency."""
 
 from mapper.averaging import AveragingMap
+from mapper.backends import HeightMapBackend, StepRuleParams, label_by_step
 from mapper.elevation import ElevationFilterParams, RobotElevationFilter
+from mapper.elevation_map import ElevationMap, ElevationMapParams
 from mapper.errors import InvalidInputError, InvalidParameterError, MapperError
 from mapper.grid import AffectedArea, CellType, GridGeometry, UpdateResult
 from mapper.heading import HeadingEstimator, HeadingParams
 from mapper.intrinsics import PinholeIntrinsics
+from mapper.last_map import LastMeasurementMap
 from mapper.mapper import FloorObstacleMapper
 from mapper.params import MapperParams
 from mapper.segmentation import (
@@ -21,12 +24,16 @@ __all__ = [
     "AveragingMap",
     "CellType",
     "ElevationFilterParams",
+    "ElevationMap",
+    "ElevationMapParams",
     "FloorObstacleMapper",
     "GridGeometry",
     "HeadingEstimator",
     "HeadingParams",
+    "HeightMapBackend",
     "InvalidInputError",
     "InvalidParameterError",
+    "LastMeasurementMap",
     "MapperError",
     "MapperParams",
     "PinholeIntrinsics",
@@ -34,10 +41,12 @@ __all__ = [
     "RobotElevationFilter",
     "SegmentationParams",
     "SegmentationResult",
+    "StepRuleParams",
     "UpdateResult",
     "ZDecision",
     "ZMatch",
     "apply_z_shift",
     "frame_decision",
+    "label_by_step",
     "segment_depth",
 ]
