@@ -2,6 +2,7 @@
 
 import sys
 from collections import defaultdict
+from pathlib import Path
 
 import matplotlib.pyplot as plt
 import numpy as np
@@ -306,18 +307,36 @@ def test_with_a_display_the_run_streams_to_the_spawned_viewer(tmp_path, monkeypa
     rr = pytest.importorskip("rerun")
     rerun_chunk()
     monkeypatch.setenv("DISPLAY", ":0")
+    monkeypatch.setenv("PATH", str(tmp_path))  # no rerun on the PATH: the one beside Python
     viewer = tmp_path / "viewer.rrd"
     spawned = []
 
-    def spawn(stream):  # the viewer's end of the stream: a file here
-        spawned.append(stream)
-        stream.save(str(viewer))
+    def spawn(*, recording, executable_path):  # the viewer's end of the stream: a file here
+        spawned.append(executable_path)
+        recording.save(str(viewer))
 
-    monkeypatch.setattr(rr.RecordingStream, "spawn", spawn)
+    monkeypatch.setattr(rr, "spawn", spawn)
     frames, _ = frames_and_rendering(FRAMES)
     with RerunLogger(None, "test", lambda t: TRUTH, spawn=True) as logger:
         run_frames(frames, lambda t: TRUTH, None, on_frame=logger.add)
-    assert len(spawned) == 1 and logger.path is None
+    assert spawned == [str(Path(sys.executable).with_name("rerun"))] and logger.path is None
     rows = read_rrd(viewer)
     assert set(rows) == ENTITIES and len(rows["/camera/depth"]) == FRAMES
     assert [p.name for p in tmp_path.iterdir()] == ["viewer.rrd"]  # no file of the logger's
+
+
+@pytest.mark.slow  # Rerun gives up connecting after 6 s and waits 5 s more at shutdown
+def test_a_viewer_that_never_listens_is_an_error_when_the_log_ends(monkeypatch):
+    rr = pytest.importorskip("rerun")
+    monkeypatch.setenv("DISPLAY", ":0")
+
+    def spawn(*, recording, executable_path):  # a viewer that died: nothing listens (loopback)
+        recording.connect_grpc("rerun+http://127.0.0.1:9/proxy")
+
+    monkeypatch.setattr(rr, "spawn", spawn)
+    frames, _ = frames_and_rendering(1)
+    with (
+        pytest.raises(FogsimError, match="the Rerun viewer did not take the log"),
+        RerunLogger(None, "test", spawn=True) as logger,
+    ):
+        run_frames(frames, None, None, on_frame=logger.add)

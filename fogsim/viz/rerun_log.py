@@ -44,6 +44,7 @@ byte equal.
 from __future__ import annotations
 
 import os
+import shutil
 import sys
 from collections.abc import Mapping
 from pathlib import Path
@@ -148,6 +149,16 @@ def colour_norm(truth_objects: tuple[ObjectState, ...] | None, params: MapperPar
     return height_norm(np.array([0.0, *(o.top_m for o in truth_objects)]))
 
 
+def viewer_executable() -> str:
+    """The Rerun viewer to spawn: ``rerun`` on the PATH, else the one beside this Python.
+
+    rerun-sdk installs the viewer as the ``rerun`` command next to the interpreter; Rerun itself
+    looks for it on the PATH only, which misses it when a virtual environment's Python runs
+    without the environment activated (``.venv/bin/fogsim``, as the README's commands do).
+    """
+    return shutil.which("rerun") or str(Path(sys.executable).with_name("rerun"))
+
+
 class RerunLogger:
     """Writes a run into a Rerun ``.rrd`` file, one frame at a time (see the module docstring).
 
@@ -194,7 +205,7 @@ class RerunLogger:
         self._tmp = self._open_file(self.path) if self.path is not None else None
         if spawn:
             try:
-                self._stream.spawn()
+                self._rr.spawn(recording=self._stream, executable_path=viewer_executable())
             except RuntimeError as exc:  # Rerun reports a viewer that cannot start as text
                 raise FogsimError(f"cannot start the Rerun viewer: {exc}") from exc
         self._stream.log("world", self._rr.ViewCoordinates.RIGHT_HAND_Z_UP, static=True)
@@ -336,7 +347,9 @@ class RerunLogger:
         """Log both robot paths, finish the file and move it into place (or end the stream).
 
         Raises:
-            OutputError: The file cannot be moved into place.
+            OutputError: The file cannot be finished or moved into place.
+            FogsimError: The spawned viewer did not take the log (it could not open its window
+                or was closed).
         """
         rr, stream = self._rr, self._stream
         for name, path, colour in (
@@ -349,7 +362,14 @@ class RerunLogger:
                     rr.LineStrips3D([np.stack(path)], colors=[colour]),
                     static=True,
                 )
-        stream.flush()
+        try:
+            stream.flush()
+        except RuntimeError as exc:  # Rerun reports a sink that failed as text
+            stream.disconnect()
+            if self._tmp is None or self.path is None:
+                raise FogsimError(f"the Rerun viewer did not take the log: {exc}") from exc
+            self._tmp.unlink(missing_ok=True)
+            raise OutputError(f"cannot write {self.path}: {exc}") from exc
         stream.disconnect()
         if self._tmp is None or self.path is None:
             return
