@@ -242,3 +242,13 @@ def test_a_simulated_run_with_video_shows_the_robot_beside_depth_and_fog(tmp_pat
     panel = pictures[-1][:, :480].astype(np.float64)
     assert panel.std() > 10.0  # a rendered scene, not a flat fill
     assert (panel[:40].max(axis=2) < 10).mean() > 0.5  # the sky above the course is black
+    # Rendering the view changes nothing of the run: the maps are those of a run without video.
+    run_scenario(scenario, tmp_path / "plain", pictures=False, max_frames=3)
+    with (
+        np.load(tmp_path / "run" / "maps.npz") as with_video,
+        np.load(tmp_path / "plain" / "maps.npz") as plain,
+    ):
+        assert sorted(with_video) == sorted(plain)
+        for name in plain:
+            np.testing.assert_array_equal(with_video[name], plain[name], err_msg=name)
+    assert not (tmp_path / "plain" / "run.mp4").exists()
