@@ -230,7 +230,7 @@ def test_the_third_person_camera_needs_a_robot_and_a_size_that_fits():
         ThirdPersonCamera(model, size_px=(641, 480))
 
 
-def test_a_simulated_run_with_video_shows_the_robot_beside_depth_and_fog(tmp_path):
+def test_a_simulated_run_with_video_shows_the_robot_beside_depth_and_fog(tmp_path, monkeypatch):
     scenario = load_scenario("flat_floor")
     report = run_scenario(scenario, tmp_path / "run", video=True, pictures=False, max_frames=3)
     assert report.video == "run.mp4"
@@ -242,7 +242,13 @@ def test_a_simulated_run_with_video_shows_the_robot_beside_depth_and_fog(tmp_pat
     panel = pictures[-1][:, :480].astype(np.float64)
     assert panel.std() > 10.0  # a rendered scene, not a flat fill
     assert (panel[:40].max(axis=2) < 10).mean() > 0.5  # the sky above the course is black
-    # Rendering the view changes nothing of the run: the maps are those of a run without video.
+
+    # Rendering the view changes nothing of the run: the maps are those of a run without video,
+    # which renders no view at all.
+    def no_camera(*args, **kwargs):
+        raise AssertionError("a run without video made a third-person camera")
+
+    monkeypatch.setattr("fogsim.run.runner.ThirdPersonCamera", no_camera)
     run_scenario(scenario, tmp_path / "plain", pictures=False, max_frames=3)
     with (
         np.load(tmp_path / "run" / "maps.npz") as with_video,
