@@ -2,6 +2,7 @@
 
 import sys
 from collections import defaultdict
+from pathlib import Path
 
 import matplotlib.pyplot as plt
 import numpy as np
@@ -14,7 +15,7 @@ from fogsim.data.frame import Frame
 from fogsim.data.recording import save_recording
 from fogsim.errors import FogsimError, OutputError
 from fogsim.run.runner import run_frames
-from fogsim.viz.rerun_log import RerunLogger
+from fogsim.viz.rerun_log import DISPLAY_VARIABLES, RerunLogger, check_display
 from fogsim.viz.style import CMAP
 from fogsim.world.truth import ObjectState, SceneTruth
 
@@ -245,3 +246,97 @@ def test_fogsim_run_rerun_refuses_a_folder_and_seeds(tmp_path, capsys):
     assert "--rerun" in capsys.readouterr().err
     assert main(["run", "stage", "--seeds", "1-2", "--rerun", str(tmp_path / "a.rrd")]) == 2
     assert "--rerun logs one run" in capsys.readouterr().err
+
+
+# ---------------------------------------------------------------------- --rerun-spawn
+
+
+@pytest.mark.parametrize(
+    ("environ", "platform", "has_display"),
+    [
+        ({}, "linux", False),
+        ({"DISPLAY": ""}, "linux", False),
+        ({"DISPLAY": ":0"}, "linux", True),
+        ({"WAYLAND_DISPLAY": "wayland-0"}, "linux", True),
+        ({}, "darwin", True),
+        ({}, "win32", True),
+    ],
+)
+def test_a_display_is_display_or_wayland_display_on_linux(environ, platform, has_display):
+    if has_display:
+        check_display(environ, platform)
+    else:
+        with pytest.raises(FogsimError, match="neither DISPLAY nor WAYLAND_DISPLAY is set"):
+            check_display(environ, platform)
+
+
+def headless(monkeypatch):
+    for name in DISPLAY_VARIABLES:
+        monkeypatch.delenv(name, raising=False)
+
+
+def test_spawning_the_viewer_headless_is_an_error_saying_what_to_do(tmp_path, monkeypatch):
+    headless(monkeypatch)
+    advice = r"neither DISPLAY nor .* is set; write a file instead \(fogsim run \.\.\. --rerun FILE"
+    with pytest.raises(FogsimError, match=advice):
+        RerunLogger(None, "test", spawn=True)
+    with pytest.raises(FogsimError, match="give a path or spawn=True"):
+        RerunLogger(tmp_path / "run.rrd", "test", spawn=True)
+    with pytest.raises(FogsimError, match="give a path or spawn=True"):
+        RerunLogger(None, "test")
+    assert list(tmp_path.iterdir()) == []
+
+
+def test_fogsim_run_rerun_spawn_headless_exits_2_before_running(tmp_path, capsys, monkeypatch):
+    headless(monkeypatch)
+    frames, _ = frames_and_rendering(2)
+    recording = save_recording(tmp_path / "rec.npz", frames, truths=[TRUTH] * 2)
+    out = tmp_path / "run"
+    args = ["run", "--replay", str(recording), "--out", str(out), "--quiet", "--no-pictures"]
+    assert main([*args, "--rerun-spawn"]) == 2
+    err = capsys.readouterr().err
+    assert "neither DISPLAY nor WAYLAND_DISPLAY is set" in err and "--rerun FILE.rrd" in err
+    assert not out.exists()
+    assert main([*args, "--rerun-spawn", "--rerun", str(tmp_path / "a.rrd")]) == 2
+    assert "give --rerun FILE.rrd or --rerun-spawn, not both" in capsys.readouterr().err
+    assert main(["run", "stage", "--seeds", "1-2", "--rerun-spawn"]) == 2
+    assert "--rerun logs one run" in capsys.readouterr().err
+
+
+def test_with_a_display_the_run_streams_to_the_spawned_viewer(tmp_path, monkeypatch):
+    rr = pytest.importorskip("rerun")
+    rerun_chunk()
+    monkeypatch.setenv("DISPLAY", ":0")
+    monkeypatch.setenv("PATH", str(tmp_path))  # no rerun on the PATH: the one beside Python
+    viewer = tmp_path / "viewer.rrd"
+    spawned = []
+
+    def spawn(*, recording, executable_path):  # the viewer's end of the stream: a file here
+        spawned.append(executable_path)
+        recording.save(str(viewer))
+
+    monkeypatch.setattr(rr, "spawn", spawn)
+    frames, _ = frames_and_rendering(FRAMES)
+    with RerunLogger(None, "test", lambda t: TRUTH, spawn=True) as logger:
+        run_frames(frames, lambda t: TRUTH, None, on_frame=logger.add)
+    assert spawned == [str(Path(sys.executable).with_name("rerun"))] and logger.path is None
+    rows = read_rrd(viewer)
+    assert set(rows) == ENTITIES and len(rows["/camera/depth"]) == FRAMES
+    assert [p.name for p in tmp_path.iterdir()] == ["viewer.rrd"]  # no file of the logger's
+
+
+@pytest.mark.slow  # Rerun gives up connecting after 6 s and waits 5 s more at shutdown
+def test_a_viewer_that_never_listens_is_an_error_when_the_log_ends(monkeypatch):
+    rr = pytest.importorskip("rerun")
+    monkeypatch.setenv("DISPLAY", ":0")
+
+    def spawn(*, recording, executable_path):  # a viewer that died: nothing listens (loopback)
+        recording.connect_grpc("rerun+http://127.0.0.1:9/proxy")
+
+    monkeypatch.setattr(rr, "spawn", spawn)
+    frames, _ = frames_and_rendering(1)
+    with (
+        pytest.raises(FogsimError, match="the Rerun viewer did not take the log"),
+        RerunLogger(None, "test", spawn=True) as logger,
+    ):
+        run_frames(frames, None, None, on_frame=logger.add)

@@ -1,4 +1,4 @@
-"""Pictures of a run (matplotlib, Agg backend) and the optional MP4 (OpenCV).
+"""Pictures of a run (matplotlib, Agg backend); the video is :mod:`fogsim.viz.video`.
 
 Every map picture shows the whole archive (every cell that was ever inside the robot-centred
 grid, each with its last value there, :class:`fogsim.eval.maps.RunMaps`), not the last grid:
@@ -20,7 +20,6 @@ from __future__ import annotations
 import os
 from pathlib import Path
 
-import cv2
 import matplotlib.pyplot as plt
 import numpy as np
 from matplotlib.axes import Axes
@@ -28,12 +27,9 @@ from matplotlib.colors import Normalize
 from matplotlib.figure import Figure
 from numpy.typing import NDArray
 
-from fogsim.atomic import OutputError, reason, temporary_path
 from fogsim.config import Scenario
-from fogsim.data.frame import Frame
 from fogsim.eval.maps import RunMaps, archive_maps
 from fogsim.eval.result import RunResult
-from fogsim.mapping.pipeline import Pipeline
 from fogsim.viz.difference import draw_difference
 from fogsim.viz.style import (
     CMAP,
@@ -231,63 +227,3 @@ def write_pictures(
     if result.snapshots:
         paths.append(draw_fig5(result, title, out / "fig5_comparison.png", result.archive.cell_m))
     return paths
-
-
-class RunVideoWriter:
-    """MP4 of a run: the depth image beside the growing FOG, one video frame per camera frame.
-
-    Use as the pipeline's ``on_frame`` callback (:meth:`add`), then :meth:`close`.
-    """
-
-    def __init__(self, path: str | os.PathLike[str], fps: float, height_px: int = 360) -> None:
-        self.path = Path(path)
-        self.fps = float(fps)
-        self.height_px = int(height_px)
-        self._writer: cv2.VideoWriter | None = None
-        self._tmp = temporary_path(self.path, suffix=".mp4")  # OpenCV picks the format by it
-        self._norm: Normalize | None = None
-
-    def _to_bgr(self, rgb: NDArray[np.float64], height: int) -> NDArray[np.uint8]:
-        img = (np.clip(rgb, 0.0, 1.0) * 255).astype(np.uint8)[::-1, :, ::-1]  # y up, RGB→BGR
-        width = max(1, round(img.shape[1] * height / img.shape[0]))
-        return cv2.resize(img, (width, height), interpolation=cv2.INTER_NEAREST)
-
-    def add(self, frame: Frame, pipeline: Pipeline) -> None:
-        """Append the frame's depth image and the pipeline's current FOG."""
-        depth = np.asarray(frame.depth_m, dtype=np.float64)
-        finite = np.isfinite(depth)
-        scaled = np.zeros(depth.shape, dtype=np.uint8)
-        if finite.any():
-            scaled[finite] = np.clip(255 * (1 - depth[finite] / 4.0), 0, 255).astype(np.uint8)
-        left = cv2.applyColorMap(scaled, cv2.COLORMAP_MAGMA)
-        left[~finite] = 0
-        width = round(depth.shape[1] * self.height_px / depth.shape[0])
-        left = cv2.resize(left, (width, self.height_px), interpolation=cv2.INTER_NEAREST)
-        types, heights, _ = pipeline.maps()
-        if self._norm is None:
-            self._norm = Normalize(-20.0, 150.0)
-        right = self._to_bgr(fog_rgb(types, heights, self._norm), self.height_px)
-        image = np.concatenate([left, right], axis=1)
-        if self._writer is None:
-            self.path.parent.mkdir(parents=True, exist_ok=True)
-            fourcc = cv2.VideoWriter_fourcc(*"mp4v")
-            self._writer = cv2.VideoWriter(
-                str(self._tmp), fourcc, self.fps, (image.shape[1], image.shape[0])
-            )
-            if not self._writer.isOpened():
-                raise OutputError(f"cannot write {self.path}: OpenCV cannot open {self._tmp}")
-        self._writer.write(image)
-
-    def close(self) -> None:
-        """Finish the file and move it into place (atomic: complete or absent).
-
-        Raises:
-            OutputError: The video cannot be moved into place.
-        """
-        if self._writer is not None:
-            self._writer.release()
-            self._writer = None
-            try:
-                os.replace(self._tmp, self.path)
-            except OSError as exc:
-                raise OutputError(f"cannot write {self.path}: {reason(exc)}") from exc

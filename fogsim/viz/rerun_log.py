@@ -1,7 +1,7 @@
 """A Rerun recording (``.rrd``) of a run: what the camera saw and what the maps made of it.
 
 :class:`RerunLogger` is the pipeline's frame callback (``run_frames(..., on_frame=logger.add)``,
-like :class:`fogsim.viz.pictures.RunVideoWriter`). Every frame is logged on two timelines,
+like :class:`fogsim.viz.video.RunVideoWriter`). Every frame is logged on two timelines,
 ``frame`` (the frame index) and ``sim_time`` (the frame's time), world frame z up, metres:
 
 ============================  ==========================================================
@@ -33,13 +33,20 @@ points are logged too: what the maps refused).
 ``rerun-sdk`` is an optional dependency (the ``viewer`` extra, a 170 MB wheel): it is imported
 when a logger is made, and its absence is a :class:`~fogsim.errors.FogsimError` saying how to
 install it. The file is written beside its target and renamed into place when the logger
-closes without an error (complete or absent). Its logged data depend only on the frames; Rerun
-stamps its row ids with the wall clock, so two files of one run are not byte for byte equal.
+closes without an error (complete or absent). Instead of a file the logger can stream to a
+Rerun viewer it spawns (``spawn=True``, ``fogsim run --rerun-spawn``): that needs a display,
+and on Linux without ``DISPLAY`` or ``WAYLAND_DISPLAY`` (:func:`check_display`) it is a
+:class:`~fogsim.errors.FogsimError` before anything runs. Its logged data depend only on the
+frames; Rerun stamps its row ids with the wall clock, so two files of one run are not byte for
+byte equal.
 """
 
 from __future__ import annotations
 
 import os
+import shutil
+import sys
+from collections.abc import Mapping
 from pathlib import Path
 from types import ModuleType, TracebackType
 from typing import Any
@@ -78,6 +85,31 @@ OBJECT_RGB8 = (80, 140, 255)
 """Outline of any other object of the truth (cool, as the scene's materials)."""
 TILE_HALF_THICKNESS_M = 0.002
 """Half thickness of a FOG tile [m]: thin against the 40 mm layers, thick enough to render."""
+DISPLAY_VARIABLES = ("DISPLAY", "WAYLAND_DISPLAY")
+"""Environment variables that name a display on Linux: X11's and Wayland's. macOS and Windows
+always have their desktop."""
+
+
+def check_display(environ: Mapping[str, str] | None = None, platform: str = sys.platform) -> None:
+    """Check that a spawned Rerun viewer has a display to open its window on.
+
+    Args:
+        environ: The environment (default ``os.environ``).
+        platform: ``sys.platform``; only Linux and the BSDs are checked.
+
+    Raises:
+        FogsimError: Neither :data:`DISPLAY_VARIABLES` is set (a headless machine); the message
+            says to write a file instead.
+    """
+    environ = os.environ if environ is None else environ
+    if platform in ("darwin", "win32", "cygwin") or any(environ.get(v) for v in DISPLAY_VARIABLES):
+        return
+    raise FogsimError(
+        "the Rerun viewer needs a display to open its window on, and this machine has none: "
+        f"neither {' nor '.join(DISPLAY_VARIABLES)} is set; write a file instead "
+        "(fogsim run ... --rerun FILE.rrd) and open it with `rerun FILE.rrd` where there is a "
+        "display"
+    )
 
 
 def _import_rerun() -> ModuleType:
@@ -117,6 +149,16 @@ def colour_norm(truth_objects: tuple[ObjectState, ...] | None, params: MapperPar
     return height_norm(np.array([0.0, *(o.top_m for o in truth_objects)]))
 
 
+def viewer_executable() -> str:
+    """The Rerun viewer to spawn: ``rerun`` on the PATH, else the one beside this Python.
+
+    rerun-sdk installs the viewer as the ``rerun`` command next to the interpreter; Rerun itself
+    looks for it on the PATH only, which misses it when a virtual environment's Python runs
+    without the environment activated (``.venv/bin/fogsim``, as the README's commands do).
+    """
+    return shutil.which("rerun") or str(Path(sys.executable).with_name("rerun"))
+
+
 class RerunLogger:
     """Writes a run into a Rerun ``.rrd`` file, one frame at a time (see the module docstring).
 
@@ -124,43 +166,69 @@ class RerunLogger:
     exception, its temporary removed otherwise. :meth:`add` is the pipeline's frame callback.
 
     Args:
-        path: The ``.rrd`` file to write.
+        path: The ``.rrd`` file to write; None with ``spawn``.
         recording_id: Rerun's recording id (the viewer merges files of one id; name the run,
             e.g. ``stage-seed1``).
         truth_at: The ground truth at a time [s]; None for real data (no ``world/truth``).
+        spawn: Stream to a Rerun viewer spawned now instead of writing a file (the viewer can
+            save what it shows).
 
     Raises:
-        FogsimError: rerun-sdk is not installed.
+        FogsimError: rerun-sdk is not installed; a path and ``spawn`` both or neither given;
+            ``spawn`` without a display (:func:`check_display`) or the viewer does not start.
         OutputError: The file's folder cannot be made or the file cannot be created.
     """
 
     def __init__(
         self,
-        path: str | os.PathLike[str],
+        path: str | os.PathLike[str] | None,
         recording_id: str,
         truth_at: TruthProvider | None = None,
+        *,
+        spawn: bool = False,
     ) -> None:
+        if (path is None) != spawn:
+            raise FogsimError(
+                "a Rerun log goes to a file or to a spawned viewer: give a path or spawn=True, "
+                f"got path={path!r}, spawn={spawn}"
+            )
+        if spawn:
+            check_display()
         self._rr = _import_rerun()
-        self.path = Path(path)
+        self.path = Path(path) if path is not None else None
         self._truth_at = truth_at
-        self._tmp = temporary_path(self.path, suffix=".rrd")
         self._stream: Any = self._rr.RecordingStream(
             APPLICATION_ID, recording_id=recording_id, send_properties=False
         )
         self._rr.set_log_time_enabled(False, recording=self._stream)
         self._rr.set_log_tick_enabled(False, recording=self._stream)
-        try:
-            self.path.parent.mkdir(parents=True, exist_ok=True)
-            self._stream.save(str(self._tmp))
-        except OSError as exc:
-            raise OutputError(f"cannot write {self.path}: {reason(exc)}") from exc
-        except RuntimeError as exc:  # Rerun's file sink reports its OS error as text
-            raise OutputError(f"cannot write {self.path}: {exc}") from exc
+        self._tmp = self._open_file(self.path) if self.path is not None else None
+        if spawn:
+            try:
+                self._rr.spawn(recording=self._stream, executable_path=viewer_executable())
+            except RuntimeError as exc:  # Rerun reports a viewer that cannot start as text
+                raise FogsimError(f"cannot start the Rerun viewer: {exc}") from exc
         self._stream.log("world", self._rr.ViewCoordinates.RIGHT_HAND_Z_UP, static=True)
         self._norm: Normalize | None = None
         self._objects: tuple[ObjectState, ...] | None = None
         self._path_believed: list[NDArray[np.float64]] = []
         self._path_true: list[NDArray[np.float64]] = []
+
+    def _open_file(self, path: Path) -> Path:
+        """Start writing into the temporary beside ``path``; returns the temporary.
+
+        Raises:
+            OutputError: The folder cannot be made or the file cannot be created.
+        """
+        tmp = temporary_path(path, suffix=".rrd")
+        try:
+            path.parent.mkdir(parents=True, exist_ok=True)
+            self._stream.save(str(tmp))
+        except OSError as exc:
+            raise OutputError(f"cannot write {path}: {reason(exc)}") from exc
+        except RuntimeError as exc:  # Rerun's file sink reports its OS error as text
+            raise OutputError(f"cannot write {path}: {exc}") from exc
+        return tmp
 
     def __enter__(self) -> RerunLogger:
         return self
@@ -175,7 +243,8 @@ class RerunLogger:
             self.close()
         else:
             self._stream.disconnect()
-            self._tmp.unlink(missing_ok=True)
+            if self._tmp is not None:
+                self._tmp.unlink(missing_ok=True)
 
     def add(self, frame: Frame, pipeline: Pipeline) -> None:
         """Log one frame: depth, camera, labelled points, occupied cells, FOG, poses, truth."""
@@ -275,10 +344,12 @@ class RerunLogger:
             )
 
     def close(self) -> None:
-        """Log both robot paths, finish the file and move it into place.
+        """Log both robot paths, finish the file and move it into place (or end the stream).
 
         Raises:
-            OutputError: The file cannot be moved into place.
+            OutputError: The file cannot be finished or moved into place.
+            FogsimError: The spawned viewer did not take the log (it could not open its window
+                or was closed).
         """
         rr, stream = self._rr, self._stream
         for name, path, colour in (
@@ -291,8 +362,17 @@ class RerunLogger:
                     rr.LineStrips3D([np.stack(path)], colors=[colour]),
                     static=True,
                 )
-        stream.flush()
+        try:
+            stream.flush()
+        except RuntimeError as exc:  # Rerun reports a sink that failed as text
+            stream.disconnect()
+            if self._tmp is None or self.path is None:
+                raise FogsimError(f"the Rerun viewer did not take the log: {exc}") from exc
+            self._tmp.unlink(missing_ok=True)
+            raise OutputError(f"cannot write {self.path}: {exc}") from exc
         stream.disconnect()
+        if self._tmp is None or self.path is None:
+            return
         try:
             os.replace(self._tmp, self.path)
         except OSError as exc:
