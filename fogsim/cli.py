@@ -52,6 +52,7 @@ from fogsim.run.suite import check_against_baseline, run_suite, update_baseline
 from fogsim.sim.camera.depth import DEPTH_BACKENDS
 from fogsim.sim.export import export_scene
 from fogsim.tune.cli import add_tune_arguments
+from fogsim.viz.rerun_log import check_display
 from mapper.errors import MapperError
 
 
@@ -101,6 +102,12 @@ def _parser() -> argparse.ArgumentParser:
         type=Path,
         metavar="FILE.rrd",
         help="also log every frame for the Rerun viewer (needs fogsim[viewer])",
+    )
+    run.add_argument(
+        "--rerun-spawn",
+        action="store_true",
+        help="log every frame live into a Rerun viewer opened now (needs a display and "
+        "fogsim[viewer]; instead of --rerun)",
     )
     run.add_argument("--no-pictures", action="store_true", help="skip the PNGs")
     run.add_argument("--quiet", action="store_true", help="no progress bar")
@@ -283,6 +290,13 @@ def _cmd_run(args: argparse.Namespace) -> int:
         check_output_path(check_bag_target(args.mcap, "--mcap"), "folder", "--mcap")
     if args.rerun is not None:
         check_output_path(args.rerun, "file", "--rerun")
+    if args.rerun_spawn:
+        if args.rerun is not None:
+            raise FogsimError(
+                "give --rerun FILE.rrd or --rerun-spawn, not both (the viewer can save what it "
+                "shows)"
+            )
+        check_display()
     replay = None
     if args.replay is not None:
         replay = load_recording(args.replay)
@@ -312,6 +326,7 @@ def _cmd_run(args: argparse.Namespace) -> int:
         depth_backend=args.depth_backend,
         mcap=args.mcap,
         rerun=args.rerun,
+        rerun_spawn=args.rerun_spawn,
     )
     print(format_table1(report))
     timing = report.timing
@@ -333,7 +348,7 @@ def _cmd_run_seeds(args: argparse.Namespace) -> int:
         raise FogsimError("give either --seed N or --seeds SPEC, not both")
     if args.mcap is not None:
         raise FogsimError("--mcap writes one run's maps; give --seed N instead of --seeds SPEC")
-    if args.rerun is not None:
+    if args.rerun is not None or args.rerun_spawn:
         raise FogsimError("--rerun logs one run: give --seed N instead of --seeds SPEC")
     if args.scenario is None:
         raise FogsimError("run --seeds needs a SCENARIO (see `fogsim list`)")

@@ -24,7 +24,7 @@ from pathlib import Path
 import pytest
 from hypothesis import HealthCheck, event, given, settings
 from hypothesis import strategies as st
-from test_output import FRAMES, FakeSimulation
+from test_output import FRAMES, FakeSimulation, FakeThirdPersonCamera
 from test_pipeline import make_frames
 
 from fogsim.atomic import write_atomic
@@ -228,6 +228,7 @@ def test_generated_command_lines_exit_cleanly_and_write_only_their_output(
     places, monkeypatch, command
 ):
     monkeypatch.setattr("fogsim.run.runner.Simulation", FakeSimulation)
+    monkeypatch.setattr("fogsim.run.runner.ThirdPersonCamera", FakeThirdPersonCamera)
     monkeypatch.setattr("fogsim.run.record.Simulation", FakeSimulation)
     monkeypatch.setattr("fogsim.run.runner.write_pictures", stub_pictures)
     monkeypatch.chdir(places.root)

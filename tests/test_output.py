@@ -18,6 +18,7 @@ import threading
 from pathlib import Path
 from types import SimpleNamespace
 
+import numpy as np
 import pytest
 from test_pipeline import make_frames, provider_removed_at
 
@@ -43,14 +44,35 @@ class FakeSimulation:
         self.truth_at = provider_removed_at(1e9)
         self.trajectory = SimpleNamespace(times_s=[f.time_s for f in make_frames(FRAMES)])
         self.frame_count = FRAMES
+        self.scene = SimpleNamespace(model=None)
 
-    def frames(self):
-        yield from make_frames(FRAMES)
+    def frames(self, on_pose=None):
+        for frame in make_frames(FRAMES):
+            if on_pose is not None:
+                on_pose(frame.index, None)
+            yield frame
+
+
+class FakeThirdPersonCamera:
+    """What the runner uses of a ThirdPersonCamera: a black 480 × 360 picture per frame."""
+
+    def __init__(self, model):
+        self._pictures = {}
+
+    def capture(self, index, data):
+        self._pictures[index] = np.zeros((360, 480, 3), dtype=np.uint8)
+
+    def take(self, index):
+        return self._pictures.pop(index)
+
+    def close(self):
+        pass
 
 
 @pytest.fixture
 def fake_simulation(monkeypatch):
     monkeypatch.setattr("fogsim.run.runner.Simulation", FakeSimulation)
+    monkeypatch.setattr("fogsim.run.runner.ThirdPersonCamera", FakeThirdPersonCamera)
     monkeypatch.setattr("fogsim.run.record.Simulation", FakeSimulation)
 
 

@@ -38,8 +38,10 @@ from fogsim.robot import load_description
 from fogsim.run.run_folder import RunFolder
 from fogsim.run.warmup import warm_up_kernels
 from fogsim.sim.simulation import Simulation
-from fogsim.viz.pictures import RunVideoWriter, write_pictures
+from fogsim.sim.third_person import ThirdPersonCamera
+from fogsim.viz.pictures import write_pictures
 from fogsim.viz.rerun_log import RerunLogger
+from fogsim.viz.video import RunVideoWriter
 from fogsim.world.truth import TruthParams
 from mapper import MapperParams
 from mapper.segmentation import SegmentationParams
@@ -232,12 +234,15 @@ class _FrameSource:
         truth_at: Ground truth at a time [s]; None for real data.
         frame_count: Frames the run will take.
         kind: ``simulation`` or ``replay``.
+        third_person: The simulation's third-person camera, capturing every frame (only when a
+            video is asked for); None for a replay.
     """
 
     frames: Iterable[Frame]
     truth_at: TruthProvider | None
     frame_count: int
     kind: Source
+    third_person: ThirdPersonCamera | None = None
 
 
 def _frame_source(
@@ -245,9 +250,14 @@ def _frame_source(
     replay: Recording | None,
     depth_backend: str,
     max_frames: int | None,
+    video: bool = False,
 ) -> _FrameSource:
-    """The recording's frames, or a simulation of the scenario; cut after ``max_frames``."""
+    """The recording's frames, or a simulation of the scenario; cut after ``max_frames``.
+
+    With ``video`` a simulation also renders the third-person view of every frame.
+    """
     frames: Iterable[Frame]
+    third_person = None
     if replay is not None:
         frames = replay.frames
         truth_at = replay.truth_at if replay.has_truth else None
@@ -255,7 +265,11 @@ def _frame_source(
         kind: Source = "replay"
     elif scenario is not None:
         simulation = Simulation(scenario, depth_backend=depth_backend)
-        frames = simulation.frames()
+        if video:
+            third_person = ThirdPersonCamera(simulation.scene.model)
+            frames = simulation.frames(on_pose=third_person.capture)
+        else:
+            frames = simulation.frames()
         truth_at = simulation.truth_at
         count = len(simulation.trajectory.times_s)
         kind = "simulation"
@@ -263,7 +277,7 @@ def _frame_source(
         raise FogsimError("a run needs a scenario to simulate or a recording to replay")
     if max_frames is not None and count > max_frames:
         frames, count = _take(frames, max_frames), max_frames
-    return _FrameSource(frames, truth_at, count, kind)
+    return _FrameSource(frames, truth_at, count, kind, third_person)
 
 
 def run_scenario(
@@ -278,6 +292,7 @@ def run_scenario(
     depth_backend: str = "renderer",
     mcap: Path | None = None,
     rerun: Path | None = None,
+    rerun_spawn: bool = False,
 ) -> Report:
     """Run one scenario end to end and write its results.
 
@@ -300,6 +315,8 @@ def run_scenario(
             there (:class:`~fogsim.bags.write.McapMapWriter`, renamed into place at the end).
         rerun: Also write this Rerun ``.rrd`` file (:class:`~fogsim.viz.rerun_log.RerunLogger`;
             needs the ``viewer`` extra), whether or not ``out_dir`` is given.
+        rerun_spawn: Instead of a file, log live into a Rerun viewer spawned now (needs a
+            display).
 
     Returns:
         The report, with the pictures and the video it wrote.
@@ -310,7 +327,9 @@ def run_scenario(
     """
     start = time.perf_counter()
     params = resolve_params(scenario)  # bad parameters fail here, before any simulation
-    options = _RunOptions(replay, pictures, video, progress, max_frames, depth_backend, mcap, rerun)
+    options = _RunOptions(
+        replay, pictures, video, progress, max_frames, depth_backend, mcap, rerun, rerun_spawn
+    )
     if out_dir is None:
         return _run_and_write(scenario, params, None, options, start)
     with RunFolder(out_dir) as folder:
@@ -335,6 +354,7 @@ class _RunOptions:
     depth_backend: str
     mcap: Path | None
     rerun: Path | None
+    rerun_spawn: bool
 
 
 def _run_and_write(
@@ -345,7 +365,10 @@ def _run_and_write(
     start: float,
 ) -> Report:
     """Run the frames and write the results into ``out`` (None: write nothing)."""
-    source = _frame_source(scenario, options.replay, options.depth_backend, options.max_frames)
+    video = options.video and out is not None
+    source = _frame_source(
+        scenario, options.replay, options.depth_backend, options.max_frames, video
+    )
     callbacks: list[FrameCallback] = []
     writer = None
     with ExitStack() as cleanup:
@@ -356,19 +379,26 @@ def _run_and_write(
             name = scenario.name if scenario is not None else "run"
             bar = cleanup.enter_context(tqdm(total=source.frame_count, unit="frame", desc=name))
             callbacks.append(lambda frame, pipeline: bar.update(1))
-        if options.video and out is not None:
+        if video:
             if scenario is None:
                 raise FogsimError(
                     "--video needs the scenario's frame rate; this recording has none"
                 )
-            writer = RunVideoWriter(out / "run.mp4", fps=scenario.frame_rate_hz)
+            camera = source.third_person
+            writer = RunVideoWriter(
+                out / "run.mp4",
+                fps=scenario.frame_rate_hz,
+                third_person=camera.take if camera is not None else None,
+            )
             cleanup.callback(writer.close)
+            if camera is not None:
+                cleanup.callback(camera.close)
             callbacks.append(writer.add)
         if options.mcap is not None:
             callbacks.append(cleanup.enter_context(McapMapWriter(options.mcap)).add)
-        if options.rerun is not None:
+        if options.rerun is not None or options.rerun_spawn:
             run_id = f"{scenario.name}-seed{scenario.seed}" if scenario is not None else "run"
-            logger = RerunLogger(options.rerun, run_id, source.truth_at)
+            logger = RerunLogger(options.rerun, run_id, source.truth_at, spawn=options.rerun_spawn)
             callbacks.append(cleanup.enter_context(logger).add)
         result = run_frames(
             source.frames,
@@ -395,7 +425,9 @@ def _run_and_write(
         )
         report = dataclasses.replace(report, pictures=names, timing=timing)
     if writer is not None:
-        report = dataclasses.replace(report, video=writer.path.name)
+        report = dataclasses.replace(
+            report, video=writer.path.name, video_codec=writer.codec.describe()
+        )
     write_report(out / "report.json", report)
     return report
 

@@ -3,7 +3,8 @@
 * :mod:`fogsim.sim.assets` — the MJCF pieces of ``assets/mjcf/``;
 * :mod:`fogsim.sim.scene` — :class:`Scene`, a scenario compiled into MuJoCo;
 * :mod:`fogsim.sim.camera` — :class:`HeadCamera` and its parts (depth, stereo);
-* :mod:`fogsim.sim.simulation` — :class:`Simulation`, the robot walking its route, frames out.
+* :mod:`fogsim.sim.simulation` — :class:`Simulation`, the robot walking its route, frames out;
+* :mod:`fogsim.sim.third_person` — the robot seen from a camera following it, for the video.
 """
 
 from fogsim.sim.camera import HeadCamera

@@ -21,8 +21,9 @@ gives the same frames bit for bit. In ``stereo`` mode the depth image belongs to
 
 from __future__ import annotations
 
-from collections.abc import Iterator
+from collections.abc import Callable, Iterator
 
+import mujoco
 import numpy as np
 
 from fogsim.config import Scenario
@@ -130,11 +131,18 @@ class Simulation:
             head_noise_deg=config.head_noise_deg,
         )
 
-    def frames(self) -> Iterator[Frame]:
+    def frames(
+        self, on_pose: Callable[[int, mujoco.MjData], None] | None = None
+    ) -> Iterator[Frame]:
         """Run the scenario from the start and yield one :class:`Frame` per camera frame.
 
         The odometry starts at the true initial pose (the robot knows where it starts) and then
         integrates foot-to-foot kinematics of the readings.
+
+        Args:
+            on_pose: Called with the frame's index and the scene's data once the robot is posed
+                (the run video's third-person camera,
+                :meth:`fogsim.sim.third_person.ThirdPersonCamera.capture`); None: nothing.
         """
         robot, scene, trajectory = self.robot, self.scene, self.trajectory
         encoders = self._encoder_model()
@@ -145,6 +153,8 @@ class Simulation:
             scene.set_time(float(time_s))
             scene.set_robot_qpos(robot.qpos_mujoco(q_true))
             scene.forward()
+            if on_pose is not None:
+                on_pose(index, scene.data)
             rng = np.random.default_rng([self.scenario.seed, _CAMERA_NOISE_STREAM, index])
             depth = self.camera.capture(scene.data, rng)
 

@@ -551,6 +551,8 @@ class Report:
         versions: Python's and key packages' versions (None = not installed).
         pictures: File names of the pictures written (only when written).
         video: File name of the video (only when written).
+        video_codec: The video's codec and encoder, ``h264 (libx264)``, or ``mpeg4 (opencv
+            mp4v)`` where no H.264 encoder is installed (only when a video was written).
     """
 
     format: Literal["fogsim-report"]
@@ -572,3 +574,4 @@ class Report:
     versions: dict[str, str | None]
     pictures: tuple[str, ...] | UnsetType = UNSET
     video: str | UnsetType = UNSET
+    video_codec: str | UnsetType = UNSET
