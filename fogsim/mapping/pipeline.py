@@ -35,7 +35,7 @@ from __future__ import annotations
 
 import time
 from collections.abc import Callable
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 import numpy as np
 from numpy.typing import NDArray
@@ -53,7 +53,8 @@ from mapper import (
     ZDecision,
     frame_decision,
 )
-from mapper.segmentation import segment_depth
+from mapper.reference import HeightReference
+from mapper.segmentation import SegmentationResult, segment_depth
 from mapper.transforms import apply_transform, planar_pose_to_matrix
 
 FrameCallback = Callable[[Frame, "Pipeline"], None]
@@ -112,6 +113,11 @@ class Pipeline:
         self.baseline = AveragingMap(self.mapper_params)
         self.elevation = RobotElevationFilter(self.run_params.elevation)
         self.heading = HeadingEstimator(self.run_params.heading)
+        self.reference = HeightReference()
+        self._use_reference = self.params.use_height_reference
+        # The reference replaces the segmentation's per-frame ground shift.
+        if self._use_reference:
+            self.segmentation_params = replace(self.segmentation_params, correct_ground_shift=False)
         self._last_pose_believed: NDArray[np.float64] | None = None
         self.last_points: LabelledPoints | None = None
 
@@ -165,24 +171,28 @@ class Pipeline:
             self.segmentation_params,
         )
         t1 = time.perf_counter()
+        points_robot, floor_robot, transform_camera_to_robot, ground_measured = (
+            self._height_reference(seg)
+        )
         pose = self.robot_pose(frame)
         # Heading correction (mapper.heading): a yaw about the camera centre, before the pose.
         transform_robot_to_world = planar_pose_to_matrix(pose) @ self.heading.correct(
-            seg.points, seg.floor_heights, seg.transform_camera_to_robot, pose
+            points_robot, floor_robot, transform_camera_to_robot, pose
         )
-        points_world = apply_transform(transform_robot_to_world, seg.points)
-        floor_world = np.asarray(seg.floor_heights, dtype=np.float64) + pose[2]
+        points_world = apply_transform(transform_robot_to_world, points_robot)
+        floor_world = floor_robot + pose[2]
         # Camera centre after the segmentation's own correction, so rays match the points.
-        sensor_origin = apply_transform(
-            transform_robot_to_world, np.asarray(seg.transform_camera_to_robot)[:3, 3]
-        )
+        sensor_origin = apply_transform(transform_robot_to_world, transform_camera_to_robot[:3, 3])
         self.mapper.recenter(pose[0], pose[1])
         self.baseline.recenter(pose[0], pose[1])
 
-        matched = withdrawn = False
-        if self.params.use_z_match:
+        ground_known = bool(seg.correction.ground_plane_found) or ground_measured
+        matched = False
+        # Until the height reference is known the frame's camera height is not: no map.
+        withdrawn = self._use_reference and not self.reference.known
+        if self.params.use_z_match and not withdrawn:
             match = self.mapper.match_z(points_world, floor_world)
-            decision = frame_decision(match, bool(seg.correction.ground_plane_found))
+            decision = frame_decision(match, ground_known)
             if decision == ZDecision.APPLY_SHIFT:
                 shift = float(match.shift_m)
                 points_world[:, 2] += shift
@@ -209,6 +219,28 @@ class Pipeline:
             z_matched=matched,
             ground_plane_found=bool(seg.correction.ground_plane_found),
         )
+
+    def _height_reference(
+        self, seg: SegmentationResult
+    ) -> tuple[NDArray[np.float64], NDArray[np.float64], NDArray[np.float64], bool]:
+        """The frame's robot-frame data with the height reference's shift applied.
+
+        Returns:
+            Points [m], floor heights [m] (NaN = not floor), the 4×4 camera pose in the robot
+            frame, and whether this frame measured the reference (its ground was in view).
+        """
+        points = np.asarray(seg.points, dtype=np.float64)
+        heights = np.asarray(seg.floor_heights, dtype=np.float64)
+        transform = np.asarray(seg.transform_camera_to_robot, dtype=np.float64)
+        if not self._use_reference:
+            return points, heights, transform, False
+        floors = seg.floors
+        measured = self.reference.update(floors.heights_m, floors.areas_m2, floors.is_floor)
+        shift = self.reference.shift_m
+        points = points + np.array([0.0, 0.0, shift])
+        transform = transform.copy()
+        transform[2, 3] += shift
+        return points, heights + shift, transform, measured is not None
 
     def maps(self) -> tuple[NDArray[np.int8], NDArray[np.float64], NDArray[np.float64]]:
         """Current FOG types, FOG heights [m] and baseline heights [m] (NaN = none)."""
