@@ -78,7 +78,11 @@ class HeightReferenceParams:
                 lambda v: math.isfinite(v) and v > 0,
             )
         check_field(
-            "HeightReferenceParams", "min_frames", self.min_frames, int, "an integer >= 1",
+            "HeightReferenceParams",
+            "min_frames",
+            self.min_frames,
+            int,
+            "an integer >= 1",
             lambda v: v >= 1,
         )
         check_field(

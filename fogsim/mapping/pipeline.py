@@ -193,6 +193,15 @@ class Pipeline:
         if self.params.use_z_match and not withdrawn:
             match = self.mapper.match_z(points_world, floor_world)
             decision = frame_decision(match, ground_known)
+            if ground_measured and decision == ZDecision.APPLY_SHIFT:
+                # The frame saw the ground under the feet: its data are right relative to the
+                # feet, so the map's disagreement is the robot's elevation error. Shifting
+                # every frame onto the map let the map drift (stage: -3 mm over a run).
+                decision = ZDecision.KEEP_UNSHIFTED
+                if self.params.use_elevation_filter:
+                    self.elevation.update(
+                        float(frame.robot_pose_believed[2]), pose[2] + float(match.shift_m)
+                    )
             if decision == ZDecision.APPLY_SHIFT:
                 shift = float(match.shift_m)
                 points_world[:, 2] += shift
