@@ -97,11 +97,33 @@ class LabelledPoints:
     withdrawn: bool
 
 
+@dataclass(frozen=True)
+class _FrameData:
+    """One segmented frame before the height reference's shift (mapped now or deferred).
+
+    Attributes:
+        frame: The frame (its believed poses).
+        points_robot: (N, 3) tilt-corrected robot-frame points [m], no ground shift.
+        floor_heights_m: (N,) their floor heights [m], NaN = not floor.
+        transform_camera_to_robot: 4×4 tilt-corrected camera pose in the robot frame.
+        ground_plane_found: The segmentation found a ground plane near the expected height.
+        ground_measured: The frame measured the height reference (its ground was in view).
+    """
+
+    frame: Frame
+    points_robot: NDArray[np.float64]
+    floor_heights_m: NDArray[np.float64]
+    transform_camera_to_robot: NDArray[np.float64]
+    ground_plane_found: bool
+    ground_measured: bool
+
+
 class Pipeline:
     """Stateful per-frame processing: the two maps, the heading estimate, the elevation filter.
 
     Attributes:
-        last_points: The last processed frame's labelled points (None before the first).
+        last_points: The last mapped frame's labelled points (None before the first, and while
+            frames are deferred until the height reference is known).
     """
 
     def __init__(self, params: RunParams | None = None) -> None:
@@ -114,6 +136,7 @@ class Pipeline:
         self.elevation = RobotElevationFilter(self.run_params.elevation)
         self.heading = HeadingEstimator(self.run_params.heading)
         self.reference = HeightReference()
+        self._deferred: list[_FrameData] = []
         self._use_reference = self.params.use_height_reference
         # The reference replaces the segmentation's per-frame ground shift.
         if self._use_reference:
@@ -158,6 +181,10 @@ class Pipeline:
     def process(self, frame: Frame) -> FrameTiming:
         """Run one frame through segmentation, z-match and both maps.
 
+        With the height reference (``pipe.use_height_reference``) a frame segmented before the
+        reference is known is *deferred*: its timing says withdrawn, and it is mapped, in
+        order and with the converged reference, just before the frame that makes it known.
+
         Raises:
             FrameError: The frame's believed pose is refused (:meth:`check_frame`).
         """
@@ -171,9 +198,52 @@ class Pipeline:
             self.segmentation_params,
         )
         t1 = time.perf_counter()
-        points_robot, floor_robot, transform_camera_to_robot, ground_measured = (
-            self._height_reference(seg)
+        data = _FrameData(
+            frame,
+            np.asarray(seg.points, dtype=np.float64),
+            np.asarray(seg.floor_heights, dtype=np.float64),
+            np.asarray(seg.transform_camera_to_robot, dtype=np.float64),
+            bool(seg.correction.ground_plane_found),
+            self._measure_reference(seg),
         )
+        withdrawn, matched, update_ms = True, False, float("nan")
+        if self._use_reference and not self.reference.known:
+            self._deferred.append(data)
+            self.last_points = None
+        else:
+            for deferred in self._deferred:
+                self._map(deferred)
+            self._deferred.clear()
+            withdrawn, matched, update_ms = self._map(data)
+        return FrameTiming(
+            segmentation_ms=1000.0 * (t1 - t0),
+            update_ms=update_ms,
+            frame_ms=1000.0 * (time.perf_counter() - t0),
+            withdrawn=withdrawn,
+            z_matched=matched,
+            ground_plane_found=data.ground_plane_found,
+        )
+
+    def _measure_reference(self, seg: SegmentationResult) -> bool:
+        """Give the frame's floor regions to the height reference; True if it measured it."""
+        if not self._use_reference:
+            return False
+        floors = seg.floors
+        return self.reference.update(floors.heights_m, floors.areas_m2, floors.is_floor) is not None
+
+    def _map(self, data: _FrameData) -> tuple[bool, bool, float]:
+        """Heading, world transform, z-match and map update of one segmented frame.
+
+        Returns:
+            Whether the frame was withdrawn, whether it was z-matched, and the mapper update
+            time [ms] (NaN when withdrawn).
+        """
+        frame = data.frame
+        shift_m = self.reference.shift_m if self._use_reference else 0.0
+        points_robot = data.points_robot + np.array([0.0, 0.0, shift_m])
+        floor_robot = data.floor_heights_m + shift_m
+        transform_camera_to_robot = data.transform_camera_to_robot.copy()
+        transform_camera_to_robot[2, 3] += shift_m
         pose = self.robot_pose(frame)
         # Heading correction (mapper.heading): a yaw about the camera centre, before the pose.
         transform_robot_to_world = planar_pose_to_matrix(pose) @ self.heading.correct(
@@ -186,14 +256,11 @@ class Pipeline:
         self.mapper.recenter(pose[0], pose[1])
         self.baseline.recenter(pose[0], pose[1])
 
-        ground_known = bool(seg.correction.ground_plane_found) or ground_measured
-        matched = False
-        # Until the height reference is known the frame's camera height is not: no map.
-        withdrawn = self._use_reference and not self.reference.known
-        if self.params.use_z_match and not withdrawn:
+        matched = withdrawn = False
+        if self.params.use_z_match:
             match = self.mapper.match_z(points_world, floor_world)
-            decision = frame_decision(match, ground_known)
-            if ground_measured and decision == ZDecision.APPLY_SHIFT:
+            decision = frame_decision(match, data.ground_plane_found or data.ground_measured)
+            if data.ground_measured and decision == ZDecision.APPLY_SHIFT:
                 # The frame saw the ground under the feet: its data are right relative to the
                 # feet, so the map's disagreement is the robot's elevation error. Shifting
                 # every frame onto the map let the map drift (stage: -3 mm over a run).
@@ -220,36 +287,7 @@ class Pipeline:
                 self.elevation.update(
                     float(frame.robot_pose_believed[2]), self.mapper.floor_at(pose[0], pose[1])
                 )
-        return FrameTiming(
-            segmentation_ms=1000.0 * (t1 - t0),
-            update_ms=update_ms,
-            frame_ms=1000.0 * (time.perf_counter() - t0),
-            withdrawn=withdrawn,
-            z_matched=matched,
-            ground_plane_found=bool(seg.correction.ground_plane_found),
-        )
-
-    def _height_reference(
-        self, seg: SegmentationResult
-    ) -> tuple[NDArray[np.float64], NDArray[np.float64], NDArray[np.float64], bool]:
-        """The frame's robot-frame data with the height reference's shift applied.
-
-        Returns:
-            Points [m], floor heights [m] (NaN = not floor), the 4×4 camera pose in the robot
-            frame, and whether this frame measured the reference (its ground was in view).
-        """
-        points = np.asarray(seg.points, dtype=np.float64)
-        heights = np.asarray(seg.floor_heights, dtype=np.float64)
-        transform = np.asarray(seg.transform_camera_to_robot, dtype=np.float64)
-        if not self._use_reference:
-            return points, heights, transform, False
-        floors = seg.floors
-        measured = self.reference.update(floors.heights_m, floors.areas_m2, floors.is_floor)
-        shift = self.reference.shift_m
-        points = points + np.array([0.0, 0.0, shift])
-        transform = transform.copy()
-        transform[2, 3] += shift
-        return points, heights + shift, transform, measured is not None
+        return withdrawn, matched, update_ms
 
     def maps(self) -> tuple[NDArray[np.int8], NDArray[np.float64], NDArray[np.float64]]:
         """Current FOG types, FOG heights [m] and baseline heights [m] (NaN = none)."""
