@@ -20,6 +20,7 @@ from mapper import MapperParams
 from mapper.grid import GridGeometry
 from mapper.intrinsics import PinholeIntrinsics
 from mapper.reference import HeightReferenceParams
+from mapper.transforms import planar_pose_to_matrix
 
 INTR = PinholeIntrinsics.from_fov(88, 72, 47.0, 39.0)
 RATE_HZ = 12.5
@@ -302,3 +303,38 @@ def test_height_reference_removes_a_camera_height_error():
     labelled = pipeline.last_points
     ground = np.isfinite(labelled.floor_heights_m) & (labelled.points_world[:, 0] < 1.1)
     assert abs(float(np.median(labelled.floor_heights_m[ground]))) <= 0.0015
+
+
+def test_descending_start_defers_the_frames_until_the_ground_under_the_feet_is_seen():
+    # The robot starts on a 122 mm platform that is out of view (only the ground 122 mm below
+    # and the box are seen), its camera believed 6 mm too low; then it stands on the ground.
+    believed = CAMERA_IN_ROBOT.copy()
+    believed[2, 3] -= 0.006
+    on_platform = ROBOT_POSE + np.array([0.0, 0.0, 0.122, 0.0])
+    frames = []
+    for i, pose in enumerate([on_platform] * 5 + [ROBOT_POSE] * HeightReferenceParams().min_frames):
+        world = planar_pose_to_matrix(pose) @ CAMERA_IN_ROBOT
+        frames.append(
+            Frame(
+                index=i,
+                time_s=i / RATE_HZ,
+                depth_m=render_boxes(INTR, world, [BOX]).astype(np.float32),
+                intrinsics=INTR,
+                transform_camera_to_robot_believed=believed,
+                robot_pose_believed=pose,
+                transform_camera_to_world_true=world,
+                robot_pose_true=pose,
+            )
+        )
+    pipeline = Pipeline()
+    timings = [pipeline.process(f) for f in frames]
+    # Nothing measured on the platform (the ground is 122 mm below the feet): no shift onto it.
+    assert pipeline.reference.measurements_m[0] == pytest.approx(0.006, abs=1e-4)
+    assert len(pipeline.reference.measurements_m) == HeightReferenceParams().min_frames
+    assert [t.withdrawn for t in timings[:-1]] == [True] * (len(frames) - 1)
+    assert not timings[-1].withdrawn
+    # The deferred frames were mapped with the converged reference: the ground lies on 0.
+    floor = np.asarray(pipeline.mapper.floor())
+    ground = floor[np.isfinite(floor) & (floor < 0.025)]
+    assert ground.size > 100
+    np.testing.assert_allclose(ground, 0.0, atol=1e-3)
