@@ -4,19 +4,28 @@ Per frame (paper Fig. 1, 2 and Sec. IV), with the pose the robot *believes*:
 
 1. ``segment_depth`` labels the (already self-filtered) depth image: points in the robot frame
    R with the height ``h`` of the horizontal plane each belongs to (NaN = not floor), after the
-   segmentation's own rotation / ground-plane correction.
-2. Heading correction (``mapper.HeadingEstimator``, beyond the paper): the camera's yaw error,
+   segmentation's own rotation correction (and, with ``pipe.use_height_reference`` off, its
+   per-frame ground-plane shift).
+2. Height reference (``mapper.reference``, issue 11): the camera height error is estimated over
+   frames from the ground under the feet and its shift added to every frame's z. Frames
+   segmented before it is known are *deferred*, then mapped in order (steps 3-8) with the
+   converged shift just before the frame that makes it known: the start pose's exact odometry,
+   not one frame's ground fragment, anchors the map, also when the start surface is out of view.
+3. Heading correction (``mapper.HeadingEstimator``, beyond the paper): the camera's yaw error,
    estimated from how well the structure seen from different places agrees, is taken out by a
    rotation about the vertical through the camera centre.
-3. Points and heights go to the world with the believed robot pose (x, y, yaw from odometry,
+4. Points and heights go to the world with the believed robot pose (x, y, yaw from odometry,
    z from the *elevation filter* below): ``h_G = h_R + z_R``.
-4. The grids follow the robot: both maps ``recenter`` on the believed (x, y).
-5. z-shift matching against the floor map (``match_z``): an accepted shift is added to the
+5. The grids follow the robot: both maps ``recenter`` on the believed (x, y).
+6. z-shift matching against the floor map (``match_z``): an accepted shift is added to the
    points' z, their floor heights and the camera origin. If it is not accepted (few pairs or an
    implausible shift) and the segmentation found no ground plane either, the frame is
-   *withdrawn* (Sec. IV); otherwise the unshifted data are used.
-6. ``FloorObstacleMapper.update`` and ``AveragingMap.update`` get exactly the same data.
-7. Robot elevation filter (``mapper.RobotElevationFilter``): the offset on odometry's z is
+   *withdrawn* (Sec. IV); otherwise the unshifted data are used. A frame that measured the
+   height reference (its data are right relative to the feet) is not shifted: its accepted
+   shift is the robot's elevation error and goes to the elevation filter (shifting every such
+   frame onto the map let the map drift by about −3 mm over a stage run).
+7. ``FloorObstacleMapper.update`` and ``AveragingMap.update`` get exactly the same data.
+8. Robot elevation filter (``mapper.RobotElevationFilter``): the offset on odometry's z is
    pulled towards ``Floor(x_R, y_R)`` when the floor map has a height under the robot.
 
 Every frame is checked first: a believed robot pose or camera transform that is not finite or
