@@ -8,6 +8,7 @@ import pytest
 from synthetic_depth import Box, add_depth_noise, look_down_camera, render_boxes
 
 from fogsim.config import RunParams, load_scenario, resolve_params
+from fogsim.config.params import PipelineParams
 from fogsim.data.frame import Frame
 from fogsim.data.recording import Recording
 from fogsim.errors import FogsimError
@@ -18,6 +19,8 @@ from fogsim.world.truth import ObjectState, SceneTruth, TruthParams
 from mapper import MapperParams
 from mapper.grid import GridGeometry
 from mapper.intrinsics import PinholeIntrinsics
+from mapper.reference import HeightReferenceParams
+from mapper.transforms import planar_pose_to_matrix
 
 INTR = PinholeIntrinsics.from_fov(88, 72, 47.0, 39.0)
 RATE_HZ = 12.5
@@ -76,9 +79,11 @@ def test_static_box_table1_within_3mm_and_cells_right():
         assert abs(rows[name].error_mm) <= 3.0, rows[name]
     cells = result.scores.cells.fog
     assert cells.accuracy >= 0.97, cells
-    assert result.frames == 12 and result.withdrawn == 0
+    # The frames before the height reference converged are not mapped.
+    assert result.frames == 12 and result.withdrawn == HeightReferenceParams().min_frames - 1
     assert result.frames_without_ground_plane == 0
-    assert np.isfinite(result.update_ms).all()
+    wait = HeightReferenceParams().min_frames - 1
+    assert np.isnan(result.update_ms[:wait]).all() and np.isfinite(result.update_ms[wait:]).all()
     # The archive keeps every map; the camera saw the cells the FOG labelled, and more.
     archive = result.archive
     floor = archive.fog_types == 1
@@ -141,8 +146,14 @@ def test_replay_report_uses_overrides():
     assert {r.name for r in report.table1.fog} == set(NAMES)
 
 
+def paper_pipeline():
+    """The paper's per-frame ground shift instead of the height reference over frames."""
+    params = RunParams(pipeline=PipelineParams(use_height_reference=False))
+    return Pipeline(params)
+
+
 def test_process_returns_the_frames_timing_and_decisions():
-    pipeline = Pipeline()
+    pipeline = paper_pipeline()
     first, second, third = (pipeline.process(f) for f in make_frames(3))
     assert isinstance(first, FrameTiming)
     # An empty map has no floor to match: the first frames are used unshifted, then matched.
@@ -153,7 +164,7 @@ def test_process_returns_the_frames_timing_and_decisions():
 
 
 def test_last_points_are_the_frames_points_as_the_maps_received_them():
-    pipeline = Pipeline()
+    pipeline = paper_pipeline()
     assert pipeline.last_points is None
     frame = make_frames(1)[0]
     pipeline.process(frame)
@@ -261,3 +272,69 @@ def test_a_plausible_walk_is_mapped():
         for f in frames
     ]
     assert run_frames(walked, None, None).frames == 4
+
+
+def test_height_reference_waits_for_convergence_and_is_exactly_zero_on_exact_data():
+    pipeline = Pipeline()
+    wait = HeightReferenceParams().min_frames - 1
+    timings = [pipeline.process(f) for f in make_frames(wait + 2)]
+    assert [t.withdrawn for t in timings] == [True] * wait + [False, False]
+    assert pipeline.reference.converged
+    assert pipeline.reference.shift_m == pytest.approx(0.0, abs=1e-6)  # float32 depth
+    labelled = pipeline.last_points
+    floor = np.isfinite(labelled.floor_heights_m)
+    ground = floor & (labelled.points_world[:, 0] < 1.1)
+    np.testing.assert_allclose(labelled.floor_heights_m[ground], 0.0, atol=1e-6)
+
+
+def test_height_reference_removes_a_camera_height_error():
+    # The encoders believe the camera 8 mm lower than it is: the paper's per-frame shift and
+    # the reference both put the ground back on 0; the reference after its frames.
+    believed = CAMERA_IN_ROBOT.copy()
+    believed[2, 3] -= 0.008
+    frames = [
+        dataclasses.replace(f, transform_camera_to_robot_believed=believed)
+        for f in make_frames(HeightReferenceParams().min_frames, noise=0.002)
+    ]
+    pipeline = Pipeline()
+    for f in frames:
+        pipeline.process(f)
+    assert pipeline.reference.shift_m == pytest.approx(0.008, abs=0.0015)
+    labelled = pipeline.last_points
+    ground = np.isfinite(labelled.floor_heights_m) & (labelled.points_world[:, 0] < 1.1)
+    assert abs(float(np.median(labelled.floor_heights_m[ground]))) <= 0.0015
+
+
+def test_descending_start_defers_the_frames_until_the_ground_under_the_feet_is_seen():
+    # The robot starts on a 122 mm platform that is out of view (only the ground 122 mm below
+    # and the box are seen), its camera believed 6 mm too low; then it stands on the ground.
+    believed = CAMERA_IN_ROBOT.copy()
+    believed[2, 3] -= 0.006
+    on_platform = ROBOT_POSE + np.array([0.0, 0.0, 0.122, 0.0])
+    frames = []
+    for i, pose in enumerate([on_platform] * 5 + [ROBOT_POSE] * HeightReferenceParams().min_frames):
+        world = planar_pose_to_matrix(pose) @ CAMERA_IN_ROBOT
+        frames.append(
+            Frame(
+                index=i,
+                time_s=i / RATE_HZ,
+                depth_m=render_boxes(INTR, world, [BOX]).astype(np.float32),
+                intrinsics=INTR,
+                transform_camera_to_robot_believed=believed,
+                robot_pose_believed=pose,
+                transform_camera_to_world_true=world,
+                robot_pose_true=pose,
+            )
+        )
+    pipeline = Pipeline()
+    timings = [pipeline.process(f) for f in frames]
+    # Nothing measured on the platform (the ground is 122 mm below the feet): no shift onto it.
+    assert pipeline.reference.measurements_m[0] == pytest.approx(0.006, abs=1e-4)
+    assert len(pipeline.reference.measurements_m) == HeightReferenceParams().min_frames
+    assert [t.withdrawn for t in timings[:-1]] == [True] * (len(frames) - 1)
+    assert not timings[-1].withdrawn
+    # The deferred frames were mapped with the converged reference: the ground lies on 0.
+    floor = np.asarray(pipeline.mapper.floor())
+    ground = floor[np.isfinite(floor) & (floor < 0.025)]
+    assert ground.size > 100
+    np.testing.assert_allclose(ground, 0.0, atol=1e-3)

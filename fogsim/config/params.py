@@ -37,10 +37,14 @@ class PipelineParams:
         use_z_match: Apply the z-shift matching (paper: optional step 2 of Fig. 2).
         use_elevation_filter: Filter the robot's z with the floor map (Sec. IV).
         event_tolerance_m: Height tolerance of "floor again" in the event scores [m].
+        use_height_reference: Estimate the camera height over frames (`mapper.reference`)
+            instead of the segmentation's per-frame ground shift, and map no frame before it is
+            known (issue 11: one frame's ground fragment froze the whole map's height).
     """
 
     use_z_match: bool = True
     use_elevation_filter: bool = True
+    use_height_reference: bool = True
     event_tolerance_m: float = 0.01
 
     def __post_init__(self) -> None:

@@ -4,19 +4,28 @@ Per frame (paper Fig. 1, 2 and Sec. IV), with the pose the robot *believes*:
 
 1. ``segment_depth`` labels the (already self-filtered) depth image: points in the robot frame
    R with the height ``h`` of the horizontal plane each belongs to (NaN = not floor), after the
-   segmentation's own rotation / ground-plane correction.
-2. Heading correction (``mapper.HeadingEstimator``, beyond the paper): the camera's yaw error,
+   segmentation's own rotation correction (and, with ``pipe.use_height_reference`` off, its
+   per-frame ground-plane shift).
+2. Height reference (``mapper.reference``, issue 11): the camera height error is estimated over
+   frames from the ground under the feet and its shift added to every frame's z. Frames
+   segmented before it is known are *deferred*, then mapped in order (steps 3-8) with the
+   converged shift just before the frame that makes it known: the start pose's exact odometry,
+   not one frame's ground fragment, anchors the map, also when the start surface is out of view.
+3. Heading correction (``mapper.HeadingEstimator``, beyond the paper): the camera's yaw error,
    estimated from how well the structure seen from different places agrees, is taken out by a
    rotation about the vertical through the camera centre.
-3. Points and heights go to the world with the believed robot pose (x, y, yaw from odometry,
+4. Points and heights go to the world with the believed robot pose (x, y, yaw from odometry,
    z from the *elevation filter* below): ``h_G = h_R + z_R``.
-4. The grids follow the robot: both maps ``recenter`` on the believed (x, y).
-5. z-shift matching against the floor map (``match_z``): an accepted shift is added to the
+5. The grids follow the robot: both maps ``recenter`` on the believed (x, y).
+6. z-shift matching against the floor map (``match_z``): an accepted shift is added to the
    points' z, their floor heights and the camera origin. If it is not accepted (few pairs or an
    implausible shift) and the segmentation found no ground plane either, the frame is
-   *withdrawn* (Sec. IV); otherwise the unshifted data are used.
-6. ``FloorObstacleMapper.update`` and ``AveragingMap.update`` get exactly the same data.
-7. Robot elevation filter (``mapper.RobotElevationFilter``): the offset on odometry's z is
+   *withdrawn* (Sec. IV); otherwise the unshifted data are used. A frame that measured the
+   height reference (its data are right relative to the feet) is not shifted: its accepted
+   shift is the robot's elevation error and goes to the elevation filter (shifting every such
+   frame onto the map let the map drift by about −3 mm over a stage run).
+7. ``FloorObstacleMapper.update`` and ``AveragingMap.update`` get exactly the same data.
+8. Robot elevation filter (``mapper.RobotElevationFilter``): the offset on odometry's z is
    pulled towards ``Floor(x_R, y_R)`` when the floor map has a height under the robot.
 
 Every frame is checked first: a believed robot pose or camera transform that is not finite or
@@ -35,7 +44,7 @@ from __future__ import annotations
 
 import time
 from collections.abc import Callable
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 import numpy as np
 from numpy.typing import NDArray
@@ -53,7 +62,8 @@ from mapper import (
     ZDecision,
     frame_decision,
 )
-from mapper.segmentation import segment_depth
+from mapper.reference import HeightReference
+from mapper.segmentation import SegmentationResult, segment_depth
 from mapper.transforms import apply_transform, planar_pose_to_matrix
 
 FrameCallback = Callable[[Frame, "Pipeline"], None]
@@ -96,11 +106,33 @@ class LabelledPoints:
     withdrawn: bool
 
 
+@dataclass(frozen=True)
+class _FrameData:
+    """One segmented frame before the height reference's shift (mapped now or deferred).
+
+    Attributes:
+        frame: The frame (its believed poses).
+        points_robot: (N, 3) tilt-corrected robot-frame points [m], no ground shift.
+        floor_heights_m: (N,) their floor heights [m], NaN = not floor.
+        transform_camera_to_robot: 4×4 tilt-corrected camera pose in the robot frame.
+        ground_plane_found: The segmentation found a ground plane near the expected height.
+        ground_measured: The frame measured the height reference (its ground was in view).
+    """
+
+    frame: Frame
+    points_robot: NDArray[np.float64]
+    floor_heights_m: NDArray[np.float64]
+    transform_camera_to_robot: NDArray[np.float64]
+    ground_plane_found: bool
+    ground_measured: bool
+
+
 class Pipeline:
     """Stateful per-frame processing: the two maps, the heading estimate, the elevation filter.
 
     Attributes:
-        last_points: The last processed frame's labelled points (None before the first).
+        last_points: The last mapped frame's labelled points (None before the first, and while
+            frames are deferred until the height reference is known).
     """
 
     def __init__(self, params: RunParams | None = None) -> None:
@@ -112,6 +144,12 @@ class Pipeline:
         self.baseline = AveragingMap(self.mapper_params)
         self.elevation = RobotElevationFilter(self.run_params.elevation)
         self.heading = HeadingEstimator(self.run_params.heading)
+        self.reference = HeightReference()
+        self._deferred: list[_FrameData] = []
+        self._use_reference = self.params.use_height_reference
+        # The reference replaces the segmentation's per-frame ground shift.
+        if self._use_reference:
+            self.segmentation_params = replace(self.segmentation_params, correct_ground_shift=False)
         self._last_pose_believed: NDArray[np.float64] | None = None
         self.last_points: LabelledPoints | None = None
 
@@ -152,6 +190,10 @@ class Pipeline:
     def process(self, frame: Frame) -> FrameTiming:
         """Run one frame through segmentation, z-match and both maps.
 
+        With the height reference (``pipe.use_height_reference``) a frame segmented before the
+        reference is known is *deferred*: its timing says withdrawn, and it is mapped, in
+        order and with the converged reference, just before the frame that makes it known.
+
         Raises:
             FrameError: The frame's believed pose is refused (:meth:`check_frame`).
         """
@@ -165,24 +207,83 @@ class Pipeline:
             self.segmentation_params,
         )
         t1 = time.perf_counter()
+        data = _FrameData(
+            frame,
+            np.asarray(seg.points, dtype=np.float64),
+            np.asarray(seg.floor_heights, dtype=np.float64),
+            np.asarray(seg.transform_camera_to_robot, dtype=np.float64),
+            bool(seg.correction.ground_plane_found),
+            self._measure_reference(seg),
+        )
+        withdrawn, matched, update_ms = True, False, float("nan")
+        if self._use_reference and not self.reference.known:
+            self._deferred.append(data)
+            self.last_points = None
+        else:
+            for deferred in self._deferred:
+                self._map(deferred, use_z_match=False)
+            self._deferred.clear()
+            withdrawn, matched, update_ms = self._map(data)
+        return FrameTiming(
+            segmentation_ms=1000.0 * (t1 - t0),
+            update_ms=update_ms,
+            frame_ms=1000.0 * (time.perf_counter() - t0),
+            withdrawn=withdrawn,
+            z_matched=matched,
+            ground_plane_found=data.ground_plane_found,
+        )
+
+    def _measure_reference(self, seg: SegmentationResult) -> bool:
+        """Give the frame's floor regions to the height reference; True if it measured it."""
+        if not self._use_reference:
+            return False
+        floors = seg.floors
+        return self.reference.update(floors.heights_m, floors.areas_m2, floors.is_floor) is not None
+
+    def _map(self, data: _FrameData, use_z_match: bool = True) -> tuple[bool, bool, float]:
+        """Heading, world transform, z-match and map update of one segmented frame.
+
+        Deferred frames are mapped without z-match (``use_z_match`` False): their odometry is
+        the run's freshest (from the start pose) and matching them onto a map they are still
+        building let it drift (stage_down seed 2: z shifts of −1 to −2 mm per frame while the
+        robot stood on the platform with exact odometry; worst row 2.89 → 1.60 mm). The
+        elevation filter still corrects their robot z from the map under the robot.
+
+        Returns:
+            Whether the frame was withdrawn, whether it was z-matched, and the mapper update
+            time [ms] (NaN when withdrawn).
+        """
+        frame = data.frame
+        shift_m = self.reference.shift_m if self._use_reference else 0.0
+        points_robot = data.points_robot + np.array([0.0, 0.0, shift_m])
+        floor_robot = data.floor_heights_m + shift_m
+        transform_camera_to_robot = data.transform_camera_to_robot.copy()
+        transform_camera_to_robot[2, 3] += shift_m
         pose = self.robot_pose(frame)
         # Heading correction (mapper.heading): a yaw about the camera centre, before the pose.
         transform_robot_to_world = planar_pose_to_matrix(pose) @ self.heading.correct(
-            seg.points, seg.floor_heights, seg.transform_camera_to_robot, pose
+            points_robot, floor_robot, transform_camera_to_robot, pose
         )
-        points_world = apply_transform(transform_robot_to_world, seg.points)
-        floor_world = np.asarray(seg.floor_heights, dtype=np.float64) + pose[2]
+        points_world = apply_transform(transform_robot_to_world, points_robot)
+        floor_world = floor_robot + pose[2]
         # Camera centre after the segmentation's own correction, so rays match the points.
-        sensor_origin = apply_transform(
-            transform_robot_to_world, np.asarray(seg.transform_camera_to_robot)[:3, 3]
-        )
+        sensor_origin = apply_transform(transform_robot_to_world, transform_camera_to_robot[:3, 3])
         self.mapper.recenter(pose[0], pose[1])
         self.baseline.recenter(pose[0], pose[1])
 
         matched = withdrawn = False
-        if self.params.use_z_match:
+        if self.params.use_z_match and use_z_match:
             match = self.mapper.match_z(points_world, floor_world)
-            decision = frame_decision(match, bool(seg.correction.ground_plane_found))
+            decision = frame_decision(match, data.ground_plane_found or data.ground_measured)
+            if data.ground_measured and decision == ZDecision.APPLY_SHIFT:
+                # The frame saw the ground under the feet: its data are right relative to the
+                # feet, so the map's disagreement is the robot's elevation error. Shifting
+                # every frame onto the map let the map drift (stage: -3 mm over a run).
+                decision = ZDecision.KEEP_UNSHIFTED
+                if self.params.use_elevation_filter:
+                    self.elevation.update(
+                        float(frame.robot_pose_believed[2]), pose[2] + float(match.shift_m)
+                    )
             if decision == ZDecision.APPLY_SHIFT:
                 shift = float(match.shift_m)
                 points_world[:, 2] += shift
@@ -201,14 +302,7 @@ class Pipeline:
                 self.elevation.update(
                     float(frame.robot_pose_believed[2]), self.mapper.floor_at(pose[0], pose[1])
                 )
-        return FrameTiming(
-            segmentation_ms=1000.0 * (t1 - t0),
-            update_ms=update_ms,
-            frame_ms=1000.0 * (time.perf_counter() - t0),
-            withdrawn=withdrawn,
-            z_matched=matched,
-            ground_plane_found=bool(seg.correction.ground_plane_found),
-        )
+        return withdrawn, matched, update_ms
 
     def maps(self) -> tuple[NDArray[np.int8], NDArray[np.float64], NDArray[np.float64]]:
         """Current FOG types, FOG heights [m] and baseline heights [m] (NaN = none)."""

@@ -1,0 +1,158 @@
+"""The camera height reference, estimated over frames from the ground under the robot's feet.
+
+The paper (Sec. IV) shifts each frame's data so that "the plane that is closest to an expected
+ground plane" lies on it. One frame's choice is fragile: depth noise splits the ground into
+fragments millimetres apart, a sliver or a stair tread can lie nearer the expected height than
+the ground, and when the robot starts on a platform the surface under its feet is not in view
+at all. Whatever the first frames choose, z-matching carries it through the whole run.
+
+What the segmentation's ground shift corrects is the error of the camera's height in the robot
+frame R (origin on the ground below the robot), which the joint encoders cause: a neck bias of a
+few degrees moves the camera by millimetres, nearly the same in every frame of a run (on the
+stage: −14 to +6 mm between seeds, about 1 mm frame to frame). So this module estimates one
+shift for the run from many frames and applies it to every frame:
+
+- a frame *measures* the shift when one of its floor regions (level regions of the segmentation,
+  heights in the tilt-corrected frame R before any shift) is large enough to be the ground around
+  the robot (`min_area_m2`: larger than any stair tread or sill top, so neither can be taken for
+  it) and lies within `gate_m` of where the ground must be: the kinematic prior (height 0: the
+  feet stand on it) until the estimate has converged, the estimate afterwards. Of several such
+  regions the largest (the most precise height) is measured;
+- the estimate is the median of the frames' measurements (one wrong frame cannot move it); it
+  has *converged* after `min_frames` measurements;
+- until then the camera height is unknown (`known` is False): the caller defers the frames
+  and maps them once it is (mapping them earlier would freeze an unconverged reference into
+  the map). After `max_wait_frames` frames without convergence the kinematics alone are
+  trusted (shift 0, or the median so far), so a robot that never sees the surface under its
+  feet still maps — with the encoders' error.
+
+On exact data (ideal depth, no encoder error) every measurement is 0 and so is the shift.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+from numpy.typing import NDArray
+
+from mapper.validation import check_field
+
+__all__ = ["HeightReference", "HeightReferenceParams"]
+
+
+@dataclass(frozen=True)
+class HeightReferenceParams:
+    """Parameters of the height reference.
+
+    Attributes:
+        gate_m: a ground candidate lies within this of the expected shift [m] (0 before the
+            estimate converged). 0.02: the encoders' camera height error is −14 to +6 mm on
+            the stage (seeds 1-8), a frame's ground scatters by about ±4 mm; walking down, the
+            large ground 31 mm below a tread appears at −31 + 6 = −25 mm with the worst positive
+            error, which 0.025 let in (stage_down seeds 5 and 7: every row +27 mm). A 31 mm
+            tread above the feet can lie inside the gate — `min_area_m2` excludes it.
+        min_area_m2: smallest footprint of a ground candidate [m²]. 0.3: above the largest
+            tread or threshold of the shipped scenes (0.28 × 1.6 = 0.45 m² is larger, but its
+            height, 45 mm, lies outside the gate) and any sill top (0.1 m²); the ground seen
+            from the robot covers 3-6 m².
+        min_frames: measurements before the estimate has converged. 8: the median of 8
+            frames whose heights scatter by ±3-5 mm (one frame's ground on the stage) is good
+            to about 1 mm.
+        max_wait_frames: frames without convergence after which the kinematics are trusted
+            (0: never). 400 (32 s at 12.5 Hz): longer than the walk down the stage's staircase
+            before the ground is in view (about 190 frames); it also bounds the frames a caller
+            defers (about 0.2 MB each for 88×72 images).
+    """
+
+    gate_m: float = 0.02
+    min_area_m2: float = 0.3
+    min_frames: int = 8
+    max_wait_frames: int = 400
+
+    def __post_init__(self) -> None:
+        for name in ("gate_m", "min_area_m2"):
+            check_field(
+                "HeightReferenceParams",
+                name,
+                getattr(self, name),
+                float,
+                "a finite float > 0",
+                lambda v: math.isfinite(v) and v > 0,
+            )
+        check_field(
+            "HeightReferenceParams",
+            "min_frames",
+            self.min_frames,
+            int,
+            "an integer >= 1",
+            lambda v: v >= 1,
+        )
+        check_field(
+            "HeightReferenceParams",
+            "max_wait_frames",
+            self.max_wait_frames,
+            int,
+            "an integer >= 0",
+            lambda v: v >= 0,
+        )
+
+
+class HeightReference:
+    """The z shift of the camera height, estimated over frames (see the module docstring).
+
+    Attributes:
+        measurements_m: every frame's measured shift so far [m], in frame order.
+        frames: frames seen.
+    """
+
+    def __init__(self, params: HeightReferenceParams | None = None) -> None:
+        self.params = params if params is not None else HeightReferenceParams()
+        self.measurements_m: list[float] = []
+        self.frames = 0
+
+    @property
+    def converged(self) -> bool:
+        """Enough measurements for the estimate to be trusted."""
+        return len(self.measurements_m) >= self.params.min_frames
+
+    @property
+    def known(self) -> bool:
+        """A frame's data may be mapped: converged, or waited `max_wait_frames` in vain."""
+        wait = self.params.max_wait_frames
+        return self.converged or (wait > 0 and self.frames >= wait)
+
+    @property
+    def shift_m(self) -> float:
+        """The z shift to add to every frame's data [m]: median measurement, 0 without any."""
+        if not self.measurements_m:
+            return 0.0
+        return float(np.median(np.asarray(self.measurements_m)))
+
+    def update(
+        self,
+        heights_m: NDArray[np.float64],
+        areas_m2: NDArray[np.float64],
+        is_floor: NDArray[np.bool_],
+    ) -> float | None:
+        """Take one frame's floor regions; return its measured shift [m] (None: no ground).
+
+        Args:
+            heights_m: (F,) region heights in the tilt-corrected robot frame, unshifted [m].
+            areas_m2: (F,) their footprints [m²].
+            is_floor: (F,) the region is a floor.
+        """
+        self.frames += 1
+        expected = self.shift_m if self.converged else 0.0
+        candidate = (
+            is_floor
+            & (areas_m2 >= self.params.min_area_m2)
+            & (np.abs(-heights_m - expected) <= self.params.gate_m)
+        )
+        if not candidate.any():
+            return None
+        largest = int(np.argmax(np.where(candidate, areas_m2, -np.inf)))
+        measured = -float(heights_m[largest])
+        self.measurements_m.append(measured)
+        return measured

@@ -1,0 +1,115 @@
+"""The height reference over frames (mapper.reference): known answers on floor-region tables."""
+
+import numpy as np
+import pytest
+
+from mapper.errors import InvalidParameterError
+from mapper.reference import HeightReference, HeightReferenceParams
+
+GROUND_AREA_M2 = 5.0  # the ground seen from the stage's camera covers 3-6 m²
+TREAD_AREA_M2 = 0.2  # a stage tread: 0.2 m × 1 m
+
+
+def feed(reference, heights, areas, floors=None):
+    """One frame's floor regions (heights in the tilt-corrected robot frame, unshifted)."""
+    heights = np.asarray(heights, dtype=np.float64)
+    floors = np.ones(heights.shape, dtype=bool) if floors is None else np.asarray(floors)
+    return reference.update(heights, np.asarray(areas, dtype=np.float64), floors)
+
+
+def test_exact_data_give_exactly_zero_shift():
+    reference = HeightReference()
+    for _ in range(reference.params.min_frames):
+        assert not reference.known
+        assert feed(reference, [0.0, 0.031, 0.061], [GROUND_AREA_M2, 0.2, 0.2]) == 0.0
+    assert reference.converged and reference.known
+    assert reference.shift_m == 0.0
+
+
+def test_the_shift_is_the_median_of_the_frames_ground_heights():
+    # Camera believed 5.5 mm too low: the ground appears at -5.5 mm, scattered by ±4 mm.
+    reference = HeightReference()
+    heights = -0.0055 + np.array([0.004, -0.003, 0.001, -0.004, 0.0, 0.002, -0.001, 0.003])
+    for h in heights:
+        feed(reference, [h], [GROUND_AREA_M2])
+    assert reference.shift_m == pytest.approx(float(np.median(-heights)), abs=1e-12)
+    assert reference.shift_m == pytest.approx(0.0055 - 0.0005, abs=1e-12)
+
+
+def test_one_wrong_frame_does_not_move_the_median():
+    reference = HeightReference()
+    for h in (-0.006, -0.006, 0.020, -0.006, -0.006):
+        feed(reference, [h], [GROUND_AREA_M2])
+    assert reference.shift_m == pytest.approx(0.006)
+
+
+def test_the_largest_candidate_is_measured_not_the_fragment_nearest_the_prior():
+    # Depth noise splits the ground into fragments millimetres apart (issue 11).
+    reference = HeightReference()
+    assert feed(reference, [-0.001, -0.009, -0.012], [0.4, 4.0, 0.35]) == pytest.approx(0.009)
+
+
+def test_stairs_start_the_first_tread_alone_is_never_the_ground():
+    # Camera 14 mm too low (the stage's worst seed): a 31 mm tread appears at +17 mm, inside
+    # the gate; it is too small to be the ground around the robot.
+    reference = HeightReference()
+    for _ in range(20):
+        assert feed(reference, [0.031 - 0.014], [TREAD_AREA_M2]) is None
+    assert reference.shift_m == 0.0 and not reference.converged
+
+
+def test_a_wide_tread_outside_the_gate_is_never_the_ground():
+    # stage_zigzag's 0.28 m x 1.6 m treads (0.45 m²) are 45 mm high.
+    reference = HeightReference()
+    assert feed(reference, [0.045 - 0.014], [0.45]) is None
+
+
+def test_descending_start_waits_then_measures_the_ground_under_the_feet():
+    # On the platform: the ground 122 mm below and a sliver 22 mm up are in view, not the
+    # platform. Nothing is measured; the data wait (not known) instead of taking either.
+    reference = HeightReference(HeightReferenceParams(min_frames=3, max_wait_frames=0))
+    for _ in range(50):
+        assert feed(reference, [-0.126, 0.022, -0.096], [5.6, 0.05, 0.18]) is None
+        assert not reference.known
+    # Down on the ground: it lies under the feet, 4 mm low.
+    for _ in range(3):
+        assert feed(reference, [-0.004, 0.027], [4.0, 0.2]) == pytest.approx(0.004)
+    assert reference.known and reference.shift_m == pytest.approx(0.004)
+
+
+def test_after_max_wait_frames_the_kinematics_are_trusted():
+    reference = HeightReference(HeightReferenceParams(max_wait_frames=5))
+    for i in range(5):
+        assert not reference.known, i
+        feed(reference, [-0.126], [5.6])
+    assert reference.known and not reference.converged and reference.shift_m == 0.0
+
+
+def test_after_convergence_the_gate_centres_on_the_estimate():
+    params = HeightReferenceParams(gate_m=0.01, min_frames=2)
+    reference = HeightReference(params)
+    for _ in range(2):
+        feed(reference, [-0.008], [GROUND_AREA_M2])
+    # 17 mm from the estimate: not the ground; 2 mm from it (but 10 mm from 0): the ground.
+    assert feed(reference, [0.009], [GROUND_AREA_M2]) is None
+    assert feed(reference, [-0.010], [GROUND_AREA_M2]) == pytest.approx(0.010)
+
+
+def test_non_floor_regions_are_never_measured():
+    reference = HeightReference()
+    assert feed(reference, [0.0], [GROUND_AREA_M2], floors=[False]) is None
+
+
+@pytest.mark.parametrize(
+    ("field", "value"),
+    [
+        ("gate_m", 0.0),
+        ("gate_m", float("nan")),
+        ("min_area_m2", -1.0),
+        ("min_frames", 0),
+        ("max_wait_frames", -1),
+    ],
+)
+def test_bad_parameters_are_refused_naming_the_field(field, value):
+    with pytest.raises(InvalidParameterError, match=f"HeightReferenceParams.{field}"):
+        HeightReferenceParams(**{field: value})
