@@ -64,21 +64,28 @@ def verify_floor(
 @numba.njit(cache=True)
 def update_floor(
     floor: NDArray[np.float64],
+    votes: NDArray[np.int32],
     og: NDArray[np.uint8],
     point_cell: NDArray[np.int64],
+    points_z: NDArray[np.float64],
     floor_heights: NDArray[np.float64],
     occ_level: int,
     z_min: float,
     layer: float,
     eps: float,
     nu: float,
+    vote_cap: int,
+    nonfloor_votes: bool,
 ) -> tuple[int, int]:
-    """Eq. 9 for every inserted point with a finite floor height.
+    """Eq. 9 for every inserted point with a finite floor height, with per-cell votes.
 
     Args:
         floor: (nx, ny) floor heights [m], NaN = invalid; updated in place.
+        votes: (nx, ny) evidence for each stored floor height (see `MapperParams.floor_vote_cap`);
+            updated in place, meaningless where the floor is invalid.
         og: (nx, ny, nz) occupancy levels (already updated with this frame).
         point_cell: (N,) column index ``ix*ny + iy`` of each point, negative if dropped.
+        points_z: (N,) world z of each point [m].
         floor_heights: (N,) height ``h`` of each point's horizontal plane [m]; non-finite =
             not floor.
         occ_level: Occupied iff level > occ_level (eq. 7).
@@ -86,6 +93,9 @@ def update_floor(
         layer: Layer height [m].
         eps: Gate of eq. 9 [m].
         nu: Smoothing factor of eq. 9.
+        vote_cap: 0 = the paper's eq. 9; else the most votes a stored floor holds.
+        nonfloor_votes: Points that are not floor within ``eps`` of the stored floor vote
+            against it (only with ``vote_cap > 0``).
 
     Returns:
         (floor points used, floor points rejected by eq. 7).
@@ -95,21 +105,38 @@ def update_floor(
     # ``og_flat[col*nz + k]`` (C order), so no integer division per point.
     og_flat = og.reshape(-1)
     floor_flat = floor.reshape(-1)
+    votes_flat = votes.reshape(-1)
     used = 0
     rejected = 0
     for i in range(point_cell.shape[0]):
         col = point_cell[i]
+        if col < 0:
+            continue
         h = floor_heights[i]
-        if col < 0 or not np.isfinite(h):
+        f = floor_flat[col]
+        if not np.isfinite(h):
+            if nonfloor_votes and vote_cap > 0 and abs(points_z[i] - f) <= eps:
+                votes_flat[col] -= 1  # NaN floor fails the test above
+                if votes_flat[col] <= 0:
+                    floor_flat[col] = np.nan
             continue
         k = _layer_of(h, z_min, layer, nz)
         if k < 0 or og_flat[col * nz + k] <= occ_level:
             rejected += 1
             continue
         used += 1
-        f = floor_flat[col]
-        if np.isnan(f) or h > f + eps:
+        if np.isnan(f):
             floor_flat[col] = h
-        elif h >= f - eps:
+            votes_flat[col] = 1
+        elif h <= f + eps and h >= f - eps:
             floor_flat[col] = nu * f + (1.0 - nu) * h
+            votes_flat[col] = min(votes_flat[col] + 1, max(vote_cap, 1))
+        elif vote_cap == 0:
+            if h > f + eps:  # the paper: a higher surface replaces, a lower one is ignored
+                floor_flat[col] = h
+        else:  # another surface: one vote away, replaced when none is left
+            votes_flat[col] -= 1
+            if votes_flat[col] <= 0:
+                floor_flat[col] = h
+                votes_flat[col] = 1
     return used, rejected

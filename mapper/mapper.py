@@ -71,6 +71,7 @@ class FloorObstacleMapper:
         self._occ_level = p.occ_threshold_level
         self._og = np.full((p.nx, p.ny, p.nz), LEVEL_UNKNOWN, dtype=np.uint8)
         self._floor = np.full((p.nx, p.ny), np.nan)
+        self._floor_votes = np.zeros((p.nx, p.ny), dtype=np.int32)
         self._obstacle = np.full((p.nx, p.ny), np.nan)
         self._fog_types = np.full((p.nx, p.ny), CellType.UNKNOWN, dtype=np.int8)
         self._fog_heights = np.full((p.nx, p.ny), np.nan)
@@ -178,14 +179,18 @@ class FloorObstacleMapper:
         )
         floor_used, floor_rejected = update_floor(
             self._floor,
+            self._floor_votes,
             self._og,
             point_cell,
+            pts[:, 2],
             heights,
             self._occ_level,
             g.z_min_m,
             g.layer_m,
             p.eps_m,
             p.nu,
+            p.floor_vote_cap,
+            p.floor_vote_nonfloor,
         )
         update_fog_area(
             self._og,
@@ -279,6 +284,7 @@ class FloorObstacleMapper:
             return (0, 0)
         scroll_xy(self._og, sx, sy, LEVEL_UNKNOWN)
         scroll_xy(self._floor, sx, sy, np.nan)
+        scroll_xy(self._floor_votes, sx, sy, 0)
         scroll_xy(self._obstacle, sx, sy, np.nan)
         scroll_xy(self._fog_types, sx, sy, CellType.UNKNOWN)
         scroll_xy(self._fog_heights, sx, sy, np.nan)

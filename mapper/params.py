@@ -126,6 +126,8 @@ class MapperParams:
     clear_outside: bool = True
     zmatch_min_pairs: int = 30
     zmatch_max_shift_m: float = 0.08
+    floor_vote_cap: int = 0
+    floor_vote_nonfloor: bool = False
 
     def __post_init__(self) -> None:
         def check(name: str, kind: type, allowed: str, ok=lambda _: True) -> None:
@@ -167,6 +169,8 @@ class MapperParams:
             check(name, float, "a finite float >= 0 [m]", lambda v: math.isfinite(v) and v >= 0)
         check("max_range_m", float, "a float > 0 [m] (inf: no limit)", lambda v: v > 0)
         check("clear_outside", bool, "a bool")
+        check("floor_vote_cap", int, "an int >= 0 (0: the paper's eq. 9)", lambda v: v >= 0)
+        check("floor_vote_nonfloor", bool, "a bool")
         check(
             "zmatch_max_shift_m",
             float,
@@ -226,9 +230,9 @@ class MapperParams:
         values = {name: getattr(self, name) for name in fields}
         for name, value in changes.items():
             number = isinstance(value, numbers.Real) and not isinstance(value, bool)
-            if name in _COUNT_FIELDS and number and float(value).is_integer():
+            if name in _COUNT_FIELDS + ("floor_vote_cap",) and number and float(value).is_integer():
                 value = int(value)
-            if name == "clear_outside" and number and value in (0, 1):
+            if name in ("clear_outside", "floor_vote_nonfloor") and number and value in (0, 1):
                 value = bool(value)
             values[name] = value
         return MapperParams(**values)
