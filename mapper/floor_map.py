@@ -1,4 +1,4 @@
-"""2.5D floor height map: verification (eq. 8) and update (eq. 9), inside the affected area.
+"""2.5D floor height map: verification (eq. 8) and update (eq. 9, with votes), in the affected area.
 
 Invalid floor heights are stored as NaN (the paper's −∞). The cell of a height ``h`` in column
 ``(ix, iy)`` is layer ``floor((h - z_min) / layer)``; a height outside the grid's z range has no
@@ -11,6 +11,13 @@ height ``h`` whose cell passes eq. 7 (``OG(x, y, h) > p_occ``):
 - ``h > Floor + ε`` → ``h`` (a higher surface replaces the lower one);
 - ``h < Floor − ε`` → unchanged (lower surfaces are ignored);
 - otherwise → ``ν·Floor + (1 − ν)·h``.
+
+Beyond the paper, each stored height holds votes (`MapperParams.floor_vote_cap`): points
+within ``±ε`` add one (up to the cap), points of another surface — higher *or* lower — take one
+away, and that surface replaces the stored height only when no vote is left. The paper's rule
+(cap 0) lets a single stray point of a higher surface take a cell for good: noise carries a
+tread's points a few cm into the lower tread's last column, a rough top taken for a plane in
+one frame stays a floor. With votes, a cell holds the surface most of its points come from.
 
 Points are applied one after the other in input order (deterministic).
 """
@@ -67,7 +74,6 @@ def update_floor(
     votes: NDArray[np.int32],
     og: NDArray[np.uint8],
     point_cell: NDArray[np.int64],
-    points_z: NDArray[np.float64],
     floor_heights: NDArray[np.float64],
     occ_level: int,
     z_min: float,
@@ -75,7 +81,6 @@ def update_floor(
     eps: float,
     nu: float,
     vote_cap: int,
-    nonfloor_votes: bool,
 ) -> tuple[int, int]:
     """Eq. 9 for every inserted point with a finite floor height, with per-cell votes.
 
@@ -85,7 +90,6 @@ def update_floor(
             updated in place, meaningless where the floor is invalid.
         og: (nx, ny, nz) occupancy levels (already updated with this frame).
         point_cell: (N,) column index ``ix*ny + iy`` of each point, negative if dropped.
-        points_z: (N,) world z of each point [m].
         floor_heights: (N,) height ``h`` of each point's horizontal plane [m]; non-finite =
             not floor.
         occ_level: Occupied iff level > occ_level (eq. 7).
@@ -93,9 +97,8 @@ def update_floor(
         layer: Layer height [m].
         eps: Gate of eq. 9 [m].
         nu: Smoothing factor of eq. 9.
-        vote_cap: 0 = the paper's eq. 9; else the most votes a stored floor holds.
-        nonfloor_votes: Points that are not floor within ``eps`` of the stored floor vote
-            against it (only with ``vote_cap > 0``).
+        vote_cap: The most votes a stored floor height holds (`MapperParams.floor_vote_cap`);
+            0 = the paper's eq. 9.
 
     Returns:
         (floor points used, floor points rejected by eq. 7).
@@ -110,21 +113,15 @@ def update_floor(
     rejected = 0
     for i in range(point_cell.shape[0]):
         col = point_cell[i]
-        if col < 0:
-            continue
         h = floor_heights[i]
-        f = floor_flat[col]
-        if not np.isfinite(h):
-            if nonfloor_votes and vote_cap > 0 and abs(points_z[i] - f) <= eps:
-                votes_flat[col] -= 1  # NaN floor fails the test above
-                if votes_flat[col] <= 0:
-                    floor_flat[col] = np.nan
+        if col < 0 or not np.isfinite(h):
             continue
         k = _layer_of(h, z_min, layer, nz)
         if k < 0 or og_flat[col * nz + k] <= occ_level:
             rejected += 1
             continue
         used += 1
+        f = floor_flat[col]
         if np.isnan(f):
             floor_flat[col] = h
             votes_flat[col] = 1

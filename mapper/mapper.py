@@ -182,7 +182,6 @@ class FloorObstacleMapper:
             self._floor_votes,
             self._og,
             point_cell,
-            pts[:, 2],
             heights,
             self._occ_level,
             g.z_min_m,
@@ -190,7 +189,6 @@ class FloorObstacleMapper:
             p.eps_m,
             p.nu,
             p.floor_vote_cap,
-            p.floor_vote_nonfloor,
         )
         update_fog_area(
             self._og,
