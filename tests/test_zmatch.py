@@ -15,8 +15,21 @@ P = MapperParams()
 G = GridGeometry.from_params(P)
 
 
+def shift_numpy(residual, params):
+    """The plain numpy gated shift (as before numba) the compiled one must equal bit for bit."""
+    if residual.size == 0:
+        return ZMatch(0.0, 0, float("nan"), False)
+    kept = residual[np.abs(residual - np.median(residual)) <= params.eps_m]
+    if kept.size == 0:
+        return ZMatch(0.0, 0, float("nan"), False)
+    shift = float(np.median(kept))
+    rms = float(np.sqrt(np.mean((kept - shift) ** 2)))
+    accepted = kept.size >= params.zmatch_min_pairs and abs(shift) <= params.zmatch_max_shift_m
+    return ZMatch(shift, int(kept.size), rms, bool(accepted))
+
+
 def match_z_numpy(points_world, floor_heights, floor_map, geometry, params):
-    """The plain numpy gathering of pairs (as before numba) the compiled `match_z` must equal."""
+    """The plain numpy gathering of pairs and shift the compiled `match_z` must equal."""
     h = np.asarray(floor_heights, dtype=np.float64)
     idx, valid = geometry.cell_of(np.asarray(points_world, dtype=np.float64)[:, :2])
     valid &= np.isfinite(h)
@@ -24,7 +37,7 @@ def match_z_numpy(points_world, floor_heights, floor_map, geometry, params):
         return ZMatch(0.0, 0, float("nan"), False)
     stored = floor_map[idx[valid, 0], idx[valid, 1]]
     residual = stored - h[valid]
-    return shift_from_residuals(residual[np.isfinite(residual)], params)
+    return shift_numpy(residual[np.isfinite(residual)], params)
 
 
 def same_bits(a: ZMatch, b: ZMatch) -> bool:
@@ -47,7 +60,7 @@ def points_on(rng, n, x, y, h):
     return pts, np.full(n, h)
 
 
-def test_shift_is_least_squares_over_gated_pairs():
+def test_shift_is_the_median_of_the_gated_pairs():
     rng = np.random.default_rng(1)
     # ground points measured 13 mm low, step points 13 mm low, outliers 0.2 m high
     g_pts, g_h = points_on(rng, 200, (0.41, 1.19), (-0.39, 0.39), -0.013)
@@ -59,9 +72,25 @@ def test_shift_is_least_squares_over_gated_pairs():
     h[:250] += noise
     z = match_z(pts, h, floor_map(), G, P)
     assert z.pairs == 250  # outliers gated out
-    assert z.shift_m == pytest.approx(0.013 - noise.mean(), abs=1e-12)
-    assert z.rms_m == pytest.approx(noise.std(), abs=1e-12)
+    assert z.shift_m == pytest.approx(0.013 - np.median(noise), abs=1e-12)
+    assert z.rms_m == pytest.approx(np.sqrt(np.mean((noise - np.median(noise)) ** 2)), abs=1e-12)
     assert z.accepted
+
+
+def test_the_median_shift_ignores_a_skewed_tail_within_the_gate():
+    # 70 pairs agree on a residual of 2 mm, 30 lie 8 mm lower (cells the map holds low, still
+    # within eps of the median): the mean would be 2 - 0.3·8 = -0.4 mm, the median is 2 mm.
+    residual = np.concatenate([np.full(70, 0.002), np.full(30, -0.006)])
+    match = shift_from_residuals(residual, P)
+    assert match.shift_m == 0.002 and match.pairs == 100
+    assert match.rms_m == pytest.approx(np.sqrt(0.3 * 0.008**2), abs=1e-15)
+
+
+@pytest.mark.parametrize("size", [1, 2, 7, 8, 9, 127, 128, 129, 136, 1000, 4099, 20001])
+def test_compiled_shift_equals_numpy_bit_for_bit(size):
+    rng = np.random.default_rng(size)
+    residual = rng.normal(0.003, 0.004, size)
+    assert same_bits(shift_from_residuals(residual, P), shift_numpy(residual, P))
 
 
 def test_not_floor_and_unmapped_points_do_not_match():
