@@ -1,4 +1,4 @@
-"""2.5D floor height map: verification (eq. 8) and update (eq. 9), inside the affected area.
+"""2.5D floor height map: verification (eq. 8) and update (eq. 9, with votes), in the affected area.
 
 Invalid floor heights are stored as NaN (the paper's −∞). The cell of a height ``h`` in column
 ``(ix, iy)`` is layer ``floor((h - z_min) / layer)``; a height outside the grid's z range has no
@@ -11,6 +11,18 @@ height ``h`` whose cell passes eq. 7 (``OG(x, y, h) > p_occ``):
 - ``h > Floor + ε`` → ``h`` (a higher surface replaces the lower one);
 - ``h < Floor − ε`` → unchanged (lower surfaces are ignored);
 - otherwise → ``ν·Floor + (1 − ν)·h``.
+
+Beyond the paper, each stored height holds votes (`MapperParams.floor_vote_cap`): points
+within ``±ε`` add one (up to the cap), points of another surface — higher *or* lower — take one
+away, and that surface replaces the stored height only when no vote is left. The paper's rule
+(cap 0) lets a single stray point of a higher surface take a cell for good: noise carries a
+tread's points a few cm into the lower tread's last column, a rough top taken for a plane in
+one frame stays a floor. With votes, a cell holds the surface most of its points come from.
+
+Beyond the paper too, each frame gives a verdict on every stored floor it sees
+(`frame_verdicts`, `MapperParams.floor_frame_cap`): a rough top that one frame took for a plane
+is seen as no plane — points at its height that are not floor — by most other frames, and
+those frames remove it; a floor seen as a plane in most frames keeps its votes.
 
 Points are applied one after the other in input order (deterministic).
 """
@@ -64,6 +76,8 @@ def verify_floor(
 @numba.njit(cache=True)
 def update_floor(
     floor: NDArray[np.float64],
+    votes: NDArray[np.int32],
+    frame_votes: NDArray[np.int32],
     og: NDArray[np.uint8],
     point_cell: NDArray[np.int64],
     floor_heights: NDArray[np.float64],
@@ -72,11 +86,16 @@ def update_floor(
     layer: float,
     eps: float,
     nu: float,
+    vote_cap: int,
 ) -> tuple[int, int]:
-    """Eq. 9 for every inserted point with a finite floor height.
+    """Eq. 9 for every inserted point with a finite floor height, with per-cell votes.
 
     Args:
         floor: (nx, ny) floor heights [m], NaN = invalid; updated in place.
+        votes: (nx, ny) evidence for each stored floor height (see `MapperParams.floor_vote_cap`);
+            updated in place, meaningless where the floor is invalid.
+        frame_votes: (nx, ny) frame votes (`frame_verdicts`): set to 1 where a floor height
+            is stored anew.
         og: (nx, ny, nz) occupancy levels (already updated with this frame).
         point_cell: (N,) column index ``ix*ny + iy`` of each point, negative if dropped.
         floor_heights: (N,) height ``h`` of each point's horizontal plane [m]; non-finite =
@@ -86,6 +105,8 @@ def update_floor(
         layer: Layer height [m].
         eps: Gate of eq. 9 [m].
         nu: Smoothing factor of eq. 9.
+        vote_cap: The most votes a stored floor height holds (`MapperParams.floor_vote_cap`);
+            0 = the paper's eq. 9.
 
     Returns:
         (floor points used, floor points rejected by eq. 7).
@@ -95,6 +116,8 @@ def update_floor(
     # ``og_flat[col*nz + k]`` (C order), so no integer division per point.
     og_flat = og.reshape(-1)
     floor_flat = floor.reshape(-1)
+    votes_flat = votes.reshape(-1)
+    frames_flat = frame_votes.reshape(-1)
     used = 0
     rejected = 0
     for i in range(point_cell.shape[0]):
@@ -108,8 +131,81 @@ def update_floor(
             continue
         used += 1
         f = floor_flat[col]
-        if np.isnan(f) or h > f + eps:
+        if np.isnan(f):
             floor_flat[col] = h
-        elif h >= f - eps:
+            votes_flat[col] = 1
+            frames_flat[col] = 1
+        elif h <= f + eps and h >= f - eps:
             floor_flat[col] = nu * f + (1.0 - nu) * h
+            votes_flat[col] = min(votes_flat[col] + 1, max(vote_cap, 1))
+        elif vote_cap == 0:
+            if h > f + eps:  # the paper: a higher surface replaces, a lower one is ignored
+                floor_flat[col] = h
+        else:  # another surface: one vote away, replaced when none is left
+            votes_flat[col] -= 1
+            if votes_flat[col] <= 0:
+                floor_flat[col] = h
+                votes_flat[col] = 1
+                frames_flat[col] = 1
     return used, rejected
+
+
+@numba.njit(cache=True)
+def frame_verdicts(
+    floor: NDArray[np.float64],
+    frame_votes: NDArray[np.int32],
+    point_cell: NDArray[np.int64],
+    points_z: NDArray[np.float64],
+    floor_heights: NDArray[np.float64],
+    eps: float,
+    frame_cap: int,
+) -> int:
+    """One frame's verdict on every stored floor it sees (beyond the paper), before eq. 9.
+
+    In each column with a valid floor ``F`` the frame counts its floor points within ``±eps``
+    of ``F`` (for it) and its points that are not floor with ``F − eps <= z <= F`` (against it:
+    the surface is there but does not look like a plane; points above ``F`` are left out, as
+    a riser or a foot standing on the floor puts them there). A frame with more against than
+    for takes one of the column's frame votes away, and the floor is invalidated when none is
+    left; a frame with more for adds one, up to ``frame_cap``. A rough top that one frame took
+    for a plane is thus removed by the frames that see it rough.
+
+    Args:
+        floor: (nx, ny) floor heights [m], NaN = invalid; updated in place.
+        frame_votes: (nx, ny) frame votes of the stored floors; updated in place.
+        point_cell: (N,) column index ``ix*ny + iy`` of each point, negative if dropped.
+        points_z: (N,) world z of each point [m].
+        floor_heights: (N,) height ``h`` of each point's plane [m]; non-finite = not floor.
+        eps: Gate of eq. 9 [m].
+        frame_cap: Most frame votes a floor holds (`MapperParams.floor_frame_cap`); 0 = off.
+
+    Returns:
+        How many floor heights were invalidated.
+    """
+    if frame_cap == 0:
+        return 0
+    floor_flat = floor.reshape(-1)
+    votes_flat = frame_votes.reshape(-1)
+    support = np.zeros(floor_flat.shape[0], dtype=np.int32)
+    against = np.zeros(floor_flat.shape[0], dtype=np.int32)
+    for i in range(point_cell.shape[0]):
+        col = point_cell[i]
+        if col < 0:
+            continue
+        f = floor_flat[col]
+        h = floor_heights[i]
+        if np.isfinite(h):
+            if abs(h - f) <= eps:  # NaN floor: never
+                support[col] += 1
+        elif points_z[i] <= f and points_z[i] >= f - eps:
+            against[col] += 1
+    removed = 0
+    for col in range(floor_flat.shape[0]):
+        if against[col] > support[col]:
+            votes_flat[col] -= 1
+            if votes_flat[col] <= 0:
+                floor_flat[col] = np.nan
+                removed += 1
+        elif support[col] > 0:
+            votes_flat[col] = min(votes_flat[col] + 1, frame_cap)
+    return removed

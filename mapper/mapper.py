@@ -13,7 +13,7 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from mapper.errors import InvalidParameterError
-from mapper.floor_map import update_floor, verify_floor
+from mapper.floor_map import frame_verdicts, update_floor, verify_floor
 from mapper.fog import ceiling_map, update_fog_area
 from mapper.grid import (
     AffectedArea,
@@ -71,6 +71,8 @@ class FloorObstacleMapper:
         self._occ_level = p.occ_threshold_level
         self._og = np.full((p.nx, p.ny, p.nz), LEVEL_UNKNOWN, dtype=np.uint8)
         self._floor = np.full((p.nx, p.ny), np.nan)
+        self._floor_votes = np.zeros((p.nx, p.ny), dtype=np.int32)
+        self._floor_frame_votes = np.zeros((p.nx, p.ny), dtype=np.int32)
         self._obstacle = np.full((p.nx, p.ny), np.nan)
         self._fog_types = np.full((p.nx, p.ny), CellType.UNKNOWN, dtype=np.int8)
         self._fog_heights = np.full((p.nx, p.ny), np.nan)
@@ -176,8 +178,19 @@ class FloorObstacleMapper:
         verify_floor(
             self._floor, self._og, self._occ_level, g.z_min_m, g.layer_m, ix0, ix1, iy0, iy1
         )
+        frame_verdicts(
+            self._floor,
+            self._floor_frame_votes,
+            point_cell,
+            pts[:, 2],
+            heights,
+            p.eps_m,
+            p.floor_frame_cap,
+        )
         floor_used, floor_rejected = update_floor(
             self._floor,
+            self._floor_votes,
+            self._floor_frame_votes,
             self._og,
             point_cell,
             heights,
@@ -186,6 +199,7 @@ class FloorObstacleMapper:
             g.layer_m,
             p.eps_m,
             p.nu,
+            p.floor_vote_cap,
         )
         update_fog_area(
             self._og,
@@ -279,6 +293,8 @@ class FloorObstacleMapper:
             return (0, 0)
         scroll_xy(self._og, sx, sy, LEVEL_UNKNOWN)
         scroll_xy(self._floor, sx, sy, np.nan)
+        scroll_xy(self._floor_votes, sx, sy, 0)
+        scroll_xy(self._floor_frame_votes, sx, sy, 0)
         scroll_xy(self._obstacle, sx, sy, np.nan)
         scroll_xy(self._fog_types, sx, sy, CellType.UNKNOWN)
         scroll_xy(self._fog_heights, sx, sy, np.nan)

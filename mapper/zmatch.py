@@ -1,11 +1,15 @@
 """z-shift matching of new floor points against the floor map (paper Fig. 2 and Sec. IV).
 
-The shift ``s`` minimises ``Σ (Floor(x_i, y_i) − (h_i + s))²`` over the matched pairs: floor
-points (finite ``h``) whose column has a valid floor height. Gating keeps outliers from
-dominating: the residuals ``r_i = Floor − h_i`` are first centred on their median and only pairs
-within ``eps_m`` of it (the same surface, eq. 9's gate) are kept; the least-squares shift over
-them is their mean. Points on a surface the map does not hold yet (a new box) or on a wrongly
-segmented plane thus drop out.
+The matched pairs are the floor points (finite ``h``) whose column has a valid floor height,
+with residuals ``r_i = Floor(x_i, y_i) − h_i``. Gating keeps outliers out: the residuals are
+centred on their median and only pairs within ``eps_m`` of it (the same surface, eq. 9's gate)
+are kept. Points on a surface the map does not hold yet (a new box) or on a wrongly segmented
+plane thus drop out.
+
+The shift is the least-squares one over the kept pairs: their mean (computed in numba with
+numpy's pairwise summation, bit for bit). Their median was tried: over the stage replays of seeds
+1–8 it moves the rows but not the error (mean |error| 1.04 → 1.07 mm, the worst row 2.19 →
+2.41 mm), so the paper's estimator stays.
 
 What the caller does with the result (the paper's rule, see `frame_decision`): apply the shift
 when it is accepted (enough pairs, plausible size); otherwise keep the frame unshifted only if
@@ -82,10 +86,10 @@ def match_z(
     geometry: GridGeometry,
     params: MapperParams,
 ) -> ZMatch:
-    """Least-squares z shift of floor points onto ``floor_map`` (nx, ny) [m, NaN = invalid].
+    """The gated z shift of floor points onto ``floor_map`` (nx, ny) [m, NaN = invalid].
 
-    The pairs are gathered by a numba kernel; the median, gate and means stay numpy's (its
-    pairwise summation), so the result is bit for bit that of the plain numpy formulation.
+    Compiled (numba) throughout; the result is bit for bit that of the plain numpy formulation
+    (``np.median`` for the gate; means with numpy's pairwise summation).
     """
     h = real_array(floor_heights, "floor_heights")
     points = real_array(points_world, "points_world")
@@ -104,18 +108,87 @@ def match_z(
     return shift_from_residuals(residual, params)
 
 
-def shift_from_residuals(residual_m: NDArray[np.float64], params: MapperParams) -> ZMatch:
-    """The gated least-squares shift of the matched pairs' residuals ``Floor − h`` [m]."""
+@numba.njit(cache=True)
+def _block_sum(values, start, count):
+    """Sum of at most 128 values as numpy adds them: one by one below 8, else eight at once."""
+    if count < 8:
+        total = 0.0
+        for i in range(start, start + count):
+            total += values[i]
+        return total
+    r = values[start : start + 8].copy()
+    i = 8
+    end = count - count % 8
+    while i < end:
+        for j in range(8):
+            r[j] += values[start + i + j]
+        i += 8
+    total = ((r[0] + r[1]) + (r[2] + r[3])) + ((r[4] + r[5]) + (r[6] + r[7]))
+    for k in range(start + i, start + count):
+        total += values[k]
+    return total
+
+
+@numba.njit(cache=True)
+def _pairwise_sum(values):
+    """Sum of a contiguous float64 array by numpy's pairwise summation (numba), bit for bit.
+
+    The order of `np.add.reduce` (numpy's ``pairwise_sum``): blocks of at most 128 values by
+    `_block_sum`; a longer run split in two halves (the first a multiple of 8 long) summed
+    the same way. Walked with an explicit stack: numba's cache does not keep recursive
+    functions safely.
+    """
+    starts = np.empty(64, dtype=np.int64)
+    counts = np.empty(64, dtype=np.int64)
+    stages = np.empty(64, dtype=np.int64)
+    sums = np.empty(64)
+    starts[0], counts[0], stages[0] = 0, values.size, 0
+    top, done = 1, 0
+    while top > 0:
+        start, count = starts[top - 1], counts[top - 1]
+        if count <= 128:
+            sums[done] = _block_sum(values, start, count)
+            done += 1
+            top -= 1
+            continue
+        half = count // 2
+        half -= half % 8
+        stage = stages[top - 1]
+        stages[top - 1] = stage + 1
+        if stage < 2:  # push the first half, then the second
+            starts[top] = start if stage == 0 else start + half
+            counts[top] = half if stage == 0 else count - half
+            stages[top] = 0
+            top += 1
+        else:  # both halves summed: combine them
+            sums[done - 2] = sums[done - 2] + sums[done - 1]
+            done -= 1
+            top -= 1
+    return sums[0]
+
+
+@numba.njit(cache=True)
+def _gated_shift(residual_m, eps_m):
+    """(shift, pairs kept, rms) of the residuals ``Floor − h`` [m] (numba); see the module."""
     if residual_m.size == 0:
-        return ZMatch(0.0, 0, float("nan"), False)
-    centre = float(np.median(residual_m))
-    kept = residual_m[np.abs(residual_m - centre) <= params.eps_m]
+        return 0.0, 0, np.nan
+    centre = np.median(residual_m)
+    kept = residual_m[np.abs(residual_m - centre) <= eps_m]
     if kept.size == 0:  # an even count whose two middle residuals are more than 2·eps apart
-        return ZMatch(0.0, 0, float("nan"), False)
-    shift = float(np.mean(kept))
-    rms = float(np.sqrt(np.mean((kept - shift) ** 2)))
-    accepted = kept.size >= params.zmatch_min_pairs and abs(shift) <= params.zmatch_max_shift_m
-    return ZMatch(shift, int(kept.size), rms, bool(accepted))
+        return 0.0, 0, np.nan
+    shift = _pairwise_sum(kept) / kept.size
+    squares = (kept - shift) ** 2
+    return shift, kept.size, np.sqrt(_pairwise_sum(squares) / kept.size)
+
+
+def shift_from_residuals(residual_m: NDArray[np.float64], params: MapperParams) -> ZMatch:
+    """The gated shift of the matched pairs' residuals ``Floor − h`` [m] (compiled)."""
+    residual = real_array(residual_m, "residual_m")
+    if residual.ndim != 1:
+        raise InvalidInputError(f"residual_m must be one-dimensional, got shape {residual.shape}")
+    shift, pairs, rms = _gated_shift(np.ascontiguousarray(residual), float(params.eps_m))
+    accepted = pairs >= params.zmatch_min_pairs and abs(shift) <= params.zmatch_max_shift_m
+    return ZMatch(float(shift), int(pairs), float(rms), bool(accepted))
 
 
 def frame_decision(match: ZMatch, ground_plane_found: bool) -> ZDecision:

@@ -4,7 +4,7 @@ import numpy as np
 import pytest
 
 from mapper import MapperParams
-from mapper.floor_map import update_floor, verify_floor
+from mapper.floor_map import frame_verdicts, update_floor, verify_floor
 
 # The hand values below are for these thresholds (the defaults before tuning, see MapperParams).
 P = MapperParams(
@@ -24,11 +24,14 @@ def grids(nx=4, ny=3):
     return og, floor
 
 
-def run_update(floor, og, cols, heights):
+def run_update(floor, og, cols, heights, vote_cap=0, votes=None):
+    """Eq. 9 for points in cells ``cols``; ``vote_cap`` 0 = the paper's rule."""
     ny = og.shape[1]
     point_cell = np.array([ix * ny + iy for ix, iy in cols], dtype=np.int64)
     return update_floor(
         floor,
+        np.zeros(floor.shape, dtype=np.int32) if votes is None else votes,
+        np.zeros(floor.shape, dtype=np.int32),
         og,
         point_cell,
         np.asarray(heights, dtype=float),
@@ -37,6 +40,7 @@ def run_update(floor, og, cols, heights):
         L,
         P.eps_m,
         P.nu,
+        vote_cap,
     )
 
 
@@ -97,6 +101,8 @@ def test_not_floor_and_dropped_points_are_ignored():
     point_cell = np.array([-1, -2, 0], dtype=np.int64)
     used, rejected = update_floor(
         floor,
+        np.zeros(floor.shape, dtype=np.int32),
+        np.zeros(floor.shape, dtype=np.int32),
         og,
         point_cell,
         np.array([0.1, 0.1, np.nan]),
@@ -105,6 +111,7 @@ def test_not_floor_and_dropped_points_are_ignored():
         L,
         P.eps_m,
         P.nu,
+        64,
     )
     assert (used, rejected) == (0, 0)
     assert np.all(np.isnan(floor))
@@ -120,3 +127,105 @@ def test_points_apply_in_order():
     og2[:] = OCC
     run_update(floor2, og2, [(0, 0)] * 3, [0.05, 0.0, 0.01])
     assert floor2[0, 0] == pytest.approx(0.05)  # the lower surface never replaces the higher
+
+
+# ---------------------------------------------------------------- votes (beyond the paper)
+# eps 0.02 and nu 0.9 (P); a lower tread at 0.031 m, the next one at 0.061 m.
+LOW, HIGH = 0.031, 0.061
+
+
+def voted(heights, vote_cap):
+    """Floor height and votes of one cell after ``heights`` in order."""
+    og, floor = grids()
+    og[:] = OCC
+    votes = np.zeros(floor.shape, dtype=np.int32)
+    run_update(floor, og, [(0, 0)] * len(heights), heights, vote_cap, votes)
+    return floor[0, 0], int(votes[0, 0])
+
+
+def test_votes_a_stray_higher_point_does_not_take_the_cell():
+    # Five points of the lower tread, then one of the higher tread carried over by noise: the
+    # paper's rule (cap 0) takes the higher height for good, the votes keep the lower tread.
+    assert voted([LOW] * 5 + [HIGH], 0)[0] == HIGH
+    height, votes = voted([LOW] * 5 + [HIGH], 64)
+    assert height == pytest.approx(LOW, abs=1e-15)  # smoothing a height with itself
+    assert votes == 4
+
+
+def test_votes_another_surface_replaces_when_no_vote_is_left():
+    assert voted([LOW] * 3 + [HIGH] * 2, 64) == (pytest.approx(LOW, abs=1e-15), 1)
+    assert voted([LOW] * 3 + [HIGH] * 3, 64) == (HIGH, 1)
+    # the new surface then gathers votes like the old one: 0.9·HIGH + 0.1·HIGH
+    assert voted([LOW] * 3 + [HIGH] * 4, 64) == (pytest.approx(HIGH, abs=1e-15), 2)
+
+
+def test_votes_a_lower_surface_wins_back_a_cell_taken_by_a_stray_point():
+    # A stray higher point first (1 vote), then the lower tread: the paper ignores it.
+    assert voted([HIGH, LOW, LOW], 0)[0] == HIGH
+    assert voted([HIGH, LOW, LOW], 64) == (pytest.approx(LOW, abs=1e-15), 2)
+
+
+def test_votes_are_capped():
+    # Ten agreeing points hold only 4 votes with cap 4: four points of another surface win.
+    assert voted([LOW] * 10, 4)[1] == 4
+    assert voted([LOW] * 10 + [HIGH] * 3, 4)[0] == pytest.approx(LOW, abs=1e-15)
+    assert voted([LOW] * 10 + [HIGH] * 4, 4) == (HIGH, 1)
+    assert voted([LOW] * 10 + [HIGH] * 4, 64)[1] == 6
+
+
+def test_votes_within_eps_smooth_as_eq9():
+    height, votes = voted([0.10, 0.11, 0.085], 64)
+    assert height == pytest.approx(0.9 * (0.9 * 0.10 + 0.1 * 0.11) + 0.1 * 0.085, abs=1e-15)
+    assert votes == 3
+
+
+# ---------------------------------------------------------------- frame verdicts (beyond the paper)
+TOP = 0.20  # a stored floor at 0.20 m in column (0, 0)
+
+
+def verdict(frames, cap, frame_votes=1):
+    """Floor and frame votes of column (0, 0) after ``frames`` of (z, h) point lists."""
+    floor = np.full((2, 2), np.nan)
+    floor[0, 0] = TOP
+    votes = np.zeros((2, 2), dtype=np.int32)
+    votes[0, 0] = frame_votes
+    removed = 0
+    for points in frames:
+        z = np.array([p[0] for p in points], dtype=float)
+        h = np.array([p[1] for p in points], dtype=float)
+        cells = np.zeros(len(points), dtype=np.int64)
+        removed += frame_verdicts(floor, votes, cells, z, h, P.eps_m, cap)
+    return floor[0, 0], int(votes[0, 0]), removed
+
+
+ROUGH = [(TOP - 0.005, np.nan)] * 3  # no plane, at the floor's height
+PLANE = [(TOP + 0.001, TOP + 0.001)] * 2
+
+
+def test_frames_seeing_no_plane_remove_the_floor():
+    # Votes 1, then one rough frame: gone. With 3 votes it takes three.
+    assert np.isnan(verdict([ROUGH], 40)[0])
+    assert verdict([ROUGH] * 2, 40, frame_votes=3)[:2] == (TOP, 1)
+    height, _, removed = verdict([ROUGH] * 3, 40, frame_votes=3)
+    assert np.isnan(height) and removed == 1
+
+
+def test_frames_seeing_the_plane_add_votes_up_to_the_cap():
+    assert verdict([PLANE] * 10, 4)[:2] == (TOP, 4)
+    assert verdict([PLANE] * 10 + [ROUGH] * 3, 4)[:2] == (TOP, 1)
+    assert np.isnan(verdict([PLANE] * 10 + [ROUGH] * 4, 4)[0])
+
+
+def test_only_points_at_or_just_below_the_floor_count_against_it():
+    # Points above the floor (a riser, a foot) or more than eps below (a lower tread) and
+    # floor points of another height say nothing; the majority decides within one frame.
+    above = [(TOP + 0.002, np.nan)] * 5
+    below = [(TOP - P.eps_m - 0.001, np.nan)] * 5
+    other = [(0.10, 0.10)] * 5
+    assert verdict([above, below, other], 40)[:2] == (TOP, 1)
+    assert np.isnan(verdict([ROUGH + PLANE], 40)[0])  # 3 against 2
+    assert verdict([ROUGH[:2] + PLANE], 40)[:2] == (TOP, 2)  # 2 against 2: a tie is for it
+
+
+def test_no_frame_verdicts_with_cap_zero():
+    assert verdict([ROUGH] * 5, 0) == (TOP, 1, 0)
