@@ -12,9 +12,12 @@ does) of
 Frame sets:
 
 - ``stage``: the stage scenario's own frames — its recording (``fogsim record stage``, made
-  once into ``--recordings``) replayed through the pipeline (segmentation, z matching), and the
-  points, floor heights and sensor origin it hands ``FloorObstacleMapper.update`` captured;
-  at the scenario's 88 × 72 and at 176 × 144 (``--set camera.width=176 ...``).
+  once into ``--recordings``, named with the recording format version so that a recording of
+  an older format is made again, not loaded) replayed through the pipeline (segmentation, z
+  matching), and the points, floor heights and sensor origin it hands
+  ``FloorObstacleMapper.update`` captured; at the scenario's 88 × 72 and at 176 × 144
+  (``--set camera.width=176 ...``). ``--stage-files`` takes existing recordings instead (e.g.
+  ``fogsim record stage --seed N``), one frame set per file at its own resolution.
 - ``edge`` / ``centre`` (`mapper.synthetic`): a ground plane, two boxes and a wall 3.2 m
   ahead, seen from 0.70 m (above the grid's 0.58 m top) pitched down 22°, 47° × 39° field of
   view; from the grid's -x edge (every ray ends inside the 4 m grid at 1–3.5 m) or from its
@@ -27,7 +30,7 @@ bench runs itself once per codegen in a child process (generic with its own numb
 prints both, with ``os.getloadavg()`` before and after each frame set.
 
 Run: ``.venv/bin/python bench/bench_mapper.py [--frames 200] [--sets stage edge centre]
-[--codegen both|host|generic]``.
+[--codegen both|host|generic] [--stage-files REC.npz ...]``.
 """
 
 from __future__ import annotations
@@ -50,7 +53,7 @@ from numpy.typing import NDArray
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 from fogsim.config.params import resolve_params
-from fogsim.data.recording import load_recording
+from fogsim.data.recording import FORMAT_VERSION, load_recording
 from fogsim.mapping.pipeline import Pipeline
 from mapper import AveragingMap, FloorObstacleMapper, MapperParams, PinholeIntrinsics
 from mapper.synthetic import Box, camera_rays_world, cast_frame
@@ -134,8 +137,12 @@ def synthetic_frames(scene: str, width: int, height: int, count: int, seed: int 
 
 
 def stage_recording(directory: Path, width: int, height: int) -> Path:
-    """The stage scenario recorded at ``width × height`` (made with the CLI on first use)."""
-    path = directory / f"stage-{width}x{height}.npz"
+    """The stage scenario recorded at ``width × height`` (made with the CLI on first use).
+
+    The file name carries the recording format version: a recording made by an older fogsim
+    does not load (``RecordingError``), so it is recorded again beside it instead.
+    """
+    path = directory / f"stage-{width}x{height}-v{FORMAT_VERSION}.npz"
     if not path.is_file():
         directory.mkdir(parents=True, exist_ok=True)
         command = [sys.executable, "-m", "fogsim", "record", "stage", "--out", str(path)]
@@ -239,6 +246,10 @@ def measure(args: argparse.Namespace, codegen: str) -> list[Row]:
     """All requested frame sets in this process."""
     rows = []
     for name in args.sets:
+        if name == "stage" and args.stage_files:
+            for path in args.stage_files:
+                rows += time_interleaved(stage_frames(Path(path), args.frames), args.block, codegen)
+            continue
         for width, height in RESOLUTIONS:
             if name == "stage":
                 path = stage_recording(Path(args.recordings), width, height)
@@ -259,6 +270,8 @@ def run_child(args: argparse.Namespace, codegen: str, cache_dir: Path) -> list[R
         env.pop("NUMBA_CPU_NAME", None)
     command = [sys.executable, __file__, "--child", codegen, "--frames", str(args.frames)]
     command += ["--block", str(args.block), "--recordings", args.recordings, "--sets", *args.sets]
+    if args.stage_files:
+        command += ["--stage-files", *args.stage_files]
     out = subprocess.run(command, env=env, check=True, capture_output=True, text=True).stdout
     rows = []
     for line in out.splitlines():
@@ -314,6 +327,12 @@ def main() -> None:
         "--recordings",
         default=str(Path(tempfile.gettempdir()) / "fogsim-bench"),
         help="where the stage recordings are kept (made on first use)",
+    )
+    parser.add_argument(
+        "--stage-files",
+        nargs="+",
+        default=[],
+        help="existing stage recordings to take the stage frames from (instead of recording)",
     )
     parser.add_argument("--child", choices=["host", "generic"], help=argparse.SUPPRESS)
     args = parser.parse_args()

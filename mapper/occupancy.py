@@ -105,6 +105,17 @@ def _floor_int(v: float) -> int:
 
 
 @numba.njit(cache=True, inline="always")
+def _clamped_cell(v: float, n: int) -> int:
+    """``min(max(floor(v), 0), n - 1)`` for finite ``v``: the cell of a grid coordinate, clamped.
+
+    Clamped as a float, then truncated (the same cell: truncation and ``floor`` differ only
+    below 0, clamped to 0 either way) — ``minsd``/``maxsd`` where integer compares of a floor
+    compile to branches.
+    """
+    return int(min(max(v, 0.0), n - 1.0))
+
+
+@numba.njit(cache=True, inline="always")
 def grid_point(x, y, z, origin_x, origin_y, z_min, cell, layer, nx, ny, nz):
     """A world point [m] in grid units and its cell (numba, for kernels on the same grid).
 
@@ -164,9 +175,7 @@ def _slab_enter(t0: float, s: float, d: float, inv_d: float, upper: float) -> fl
     if d != 0.0:
         ta = (0.0 - s) * inv_d
         tb = (upper - s) * inv_d
-        if ta > tb:
-            ta, tb = tb, ta
-        return max(t0, ta)
+        return max(t0, min(ta, tb))
     if s < 0.0 or s > upper:
         return 2.0  # parallel to this slab and outside it: cannot happen for an inside end
     return t0
@@ -202,15 +211,15 @@ def _clip_ray(ox, oy, oz, gx, gy, gz, ix, iy, iz, nx, ny, nz, free_margin, lengt
     if walk and stop_cleared:
         t_stop = 1.0 - free_margin / length_m
         walk = t_stop > t0
-        ex = min(max(_floor_int(ox + t_stop * dx), 0), nx - 1)
-        ey = min(max(_floor_int(oy + t_stop * dy), 0), ny - 1)
-        ez = min(max(_floor_int(oz + t_stop * dz), 0), nz - 1)
+        ex = _clamped_cell(ox + t_stop * dx, nx)
+        ey = _clamped_cell(oy + t_stop * dy, ny)
+        ez = _clamped_cell(oz + t_stop * dz, nz)
     sx = ox + t0 * dx
     sy = oy + t0 * dy
     sz = oz + t0 * dz
-    cx = min(max(_floor_int(sx), 0), nx - 1)
-    cy = min(max(_floor_int(sy), 0), ny - 1)
-    cz = min(max(_floor_int(sz), 0), nz - 1)
+    cx = _clamped_cell(sx, nx)
+    cy = _clamped_cell(sy, ny)
+    cz = _clamped_cell(sz, nz)
     inv_d = (inv_dx, inv_dy, inv_dz)
     return walk, sx, sy, sz, dx, dy, dz, inv_d, cx, cy, cz, ex, ey, ez, stop_cleared
 
@@ -221,9 +230,7 @@ def _slab_clip(t0: float, t1: float, s: float, d: float, inv_d: float, upper: fl
     if d != 0.0:
         ta = (0.0 - s) * inv_d
         tb = (upper - s) * inv_d
-        if ta > tb:
-            ta, tb = tb, ta
-        return max(t0, ta), min(t1, tb)
+        return max(t0, min(ta, tb)), min(t1, max(ta, tb))
     if s < 0.0 or s > upper:
         return 2.0, -1.0  # parallel to this slab and outside it: the segment misses the box
     return t0, t1
@@ -257,12 +264,12 @@ def _clip_ray_through(ox, oy, oz, gx, gy, gz, nx, ny, nz, t_limit):
     sx = ox + t0 * dx
     sy = oy + t0 * dy
     sz = oz + t0 * dz
-    cx = min(max(_floor_int(sx), 0), nx - 1)
-    cy = min(max(_floor_int(sy), 0), ny - 1)
-    cz = min(max(_floor_int(sz), 0), nz - 1)
-    ex = min(max(_floor_int(ox + t1 * dx), 0), nx - 1)
-    ey = min(max(_floor_int(oy + t1 * dy), 0), ny - 1)
-    ez = min(max(_floor_int(oz + t1 * dz), 0), nz - 1)
+    cx = _clamped_cell(sx, nx)
+    cy = _clamped_cell(sy, ny)
+    cz = _clamped_cell(sz, nz)
+    ex = _clamped_cell(ox + t1 * dx, nx)
+    ey = _clamped_cell(oy + t1 * dy, ny)
+    ez = _clamped_cell(oz + t1 * dz, nz)
     inv_d = (inv_dx, inv_dy, inv_dz)
     return walk, sx, sy, sz, dx, dy, dz, inv_d, cx, cy, cz, ex, ey, ez, True
 
@@ -629,7 +636,12 @@ def _walk_columns(miss_cols, range_masks, c, z_entry, axis_x, axis_y, z_line, z_
     rem_x, tmx, tdx, dcol_x = axis_x
     rem_y, tmy, tdy, dcol_y = axis_y
     sz, dz = z_line
-    z_lo, z_hi = z_range
+    # Clamped as floats, then truncated: the layer of truncating and then clamping the integer
+    # (int() truncates, floor() rounds down: they differ only below 0, where the clamp to
+    # z_lo >= 0 makes both 0), but minsd/maxsd instead of the integer compares LLVM compiles to
+    # branches in this loop (the stage's insert 8 % faster, host and generic codegen).
+    z_lo = float(z_range[0])
+    z_hi = float(z_range[1])
     while rem_x > 0 and rem_y > 0:
         if tmx <= tmy:
             t_exit = tmx
@@ -641,10 +653,8 @@ def _walk_columns(miss_cols, range_masks, c, z_entry, axis_x, axis_y, z_line, z_
             tmy += tdy
             rem_y -= 1
             step = dcol_y
-        # int() truncates, floor() rounds down: they differ only below 0, where the clamp to
-        # z_lo >= 0 makes both 0 (truncation is the cheaper instruction). The indices are
-        # non-negative: unsigned, so numba adds no negative-index wraparound.
-        z_exit = min(max(int(sz + t_exit * dz), z_lo), z_hi)
+        # The indices are non-negative: unsigned, so numba adds no negative-index wraparound.
+        z_exit = int(min(max(sz + t_exit * dz, z_lo), z_hi))
         miss_cols[np.uint64(c)] |= range_masks[np.uint64(z_entry), np.uint64(z_exit)]
         z_entry = z_exit
         c += step
@@ -653,7 +663,7 @@ def _walk_columns(miss_cols, range_masks, c, z_entry, axis_x, axis_y, z_line, z_
     else:
         t_exit, t_step, rem, step = tmy, tdy, rem_y, dcol_y
     for _ in range(rem):
-        z_exit = min(max(int(sz + t_exit * dz), z_lo), z_hi)
+        z_exit = int(min(max(sz + t_exit * dz, z_lo), z_hi))
         miss_cols[np.uint64(c)] |= range_masks[np.uint64(z_entry), np.uint64(z_exit)]
         z_entry = z_exit
         c += step

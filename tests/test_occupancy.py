@@ -10,6 +10,7 @@ from mapper.errors import InvalidParameterError
 from mapper.occupancy import (
     NONFINITE,
     OUTSIDE,
+    _clamped_cell,
     bayes_update,
     grid_point,
     lookup_tables,
@@ -64,6 +65,24 @@ def test_grid_point_cells_by_hand(point, expected):
     grid units, also below zero (a point just outside the low faces is outside)."""
     status, _, _, _, ix, iy, iz = grid_point(*point, -2.0, -2.0, -1.0, 0.25, 0.5, 16, 16, 4)
     assert (status, ix, iy, iz) == expected
+
+
+@pytest.mark.parametrize(
+    ("v", "cell"),
+    [
+        (-3.5, 0),  # below the grid: the first cell
+        (-0.25, 0),  # truncation would give 0 too, floor -1: clamped either way
+        (0.0, 0),
+        (2.999, 2),
+        (3.0, 3),  # the last cell's low face
+        (3.5, 3),
+        (4.0, 3),  # the grid's far face: clamped into the last cell
+        (1e20, 3),  # beyond int64: clamped before the conversion, no overflow
+    ],
+)
+def test_clamped_cell_by_hand(v, cell):
+    """Entry, exit and stop cells of a 4-cell axis: floor of the grid unit, clamped to 0..3."""
+    assert _clamped_cell(v, 4) == cell
 
 
 def test_bayes_update_matches_eq6():
