@@ -14,8 +14,9 @@ average (``os.getloadavg``, 2 cores) noted before and after each measurement:
 - ``teardown``: of ``run``, the time from ``main`` returning to the process's exit (interpreter
   finalisation, freed GL contexts);
 - ``replay`` (``--replay FILE``): ``fogsim run --replay FILE --out TMP --quiet``, pictures on;
-- ``cold`` (``--cold N``, N repeats): ``run`` on a fresh machine: ``NUMBA_CACHE_DIR`` and ``FOGSIM_CACHE`` empty
-  folders (numba compiles every kernel, the robot's meshes are converted, the scene compiled);
+- ``cold`` (``--cold N``, N repeats): ``run`` on a fresh machine: ``NUMBA_CACHE_DIR`` and
+  ``FOGSIM_CACHE`` empty folders (numba compiles every kernel, the robot's meshes are
+  converted, the scene compiled);
 - ``--parts``: the run's stages one after the other in this process (imports in a child):
   scene set-up, simulation alone, pipeline + scoring on the simulated frames, pictures.
 """

@@ -11,7 +11,7 @@ from __future__ import annotations
 import dataclasses
 import os
 import time
-from collections.abc import Iterable, Iterator, Mapping
+from collections.abc import Callable, Iterable, Mapping
 from contextlib import ExitStack
 from dataclasses import dataclass
 from pathlib import Path
@@ -37,7 +37,7 @@ from fogsim.mapping.pipeline import FrameCallback, FrameTiming, Pipeline
 from fogsim.robot import load_description
 from fogsim.run.run_folder import RunFolder
 from fogsim.run.warmup import warm_up_kernels
-from fogsim.sim.simulation import Simulation
+from fogsim.sim.background import BackgroundSimulation
 from fogsim.viz.pictures import RunVideoWriter, write_pictures
 from fogsim.viz.rerun_log import RerunLogger
 from fogsim.world.truth import TruthParams
@@ -228,15 +228,15 @@ class _FrameSource:
     """Where a run's frames come from.
 
     Attributes:
-        frames: The frames (a generator for a simulation).
+        frames: The frames (a :class:`BackgroundSimulation` for a simulation).
         truth_at: Ground truth at a time [s]; None for real data.
-        frame_count: Frames the run will take.
+        frame_count: Frames the run will take (a simulation's waits for its set-up).
         kind: ``simulation`` or ``replay``.
     """
 
     frames: Iterable[Frame]
     truth_at: TruthProvider | None
-    frame_count: int
+    frame_count: Callable[[], int]
     kind: Source
 
 
@@ -245,25 +245,29 @@ def _frame_source(
     replay: Recording | None,
     depth_backend: str,
     max_frames: int | None,
+    cleanup: ExitStack,
 ) -> _FrameSource:
-    """The recording's frames, or a simulation of the scenario; cut after ``max_frames``."""
-    frames: Iterable[Frame]
+    """The recording's frames, or a simulation of the scenario; cut after ``max_frames``.
+
+    A simulation starts on its own thread at once (set-up included) and is stopped by
+    ``cleanup``; its frames are mapped while the next ones are simulated.
+    """
     if replay is not None:
-        frames = replay.frames
-        truth_at = replay.truth_at if replay.has_truth else None
-        count = len(replay.frames)
-        kind: Source = "replay"
-    elif scenario is not None:
-        simulation = Simulation(scenario, depth_backend=depth_backend)
-        frames = simulation.frames()
-        truth_at = simulation.truth_at
-        count = len(simulation.trajectory.times_s)
-        kind = "simulation"
-    else:
+        count = len(replay.frames) if max_frames is None else min(max_frames, len(replay.frames))
+        return _FrameSource(
+            replay.frames[:count],
+            replay.truth_at if replay.has_truth else None,
+            lambda: count,
+            "replay",
+        )
+    if scenario is None:
         raise FogsimError("a run needs a scenario to simulate or a recording to replay")
-    if max_frames is not None and count > max_frames:
-        frames, count = _take(frames, max_frames), max_frames
-    return _FrameSource(frames, truth_at, count, kind)
+    simulation = cleanup.enter_context(
+        BackgroundSimulation(scenario, depth_backend=depth_backend, max_frames=max_frames)
+    )
+    return _FrameSource(
+        simulation, simulation.truth_at, lambda: simulation.frame_count, "simulation"
+    )
 
 
 def run_scenario(
@@ -345,16 +349,19 @@ def _run_and_write(
     start: float,
 ) -> Report:
     """Run the frames and write the results into ``out`` (None: write nothing)."""
-    source = _frame_source(scenario, options.replay, options.depth_backend, options.max_frames)
     callbacks: list[FrameCallback] = []
     writer = None
     with ExitStack() as cleanup:
+        source = _frame_source(
+            scenario, options.replay, options.depth_backend, options.max_frames, cleanup
+        )
         if options.progress:
             # Compiled (or loaded) now, saying so when numba's cache is cold, not in frame 1:
             # the bar's rate then measures frames only.
             warm_up_kernels(params)
             name = scenario.name if scenario is not None else "run"
-            bar = cleanup.enter_context(tqdm(total=source.frame_count, unit="frame", desc=name))
+            total = source.frame_count()
+            bar = cleanup.enter_context(tqdm(total=total, unit="frame", desc=name))
             callbacks.append(lambda frame, pipeline: bar.update(1))
         if options.video and out is not None:
             if scenario is None:
@@ -408,11 +415,3 @@ def _all_of(callbacks: list[FrameCallback]) -> FrameCallback:
             callback(frame, pipeline)
 
     return call
-
-
-def _take(frames: Iterable[Frame], count: int) -> Iterator[Frame]:
-    """The first ``count`` frames (stops the simulation there)."""
-    for i, frame in enumerate(frames):
-        if i >= count:
-            return
-        yield frame
