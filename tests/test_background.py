@@ -15,7 +15,7 @@ from fogsim.config import load_scenario
 from fogsim.data.recording import Recording
 from fogsim.errors import FogsimError
 from fogsim.run.runner import run_scenario
-from fogsim.sim import background, simulation
+from fogsim.sim import simulation
 from fogsim.sim.background import AHEAD_FRAMES, BackgroundSimulation
 from fogsim.sim.simulation import Simulation
 
@@ -39,7 +39,7 @@ def simulation_threads() -> list[threading.Thread]:
 
 
 def test_same_frames_bit_for_bit_as_the_simulation_in_line(scenario, inline_frames):
-    with BackgroundSimulation(scenario, max_frames=FRAMES) as source:
+    with BackgroundSimulation(lambda: Simulation(scenario), max_frames=FRAMES) as source:
         assert source.frame_count == FRAMES
         assert_frames_identical(inline_frames, list(source))
     assert not simulation_threads()
@@ -62,7 +62,7 @@ def test_same_maps_bit_for_bit_with_and_without_overlap(scenario, inline_frames,
 
 
 def test_runs_at_most_ahead_frames_ahead_and_stops_when_closed(scenario):
-    source = BackgroundSimulation(scenario, max_frames=FRAMES)
+    source = BackgroundSimulation(lambda: Simulation(scenario), max_frames=FRAMES)
     deadline = time.monotonic() + 60.0
     while source._queue.qsize() < AHEAD_FRAMES and time.monotonic() < deadline:
         time.sleep(0.05)
@@ -84,7 +84,7 @@ def test_an_error_in_a_frame_is_raised_with_its_message(scenario, monkeypatch):
             yield frame
 
     monkeypatch.setattr(simulation.Simulation, "frames", failing_frames)
-    with BackgroundSimulation(scenario, max_frames=FRAMES) as source:
+    with BackgroundSimulation(lambda: Simulation(scenario), max_frames=FRAMES) as source:
         seen = []
         with pytest.raises(FogsimError, match="frame 3: the head camera fell off") as raised:
             seen.extend(frame.index for frame in source)
@@ -97,8 +97,8 @@ def test_an_error_in_the_set_up_is_raised_by_frame_count_and_iteration(scenario,
     def failing_init(self, scenario, *, depth_backend="renderer"):
         raise FogsimError("robot model 'r2d2' not found")
 
-    monkeypatch.setattr(background.Simulation, "__init__", failing_init)
-    source = BackgroundSimulation(scenario)
+    monkeypatch.setattr(simulation.Simulation, "__init__", failing_init)
+    source = BackgroundSimulation(lambda: Simulation(scenario))
     with pytest.raises(FogsimError, match="r2d2"):
         source.frame_count  # noqa: B018 (the property raises)
     with pytest.raises(FogsimError, match="r2d2"):

@@ -38,6 +38,7 @@ from fogsim.robot import load_description
 from fogsim.run.run_folder import RunFolder
 from fogsim.run.warmup import warm_up_kernels
 from fogsim.sim.background import BackgroundSimulation
+from fogsim.sim.simulation import Simulation
 from fogsim.viz.pictures import RunVideoWriter, write_pictures
 from fogsim.viz.rerun_log import RerunLogger
 from fogsim.world.truth import TruthParams
@@ -263,7 +264,9 @@ def _frame_source(
     if scenario is None:
         raise FogsimError("a run needs a scenario to simulate or a recording to replay")
     simulation = cleanup.enter_context(
-        BackgroundSimulation(scenario, depth_backend=depth_backend, max_frames=max_frames)
+        BackgroundSimulation(
+            lambda: Simulation(scenario, depth_backend=depth_backend), max_frames=max_frames
+        )
     )
     return _FrameSource(
         simulation, simulation.truth_at, lambda: simulation.frame_count, "simulation"

@@ -21,17 +21,15 @@ the renderer; the thread is a daemon, so a process that ends without closing is 
 
 from __future__ import annotations
 
-import functools
 import itertools
 import queue
 import threading
-from collections.abc import Iterator
+from collections.abc import Callable, Iterator
 from concurrent.futures import Future
 from dataclasses import dataclass
+from typing import Protocol
 
-from fogsim.config import Scenario
 from fogsim.data.frame import Frame
-from fogsim.sim.simulation import Simulation
 from fogsim.world import SceneTruth
 
 AHEAD_FRAMES = 4
@@ -41,6 +39,27 @@ to bound the memory (a stage frame is ~30 KB) and the work thrown away when a ru
 
 _POLL_S = 0.05
 """How often a simulation thread blocked on a full queue checks whether it should stop [s]."""
+
+
+class FrameSimulation(Protocol):
+    """What :class:`BackgroundSimulation` uses of a :class:`~fogsim.sim.simulation.Simulation`."""
+
+    @property
+    def frame_count(self) -> int:
+        """Frames :meth:`frames` yields."""
+        ...
+
+    def frames(self) -> Iterator[Frame]:
+        """The frames in order."""
+        ...
+
+    def truth_at(self, time_s: float) -> SceneTruth:
+        """Ground truth at ``time_s``; called from other threads (a function of the scenario)."""
+        ...
+
+    def close(self) -> None:
+        """Free what the simulation holds (its renderer)."""
+        ...
 
 
 @dataclass(frozen=True)
@@ -55,26 +74,20 @@ _END = object()
 
 
 class BackgroundSimulation:
-    """The frames of a scenario's simulation, made on a second thread.
+    """The frames of a simulation, made on a second thread.
 
     Args:
-        scenario: The scenario to simulate.
-        depth_backend: ``renderer`` or ``raycast`` (:class:`Simulation`).
-        max_frames: Stop after this many frames; None = the whole route.
-
-    Attributes:
-        scenario: The scenario.
-        truth_at: The world's ground truth at a time [s] (:meth:`Simulation.truth_at`).
+        make_simulation: Builds the simulation (called on the simulation thread), e.g.
+            ``lambda: Simulation(scenario)``.
+        max_frames: Stop after this many frames; None = all of them.
     """
 
     def __init__(
-        self, scenario: Scenario, *, depth_backend: str = "renderer", max_frames: int | None = None
+        self, make_simulation: Callable[[], FrameSimulation], *, max_frames: int | None = None
     ) -> None:
-        self.scenario = scenario
-        self.truth_at = functools.partial(SceneTruth.from_scenario, scenario)
-        self._depth_backend = depth_backend
+        self._make_simulation = make_simulation
         self._max_frames = max_frames
-        self._frame_count: Future[int] = Future()
+        self._simulation: Future[FrameSimulation] = Future()
         self._queue: queue.Queue[object] = queue.Queue(maxsize=AHEAD_FRAMES)
         self._stop = threading.Event()
         self._thread = threading.Thread(target=self._run, name="fogsim-simulation", daemon=True)
@@ -83,7 +96,12 @@ class BackgroundSimulation:
     @property
     def frame_count(self) -> int:
         """Frames the iteration yields (waits for the set-up; raises its error)."""
-        return self._frame_count.result()
+        count = self._simulation.result().frame_count
+        return count if self._max_frames is None else min(count, self._max_frames)
+
+    def truth_at(self, time_s: float) -> SceneTruth:
+        """The simulation's ground truth at ``time_s`` [s] (waits for the set-up)."""
+        return self._simulation.result().truth_at(time_s)
 
     def __iter__(self) -> Iterator[Frame]:
         """The frames in order; raises the simulation thread's exception where it happened."""
@@ -114,17 +132,14 @@ class BackgroundSimulation:
 
     def _run(self) -> None:
         try:
-            simulation = Simulation(self.scenario, depth_backend=self._depth_backend)
+            simulation = self._make_simulation()
         except BaseException as error:
-            self._frame_count.set_exception(error)
+            self._simulation.set_exception(error)
             self._put(_Failed(error))
             return
+        self._simulation.set_result(simulation)
         try:
-            count = simulation.frame_count
-            if self._max_frames is not None:
-                count = min(count, self._max_frames)
-            self._frame_count.set_result(count)
-            for frame in itertools.islice(simulation.frames(), count):
+            for frame in itertools.islice(simulation.frames(), self._max_frames):
                 if not self._put(frame):
                     return
             self._put(_END)
