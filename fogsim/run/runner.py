@@ -10,6 +10,7 @@ from __future__ import annotations
 
 import dataclasses
 import os
+import sys
 import time
 from collections.abc import Callable, Iterable, Mapping
 from contextlib import ExitStack
@@ -298,9 +299,9 @@ def run_scenario(
         replay: A Recording to feed instead of simulating (no MuJoCo).
         pictures: Write the PNGs.
         video: Write ``run.mp4`` (camera image beside the growing map).
-        progress: Show a tqdm progress bar, after compiling the kernels
-            (:func:`~fogsim.run.warmup.warm_up_kernels`: a message on standard error when
-            numba's cache is cold).
+        progress: Show a tqdm progress bar. Either way the kernels are compiled before the
+            first frame (:func:`~fogsim.run.warmup.warm_up_kernels`; with ``progress`` a
+            message on standard error when numba's cache is cold).
         max_frames: Stop after this many frames (the suite's quick mode).
         depth_backend: Simulation depth backend (``renderer`` or ``raycast``).
         mcap: Also write every frame's FOG and robot pose as a rosbag2 bag in MCAP storage
@@ -358,10 +359,11 @@ def _run_and_write(
         source = _frame_source(
             scenario, options.replay, options.depth_backend, options.max_frames, cleanup
         )
+        # Compiled (or loaded) now, while the simulation sets up, not in frame 1 (in two
+        # processes when numba's cache is cold, saying so with the bar): the bar's rate then
+        # measures frames only.
+        warm_up_kernels(params, sys.stderr if options.progress else None)
         if options.progress:
-            # Compiled (or loaded) now, saying so when numba's cache is cold, not in frame 1:
-            # the bar's rate then measures frames only.
-            warm_up_kernels(params)
             name = scenario.name if scenario is not None else "run"
             total = source.frame_count()
             bar = cleanup.enter_context(tqdm(total=total, unit="frame", desc=name))
