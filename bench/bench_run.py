@@ -2,7 +2,7 @@
 
 Usage:
     .venv/bin/python bench/bench_run.py [SCENARIO] [--repeats N] [--replay FILE] [--cold N]
-        [--parts]
+        [--parts] [--overlap N] [--no-commands]
 
 Every figure is the median of N repeats (all of them printed), each command a fresh
 ``python -m fogsim`` process run from this tree (``PYTHONPATH`` = the tree), with the load
@@ -17,6 +17,10 @@ average (``os.getloadavg``, 2 cores) noted before and after each measurement:
 - ``cold`` (``--cold N``, N repeats): ``run`` on a fresh machine: ``NUMBA_CACHE_DIR`` and
   ``FOGSIM_CACHE`` empty folders (numba compiles every kernel, the robot's meshes are
   converted, the scene compiled);
+- ``--overlap N``: in this process, interleaved N times (so the load hits both alike), the
+  frame loop of a run (simulation + pipeline + scoring, no set-up, no pictures) with the
+  simulation on its own thread (:class:`~fogsim.sim.background.BackgroundSimulation`) and in
+  line (frames from :meth:`Simulation.frames` fed as they come);
 - ``--parts``: the run's stages one after the other in this process (imports in a child):
   scene set-up, simulation alone, pipeline + scoring on the simulated frames, pictures.
 """
@@ -130,6 +134,36 @@ def parts(scenario_name: str, n: int, env: dict[str, str]) -> None:
     print(f"  {'':<24} {note} before, {load_note()} after")
 
 
+def overlap(scenario_name: str, n: int) -> None:
+    """The frame loop with the simulation on its own thread against in line, interleaved."""
+    from fogsim.config import load_scenario, resolve_params
+    from fogsim.run.runner import run_frames
+    from fogsim.run.warmup import warm_up_kernels
+    from fogsim.sim.background import BackgroundSimulation
+    from fogsim.sim.simulation import Simulation
+
+    scenario = load_scenario(scenario_name)
+    warm_up_kernels(resolve_params(scenario), stream=None)
+    rows: dict[str, list[float]] = {"frames in line": [], "frames overlapped": []}
+    note = load_note()
+    for _ in range(n):
+        with Simulation(scenario) as simulation:
+            start = time.perf_counter()
+            run_frames(simulation.frames(), simulation.truth_at, scenario)
+            rows["frames in line"].append(time.perf_counter() - start)
+        with BackgroundSimulation(lambda: Simulation(scenario)) as background:
+            background.frame_count  # noqa: B018 (waits for the set-up: not timed)
+            start = time.perf_counter()
+            run_frames(background, background.truth_at, scenario)
+            rows["frames overlapped"].append(time.perf_counter() - start)
+    for name, column in rows.items():
+        print(
+            f"  {name:<24} median {statistics.median(column):6.2f} s   "
+            f"all {[round(v, 2) for v in column]}"
+        )
+    print(f"  {'':<24} {note} before, {load_note()} after")
+
+
 def fogsim_import(env: dict[str, str]) -> float:
     """Wall time [s] of a child importing the CLI, less that of a bare interpreter."""
     times = []
@@ -147,9 +181,15 @@ def main() -> None:
     parser.add_argument("--replay", type=Path, help="a recording of SCENARIO to replay")
     parser.add_argument("--cold", type=int, default=0, help="repeats of the first run (0: none)")
     parser.add_argument("--parts", action="store_true", help="also the stages in one process")
+    parser.add_argument("--overlap", type=int, default=0, help="repeats of overlap vs in line")
+    parser.add_argument("--no-commands", action="store_true", help="skip run/replay/cold")
     args = parser.parse_args()
     env = {**os.environ, "PYTHONPATH": str(ROOT)}
     print(f"fogsim run {args.scenario} from {ROOT}, {args.repeats} repeats, {os.cpu_count()} cores")
+    if args.overlap:
+        overlap(args.scenario, args.overlap)
+    if args.no_commands:
+        return
     with tempfile.TemporaryDirectory() as tmp:
         out = str(Path(tmp) / "out")
         fogsim(["run", args.scenario, "--out", out, "--quiet"], env)  # caches warm first
