@@ -11,8 +11,8 @@ average (``os.getloadavg``, 2 cores) noted before and after each measurement:
 - ``run``: ``fogsim run SCENARIO --out TMP --quiet`` with pictures, warm caches; its CPU time
   (user + sys of the child) beside the wall time: on a loaded machine the wall time hides what
   the run costs, the CPU time does not show the overlap of simulation and mapping;
-- ``teardown``: of ``run``, the time from ``main`` returning to the process's exit (interpreter
-  finalisation, freed GL contexts);
+- ``teardown``: of ``run``, the time from the last ``atexit`` handler to the process's exit
+  (the interpreter's finalisation: modules freed, native destructors);
 - ``replay`` (``--replay FILE``): ``fogsim run --replay FILE --out TMP --quiet``, pictures on;
 - ``cold`` (``--cold N``, N repeats): ``run`` on a fresh machine: ``NUMBA_CACHE_DIR`` and
   ``FOGSIM_CACHE`` empty folders (numba compiles every kernel, the robot's meshes are
@@ -42,14 +42,13 @@ os.environ.setdefault("MESA_SHADER_CACHE_DISABLE", "true")
 sys.path.insert(0, str(ROOT))
 
 _CHILD = (
-    "import runpy, sys, time\n"
+    "import atexit, runpy, sys, time\n"
     "sys.argv = ['fogsim', *sys.argv[1:]]\n"
-    "try:\n"
-    "    runpy.run_module('fogsim', run_name='__main__')\n"
-    "finally:\n"
-    "    print(f'@main_end {time.time()!r}', file=sys.stderr, flush=True)\n"
+    "atexit.register(lambda: print(f'@main_end {time.time()!r}', file=sys.stderr, flush=True))\n"
+    "runpy.run_module('fogsim', run_name='__main__')\n"
 )
-"""``python -m fogsim`` that prints the time ``main`` ended: the rest is teardown."""
+"""``python -m fogsim`` that prints the time its last ``atexit`` handler ran (registered first,
+it runs last, also with :func:`fogsim.run.process_exit.exit_process`): the rest is teardown."""
 
 
 def load_note() -> str:
