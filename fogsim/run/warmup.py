@@ -179,7 +179,10 @@ class _Helper:
 
     def wait(self) -> str:
         """Wait for the helper; its last line of standard error if it failed, else ''."""
-        _, err = self._process.communicate()
+        assert self._process.stderr is not None
+        with self._process.stderr as stderr:
+            err = stderr.read()  # to its end: the helper has ended or closed it
+        self._process.wait()
         self._end = time.perf_counter()
         if self._process.returncode == 0:
             return ""
