@@ -74,7 +74,7 @@ _END = object()
 
 
 class BackgroundSimulation:
-    """The frames of a simulation, made on a second thread.
+    """The frames of a simulation, made on a second thread; iterate them once.
 
     Args:
         make_simulation: Builds the simulation (called on the simulation thread), e.g.
