@@ -1,101 +1,217 @@
-"""Wall time of whole runs: simulate + map + score a scenario, and replay the same frames.
+"""Wall time of ``fogsim run`` as the user sees it, and where it goes.
 
 Usage:
-    .venv/bin/python bench/bench_run.py [SCENARIO] [--repeats N] [--backend renderer|raycast]
+    .venv/bin/python bench/bench_run.py [SCENARIO] [--repeats N] [--replay FILE] [--cold N]
+        [--parts] [--overlap N] [--no-commands]
 
-Prints, side by side in one process: the full run (setup included: robot loading, scene
-building, rendering, segmentation, mapping, scoring; pictures excluded) and the replay of the
-recorded frames (pipeline + scoring only), each as the median of N repeats, plus the
-per-frame pipeline times from the report, the scene set-up compiled from MJCF against loaded
-from the compiled-model cache, and the load average (``os.getloadavg``) before and after. The
-first repeat also pays numba's compile (or cache load); the median hides it for N >= 3.
+Every figure is the median of N repeats (all of them printed), each command a fresh
+``python -m fogsim`` process run from this tree (``PYTHONPATH`` = the tree), with the load
+average (``os.getloadavg``, 2 cores) noted before and after each measurement:
+
+- ``run``: ``fogsim run SCENARIO --out TMP --quiet`` with pictures, warm caches; its CPU time
+  (user + sys of the child) beside the wall time: on a loaded machine the wall time hides what
+  the run costs, the CPU time does not show the overlap of simulation and mapping;
+- ``teardown``: of ``run``, the time from the last ``atexit`` handler to the process's exit
+  (the interpreter's finalisation: modules freed, native destructors);
+- ``replay`` (``--replay FILE``): ``fogsim run --replay FILE --out TMP --quiet``, pictures on;
+- ``cold`` (``--cold N``, N repeats): ``run`` on a fresh machine: ``NUMBA_CACHE_DIR`` and
+  ``FOGSIM_CACHE`` empty folders (numba compiles every kernel, the robot's meshes are
+  converted, the scene compiled);
+- ``--overlap N``: in this process, interleaved N times (so the load hits both alike), the
+  frame loop of a run (simulation + pipeline + scoring, no set-up, no pictures) with the
+  simulation on its own thread (:class:`~fogsim.sim.background.BackgroundSimulation`) and in
+  line (frames from :meth:`Simulation.frames` fed as they come);
+- ``--parts``: the run's stages one after the other in this process (imports in a child):
+  scene set-up, simulation alone, pipeline + scoring on the simulated frames, pictures.
 """
 
 import argparse
 import os
+import resource
 import statistics
+import subprocess
 import sys
 import tempfile
 import time
+from collections.abc import Callable
 from pathlib import Path
 
+ROOT = Path(__file__).resolve().parent.parent
 os.environ.setdefault("MUJOCO_GL", "egl")
-os.environ.setdefault("PYOPENGL_PLATFORM", "egl")
 os.environ.setdefault("MESA_SHADER_CACHE_DISABLE", "true")
-sys.path.insert(0, str(Path(__file__).resolve().parent.parent))
+sys.path.insert(0, str(ROOT))
 
-from fogsim.config import load_scenario
-from fogsim.data.recording import load_recording, save_recording
-from fogsim.robot import load_robot
-from fogsim.run.runner import run_scenario
-from fogsim.sim.scene import Scene, compile_scene
-from fogsim.sim.simulation import Simulation
+_CHILD = (
+    "import atexit, runpy, sys, time\n"
+    "sys.argv = ['fogsim', *sys.argv[1:]]\n"
+    "atexit.register(lambda: print(f'@main_end {time.time()!r}', file=sys.stderr, flush=True))\n"
+    "runpy.run_module('fogsim', run_name='__main__')\n"
+)
+"""``python -m fogsim`` that prints the time its last ``atexit`` handler ran (registered first,
+it runs last, also with :func:`fogsim.run.process_exit.exit_process`): the rest is teardown."""
 
 
 def load_note() -> str:
     """The 1, 5 and 15 minute load averages."""
-    return "load " + " / ".join(f"{x:.2f}" for x in os.getloadavg())
+    return "load " + "/".join(f"{x:.1f}" for x in os.getloadavg())
+
+
+def fogsim(args: list[str], env: dict[str, str]) -> tuple[float, float, float]:
+    """Run ``fogsim ARGS`` in a child: (wall [s], CPU user + sys [s], teardown [s])."""
+    before = resource.getrusage(resource.RUSAGE_CHILDREN)
+    start = time.perf_counter()
+    done = subprocess.run(
+        [sys.executable, "-c", _CHILD, *args],
+        env=env,
+        cwd=ROOT,
+        stdout=subprocess.DEVNULL,
+        stderr=subprocess.PIPE,
+        text=True,
+        check=False,
+    )
+    end_wall, wall = time.time(), time.perf_counter() - start
+    if done.returncode != 0:
+        raise SystemExit(f"fogsim {' '.join(args)} failed:\n{done.stderr}")
+    after = resource.getrusage(resource.RUSAGE_CHILDREN)
+    cpu = (after.ru_utime - before.ru_utime) + (after.ru_stime - before.ru_stime)
+    main_end = float(done.stderr.rsplit("@main_end ", 1)[1].split()[0])
+    return wall, cpu, end_wall - main_end
+
+
+def repeat(label: str, n: int, measure: Callable[[], tuple[float, ...]], names: tuple[str, ...]):
+    """Print the median and all values of each figure ``measure`` returns over ``n`` calls."""
+    note = load_note()
+    values = [measure() for _ in range(n)]
+    for i, name in enumerate(names):
+        column = [v[i] for v in values]
+        print(
+            f"  {label + ' ' + name:<24} median {statistics.median(column):6.2f} s   "
+            f"all {[round(v, 2) for v in column]}"
+        )
+    print(f"  {'':<24} {note} before, {load_note()} after")
+
+
+def parts(scenario_name: str, n: int, env: dict[str, str]) -> None:
+    """The run's stages one after the other, each the median of ``n``."""
+    imports = [fogsim_import(env) for _ in range(n)]  # children: this process has imported
+    from fogsim.config import load_scenario, resolve_params
+    from fogsim.run.runner import run_frames
+    from fogsim.run.warmup import warm_up_kernels
+    from fogsim.sim.simulation import Simulation
+    from fogsim.viz.pictures import write_pictures
+
+    scenario = load_scenario(scenario_name)
+    warm_up_kernels(resolve_params(scenario), stream=None)
+    rows: dict[str, list[float]] = {
+        name: [] for name in ("set-up", "simulation", "pipeline+scoring", "pictures")
+    }
+    note = load_note()
+    for _ in range(n):
+        start = time.perf_counter()
+        simulation = Simulation(scenario)
+        rows["set-up"].append(time.perf_counter() - start)
+        start = time.perf_counter()
+        frames = list(simulation.frames())
+        rows["simulation"].append(time.perf_counter() - start)
+        simulation.close()
+        start = time.perf_counter()
+        result = run_frames(frames, simulation.truth_at, scenario)
+        rows["pipeline+scoring"].append(time.perf_counter() - start)
+        with tempfile.TemporaryDirectory() as tmp:
+            start = time.perf_counter()
+            write_pictures(result, scenario, tmp)
+            rows["pictures"].append(time.perf_counter() - start)
+    print(
+        f"  {'imports (child)':<24} median {statistics.median(imports):6.2f} s   "
+        f"all {[round(v, 2) for v in imports]}"
+    )
+    for name, column in rows.items():
+        print(
+            f"  {name:<24} median {statistics.median(column):6.2f} s   "
+            f"all {[round(v, 2) for v in column]}"
+        )
+    print(f"  {'':<24} {note} before, {load_note()} after")
+
+
+def overlap(scenario_name: str, n: int) -> None:
+    """The frame loop with the simulation on its own thread against in line, interleaved."""
+    from fogsim.config import load_scenario, resolve_params
+    from fogsim.run.runner import run_frames
+    from fogsim.run.warmup import warm_up_kernels
+    from fogsim.sim.background import BackgroundSimulation
+    from fogsim.sim.simulation import Simulation
+
+    scenario = load_scenario(scenario_name)
+    warm_up_kernels(resolve_params(scenario), stream=None)
+    rows: dict[str, list[float]] = {"frames in line": [], "frames overlapped": []}
+    note = load_note()
+    for _ in range(n):
+        with Simulation(scenario) as simulation:
+            start = time.perf_counter()
+            run_frames(simulation.frames(), simulation.truth_at, scenario)
+            rows["frames in line"].append(time.perf_counter() - start)
+        with BackgroundSimulation(lambda: Simulation(scenario)) as background:
+            background.frame_count  # noqa: B018 (waits for the set-up: not timed)
+            start = time.perf_counter()
+            run_frames(background, background.truth_at, scenario)
+            rows["frames overlapped"].append(time.perf_counter() - start)
+    for name, column in rows.items():
+        print(
+            f"  {name:<24} median {statistics.median(column):6.2f} s   "
+            f"all {[round(v, 2) for v in column]}"
+        )
+    print(f"  {'':<24} {note} before, {load_note()} after")
+
+
+def fogsim_import(env: dict[str, str]) -> float:
+    """Wall time [s] of a child importing the CLI, less that of a bare interpreter."""
+    times = []
+    for code in ("import fogsim.cli", "pass"):
+        start = time.perf_counter()
+        subprocess.run([sys.executable, "-c", code], env=env, cwd=ROOT, check=True)
+        times.append(time.perf_counter() - start)
+    return times[0] - times[1]
 
 
 def main() -> None:
     parser = argparse.ArgumentParser()
     parser.add_argument("scenario", nargs="?", default="stage")
-    parser.add_argument("--repeats", type=int, default=3)
-    parser.add_argument("--backend", default="renderer", choices=("renderer", "raycast"))
+    parser.add_argument("--repeats", type=int, default=5)
+    parser.add_argument("--replay", type=Path, help="a recording of SCENARIO to replay")
+    parser.add_argument("--cold", type=int, default=0, help="repeats of the first run (0: none)")
+    parser.add_argument("--parts", action="store_true", help="also the stages in one process")
+    parser.add_argument("--overlap", type=int, default=0, help="repeats of overlap vs in line")
+    parser.add_argument("--no-commands", action="store_true", help="skip run/replay/cold")
     args = parser.parse_args()
-    scenario = load_scenario(args.scenario)
-    load_before = load_note()
-
-    full, reports = [], []
-    for _ in range(args.repeats):
-        start = time.perf_counter()
-        reports.append(run_scenario(scenario, None, depth_backend=args.backend))
-        full.append(time.perf_counter() - start)
-
+    env = {**os.environ, "PYTHONPATH": str(ROOT)}
+    print(f"fogsim run {args.scenario} from {ROOT}, {args.repeats} repeats, {os.cpu_count()} cores")
+    if args.overlap:
+        overlap(args.scenario, args.overlap)
+    if args.no_commands:
+        return
     with tempfile.TemporaryDirectory() as tmp:
-        sim = Simulation(scenario, depth_backend=args.backend)
-        frames = list(sim.frames())
-        truths = [sim.truth_at(f.time_s) for f in frames]
-        path = save_recording(Path(tmp) / "rec.npz", frames, scenario=scenario, truths=truths)
-        replay = []
-        for _ in range(args.repeats):
-            start = time.perf_counter()
-            rec = load_recording(path)
-            run_scenario(scenario, None, replay=rec)
-            replay.append(time.perf_counter() - start)
+        out = str(Path(tmp) / "out")
+        fogsim(["run", args.scenario, "--out", out, "--quiet"], env)  # caches warm first
+        repeat(
+            "run",
+            args.repeats,
+            lambda: fogsim(["run", args.scenario, "--out", out, "--quiet"], env),
+            ("wall", "cpu", "teardown"),
+        )
+        if args.replay is not None:
+            replay = ["run", "--replay", str(args.replay.resolve()), "--out", out, "--quiet"]
+            repeat("replay", args.repeats, lambda: fogsim(replay, env), ("wall", "cpu"))
+        if args.cold:
+            repeat("cold", args.cold, lambda: cold(args.scenario, out, env), ("wall", "cpu"))
+    if args.parts:
+        parts(args.scenario, args.repeats, env)
 
-    robot = load_robot(scenario.robot.model)
-    compiled, cached = [], []
-    for _ in range(args.repeats):
-        start = time.perf_counter()
-        compile_scene(scenario, robot)
-        compiled.append(time.perf_counter() - start)
-        start = time.perf_counter()
-        Scene(scenario, robot)
-        cached.append(time.perf_counter() - start)
 
-    timing = reports[-1].timing
-    duration = timing.frames / scenario.frame_rate_hz
-    print(
-        f"scenario {scenario.name}: {timing.frames} frames = {duration:.1f} s simulated, "
-        f"camera {scenario.camera.mode}, backend {args.backend}, {args.repeats} repeats"
-    )
-    print(
-        f"  full run (setup incl.)   median {statistics.median(full):7.2f} s   "
-        f"all {[round(t, 2) for t in full]}"
-    )
-    print(
-        f"  replay (load + pipeline) median {statistics.median(replay):7.2f} s   "
-        f"all {[round(t, 2) for t in replay]}"
-    )
-    print(
-        f"  scene: compiled from MJCF median {statistics.median(compiled):.3f} s, "
-        f"from the model cache median {statistics.median(cached):.3f} s"
-    )
-    print(f"  {load_before} before, {load_note()} after (2 cores)")
-    for key in ("segmentation_ms", "update_ms", "frame_ms"):
-        s = getattr(timing, key)
-        print(f"  {key:<16} median {s.median:.2f} ms  p99 {s.p99:.2f} ms  max {s.max:.2f}")
+def cold(scenario: str, out: str, env: dict[str, str]) -> tuple[float, float, float]:
+    """``fogsim run`` with empty numba and fogsim caches."""
+    with tempfile.TemporaryDirectory() as numba, tempfile.TemporaryDirectory() as cache:
+        cold_env = {**env, "NUMBA_CACHE_DIR": numba, "FOGSIM_CACHE": cache}
+        return fogsim(["run", scenario, "--out", out, "--quiet"], cold_env)
 
 
 if __name__ == "__main__":

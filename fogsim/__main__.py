@@ -1,5 +1,5 @@
 """``python -m fogsim`` = the ``fogsim`` command."""
 
-from fogsim.cli import main
+from fogsim.cli import entry
 
-raise SystemExit(main())
+entry()

@@ -44,6 +44,7 @@ from fogsim.run.baseline import (
     write_baseline,
 )
 from fogsim.run.output_paths import check_output_path, child_path
+from fogsim.run.process_exit import exit_process
 from fogsim.run.record import record_scenario
 from fogsim.run.run_folder import check_run_folder
 from fogsim.run.runner import run_scenario
@@ -531,3 +532,10 @@ def main(argv: Sequence[str] | None = None) -> int:
 
 if __name__ == "__main__":
     sys.exit(main())
+
+
+def entry() -> NoReturn:
+    """The installed ``fogsim`` command: :func:`main`, then the process ends without the
+    interpreter's teardown (:func:`fogsim.run.process_exit.exit_process`).
+    """
+    exit_process(main())

@@ -52,6 +52,9 @@ class FakeSimulation:
                 on_pose(frame.index, None)
             yield frame
 
+    def close(self):
+        """Nothing to free."""
+
 
 class FakeThirdPersonCamera:
     """What the runner uses of a ThirdPersonCamera: a black 480 × 360 picture per frame."""
@@ -72,7 +75,7 @@ class FakeThirdPersonCamera:
 @pytest.fixture
 def fake_simulation(monkeypatch):
     monkeypatch.setattr("fogsim.run.runner.Simulation", FakeSimulation)
-    monkeypatch.setattr("fogsim.run.runner.ThirdPersonCamera", FakeThirdPersonCamera)
+    monkeypatch.setattr("fogsim.sim.third_person.ThirdPersonCamera", FakeThirdPersonCamera)
     monkeypatch.setattr("fogsim.run.record.Simulation", FakeSimulation)
 
 

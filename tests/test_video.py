@@ -248,7 +248,7 @@ def test_a_simulated_run_with_video_shows_the_robot_beside_depth_and_fog(tmp_pat
     def no_camera(*args, **kwargs):
         raise AssertionError("a run without video made a third-person camera")
 
-    monkeypatch.setattr("fogsim.run.runner.ThirdPersonCamera", no_camera)
+    monkeypatch.setattr("fogsim.sim.third_person.ThirdPersonCamera", no_camera)
     run_scenario(scenario, tmp_path / "plain", pictures=False, max_frames=3)
     with (
         np.load(tmp_path / "run" / "maps.npz") as with_video,

@@ -9,9 +9,11 @@ from pathlib import Path
 import pytest
 from test_pipeline import INTR, make_frames, provider_removed_at
 
+from fogsim.config import RunParams
 from fogsim.data.recording import Recording
+from fogsim.run import warmup
 from fogsim.run.runner import run_scenario
-from fogsim.run.warmup import MAPPER, MESSAGE, SEGMENTATION, SELF_FILTER, cold_modules
+from fogsim.run.warmup import MAPPER, MESSAGE, SEGMENTATION, SELF_FILTER, KernelGroup, cold_modules
 
 ROOT = Path(__file__).resolve().parent.parent
 
@@ -36,6 +38,7 @@ def test_message_with_a_cold_cache_only(tmp_path):
     cold = _warm_up_stderr(tmp_path)
     assert MESSAGE in cold
     assert "segmentation kernels ..." in cold
+    assert "(second process)" in cold and "failed" not in cold  # compiled beside the others
     assert "mapper kernels ..." in cold
     assert "self-filter kernels ..." in cold
     assert "compiled in" in cold
@@ -60,3 +63,11 @@ def test_warm_up_leaves_the_results_unchanged():
     quiet = run_scenario(None, None, replay=_recording(), pictures=False, progress=False)
     shown = run_scenario(None, None, replay=_recording(), pictures=False, progress=True)
     assert dataclasses.replace(shown, timing=quiet.timing) == quiet
+
+
+def test_a_failing_helper_process_is_reported_with_its_last_error_line(monkeypatch):
+    monkeypatch.setattr(warmup, "HELPER_GROUP", KernelGroup("no such group", ()))
+    helper = warmup._Helper(RunParams())
+    failure = helper.wait()
+    helper.stop()
+    assert failure.startswith("ValueError: not enough values to unpack")

@@ -10,8 +10,9 @@ from __future__ import annotations
 
 import dataclasses
 import os
+import sys
 import time
-from collections.abc import Iterable, Iterator, Mapping
+from collections.abc import Callable, Iterable, Mapping
 from contextlib import ExitStack
 from dataclasses import dataclass
 from pathlib import Path
@@ -37,8 +38,9 @@ from fogsim.mapping.pipeline import FrameCallback, FrameTiming, Pipeline
 from fogsim.robot import load_description
 from fogsim.run.run_folder import RunFolder
 from fogsim.run.warmup import warm_up_kernels
+from fogsim.sim.background import BackgroundSimulation
 from fogsim.sim.simulation import Simulation
-from fogsim.sim.third_person import ThirdPersonCamera
+from fogsim.sim.third_person import FilmedSimulation
 from fogsim.viz.pictures import write_pictures
 from fogsim.viz.rerun_log import RerunLogger
 from fogsim.viz.video import RunVideoWriter
@@ -230,19 +232,19 @@ class _FrameSource:
     """Where a run's frames come from.
 
     Attributes:
-        frames: The frames (a generator for a simulation).
+        frames: The frames (a :class:`BackgroundSimulation` for a simulation).
         truth_at: Ground truth at a time [s]; None for real data.
-        frame_count: Frames the run will take.
+        frame_count: Frames the run will take (a simulation's waits for its set-up).
         kind: ``simulation`` or ``replay``.
-        third_person: The simulation's third-person camera, capturing every frame (only when a
-            video is asked for); None for a replay.
+        take_picture: Hands over frame i's third-person picture (only when a video is asked
+            for); None for a replay.
     """
 
     frames: Iterable[Frame]
     truth_at: TruthProvider | None
-    frame_count: int
+    frame_count: Callable[[], int]
     kind: Source
-    third_person: ThirdPersonCamera | None = None
+    take_picture: Callable[[int], NDArray[np.uint8]] | None = None
 
 
 def _frame_source(
@@ -250,34 +252,47 @@ def _frame_source(
     replay: Recording | None,
     depth_backend: str,
     max_frames: int | None,
+    cleanup: ExitStack,
     video: bool = False,
 ) -> _FrameSource:
     """The recording's frames, or a simulation of the scenario; cut after ``max_frames``.
 
-    With ``video`` a simulation also renders the third-person view of every frame.
+    A simulation starts on its own thread at once (set-up included) and is stopped by
+    ``cleanup``; its frames are mapped while the next ones are simulated. With ``video`` it
+    also renders the third-person view of every frame (on its thread, where its OpenGL
+    context lives).
     """
-    frames: Iterable[Frame]
-    third_person = None
     if replay is not None:
-        frames = replay.frames
-        truth_at = replay.truth_at if replay.has_truth else None
-        count = len(replay.frames)
-        kind: Source = "replay"
-    elif scenario is not None:
-        simulation = Simulation(scenario, depth_backend=depth_backend)
-        if video:
-            third_person = ThirdPersonCamera(simulation.scene.model)
-            frames = simulation.frames(on_pose=third_person.capture)
-        else:
-            frames = simulation.frames()
-        truth_at = simulation.truth_at
-        count = len(simulation.trajectory.times_s)
-        kind = "simulation"
-    else:
+        count = len(replay.frames) if max_frames is None else min(max_frames, len(replay.frames))
+        return _FrameSource(
+            replay.frames[:count],
+            replay.truth_at if replay.has_truth else None,
+            lambda: count,
+            "replay",
+        )
+    if scenario is None:
         raise FogsimError("a run needs a scenario to simulate or a recording to replay")
-    if max_frames is not None and count > max_frames:
-        frames, count = _take(frames, max_frames), max_frames
-    return _FrameSource(frames, truth_at, count, kind, third_person)
+
+    def make_simulation() -> Simulation | FilmedSimulation:
+        simulation = Simulation(scenario, depth_backend=depth_backend)
+        return FilmedSimulation(simulation) if video else simulation
+
+    background = cleanup.enter_context(BackgroundSimulation(make_simulation, max_frames=max_frames))
+    take_picture = None
+    if video:
+
+        def take_picture(index: int) -> NDArray[np.uint8]:
+            filmed = background.simulation
+            assert isinstance(filmed, FilmedSimulation)
+            return filmed.camera.take(index)
+
+    return _FrameSource(
+        background,
+        background.truth_at,
+        lambda: background.frame_count,
+        "simulation",
+        take_picture,
+    )
 
 
 def run_scenario(
@@ -306,9 +321,9 @@ def run_scenario(
         replay: A Recording to feed instead of simulating (no MuJoCo).
         pictures: Write the PNGs.
         video: Write ``run.mp4`` (camera image beside the growing map).
-        progress: Show a tqdm progress bar, after compiling the kernels
-            (:func:`~fogsim.run.warmup.warm_up_kernels`: a message on standard error when
-            numba's cache is cold).
+        progress: Show a tqdm progress bar. Either way the kernels are compiled before the
+            first frame (:func:`~fogsim.run.warmup.warm_up_kernels`; with ``progress`` a
+            message on standard error when numba's cache is cold).
         max_frames: Stop after this many frames (the suite's quick mode).
         depth_backend: Simulation depth backend (``renderer`` or ``raycast``).
         mcap: Also write every frame's FOG and robot pose as a rosbag2 bag in MCAP storage
@@ -366,33 +381,30 @@ def _run_and_write(
 ) -> Report:
     """Run the frames and write the results into ``out`` (None: write nothing)."""
     video = options.video and out is not None
-    source = _frame_source(
-        scenario, options.replay, options.depth_backend, options.max_frames, video
-    )
     callbacks: list[FrameCallback] = []
     writer = None
     with ExitStack() as cleanup:
+        source = _frame_source(
+            scenario, options.replay, options.depth_backend, options.max_frames, cleanup, video
+        )
+        # Compiled (or loaded) now, while the simulation sets up, not in frame 1 (in two
+        # processes when numba's cache is cold, saying so with the bar): the bar's rate then
+        # measures frames only.
+        warm_up_kernels(params, sys.stderr if options.progress else None)
         if options.progress:
-            # Compiled (or loaded) now, saying so when numba's cache is cold, not in frame 1:
-            # the bar's rate then measures frames only.
-            warm_up_kernels(params)
             name = scenario.name if scenario is not None else "run"
-            bar = cleanup.enter_context(tqdm(total=source.frame_count, unit="frame", desc=name))
+            total = source.frame_count()
+            bar = cleanup.enter_context(tqdm(total=total, unit="frame", desc=name))
             callbacks.append(lambda frame, pipeline: bar.update(1))
         if video:
             if scenario is None:
                 raise FogsimError(
                     "--video needs the scenario's frame rate; this recording has none"
                 )
-            camera = source.third_person
             writer = RunVideoWriter(
-                out / "run.mp4",
-                fps=scenario.frame_rate_hz,
-                third_person=camera.take if camera is not None else None,
+                out / "run.mp4", fps=scenario.frame_rate_hz, third_person=source.take_picture
             )
             cleanup.callback(writer.close)
-            if camera is not None:
-                cleanup.callback(camera.close)
             callbacks.append(writer.add)
         if options.mcap is not None:
             callbacks.append(cleanup.enter_context(McapMapWriter(options.mcap)).add)
@@ -440,11 +452,3 @@ def _all_of(callbacks: list[FrameCallback]) -> FrameCallback:
             callback(frame, pipeline)
 
     return call
-
-
-def _take(frames: Iterable[Frame], count: int) -> Iterator[Frame]:
-    """The first ``count`` frames (stops the simulation there)."""
-    for i, frame in enumerate(frames):
-        if i >= count:
-            return
-        yield frame

@@ -6,6 +6,14 @@ makes a progress bar's first estimate absurd; :func:`warm_up_kernels` compiles t
 three tiny synthetic frames of a flat floor, group by group, printing which group and how long
 it took on standard error when the cache holds no compiled version of a group's kernels.
 
+On a cold cache the groups are compiled in two processes at once: a helper process
+(``python -m fogsim.run.warmup GROUP``, the run's parameters pickled on its standard input)
+compiles :data:`HELPER_GROUP` into the cache while this process compiles the others, then this
+process loads the helper's kernels from the cache. Compiling holds numba's compiler lock (and
+mostly the GIL), so a second thread would not help; a second process halves the wait on two
+cores. A helper that fails is reported on the stream (its last line of standard error) and its
+group compiled here instead.
+
 Where the cache is: numba keeps it beside the sources (``__pycache__/*.nbi`` index files and
 ``*.nbc`` code) and, when that folder is not writable (a wheel in a read-only site-packages),
 in its user-wide cache folder (``~/.cache/numba``, numba's ``UserWideCacheLocator``), or in
@@ -16,8 +24,11 @@ each kernel's index file is, so it follows the same choice.
 from __future__ import annotations
 
 import math
+import pickle
+import subprocess
 import sys
 import time
+from collections.abc import Callable
 from dataclasses import dataclass
 from pathlib import Path
 from types import ModuleType
@@ -36,6 +47,7 @@ from fogsim.config import RunParams
 from fogsim.data.frame import Frame
 from fogsim.mapping.pipeline import Pipeline
 from fogsim.robot import self_filter
+from fogsim.run.process_exit import exit_process
 from mapper.intrinsics import PinholeIntrinsics
 from mapper.segmentation import segment_depth
 
@@ -79,11 +91,21 @@ SELF_FILTER = KernelGroup("self-filter", (self_filter,))
 """The kernel removing the robot's body from simulated depth images."""
 
 
+GROUPS = (SEGMENTATION, MAPPER, SELF_FILTER)
+"""Every group, in the order they are compiled."""
+
+HELPER_GROUP = SEGMENTATION
+"""The group a helper process compiles on a cold cache: the largest (the segmentation's kernels
+took about half of the cold compile), so the two processes finish at about the same time."""
+
+
 def warm_up_kernels(params: RunParams, stream: TextIO | None = sys.stderr) -> float:
     """Compile (or load from numba's cache) the kernels a run of ``params`` uses.
 
     Runs :data:`SEGMENTATION`, then :data:`MAPPER` (a throwaway :class:`Pipeline`) on synthetic
-    frames, then :data:`SELF_FILTER` on a 2 × 2 image. Nothing of the run's own state is touched.
+    frames, then :data:`SELF_FILTER` on a 2 × 2 image; with more than one group's cache cold,
+    :data:`HELPER_GROUP` is compiled by a helper process meanwhile (module doc). Nothing of the
+    run's own state is touched.
 
     Args:
         params: The run's parameters (the kernels are compiled for their types).
@@ -93,28 +115,89 @@ def warm_up_kernels(params: RunParams, stream: TextIO | None = sys.stderr) -> fl
         The warm-up's wall time [s].
     """
     start = time.perf_counter()
-    frames = _floor_frames()
-    steps = (
-        (SEGMENTATION, lambda: _segment(frames[0], params)),
-        (MAPPER, lambda: _map(frames, params)),
-        (SELF_FILTER, self_filter.compile_mask_kernel),
-    )
-    announced = False
-    for group, step in steps:
-        cold = stream is not None and bool(cold_modules(group))
-        if cold and not announced:
-            print(f"fogsim: {MESSAGE}", file=stream, flush=True)
-            announced = True
-        if cold:
-            print(f"  {group.name} kernels ...", end="", file=stream, flush=True)
-        group_start = time.perf_counter()
-        step()
-        if cold:
-            print(f" {time.perf_counter() - group_start:.1f} s", file=stream, flush=True)
+    steps = _steps(params)
+    cold = [group for group in GROUPS if cold_modules(group)]
+    say = print if stream is not None else _silent
+    if cold:
+        say(f"fogsim: {MESSAGE}", file=stream, flush=True)
+    helper = _Helper(params) if HELPER_GROUP in cold and len(cold) > 1 else None
+    try:
+        for group in GROUPS:
+            if helper is not None and group is HELPER_GROUP:
+                continue
+            if group in cold:
+                say(f"  {group.name} kernels ...", end="", file=stream, flush=True)
+            group_start = time.perf_counter()
+            steps[group]()
+            if group in cold:
+                say(f" {time.perf_counter() - group_start:.1f} s", file=stream, flush=True)
+        if helper is not None:
+            say(f"  {HELPER_GROUP.name} kernels ...", end="", file=stream, flush=True)
+            failure = helper.wait()
+            steps[HELPER_GROUP]()  # loaded from the cache the helper filled
+            say(f" {helper.seconds():.1f} s (second process)", file=stream, flush=True)
+            if failure:
+                say(f"  (the second process failed, compiled here: {failure})", file=stream)
+    finally:
+        if helper is not None:
+            helper.stop()
     elapsed_s = time.perf_counter() - start
-    if announced:
-        print(f"  compiled in {elapsed_s:.1f} s", file=stream, flush=True)
+    if cold:
+        say(f"  compiled in {elapsed_s:.1f} s", file=stream, flush=True)
     return elapsed_s
+
+
+def _silent(*args: object, **kwargs: object) -> None:
+    """``print`` that prints nothing (no stream)."""
+
+
+def _steps(params: RunParams) -> dict[KernelGroup, Callable[[], None]]:
+    """What compiles each group: a run of its kernels on synthetic data."""
+    frames = _floor_frames()
+    return {
+        SEGMENTATION: lambda: _segment(frames[0], params),
+        MAPPER: lambda: _map(frames, params),
+        SELF_FILTER: self_filter.compile_mask_kernel,
+    }
+
+
+class _Helper:
+    """A helper process compiling :data:`HELPER_GROUP` into numba's cache."""
+
+    def __init__(self, params: RunParams) -> None:
+        self._start = time.perf_counter()
+        self._end: float | None = None
+        self._process = subprocess.Popen(
+            [sys.executable, "-m", "fogsim.run.warmup", HELPER_GROUP.name],
+            stdin=subprocess.PIPE,
+            stdout=subprocess.DEVNULL,
+            stderr=subprocess.PIPE,
+        )
+        assert self._process.stdin is not None
+        with self._process.stdin as stdin:
+            stdin.write(pickle.dumps(params))
+
+    def wait(self) -> str:
+        """Wait for the helper; its last line of standard error if it failed, else ''."""
+        assert self._process.stderr is not None
+        with self._process.stderr as stderr:
+            err = stderr.read()  # to its end: the helper has ended or closed it
+        self._process.wait()
+        self._end = time.perf_counter()
+        if self._process.returncode == 0:
+            return ""
+        lines = err.decode(errors="replace").strip().splitlines()
+        return lines[-1] if lines else f"exit status {self._process.returncode}"
+
+    def seconds(self) -> float:
+        """The helper's wall time [s] (to :meth:`wait`'s return)."""
+        return (self._end or time.perf_counter()) - self._start
+
+    def stop(self) -> None:
+        """Kill the helper if it still runs (the warm-up was interrupted), and reap it."""
+        if self._process.poll() is None:
+            self._process.kill()
+        self._process.wait()
 
 
 def cold_modules(group: KernelGroup) -> tuple[str, ...]:
@@ -198,3 +281,15 @@ def _map(frames: tuple[Frame, ...], params: RunParams) -> None:
         pipeline.process(frame)
     pipeline.maps()
     pipeline.mapper.floor(), pipeline.mapper.obstacle(), pipeline.mapper.ceiling()
+
+
+def _helper_main(group_name: str) -> None:
+    """The helper process: compile group ``group_name`` for the parameters on standard input."""
+    params = pickle.load(sys.stdin.buffer)
+    (group,) = (g for g in GROUPS if g.name == group_name)
+    _steps(params)[group]()
+    exit_process(0)
+
+
+if __name__ == "__main__":
+    _helper_main(sys.argv[1])

@@ -16,13 +16,17 @@ while the frame is in the pipeline. Nothing is rendered unless a video is asked 
 from __future__ import annotations
 
 import weakref
+from collections.abc import Iterator
 
 import mujoco
 import numpy as np
 from numpy.typing import NDArray
 
+from fogsim.data.frame import Frame
 from fogsim.errors import FogsimError
 from fogsim.sim.camera.depth import VISIBLE_GEOMGROUPS, scene_option
+from fogsim.sim.simulation import Simulation
+from fogsim.world import SceneTruth
 
 VIEW_PX = (480, 360)
 """(width, height) of the picture [px]: the run video's panel height (360 px), 4:3, and within
@@ -129,3 +133,37 @@ class ThirdPersonCamera:
     def close(self) -> None:
         """Free the OpenGL context (idempotent)."""
         self._finalizer()
+
+
+class FilmedSimulation:
+    """A simulation whose frames come with third-person pictures (the run video's panel).
+
+    Made on the thread that steps the simulation (:class:`~fogsim.sim.background.
+    BackgroundSimulation` builds it there): the camera's OpenGL context is created, used and
+    freed on that thread; :meth:`ThirdPersonCamera.take` may be called from any thread.
+
+    Args:
+        simulation: The simulation to film; its scene must hold the robot.
+    """
+
+    def __init__(self, simulation: Simulation) -> None:
+        self.simulation = simulation
+        self.camera = ThirdPersonCamera(simulation.scene.model)
+
+    @property
+    def frame_count(self) -> int:
+        """Frames :meth:`frames` yields."""
+        return self.simulation.frame_count
+
+    def frames(self) -> Iterator[Frame]:
+        """The simulation's frames, each with its picture captured."""
+        return self.simulation.frames(on_pose=self.camera.capture)
+
+    def truth_at(self, time_s: float) -> SceneTruth:
+        """The simulation's ground truth at ``time_s`` [s]."""
+        return self.simulation.truth_at(time_s)
+
+    def close(self) -> None:
+        """Free the camera's and the simulation's renderers."""
+        self.camera.close()
+        self.simulation.close()

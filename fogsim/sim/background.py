@@ -1,0 +1,175 @@
+"""A simulation stepped on a second thread, a few frames ahead of the code that maps them.
+
+``fogsim run`` spends about as long simulating a frame (posing the robot, rendering depth, the
+stereo error model, the encoders and the self-filter) as mapping it. :class:`BackgroundSimulation`
+builds and steps the :class:`~fogsim.sim.simulation.Simulation` on its own thread and hands
+frames over through a queue of at most :data:`AHEAD_FRAMES`, so frame k + 1 is simulated while
+frame k is mapped. What runs in parallel is what releases Python's GIL: MuJoCo's rendering and
+kinematics and numpy's array work; numba kernels compiled without ``nogil`` take turns.
+
+Everything of the simulation stays on its thread: an OpenGL (EGL) context is current in one
+thread only, so the renderer is created, used and freed there, and the MuJoCo state is never
+read from outside. The frames are the ones :meth:`Simulation.frames` yields, in the same order,
+bit for bit: nothing random depends on timing.
+
+Errors: an exception of the set-up or of a frame is raised again, the same object with the
+simulation thread's traceback, by whichever of :attr:`BackgroundSimulation.frame_count` or the
+iteration meets it first. Stopping: :meth:`BackgroundSimulation.close` (also on Ctrl-C in the
+consumer, through ``with``) tells the thread to stop at its next frame, waits for it and frees
+the renderer; the thread is a daemon, so a process that ends without closing is not held.
+"""
+
+from __future__ import annotations
+
+import itertools
+import queue
+import threading
+from collections.abc import Callable, Iterator
+from concurrent.futures import Future
+from dataclasses import dataclass
+from typing import Protocol
+
+from fogsim.data.frame import Frame
+from fogsim.world import SceneTruth
+
+AHEAD_FRAMES = 4
+"""Frames the simulation may run ahead of the consumer: enough to carry it over a slow frame
+on either side (a first z-match, a frame with many planes: 3-5 times the median), few enough
+to bound the memory (a stage frame is ~30 KB) and the work thrown away when a run stops."""
+
+_POLL_S = 0.05
+"""How often a simulation thread blocked on a full queue checks whether it should stop [s]."""
+
+
+class FrameSimulation(Protocol):
+    """What :class:`BackgroundSimulation` uses of a :class:`~fogsim.sim.simulation.Simulation`."""
+
+    @property
+    def frame_count(self) -> int:
+        """Frames :meth:`frames` yields."""
+        ...
+
+    def frames(self) -> Iterator[Frame]:
+        """The frames in order."""
+        ...
+
+    def truth_at(self, time_s: float) -> SceneTruth:
+        """Ground truth at ``time_s``; called from other threads (a function of the scenario)."""
+        ...
+
+    def close(self) -> None:
+        """Free what the simulation holds (its renderer)."""
+        ...
+
+
+@dataclass(frozen=True)
+class _Failed:
+    """The simulation thread's exception, queued in place of a frame."""
+
+    error: BaseException
+
+
+_END = object()
+"""Queued after the last frame."""
+
+
+class BackgroundSimulation:
+    """The frames of a simulation, made on a second thread; iterate them once.
+
+    Args:
+        make_simulation: Builds the simulation (called on the simulation thread), e.g.
+            ``lambda: Simulation(scenario)``.
+        max_frames: Stop after this many frames; None = all of them.
+    """
+
+    def __init__(
+        self, make_simulation: Callable[[], FrameSimulation], *, max_frames: int | None = None
+    ) -> None:
+        self._make_simulation = make_simulation
+        self._max_frames = max_frames
+        self._simulation: Future[FrameSimulation] = Future()
+        self._queue: queue.Queue[object] = queue.Queue(maxsize=AHEAD_FRAMES)
+        self._stop = threading.Event()
+        self._thread = threading.Thread(target=self._run, name="fogsim-simulation", daemon=True)
+        self._thread.start()
+
+    @property
+    def frame_count(self) -> int:
+        """Frames the iteration yields (waits for the set-up; raises its error)."""
+        count = self._simulation.result().frame_count
+        return count if self._max_frames is None else min(count, self._max_frames)
+
+    @property
+    def simulation(self) -> FrameSimulation:
+        """The simulation (waits for the set-up; raises its error).
+
+        Its state belongs to the simulation thread: use only what is safe from another one.
+        """
+        return self._simulation.result()
+
+    def truth_at(self, time_s: float) -> SceneTruth:
+        """The simulation's ground truth at ``time_s`` [s] (waits for the set-up)."""
+        return self._simulation.result().truth_at(time_s)
+
+    def __iter__(self) -> Iterator[Frame]:
+        """The frames in order; raises the simulation thread's exception where it happened."""
+        while True:
+            item = self._queue.get()
+            if item is _END:
+                return
+            if isinstance(item, _Failed):
+                self.close()
+                raise item.error
+            assert isinstance(item, Frame)
+            yield item
+
+    def close(self) -> None:
+        """Stop the simulation thread, wait for it (it frees its renderer); idempotent."""
+        self._stop.set()
+        while self._thread.is_alive():
+            self._drain()
+            self._thread.join(_POLL_S)
+
+    def __enter__(self) -> BackgroundSimulation:
+        return self
+
+    def __exit__(self, *exc: object) -> None:
+        self.close()
+
+    # ------------------------------------------------------------------ the simulation thread
+
+    def _run(self) -> None:
+        try:
+            simulation = self._make_simulation()
+        except BaseException as error:
+            self._simulation.set_exception(error)
+            self._put(_Failed(error))
+            return
+        self._simulation.set_result(simulation)
+        try:
+            for frame in itertools.islice(simulation.frames(), self._max_frames):
+                if not self._put(frame):
+                    return
+            self._put(_END)
+        except BaseException as error:
+            self._put(_Failed(error))
+        finally:
+            simulation.close()
+
+    def _put(self, item: object) -> bool:
+        """Queue ``item`` once there is room; False if told to stop first."""
+        while not self._stop.is_set():
+            try:
+                self._queue.put(item, timeout=_POLL_S)
+            except queue.Full:
+                continue
+            return True
+        return False
+
+    def _drain(self) -> None:
+        """Empty the queue (a stopping thread blocked on it gets its stop signal sooner)."""
+        try:
+            while True:
+                self._queue.get_nowait()
+        except queue.Empty:
+            pass
