@@ -535,7 +535,8 @@ if __name__ == "__main__":
 
 
 def entry() -> NoReturn:
-    """The installed ``fogsim`` command: :func:`main`, then the process ends without the
-    interpreter's teardown (:func:`fogsim.run.process_exit.exit_process`).
+    """The installed ``fogsim`` command: :func:`main`, then the process ends at once.
+
+    Without the interpreter's teardown: :func:`fogsim.run.process_exit.exit_process`.
     """
     exit_process(main())
