@@ -92,6 +92,8 @@ _NON_NEGATIVE_FIELDS = (
     "floor_snap_sigma_factor",
     "floor_height_tolerance_m",
     "floor_max_segment_chi2",
+    "disparity_noise_px",
+    "stereo_baseline_m",
 )
 """`SegmentationParams` fields that must be finite and >= 0."""
 _INTEGER_RANGES: dict[str, tuple[int, int | None]] = {
@@ -224,6 +226,9 @@ class SegmentationParams:
     ground_search_window_m: float = 0.05
     correct_tilt: bool = True
     correct_ground_shift: bool = True
+    disparity_noise_px: float = 0.0
+    stereo_baseline_m: float = 0.0
+    noise_correlation_factor: float = 1.0
 
     def __post_init__(self) -> None:
         def check(name: str, kind: type, allowed: str, ok=lambda _: True) -> None:
@@ -440,8 +445,17 @@ def segment_depth(
     x = (np.arange(width) - intrinsics.cx) / intrinsics.fx
     y = (np.arange(height) - intrinsics.cy) / intrinsics.fy
     inv_depth = 1.0 / depth
+    model_inv_sigma = (
+        params.disparity_noise_px / (intrinsics.fx * params.stereo_baseline_m)
+        if params.stereo_baseline_m > 0.0
+        else 0.0
+    )
     sigma, typical_sigma = scanline.local_noise_depth_m(
-        inv_depth, params.noise_window_px, params.min_noise_m, params.noise_cap_factor
+        inv_depth,
+        params.noise_window_px,
+        params.min_noise_m,
+        params.noise_cap_factor,
+        model_inv_sigma,
     )
     seg_rows, seg_starts, seg_stops, seg_table = scanline.split_rows(
         inv_depth,
@@ -453,6 +467,7 @@ def segment_depth(
         params.edge_sigma_factor,
         params.tolerance_floor_m,
         params.min_segment_pixels,
+        params.noise_correlation_factor,
     )
     for _ in range(params.break_passes):
         n_before = seg_rows.size
@@ -469,6 +484,7 @@ def segment_depth(
             params.tolerance_floor_m,
             params.min_segment_pixels,
             params.break_reach_px,
+            params.noise_correlation_factor,
         )
         if seg_rows.size == n_before:
             break
@@ -633,9 +649,16 @@ def _floor_regions(origin, rays, points, sigma_z, depth, segments, intrinsics, p
     """
     z = np.ascontiguousarray(points[..., 2])
     seg_rows, seg_starts, seg_stops = scanline.split_level(
-        z, sigma_z, *segments, params.edge_sigma_factor, params.min_segment_pixels
+        z,
+        sigma_z,
+        *segments,
+        params.edge_sigma_factor,
+        params.min_segment_pixels,
+        params.noise_correlation_factor,
     )
-    sums = scanline.horizontal_sums(points, sigma_z, seg_rows, seg_starts, seg_stops)
+    sums = scanline.horizontal_sums(
+        points, sigma_z, seg_rows, seg_starts, seg_stops, params.noise_correlation_factor
+    )
     floor_of_segment = scanline.grow_floors(
         seg_rows,
         seg_starts,
@@ -646,6 +669,7 @@ def _floor_regions(origin, rays, points, sigma_z, depth, segments, intrinsics, p
         params.rms_sigma_factor,
         params.floor_height_tolerance_m,
         params.seed_min_pixels,
+        params.noise_correlation_factor,
     )
     n_floors = int(floor_of_segment.max(initial=-1)) + 1
     grown = scanline.segment_labels(
