@@ -558,7 +558,10 @@ def segment_depth(
     centroids = centroids_camera @ rotation.T + pivot
     # RMS depth residual of the plane fit (inverse-depth residual scaled at the centroid).
     rms = np.sqrt(plane_table[:, 3]) * centroids_camera[:, 2] ** 2
-    correction = estimate_tilt(normals, areas, eigen, counts, pivot, params)
+    normal_sigma_deg = _normal_sigma_deg(plane_table, params.noise_correlation_factor)
+    # The tilt's planes are weighted by the information of their normals (1/σ²), not by area:
+    # a far plane's footprint is large while its normal, under stereo noise, is poor.
+    correction = estimate_tilt(normals, 1.0 / normal_sigma_deg**2, eigen, counts, pivot, params)
     centroids_c = (centroids - pivot) @ correction.rotation.T + pivot
     normals_c = normals @ correction.rotation.T
     is_floor_shape = _floor_shape(normals_c, eigen, counts, params)
@@ -737,6 +740,27 @@ def _floor_regions(origin, rays, points, sigma_z, depth, segments, intrinsics, p
         is_floor=is_floor,
     )
     return labels, floors
+
+
+def _normal_sigma_deg(plane_table, correlation):
+    """Standard deviation of each plane's normal direction [deg] from its inverse-depth fit.
+
+    The fit ``1/d = A·x + B·y + C`` has the covariance ``s²·M⁻¹`` (``s²`` its residual
+    variance, ``M`` the normal matrix; times ``correlation`` for correlated noise, which the
+    residuals alone understate); the normal is ``(A, B, C)`` normalised, so its direction
+    varies by the covariance across it: ``sqrt(tr(P·C·P))/|(A, B, C)|`` with ``P`` the
+    projection perpendicular to it. Degenerate planes: inf.
+    """
+    coefficients = plane_table[:, :3]
+    norm = np.linalg.norm(coefficients, axis=1)
+    unit = coefficients / norm[:, None]
+    covariance = (correlation * plane_table[:, 3])[:, None, None] * plane_table[:, 4:13].reshape(
+        -1, 3, 3
+    )
+    along = np.einsum("pi,pij,pj->p", unit, covariance, unit)
+    across = np.maximum(np.trace(covariance, axis1=1, axis2=2) - along, 0.0)
+    sigma = np.degrees(np.sqrt(across) / norm)
+    return np.where(np.isfinite(sigma), sigma, np.inf)
 
 
 @functools.lru_cache(maxsize=8)
