@@ -325,17 +325,17 @@ def test_segmentation_noise_fields_per_mode():
     """stereo: the matcher's measured figures and the robot's baseline; depth: the error
     model's; ideal: none (the segmentation estimates the noise from the image)."""
     camera = CameraConfig()
-    stereo = segmentation_noise_fields(dataclasses.replace(camera, mode="stereo"), 100.0, 0.068)
+    stereo = segmentation_noise_fields(dataclasses.replace(camera, mode="stereo"), 0.068)
     assert stereo == {
         "disparity_noise_px": MATCHER_DISPARITY_NOISE_PX,
         "stereo_baseline_m": 0.068,
         "noise_correlation_factor": MATCHER_MEAN_VARIANCE_FACTOR,
     }
-    depth = segmentation_noise_fields(dataclasses.replace(camera, mode="depth"), 100.0, 0.068)
+    depth = segmentation_noise_fields(dataclasses.replace(camera, mode="depth"), 0.068)
     assert depth["stereo_baseline_m"] == camera.baseline_m
     assert depth["disparity_noise_px"] == pytest.approx(
         math.hypot(camera.disparity_noise_px, camera.disparity_step_px / math.sqrt(12.0))
     )
-    assert segmentation_noise_fields(dataclasses.replace(camera, mode="ideal"), 100.0, 0.068) == {}
+    assert segmentation_noise_fields(dataclasses.replace(camera, mode="ideal"), 0.068) == {}
     SegmentationParams(**stereo)
     SegmentationParams(**depth)

@@ -17,6 +17,7 @@ from __future__ import annotations
 
 from fogsim.config import CameraConfig
 from fogsim.sim.camera.error_model import StereoErrorModel
+from fogsim.sim.camera.intrinsics import camera_intrinsics
 
 MATCHER_DISPARITY_NOISE_PX = 0.125
 """Disparity noise of the stereo head for the segmentation [output px]: the std of the Gaussian
@@ -29,14 +30,11 @@ MATCHER_MEAN_VARIANCE_FACTOR = 3.0
 segmentation's row segments span 10–40 pixels)."""
 
 
-def segmentation_noise_fields(
-    config: CameraConfig, focal_px: float, stereo_baseline_m: float
-) -> dict[str, float]:
+def segmentation_noise_fields(config: CameraConfig, stereo_baseline_m: float) -> dict[str, float]:
     """``SegmentationParams`` fields of the sensor model of a camera table's mode.
 
     Args:
-        config: The scenario's camera table (its ``mode`` and error model).
-        focal_px: Focal length of the output image [px].
+        config: The scenario's camera table (its ``mode``, image and error model).
         stereo_baseline_m: The robot's stereo baseline [m] (``stereo`` mode).
 
     Returns:
@@ -50,7 +48,7 @@ def segmentation_noise_fields(
             "noise_correlation_factor": MATCHER_MEAN_VARIANCE_FACTOR,
         }
     if config.mode == "depth":
-        model = StereoErrorModel.from_config(config, focal_px)
+        model = StereoErrorModel.from_config(config, camera_intrinsics(config).fx)
         if model.equivalent_noise_px() == 0.0:
             return {}
         return {
