@@ -91,8 +91,7 @@ def local_noise_depth_m(inv_depth, window, min_noise_m, cap_factor, model_inv_si
     A stereo matcher's errors are correlated over its window: second differences of
     neighbours then read them too small. With a sensor model (``model_inv_sigma`` > 0, the
     std of inverse depth, constant for a stereo camera: ``σ_d/(f·b)``) the typical noise is the
-    model's ``d²·model_inv_sigma`` at the surface's depth ``d`` (a 5 × 7 box mean of inverse
-    depth, the pixel's own across an edge) and the local estimate never falls below it.
+    model's ``d²·model_inv_sigma`` and the local estimate never falls below it.
 
     Args:
         inv_depth: (H, W) inverse depth [1/m], NaN where invalid.
@@ -137,19 +136,11 @@ def local_noise_depth_m(inv_depth, window, min_noise_m, cap_factor, model_inv_si
             out[r, c] = max(m * _CLIPPED_MEAN_TO_SIGMA / (z * z), min_noise_m)
     if model_inv_sigma > 0.0:
         typical = np.full((height, width), np.nan)
-        # The noise at the surface's depth, not at the pixel's own noisy depth: weights
-        # 1/sigma² of the measured depth would favour the pixels measured too near (biasing
-        # a floor's height up by millimetres under stereo noise). A 5 × 7 box mean of the
-        # inverse depth, where it is within 4 sigma of the pixel's (else an edge: its own).
-        smooth = _box_mean(inv_depth, np.empty((0, 0)), 2, 3)
         for r in range(height):
             for c in range(width):
                 z = inv_depth[r, c]
                 if z > 0.0:
-                    zs = smooth[r, c]
-                    if not abs(zs - z) <= 4.0 * model_inv_sigma:
-                        zs = z
-                    typical[r, c] = max(model_inv_sigma / (zs * zs), min_noise_m)
+                    typical[r, c] = max(model_inv_sigma / (z * z), min_noise_m)
                     out[r, c] = max(out[r, c], typical[r, c])
     else:
         typical = _range_profile(out, inv_depth, min_noise_m)
