@@ -10,9 +10,13 @@ columns can be compared. Reported, in output pixels of disparity ``d = f·b/z``:
 
   bias, noise     median and robust std (1.4826·MAD) of d_measured − d_true on surfaces
                   (pixels at least 2 px from a depth edge), overall and per range bin
+  noise_p99       99th percentile of |d_measured − d_true − bias| / 2.576: the std of a Gaussian
+                  with the same tail, what k-sigma tolerance tests need
   gross           fraction of surface pixels off by more than 1 px
   correlation     of the surface pixels' errors with their neighbours' at a few lags (rows,
                   columns): stereo errors are smooth over the matching window, white noise not
+  mean variance   n·var(mean of n row neighbours)/var(pixel) for runs of 4, 8, 16 px: how much
+                  the correlation inflates a row segment's mean (1 for white noise)
   dropout         fraction of surface pixels without a measurement, per range bin
   edge            near depth edges (1–2 px, background side): dropout, and how often the
                   measurement is nearer the foreground's depth (nearest within 2 px) than the
@@ -42,6 +46,8 @@ RANGE_BINS_M = (0.5, 1.0, 1.5, 2.0, 3.0, 4.0)
 """Edges of the depth bins [m] the range dependence is reported in."""
 CORRELATION_LAGS_PX = ((0, 1), (0, 2), (0, 4), (0, 8), (1, 0), (2, 0), (4, 0))
 """(rows, columns) lags at which the disparity errors' correlation is reported."""
+MEAN_RUNS_PX = (4, 8, 16)
+"""Row run lengths [px] whose means' variance inflation by correlated errors is reported."""
 ROBOT_BASELINE_M = 0.068
 """The stage robot's (iCub's) stereo baseline [m], ``assets/robots/icub.toml``: disparities are
 in its output pixels."""
@@ -92,6 +98,21 @@ def frame_pairs(seed: int, every: int, overrides: dict[str, object]):
         sim.close()
 
 
+def mean_variance_factor(error: np.ndarray, ok: np.ndarray, n: int) -> float:
+    """n·var(mean of n row neighbours) / var(one pixel): 1 for white noise.
+
+    Over the non-overlapping runs of ``n`` columns that are all valid surface pixels; the
+    segmentation's ``noise_correlation_factor`` (how much correlated errors inflate the
+    variance of a row segment's mean).
+    """
+    frames, height, width = error.shape
+    usable = width // n * n
+    runs_ok = ok[:, :, :usable].reshape(frames, height, -1, n).all(axis=-1)
+    runs = error[:, :, :usable].reshape(frames, height, -1, n)[runs_ok]
+    centred = runs - np.median(error[ok])
+    return float(n * np.var(centred.mean(axis=-1)) / np.var(centred))
+
+
 def statistics(
     exact: np.ndarray, measured: np.ndarray, distance: np.ndarray, far: np.ndarray, fb: float
 ) -> dict[str, float]:
@@ -103,6 +124,9 @@ def statistics(
     result = {
         "bias_px": float(np.median(error[ok])),
         "noise_px": float(1.4826 * np.median(np.abs(error[ok] - np.median(error[ok])))),
+        "noise_p99_px": float(
+            np.percentile(np.abs(error[ok] - np.median(error[ok])), 99.0) / 2.576
+        ),
         "gross": float(np.mean(np.abs(error[ok]) > 1.0)),
         "dropout": float(1.0 - ok.sum() / surface.sum()),
         "median_abs_mm": float(1e3 * np.median(np.abs(measured[ok] - exact[ok]))),
@@ -119,6 +143,8 @@ def statistics(
         a = error[:, dy:, dx:][pair]
         b = error[:, : ok.shape[1] - dy, : ok.shape[2] - dx][pair]
         result[f"correlation lag {dy},{dx} px"] = float(np.corrcoef(a, b)[0, 1])
+    for n in MEAN_RUNS_PX:
+        result[f"mean variance factor {n} px"] = mean_variance_factor(error, ok, n)
     edge = in_range & far & (distance < 2.5) & (distance > 0)
     edge_ok = edge & np.isfinite(measured)
     result["edge dropout"] = float(1.0 - edge_ok.sum() / max(edge.sum(), 1))

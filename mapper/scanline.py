@@ -80,7 +80,7 @@ def _box_mean(values, clip, half_rows, half_cols):
 
 
 @numba.njit(cache=True)
-def local_noise_depth_m(inv_depth, window, min_noise_m, cap_factor):
+def local_noise_depth_m(inv_depth, window, min_noise_m, cap_factor, model_inv_sigma):
     """Per-pixel standard deviation of the depth [m], estimated from the data.
 
     On a plane the second difference of the inverse depth along a row is pure noise
@@ -88,17 +88,23 @@ def local_noise_depth_m(inv_depth, window, min_noise_m, cap_factor):
     (2·window + 1) columns, twice more with the values clipped at 2.5× the previous mean so
     that depth edges in the box barely count.
 
+    A stereo matcher's errors are correlated over its window: second differences of
+    neighbours then read them too small. With a sensor model (``model_inv_sigma`` > 0, the
+    std of inverse depth, constant for a stereo camera: ``σ_d/(f·b)``) the typical noise is the
+    model's ``d²·model_inv_sigma`` and the local estimate never falls below it.
+
     Args:
         inv_depth: (H, W) inverse depth [1/m], NaN where invalid.
         window: half width [px] of the averaging box along the row.
         min_noise_m: lower bound of the returned noise [m].
-        cap_factor: if > 0, cap every estimate at this multiple of the image's typical noise
-            at the same depth (see `_range_profile`).
+        cap_factor: if > 0, cap every estimate at this multiple of the typical noise at the
+            same depth (see `_range_profile`).
+        model_inv_sigma: std of the inverse depth of the sensor model [1/m]; 0: none, the
+            typical noise is the image's own (`_range_profile`).
 
     Returns:
-        (H, W) local depth noise [m] and (H, W) the image's typical noise at each pixel's
-        depth [m] (`_range_profile`, at least ``min_noise_m``); both NaN where the depth is
-        invalid.
+        (H, W) local depth noise [m] and (H, W) the typical noise at each pixel's depth [m]
+        (at least ``min_noise_m``); both NaN where the depth is invalid.
     """
     height, width = inv_depth.shape
     second = np.full((height, width), np.nan)
@@ -128,7 +134,16 @@ def local_noise_depth_m(inv_depth, window, min_noise_m, cap_factor):
             if m != m:  # NaN
                 m = fallback
             out[r, c] = max(m * _CLIPPED_MEAN_TO_SIGMA / (z * z), min_noise_m)
-    typical = _range_profile(out, inv_depth, min_noise_m)
+    if model_inv_sigma > 0.0:
+        typical = np.full((height, width), np.nan)
+        for r in range(height):
+            for c in range(width):
+                z = inv_depth[r, c]
+                if z > 0.0:
+                    typical[r, c] = max(model_inv_sigma / (z * z), min_noise_m)
+                    out[r, c] = max(out[r, c], typical[r, c])
+    else:
+        typical = _range_profile(out, inv_depth, min_noise_m)
     if cap_factor > 0.0:
         for r in range(height):
             for c in range(width):
@@ -226,6 +241,7 @@ def split_rows(
     edge_factor,
     tolerance_floor_m,
     min_pixels,
+    correlation,
 ):
     """Split every image row into straight segments.
 
@@ -239,6 +255,8 @@ def split_rows(
         edge_factor: a piece with a step statistic above this (in sigma units) is split there.
         tolerance_floor_m: constant added to every tolerance [m].
         min_pixels: shorter pieces are not segments (their pixels stay unassigned).
+        correlation: variance inflation of a mean of neighbouring pixels by correlated noise
+            (1: white); the step statistic's standard error grows by its square root.
 
     Returns:
         rows, starts, stops (stop exclusive) int64 arrays sorted by row then column, and a
@@ -320,7 +338,7 @@ def split_rows(
                         continue
                     mean_l = (res_pre[m] - res_pre[m - kl]) / kl
                     mean_r = (res_pre[m + kr] - res_pre[m]) / kr
-                    t = abs(mean_r - mean_l) / math.sqrt(1.0 / kl + 1.0 / kr)
+                    t = abs(mean_r - mean_l) / math.sqrt(correlation * (1.0 / kl + 1.0 / kr))
                     if t > edge:
                         edge = t
                         edge_at = a + m
@@ -388,14 +406,15 @@ def propagate_breaks(
     tolerance_floor_m,
     min_pixels,
     reach,
+    correlation,
 ):
     """Split segments where the rows above or below break, if a (weaker) step shows there.
 
     A depth edge running across rows (e.g. the side of a low step) breaks most rows; in a noisy
     row its step statistic may stay under the threshold of `split_rows`. Knowing where the
     neighbouring rows break, a step statistic above ``edge_factor`` within ``reach`` columns
-    of one of those breaks (edges run diagonally in the image) is enough to split. Returns new
-    arrays in the format of `split_rows`.
+    of one of those breaks (edges run diagonally in the image) is enough to split
+    (``correlation`` as in `split_rows`). Returns new arrays in the format of `split_rows`.
     """
     height, width = inv_depth.shape
     n = rows.shape[0]
@@ -438,7 +457,7 @@ def propagate_breaks(
                 kr = min(edge_window, length - m)
                 mean_l = (res_pre[m] - res_pre[m - kl]) / kl
                 mean_r = (res_pre[m + kr] - res_pre[m]) / kr
-                t = abs(mean_r - mean_l) / math.sqrt(1.0 / kl + 1.0 / kr)
+                t = abs(mean_r - mean_l) / math.sqrt(correlation * (1.0 / kl + 1.0 / kr))
                 if t > best:
                     best = t
                     split = c
@@ -1154,18 +1173,21 @@ def segment_labels(valid, seg_rows, seg_starts, seg_stops, plane_of):
 
 
 @numba.njit(cache=True)
-def horizontal_sums(points, sigma_z, seg_rows, seg_starts, seg_stops):
+def horizontal_sums(points, sigma_z, seg_rows, seg_starts, seg_stops, correlation):
     """(S, 6) sums of every segment for the horizontal model ``z = h``.
 
-    Columns: Σw, Σw·z, Σw·z², n, Σw·x, Σw·y with w = 1/sigma_z² (points: (H, W, 3) points
-    of the pixels in the tilt-corrected robot frame [m], sigma_z: their noise along z [m]).
+    Columns: Σw, Σw·z, Σw·z², n, Σw·x, Σw·y with w = 1/(correlation·sigma_z²) (points:
+    (H, W, 3) points of the pixels in the tilt-corrected robot frame [m], sigma_z: their noise
+    along z [m]). ``correlation`` (≥ 1, 1 for white noise) is the factor by which correlated
+    noise inflates the variance of a mean over many pixels of a row: 1/Σw is then the squared
+    standard error of the segment's mean height, and a pixel-level χ² is τ·(Σw·z² − (Σw·z)²/Σw).
     """
     n_seg = seg_rows.shape[0]
     out = np.zeros((n_seg, 6))
     for i in range(n_seg):
         r = seg_rows[i]
         for c in range(seg_starts[i], seg_stops[i]):
-            w = 1.0 / (sigma_z[r, c] * sigma_z[r, c])
+            w = 1.0 / (correlation * sigma_z[r, c] * sigma_z[r, c])
             z = points[r, c, 2]
             out[i, 0] += w
             out[i, 1] += w * z
@@ -1187,6 +1209,7 @@ def grow_floors(
     chi_factor,
     tolerance_m,
     seed_min_pixels,
+    correlation,
 ):
     """Region growing of horizontal floors (``z = h``, one parameter) over row segments.
 
@@ -1208,6 +1231,7 @@ def grow_floors(
         chi_factor: a level segment's RMS height residual is at most this many sigma.
         tolerance_m: constant added to the height tolerance [m].
         seed_min_pixels: minimum length of a seed segment.
+        correlation: the noise's variance inflation of means (`horizontal_sums`).
 
     Returns:
         (S,) int64 floor index of every segment, -1 for none; floors numbered in creation
@@ -1227,7 +1251,7 @@ def grow_floors(
             continue
         mean[i] = wz / w
         variance[i] = 1.0 / w
-        chi2 = max(wzz - wz * mean[i], 0.0) / (n - 1.0)
+        chi2 = correlation * max(wzz - wz * mean[i], 0.0) / (n - 1.0)
         level[i] = chi2 <= chi_factor * chi_factor
     order = np.argsort(variance, kind="mergesort")
     queue = np.empty(n_seg, np.int64)
@@ -1365,7 +1389,7 @@ def _merge_floors(
 
 
 @numba.njit(cache=True)
-def split_level(z, sigma_z, seg_rows, seg_starts, seg_stops, step_factor, min_pixels):
+def split_level(z, sigma_z, seg_rows, seg_starts, seg_stops, step_factor, min_pixels, correlation):
     """Split row segments where their height steps (for the horizontal model).
 
     A row running along a low step's side edge is one straight line in depth when noise
@@ -1382,6 +1406,7 @@ def split_level(z, sigma_z, seg_rows, seg_starts, seg_stops, step_factor, min_pi
         seg_stops: (S,) column after the last of each segment.
         step_factor: a height step of more than this many standard errors splits.
         min_pixels: shortest piece.
+        correlation: the noise's variance inflation of means (`horizontal_sums`).
 
     Returns:
         rows, starts, stops of the pieces (int64, sorted by row then column).
@@ -1416,7 +1441,7 @@ def split_level(z, sigma_z, seg_rows, seg_starts, seg_stops, step_factor, min_pi
                 w_left = w_pre[m]
                 w_right = w_pre[n] - w_pre[m]
                 difference = (wz_pre[n] - wz_pre[m]) / w_right - wz_pre[m] / w_left
-                t = abs(difference) / math.sqrt(1.0 / w_left + 1.0 / w_right)
+                t = abs(difference) / math.sqrt(correlation * (1.0 / w_left + 1.0 / w_right))
                 if t > best:
                     best = t
                     split = a + m

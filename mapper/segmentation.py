@@ -5,6 +5,9 @@ grouped into planes by scan-line grouping (Jiang & Bunke; details in `mapper.sca
 
 - the depth noise is estimated per pixel from the data (second differences of inverse depth,
   capped by the image's typical noise at that depth), and every tolerance scales with it;
+  with a stereo noise model (`SegmentationParams.disparity_noise_px`, ``stereo_baseline_m``)
+  the typical noise is the model's ``d²·σ_d/(f·b)`` and the floor of the local estimate, and
+  tests of means allow for correlated noise (``noise_correlation_factor``);
 - each image row is split into straight pieces (no outlier, no excess RMS, no depth step);
 - planes are seeded from the best-fitting triples of overlapping pieces in adjacent rows and
   grown breadth-first, then pieces move to a neighbouring plane that fits them clearly better
@@ -14,8 +17,10 @@ Planes are fitted as inverse depth affine in the image coordinates, so errors ar
 along the viewing ray, where a depth camera has them. Then
 
 1. the data are rotated about the camera centre so that the near-horizontal planes become
-   exactly horizontal (area-weighted mean normal of the planes agreeing with the largest one;
-   absorbs camera rotation errors of the joint encoders);
+   exactly horizontal (mean normal of the planes agreeing with the best-supported one, each
+   weighted by the information of its normal, 1/σ² from the fit's covariance: a far plane's
+   large footprint does not outvote a near plane's well-determined normal; absorbs camera
+   rotation errors of the joint encoders);
 2. floors are grown in that frame with the one-parameter model ``z = h``
    (`scanline.split_level`, `scanline.grow_floors`): row pieces split where their heights
    step, level pieces (heights scattering by their noise along z, the typical depth noise
@@ -92,6 +97,8 @@ _NON_NEGATIVE_FIELDS = (
     "floor_snap_sigma_factor",
     "floor_height_tolerance_m",
     "floor_max_segment_chi2",
+    "disparity_noise_px",
+    "stereo_baseline_m",
 )
 """`SegmentationParams` fields that must be finite and >= 0."""
 _INTEGER_RANGES: dict[str, tuple[int, int | None]] = {
@@ -188,6 +195,24 @@ class SegmentationParams:
             `expected_ground_z_m` [m] (after the tilt correction).
         correct_tilt: apply the rotation correction.
         correct_ground_shift: apply the z shift to the ground plane.
+        disparity_noise_px: std of a stereo camera's disparity noise [px of this image];
+            with ``stereo_baseline_m`` it sets the sensor model: inverse depth has the
+            constant std ``σ_d/(f·b)`` (f = `PinholeIntrinsics.fx`), so the depth noise is
+            ``d²·σ_d/(f·b)``. Then the typical noise at each depth is the model's and the
+            local estimate never falls below it: a matcher's errors are correlated over its
+            window and second differences of neighbours read them at about 0.6× their size
+            (fogsim's stereo head on the stage). 0 (default): no model, the noise is the
+            image's own (any depth sensor). For fogsim's stereo head 0.125 px: the std of the
+            Gaussian with the matcher's 99th percentile (`bench/stereo_stats.py`, stage seed
+            1: robust std 0.076 px, 99 % tail 0.126 px; k-sigma tests need the tail).
+        stereo_baseline_m: the stereo baseline b [m] of that model (0: no model).
+        noise_correlation_factor: how much correlated noise inflates the variance of a mean
+            of n neighbouring pixels of a row over the white-noise σ²/n (τ ≥ 1). Every test
+            of a mean against a mean (the step statistics of row splitting, level segments'
+            mean heights when growing floors, the floors' segment-mean χ², the planes' normal
+            uncertainty) widens its standard error by sqrt(τ). 1 (default): white noise. For
+            fogsim's stereo head 3: `bench/stereo_stats.py` measures 1.9, 2.3, 2.7 for runs
+            of 4, 8, 16 pixels (stage seed 1) and row segments span 10–40 pixels.
     """
 
     min_depth_m: float = 0.05
@@ -224,6 +249,9 @@ class SegmentationParams:
     ground_search_window_m: float = 0.05
     correct_tilt: bool = True
     correct_ground_shift: bool = True
+    disparity_noise_px: float = 0.0
+    stereo_baseline_m: float = 0.0
+    noise_correlation_factor: float = 1.0
 
     def __post_init__(self) -> None:
         def check(name: str, kind: type, allowed: str, ok=lambda _: True) -> None:
@@ -256,6 +284,18 @@ class SegmentationParams:
             f"a finite float [m] within ±{MAX_COORDINATE_M:g} (mapper.limits.MAX_COORDINATE_M)",
             lambda v: abs(v) <= MAX_COORDINATE_M,
         )
+        check(
+            "noise_correlation_factor",
+            float,
+            "a finite float >= 1 (1: white noise)",
+            lambda v: math.isfinite(v) and v >= 1.0,
+        )
+        if (self.disparity_noise_px > 0.0) != (self.stereo_baseline_m > 0.0):
+            raise InvalidParameterError(
+                f"SegmentationParams.disparity_noise_px ({self.disparity_noise_px}) and "
+                f"stereo_baseline_m ({self.stereo_baseline_m}) must both be > 0 (a stereo noise "
+                "model) or both 0 (none)"
+            )
         for name in ("correct_tilt", "correct_ground_shift"):
             check(name, bool, "a bool")
 
@@ -440,8 +480,17 @@ def segment_depth(
     x = (np.arange(width) - intrinsics.cx) / intrinsics.fx
     y = (np.arange(height) - intrinsics.cy) / intrinsics.fy
     inv_depth = 1.0 / depth
+    model_inv_sigma = (
+        params.disparity_noise_px / (intrinsics.fx * params.stereo_baseline_m)
+        if params.stereo_baseline_m > 0.0
+        else 0.0
+    )  # std of the inverse depth [1/m]
     sigma, typical_sigma = scanline.local_noise_depth_m(
-        inv_depth, params.noise_window_px, params.min_noise_m, params.noise_cap_factor
+        inv_depth,
+        params.noise_window_px,
+        params.min_noise_m,
+        params.noise_cap_factor,
+        model_inv_sigma,
     )
     seg_rows, seg_starts, seg_stops, seg_table = scanline.split_rows(
         inv_depth,
@@ -453,6 +502,7 @@ def segment_depth(
         params.edge_sigma_factor,
         params.tolerance_floor_m,
         params.min_segment_pixels,
+        params.noise_correlation_factor,
     )
     for _ in range(params.break_passes):
         n_before = seg_rows.size
@@ -469,6 +519,7 @@ def segment_depth(
             params.tolerance_floor_m,
             params.min_segment_pixels,
             params.break_reach_px,
+            params.noise_correlation_factor,
         )
         if seg_rows.size == n_before:
             break
@@ -542,7 +593,14 @@ def segment_depth(
     centroids = centroids_camera @ rotation.T + pivot
     # RMS depth residual of the plane fit (inverse-depth residual scaled at the centroid).
     rms = np.sqrt(plane_table[:, 3]) * centroids_camera[:, 2] ** 2
-    correction = estimate_tilt(normals, areas, eigen, counts, pivot, params)
+    # The noise is never below min_noise_m (exact data: no plane is infinitely certain).
+    min_inv_sigma = params.min_noise_m / centroids_camera[:, 2] ** 2
+    normal_sigma_deg = _normal_sigma_deg(
+        plane_table, params.noise_correlation_factor, min_inv_sigma
+    )
+    # The tilt's planes are weighted by the information of their normals (1/σ²), not by area:
+    # a far plane's footprint is large while its normal, under stereo noise, is poor.
+    correction = estimate_tilt(normals, 1.0 / normal_sigma_deg**2, eigen, counts, pivot, params)
     centroids_c = (centroids - pivot) @ correction.rotation.T + pivot
     normals_c = normals @ correction.rotation.T
     is_floor_shape = _floor_shape(normals_c, eigen, counts, params)
@@ -633,9 +691,16 @@ def _floor_regions(origin, rays, points, sigma_z, depth, segments, intrinsics, p
     """
     z = np.ascontiguousarray(points[..., 2])
     seg_rows, seg_starts, seg_stops = scanline.split_level(
-        z, sigma_z, *segments, params.edge_sigma_factor, params.min_segment_pixels
+        z,
+        sigma_z,
+        *segments,
+        params.edge_sigma_factor,
+        params.min_segment_pixels,
+        params.noise_correlation_factor,
     )
-    sums = scanline.horizontal_sums(points, sigma_z, seg_rows, seg_starts, seg_stops)
+    sums = scanline.horizontal_sums(
+        points, sigma_z, seg_rows, seg_starts, seg_stops, params.noise_correlation_factor
+    )
     floor_of_segment = scanline.grow_floors(
         seg_rows,
         seg_starts,
@@ -646,6 +711,7 @@ def _floor_regions(origin, rays, points, sigma_z, depth, segments, intrinsics, p
         params.rms_sigma_factor,
         params.floor_height_tolerance_m,
         params.seed_min_pixels,
+        params.noise_correlation_factor,
     )
     n_floors = int(floor_of_segment.max(initial=-1)) + 1
     grown = scanline.segment_labels(
@@ -713,6 +779,36 @@ def _floor_regions(origin, rays, points, sigma_z, depth, segments, intrinsics, p
         is_floor=is_floor,
     )
     return labels, floors
+
+
+def _normal_sigma_deg(plane_table, correlation, min_inv_sigma=None):
+    """Standard deviation of each plane's normal direction [deg] from its inverse-depth fit.
+
+    The fit ``1/d = A·x + B·y + C`` has the covariance ``s²·M⁻¹`` (``s²`` its residual
+    variance, at least ``min_inv_sigma²``; ``M`` the normal matrix; times ``correlation`` for
+    correlated noise, which the residuals alone understate); the normal is ``(A, B, C)``
+    normalised, so its direction varies by the covariance across it:
+    ``sqrt(tr(P·C·P))/|(A, B, C)|`` with ``P`` the projection perpendicular to it.
+    Degenerate planes: inf.
+
+    Args:
+        plane_table: (P, 13) `scanline.plane_fits` table.
+        correlation: the noise's variance inflation of means (≥ 1).
+        min_inv_sigma: (P,) lower bound of each plane's inverse-depth noise [1/m] (None: 0).
+    """
+    coefficients = plane_table[:, :3]
+    norm = np.linalg.norm(coefficients, axis=1)
+    unit = coefficients / norm[:, None]
+    variance = (
+        plane_table[:, 3]
+        if min_inv_sigma is None
+        else np.maximum(plane_table[:, 3], min_inv_sigma**2)
+    )
+    covariance = (correlation * variance)[:, None, None] * plane_table[:, 4:13].reshape(-1, 3, 3)
+    along = np.einsum("pi,pij,pj->p", unit, covariance, unit)
+    across = np.maximum(np.trace(covariance, axis1=1, axis2=2) - along, 0.0)
+    sigma = np.degrees(np.sqrt(across) / norm)
+    return np.where(np.isfinite(sigma), sigma, np.inf)
 
 
 @functools.lru_cache(maxsize=8)

@@ -246,6 +246,35 @@ def add_depth_noise(
     return depth + np.where(np.isfinite(depth), sigma * noise, 0.0)
 
 
+def add_stereo_noise(
+    depth_m: NDArray[np.floating],
+    focal_baseline_px_m: float,
+    disparity_noise_px: float,
+    correlation_px: float,
+    rng: np.random.Generator,
+) -> NDArray[np.float64]:
+    """Depth through a stereo camera's disparity noise: ``d = f·b/z`` plus correlated noise.
+
+    The noise field is white Gaussian noise smoothed by a normalised Gaussian kernel of std
+    ``correlation_px`` (as a matcher's window smooths it) and rescaled to the std
+    ``disparity_noise_px``; the depth error then grows with z² (``σ_z = z²·σ_d/(f·b)``).
+    """
+    depth = np.asarray(depth_m, dtype=np.float64)
+    noise = rng.standard_normal(depth.shape)
+    if correlation_px > 0.0:
+        half = math.ceil(3.0 * correlation_px)
+        kernel = np.exp(-0.5 * (np.arange(-half, half + 1) / correlation_px) ** 2)
+        kernel /= kernel.sum()
+        for axis in (0, 1):
+            padded = np.pad(
+                noise, [(half, half) if a == axis else (0, 0) for a in (0, 1)], "reflect"
+            )
+            noise = np.apply_along_axis(np.convolve, axis, padded, kernel, mode="valid")
+        noise /= np.sum(kernel**2)  # a 2D kernel's root sum of squares: |k|₂² per axis
+    disparity = focal_baseline_px_m / depth + disparity_noise_px * noise
+    return np.where(disparity > 0.0, focal_baseline_px_m / disparity, np.nan)
+
+
 def _intersect_box(
     origin: NDArray[np.float64], rays: NDArray[np.float64], box: Box
 ) -> tuple[NDArray[np.float64], NDArray[np.bool_]]:

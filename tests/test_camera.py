@@ -19,8 +19,14 @@ from fogsim.sim.camera import (
     camera_intrinsics,
     set_model_intrinsics,
 )
+from fogsim.sim.camera.noise_model import (
+    MATCHER_DISPARITY_NOISE_PX,
+    MATCHER_MEAN_VARIANCE_FACTOR,
+    segmentation_noise_fields,
+)
 from fogsim.sim.scene import Scene
 from mapper.intrinsics import PinholeIntrinsics
+from mapper.segmentation import SegmentationParams
 from mapper.transforms import apply_transform
 
 
@@ -297,3 +303,39 @@ def test_the_twenty_metre_reading_is_the_far_plane_of_a_small_model():
     ours.close()
     assert np.isnan(depth[:30]).all()  # no hit above the horizon
     assert np.isfinite(depth[-10:]).all()  # the floor below it
+
+
+def test_error_model_equivalent_noise_and_mean_variance_factor_known_answers():
+    """σ_eq = hypot(σ_d, step/√12) = hypot(0.05, 0.0625/√12) = 0.05316 px; white noise has
+    factor 1; noise smoothed over 0.6 px has 1/Σk² = 2.02 for long row runs, which the drawn
+    field shows (n·var(mean of n = 64 row pixels)/var(pixel))."""
+    white = error_model(disparity_noise_px=0.05, disparity_step_px=0.0625)
+    assert white.equivalent_noise_px() == pytest.approx(0.053156, abs=1e-6)
+    assert white.mean_variance_factor() == 1.0
+    smooth = error_model(disparity_noise_px=0.1, disparity_step_px=0.0)
+    smooth = dataclasses.replace(smooth, disparity_noise_correlation_px=0.6)
+    assert smooth.mean_variance_factor() == pytest.approx(2.02, abs=0.01)
+    field = smooth.noise_px((256, 1024), np.random.default_rng(3))
+    runs = field.reshape(256, -1, 64)
+    measured = 64 * np.var(runs.mean(axis=-1)) / np.var(field)
+    assert measured == pytest.approx(smooth.mean_variance_factor(), rel=0.1)
+
+
+def test_segmentation_noise_fields_per_mode():
+    """stereo: the matcher's measured figures and the robot's baseline; depth: the error
+    model's; ideal: none (the segmentation estimates the noise from the image)."""
+    camera = CameraConfig()
+    stereo = segmentation_noise_fields(dataclasses.replace(camera, mode="stereo"), 0.068)
+    assert stereo == {
+        "disparity_noise_px": MATCHER_DISPARITY_NOISE_PX,
+        "stereo_baseline_m": 0.068,
+        "noise_correlation_factor": MATCHER_MEAN_VARIANCE_FACTOR,
+    }
+    depth = segmentation_noise_fields(dataclasses.replace(camera, mode="depth"), 0.068)
+    assert depth["stereo_baseline_m"] == camera.baseline_m
+    assert depth["disparity_noise_px"] == pytest.approx(
+        math.hypot(camera.disparity_noise_px, camera.disparity_step_px / math.sqrt(12.0))
+    )
+    assert segmentation_noise_fields(dataclasses.replace(camera, mode="ideal"), 0.068) == {}
+    SegmentationParams(**stereo)
+    SegmentationParams(**depth)

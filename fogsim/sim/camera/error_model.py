@@ -102,6 +102,28 @@ class StereoErrorModel:
         """Std of the depth error at ``depth_m`` from disparity noise alone [m] (z²σ/(f b))."""
         return depth_m**2 * self.disparity_noise_px / (self.focal_px * self.baseline_m)
 
+    def equivalent_noise_px(self) -> float:
+        """Std of the disparity error [px]: the noise and the quantisation's ``step/sqrt(12)``."""
+        return float(np.hypot(self.disparity_noise_px, self.disparity_step_px / np.sqrt(12.0)))
+
+    def mean_variance_factor(self) -> float:
+        """How much the errors' correlation inflates the variance of a long row mean (≥ 1).
+
+        A field smoothed by a normalised kernel ``k`` (:meth:`noise_px`) has row correlations
+        summing to ``(Σk)²/Σk² = 1/Σk²`` (2.0 for 0.6 px); the quantisation error is white.
+        The factor is the two parts' variance-weighted mean (1 for white noise).
+        """
+        noise_var = self.disparity_noise_px**2
+        step_var = self.disparity_step_px**2 / 12.0
+        if noise_var + step_var == 0.0:
+            return 1.0
+        sigma = self.disparity_noise_correlation_px
+        factor = 1.0
+        if sigma > 0.0:
+            kernel = cv2.getGaussianKernel(2 * int(np.ceil(3.0 * sigma)) + 1, sigma, cv2.CV_64F)
+            factor = 1.0 / float(np.sum(kernel**2))
+        return (noise_var * factor + step_var) / (noise_var + step_var)
+
     def fattened(self, depth_m: NDArray[np.floating]) -> NDArray[np.float64]:
         """Depth with each depth edge's nearer side spread ``edge_fattening_px`` over the farther.
 

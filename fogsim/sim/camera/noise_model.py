@@ -1,0 +1,59 @@
+"""The segmentation's sensor model for each camera mode (``mapper.segmentation`` fields).
+
+A stereo camera's inverse depth has a constant noise ``σ_d/(f·b)``: the segmentation takes its
+typical noise from that model (``disparity_noise_px``, ``stereo_baseline_m``) and widens tests
+of means for correlated errors (``noise_correlation_factor``); without a model it estimates the
+noise from the image, which reads a matcher's correlated errors at about 0.6× their size.
+
+- ``stereo``: the matcher's figures measured by ``bench/stereo_stats.py`` (stage, seed 1, every
+  16th frame): :data:`MATCHER_DISPARITY_NOISE_PX`, :data:`MATCHER_MEAN_VARIANCE_FACTOR`, the
+  robot's baseline;
+- ``depth``: the error model's own figures (:meth:`StereoErrorModel.equivalent_noise_px`,
+  :meth:`StereoErrorModel.mean_variance_factor`);
+- ``ideal``: none.
+"""
+
+from __future__ import annotations
+
+from fogsim.config import CameraConfig
+from fogsim.sim.camera.error_model import StereoErrorModel
+from fogsim.sim.camera.intrinsics import camera_intrinsics
+
+MATCHER_DISPARITY_NOISE_PX = 0.125
+"""Disparity noise of the stereo head for the segmentation [output px]: the std of the Gaussian
+whose 99th percentile the matcher's errors have (0.126 px; their robust std is 0.076 px, but
+k-sigma tolerance tests meet the tail: with 0.077 px the stage's ground fails the floor tests in
+most frames, `bench/stereo_stats.py`)."""
+MATCHER_MEAN_VARIANCE_FACTOR = 3.0
+"""How much the matcher's correlated errors inflate the variance of a mean of a row's pixels
+(`bench/stereo_stats.py`: 1.9, 2.3, 2.7 for 4, 8, 16 pixels, growing with the run; the
+segmentation's row segments span 10–40 pixels)."""
+
+
+def segmentation_noise_fields(config: CameraConfig, stereo_baseline_m: float) -> dict[str, float]:
+    """``SegmentationParams`` fields of the sensor model of a camera table's mode.
+
+    Args:
+        config: The scenario's camera table (its ``mode``, image and error model).
+        stereo_baseline_m: The robot's stereo baseline [m] (``stereo`` mode).
+
+    Returns:
+        ``disparity_noise_px``, ``stereo_baseline_m`` and ``noise_correlation_factor`` for
+        ``stereo`` and ``depth``; empty for ``ideal`` (the image's own noise estimate).
+    """
+    if config.mode == "stereo":
+        return {
+            "disparity_noise_px": MATCHER_DISPARITY_NOISE_PX,
+            "stereo_baseline_m": stereo_baseline_m,
+            "noise_correlation_factor": MATCHER_MEAN_VARIANCE_FACTOR,
+        }
+    if config.mode == "depth":
+        model = StereoErrorModel.from_config(config, camera_intrinsics(config).fx)
+        if model.equivalent_noise_px() == 0.0:
+            return {}
+        return {
+            "disparity_noise_px": model.equivalent_noise_px(),
+            "stereo_baseline_m": config.baseline_m,
+            "noise_correlation_factor": model.mean_variance_factor(),
+        }
+    return {}
