@@ -55,6 +55,7 @@ sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 from fogsim.config.params import resolve_params
 from fogsim.data.recording import FORMAT_VERSION, load_recording
 from fogsim.mapping.pipeline import Pipeline
+from fogsim.run.runner import sensor_fields
 from mapper import AveragingMap, FloorObstacleMapper, MapperParams, PinholeIntrinsics
 from mapper.synthetic import Box, camera_rays_world, cast_frame
 
@@ -154,7 +155,7 @@ def stage_recording(directory: Path, width: int, height: int) -> Path:
 def stage_frames(path: Path, count: int) -> FrameSet:
     """The mapper's inputs when the recording is replayed: ``count`` frames evenly spaced."""
     recording = load_recording(path)
-    pipeline = Pipeline(resolve_params(recording.scenario))
+    pipeline = Pipeline(resolve_params(recording.scenario, sensor=sensor_fields(recording.scenario)))
     mapper = pipeline.mapper
     captured: list[MapperInput] = []
     center: list[tuple[float, float]] = [(0.0, 0.0)]

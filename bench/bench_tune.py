@@ -30,7 +30,7 @@ os.environ.setdefault("PYOPENGL_PLATFORM", "egl")
 os.environ.setdefault("MESA_SHADER_CACHE_DISABLE", "true")
 
 from fogsim.config import resolve_params
-from fogsim.run.runner import replay_report, run_frames
+from fogsim.run.runner import replay_report, run_frames, sensor_fields
 from fogsim.tune import ParamSpec, TuneConfig, parameter_defaults, tune
 from fogsim.tune.config import RECORDINGS_DIR
 from fogsim.tune.objective import ObjectiveWeights, objective_terms
@@ -69,7 +69,7 @@ def main() -> None:
     totals = [0.0, 0.0, 0.0]
     for entry in suite:
         rec = entry.recording
-        params = resolve_params(rec.scenario, defaults)
+        params = resolve_params(rec.scenario, defaults, sensor_fields(rec.scenario))
         replay = median_s(
             partial(run_frames, rec.frames, None, rec.scenario, params=params), args.repeats
         )

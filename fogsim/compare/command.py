@@ -24,6 +24,7 @@ from fogsim.config import load_scenario, resolve_params
 from fogsim.data.recording import load_recording
 from fogsim.errors import FogsimError
 from fogsim.run.output_paths import check_output_path
+from fogsim.run.runner import sensor_fields
 from fogsim.run.seeds import parse_seeds
 from fogsim.sim.simulation import Simulation
 
@@ -62,7 +63,7 @@ def _runs(
                     recording.frames,
                     recording.truth_at,
                     scenario,
-                    resolve_params(scenario),
+                    resolve_params(scenario, sensor=sensor_fields(scenario)),
                     maps,
                     settings,
                     scan,
@@ -84,7 +85,7 @@ def _runs(
                     simulation.frames(),
                     simulation.truth_at,
                     scenario,
-                    resolve_params(scenario),
+                    resolve_params(scenario, sensor=sensor_fields(scenario)),
                     maps,
                     settings,
                     scan,

@@ -179,12 +179,16 @@ def split_override_key(key: str) -> tuple[str, str]:
 
 
 def resolve_params(
-    scenario: Scenario | None, overrides: Mapping[str, float] | None = None
+    scenario: Scenario | None,
+    overrides: Mapping[str, float] | None = None,
+    sensor: Mapping[str, float] | None = None,
 ) -> RunParams:
-    """Parameters of a run: defaults ← scenario ``[mapper]`` / ``[segmentation]`` ← overrides.
+    """Parameters: defaults ← sensor ← scenario ``[mapper]`` / ``[segmentation]`` ← overrides.
 
     Args:
         scenario: A Scenario (its ``mapper`` and ``segmentation`` tables) or None.
+        sensor: ``SegmentationParams`` fields of the camera's noise model
+            (:func:`fogsim.run.runner.sensor_fields`), below the scenario's table.
         overrides: Keys ``"<mapper field>"`` (e.g. ``"p_occ"``, or ``"mapper.p_occ"``),
             ``"seg.<field>"``, ``"elev.<field>"``, ``"pipe.<field>"`` and ``"head.<field>"``.
 
@@ -193,7 +197,8 @@ def resolve_params(
     """
     changes: dict[str, dict[str, object]] = {
         "mapper": dict(scenario.mapper) if scenario is not None else {},
-        "segmentation": dict(scenario.segmentation) if scenario is not None else {},
+        "segmentation": dict(sensor or {})
+        | (dict(scenario.segmentation) if scenario is not None else {}),
         "elevation": {},
         "pipeline": {},
         "heading": {},

@@ -39,6 +39,7 @@ from fogsim.robot import load_description
 from fogsim.run.run_folder import RunFolder
 from fogsim.run.warmup import warm_up_kernels
 from fogsim.sim.background import BackgroundSimulation
+from fogsim.sim.camera import segmentation_noise_fields
 from fogsim.sim.simulation import Simulation
 from fogsim.sim.third_person import FilmedSimulation
 from fogsim.viz.pictures import write_pictures
@@ -136,7 +137,7 @@ def run_frames(
         FogsimError: No frames.
     """
     start = time.perf_counter()
-    run_params = params or resolve_params(scenario)
+    run_params = params or resolve_params(scenario, sensor=sensor_fields(scenario))
     if mapper_params is not None:
         run_params = dataclasses.replace(run_params, mapper=mapper_params)
     if segmentation_params is not None:
@@ -210,6 +211,18 @@ def run_frames(
     )
 
 
+def sensor_fields(scenario: Scenario | None) -> dict[str, float]:
+    """The segmentation's noise model of the scenario's camera (none without a scenario).
+
+    Passed to :func:`~fogsim.config.resolve_params` as ``sensor``: the scenario's
+    ``[segmentation]`` table and overrides still take precedence.
+    """
+    if scenario is None:
+        return {}
+    baseline_m = load_description(scenario.robot.model).camera.stereo_baseline_m
+    return segmentation_noise_fields(scenario.camera, baseline_m)
+
+
 def replay_report(recording: Recording, overrides: Mapping[str, float] | None = None) -> Report:
     """Replay a recording with parameter overrides and return its report (no pictures).
 
@@ -222,7 +235,7 @@ def replay_report(recording: Recording, overrides: Mapping[str, float] | None = 
         recording.frames,
         recording.truth_at if recording.has_truth else None,
         recording.scenario,
-        params=resolve_params(recording.scenario, overrides),
+        params=resolve_params(recording.scenario, overrides, sensor_fields(recording.scenario)),
     )
     return build_report(result, recording.scenario, source="replay")
 
@@ -341,7 +354,8 @@ def run_scenario(
             (nothing of the run is left, an earlier result there is unchanged).
     """
     start = time.perf_counter()
-    params = resolve_params(scenario)  # bad parameters fail here, before any simulation
+    # Bad parameters fail here, before any simulation.
+    params = resolve_params(scenario, sensor=sensor_fields(scenario))
     options = _RunOptions(
         replay, pictures, video, progress, max_frames, depth_backend, mcap, rerun, rerun_spawn
     )

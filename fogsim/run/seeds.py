@@ -38,7 +38,7 @@ from fogsim.errors import FogsimError
 from fogsim.eval.report.io import write_json
 from fogsim.run.baseline import NEVER_FRAMES, poor_reasons, report_metrics, rule_for
 from fogsim.run.run_folder import RunFolder
-from fogsim.run.runner import run_scenario
+from fogsim.run.runner import run_scenario, sensor_fields
 
 MAX_SEED = 2**32 - 1
 """The largest seed a scenario takes (``seed`` in the scenario schema)."""
@@ -388,7 +388,7 @@ def run_seeds(
         FogsimError: ``workers`` out of range, an invalid seed or invalid parameters.
         OutputError: ``out_dir`` cannot be written (found before the runs) or writing failed.
     """
-    resolve_params(scenario)  # bad parameters fail here, once, before any process starts
+    resolve_params(scenario, sensor=sensor_fields(scenario))  # bad parameters fail here, once
     check_workers(workers)
     with RunFolder(out_dir) as folder:
         jobs = seed_jobs(
