@@ -155,7 +155,8 @@ def stage_recording(directory: Path, width: int, height: int) -> Path:
 def stage_frames(path: Path, count: int) -> FrameSet:
     """The mapper's inputs when the recording is replayed: ``count`` frames evenly spaced."""
     recording = load_recording(path)
-    pipeline = Pipeline(resolve_params(recording.scenario, sensor=sensor_fields(recording.scenario)))
+    scenario = recording.scenario
+    pipeline = Pipeline(resolve_params(scenario, sensor=sensor_fields(scenario)))
     mapper = pipeline.mapper
     captured: list[MapperInput] = []
     center: list[tuple[float, float]] = [(0.0, 0.0)]
