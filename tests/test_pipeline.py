@@ -79,11 +79,11 @@ def test_static_box_table1_within_3mm_and_cells_right():
         assert abs(rows[name].error_mm) <= 3.0, rows[name]
     cells = result.scores.cells.fog
     assert cells.accuracy >= 0.97, cells
-    # The frames before the height reference converged are not mapped.
-    assert result.frames == 12 and result.withdrawn == HeightReferenceParams().min_frames - 1
+    # The frames before the height reference converged wait, then are mapped with it: none
+    # is withdrawn and every frame has its update time.
+    assert result.frames == 12 and result.withdrawn == 0
     assert result.frames_without_ground_plane == 0
-    wait = HeightReferenceParams().min_frames - 1
-    assert np.isnan(result.update_ms[:wait]).all() and np.isfinite(result.update_ms[wait:]).all()
+    assert np.isfinite(result.update_ms).all()
     # The archive keeps every map; the camera saw the cells the FOG labelled, and more.
     archive = result.archive
     floor = archive.fog_types == 1
@@ -338,3 +338,13 @@ def test_descending_start_defers_the_frames_until_the_ground_under_the_feet_is_s
     ground = floor[np.isfinite(floor) & (floor < 0.025)]
     assert ground.size > 100
     np.testing.assert_allclose(ground, 0.0, atol=1e-3)
+
+
+def test_a_run_shorter_than_the_reference_needs_maps_its_frames_at_the_end():
+    """Fewer frames than the reference needs to converge: nothing is lost, the run maps them."""
+    wait = HeightReferenceParams().min_frames - 1
+    frames = make_frames(wait - 2)
+    result = run_frames(frames, None, None)
+    assert result.frames == wait - 2 and result.withdrawn == 0
+    assert np.isfinite(result.update_ms).all()
+    assert np.isfinite(np.asarray(result.mapper.floor())).any()

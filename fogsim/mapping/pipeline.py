@@ -125,6 +125,22 @@ class _FrameData:
     transform_camera_to_robot: NDArray[np.float64]
     ground_plane_found: bool
     ground_measured: bool
+    position: int
+
+
+@dataclass(frozen=True)
+class LateMapping:
+    """A deferred frame's outcome once it was mapped (its :class:`FrameTiming` said withdrawn).
+
+    Attributes:
+        position: The frame's place in the run (0 = the first frame processed).
+        withdrawn: The z-match rule withdrew it after all.
+        update_ms: ``FloorObstacleMapper.update`` time [ms]; NaN when withdrawn.
+    """
+
+    position: int
+    withdrawn: bool
+    update_ms: float
 
 
 class Pipeline:
@@ -133,6 +149,7 @@ class Pipeline:
     Attributes:
         last_points: The last mapped frame's labelled points (None before the first, and while
             frames are deferred until the height reference is known).
+        mapped_late: The deferred frames' outcomes once mapped, in order.
     """
 
     def __init__(self, params: RunParams | None = None) -> None:
@@ -146,6 +163,8 @@ class Pipeline:
         self.heading = HeadingEstimator(self.run_params.heading)
         self.reference = HeightReference()
         self._deferred: list[_FrameData] = []
+        self._processed = 0
+        self.mapped_late: list[LateMapping] = []
         self._use_reference = self.params.use_height_reference
         # The reference replaces the segmentation's per-frame ground shift.
         if self._use_reference:
@@ -214,15 +233,15 @@ class Pipeline:
             np.asarray(seg.transform_camera_to_robot, dtype=np.float64),
             bool(seg.correction.ground_plane_found),
             self._measure_reference(seg),
+            self._processed,
         )
+        self._processed += 1
         withdrawn, matched, update_ms = True, False, float("nan")
         if self._use_reference and not self.reference.known:
             self._deferred.append(data)
             self.last_points = None
         else:
-            for deferred in self._deferred:
-                self._map(deferred, use_z_match=False)
-            self._deferred.clear()
+            self.finish()
             withdrawn, matched, update_ms = self._map(data)
         return FrameTiming(
             segmentation_ms=1000.0 * (t1 - t0),
@@ -232,6 +251,20 @@ class Pipeline:
             z_matched=matched,
             ground_plane_found=data.ground_plane_found,
         )
+
+    def finish(self) -> list[Frame]:
+        """Map the deferred frames now, in order, without z-match; returns them.
+
+        Called when the height reference becomes known, and by the run at its end: a run that
+        ends before the reference converged maps its frames with the reference's estimate so
+        far (the kinematics when nothing was measured) instead of dropping them.
+        """
+        frames = [data.frame for data in self._deferred]
+        for data in self._deferred:
+            withdrawn, _, update_ms = self._map(data, use_z_match=False)
+            self.mapped_late.append(LateMapping(data.position, withdrawn, update_ms))
+        self._deferred.clear()
+        return frames
 
     def _measure_reference(self, seg: SegmentationResult) -> bool:
         """Give the frame's floor regions to the height reference; True if it measured it."""

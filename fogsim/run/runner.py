@@ -182,7 +182,25 @@ def run_frames(
         last = frame
     if last is None:
         raise FogsimError("run_frames got no frames")
+    flushed = pipeline.finish()  # frames still waiting for the height reference
+    if flushed:
+        geometry = pipeline.mapper.geometry
+        types, fog_heights, base_heights = pipeline.maps()
+        archive.store(
+            pipeline.cell_centers_xy(),
+            types,
+            fog_heights,
+            base_heights,
+            floor_m=pipeline.mapper.floor(),
+            obstacle_m=pipeline.mapper.obstacle(),
+            ceiling_m=pipeline.mapper.ceiling(),
+            in_view=np.logical_or.reduce([cells_in_view(f, geometry) for f in flushed]),
+        )
 
+    for late in pipeline.mapped_late:  # deferred frames: withdrawn when seen, mapped later
+        timings[late.position] = dataclasses.replace(
+            timings[late.position], withdrawn=late.withdrawn, update_ms=late.update_ms
+        )
     scores = final_truth = None
     if truth_provider is not None:
         truth = truth_provider(last.time_s)
