@@ -43,6 +43,7 @@ import mapper.floor_map
 import mapper.fog
 import mapper.occupancy
 import mapper.scanline
+import mapper.zmatch
 from fogsim.config import RunParams
 from fogsim.data.frame import Frame
 from fogsim.mapping.pipeline import Pipeline
@@ -84,7 +85,9 @@ class KernelGroup:
 SEGMENTATION = KernelGroup("segmentation", (mapper.scanline,))
 """The depth-image segmentation's scan-line kernels."""
 
-MAPPER = KernelGroup("mapper", (mapper.occupancy, mapper.floor_map, mapper.fog, mapper.averaging))
+MAPPER = KernelGroup(
+    "mapper", (mapper.occupancy, mapper.floor_map, mapper.fog, mapper.averaging, mapper.zmatch)
+)
 """The map update kernels: occupancy, floor map, FOG types, the averaging baseline."""
 
 SELF_FILTER = KernelGroup("self-filter", (self_filter,))
@@ -279,6 +282,10 @@ def _map(frames: tuple[Frame, ...], params: RunParams) -> None:
     pipeline = Pipeline(params)
     for frame in frames:
         pipeline.process(frame)
+    pipeline.finish()  # frames waiting for the height reference are mapped now
+    points = pipeline.last_points
+    assert points is not None  # the frames were mapped
+    pipeline.mapper.match_z(points.points_world, points.floor_heights_m)
     pipeline.maps()
     pipeline.mapper.floor(), pipeline.mapper.obstacle(), pipeline.mapper.ceiling()
 
