@@ -160,16 +160,9 @@ def run_frames(
         timings.append(pipeline.process(frame))
         pose_errors.add(frame, pipeline.heading.transform_camera_to_robot)
         centers = pipeline.cell_centers_xy()
-        types, fog_heights, base_heights = pipeline.maps()
-        archive.store(
-            centers,
-            types,
-            fog_heights,
-            base_heights,
-            floor_m=pipeline.mapper.floor(),
-            obstacle_m=pipeline.mapper.obstacle(),
-            ceiling_m=pipeline.mapper.ceiling(),
-            in_view=cells_in_view(frame, pipeline.mapper.geometry),
+        maps = types, fog_heights, base_heights = pipeline.maps()
+        _archive_maps(
+            archive, pipeline, centers, maps, cells_in_view(frame, pipeline.mapper.geometry)
         )
         if tracker is not None:
             tracker.update(
@@ -185,17 +178,8 @@ def run_frames(
     flushed = pipeline.finish()  # frames still waiting for the height reference
     if flushed:
         geometry = pipeline.mapper.geometry
-        types, fog_heights, base_heights = pipeline.maps()
-        archive.store(
-            pipeline.cell_centers_xy(),
-            types,
-            fog_heights,
-            base_heights,
-            floor_m=pipeline.mapper.floor(),
-            obstacle_m=pipeline.mapper.obstacle(),
-            ceiling_m=pipeline.mapper.ceiling(),
-            in_view=np.logical_or.reduce([cells_in_view(f, geometry) for f in flushed]),
-        )
+        in_view = np.logical_or.reduce([cells_in_view(f, geometry) for f in flushed])
+        _archive_maps(archive, pipeline, pipeline.cell_centers_xy(), pipeline.maps(), in_view)
 
     for late in pipeline.mapped_late:  # deferred frames: withdrawn when seen, mapped later
         timings[late.position] = dataclasses.replace(
@@ -226,6 +210,30 @@ def run_frames(
         snapshots=fig5.snapshots() if fig5 is not None else (),
         final_truth=final_truth,
         last_depth_m=last.depth_m,
+    )
+
+
+def _archive_maps(
+    archive: WorldArchive,
+    pipeline: Pipeline,
+    centers: NDArray[np.float64],
+    maps: tuple[NDArray[np.int8], NDArray[np.float64], NDArray[np.float64]],
+    in_view: NDArray[np.bool_],
+) -> None:
+    """Store the current maps (``Pipeline.maps()`` at ``centers``) in the scoring archive.
+
+    ``in_view``: the cells the camera saw.
+    """
+    types, fog_heights, base_heights = maps
+    archive.store(
+        centers,
+        types,
+        fog_heights,
+        base_heights,
+        floor_m=pipeline.mapper.floor(),
+        obstacle_m=pipeline.mapper.obstacle(),
+        ceiling_m=pipeline.mapper.ceiling(),
+        in_view=in_view,
     )
 
 
