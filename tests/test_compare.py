@@ -132,6 +132,28 @@ def test_every_map_is_scored_against_the_same_truth_on_the_same_cells(compared):
     assert figures["fog"]["scan_median_abs_error_mm"] < 5.0
 
 
+REFERENCE_MIN_FRAMES = 8
+"""The synthetic frames measure the ground under the feet from the first one: the height
+reference (``mapper.reference``, ``min_frames`` 8) is known from the 8th frame on."""
+
+
+@pytest.mark.parametrize("count", [REFERENCE_MIN_FRAMES - 2, REFERENCE_MIN_FRAMES + 4])
+def test_frames_deferred_by_the_height_reference_reach_every_map(count):
+    # 6 frames: the run ends before the reference is known, every frame is still deferred and
+    # only Pipeline.finish maps them; 12: the 8th frame maps the 7 deferred ones before itself
+    # (8 FOG updates in one frame), and every other map must get all 8 too.
+    compared = compare_frames(
+        "synthetic", make_frames(count), lambda t: TRUTH, None, resolve_params(None), MAPS
+    )
+    assert compared.frames == count and compared.withdrawn == 0
+    for m in MAPS:
+        assert compared.maps[m].update_ms.shape == (count,), m
+        assert np.isfinite(compared.maps[m].update_ms).all(), m
+    for row, scores in compared.scores.items():
+        box = {r.name: r for r in scores.table1.fog}["tall_box"]
+        assert box.estimated_mm == pytest.approx(TOP_M * 1000.0, abs=5.0), row
+
+
 def test_the_same_recording_gives_the_same_tables_twice_bit_for_bit(tmp_path):
     frames = make_frames(4)
     path = save_recording(tmp_path / "rec.npz", frames, scenario=None, truths=[TRUTH] * 4)

@@ -5,7 +5,10 @@ segmentation, one heading and z-shift correction. The comparison listens to the 
 ``update`` (:class:`_UpdateTap`) and hands the very arrays the FOG received — world points,
 floor heights, camera centre — to every other map right after, each recentred on the FOG's grid
 first, so all maps get the same input on the same cells (a withdrawn frame reaches no map).
-Each map's update is timed in the same process.
+Every call is handed on, also the several of the frame that makes the height reference known
+(the deferred frames are mapped then), and the frames still deferred when the run ends are
+mapped by ``Pipeline.finish`` and archived as :func:`fogsim.run.runner.run_frames` does. Each
+map's update is timed in the same process.
 
 After every frame each map's labels and heights go into its own
 :class:`~fogsim.eval.archive.WorldArchive` (and :class:`~fogsim.eval.events.EventTracker` when
@@ -42,27 +45,51 @@ from fogsim.run.runner import truth_params
 from fogsim.world.truth import SceneTruth
 from mapper.backends import HeightMapBackend, label_by_step
 from mapper.grid import CellType, UpdateResult
+from mapper.mapper import FloorObstacleMapper
 
 TruthAt = Callable[[float], SceneTruth | None]
 """Ground truth at a time [s] (``Recording.truth_at``, ``Simulation.truth_at``)."""
 
 
-class _UpdateTap:
-    """Stands in for the FOG's ``update``: calls it, times it and keeps its arguments."""
+@dataclass(frozen=True)
+class _Update:
+    """One call of the FOG's ``update``: its arguments, its grid's centre and its time."""
 
-    def __init__(self, update: Callable[[ArrayLike, ArrayLike, ArrayLike], UpdateResult]) -> None:
-        self._update = update
-        self.arguments: tuple[ArrayLike, ArrayLike, ArrayLike] | None = None
-        self.update_ms = float("nan")
+    arguments: tuple[ArrayLike, ArrayLike, ArrayLike]
+    center_xy: NDArray[np.float64]
+    update_ms: float
+
+
+class _UpdateTap:
+    """Stands in for the FOG's ``update``: calls it, times it and keeps every call.
+
+    One ``Pipeline.process`` can update the FOG several times (the frames deferred until the
+    height reference is known are mapped just before the frame that makes it known), and
+    ``Pipeline.finish`` maps the frames still deferred at the end: every call is kept with the
+    grid centre the FOG had then, so the other maps get each of them on the same cells.
+    """
+
+    def __init__(self, mapper: FloorObstacleMapper) -> None:
+        self._mapper = mapper
+        self._update = mapper.update
+        self.calls: list[_Update] = []
 
     def __call__(
         self, points: ArrayLike, floor_heights: ArrayLike, sensor_origin: ArrayLike
     ) -> UpdateResult:
         start = time.perf_counter()
         result = self._update(points, floor_heights, sensor_origin)
-        self.update_ms = 1000.0 * (time.perf_counter() - start)
-        self.arguments = (points, floor_heights, sensor_origin)
+        update_ms = 1000.0 * (time.perf_counter() - start)
+        self.calls.append(
+            _Update((points, floor_heights, sensor_origin), _grid_center(self._mapper), update_ms)
+        )
         return result
+
+
+def _grid_center(mapper: FloorObstacleMapper) -> NDArray[np.float64]:
+    """The world (x, y) [m] of the FOG grid's middle cell, where the other maps are centred."""
+    geometry = mapper.geometry
+    return np.asarray(geometry.cell_center(geometry.nx // 2, geometry.ny // 2), dtype=np.float64)
 
 
 @dataclass
@@ -87,7 +114,7 @@ class MapRun:
     """One map's results of one run.
 
     Attributes:
-        update_ms: (frames,) update time per frame [ms], NaN for withdrawn frames.
+        update_ms: (updates,) time of each update [ms]: one per frame the maps received.
         scan_errors_m: Absolute height-scan errors [m] of every covered scan point.
         scan_points: Scan points asked for (covered or not).
     """
@@ -104,7 +131,7 @@ class RunComparison:
     Attributes:
         name: The run's name (``stage_s1``).
         frames: Frames processed.
-        withdrawn: Frames no map received.
+        withdrawn: Frames no map received (withdrawn by the z-match rule).
         maps: Per map name, its :class:`MapRun`.
         scores: Per row name, its archive's scores against the final truth.
         events: Per row name, its event results (empty without events).
@@ -153,7 +180,7 @@ def compare_frames(
     settings = settings if settings is not None else MapSettings()
     scan = scan if scan is not None else HeightScanParams()
     pipeline = Pipeline(params)
-    tap = _UpdateTap(pipeline.mapper.update)
+    tap = _UpdateTap(pipeline.mapper)
     pipeline.mapper.update = tap  # type: ignore[method-assign]  # the FOG's input for all maps
     grid = pipeline.mapper_params
     backends: dict[str, HeightMapBackend] = {"fog": pipeline.mapper}
@@ -170,15 +197,12 @@ def compare_frames(
         for row in row_names(maps)
     }
     pattern = scan_pattern_robot(scan)
-    count = withdrawn = 0
+    count = updates = 0
     last: Frame | None = None
     for frame in frames:
-        tap.arguments = None
         pipeline.process(frame)
+        updates += _feed(backends, records, tap, _grid_center(pipeline.mapper))
         geometry = pipeline.mapper.geometry
-        center = geometry.cell_center(geometry.nx // 2, geometry.ny // 2)
-        _feed(backends, records, tap, center)
-        withdrawn += tap.arguments is None
         centers = pipeline.cell_centers_xy()
         in_view = cells_in_view(frame, geometry)
         truth = truth_at(frame.time_s) if count % scan.every_frames == 0 else None
@@ -190,10 +214,7 @@ def compare_frames(
                 errors = np.abs(sample_heights(heights, geometry, points_xy) - true_scan)
                 records[m].scan_errors_m.append(errors[np.isfinite(errors)])
                 records[m].scan_points += errors.size
-            labellings = {m: types}
-            if m in LABELLED:
-                labellings[m + RULE_SUFFIX] = label_by_step(heights, settings.rule)
-            for row, labels in labellings.items():
+            for row, labels in _labellings(m, types, heights, settings).items():
                 _store(rows[row], frame, centers, grid.cell_m, labels, heights, in_view)
         count += 1
         last = frame
@@ -202,6 +223,16 @@ def compare_frames(
     final = truth_at(last.time_s)
     if final is None:
         raise FogsimError(f"{name}: the comparison needs ground truth (a recording without it)")
+    flushed = pipeline.finish()  # frames still waiting for the height reference
+    if flushed:
+        updates += _feed(backends, records, tap, _grid_center(pipeline.mapper))
+        geometry = pipeline.mapper.geometry
+        centers = pipeline.cell_centers_xy()
+        in_view = np.logical_or.reduce([cells_in_view(f, geometry) for f in flushed])
+        for m, backend in backends.items():
+            types, heights = backend.fog()
+            for row, labels in _labellings(m, types, heights, settings).items():
+                _archive(rows[row].archive, centers, labels, heights, in_view)
     first = next(iter(rows.values())).archive
     truth_grid = final.rasterize(
         first.cell_centers_xy(), grid.cell_m, params=truth_params(scenario, grid)
@@ -211,7 +242,7 @@ def compare_frames(
     return RunComparison(
         name=name,
         frames=count,
-        withdrawn=withdrawn,
+        withdrawn=count - updates,
         maps={
             m: MapRun(
                 np.array(r.update_ms),
@@ -234,20 +265,44 @@ def _feed(
     backends: dict[str, HeightMapBackend],
     records: dict[str, _MapRecord],
     tap: _UpdateTap,
-    center_xy: NDArray[np.float64],
-) -> None:
-    """Recentre every other map on the FOG's grid and give it the FOG's input, timed."""
+    now_xy: NDArray[np.float64],
+) -> int:
+    """Give every other map each FOG update since the last call, timed; returns their number.
+
+    Each map is recentred on the FOG's grid of that update first, and at the end on the FOG's
+    grid now (a withdrawn frame recentres the FOG without updating it), so every map's read-out
+    lies on the FOG's cells.
+
+    Args:
+        backends: Every map by name, the FOG (``fog``) among them.
+        records: Every map's record, by name.
+        tap: The FOG's tapped ``update``; its calls are handed on and cleared.
+        now_xy: The world (x, y) [m] of the FOG grid's middle cell now.
+    """
+    for call in tap.calls:
+        records["fog"].update_ms.append(call.update_ms)
     for m, backend in backends.items():
         if m == "fog":
-            records[m].update_ms.append(tap.update_ms if tap.arguments is not None else np.nan)
             continue
-        backend.recenter(float(center_xy[0]), float(center_xy[1]))
-        if tap.arguments is None:
-            records[m].update_ms.append(np.nan)
-            continue
-        start = time.perf_counter()
-        backend.update(*tap.arguments)
-        records[m].update_ms.append(1000.0 * (time.perf_counter() - start))
+        for call in tap.calls:
+            backend.recenter(float(call.center_xy[0]), float(call.center_xy[1]))
+            start = time.perf_counter()
+            backend.update(*call.arguments)
+            records[m].update_ms.append(1000.0 * (time.perf_counter() - start))
+        backend.recenter(float(now_xy[0]), float(now_xy[1]))
+    fed = len(tap.calls)
+    tap.calls.clear()
+    return fed
+
+
+def _labellings(
+    m: str, types: NDArray[np.int8], heights: NDArray[np.float64], settings: MapSettings
+) -> dict[str, NDArray[np.int8]]:
+    """A map's labels per row: its own, and for a labelled map also the step rule's."""
+    labellings = {m: types}
+    if m in LABELLED:
+        labellings[m + RULE_SUFFIX] = label_by_step(heights, settings.rule)
+    return labellings
 
 
 def _store(
@@ -260,7 +315,20 @@ def _store(
     in_view: NDArray[np.bool_],
 ) -> None:
     """One frame's labels and heights into a row's archive and event tracker."""
-    row.archive.store(
+    _archive(row.archive, centers, labels, heights, in_view)
+    if row.tracker is not None:
+        row.tracker.update(frame.index, frame.time_s, centers, cell_m, labels, heights, heights)
+
+
+def _archive(
+    archive: WorldArchive,
+    centers: NDArray[np.float64],
+    labels: NDArray[np.int8],
+    heights: NDArray[np.float64],
+    in_view: NDArray[np.bool_],
+) -> None:
+    """A map's labels and heights into an archive (its heights stand for every layer)."""
+    archive.store(
         centers,
         labels,
         heights,
@@ -270,5 +338,3 @@ def _store(
         ceiling_m=np.full(heights.shape, np.nan),
         in_view=in_view,
     )
-    if row.tracker is not None:
-        row.tracker.update(frame.index, frame.time_s, centers, cell_m, labels, heights, heights)
