@@ -45,6 +45,7 @@ from fogsim.run.baseline import (
 )
 from fogsim.run.output_paths import check_output_path, child_path
 from fogsim.run.process_exit import exit_process
+from fogsim.run.ray_cluster import RAY_ADDRESS_HELP
 from fogsim.run.record import record_scenario
 from fogsim.run.run_folder import check_run_folder
 from fogsim.run.runner import run_scenario
@@ -118,6 +119,7 @@ def _parser() -> argparse.ArgumentParser:
         help=f"run once per seed in parallel, into OUT/seed_<n>/, and summarise: {SEEDS_ALLOWED}",
     )
     run.add_argument("--workers", type=int, help="parallel processes for --seeds (default 2)")
+    run.add_argument("--ray", metavar="ADDRESS", help=f"for --seeds: {RAY_ADDRESS_HELP}")
     run.add_argument(
         "--strict", action="store_true", help="exit 3 when a run's map is poor (quality.poor)"
     )
@@ -145,7 +147,8 @@ def _parser() -> argparse.ArgumentParser:
     suite = sub.add_parser("suite", help="run every scenario in parallel and summarise")
     suite.add_argument("directory", nargs="?", type=Path, help="scenario folder")
     suite.add_argument("--out", type=Path, required=True, help="output folder")
-    suite.add_argument("--workers", type=int, default=2, help="parallel processes (default 2)")
+    suite.add_argument("--workers", type=int, help="parallel processes (default 2)")
+    suite.add_argument("--ray", metavar="ADDRESS", help=RAY_ADDRESS_HELP)
     suite.add_argument(
         "--check", type=Path, metavar="BASELINE.json", help="compare the figures with a baseline"
     )
@@ -230,6 +233,7 @@ def _parser() -> argparse.ArgumentParser:
     )
     compare.add_argument("--no-pictures", action="store_true", help="skip the PNGs")
     compare.add_argument("--quiet", action="store_true", help="print only the files written")
+    compare.add_argument("--ray", metavar="ADDRESS", help=RAY_ADDRESS_HELP)
     add_tune_arguments(sub)
     return parser
 
@@ -285,6 +289,8 @@ def _cmd_run(args: argparse.Namespace) -> int:
         return _cmd_run_seeds(args)
     if args.workers is not None:
         raise FogsimError("--workers sets the processes of --seeds; give --seeds SPEC too")
+    if args.ray is not None:
+        raise FogsimError("--ray runs the seeds of --seeds on a cluster; give --seeds SPEC too")
     if args.out is not None:
         check_run_folder(args.out, "--out")
     if args.mcap is not None:
@@ -338,6 +344,17 @@ def _cmd_run(args: argparse.Namespace) -> int:
     return _strict_exit({name: poor_reasons(report)}) if args.strict else 0
 
 
+def _workers(args: argparse.Namespace) -> int:
+    """``--workers`` (default 2), checked; refused beside ``--ray`` (the cluster's CPUs run)."""
+    if args.ray is not None and args.workers is not None:
+        raise FogsimError(
+            "give --workers N (local processes) or --ray ADDRESS (the cluster's CPUs), not both"
+        )
+    workers = args.workers if args.workers is not None else 2
+    check_workers(workers)
+    return workers
+
+
 def _cmd_run_seeds(args: argparse.Namespace) -> int:
     """``fogsim run SCENARIO --seeds SPEC``: the seeds in parallel, then their summary."""
     if args.replay is not None:
@@ -354,8 +371,7 @@ def _cmd_run_seeds(args: argparse.Namespace) -> int:
     if args.scenario is None:
         raise FogsimError("run --seeds needs a SCENARIO (see `fogsim list`)")
     seeds = parse_seeds(args.seeds)
-    workers = args.workers if args.workers is not None else 2
-    check_workers(workers)
+    workers = _workers(args)
     if args.out is not None:
         check_run_folder(args.out, "--out")
     scenario = _load(args.scenario, args)
@@ -368,6 +384,7 @@ def _cmd_run_seeds(args: argparse.Namespace) -> int:
         pictures=not args.no_pictures,
         video=args.video,
         depth_backend=args.depth_backend,
+        ray_address=args.ray,
     )
     for run in summary.runs:
         print(f"seed {run.seed}: {run.frames} frames, {run.wall_s} s, {run.status()}")
@@ -414,7 +431,7 @@ def _cmd_scene(args: argparse.Namespace) -> int:
 
 def _cmd_suite(args: argparse.Namespace) -> int:
     seeds = parse_seeds(args.seeds) if args.seeds is not None else None
-    check_workers(args.workers)
+    workers = _workers(args)
     check_run_folder(args.out, "--out")
     if args.write_baseline is not None:
         check_output_path(args.write_baseline, "file", "--write-baseline")
@@ -433,11 +450,12 @@ def _cmd_suite(args: argparse.Namespace) -> int:
     summary = run_suite(
         args.directory,
         args.out,
-        workers=args.workers,
+        workers=workers,
         quick=args.quick,
         seeds=seeds,
         overrides=args.assignments,
         baseline=baseline,
+        ray_address=args.ray,
     )
     failures = summary.failures()
     for name, reasons in failures.items():
@@ -520,6 +538,7 @@ def main(argv: Sequence[str] | None = None) -> int:
                 seeds=args.seeds,
                 pictures=not args.no_pictures,
                 quiet=args.quiet,
+                ray_address=args.ray,
             )
         return _cmd_suite(args)
     except (FogsimError, MapperError) as exc:

@@ -866,7 +866,7 @@ RAY_SCRIPT = textwrap.dedent(
     """
     import json, socket, sys, time
     sys.path[:0] = [{root!r}]
-    from fogsim.errors import TuneError
+    from fogsim.errors import FogsimError
     from fogsim.tune.executors import RayExecutor
     from fogsim.tune.objective import ObjectiveWeights
     {body}
@@ -894,7 +894,7 @@ def test_a_ray_head_that_never_answers_is_given_up_after_the_timeout():
         started = time.monotonic()
         try:
             RayExecutor([], ObjectiveWeights(), None, address, 1, connect_s=3.0)
-        except TuneError as exc:
+        except FogsimError as exc:
             print(json.dumps([time.monotonic() - started, str(exc)]))
         """
     )
@@ -980,7 +980,7 @@ def test_cli_tune_with_a_refused_range_exits_2_before_writing(tmp_path_factory, 
 @settings(derandomize=True, max_examples=150, deadline=None)
 @given(address=st.one_of(st.text(max_size=24), st.from_regex(r"[a-z0-9.\[\]:]{0,12}:\d{0,6}")))
 def test_any_ray_address_is_accepted_or_refused_with_a_message(address):
-    from fogsim.tune.config import parse_ray_address
+    from fogsim.run.ray_cluster import parse_ray_address
 
     try:
         endpoint = parse_ray_address(address)

@@ -14,29 +14,34 @@ with its ``manifest.json``), so it never mixes seeds of two runs; each seed's fo
 a run folder of its own.
 
 The suite (:mod:`fogsim.run.suite`) runs its scenarios and seeds through the same
-:func:`run_jobs`.
+:func:`run_jobs`. With ``--ray ADDRESS`` the jobs run as tasks on a Ray cluster
+(:mod:`fogsim.run.ray_cluster`): each writes its run into a scratch folder of its node and
+returns the files, which the driver writes where the local run would have written them.
 """
 
 from __future__ import annotations
 
 import collections
 import concurrent.futures
+import dataclasses
 import itertools
 import math
 import multiprocessing
 import os
 import re
+import tempfile
 import time
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Literal
 
-from fogsim.atomic import OutputError, write_text_atomic
+from fogsim.atomic import OutputError, write_atomic, write_text_atomic
 from fogsim.config import Scenario, resolve_params
 from fogsim.errors import FogsimError
 from fogsim.eval.report.io import write_json
 from fogsim.run.baseline import NEVER_FRAMES, poor_reasons, report_metrics, rule_for
+from fogsim.run.ray_cluster import RayCluster, check_ray_address
 from fogsim.run.run_folder import RunFolder
 from fogsim.run.runner import run_scenario, sensor_fields
 
@@ -225,14 +230,29 @@ def check_workers(workers: int) -> None:
         raise FogsimError(f"--workers must be <= {MAX_WORKERS}, got {workers}")
 
 
-def run_jobs(jobs: Sequence[SeedJob], workers: int) -> list[SeedRun]:
-    """Run jobs in ``workers`` processes (inline for one); results in the jobs' order.
+def run_jobs(
+    jobs: Sequence[SeedJob], workers: int, ray_address: str | None = None
+) -> list[SeedRun]:
+    """Run jobs in ``workers`` processes (inline for one) or on Ray; results in the jobs' order.
+
+    Args:
+        jobs: The runs.
+        workers: Parallel processes (not used with ``ray_address``: the cluster's CPUs are).
+        ray_address: A Ray cluster (checked by :func:`fogsim.run.ray_cluster.check_ray_address`
+            before); None = local processes.
 
     Raises:
-        FogsimError: ``workers`` is out of range (:func:`check_workers`).
+        FogsimError: ``workers`` is out of range (:func:`check_workers`), or Ray cannot join.
         OutputError: A run cannot write its results; the jobs not yet started are cancelled.
     """
     check_workers(workers)
+    if ray_address is not None:
+        with RayCluster(ray_address) as cluster:
+            outcomes = cluster.map(run_seed_elsewhere, [(job,) for job in jobs])
+        for job, (_, files) in zip(jobs, outcomes, strict=True):
+            for relative, data in files.items():
+                write_atomic(job.out_dir / relative, lambda handle, data=data: handle.write(data))
+        return [run for run, _ in outcomes]
     if workers == 1:
         return [run_seed(job) for job in jobs]
     context = multiprocessing.get_context("spawn")  # MuJoCo/EGL state must not be forked
@@ -243,6 +263,24 @@ def run_jobs(jobs: Sequence[SeedJob], workers: int) -> list[SeedRun]:
         except BaseException:
             pool.shutdown(cancel_futures=True)
             raise
+
+
+def run_seed_elsewhere(job: SeedJob) -> tuple[SeedRun, dict[str, bytes]]:
+    """:func:`run_seed` on another machine (a Ray task): into a scratch folder, returned as files.
+
+    The driver's output folder may not exist on the node, so the run is written into a
+    temporary folder of the node and every file of it (``report.json``, pictures,
+    ``manifest.json``) comes back by its path relative to the run's folder.
+    """
+    with tempfile.TemporaryDirectory(prefix="fogsim-ray-") as scratch:
+        folder = Path(scratch) / "run"
+        run = run_seed(dataclasses.replace(job, out_dir=folder))
+        files = {
+            path.relative_to(folder).as_posix(): path.read_bytes()
+            for path in sorted(folder.rglob("*"))
+            if path.is_file()
+        }
+    return run, files
 
 
 @dataclass(frozen=True)
@@ -372,6 +410,7 @@ def run_seeds(
     pictures: bool = True,
     video: bool = False,
     depth_backend: str = "renderer",
+    ray_address: str | None = None,
 ) -> SeedsSummary:
     """Run a scenario once per seed in parallel; write ``summary.json`` and ``summary.md``.
 
@@ -383,13 +422,18 @@ def run_seeds(
         pictures: Write each seed's PNGs.
         video: Write each seed's ``run.mp4``.
         depth_backend: Simulation depth backend.
+        ray_address: Run the seeds as tasks on this Ray cluster (:func:`run_jobs`); None =
+            local processes.
 
     Raises:
-        FogsimError: ``workers`` out of range, an invalid seed or invalid parameters.
+        FogsimError: ``workers`` out of range, an invalid seed or invalid parameters, an
+            invalid or unreachable ``ray_address`` (all before any run).
         OutputError: ``out_dir`` cannot be written (found before the runs) or writing failed.
     """
     resolve_params(scenario, sensor=sensor_fields(scenario))  # bad parameters fail here, once
     check_workers(workers)
+    if ray_address is not None:
+        check_ray_address(ray_address)
     with RunFolder(out_dir) as folder:
         jobs = seed_jobs(
             scenario,
@@ -400,7 +444,7 @@ def run_seeds(
             depth_backend=depth_backend,
         )
         start = time.perf_counter()
-        runs = run_jobs(jobs, workers)
+        runs = run_jobs(jobs, workers, ray_address)
         summary = SeedsSummary(
             format="fogsim-seeds",
             version=1,

@@ -1,8 +1,8 @@
 """Run every scenario of a folder (over seeds), summarise the runs, check them against a baseline.
 
 :func:`run_suite` runs the scenarios — each at its own seed, or each over the same seeds —
-in parallel processes (:func:`fogsim.run.seeds.run_jobs`, each run as ``fogsim run`` does it)
-and writes ``summary.json`` (:class:`SuiteSummary`) and ``summary.md``: per scenario, every
+in parallel processes or as Ray tasks (:func:`fogsim.run.seeds.run_jobs`, each run as
+``fogsim run`` does it) and writes ``summary.json`` (:class:`SuiteSummary`) and ``summary.md``: per scenario, every
 figure's mean and worst over the seeds. A scenario fails when it cannot be loaded, a run of it
 raises, or a run's map is poor (the report's ``quality.poor``). :func:`check_against_baseline`
 compares the figures with the baseline's set of the same kind of run (quick or full, same
@@ -37,6 +37,7 @@ from fogsim.run.baseline import (
     set_name,
 )
 from fogsim.run.output_paths import child_path
+from fogsim.run.ray_cluster import check_ray_address
 from fogsim.run.run_folder import RunFolder
 from fogsim.run.seeds import (
     FigureStats,
@@ -137,6 +138,7 @@ def run_suite(
     seeds: Sequence[int] | None = None,
     overrides: Sequence[str] = (),
     baseline: Baseline | None = None,
+    ray_address: str | None = None,
 ) -> SuiteSummary:
     """Run every scenario of a folder in parallel processes; write summary.json / summary.md.
 
@@ -153,14 +155,18 @@ def run_suite(
         overrides: ``key=value`` assignments applied to every scenario.
         baseline: The baseline whose comparison (:func:`check_against_baseline`) summary.md
             shows; None: "no baseline given".
+        ray_address: Run the scenarios' jobs as tasks on this Ray cluster
+            (:func:`fogsim.run.seeds.run_jobs`); None = local processes.
 
     Raises:
         FogsimError: No scenario file, ``workers`` out of range, two files with one scenario
-            name.
+            name, an invalid or unreachable ``ray_address`` (before any run).
         OutputError: ``out_dir`` cannot be written (found before the runs) or writing failed.
     """
     paths = scenario_paths(directory, quick)
     check_workers(workers)
+    if ray_address is not None:
+        check_ray_address(ray_address)
     max_frames = QUICK_MAX_FRAMES if quick else None
     with RunFolder(out_dir) as folder:
         start = time.perf_counter()
@@ -180,7 +186,7 @@ def run_suite(
                 )
             planned[scenario.name] = _jobs(scenario, scenario_dir, seeds, max_frames)
         jobs = [job for entry in planned.values() if isinstance(entry, list) for job in entry]
-        runs = iter(run_jobs(jobs, workers))
+        runs = iter(run_jobs(jobs, workers, ray_address))
         scenarios = {}
         for name, entry in planned.items():
             if isinstance(entry, str):

@@ -9,21 +9,20 @@ from __future__ import annotations
 import concurrent.futures
 import multiprocessing
 import os
-import socket
 import threading
 import time
 from collections.abc import Iterator, Mapping, Sequence
 from dataclasses import dataclass
-from types import ModuleType
 from typing import Protocol
 
 from fogsim.errors import TuneError
-from fogsim.tune.config import (
+from fogsim.run.ray_cluster import (
     RAY_CONNECT_TIMEOUT_S,
-    RAY_REACH_TIMEOUT_S,
-    TuneConfig,
-    parse_ray_address,
+    TASK_RETRIES,
+    RayCluster,
+    check_ray_address,
 )
+from fogsim.tune.config import TuneConfig
 from fogsim.tune.objective import (
     ObjectiveWeights,
     ReportFunction,
@@ -101,9 +100,6 @@ class InlineExecutor:
     def close(self) -> None:
         """Nothing to release."""
 
-
-LOOPBACK = "127.0.0.1"
-"""The only address a ``--ray local`` instance listens on."""
 
 _WORKER_STATE: tuple[Sequence[SuiteEntry], ObjectiveWeights, ReportFunction] | None = None
 """A pool worker's suite, weights and report function, set once by :func:`_pool_init`."""
@@ -195,21 +191,20 @@ def _ray_score(
 class RayExecutor:
     """Ray tasks on a cluster; the recordings go to the object store once (``ray.put``).
 
-    Joining is bounded: a ``HOST:PORT`` head must accept a TCP connection within
-    :data:`~fogsim.tune.config.RAY_REACH_TIMEOUT_S` and Ray must join within ``connect_s``,
-    else :class:`TuneError` names the address. ``local`` starts a private instance whose
-    servers (GCS, raylet, workers, agents) all listen on 127.0.0.1 only.
+    The connection (bounded joining, ``local`` on 127.0.0.1 only) is
+    :class:`fogsim.run.ray_cluster.RayCluster`, shared with run, suite and compare.
 
     Args:
         suite: The recordings every trial replays.
         weights: Objective weights.
         report: ``(recording, overrides) -> report``.
-        address: ``auto``, ``local`` or ``HOST:PORT`` (:func:`parse_ray_address`).
+        address: ``auto``, ``local`` or ``HOST:PORT``
+            (:func:`~fogsim.run.ray_cluster.parse_ray_address`).
         workers: Trials at once; 1 = as many as the cluster has CPUs.
         connect_s: Seconds to join the cluster.
 
     Raises:
-        TuneError: an invalid or unreachable address, Ray not installed, or a ``local``
+        FogsimError: an invalid or unreachable address, Ray not installed, or a ``local``
             instance that could not be kept on the loopback address.
     """
 
@@ -223,31 +218,13 @@ class RayExecutor:
         connect_s: float = RAY_CONNECT_TIMEOUT_S,
     ) -> None:
         check_ray_address(address)
-        if address == "local":
-            # Read by Ray when it is imported (and by the processes it starts): off, Ray's node
-            # address is the loopback one, and every server it starts listens there only. The
-            # name says Windows and macOS, where it is off by default; Ray reads it everywhere.
-            os.environ[RAY_CLUSTER_SWITCH] = "0"
-        # Ray is an optional extra (``fogsim[ray]``): imported only when --ray asks for it.
-        try:
-            import ray
-        except ImportError as exc:
-            raise TuneError(
-                "--ray needs the optional dependency ray: pip install 'fogsim[ray]'"
-            ) from exc
-        self._ray = ray
-        self._owns_ray = not ray.is_initialized()
-        if self._owns_ray:
-            if address == "local":
-                _start_local_ray(ray)
-            else:
-                _join_ray(ray, address, connect_s)
-        self._suite_ref = ray.put(list(suite))
+        self._cluster = RayCluster(address, connect_s)
+        self._ray = self._cluster.ray
+        self._suite_ref = self._cluster.put(list(suite))
         self._weights = weights
         self._report = report
-        self._task = ray.remote(num_cpus=1, max_retries=2)(_ray_score)
-        cluster_cpus = max(1, int(ray.cluster_resources().get("CPU", 1)))
-        self.slots = workers if workers > 1 else cluster_cpus
+        self._task = self._ray.remote(num_cpus=1, max_retries=TASK_RETRIES)(_ray_score)
+        self.slots = workers if workers > 1 else self._cluster.cpus()
 
     def run(self, batch: Sequence[TrialRequest]) -> Iterator[TrialOutcome]:
         """Start one task per trial; yield outcomes in the order they finish."""
@@ -268,77 +245,7 @@ class RayExecutor:
 
     def close(self) -> None:
         """Disconnect from Ray if this executor connected."""
-        if self._owns_ray:
-            self._ray.shutdown()
-
-
-RAY_CLUSTER_SWITCH = "RAY_ENABLE_WINDOWS_OR_OSX_CLUSTER"
-"""Ray's switch for multi-node clusters; ``--ray local`` turns it off (see :class:`RayExecutor`)."""
-
-
-def check_ray_address(address: str) -> None:
-    """Refuse an invalid ``--ray`` value, or a ``HOST:PORT`` head that is not reachable.
-
-    The head must accept a TCP connection within :data:`RAY_REACH_TIMEOUT_S` (``auto`` and
-    ``local`` are only checked when Ray joins them).
-
-    Raises:
-        TuneError: naming the address, what is allowed, or the timeout and the socket's error.
-    """
-    endpoint = parse_ray_address(address)
-    if endpoint is None:
-        return
-    try:
-        with socket.create_connection((endpoint.host, endpoint.port), timeout=RAY_REACH_TIMEOUT_S):
-            pass
-    except OSError as exc:
-        raise TuneError(
-            f"--ray {address}: cannot reach a Ray head there within {RAY_REACH_TIMEOUT_S:g} s "
-            f"({exc}); start one with `ray start --head --port={endpoint.port}` or check the "
-            "address"
-        ) from None
-
-
-def _start_local_ray(ray: ModuleType) -> None:
-    """Start a private Ray instance listening on 127.0.0.1 only (no dashboard)."""
-    ray.init(include_dashboard=False, dashboard_host=LOOPBACK, log_to_driver=False)
-    node_address = ray.util.get_node_ip_address()
-    if node_address != LOOPBACK:
-        ray.shutdown()
-        raise TuneError(
-            f"--ray local: Ray listens on {node_address}, not {LOOPBACK}: it was imported "
-            f"before fogsim could set {RAY_CLUSTER_SWITCH}=0; set it in the environment"
-        )
-
-
-def _join_ray(ray: ModuleType, address: str, connect_s: float) -> None:
-    """``ray.init(address=...)``, given up after ``connect_s`` seconds.
-
-    Ray retries an unresponsive head for many minutes; the join runs in a daemon thread so the
-    wait can be bounded (a join given up on keeps trying in the background until the process
-    exits). Ray then logs that it set no SIGTERM handler (it does so only in the main thread).
-
-    Raises:
-        TuneError: Ray refused the address or did not join in time.
-    """
-    failure: list[Exception] = []
-
-    def join() -> None:
-        try:
-            ray.init(address=address, log_to_driver=False)
-        except Exception as exc:  # reported by the caller's thread
-            failure.append(exc)
-
-    thread = threading.Thread(target=join, name="ray-join", daemon=True)
-    thread.start()
-    thread.join(connect_s)
-    if failure:
-        raise TuneError(f"--ray {address}: Ray cannot join: {failure[0]}") from failure[0]
-    if thread.is_alive():
-        raise TuneError(
-            f"--ray {address}: no Ray cluster answered within {connect_s:g} s "
-            "(fogsim.tune.config.RAY_CONNECT_TIMEOUT_S); is `ray start --head` running there?"
-        )
+        self._cluster.close()
 
 
 def make_executor(
