@@ -174,3 +174,16 @@ def test_the_same_recording_gives_the_same_tables_twice_bit_for_bit(tmp_path):
 def test_a_name_that_is_no_file_needs_seeds(tmp_path):
     with pytest.raises(FogsimError, match="--seeds"):
         run_compare(["stage"], ("fog",), tmp_path / "out")
+
+
+def test_a_mean_over_runs_that_never_cleared_is_shown_as_a_count():
+    from fogsim.compare.table import _cell, aggregate
+    from fogsim.run.baseline import NEVER_FRAMES
+
+    key = "events.box.cleared_frames"
+    runs = [{"fog": {key: 5.0}}, {"fog": {key: float(NEVER_FRAMES)}}, {"fog": {key: 7.0}}]
+    stat = aggregate(runs)["fog"][key]
+    assert (stat.worst, stat.runs, stat.nevers) == (NEVER_FRAMES, 3, 1)
+    assert _cell(stat) == "never (never on 1 of 3)"
+    cleared = aggregate([runs[0], runs[2]])["fog"][key]
+    assert (cleared.mean, cleared.nevers) == (6.0, 0) and _cell(cleared) == "7 (6)"

@@ -121,11 +121,19 @@ def _better(key: str) -> Better:
 
 @dataclass(frozen=True)
 class Stat:
-    """A figure over runs: mean, worst and how many runs had a value."""
+    """A figure over runs: mean, worst, how many runs had a value and how many of them never.
+
+    Attributes:
+        mean: Mean over the runs with a value (a never counts as :data:`NEVER_FRAMES`).
+        worst: The worst value.
+        runs: Runs with a value.
+        nevers: Runs whose value is never (:data:`NEVER_FRAMES`; event figures only).
+    """
 
     mean: float | None
     worst: float | None
     runs: int
+    nevers: int = 0
 
 
 def aggregate(per_run: Sequence[dict[str, Figures]]) -> dict[str, dict[str, Stat]]:
@@ -140,7 +148,9 @@ def aggregate(per_run: Sequence[dict[str, Figures]]) -> dict[str, dict[str, Stat
                 stats[key] = Stat(None, None, 0)
                 continue
             worst = max(values) if _better(key) == "lower" else min(values)
-            stats[key] = Stat(_round(float(np.mean(values))), _round(worst), len(values))
+            nevers = sum(value >= NEVER_FRAMES for value in values)
+            mean = _round(float(np.mean(values)))
+            stats[key] = Stat(mean, _round(worst), len(values), nevers)
         out[row] = stats
     return out
 
@@ -165,14 +175,16 @@ def comparison_json(groups: dict[str, Sequence[RunComparison]], maps: tuple[str,
 
 
 def _cell(stat: Stat | None) -> str:
-    """``worst (mean)`` of a figure, ``never`` for the never value, ``–`` without a value."""
+    """``worst (mean)`` of a figure, ``–`` without a value.
+
+    ``never`` stands for the never value; a mean over runs of which some never got there is
+    ``never on k of n`` (the number would be a count of :data:`NEVER_FRAMES`).
+    """
     if stat is None or stat.worst is None or stat.mean is None:
         return "–"
-
-    def shown(value: float) -> str:
-        return "never" if value >= NEVER_FRAMES else f"{value:g}"
-
-    return f"{shown(stat.worst)} ({shown(stat.mean)})"
+    worst = "never" if stat.worst >= NEVER_FRAMES else f"{stat.worst:g}"
+    mean = f"never on {stat.nevers} of {stat.runs}" if stat.nevers else f"{stat.mean:g}"
+    return f"{worst} ({mean})"
 
 
 def comparison_markdown(groups: dict[str, Sequence[RunComparison]]) -> str:
