@@ -1,7 +1,7 @@
 """The FOG beside the other height maps on recordings: the table of issue 16 and update times.
 
 Run: PYTHONPATH=. .venv/bin/python bench/bench_compare.py --out DIR [--maps fog,elevation]
-     [--no-pictures] RECORDING [RECORDING ...]
+     [--no-pictures] [--ray ADDRESS] RECORDING [RECORDING ...]
 (recordings made with ``fogsim record SCENARIO --seed N --out FILE``). Writes what ``fogsim
 compare`` writes (``compare.json``, ``compare.md``, ``timing.md``, pictures) and prints the two
 Markdown tables and the machine's load average at the start and the end (the update times are
@@ -19,6 +19,7 @@ os.environ.setdefault("MESA_SHADER_CACHE_DISABLE", "true")
 
 from fogsim.compare.command import run_compare
 from fogsim.compare.maps import MAP_NAMES, parse_maps
+from fogsim.run.ray_cluster import RAY_ADDRESS_HELP
 
 
 def main() -> None:
@@ -27,11 +28,16 @@ def main() -> None:
     parser.add_argument("--out", required=True)
     parser.add_argument("--maps", default=",".join(MAP_NAMES))
     parser.add_argument("--no-pictures", action="store_true")
+    parser.add_argument("--ray", metavar="ADDRESS", help=RAY_ADDRESS_HELP)
     args = parser.parse_args()
     print(f"load average at the start: {os.getloadavg()}")
     start = time.perf_counter()
     result = run_compare(
-        args.recordings, parse_maps(args.maps), args.out, pictures=not args.no_pictures
+        args.recordings,
+        parse_maps(args.maps),
+        args.out,
+        pictures=not args.no_pictures,
+        ray_address=args.ray,
     )
     runs = sum(len(runs) for runs in result.groups.values())
     print(f"{runs} runs in {time.perf_counter() - start:.1f} s")
