@@ -2,12 +2,12 @@
 
 :func:`run_suite` runs the scenarios — each at its own seed, or each over the same seeds —
 in parallel processes or as Ray tasks (:func:`fogsim.run.seeds.run_jobs`, each run as
-``fogsim run`` does it) and writes ``summary.json`` (:class:`SuiteSummary`) and ``summary.md``: per scenario, every
-figure's mean and worst over the seeds. A scenario fails when it cannot be loaded, a run of it
-raises, or a run's map is poor (the report's ``quality.poor``). :func:`check_against_baseline`
-compares the figures with the baseline's set of the same kind of run (quick or full, same
-seeds; :mod:`fogsim.run.baseline`) and lists every figure whose mean, or worst over the seeds,
-got worse than its tolerance allows.
+``fogsim run`` does it) and writes ``summary.json`` (:class:`SuiteSummary`) and ``summary.md``:
+per scenario, every figure's mean and worst over the seeds. A scenario fails when it cannot be
+loaded, a run of it raises, or a run's map is poor (the report's ``quality.poor``).
+:func:`check_against_baseline` compares the figures with the baseline's set of the same kind of
+run (quick or full, same seeds; :mod:`fogsim.run.baseline`) and lists every figure whose mean,
+or worst over the seeds, got worse than its tolerance allows.
 
 Output folders: ``OUT/<scenario>/`` for a run at the scenario's own seed,
 ``OUT/<scenario>/seed_<n>/`` for each of ``--seeds``; a scenario whose name would lead out of
