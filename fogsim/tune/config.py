@@ -2,13 +2,12 @@
 
 from __future__ import annotations
 
-import ipaddress
-import re
 from dataclasses import dataclass, field
 from enum import StrEnum
 from pathlib import Path
 
 from fogsim.errors import TuneError
+from fogsim.run.ray_cluster import RAY_CONNECT_TIMEOUT_S, parse_ray_address
 from fogsim.tune.objective import ObjectiveWeights
 from fogsim.tune.space import ParamSpec
 
@@ -16,60 +15,6 @@ STUDY_FILE = "tune.db"
 """The study's SQLite database in the output directory."""
 RECORDINGS_DIR = "recordings"
 """The recording cache in the output directory (:func:`fogsim.tune.suite.load_suite`)."""
-
-RAY_KEYWORDS = ("auto", "local")
-"""``--ray`` values other than ``HOST:PORT``: the cluster of this machine, a private instance."""
-RAY_REACH_TIMEOUT_S = 10.0
-"""Seconds to open a TCP connection to a ``--ray HOST:PORT`` head before giving up. A handshake
-on any network a Ray cluster runs on takes well under a second; 10 s leaves room for the SYN
-retransmissions of a lossy link (after 1 s and 3 s). Without it an unreachable or firewalled
-head makes Ray retry for many minutes."""
-RAY_CONNECT_TIMEOUT_S = 60.0
-"""Seconds for Ray to join a reachable cluster (``auto``, ``HOST:PORT``). A running head answers
-in one or two seconds and Ray waits up to 20 s for one that is still starting; 60 s covers both
-on a busy machine. Something else listening on the port, or a head that never answers, would
-otherwise hang the tune for as long as Ray keeps retrying."""
-
-_HOST_PORT = re.compile(
-    r"(?:\[(?P<ipv6>[0-9A-Fa-f:.]+)\]|(?P<host>[A-Za-z0-9._-]+)):(?P<port>\d{1,5})"
-)
-"""``HOST:PORT`` with a host name, an IPv4 address or an IPv6 address in brackets."""
-
-
-@dataclass(frozen=True)
-class RayEndpoint:
-    """The head of a Ray cluster named by ``--ray HOST:PORT``.
-
-    Attributes:
-        host: Host name or IP address (IPv6 without brackets).
-        port: TCP port of the head's GCS, in 1..65535.
-    """
-
-    host: str
-    port: int
-
-
-def parse_ray_address(address: str) -> RayEndpoint | None:
-    """Check a ``--ray`` value: ``auto``, ``local`` (None is returned) or ``HOST:PORT``.
-
-    Raises:
-        TuneError: anything else (the message names the value and what is allowed).
-    """
-    if address in RAY_KEYWORDS:
-        return None
-    match = _HOST_PORT.fullmatch(address)
-    port = int(match["port"]) if match else 0
-    if match and match["ipv6"] is not None:
-        try:
-            ipaddress.IPv6Address(match["ipv6"])
-        except ValueError:
-            match = None
-    if match is None or not 1 <= port <= 65535:
-        raise TuneError(
-            f"--ray {address!r}: must be auto, local or HOST:PORT with a port in 1..65535 "
-            "(e.g. 10.0.0.5:6379 or [::1]:6379)"
-        )
-    return RayEndpoint(match["ipv6"] or match["host"], port)
 
 
 class SamplerKind(StrEnum):
