@@ -206,7 +206,7 @@ SHIPPED = {
     # name: (seed, robot model, start (x [m], y [m], yaw [deg]), camera mode,
     #        (bias, noise, head bias, head noise) [deg], objects)
     "box_removal": (2, "icub", (0.3, 0.5, 0.0), "depth", (0.5, 0.2, 0.5, 0.2), 1),
-    "eth_stairs": (1, "icub", (0.3, 0.5, 0.0), "depth", (0.05, 0.02, 4.0, 0.3), 1),
+    "eth_stairs": (1, "icub", (-0.3, 0.5, 0.0), "depth", (0.05, 0.02, 4.0, 0.3), 1),
     "flat_floor": (5, "icub", (0.3, 0.5, 0.0), "depth", (0.05, 0.02, 4.0, 0.3), 0),
     "flat_floor_talos": (5, "talos", (0.3, 0.5, 0.0), "depth", (0.05, 0.02, 4.0, 0.3), 0),
     "moving_box": (3, "icub", (0.3, 0.5, 0.0), "depth", (0.5, 0.2, 0.5, 0.2), 1),

@@ -77,7 +77,7 @@ class IntrinsicsMeta(msgspec.Struct, frozen=True, forbid_unknown_fields=True):
         return cls(int(k.width), int(k.height), k.fx, k.fy, k.cx, k.cy)
 
 
-class ObjectStateMeta(msgspec.Struct, frozen=True, forbid_unknown_fields=True):
+class ObjectStateMeta(msgspec.Struct, frozen=True, forbid_unknown_fields=True, omit_defaults=True):
     """One object of a stored world state (:class:`fogsim.world.timeline.ObjectState`)."""
 
     name: str
@@ -88,6 +88,9 @@ class ObjectStateMeta(msgspec.Struct, frozen=True, forbid_unknown_fields=True):
     walkable: bool
     surface: Surface = "flat"
     roughness_m: Annotated[float, Meta(ge=0.0, le=MAX_POSITION_M)] = 0.0
+    heightfield: str | None = None
+    cell_m: Annotated[float, Meta(ge=0.0, le=MAX_POSITION_M)] = 0.0
+    max_height_m: Annotated[float, Meta(ge=0.0, le=MAX_POSITION_M)] = 0.0
 
 
 class SceneTruthMeta(msgspec.Struct, frozen=True, forbid_unknown_fields=True):
@@ -111,6 +114,9 @@ class SceneTruthMeta(msgspec.Struct, frozen=True, forbid_unknown_fields=True):
                 walkable=o.walkable,
                 surface=o.surface,
                 roughness_m=o.roughness_m,
+                heightfield=o.heightfield,
+                cell_m=o.cell_m,
+                max_height_m=o.max_height_m,
             )
             for o in self.objects
         )
@@ -135,6 +141,9 @@ class SceneTruthMeta(msgspec.Struct, frozen=True, forbid_unknown_fields=True):
                 walkable=bool(o.walkable),
                 surface=o.surface,  # type: ignore[arg-type]  # a scenario's surface
                 roughness_m=float(o.roughness_m),
+                heightfield=o.heightfield,
+                cell_m=float(o.cell_m),
+                max_height_m=float(o.max_height_m),
             )
             for o in truth.objects
         )
