@@ -1551,14 +1551,53 @@ def floor_segment_fit(seg_hsums, floor_of_segment, n_floors, tolerance_m, prior_
 
 
 @numba.njit(cache=True)
+def region_interior(labels, margin_px):
+    """(H, W) bool: the pixels in the interior of their region.
+
+    A pixel is interior when its neighbours up to ``margin_px`` away up, down, left and right
+    all carry its own region (``labels`` >= 0; beyond the image border counts as another
+    region). ``margin_px`` 0: every labelled pixel.
+    """
+    height, width = labels.shape
+    out = np.zeros((height, width), np.bool_)
+    for r in range(height):
+        for c in range(width):
+            f = labels[r, c]
+            if f < 0:
+                continue
+            inside = True
+            for k in range(1, margin_px + 1):
+                if (
+                    r - k < 0
+                    or r + k >= height
+                    or c - k < 0
+                    or c + k >= width
+                    or labels[r - k, c] != f
+                    or labels[r + k, c] != f
+                    or labels[r, c - k] != f
+                    or labels[r, c + k] != f
+                ):
+                    inside = False
+                    break
+            out[r, c] = inside
+    return out
+
+
+@numba.njit(cache=True)
 def floor_statistics(
-    labels, grown, points, sigma_z, depth, rays, origin_z, fx, fy, n_floors, tolerance_m
+    labels, grown, interior, points, sigma_z, depth, rays, origin_z, fx, fy, n_floors, tolerance_m
 ):
     """Per-floor pixel statistics of the level regions.
+
+    Height, RMS and slope come from a region's *interior* pixels (`region_interior`) when it
+    has any, else from all of them: a stereo matcher's window blends the pixels at a region's
+    border with the neighbouring surface (a sill's far row reads 10-25 mm low, a tread's rows
+    next to its riser too), which would pull a narrow region's height and count as roughness.
 
     Args:
         labels: (H, W) floor of each pixel after the fill (-1 none, -2 invalid).
         grown: (H, W) floor of each pixel before the fill (its segments').
+        interior: (H, W) bool, the pixel is in its region's interior (`region_interior`).
         points: (H, W, 3) points in the tilt-corrected robot frame [m].
         sigma_z: (H, W) their noise along z [m].
         depth: (H, W) measured depths [m].
@@ -1580,18 +1619,29 @@ def floor_statistics(
         carry no depth noise).
     """
     height, width = labels.shape
-    w_sum = np.zeros(n_floors)
-    wz_sum = np.zeros(n_floors)
+    w_sum = np.zeros((n_floors, 2))  # all grown pixels, interior ones
+    wz_sum = np.zeros((n_floors, 2))
+    has_interior = np.zeros(n_floors, np.bool_)
     for r in range(height):
         for c in range(width):
+            f = labels[r, c]
+            if f >= 0 and interior[r, c]:
+                has_interior[f] = True
             f = grown[r, c]
             if f >= 0:
                 w = 1.0 / (sigma_z[r, c] * sigma_z[r, c])
-                w_sum[f] += w
-                wz_sum[f] += w * points[r, c, 2]
+                k = 1 if interior[r, c] else 0
+                w_sum[f, k] += w
+                wz_sum[f, k] += w * points[r, c, 2]
     heights = np.zeros(n_floors)
     for f in range(n_floors):
-        heights[f] = wz_sum[f] / w_sum[f] if w_sum[f] > 0.0 else np.nan
+        if w_sum[f, 1] > 0.0:
+            heights[f] = wz_sum[f, 1] / w_sum[f, 1]
+        elif w_sum[f, 0] > 0.0:
+            heights[f] = wz_sum[f, 0] / w_sum[f, 0]
+        else:
+            heights[f] = np.nan
+    used = np.zeros(n_floors, np.int64)
     counts = np.zeros(n_floors, np.int64)
     square = np.zeros(n_floors)
     moments = np.zeros((n_floors, 5))  # x, y, xx, xy, yy of the points on the height
@@ -1605,8 +1655,11 @@ def floor_statistics(
             counts[f] += 1
             sigma = sigma_z[r, c]
             residual = points[r, c, 2] - heights[f]
-            # Clipped at 3 sigma: a row of riser pixels joined to a tread is no roughness.
-            square[f] += min(residual * residual / (sigma * sigma + tolerance_m**2), 9.0)
+            counted = interior[r, c] or not has_interior[f]
+            if counted:
+                used[f] += 1
+                # Clipped at 3 sigma: a row of riser pixels joined to a tread is no roughness.
+                square[f] += min(residual * residual / (sigma * sigma + tolerance_m**2), 9.0)
             ray_z = rays[r, c, 2]
             d = depth[r, c]
             d_on = (heights[f] - origin_z) / ray_z if ray_z != 0.0 else -1.0
@@ -1621,7 +1674,7 @@ def floor_statistics(
             moments[f, 4] += y * y
             # Weighted fit z = h + a·x + b·y over (x, y) on the height: free of the depth
             # noise, which moves a point along its ray in z and x, y together.
-            w = 1.0 / (sigma * sigma)
+            w = 1.0 / (sigma * sigma) if counted else 0.0
             dz = residual
             fit[f, 0] += w
             fit[f, 1] += w * x
@@ -1641,7 +1694,7 @@ def floor_statistics(
         n = counts[f]
         if n == 0:
             continue
-        rms[f] = math.sqrt(square[f] / n)
+        rms[f] = math.sqrt(square[f] / used[f])
         slope[f] = _fit_slope(fit[f])
         mx = moments[f, 0] / n
         my = moments[f, 1] / n

@@ -7,7 +7,7 @@ noise from the image, which reads a matcher's correlated errors at about 0.6× t
 
 - ``stereo``: the matcher's figures measured by ``bench/stereo_stats.py`` (stage, seed 1, every
   16th frame): :data:`MATCHER_DISPARITY_NOISE_PX`, :data:`MATCHER_MEAN_VARIANCE_FACTOR`, the
-  robot's baseline;
+  robot's baseline, and :data:`MATCHER_EDGE_MARGIN_PX` (the matching window's reach);
 - ``depth``: the error model's own figures (:meth:`StereoErrorModel.equivalent_noise_px`,
   :meth:`StereoErrorModel.mean_variance_factor`);
 - ``ideal``: none.
@@ -24,13 +24,19 @@ MATCHER_DISPARITY_NOISE_PX = 0.125
 whose 99th percentile the matcher's errors have (0.126 px; their robust std is 0.076 px, but
 k-sigma tolerance tests meet the tail: with 0.077 px the stage's ground fails the floor tests in
 most frames, `bench/stereo_stats.py`)."""
+MATCHER_EDGE_MARGIN_PX = 1
+"""Pixels at a floor region's border that the segmentation leaves out of its height and
+smoothness (``floor_edge_margin_px``): the matcher's 5 render px window is 2.5 output pixels
+wide, so it blends about one output pixel on either side of an edge with the other surface."""
 MATCHER_MEAN_VARIANCE_FACTOR = 3.0
 """How much the matcher's correlated errors inflate the variance of a mean of a row's pixels
 (`bench/stereo_stats.py`: 1.9, 2.3, 2.7 for 4, 8, 16 pixels, growing with the run; the
 segmentation's row segments span 10–40 pixels)."""
 
 
-def segmentation_noise_fields(config: CameraConfig, stereo_baseline_m: float) -> dict[str, float]:
+def segmentation_noise_fields(
+    config: CameraConfig, stereo_baseline_m: float
+) -> dict[str, float | int]:
     """``SegmentationParams`` fields of the sensor model of a camera table's mode.
 
     Args:
@@ -39,13 +45,16 @@ def segmentation_noise_fields(config: CameraConfig, stereo_baseline_m: float) ->
 
     Returns:
         ``disparity_noise_px``, ``stereo_baseline_m`` and ``noise_correlation_factor`` for
-        ``stereo`` and ``depth``; empty for ``ideal`` (the image's own noise estimate).
+        ``stereo`` and ``depth``, and ``floor_edge_margin_px`` for ``stereo`` (the error model
+        of ``depth`` has no matching window); empty for ``ideal`` (the image's own noise
+        estimate).
     """
     if config.mode == "stereo":
         return {
             "disparity_noise_px": MATCHER_DISPARITY_NOISE_PX,
             "stereo_baseline_m": stereo_baseline_m,
             "noise_correlation_factor": MATCHER_MEAN_VARIANCE_FACTOR,
+            "floor_edge_margin_px": MATCHER_EDGE_MARGIN_PX,
         }
     if config.mode == "depth":
         model = StereoErrorModel.from_config(config, camera_intrinsics(config).fx)
