@@ -17,6 +17,7 @@ import os
 import sys
 import time
 from collections.abc import Sequence
+from dataclasses import replace
 from pathlib import Path
 from typing import NoReturn
 
@@ -254,6 +255,22 @@ def _with_options(scenario: Scenario, args: argparse.Namespace) -> Scenario:
     return scenario.with_overrides(assignments) if assignments else scenario
 
 
+def _check_replay_camera(scenario: Scenario, recorded: Scenario | None) -> None:
+    """Refuse ``--camera-mode`` / ``--set camera.*`` that contradict a recording's camera.
+
+    A replay maps the recorded frames; its segmentation's noise model follows the camera that
+    made them, so a replay keeps the recording's camera table whichever scenario is named.
+    """
+    if recorded is None or scenario.camera == recorded.camera:
+        return
+    raise FogsimError(
+        f"a replay maps the recording's frames, made by its camera (mode "
+        f"'{recorded.camera.mode}'); --camera-mode and --set camera.* can't change them: "
+        f"leave them out, or simulate with `fogsim run {scenario.name} "
+        f"--camera-mode {scenario.camera.mode}`"
+    )
+
+
 def _out(args: argparse.Namespace, name: str) -> Path:
     """The run's folder: ``--out``, or ``runs/<name>`` (a name from data must stay in runs/)."""
     if args.out is not None:
@@ -310,8 +327,11 @@ def _cmd_run(args: argparse.Namespace) -> int:
         scenario = replay.scenario
         if args.scenario is not None:
             scenario = load_scenario(args.scenario)
+            if replay.scenario is not None:  # the frames were made by the recording's camera
+                scenario = replace(scenario, camera=replay.scenario.camera)
         if scenario is not None:
             scenario = _with_options(scenario, args)
+            _check_replay_camera(scenario, replay.scenario)
         elif args.assignments:
             raise FogsimError(
                 "--set needs a scenario: this recording has none (real data); name one, e.g. "

@@ -21,6 +21,7 @@ from fogsim.sim.camera import (
 )
 from fogsim.sim.camera.noise_model import (
     MATCHER_DISPARITY_NOISE_PX,
+    MATCHER_EDGE_MARGIN_PX,
     MATCHER_MEAN_VARIANCE_FACTOR,
     segmentation_noise_fields,
 )
@@ -330,6 +331,7 @@ def test_segmentation_noise_fields_per_mode():
         "disparity_noise_px": MATCHER_DISPARITY_NOISE_PX,
         "stereo_baseline_m": 0.068,
         "noise_correlation_factor": MATCHER_MEAN_VARIANCE_FACTOR,
+        "floor_edge_margin_px": MATCHER_EDGE_MARGIN_PX,
     }
     depth = segmentation_noise_fields(dataclasses.replace(camera, mode="depth"), 0.068)
     assert depth["stereo_baseline_m"] == camera.baseline_m

@@ -148,3 +148,26 @@ def test_list_marks_a_bad_file_and_lists_the_others(
     assert lines[0].startswith("bad ") and "(invalid: " in lines[0] and problem in lines[0]
     assert lines[1].startswith("flat_floor ") and "a few steps forward" in lines[1]
     assert lines[2].startswith("zz_folder ") and "(invalid: " in lines[2]
+
+
+def test_a_replay_keeps_the_recording_s_camera_whichever_scenario_is_named(tmp_path, capsys):
+    """A stereo recording replayed as ``run box_removal --replay`` segments with stereo noise.
+
+    ``box_removal.toml`` is a depth-mode scenario; its depth noise model on stereo frames
+    withdrew half of the stage's frames. ``--camera-mode`` contradicting the recording is refused.
+    """
+    stereo = load_scenario("box_removal").with_overrides(["camera.mode=stereo"])
+    path = save_recording(tmp_path / "stereo.npz", make_frames(4), scenario=stereo)
+    out = tmp_path / "o"
+    args = ["run", "box_removal", "--replay", str(path), "--quiet", "--no-pictures"]
+    assert main([*args, "--out", str(out)]) == 0
+    segmentation = json.loads((out / "report.json").read_text())["params"]["segmentation"]
+    depth_scenario = load_scenario("box_removal")
+    assert depth_scenario.camera.mode == "depth"
+    assert segmentation["floor_edge_margin_px"] == 1  # the stereo head's noise model
+    assert segmentation["disparity_noise_px"] > 0
+    capsys.readouterr()
+    assert main([*args, "--out", str(tmp_path / "x"), "--camera-mode", "depth"]) == 2
+    err = capsys.readouterr().err
+    assert "'stereo'" in err and "--camera-mode" in err and "Traceback" not in err
+    assert not (tmp_path / "x").exists()

@@ -181,7 +181,7 @@ def split_override_key(key: str) -> tuple[str, str]:
 def resolve_params(
     scenario: Scenario | None,
     overrides: Mapping[str, float] | None = None,
-    sensor: Mapping[str, float] | None = None,
+    sensor: Mapping[str, float | int] | None = None,
 ) -> RunParams:
     """Parameters: defaults ← sensor ← scenario ``[mapper]`` / ``[segmentation]`` ← overrides.
 

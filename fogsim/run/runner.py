@@ -237,7 +237,7 @@ def _archive_maps(
     )
 
 
-def sensor_fields(scenario: Scenario | None) -> dict[str, float]:
+def sensor_fields(scenario: Scenario | None) -> dict[str, float | int]:
     """The segmentation's noise model of the scenario's camera (none without a scenario).
 
     Passed to :func:`~fogsim.config.resolve_params` as ``sensor``: the scenario's
