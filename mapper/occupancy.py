@@ -308,6 +308,77 @@ def _classify(x, y, z, sensor_x, sensor_y, sensor_z, geometry, shape, need_lengt
     return status, gx, gy, gz, ix, iy, iz, length
 
 
+#: `_cell_set` code of an empty slot (a status is never positive).
+_EMPTY_SLOT = 1
+
+
+@numba.njit(cache=True, inline="always")
+def _cell_set(n_points: int, discretize: bool):
+    """Scratch of `_discretized`: an open-addressing set of lattice cells with their status.
+
+    (keys (capacity, 3) int64, codes (capacity,) int64 all `_EMPTY_SLOT`); the capacity is a
+    power of two at least twice the points (probes stay short), one slot when not discretizing.
+    """
+    capacity = 1
+    if discretize:
+        while capacity < 2 * n_points:
+            capacity *= 2
+    return np.empty((capacity, 3), dtype=np.int64), np.full(capacity, _EMPTY_SLOT, np.int64)
+
+
+@numba.njit(cache=True, inline="always")
+def _discretized(cells, end, sensor_grid, scale, shape, need_length, max_range):
+    """OctoMap's ``discretize``: one ray per lattice cell holding points, to the cell's centre.
+
+    ``end`` is `_classify`'s result for a point. The first point in a lattice cell (inside the
+    grid or not) gets the ray of the cell's centre: its grid coordinates ``i + 0.5``, its range
+    from the sensor and its status (in the grid, outside, beyond ``max_range``) are the
+    centre's; a later point in the same cell gets the same status and no ray.
+
+    Args:
+        cells: `_cell_set` scratch, updated.
+        end: (status, gx, gy, gz, ix, iy, iz, length) of the point.
+        sensor_grid: (ox, oy, oz) the sensor in grid units.
+        scale: (cell, layer) [m].
+        shape: (nx, ny, nz).
+        need_length: Compute the range (else 0).
+        max_range: [m], as in `insert_frame`.
+
+    Returns:
+        (cast, status, gx, gy, gz, ix, iy, iz, length): ``cast`` False for a point whose
+        cell already has its ray (and for a non-finite point).
+    """
+    status, gx, gy, gz, ix, iy, iz, length = end
+    if status == NONFINITE:
+        return False, status, gx, gy, gz, ix, iy, iz, length
+    keys, codes = cells
+    mask = codes.shape[0] - 1
+    slot = ((ix * 73856093) ^ (iy * 19349663) ^ (iz * 83492791)) & mask
+    while codes[slot] != _EMPTY_SLOT:
+        if keys[slot, 0] == ix and keys[slot, 1] == iy and keys[slot, 2] == iz:
+            return False, codes[slot], gx, gy, gz, ix, iy, iz, length
+        slot = (slot + 1) & mask
+    keys[slot, 0] = ix
+    keys[slot, 1] = iy
+    keys[slot, 2] = iz
+    ox, oy, oz = sensor_grid
+    cell, layer = scale
+    nx, ny, nz = shape
+    gx = ix + 0.5
+    gy = iy + 0.5
+    gz = iz + 0.5
+    status = 0 if (0 <= ix < nx and 0 <= iy < ny and 0 <= iz < nz) else OUTSIDE
+    length = 0.0
+    if need_length:
+        length = np.sqrt(
+            ((gx - ox) * cell) ** 2 + ((gy - oy) * cell) ** 2 + ((gz - oz) * layer) ** 2
+        )
+        if length > max_range:
+            status = BEYOND_RANGE
+    codes[slot] = status
+    return True, status, gx, gy, gz, ix, iy, iz, length
+
+
 @numba.njit(cache=True, error_model="numpy")
 def insert_frame(
     points: NDArray[np.float64],
@@ -326,6 +397,7 @@ def insert_frame(
     free_margin: float = 0.0,
     max_range: float = np.inf,
     clear_outside: bool = False,
+    discretize: bool = False,
 ):
     """Insert one frame of points into the 3D grid ``og`` (nx, ny, nz) in place.
 
@@ -390,6 +462,8 @@ def insert_frame(
     end_g = np.empty((n_points, 3))
     end_i = np.empty((n_points, 3), dtype=np.int64)
     end_length = np.empty(n_points)
+    cast_ray = np.empty(n_points, dtype=np.bool_)
+    cells = _cell_set(n_points, discretize)
     # Pass 1: end cells get the hit mark first, so they win over any miss this frame.
     for i in range(n_points):
         status, gx, gy, gz, ix, iy, iz, length = _classify(
@@ -401,9 +475,16 @@ def insert_frame(
             sensor_origin[2],
             geometry,
             shape,
-            need_length,
+            need_length and not discretize,
             max_range,
         )
+        cast = True
+        if discretize:
+            end = (status, gx, gy, gz, ix, iy, iz, length)
+            cast, status, gx, gy, gz, ix, iy, iz, length = _discretized(
+                cells, end, (ox, oy, oz), (cell, layer), shape, need_length, max_range
+            )
+        cast_ray[i] = cast
         end_g[i, 0] = gx
         end_g[i, 1] = gy
         end_g[i, 2] = gz
@@ -434,6 +515,8 @@ def insert_frame(
     # rays of no-hit ends from the entry cell to the exit (or stop, or range) cell.
     for i in range(n_points):
         status = point_cell[i]
+        if not cast_ray[i]:
+            continue
         if status >= 0:
             clip = _clip_ray(
                 ox,
@@ -689,6 +772,7 @@ def insert_frame_columns(
     free_margin: float = 0.0,
     max_range: float = np.inf,
     clear_outside: bool = False,
+    discretize: bool = False,
 ):
     """`insert_frame` with the marks kept as one bit per layer in one word per column.
 
@@ -741,6 +825,7 @@ def insert_frame_columns(
     ix1 = -1
     iy0 = ny
     iy1 = -1
+    cells = _cell_set(points.shape[0], discretize)
     for i in range(points.shape[0]):
         status, gx, gy, gz, ix, iy, iz, length = _classify(
             points[i, 0],
@@ -751,15 +836,21 @@ def insert_frame_columns(
             sensor_origin[2],
             geometry,
             shape,
-            need_length,
+            need_length and not discretize,
             max_range,
         )
+        cast = True
+        if discretize:
+            end = (status, gx, gy, gz, ix, iy, iz, length)
+            cast, status, gx, gy, gz, ix, iy, iz, length = _discretized(
+                cells, end, (ox, oy, oz), (cell, layer), shape, need_length, max_range
+            )
         if status < 0:
             dropped_nonfinite += status == NONFINITE
             dropped_outside += status == OUTSIDE
             beyond_range += status == BEYOND_RANGE
             point_cell[i] = status
-            if not clear_outside or status == NONFINITE:
+            if not cast or not clear_outside or status == NONFINITE:
                 continue
             t_limit = _no_hit_limit(status, length, free_margin, max_range)
             clip = _clip_ray_through(ox, oy, oz, gx, gy, gz, nx, ny, nz, t_limit)
@@ -771,6 +862,8 @@ def insert_frame_columns(
             iy0 = min(iy0, iy)
             iy1 = max(iy1, iy)
             hit_cols[np.uint64(ix * ny + iy)] |= range_masks[np.uint64(iz), np.uint64(iz)]
+            if not cast:
+                continue
             clip = _clip_ray(ox, oy, oz, gx, gy, gz, ix, iy, iz, nx, ny, nz, free_margin, length)
         walk, sx, sy, sz, dx, dy, dz, inv_d, cx, cy, cz, ex, ey, ez, stop_cleared = clip
         if not walk:
