@@ -429,6 +429,9 @@ def insert_frame(
         max_range: Points farther than this from the sensor [m] are no hit (inf: none).
         clear_outside: Rays of points outside the grid or beyond ``max_range`` clear the
             cells they cross (False: such points are ignored entirely).
+        discretize: One ray per lattice cell holding points, to the cell's centre, whose
+            status (hit, outside, beyond range) all its points get (`_discretized`; OctoMap's
+            ``discretize``). False: one ray per point, to the point.
 
     Returns:
         (used, dropped_nonfinite, dropped_outside, beyond_range, cells_updated, ix0, ix1, iy0,
@@ -613,6 +616,7 @@ def traversed_cells(
     columns: bool | None = None,
     max_range_m: float = np.inf,
     clear_outside: bool = False,
+    discretize: bool = False,
 ) -> tuple[NDArray[np.int64], NDArray[np.int64]]:
     """Cells (flat indices) a frame marks as miss and as hit — for tests and inspection.
 
@@ -628,6 +632,7 @@ def traversed_cells(
             mapper chooses (columns when ``nz <= MAX_COLUMN_LAYERS``).
         max_range_m: As `MapperParams.max_range_m`.
         clear_outside: As `MapperParams.clear_outside`.
+        discretize: As `MapperParams.discretize_rays`.
     """
     og = np.full(shape, 128, dtype=np.uint8)
     size = int(np.prod(shape))
@@ -653,6 +658,7 @@ def traversed_cells(
             free_margin_m,
             max_range_m,
             clear_outside,
+            discretize,
         )
     else:
         insert_frame(
@@ -668,6 +674,7 @@ def traversed_cells(
             free_margin_m,
             max_range_m,
             clear_outside,
+            discretize,
         )
     flat = og.reshape(-1)
     return np.flatnonzero(flat == 1), np.flatnonzero(flat == 2)
@@ -805,6 +812,7 @@ def insert_frame_columns(
         free_margin: Rays stop clearing this far [m] before their end point.
         max_range: As in `insert_frame` [m].
         clear_outside: As in `insert_frame`.
+        discretize: As in `insert_frame`.
 
     Returns:
         As `insert_frame`.
