@@ -54,16 +54,17 @@ def test_discretized_equals_exact_rays_to_the_cell_centres(
     rng = np.random.default_rng(7)
     geometry = (*ORIGIN, CELL, LAYER)
     kw = {"columns": columns, "max_range_m": max_range_m, "clear_outside": clear_outside}
+    kw["free_margin_m"] = free_margin_m
     differs_from_points = 0
     for _ in range(4):
         sensor = ORIGIN + rng.uniform(-0.3, 1.3, 3) * EXTENT
         points = _clustered_cloud(rng)
         centres = _cell_centres(points)
         assert len(centres) < len(points) / 2  # several points share a cell
-        disc = traversed_cells(points, sensor, geometry, SHAPE, free_margin_m, discretize=True, **kw)
-        exact = traversed_cells(centres, sensor, geometry, SHAPE, free_margin_m, **kw)
+        disc = traversed_cells(points, sensor, geometry, SHAPE, discretize=True, **kw)
+        exact = traversed_cells(centres, sensor, geometry, SHAPE, **kw)
         assert np.array_equal(disc[0], exact[0]) and np.array_equal(disc[1], exact[1])
-        per_point = traversed_cells(points, sensor, geometry, SHAPE, free_margin_m, **kw)
+        per_point = traversed_cells(points, sensor, geometry, SHAPE, **kw)
         differs_from_points += not np.array_equal(disc[0], per_point[0])
     assert differs_from_points > 0  # the rays to the points would have marked other cells
 
@@ -147,5 +148,5 @@ def test_points_take_their_cells_status(columns):
 
 def test_discretize_rays_must_be_a_bool():
     assert MapperParams(discretize_rays=True).discretize_rays is True
-    with pytest.raises(InvalidParameterError, match="discretize_rays.*a bool"):
+    with pytest.raises(InvalidParameterError, match=r"discretize_rays.*a bool"):
         MapperParams(discretize_rays=1)
