@@ -7,7 +7,8 @@ p_max]``, occupied above ``p_occ``. Same resolution, grids aligned (OctoMap's vo
 multiples of the resolution, so its points are given relative to the mapper's grid corner),
 rays cleared to their ends (``free_margin_m = 0``, ``clear_outside``: OctoMap's tree has no
 border). The mapper stores 8-bit levels, OctoMap floats, so a cell whose history sits right at
-a threshold may be classified differently; occupied cells must still be the same.
+a threshold may be classified differently; occupied cells must still be the same. The same
+holds with ``discretize`` on both sides (one ray per end cell, to its centre).
 """
 
 import numpy as np
