@@ -11,9 +11,11 @@ does) of
 - ``octomap.OcTree.insertPointCloud`` on the same finite points from the same sensor origin
   (which also updates each voxel once per cloud, occupied winning), and with ``discretize``.
 
-Times are the process's CPU time (``time.process_time``, every thread: OctoMap's insertion
-may use OpenMP), not wall time: on a loaded machine a frame's wall time counts the time the
-process waits for a core.
+Times are CPU time of the calling thread (``time.thread_time``), not wall time: on a loaded
+machine a frame's wall time counts the time the process waits for a core. The children run
+with ``OMP_NUM_THREADS=1``: OctoMap's insertion would otherwise use OpenMP threads (whose CPU
+time the calling thread's clock misses, and whose spinning after a call slows the next peer);
+every peer runs on one core.
 
 Frame sets:
 
@@ -205,9 +207,9 @@ def make_peers(params: MapperParams) -> dict[str, Callable[[MapperInput], float]
     def grid_map(m: FloorObstacleMapper | AveragingMap) -> Callable[[MapperInput], float]:
         def insert(f: MapperInput) -> float:
             m.recenter(*f.center_xy_m)
-            t0 = time.process_time()
+            t0 = time.thread_time()
             m.update(f.points, f.floor_heights, f.sensor_origin)
-            return time.process_time() - t0
+            return time.thread_time() - t0
 
         return insert
 
@@ -216,9 +218,9 @@ def make_peers(params: MapperParams) -> dict[str, Callable[[MapperInput], float]
 
         def insert(f: MapperInput) -> float:
             finite = np.ascontiguousarray(f.points[np.all(np.isfinite(f.points), axis=1)])
-            t0 = time.process_time()
+            t0 = time.thread_time()
             tree.insertPointCloud(finite, f.sensor_origin, discretize=discretize)
-            return time.process_time() - t0
+            return time.thread_time() - t0
 
         return insert
 
@@ -284,7 +286,7 @@ def measure(args: argparse.Namespace, codegen: str) -> list[Row]:
 
 def run_child(args: argparse.Namespace, codegen: str, cache_dir: Path) -> list[Row]:
     """``measure`` in a child process compiled for ``codegen`` (host or generic)."""
-    env = dict(os.environ)
+    env = dict(os.environ, OMP_NUM_THREADS="1")
     if codegen == "generic":
         env["NUMBA_CPU_NAME"] = "generic"
         env["NUMBA_CACHE_DIR"] = str(cache_dir / "numba-generic")
