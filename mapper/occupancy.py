@@ -27,6 +27,19 @@ are never cleared by the rays passing through them to farther points, and become
 obstacles (stage scenario: 94.5 → 96.8 % cells right). With ``clear_outside=False`` (the
 default for now, see `MapperParams.clear_outside`) such points are ignored entirely.
 
+Discretized insertion (``discretize``, `MapperParams.discretize_rays`; OctoMap's
+``insertPointCloud(..., discretize=true)``): the points are first reduced to the lattice cells
+holding them (inside the grid or not; a hash set per frame), and one ray is cast per cell, from
+the sensor to the cell's centre; every point of the cell gets the centre's status (hit, outside,
+beyond range). The hits are the same cells; the cleared cells differ only near the rays' ends.
+On the stage's 88 × 72 frames 5 950 points become 2 520 rays (the 3 970 points inside the grid
+1 060), at 176 × 144 24 000 points 3 900 rays: the insert takes 0.36 instead of 0.57 ms (CPU,
+median over seed 1's 832 frames), 0.75 instead of 1.98 ms at 176 × 144. After the 832 frames
+1.1 % of the cells hold another level, 26 of 9 884 occupied cells differ
+(``tests/test_insert_discretize.py``; the OctoMap comparison in
+``tests/test_occupancy_octomap.py`` agrees with OctoMap's ``discretize`` exactly, as the exact
+mode does with its exact insertion).
+
 Two kernels keep the once-per-frame marks: `insert_frame_columns` (the mapper's default when
 ``nz <= 64``) keeps one bit per layer in one word per column and steps the traversal only at
 x/y cell boundaries, marking the run of layers a ray crosses inside a column with one OR (1.7 to
