@@ -329,14 +329,15 @@ _EMPTY_SLOT = 1
 def _cell_set(n_points: int, discretize: bool):
     """Scratch of `_discretized`: an open-addressing set of lattice cells with their status.
 
-    (keys (capacity, 3) int64, codes (capacity,) int64 all `_EMPTY_SLOT`); the capacity is a
-    power of two at least twice the points (probes stay short), one slot when not discretizing.
+    (keys (capacity, 3) int64 uninitialised, codes (capacity,) int8 all `_EMPTY_SLOT`: one
+    byte a slot, so that filling them costs little); the capacity is a power of two at least
+    twice the points (probes stay short), one slot when not discretizing.
     """
     capacity = 1
     if discretize:
         while capacity < 2 * n_points:
             capacity *= 2
-    return np.empty((capacity, 3), dtype=np.int64), np.full(capacity, _EMPTY_SLOT, np.int64)
+    return np.empty((capacity, 3), dtype=np.int64), np.full(capacity, _EMPTY_SLOT, np.int8)
 
 
 @numba.njit(cache=True, inline="always")
@@ -369,7 +370,7 @@ def _discretized(cells, end, sensor_grid, scale, shape, need_length, max_range):
     slot = ((ix * 73856093) ^ (iy * 19349663) ^ (iz * 83492791)) & mask
     while codes[slot] != _EMPTY_SLOT:
         if keys[slot, 0] == ix and keys[slot, 1] == iy and keys[slot, 2] == iz:
-            return False, codes[slot], gx, gy, gz, ix, iy, iz, length
+            return False, np.int64(codes[slot]), gx, gy, gz, ix, iy, iz, length
         slot = (slot + 1) & mask
     keys[slot, 0] = ix
     keys[slot, 1] = iy
