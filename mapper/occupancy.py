@@ -649,49 +649,64 @@ def traversed_cells(
         discretize: As `MapperParams.discretize_rays`.
     """
     og = np.full(shape, 128, dtype=np.uint8)
-    size = int(np.prod(shape))
-    hit = np.full(256, 2, dtype=np.uint8)
-    miss = np.full(256, 1, dtype=np.uint8)
+    tables = (np.full(256, 2, dtype=np.uint8), np.full(256, 1, dtype=np.uint8))
+    options = (free_margin_m, max_range_m, clear_outside, discretize)
+    insert_with_scratch(points, sensor_origin, geometry_args, og, tables, options, columns)
+    flat = og.reshape(-1)
+    return np.flatnonzero(flat == 1), np.flatnonzero(flat == 2)
+
+
+def insert_with_scratch(
+    points: NDArray[np.float64],
+    sensor_origin: NDArray[np.float64],
+    geometry_args: tuple[float, float, float, float, float],
+    og: NDArray[np.uint8],
+    tables: tuple[NDArray[np.uint8], NDArray[np.uint8]],
+    options: tuple[float, float, bool, bool],
+    columns: bool | None = None,
+) -> tuple[tuple, NDArray[np.int64]]:
+    """One frame into ``og`` by either kernel with fresh scratch — for tests and inspection.
+
+    Args:
+        points: (N, 3) world points [m].
+        sensor_origin: (3,) world sensor position [m].
+        geometry_args: (origin_x, origin_y, z_min, cell, layer) [m].
+        og: (nx, ny, nz) uint8 levels, updated in place.
+        tables: (hit, miss) tables (`lookup_tables`).
+        options: (free_margin_m, max_range_m, clear_outside, discretize) as in `insert_frame`.
+        columns: As in `traversed_cells`.
+
+    Returns:
+        (the kernel's result tuple, the points' ``point_cell`` codes).
+    """
+    nx, ny, nz = og.shape
+    hit, miss = tables
     pts = np.ascontiguousarray(points, dtype=np.float64)
     origin = np.ascontiguousarray(sensor_origin, dtype=np.float64)
     point_cell = np.empty(pts.shape[0], dtype=np.int64)
     if columns is None:
-        columns = shape[2] <= MAX_COLUMN_LAYERS
+        columns = nz <= MAX_COLUMN_LAYERS
     if columns:
-        dtype = column_mask_dtype(shape[2])
-        insert_frame_columns(
+        dtype = column_mask_dtype(nz)
+        scratch = (np.zeros(nx * ny, dtype=dtype), np.zeros(nx * ny, dtype=dtype))
+        result = insert_frame_columns(
             pts,
             origin,
             *geometry_args,
             og,
-            np.zeros(shape[0] * shape[1], dtype=dtype),
-            np.zeros(shape[0] * shape[1], dtype=dtype),
-            layer_range_masks(shape[2]),
+            *scratch,
+            layer_range_masks(nz),
             update_table(hit, miss),
             point_cell,
-            free_margin_m,
-            max_range_m,
-            clear_outside,
-            discretize,
+            *options,
         )
     else:
-        insert_frame(
-            pts,
-            origin,
-            *geometry_args,
-            og,
-            np.zeros(mark_buffer_size(size), dtype=np.uint8),
-            np.zeros(size, dtype=np.int64),
-            hit,
-            miss,
-            point_cell,
-            free_margin_m,
-            max_range_m,
-            clear_outside,
-            discretize,
+        size = nx * ny * nz
+        scratch = (np.zeros(mark_buffer_size(size), dtype=np.uint8), np.zeros(size, np.int64))
+        result = insert_frame(
+            pts, origin, *geometry_args, og, *scratch, hit, miss, point_cell, *options
         )
-    flat = og.reshape(-1)
-    return np.flatnonzero(flat == 1), np.flatnonzero(flat == 2)
+    return result, point_cell
 
 
 # ---------------------------------------------------------------- column kernel (nz <= 64)

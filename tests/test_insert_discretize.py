@@ -13,14 +13,9 @@ from mapper.occupancy import (
     BEYOND_RANGE,
     NONFINITE,
     OUTSIDE,
-    column_mask_dtype,
-    insert_frame,
-    insert_frame_columns,
-    layer_range_masks,
+    insert_with_scratch,
     lookup_tables,
-    mark_buffer_size,
     traversed_cells,
-    update_table,
 )
 
 SHAPE = (12, 9, 6)
@@ -84,20 +79,10 @@ def test_discretized_hits_are_the_points_cells():
 def _insert(points, sensor, discretize, columns, params):
     """One frame into a fresh (SHAPE) grid with ``params``' tables: (result, point_cell, og)."""
     og = np.full(SHAPE, 128, dtype=np.uint8)
-    point_cell = np.empty(len(points), dtype=np.int64)
-    hit, miss = lookup_tables(params)
-    args = (points, sensor, *ORIGIN, CELL, LAYER, og)
-    tail = (point_cell, params.free_margin_m, params.max_range_m, True, discretize)
-    if columns:
-        dtype = column_mask_dtype(SHAPE[2])
-        cols = SHAPE[0] * SHAPE[1]
-        scratch = (np.zeros(cols, dtype), np.zeros(cols, dtype), layer_range_masks(SHAPE[2]))
-        result = insert_frame_columns(*args, *scratch, update_table(hit, miss), *tail)
-    else:
-        size = int(np.prod(SHAPE))
-        mark = np.zeros(mark_buffer_size(size), dtype=np.uint8)
-        touched = np.zeros(size, dtype=np.int64)
-        result = insert_frame(*args, mark, touched, hit, miss, *tail)
+    options = (params.free_margin_m, params.max_range_m, True, discretize)
+    result, point_cell = insert_with_scratch(
+        points, sensor, (*ORIGIN, CELL, LAYER), og, lookup_tables(params), options, columns
+    )
     return result, point_cell, og
 
 
