@@ -109,8 +109,11 @@ class MapperParams:
             (OctoMap's ``insertPointCloud`` with ``discretize``), instead of one ray per point.
             The end cells get their hit as before; the cells cleared differ only near the rays'
             ends, where the ray to the centre passes other cells than the rays to the points.
-            False (the exact per-point rays) until the maps of both are compared over seeds;
-            see `mapper.occupancy` for the speed and the measured differences.
+            The update is 1.5 times faster on the stage's 88 × 72 frames, 2.4 times at
+            176 × 144 (`mapper.occupancy`). False (the exact per-point rays): over seeds 1–8
+            the stage's figures are as good with it (obstacle precision 76.7 → 81.7 %, Table I
+            worst row 1.30 → 1.32 mm, unsafe cells 84.6 → 84.4, both mean), box_removal's the
+            same, but moving_box's ground row goes from 0.28 to 0.62 mm (worst 0.47 → 1.01).
         zmatch_min_pairs: Matched floor points needed before a z shift is trusted (Sec. IV).
         zmatch_max_shift_m: Largest z shift [m] accepted; larger ones are reported but not
             accepted (they would mean the frame matched the wrong floor level).
