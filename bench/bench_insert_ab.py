@@ -13,6 +13,7 @@ Code generation is numba's default (the host CPU) unless ``NUMBA_CPU_NAME=generi
 it its own ``NUMBA_CACHE_DIR``); run once each way.
 
 Run: ``.venv/bin/python bench/bench_insert_ab.py --base e38a5f4 REC.npz [REC.npz ...]``
+(``--discretize``: both kernels with `MapperParams.discretize_rays`; a base from d3f75c8 on).
 """
 
 from __future__ import annotations
@@ -60,9 +61,10 @@ def module_at(commit: str, directory: Path) -> ModuleType:
 class Kernel:
     """One module's ``insert_frame_columns`` with its own grid and scratch."""
 
-    def __init__(self, module: ModuleType, frame_set: FrameSet) -> None:
+    def __init__(self, module: ModuleType, frame_set: FrameSet, discretize: bool) -> None:
         p = frame_set.params
         self.module = module
+        self.extra = (True,) if discretize else ()  # older kernels lack the argument
         self.params = p
         dtype = module.column_mask_dtype(p.nz)
         hit, miss = module.lookup_tables(p)
@@ -92,13 +94,17 @@ class Kernel:
             p.free_margin_m,
             float(p.max_range_m),
             bool(p.clear_outside),
+            *self.extra,
         )
         return time.perf_counter() - t0, result, point_cell
 
 
-def compare(frame_set: FrameSet, base: ModuleType) -> dict[str, list[float]]:
+def compare(frame_set: FrameSet, base: ModuleType, discretize: bool) -> dict[str, list[float]]:
     """Per-frame seconds of both kernels, interleaved; stops at the first difference."""
-    kernels = {"base": Kernel(base, frame_set), "tree": Kernel(occupancy, frame_set)}
+    kernels = {
+        "base": Kernel(base, frame_set, discretize),
+        "tree": Kernel(occupancy, frame_set, discretize),
+    }
     mapper = FloorObstacleMapper(frame_set.params)  # only its recentring (geometry)
     times: dict[str, list[float]] = {name: [] for name in kernels}
     for i, frame in enumerate(frame_set.frames):
@@ -122,23 +128,30 @@ def main() -> None:
     parser.add_argument("recordings", nargs="+", help="stage recordings (fogsim record)")
     parser.add_argument("--base", default="HEAD", help="commit whose kernel is the base")
     parser.add_argument("--frames", type=int, default=100000, help="frames per recording")
+    parser.add_argument(
+        "--discretize",
+        action="store_true",
+        help="both kernels discretize (MapperParams.discretize_rays; the base must have it)",
+    )
     args = parser.parse_args()
     codegen = os.environ.get("NUMBA_CPU_NAME", "host")
     with tempfile.TemporaryDirectory() as directory:
         base = module_at(args.base, Path(directory))
         frame_sets = [stage_frames(Path(path), args.frames) for path in args.recordings]
         for frame_set in frame_sets:  # compile or load both kernels before timing
-            compare(FrameSet("warm-up", "", frame_set.params, frame_set.frames[:2]), base)
+            warm_up = FrameSet("warm-up", "", frame_set.params, frame_set.frames[:2])
+            compare(warm_up, base, args.discretize)
         load_before = os.getloadavg()
         times: dict[str, list[float]] = {"base": [], "tree": []}
         for frame_set in frame_sets:
-            for name, seconds in compare(frame_set, base).items():
+            for name, seconds in compare(frame_set, base, args.discretize).items():
                 times[name] += seconds
         load_after = os.getloadavg()
     resolutions = sorted({s.resolution for s in frame_sets})
     print(
         f"{len(times['base'])} frames ({', '.join(resolutions)}) of {len(frame_sets)} "
-        f"recordings, codegen {codegen}, identical grids; load (1, 5, 15 min) "
+        f"recordings, codegen {codegen}, discretize {args.discretize}, identical grids; "
+        f"load (1, 5, 15 min) "
         f"{'/'.join(f'{v:.1f}' for v in load_before)} before, "
         f"{'/'.join(f'{v:.1f}' for v in load_after)} after"
     )

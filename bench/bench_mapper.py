@@ -5,9 +5,17 @@ does) of
 
 - ``FloorObstacleMapper`` (the column kernel, the default for ``nz <= 64``),
 - ``FloorObstacleMapper (cell marks)`` (the per-cell kernel, the same map),
+- ``FloorObstacleMapper (discretized)`` (`MapperParams.discretize_rays`: one ray per lattice
+  cell holding points, to its centre),
 - ``AveragingMap`` (the Kagami baseline),
 - ``octomap.OcTree.insertPointCloud`` on the same finite points from the same sensor origin
-  (which also updates each voxel once per cloud, occupied winning).
+  (which also updates each voxel once per cloud, occupied winning), and with ``discretize``.
+
+Times are CPU time of the calling thread (``time.thread_time``), not wall time: on a loaded
+machine a frame's wall time counts the time the process waits for a core. The children run
+with ``OMP_NUM_THREADS=1``: OctoMap's insertion would otherwise use OpenMP threads (whose CPU
+time the calling thread's clock misses, and whose spinning after a call slows the next peer);
+every peer runs on one core.
 
 Frame sets:
 
@@ -74,8 +82,10 @@ SCENES = {
 PEERS = (
     "FloorObstacleMapper",
     "FloorObstacleMapper (cell marks)",
+    "FloorObstacleMapper (discretized)",
     "AveragingMap",
     "octomap insertPointCloud",
+    "octomap insertPointCloud (discretize)",
 )
 
 
@@ -189,27 +199,39 @@ def stage_frames(path: Path, count: int) -> FrameSet:
 
 def make_peers(params: MapperParams) -> dict[str, Callable[[MapperInput], float]]:
     """Each peer's insertion of one frame; returns the seconds the insertion itself took."""
-    column = FloorObstacleMapper(params)
-    cell = FloorObstacleMapper(params, column_marks=False)
+    column = FloorObstacleMapper(replace(params, discretize_rays=False))
+    cell = FloorObstacleMapper(replace(params, discretize_rays=False), column_marks=False)
+    discretized = FloorObstacleMapper(replace(params, discretize_rays=True))
     averaging = AveragingMap(params)
-    tree = octomap.OcTree(params.cell_m)
 
     def grid_map(m: FloorObstacleMapper | AveragingMap) -> Callable[[MapperInput], float]:
         def insert(f: MapperInput) -> float:
             m.recenter(*f.center_xy_m)
-            t0 = time.perf_counter()
+            t0 = time.thread_time()
             m.update(f.points, f.floor_heights, f.sensor_origin)
-            return time.perf_counter() - t0
+            return time.thread_time() - t0
 
         return insert
 
-    def octo(f: MapperInput) -> float:
-        finite = np.ascontiguousarray(f.points[np.all(np.isfinite(f.points), axis=1)])
-        t0 = time.perf_counter()
-        tree.insertPointCloud(finite, f.sensor_origin)
-        return time.perf_counter() - t0
+    def octo(discretize: bool) -> Callable[[MapperInput], float]:
+        tree = octomap.OcTree(params.cell_m)
 
-    impls = (grid_map(column), grid_map(cell), grid_map(averaging), octo)
+        def insert(f: MapperInput) -> float:
+            finite = np.ascontiguousarray(f.points[np.all(np.isfinite(f.points), axis=1)])
+            t0 = time.thread_time()
+            tree.insertPointCloud(finite, f.sensor_origin, discretize=discretize)
+            return time.thread_time() - t0
+
+        return insert
+
+    impls = (
+        grid_map(column),
+        grid_map(cell),
+        grid_map(discretized),
+        grid_map(averaging),
+        octo(False),
+        octo(True),
+    )
     return dict(zip(PEERS, impls, strict=True))
 
 
@@ -264,7 +286,7 @@ def measure(args: argparse.Namespace, codegen: str) -> list[Row]:
 
 def run_child(args: argparse.Namespace, codegen: str, cache_dir: Path) -> list[Row]:
     """``measure`` in a child process compiled for ``codegen`` (host or generic)."""
-    env = dict(os.environ)
+    env = dict(os.environ, OMP_NUM_THREADS="1")
     if codegen == "generic":
         env["NUMBA_CPU_NAME"] = "generic"
         env["NUMBA_CACHE_DIR"] = str(cache_dir / "numba-generic")
@@ -298,7 +320,7 @@ def print_table(rows: list[Row]) -> None:
     """The rows, then per frame set and codegen the speed-ups that matter."""
     print(
         f"{'set':7s} {'frame':>8s} {'codegen':8s} {'peer':33s} {'points':>7s} "
-        f"{'median ms':>10s} {'p90 ms':>8s}  load (1, 5, 15 min) before / after"
+        f"{'CPU ms med':>10s} {'p90':>8s}  load (1, 5, 15 min) before / after"
     )
     for r in rows:
         load = f"{'/'.join(f'{v:.1f}' for v in r.load_before)} / "
@@ -310,12 +332,12 @@ def print_table(rows: list[Row]) -> None:
     by = {(r.frame_set, r.resolution, r.codegen, r.peer): r.median_ms for r in rows}
     print()
     for key in sorted({(r.frame_set, r.resolution, r.codegen) for r in rows}):
-        ours = by[(*key, PEERS[0])]
-        cell = by[(*key, PEERS[1])]
-        octo = by[(*key, PEERS[3])]
+        ours, cell, discretized, _, octo, octo_discretized = (by[(*key, p)] for p in PEERS)
         print(
             f"{' '.join(key)}: update {ours:.3f} ms, column vs cell marks {cell / ours:.2f}x, "
-            f"vs OctoMap {octo / ours:.1f}x"
+            f"vs OctoMap {octo / ours:.1f}x; discretized {discretized:.3f} ms, vs OctoMap "
+            f"{octo / discretized:.1f}x, vs OctoMap discretized "
+            f"{octo_discretized / discretized:.1f}x"
         )
 
 

@@ -27,6 +27,19 @@ are never cleared by the rays passing through them to farther points, and become
 obstacles (stage scenario: 94.5 → 96.8 % cells right). With ``clear_outside=False`` (the
 default for now, see `MapperParams.clear_outside`) such points are ignored entirely.
 
+Discretized insertion (``discretize``, `MapperParams.discretize_rays`; OctoMap's
+``insertPointCloud(..., discretize=true)``): the points are first reduced to the lattice cells
+holding them (inside the grid or not; a hash set per frame), and one ray is cast per cell, from
+the sensor to the cell's centre; every point of the cell gets the centre's status (hit, outside,
+beyond range). The hits are the same cells; the cleared cells differ only near the rays' ends.
+On the stage's 88 × 72 frames 5 950 points become 2 520 rays (the 3 970 points inside the grid
+1 060), at 176 × 144 24 000 points 3 900 rays: the insert takes 0.36 instead of 0.57 ms (CPU,
+median over seed 1's 832 frames), 0.75 instead of 1.98 ms at 176 × 144. After the 832 frames
+1.1 % of the cells hold another level, 26 of 9 884 occupied cells differ
+(``tests/test_insert_discretize.py``; the OctoMap comparison in
+``tests/test_occupancy_octomap.py`` agrees with OctoMap's ``discretize`` exactly, as the exact
+mode does with its exact insertion).
+
 Two kernels keep the once-per-frame marks: `insert_frame_columns` (the mapper's default when
 ``nz <= 64``) keeps one bit per layer in one word per column and steps the traversal only at
 x/y cell boundaries, marking the run of layers a ray crosses inside a column with one OR (1.7 to
@@ -308,6 +321,78 @@ def _classify(x, y, z, sensor_x, sensor_y, sensor_z, geometry, shape, need_lengt
     return status, gx, gy, gz, ix, iy, iz, length
 
 
+#: `_cell_set` code of an empty slot (a status is never positive).
+_EMPTY_SLOT = 1
+
+
+@numba.njit(cache=True, inline="always")
+def _cell_set(n_points: int, discretize: bool):
+    """Scratch of `_discretized`: an open-addressing set of lattice cells with their status.
+
+    (keys (capacity, 3) int64 uninitialised, codes (capacity,) int8 all `_EMPTY_SLOT`: one
+    byte a slot, so that filling them costs little); the capacity is a power of two at least
+    twice the points (probes stay short), one slot when not discretizing.
+    """
+    capacity = 1
+    if discretize:
+        while capacity < 2 * n_points:
+            capacity *= 2
+    return np.empty((capacity, 3), dtype=np.int64), np.full(capacity, _EMPTY_SLOT, np.int8)
+
+
+@numba.njit(cache=True, inline="always")
+def _discretized(cells, end, sensor_grid, scale, shape, need_length, max_range):
+    """OctoMap's ``discretize``: one ray per lattice cell holding points, to the cell's centre.
+
+    ``end`` is `_classify`'s result for a point. The first point in a lattice cell (inside the
+    grid or not) gets the ray of the cell's centre: its grid coordinates ``i + 0.5``, its range
+    from the sensor and its status (in the grid, outside, beyond ``max_range``) are the
+    centre's; a later point in the same cell gets the same status and no ray.
+
+    Args:
+        cells: `_cell_set` scratch, updated.
+        end: (status, gx, gy, gz, ix, iy, iz, length) of the point.
+        sensor_grid: (ox, oy, oz) the sensor in grid units.
+        scale: (cell, layer) [m].
+        shape: (nx, ny, nz).
+        need_length: Compute the range (else 0).
+        max_range: [m], as in `insert_frame`.
+
+    Returns:
+        (cast, status, gx, gy, gz, ix, iy, iz, length): ``cast`` False for a point whose
+        cell already has its ray (and for a non-finite point).
+    """
+    status, gx, gy, gz, ix, iy, iz, length = end
+    if status == NONFINITE:
+        return False, status, gx, gy, gz, ix, iy, iz, length
+    keys, codes = cells
+    mask = codes.shape[0] - 1
+    slot = ((ix * 73856093) ^ (iy * 19349663) ^ (iz * 83492791)) & mask
+    while codes[slot] != _EMPTY_SLOT:
+        if keys[slot, 0] == ix and keys[slot, 1] == iy and keys[slot, 2] == iz:
+            return False, np.int64(codes[slot]), gx, gy, gz, ix, iy, iz, length
+        slot = (slot + 1) & mask
+    keys[slot, 0] = ix
+    keys[slot, 1] = iy
+    keys[slot, 2] = iz
+    ox, oy, oz = sensor_grid
+    cell, layer = scale
+    nx, ny, nz = shape
+    gx = ix + 0.5
+    gy = iy + 0.5
+    gz = iz + 0.5
+    status = 0 if (0 <= ix < nx and 0 <= iy < ny and 0 <= iz < nz) else OUTSIDE
+    length = 0.0
+    if need_length:
+        length = np.sqrt(
+            ((gx - ox) * cell) ** 2 + ((gy - oy) * cell) ** 2 + ((gz - oz) * layer) ** 2
+        )
+        if length > max_range:
+            status = BEYOND_RANGE
+    codes[slot] = status
+    return True, status, gx, gy, gz, ix, iy, iz, length
+
+
 @numba.njit(cache=True, error_model="numpy")
 def insert_frame(
     points: NDArray[np.float64],
@@ -326,6 +411,7 @@ def insert_frame(
     free_margin: float = 0.0,
     max_range: float = np.inf,
     clear_outside: bool = False,
+    discretize: bool = False,
 ):
     """Insert one frame of points into the 3D grid ``og`` (nx, ny, nz) in place.
 
@@ -357,6 +443,9 @@ def insert_frame(
         max_range: Points farther than this from the sensor [m] are no hit (inf: none).
         clear_outside: Rays of points outside the grid or beyond ``max_range`` clear the
             cells they cross (False: such points are ignored entirely).
+        discretize: One ray per lattice cell holding points, to the cell's centre, whose
+            status (hit, outside, beyond range) all its points get (`_discretized`; OctoMap's
+            ``discretize``). False: one ray per point, to the point.
 
     Returns:
         (used, dropped_nonfinite, dropped_outside, beyond_range, cells_updated, ix0, ix1, iy0,
@@ -390,6 +479,8 @@ def insert_frame(
     end_g = np.empty((n_points, 3))
     end_i = np.empty((n_points, 3), dtype=np.int64)
     end_length = np.empty(n_points)
+    cast_ray = np.empty(n_points, dtype=np.bool_)
+    cells = _cell_set(n_points, discretize)
     # Pass 1: end cells get the hit mark first, so they win over any miss this frame.
     for i in range(n_points):
         status, gx, gy, gz, ix, iy, iz, length = _classify(
@@ -401,9 +492,16 @@ def insert_frame(
             sensor_origin[2],
             geometry,
             shape,
-            need_length,
+            need_length and not discretize,
             max_range,
         )
+        cast = True
+        if discretize:
+            end = (status, gx, gy, gz, ix, iy, iz, length)
+            cast, status, gx, gy, gz, ix, iy, iz, length = _discretized(
+                cells, end, (ox, oy, oz), (cell, layer), shape, need_length, max_range
+            )
+        cast_ray[i] = cast
         end_g[i, 0] = gx
         end_g[i, 1] = gy
         end_g[i, 2] = gz
@@ -434,6 +532,8 @@ def insert_frame(
     # rays of no-hit ends from the entry cell to the exit (or stop, or range) cell.
     for i in range(n_points):
         status = point_cell[i]
+        if not cast_ray[i]:
+            continue
         if status >= 0:
             clip = _clip_ray(
                 ox,
@@ -530,6 +630,7 @@ def traversed_cells(
     columns: bool | None = None,
     max_range_m: float = np.inf,
     clear_outside: bool = False,
+    discretize: bool = False,
 ) -> tuple[NDArray[np.int64], NDArray[np.int64]]:
     """Cells (flat indices) a frame marks as miss and as hit — for tests and inspection.
 
@@ -545,49 +646,67 @@ def traversed_cells(
             mapper chooses (columns when ``nz <= MAX_COLUMN_LAYERS``).
         max_range_m: As `MapperParams.max_range_m`.
         clear_outside: As `MapperParams.clear_outside`.
+        discretize: As `MapperParams.discretize_rays`.
     """
     og = np.full(shape, 128, dtype=np.uint8)
-    size = int(np.prod(shape))
-    hit = np.full(256, 2, dtype=np.uint8)
-    miss = np.full(256, 1, dtype=np.uint8)
+    tables = (np.full(256, 2, dtype=np.uint8), np.full(256, 1, dtype=np.uint8))
+    options = (free_margin_m, max_range_m, clear_outside, discretize)
+    insert_with_scratch(points, sensor_origin, geometry_args, og, tables, options, columns)
+    flat = og.reshape(-1)
+    return np.flatnonzero(flat == 1), np.flatnonzero(flat == 2)
+
+
+def insert_with_scratch(
+    points: NDArray[np.float64],
+    sensor_origin: NDArray[np.float64],
+    geometry_args: tuple[float, float, float, float, float],
+    og: NDArray[np.uint8],
+    tables: tuple[NDArray[np.uint8], NDArray[np.uint8]],
+    options: tuple[float, float, bool, bool],
+    columns: bool | None = None,
+) -> tuple[tuple, NDArray[np.int64]]:
+    """One frame into ``og`` by either kernel with fresh scratch — for tests and inspection.
+
+    Args:
+        points: (N, 3) world points [m].
+        sensor_origin: (3,) world sensor position [m].
+        geometry_args: (origin_x, origin_y, z_min, cell, layer) [m].
+        og: (nx, ny, nz) uint8 levels, updated in place.
+        tables: (hit, miss) tables (`lookup_tables`).
+        options: (free_margin_m, max_range_m, clear_outside, discretize) as in `insert_frame`.
+        columns: As in `traversed_cells`.
+
+    Returns:
+        (the kernel's result tuple, the points' ``point_cell`` codes).
+    """
+    nx, ny, nz = og.shape
+    hit, miss = tables
     pts = np.ascontiguousarray(points, dtype=np.float64)
     origin = np.ascontiguousarray(sensor_origin, dtype=np.float64)
     point_cell = np.empty(pts.shape[0], dtype=np.int64)
     if columns is None:
-        columns = shape[2] <= MAX_COLUMN_LAYERS
+        columns = nz <= MAX_COLUMN_LAYERS
     if columns:
-        dtype = column_mask_dtype(shape[2])
-        insert_frame_columns(
+        dtype = column_mask_dtype(nz)
+        scratch = (np.zeros(nx * ny, dtype=dtype), np.zeros(nx * ny, dtype=dtype))
+        result = insert_frame_columns(
             pts,
             origin,
             *geometry_args,
             og,
-            np.zeros(shape[0] * shape[1], dtype=dtype),
-            np.zeros(shape[0] * shape[1], dtype=dtype),
-            layer_range_masks(shape[2]),
+            *scratch,
+            layer_range_masks(nz),
             update_table(hit, miss),
             point_cell,
-            free_margin_m,
-            max_range_m,
-            clear_outside,
+            *options,
         )
     else:
-        insert_frame(
-            pts,
-            origin,
-            *geometry_args,
-            og,
-            np.zeros(mark_buffer_size(size), dtype=np.uint8),
-            np.zeros(size, dtype=np.int64),
-            hit,
-            miss,
-            point_cell,
-            free_margin_m,
-            max_range_m,
-            clear_outside,
+        size = nx * ny * nz
+        scratch = (np.zeros(mark_buffer_size(size), dtype=np.uint8), np.zeros(size, np.int64))
+        result = insert_frame(
+            pts, origin, *geometry_args, og, *scratch, hit, miss, point_cell, *options
         )
-    flat = og.reshape(-1)
-    return np.flatnonzero(flat == 1), np.flatnonzero(flat == 2)
+    return result, point_cell
 
 
 # ---------------------------------------------------------------- column kernel (nz <= 64)
@@ -689,6 +808,7 @@ def insert_frame_columns(
     free_margin: float = 0.0,
     max_range: float = np.inf,
     clear_outside: bool = False,
+    discretize: bool = False,
 ):
     """`insert_frame` with the marks kept as one bit per layer in one word per column.
 
@@ -721,6 +841,7 @@ def insert_frame_columns(
         free_margin: Rays stop clearing this far [m] before their end point.
         max_range: As in `insert_frame` [m].
         clear_outside: As in `insert_frame`.
+        discretize: As in `insert_frame`.
 
     Returns:
         As `insert_frame`.
@@ -741,6 +862,7 @@ def insert_frame_columns(
     ix1 = -1
     iy0 = ny
     iy1 = -1
+    cells = _cell_set(points.shape[0], discretize)
     for i in range(points.shape[0]):
         status, gx, gy, gz, ix, iy, iz, length = _classify(
             points[i, 0],
@@ -751,15 +873,21 @@ def insert_frame_columns(
             sensor_origin[2],
             geometry,
             shape,
-            need_length,
+            need_length and not discretize,
             max_range,
         )
+        cast = True
+        if discretize:
+            end = (status, gx, gy, gz, ix, iy, iz, length)
+            cast, status, gx, gy, gz, ix, iy, iz, length = _discretized(
+                cells, end, (ox, oy, oz), (cell, layer), shape, need_length, max_range
+            )
         if status < 0:
             dropped_nonfinite += status == NONFINITE
             dropped_outside += status == OUTSIDE
             beyond_range += status == BEYOND_RANGE
             point_cell[i] = status
-            if not clear_outside or status == NONFINITE:
+            if not cast or not clear_outside or status == NONFINITE:
                 continue
             t_limit = _no_hit_limit(status, length, free_margin, max_range)
             clip = _clip_ray_through(ox, oy, oz, gx, gy, gz, nx, ny, nz, t_limit)
@@ -771,6 +899,8 @@ def insert_frame_columns(
             iy0 = min(iy0, iy)
             iy1 = max(iy1, iy)
             hit_cols[np.uint64(ix * ny + iy)] |= range_masks[np.uint64(iz), np.uint64(iz)]
+            if not cast:
+                continue
             clip = _clip_ray(ox, oy, oz, gx, gy, gz, ix, iy, iz, nx, ny, nz, free_margin, length)
         walk, sx, sy, sz, dx, dy, dz, inv_d, cx, cy, cz, ex, ey, ez, stop_cleared = clip
         if not walk:

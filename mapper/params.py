@@ -41,7 +41,7 @@ class MapperParams:
     Every field is checked on construction (type and range): a wrong one raises
     `InvalidParameterError` naming the field, the value and what is allowed. Integer fields take
     integers, float fields any real number but a bool (never NaN; inf only for
-    ``max_range_m``), ``clear_outside`` only a bool.
+    ``max_range_m``), ``clear_outside`` and ``discretize_rays`` only a bool.
 
     Attributes:
         nx: Cells along world x (robot-centred, scrolled in whole cells).
@@ -105,6 +105,15 @@ class MapperParams:
             True, rays grazing over a far table edge toward the ground beyond the grid clear
             that edge's top cells in frames where no ray ends in them, as they would inside a
             larger grid.
+        discretize_rays: One ray per lattice cell holding points, cast to the cell's centre
+            (OctoMap's ``insertPointCloud`` with ``discretize``), instead of one ray per point.
+            The end cells get their hit as before; the cells cleared differ only near the rays'
+            ends, where the ray to the centre passes other cells than the rays to the points.
+            The update is 1.5 times faster on the stage's 88 × 72 frames, 2.4 times at
+            176 × 144 (`mapper.occupancy`). False (the exact per-point rays): over seeds 1–8
+            the stage's figures are as good with it (obstacle precision 76.7 → 81.7 %, Table I
+            worst row 1.30 → 1.32 mm, unsafe cells 84.6 → 84.4, both mean), box_removal's the
+            same, but moving_box's ground row goes from 0.28 to 0.62 mm (worst 0.47 → 1.01).
         zmatch_min_pairs: Matched floor points needed before a z shift is trusted (Sec. IV).
         zmatch_max_shift_m: Largest z shift [m] accepted; larger ones are reported but not
             accepted (they would mean the frame matched the wrong floor level).
@@ -151,6 +160,7 @@ class MapperParams:
     zmatch_max_shift_m: float = 0.08
     floor_vote_cap: int = 64
     floor_frame_cap: int = 40
+    discretize_rays: bool = False
 
     def __post_init__(self) -> None:
         def check(name: str, kind: type, allowed: str, ok=lambda _: True) -> None:
@@ -191,7 +201,8 @@ class MapperParams:
         for name in ("eps_m", "delta_m", "free_margin_m"):
             check(name, float, "a finite float >= 0 [m]", lambda v: math.isfinite(v) and v >= 0)
         check("max_range_m", float, "a float > 0 [m] (inf: no limit)", lambda v: v > 0)
-        check("clear_outside", bool, "a bool")
+        for name in ("clear_outside", "discretize_rays"):
+            check(name, bool, "a bool")
         for name in _CAP_FIELDS:
             check(name, int, "an int >= 0 (0: the paper's rule)", lambda v: v >= 0)
         check(
