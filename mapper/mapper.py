@@ -156,6 +156,7 @@ class FloorObstacleMapper:
                 p.free_margin_m,
                 float(p.max_range_m),
                 bool(p.clear_outside),
+                bool(p.discretize_rays),
             )
         else:
             inserted = insert_frame(
@@ -171,6 +172,7 @@ class FloorObstacleMapper:
                 p.free_margin_m,
                 float(p.max_range_m),
                 bool(p.clear_outside),
+                bool(p.discretize_rays),
             )
         used, nonfinite, outside, beyond, cells, ix0, ix1, iy0, iy1 = inserted
         if cells == 0:

@@ -4,10 +4,12 @@ Checked against the exact per-point traversal of the cells' centres (which has i
 brute-force test in ``test_occupancy.py``), by hand, and for the per-point counts.
 """
 
+from dataclasses import replace
+
 import numpy as np
 import pytest
 
-from mapper import MapperParams
+from mapper import FloorObstacleMapper, MapperParams
 from mapper.errors import InvalidParameterError
 from mapper.occupancy import (
     BEYOND_RANGE,
@@ -135,3 +137,27 @@ def test_discretize_rays_must_be_a_bool():
     assert MapperParams(discretize_rays=True).discretize_rays is True
     with pytest.raises(InvalidParameterError, match=r"discretize_rays.*a bool"):
         MapperParams(discretize_rays=1)
+
+
+@pytest.mark.parametrize("column_marks", [True, False], ids=["column-marks", "cell-marks"])
+def test_the_mapper_passes_discretize_rays_to_its_kernel(column_marks):
+    """A mapper with the field on maps a cloud as one without maps its cells' centres."""
+    rng = np.random.default_rng(5)
+    points = np.column_stack(
+        [rng.uniform(0.9, 1.3, 3000), rng.uniform(-0.2, 0.2, 3000), rng.uniform(0.0, 0.2, 3000)]
+    )
+    sensor = np.array([0.0, 0.0, 0.9])
+    params = MapperParams(free_margin_m=0.0)
+    on = FloorObstacleMapper(replace(params, discretize_rays=True), column_marks=column_marks)
+    off = FloorObstacleMapper(params, column_marks=column_marks)
+    cells, valid = on.cell_of(points)
+    assert valid.all()
+    centres = np.unique(on.cell_center(cells[:, 0], cells[:, 1], cells[:, 2]), axis=0)
+    assert len(centres) < len(points) / 2
+    no_floor = np.full(len(points), np.nan)
+    on.update(points, no_floor, sensor)
+    off.update(centres, np.full(len(centres), np.nan), sensor)
+    assert np.array_equal(on.occupancy_levels(), off.occupancy_levels())
+    per_point = FloorObstacleMapper(params, column_marks=column_marks)
+    per_point.update(points, no_floor, sensor)
+    assert not np.array_equal(on.occupancy_levels(), per_point.occupancy_levels())
