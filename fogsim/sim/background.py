@@ -32,7 +32,7 @@ import traceback
 from collections.abc import Callable, Iterator
 from concurrent.futures import Future
 from dataclasses import dataclass
-from typing import Protocol
+from typing import NoReturn, Protocol
 
 from fogsim.data.frame import Frame
 from fogsim.errors import FogsimError
@@ -201,11 +201,34 @@ _COUNT = "count"
 
 
 @dataclass(frozen=True)
-class _ProcessFailed:
-    """The simulation process's exception (pickled) and its traceback as text."""
+class ChildFailure:
+    """A child process's exception (pickled) and its traceback as text, sent to its parent.
+
+    Attributes:
+        error: The pickled exception; one that does not pickle is sent as a RuntimeError
+            with its type's name and its message.
+        traceback: The child's traceback.
+    """
 
     error: bytes
     traceback: str
+
+    @classmethod
+    def of(cls, error: BaseException) -> ChildFailure:
+        """``error`` as the child sends it."""
+        text = "".join(traceback.format_exception(error))
+        try:
+            pickled = pickle.dumps(error)
+            pickle.loads(pickled)
+        except Exception:
+            pickled = pickle.dumps(RuntimeError(f"{type(error).__name__}: {error}"))
+        return cls(pickled, text)
+
+    def reraise(self, where: str) -> NoReturn:
+        """Raise the exception here, with the child's traceback as a note naming ``where``."""
+        error = pickle.loads(self.error)
+        error.add_note(f"in {where}:\n{self.traceback}")
+        raise error
 
 
 class SimulationProcess:
@@ -299,11 +322,9 @@ class SimulationProcess:
                     "the simulation process ended without its frames "
                     f"(exit status {self._process.exitcode})"
                 ) from None
-        if isinstance(item, _ProcessFailed):
+        if isinstance(item, ChildFailure):
             self.close()
-            error = pickle.loads(item.error)
-            error.add_note(f"in the simulation process:\n{item.traceback}")
-            raise error
+            item.reraise("the simulation process")
         return item
 
     def close(self) -> None:
@@ -332,7 +353,7 @@ def _simulate_into(
 ) -> None:
     """The simulation process: its frame count, its frames and None at the end, into ``frames``.
 
-    An exception is sent in place of the next message (:class:`_ProcessFailed`).
+    An exception is sent in place of the next message (:class:`ChildFailure`).
     """
 
     def put(item: object) -> bool:
@@ -348,7 +369,7 @@ def _simulate_into(
     try:
         simulation = make_simulation()
     except BaseException as error:
-        put(_failure(error))
+        put(ChildFailure.of(error))
         return
     try:
         if not put((_COUNT, simulation.frame_count)):
@@ -358,17 +379,6 @@ def _simulate_into(
                 return
         put(None)
     except BaseException as error:
-        put(_failure(error))
+        put(ChildFailure.of(error))
     finally:
         simulation.close()
-
-
-def _failure(error: BaseException) -> _ProcessFailed:
-    """``error`` to send to the parent; one that does not pickle becomes a RuntimeError."""
-    text = "".join(traceback.format_exception(error))
-    try:
-        pickled = pickle.dumps(error)
-        pickle.loads(pickled)
-    except Exception:
-        pickled = pickle.dumps(RuntimeError(f"{type(error).__name__}: {error}"))
-    return _ProcessFailed(pickled, text)
