@@ -75,9 +75,21 @@ def _frame(depth_m, intrinsics):
     )
 
 
+def _seen_by_definition(frame, geometry):
+    """The cells of the frame's depth points: back-projection, true pose, cell_of."""
+    points = apply_transform(
+        frame.transform_camera_to_world_true,
+        frame.intrinsics.depth_to_points_camera(frame.depth_m).reshape(-1, 3),
+    )
+    index, inside = geometry.cell_of(points)
+    seen = np.zeros((geometry.nx, geometry.ny), dtype=bool)
+    seen[index[inside, 0], index[inside, 1]] = True
+    return seen, inside
+
+
 def test_cells_in_view_are_the_cells_of_the_depth_points_by_cell_of():
-    """A camera 1 m above the floor looking down: the floor points' cells, by the definition
-    (back-projection, true pose, GridGeometry.cell_of); dropouts (NaN, 0) see nothing."""
+    """A camera 1 m above the floor looking down: the floor points' cells, by the definition;
+    dropouts (NaN, 0) see nothing, nor points outside the grid or its height range."""
     intrinsics = PinholeIntrinsics.from_fov(40, 30, 60.0, 47.0)
     rng = np.random.default_rng(3)
     depth_m = rng.uniform(0.9, 1.0, intrinsics.shape).astype(np.float32)  # dips below z 0
@@ -87,26 +99,16 @@ def test_cells_in_view_are_the_cells_of_the_depth_points_by_cell_of():
         nx=30, ny=30, nz=40, cell_m=CELL, layer_m=0.01, z_min_m=0.02, origin_ix=-15, origin_iy=-12
     )
     frame = _frame(depth_m, intrinsics)
-    points = apply_transform(
-        frame.transform_camera_to_world_true,
-        intrinsics.depth_to_points_camera(depth_m).reshape(-1, 3),
-    )
-    index, inside = geometry.cell_of(points)
-    expected = np.zeros((30, 30), dtype=bool)
-    expected[index[inside, 0], index[inside, 1]] = True
+    expected, inside = _seen_by_definition(frame, geometry)
     assert 0 < expected.sum() < expected.size and not inside.all()
     np.testing.assert_array_equal(cells_in_view(frame, geometry), expected)
     # The same camera again (its rays cached) and another one: still by the definition.
     np.testing.assert_array_equal(cells_in_view(frame, geometry), expected)
     narrow = dataclasses.replace(intrinsics, fx=2 * intrinsics.fx, fy=2 * intrinsics.fy)
-    points = apply_transform(
-        frame.transform_camera_to_world_true,
-        narrow.depth_to_points_camera(depth_m).reshape(-1, 3),
-    )
-    index, inside = geometry.cell_of(points)
-    expected = np.zeros((30, 30), dtype=bool)
-    expected[index[inside, 0], index[inside, 1]] = True
-    np.testing.assert_array_equal(cells_in_view(_frame(depth_m, narrow), geometry), expected)
+    narrow_frame = _frame(depth_m, narrow)
+    expected_narrow, _ = _seen_by_definition(narrow_frame, geometry)
+    assert not np.array_equal(expected_narrow, expected)
+    np.testing.assert_array_equal(cells_in_view(narrow_frame, geometry), expected_narrow)
 
 
 def test_cells_in_view_refuses_a_depth_image_of_another_size():
