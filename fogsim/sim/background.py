@@ -1,4 +1,9 @@
-"""A simulation stepped on a second thread, a few frames ahead of the code that maps them.
+"""A simulation stepped beside the code that maps its frames, a few frames ahead of it.
+
+:class:`SimulationProcess` (what ``fogsim run`` uses) steps it in a child process: nothing is
+shared with the mapping, not even Python's GIL. :class:`BackgroundSimulation` (``fogsim run
+--video``, whose third-person pictures are taken from the simulation's own renderer) steps it
+on a second thread; what follows is about that thread.
 
 ``fogsim run`` spends about as long simulating a frame (posing the robot, rendering depth, the
 stereo error model, the encoders and the self-filter) as mapping it. :class:`BackgroundSimulation`
