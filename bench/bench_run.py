@@ -19,16 +19,13 @@ average (``os.getloadavg``, 2 cores) noted before and after each measurement:
   converted, the scene compiled);
 - ``--overlap N``: in this process, interleaved N times (so the load hits both alike), the
   frame loop of a run (simulation + pipeline + scoring, no set-up, no pictures) with the
-  simulation in a child process (:class:`~fogsim.sim.background.SimulationProcess`, what a
-  run does; spawned here: this process has rendered), on its own thread
-  (:class:`~fogsim.sim.background.BackgroundSimulation`, what a run with a video does) and in
+  simulation on its own thread (:class:`~fogsim.sim.background.BackgroundSimulation`) and in
   line (frames from :meth:`Simulation.frames` fed as they come);
 - ``--parts``: the run's stages one after the other in this process (imports in a child):
   scene set-up, simulation alone, pipeline + scoring on the simulated frames, pictures.
 """
 
 import argparse
-import functools
 import os
 import resource
 import statistics
@@ -141,17 +138,12 @@ def overlap(scenario_name: str, n: int) -> None:
     from fogsim.config import load_scenario, resolve_params
     from fogsim.run.runner import run_frames
     from fogsim.run.warmup import warm_up_kernels
-    from fogsim.sim.background import BackgroundSimulation, SimulationProcess
+    from fogsim.sim.background import BackgroundSimulation
     from fogsim.sim.simulation import Simulation
-    from fogsim.world import SceneTruth
 
     scenario = load_scenario(scenario_name)
     warm_up_kernels(resolve_params(scenario), stream=None)
-    rows: dict[str, list[float]] = {
-        "frames in line": [],
-        "frames on a thread": [],
-        "frames in a process": [],
-    }
+    rows: dict[str, list[float]] = {"frames in line": [], "frames overlapped": []}
     note = load_note()
     for _ in range(n):
         with Simulation(scenario) as simulation:
@@ -162,15 +154,7 @@ def overlap(scenario_name: str, n: int) -> None:
             background.frame_count  # noqa: B018 (waits for the set-up: not timed)
             start = time.perf_counter()
             run_frames(background, background.truth_at, scenario)
-            rows["frames on a thread"].append(time.perf_counter() - start)
-        with SimulationProcess(
-            functools.partial(Simulation, scenario),
-            functools.partial(SceneTruth.from_scenario, scenario),
-        ) as child:
-            child.frame_count  # noqa: B018 (waits for the set-up: not timed)
-            start = time.perf_counter()
-            run_frames(child, child.truth_at, scenario)
-            rows["frames in a process"].append(time.perf_counter() - start)
+            rows["frames overlapped"].append(time.perf_counter() - start)
     for name, column in rows.items():
         print(
             f"  {name:<24} median {statistics.median(column):6.2f} s   "

@@ -9,7 +9,6 @@ the end (:class:`~fogsim.run.run_folder.RunFolder`).
 from __future__ import annotations
 
 import dataclasses
-import functools
 import os
 import sys
 import time
@@ -39,14 +38,13 @@ from fogsim.mapping.pipeline import FrameCallback, FrameTiming, Pipeline
 from fogsim.robot import load_description
 from fogsim.run.run_folder import RunFolder
 from fogsim.run.warmup import warm_up_kernels
-from fogsim.sim.background import BackgroundSimulation, SimulationProcess
+from fogsim.sim.background import BackgroundSimulation
 from fogsim.sim.camera import segmentation_noise_fields
 from fogsim.sim.simulation import Simulation
 from fogsim.sim.third_person import FilmedSimulation
 from fogsim.viz.pictures import write_pictures
 from fogsim.viz.rerun_log import RerunLogger
 from fogsim.viz.video import RunVideoWriter
-from fogsim.world import SceneTruth
 from fogsim.world.truth import TruthParams
 from mapper import MapperParams
 from mapper.segmentation import SegmentationParams
@@ -271,8 +269,7 @@ class _FrameSource:
     """Where a run's frames come from.
 
     Attributes:
-        frames: The frames (a :class:`SimulationProcess` or, with a video, a
-            :class:`BackgroundSimulation` for a simulation).
+        frames: The frames (a :class:`BackgroundSimulation` for a simulation).
         truth_at: Ground truth at a time [s]; None for real data.
         frame_count: Frames the run will take (a simulation's waits for its set-up).
         kind: ``simulation`` or ``replay``.
@@ -297,12 +294,10 @@ def _frame_source(
 ) -> _FrameSource:
     """The recording's frames, or a simulation of the scenario; cut after ``max_frames``.
 
-    A simulation starts in a child process at once (set-up included,
-    :class:`~fogsim.sim.background.SimulationProcess`: it shares no GIL with the mapping) and
-    is stopped by ``cleanup``; its frames are mapped while the next ones are simulated. With
-    ``video`` it runs on a thread instead (:class:`~fogsim.sim.background.
-    BackgroundSimulation`), which also renders the third-person view of every frame, handed
-    to the video writer in this process (the view's OpenGL context lives on that thread).
+    A simulation starts on its own thread at once (set-up included) and is stopped by
+    ``cleanup``; its frames are mapped while the next ones are simulated. With ``video`` it
+    also renders the third-person view of every frame (on its thread, where its OpenGL
+    context lives).
     """
     if replay is not None:
         count = len(replay.frames) if max_frames is None else min(max_frames, len(replay.frames))
@@ -315,27 +310,18 @@ def _frame_source(
     if scenario is None:
         raise FogsimError("a run needs a scenario to simulate or a recording to replay")
 
-    if not video:
-        simulation = cleanup.enter_context(
-            SimulationProcess(
-                functools.partial(Simulation, scenario, depth_backend=depth_backend),
-                functools.partial(SceneTruth.from_scenario, scenario),
-                max_frames=max_frames,
-            )
-        )
-        return _FrameSource(
-            simulation, simulation.truth_at, lambda: simulation.frame_count, "simulation"
-        )
-
-    def make_simulation() -> FilmedSimulation:
-        return FilmedSimulation(Simulation(scenario, depth_backend=depth_backend))
+    def make_simulation() -> Simulation | FilmedSimulation:
+        simulation = Simulation(scenario, depth_backend=depth_backend)
+        return FilmedSimulation(simulation) if video else simulation
 
     background = cleanup.enter_context(BackgroundSimulation(make_simulation, max_frames=max_frames))
+    take_picture = None
+    if video:
 
-    def take_picture(index: int) -> NDArray[np.uint8]:
-        filmed = background.simulation
-        assert isinstance(filmed, FilmedSimulation)
-        return filmed.camera.take(index)
+        def take_picture(index: int) -> NDArray[np.uint8]:
+            filmed = background.simulation
+            assert isinstance(filmed, FilmedSimulation)
+            return filmed.camera.take(index)
 
     return _FrameSource(
         background,

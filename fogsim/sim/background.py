@@ -1,9 +1,4 @@
-"""A simulation stepped beside the code that maps its frames, a few frames ahead of it.
-
-:class:`SimulationProcess` (what ``fogsim run`` uses) steps it in a child process: nothing is
-shared with the mapping, not even Python's GIL. :class:`BackgroundSimulation` (``fogsim run
---video``, whose third-person pictures are taken from the simulation's own renderer) steps it
-on a second thread; what follows is about that thread.
+"""A simulation stepped on a second thread, a few frames ahead of the code that maps them.
 
 ``fogsim run`` spends about as long simulating a frame (posing the robot, rendering depth, the
 stereo error model, the encoders and the self-filter) as mapping it. :class:`BackgroundSimulation`
@@ -27,20 +22,14 @@ the renderer; the thread is a daemon, so a process that ends without closing is 
 from __future__ import annotations
 
 import itertools
-import multiprocessing
-import os
-import pickle
 import queue
-import sys
 import threading
-import traceback
 from collections.abc import Callable, Iterator
 from concurrent.futures import Future
 from dataclasses import dataclass
-from typing import NoReturn, Protocol
+from typing import Protocol
 
 from fogsim.data.frame import Frame
-from fogsim.errors import FogsimError
 from fogsim.world import SceneTruth
 
 AHEAD_FRAMES = 4
@@ -184,206 +173,3 @@ class BackgroundSimulation:
                 self._queue.get_nowait()
         except queue.Empty:
             pass
-
-
-def default_start_method() -> str:
-    """``fork`` while this process has no OpenGL display, else ``spawn``.
-
-    A forked child has this process's modules already imported (the stage's set-up starts at
-    once instead of after ~0.6 s CPU of imports) but also a copy of its OpenGL driver state
-    without the driver's threads: only safe before MuJoCo's EGL backend opened its display
-    (``mujoco.egl.EGL_DISPLAY``, once per process, when the first renderer is made). With
-    another backend (``MUJOCO_GL``) or a display already open, the child is spawned.
-    """
-    egl = sys.modules.get("mujoco.egl")
-    no_display = egl is not None and getattr(egl, "EGL_DISPLAY", None) is None
-    fresh = os.environ.get("MUJOCO_GL") == "egl" and no_display
-    return "fork" if fresh and "fork" in multiprocessing.get_all_start_methods() else "spawn"
-
-
-_COUNT = "count"
-"""Tag of the simulation process's first message: its frame count after the set-up."""
-
-
-@dataclass(frozen=True)
-class ChildFailure:
-    """A child process's exception (pickled) and its traceback as text, sent to its parent.
-
-    Attributes:
-        error: The pickled exception; one that does not pickle is sent as a RuntimeError
-            with its type's name and its message.
-        traceback: The child's traceback.
-    """
-
-    error: bytes
-    traceback: str
-
-    @classmethod
-    def of(cls, error: BaseException) -> ChildFailure:
-        """``error`` as the child sends it."""
-        text = "".join(traceback.format_exception(error))
-        try:
-            pickled = pickle.dumps(error)
-            pickle.loads(pickled)
-        except Exception:
-            pickled = pickle.dumps(RuntimeError(f"{type(error).__name__}: {error}"))
-        return cls(pickled, text)
-
-    def reraise(self, where: str) -> NoReturn:
-        """Raise the exception here, with the child's traceback as a note naming ``where``."""
-        error = pickle.loads(self.error)
-        error.add_note(f"in {where}:\n{self.traceback}")
-        raise error
-
-
-class SimulationProcess:
-    """The frames of a simulation, made in a child process; iterate them once.
-
-    The same frames as :class:`BackgroundSimulation`, bit for bit, made beside the mapping
-    without sharing Python's GIL with it: on a thread the simulation's Python work and the
-    mapping's numba kernels take turns, in a process they run at once on two cores. Frames
-    (~30 KB on the stage) come through a pipe, at most :data:`AHEAD_FRAMES` ahead.
-
-    The child is forked when that is safe (:func:`default_start_method`: it then costs no
-    imports), else spawned; ``make_simulation`` must be picklable for a spawned child (e.g.
-    :func:`functools.partial` of the :class:`~fogsim.sim.simulation.Simulation` class), and a
-    script that runs one must guard its work with ``if __name__ == "__main__"`` (a spawned
-    child imports the main module). The ground truth is computed here by
-    ``truth_at`` (it is a function of the scenario, not of the simulation's state).
-
-    Errors: an exception of the set-up or of a frame is raised again here, by whichever of
-    :attr:`frame_count` or the iteration meets it first, with the child's traceback added as
-    a note. Stopping: :meth:`close` (also through ``with``) tells the child to stop at its next
-    frame and waits for it (it frees its renderer).
-
-    Args:
-        make_simulation: Builds the simulation (called in the child).
-        truth_at: The ground truth at a time [s].
-        max_frames: Stop after this many frames; None = all of them.
-        start_method: ``multiprocessing`` start method of the child; None =
-            :func:`default_start_method`.
-    """
-
-    def __init__(
-        self,
-        make_simulation: Callable[[], FrameSimulation],
-        truth_at: Callable[[float], SceneTruth],
-        *,
-        max_frames: int | None = None,
-        start_method: str | None = None,
-    ) -> None:
-        context = multiprocessing.get_context(start_method or default_start_method())
-        self.truth_at = truth_at
-        self._max_frames = max_frames
-        self._count: int | None = None
-        self._queue = context.Queue(maxsize=AHEAD_FRAMES)
-        self._stop = context.Event()
-        self._process = context.Process(
-            target=_simulate_into,
-            args=(make_simulation, max_frames, self._queue, self._stop),
-            name="fogsim-simulation",
-            daemon=True,
-        )
-        self._process.start()
-
-    @property
-    def frame_count(self) -> int:
-        """Frames the iteration yields (waits for the set-up; raises its error)."""
-        if self._count is None:
-            message = self._get()
-            assert isinstance(message, tuple) and message[0] == _COUNT
-            count = int(message[1])
-            self._count = count if self._max_frames is None else min(count, self._max_frames)
-        return self._count
-
-    def __iter__(self) -> Iterator[Frame]:
-        """The frames in order; raises the simulation's exception where it happened."""
-        self.frame_count  # noqa: B018 (the set-up's message comes first)
-        while True:
-            item = self._get()
-            if item is None:
-                return
-            assert isinstance(item, Frame)
-            yield item
-
-    def _get(self) -> object:
-        """The child's next message; its exception raised (the child stopped).
-
-        Raises:
-            FogsimError: The child ended without a message (killed, or crashed in native code).
-        """
-        while True:
-            try:
-                item = self._queue.get(timeout=_POLL_S)
-                break
-            except queue.Empty:
-                if self._process.is_alive():
-                    continue
-            try:  # it may have sent its last message just before it ended
-                item = self._queue.get(timeout=_POLL_S)
-                break
-            except queue.Empty:
-                raise FogsimError(
-                    "the simulation process ended without its frames "
-                    f"(exit status {self._process.exitcode})"
-                ) from None
-        if isinstance(item, ChildFailure):
-            self.close()
-            item.reraise("the simulation process")
-        return item
-
-    def close(self) -> None:
-        """Stop the child, wait for it (it frees its renderer); idempotent."""
-        self._stop.set()
-        while self._process.is_alive():
-            try:
-                while True:
-                    self._queue.get_nowait()
-            except queue.Empty:
-                pass
-            self._process.join(_POLL_S)
-
-    def __enter__(self) -> SimulationProcess:
-        return self
-
-    def __exit__(self, *exc: object) -> None:
-        self.close()
-
-
-def _simulate_into(
-    make_simulation: Callable[[], FrameSimulation],
-    max_frames: int | None,
-    frames: multiprocessing.Queue,
-    stop: threading.Event,
-) -> None:
-    """The simulation process: its frame count, its frames and None at the end, into ``frames``.
-
-    An exception is sent in place of the next message (:class:`ChildFailure`).
-    """
-
-    def put(item: object) -> bool:
-        while not stop.is_set():
-            try:
-                frames.put(item, timeout=_POLL_S)
-            except queue.Full:
-                continue
-            return True
-        frames.cancel_join_thread()  # nobody reads what is left: exit without flushing it
-        return False
-
-    try:
-        simulation = make_simulation()
-    except BaseException as error:
-        put(ChildFailure.of(error))
-        return
-    try:
-        if not put((_COUNT, simulation.frame_count)):
-            return
-        for frame in itertools.islice(simulation.frames(), max_frames):
-            if not put(frame):
-                return
-        put(None)
-    except BaseException as error:
-        put(ChildFailure.of(error))
-    finally:
-        simulation.close()

@@ -19,8 +19,12 @@ from __future__ import annotations
 
 import multiprocessing
 import os
+import pickle
+import traceback
 from collections.abc import Callable
+from dataclasses import dataclass
 from pathlib import Path
+from typing import NoReturn
 
 import matplotlib.pyplot as plt
 import numpy as np
@@ -33,7 +37,6 @@ from fogsim.config import Scenario
 from fogsim.errors import FogsimError
 from fogsim.eval.maps import RunMaps, archive_maps
 from fogsim.eval.result import RunResult
-from fogsim.sim.background import ChildFailure
 from fogsim.viz.difference import draw_difference
 from fogsim.viz.style import (
     CMAP,
@@ -257,7 +260,7 @@ def _draw_beside(draw: Callable[[], Path]) -> Callable[[], None]:
             draw()
             send.send(None)
         except BaseException as error:
-            send.send(ChildFailure.of(error))
+            send.send(_ChildFailure.of(error))
 
     process = context.Process(target=child, name="fogsim-pictures", daemon=True)
     process.start()
@@ -278,3 +281,34 @@ def _draw_beside(draw: Callable[[], Path]) -> Callable[[], None]:
             failure.reraise("the picture process")
 
     return wait
+
+
+@dataclass(frozen=True)
+class _ChildFailure:
+    """The picture process's exception (pickled) and its traceback as text, sent to this one.
+
+    Attributes:
+        error: The pickled exception; one that does not pickle is sent as a RuntimeError
+            with its type's name and its message.
+        traceback: The child's traceback.
+    """
+
+    error: bytes
+    traceback: str
+
+    @classmethod
+    def of(cls, error: BaseException) -> _ChildFailure:
+        """``error`` as the child sends it."""
+        text = "".join(traceback.format_exception(error))
+        try:
+            pickled = pickle.dumps(error)
+            pickle.loads(pickled)
+        except Exception:
+            pickled = pickle.dumps(RuntimeError(f"{type(error).__name__}: {error}"))
+        return cls(pickled, text)
+
+    def reraise(self, where: str) -> NoReturn:
+        """Raise the exception here, with the child's traceback as a note naming ``where``."""
+        error = pickle.loads(self.error)
+        error.add_note(f"in {where}:\n{self.traceback}")
+        raise error
