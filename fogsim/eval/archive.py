@@ -16,6 +16,7 @@ allocated. The pipeline refuses implausible pose jumps first
 
 from __future__ import annotations
 
+import functools
 from typing import Any
 
 import numpy as np
@@ -24,8 +25,11 @@ from numpy.typing import NDArray
 from fogsim.data.frame import Frame
 from fogsim.errors import ArchiveExtentError, FogsimError
 from mapper import CellType
+from mapper.errors import InvalidInputError
 from mapper.grid import GridGeometry
+from mapper.intrinsics import PinholeIntrinsics
 from mapper.transforms import apply_transform
+from mapper.validation import real_array
 
 MAX_ARCHIVE_CELLS = 1 << 22
 """Cells the archive's bounding box may span (storage included): 4 194 304, e.g. 82 m × 82 m of
@@ -54,12 +58,37 @@ def cells_in_view(frame: Frame, geometry: GridGeometry) -> NDArray[np.bool_]:
     of range, the robot's own body) see nothing; a frame without a true pose (real data, NaN)
     sees no cell.
     """
-    points_camera = frame.intrinsics.depth_to_points_camera(frame.depth_m).reshape(-1, 3)
+    # PinholeIntrinsics.depth_to_points_camera, its checks and arithmetic, with the rays made
+    # once per camera instead of every frame (a third of its time).
+    intrinsics = frame.intrinsics
+    depth_m = real_array(frame.depth_m, "depth_m")
+    if depth_m.shape != intrinsics.shape:
+        raise InvalidInputError(
+            f"depth image must have shape (height, width) = {intrinsics.shape}, got {depth_m.shape}"
+        )
+    depth_m = np.where(depth_m > 0.0, depth_m, np.nan)
+    points_camera = (_rays_camera(intrinsics) * depth_m[..., None]).reshape(-1, 3)
     points_world = apply_transform(frame.transform_camera_to_world_true, points_camera)
-    index, inside = geometry.cell_of(points_world)
+    # GridGeometry.cell_of's arithmetic, for x, y and z at once and without its index array:
+    # it is a tenth of a run's scoring. NaN and infinite points fail the comparisons.
+    ox, oy = geometry.origin_xy_m
+    with np.errstate(invalid="ignore"):
+        gx = np.floor((points_world[:, 0] - ox) / geometry.cell_m)
+        gy = np.floor((points_world[:, 1] - oy) / geometry.cell_m)
+        gz = np.floor((points_world[:, 2] - geometry.z_min_m) / geometry.layer_m)
+        inside = (gz >= 0) & (gz < geometry.nz) & (gx >= 0) & (gx < geometry.nx)
+        inside &= (gy >= 0) & (gy < geometry.ny)
     seen = np.zeros((geometry.nx, geometry.ny), dtype=bool)
-    seen[index[inside, 0], index[inside, 1]] = True
+    seen[gx[inside].astype(np.intp), gy[inside].astype(np.intp)] = True
     return seen
+
+
+@functools.lru_cache(maxsize=4)
+def _rays_camera(intrinsics: PinholeIntrinsics) -> NDArray[np.float64]:
+    """``intrinsics.ray_directions_camera()``, read-only, made once per camera."""
+    rays = intrinsics.ray_directions_camera()
+    rays.flags.writeable = False
+    return rays
 
 
 class _Layer:
@@ -207,16 +236,53 @@ class WorldArchive:
         """Copy the current maps (nx, ny) with their cell centres (nx, ny, 2) into the archive.
 
         Every map replaces the archive's values of its cells; ``in_view`` (this frame's
-        :func:`cells_in_view`) is added to the cells seen before.
+        :func:`cells_in_view`) is added to the cells seen before. The same as
+        :meth:`store_grid` with the first cell's centre.
 
         Raises:
             ArchiveExtentError: The archive would span more than :data:`MAX_ARCHIVE_CELLS`.
         """
         centers = np.asarray(cell_centers_xy, dtype=np.float64)
+        if centers.shape != (*np.shape(fog_types), 2):
+            raise FogsimError(
+                f"cell centres of shape {centers.shape} for maps of shape {np.shape(fog_types)}"
+            )
+        self.store_grid(
+            centers[0, 0],
+            fog_types,
+            fog_heights_m,
+            baseline_heights_m,
+            floor_m=floor_m,
+            obstacle_m=obstacle_m,
+            ceiling_m=ceiling_m,
+            in_view=in_view,
+        )
+
+    def store_grid(
+        self,
+        corner_xy: NDArray[np.floating],
+        fog_types: NDArray[np.integer],
+        fog_heights_m: NDArray[np.floating],
+        baseline_heights_m: NDArray[np.floating],
+        *,
+        floor_m: NDArray[np.floating],
+        obstacle_m: NDArray[np.floating],
+        ceiling_m: NDArray[np.floating],
+        in_view: NDArray[np.bool_],
+    ) -> None:
+        """:meth:`store` given the centre (2,) [m] of the grid's cell [0, 0] only.
+
+        The grid is the maps' (nx, ny): a run need not build every cell's centre each frame
+        (:meth:`~mapper.grid.GridGeometry.cell_center` of (0, 0) is that of the full array).
+
+        Raises:
+            ArchiveExtentError: The archive would span more than :data:`MAX_ARCHIVE_CELLS`.
+        """
+        corner_xy = np.asarray(corner_xy, dtype=np.float64)
         if self._anchor_xy is None:
-            self._anchor_xy = centers[0, 0].copy()
-        corner = self.lattice_index(centers[0, 0])
-        nx, ny = centers.shape[:2]
+            self._anchor_xy = corner_xy.copy()
+        corner = self.lattice_index(corner_xy)
+        nx, ny = np.shape(fog_types)
         self._grow(corner, corner + np.array([nx, ny]))
         ox, oy = (int(v) for v in corner - self._storage_lo)
         sl = (slice(ox, ox + nx), slice(oy, oy + ny))

@@ -159,11 +159,10 @@ def run_frames(
     for frame in frames:
         timings.append(pipeline.process(frame))
         pose_errors.add(frame, pipeline.heading.transform_camera_to_robot)
-        centers = pipeline.cell_centers_xy()
         maps = types, fog_heights, base_heights = pipeline.maps()
-        _archive_maps(
-            archive, pipeline, centers, maps, cells_in_view(frame, pipeline.mapper.geometry)
-        )
+        _archive_maps(archive, pipeline, maps, cells_in_view(frame, pipeline.mapper.geometry))
+        if tracker is not None or fig5 is not None:  # every cell's centre: only for these
+            centers = pipeline.cell_centers_xy()
         if tracker is not None:
             tracker.update(
                 frame.index, frame.time_s, centers, cell_m, types, fog_heights, base_heights
@@ -179,7 +178,7 @@ def run_frames(
     if flushed:
         geometry = pipeline.mapper.geometry
         in_view = np.logical_or.reduce([cells_in_view(f, geometry) for f in flushed])
-        _archive_maps(archive, pipeline, pipeline.cell_centers_xy(), pipeline.maps(), in_view)
+        _archive_maps(archive, pipeline, pipeline.maps(), in_view)
 
     for late in pipeline.mapped_late:  # deferred frames: withdrawn when seen, mapped later
         timings[late.position] = dataclasses.replace(
@@ -216,17 +215,16 @@ def run_frames(
 def _archive_maps(
     archive: WorldArchive,
     pipeline: Pipeline,
-    centers: NDArray[np.float64],
     maps: tuple[NDArray[np.int8], NDArray[np.float64], NDArray[np.float64]],
     in_view: NDArray[np.bool_],
 ) -> None:
-    """Store the current maps (``Pipeline.maps()`` at ``centers``) in the scoring archive.
+    """Store the current maps (``Pipeline.maps()``) in the scoring archive.
 
     ``in_view``: the cells the camera saw.
     """
     types, fog_heights, base_heights = maps
-    archive.store(
-        centers,
+    archive.store_grid(
+        pipeline.mapper.geometry.cell_center(0, 0),
         types,
         fog_heights,
         base_heights,

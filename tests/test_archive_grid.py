@@ -1,0 +1,120 @@
+"""The archive stored from a grid's first cell centre and the cells in view from cached rays:
+the same archive, the same cells, and the checks of the functions they stand for."""
+
+from __future__ import annotations
+
+import dataclasses
+
+import numpy as np
+import pytest
+from archive_factory import CELL, centers
+
+from fogsim.data.frame import Frame
+from fogsim.errors import FogsimError
+from fogsim.eval.archive import WorldArchive, cells_in_view
+from mapper.errors import InvalidInputError
+from mapper.grid import GridGeometry
+from mapper.intrinsics import PinholeIntrinsics
+from mapper.transforms import apply_transform
+
+LAYERS = (
+    "fog_types",
+    "fog_heights_m",
+    "floor_m",
+    "obstacle_m",
+    "ceiling_m",
+    "baseline_heights_m",
+    "visited",
+    "in_view",
+)
+
+
+def test_store_grid_from_the_first_centre_equals_store_with_every_centre():
+    rng = np.random.default_rng(5)
+    by_centres, by_corner = WorldArchive(CELL), WorldArchive(CELL)
+    for x0, y0 in ((0.0, 0.0), (3 * CELL, -2 * CELL), (-7 * CELL, 5 * CELL)):
+        grid = centers(12, 9, x0, y0)
+        types = rng.integers(0, 3, (12, 9)).astype(np.int8)
+        heights = [rng.uniform(-0.1, 0.5, (12, 9)) for _ in range(5)]
+        in_view = rng.random((12, 9)) < 0.5
+        maps = dict(floor_m=heights[2], obstacle_m=heights[3], ceiling_m=heights[4])
+        by_centres.store(grid, types, heights[0], heights[1], **maps, in_view=in_view)
+        by_corner.store_grid(grid[0, 0], types, heights[0], heights[1], **maps, in_view=in_view)
+    for name in LAYERS:
+        np.testing.assert_array_equal(by_centres.layer(name), by_corner.layer(name), name)
+    np.testing.assert_array_equal(by_centres.cell_centers_xy(), by_corner.cell_centers_xy())
+
+
+def test_store_refuses_centres_that_are_not_the_maps_grid():
+    maps = np.zeros((4, 3))
+    with pytest.raises(FogsimError, match=r"cell centres of shape \(4, 4, 2\) for maps of shape"):
+        WorldArchive(CELL).store(
+            centers(4, 4),
+            maps.astype(np.int8),
+            maps,
+            maps,
+            floor_m=maps,
+            obstacle_m=maps,
+            ceiling_m=maps,
+            in_view=maps > 0,
+        )
+
+
+def _frame(depth_m, intrinsics):
+    # Camera 1 m above the floor looking straight down (camera x = world x, y = -world y).
+    down = np.array([[1.0, 0, 0, 0], [0, -1.0, 0, 0], [0, 0, -1.0, 1.0], [0, 0, 0, 1.0]])
+    return Frame(
+        index=0,
+        time_s=0.0,
+        depth_m=depth_m,
+        intrinsics=intrinsics,
+        transform_camera_to_robot_believed=down,
+        robot_pose_believed=np.zeros(4),
+        transform_camera_to_world_true=down,
+        robot_pose_true=np.zeros(4),
+    )
+
+
+def _seen_by_definition(frame, geometry):
+    """The cells of the frame's depth points: back-projection, true pose, cell_of."""
+    points = apply_transform(
+        frame.transform_camera_to_world_true,
+        frame.intrinsics.depth_to_points_camera(frame.depth_m).reshape(-1, 3),
+    )
+    index, inside = geometry.cell_of(points)
+    seen = np.zeros((geometry.nx, geometry.ny), dtype=bool)
+    seen[index[inside, 0], index[inside, 1]] = True
+    return seen, inside
+
+
+def test_cells_in_view_are_the_cells_of_the_depth_points_by_cell_of():
+    """A camera 1 m above the floor looking down: the floor points' cells, by the definition;
+    dropouts (NaN, 0) see nothing, nor points outside the grid or its height range."""
+    intrinsics = PinholeIntrinsics.from_fov(40, 30, 60.0, 47.0)
+    rng = np.random.default_rng(3)
+    depth_m = rng.uniform(0.9, 1.0, intrinsics.shape).astype(np.float32)  # dips below z 0
+    depth_m[::4, ::3] = np.nan
+    depth_m[1::5, ::7] = 0.0
+    geometry = GridGeometry(
+        nx=30, ny=30, nz=40, cell_m=CELL, layer_m=0.01, z_min_m=0.02, origin_ix=-15, origin_iy=-12
+    )
+    frame = _frame(depth_m, intrinsics)
+    expected, inside = _seen_by_definition(frame, geometry)
+    assert 0 < expected.sum() < expected.size and not inside.all()
+    np.testing.assert_array_equal(cells_in_view(frame, geometry), expected)
+    # The same camera again (its rays cached) and another one: still by the definition.
+    np.testing.assert_array_equal(cells_in_view(frame, geometry), expected)
+    narrow = dataclasses.replace(intrinsics, fx=2 * intrinsics.fx, fy=2 * intrinsics.fy)
+    narrow_frame = _frame(depth_m, narrow)
+    expected_narrow, _ = _seen_by_definition(narrow_frame, geometry)
+    assert not np.array_equal(expected_narrow, expected)
+    np.testing.assert_array_equal(cells_in_view(narrow_frame, geometry), expected_narrow)
+
+
+def test_cells_in_view_refuses_a_depth_image_of_another_size():
+    intrinsics = PinholeIntrinsics.from_fov(40, 30, 60.0, 47.0)
+    frame = _frame(np.ones((30, 40), np.float32), intrinsics)
+    frame = dataclasses.replace(frame, depth_m=np.ones((29, 40), np.float32))
+    geometry = GridGeometry(nx=4, ny=4, nz=4, cell_m=CELL, layer_m=0.01, z_min_m=0.0)
+    with pytest.raises(InvalidInputError, match=r"\(30, 40\), got \(29, 40\)"):
+        cells_in_view(frame, geometry)
