@@ -41,6 +41,7 @@ from numpy.typing import NDArray
 import mapper.averaging
 import mapper.floor_map
 import mapper.fog
+import mapper.grid
 import mapper.occupancy
 import mapper.scanline
 import mapper.zmatch
@@ -86,9 +87,10 @@ SEGMENTATION = KernelGroup("segmentation", (mapper.scanline,))
 """The depth-image segmentation's scan-line kernels."""
 
 MAPPER = KernelGroup(
-    "mapper", (mapper.occupancy, mapper.floor_map, mapper.fog, mapper.averaging, mapper.zmatch)
+    "mapper",
+    (mapper.grid, mapper.occupancy, mapper.floor_map, mapper.fog, mapper.averaging, mapper.zmatch),
 )
-"""The map update kernels: occupancy, floor map, FOG types, the averaging baseline."""
+"""The map update kernels: frame checks, occupancy, floor map, FOG types, averaging, z-match."""
 
 SELF_FILTER = KernelGroup("self-filter", (self_filter,))
 """The kernel removing the robot's body from simulated depth images."""
