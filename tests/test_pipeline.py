@@ -305,6 +305,29 @@ def test_height_reference_removes_a_camera_height_error():
     assert abs(float(np.median(labelled.floor_heights_m[ground]))) <= 0.0015
 
 
+def test_the_ground_lies_exactly_on_the_feet_when_the_camera_error_changes_every_frame():
+    # The encoders' noise moves the believed camera height frame to frame around a 6 mm bias.
+    # Each frame measures its own ground within the reference's frame gate, so every frame's
+    # ground lies exactly at the feet's height (0), not at the median's: flat scenes are exact.
+    errors_m = 0.006 + 0.0015 * np.array([1, -1, 0.5, -0.5, 1, -1, 0.2, -0.8, 0.9, -0.3, 0.7, -1])
+    frames = []
+    for f, error_m in zip(make_frames(errors_m.size), errors_m, strict=True):
+        believed = CAMERA_IN_ROBOT.copy()
+        believed[2, 3] -= error_m
+        frames.append(dataclasses.replace(f, transform_camera_to_robot_believed=believed))
+    pipeline = Pipeline()
+    for f in frames:
+        pipeline.process(f)
+    # One shift for the run (the median) would leave frames up to 1.6 mm off.
+    assert np.abs(errors_m - pipeline.reference.shift_m).max() > 0.0015
+    floor = np.asarray(pipeline.mapper.floor())
+    ground = floor[np.isfinite(floor) & (floor < 0.025)]
+    top = floor[np.isfinite(floor) & (floor >= 0.025)]
+    assert ground.size > 100 and top.size > 20
+    np.testing.assert_allclose(ground, 0.0, atol=1e-5)  # float32 depth
+    np.testing.assert_allclose(top, 0.05, atol=1e-5)
+
+
 def test_descending_start_defers_the_frames_until_the_ground_under_the_feet_is_seen():
     # The robot starts on a 122 mm platform that is out of view (only the ground 122 mm below
     # and the box are seen), its camera believed 6 mm too low; then it stands on the ground.
