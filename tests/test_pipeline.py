@@ -328,6 +328,38 @@ def test_the_ground_lies_exactly_on_the_feet_when_the_camera_error_changes_every
     np.testing.assert_allclose(top, 0.05, atol=1e-5)
 
 
+def test_the_map_anchored_at_the_start_holds_while_odometry_drifts_in_z():
+    # Exact depth and camera; after the reference converged, odometry's z drifts down by
+    # 0.05 mm a frame (foot-to-foot kinematics; flat_floor: up to -1.6 mm in 66 frames). The
+    # frames measure their ground, and the map's small disagreement (the drift) is matched
+    # away, so the ground stays exactly where the start pose put it. Without that (anchor 0)
+    # the map follows the unshifted frames down.
+    frames = make_frames(40)
+    start = HeightReferenceParams().min_frames + 2
+    for i in range(start, len(frames)):
+        pose = ROBOT_POSE - np.array([0.0, 0.0, 0.00005 * (i - start + 1), 0.0])
+        frames[i] = dataclasses.replace(frames[i], robot_pose_believed=pose)
+
+    def ground_after(anchor_shift_m):
+        params = RunParams(pipeline=PipelineParams(anchor_shift_m=anchor_shift_m))
+        pipeline = Pipeline(params)
+        for f in frames:
+            pipeline.process(f)
+        floor = np.asarray(pipeline.mapper.floor())
+        return floor[np.isfinite(floor) & (floor < 0.025)]
+
+    ground = ground_after(PipelineParams().anchor_shift_m)
+    assert ground.size > 100
+    np.testing.assert_allclose(ground, 0.0, atol=1e-5)  # float32 depth
+    assert np.abs(ground_after(0.0)).max() > 2e-4
+
+
+def test_anchor_shift_must_be_finite_and_not_negative():
+    for bad in (-0.001, float("nan"), float("inf")):
+        with pytest.raises(FogsimError, match=r"PipelineParams\.anchor_shift_m"):
+            PipelineParams(anchor_shift_m=bad)
+
+
 def test_descending_start_defers_the_frames_until_the_ground_under_the_feet_is_seen():
     # The robot starts on a 122 mm platform that is out of view (only the ground 122 mm below
     # and the box are seen), its camera believed 6 mm too low; then it stands on the ground.

@@ -23,9 +23,10 @@ Per frame (paper Fig. 1, 2 and Sec. IV), with the pose the robot *believes*:
    points' z, their floor heights and the camera origin. If it is not accepted (few pairs or an
    implausible shift) and the segmentation found no ground plane either, the frame is
    *withdrawn* (Sec. IV); otherwise the unshifted data are used. A frame that measured the
-   height reference (its data are right relative to the feet) is not shifted: its accepted
-   shift is the robot's elevation error and goes to the elevation filter (shifting every such
-   frame onto the map let the map drift by about −3 mm over a stage run).
+   height reference (its data are right relative to the feet) is shifted only by up to
+   ``pipe.anchor_shift_m`` (the odometry's drift: the map anchored at the start holds); a
+   larger shift is the robot's elevation error and goes to the elevation filter (shifting every
+   such frame onto the map let the map drift by about −3 mm over a stage run).
 7. ``FloorObstacleMapper.update`` and ``AveragingMap.update`` get exactly the same data.
 8. Robot elevation filter (``mapper.RobotElevationFilter``): the offset on odometry's z is
    pulled towards ``Floor(x_R, y_R)`` when the floor map has a height under the robot.
@@ -317,9 +318,11 @@ class Pipeline:
             )
             if data.measured_shift_m is not None and decision == ZDecision.APPLY_SHIFT:
                 # The frame saw the ground under the feet: its data are right relative to the
-                # feet, so the map's disagreement is the robot's elevation error. Shifting
-                # every frame onto the map let the map drift (stage: -3 mm over a run).
-                decision = ZDecision.KEEP_UNSHIFTED
+                # feet, so the map's disagreement is the robot's elevation error. A small one
+                # (`anchor_shift_m`) is the odometry's drift: the map holds. Shifting every
+                # frame onto the map let the map drift (stage: -3 mm over a run).
+                if abs(match.shift_m) > self.params.anchor_shift_m:
+                    decision = ZDecision.KEEP_UNSHIFTED
                 if self.params.use_elevation_filter:
                     self.elevation.update(
                         float(frame.robot_pose_believed[2]), pose[2] + float(match.shift_m)
