@@ -305,6 +305,61 @@ def test_height_reference_removes_a_camera_height_error():
     assert abs(float(np.median(labelled.floor_heights_m[ground]))) <= 0.0015
 
 
+def test_the_ground_lies_exactly_on_the_feet_when_the_camera_error_changes_every_frame():
+    # The encoders' noise moves the believed camera height frame to frame around a 6 mm bias.
+    # Each frame measures its own ground within the reference's frame gate, so every frame's
+    # ground lies exactly at the feet's height (0), not at the median's: flat scenes are exact.
+    errors_m = 0.006 + 0.0015 * np.array([1, -1, 0.5, -0.5, 1, -1, 0.2, -0.8, 0.9, -0.3, 0.7, -1])
+    frames = []
+    for f, error_m in zip(make_frames(errors_m.size), errors_m, strict=True):
+        believed = CAMERA_IN_ROBOT.copy()
+        believed[2, 3] -= error_m
+        frames.append(dataclasses.replace(f, transform_camera_to_robot_believed=believed))
+    pipeline = Pipeline()
+    for f in frames:
+        pipeline.process(f)
+    # One shift for the run (the median) would leave frames up to 1.6 mm off.
+    assert np.abs(errors_m - pipeline.reference.shift_m).max() > 0.0015
+    floor = np.asarray(pipeline.mapper.floor())
+    ground = floor[np.isfinite(floor) & (floor < 0.025)]
+    top = floor[np.isfinite(floor) & (floor >= 0.025)]
+    assert ground.size > 100 and top.size > 20
+    np.testing.assert_allclose(ground, 0.0, atol=1e-5)  # float32 depth
+    np.testing.assert_allclose(top, 0.05, atol=1e-5)
+
+
+def test_the_map_anchored_at_the_start_holds_while_odometry_drifts_in_z():
+    # Exact depth and camera; after the reference converged, odometry's z drifts down by
+    # 0.05 mm a frame (foot-to-foot kinematics; flat_floor: up to -1.6 mm in 66 frames). The
+    # frames measure their ground, and the map's small disagreement (the drift) is matched
+    # away, so the ground stays exactly where the start pose put it. Without that (anchor 0)
+    # the map follows the unshifted frames down.
+    frames = make_frames(40)
+    start = HeightReferenceParams().min_frames + 2
+    for i in range(start, len(frames)):
+        pose = ROBOT_POSE - np.array([0.0, 0.0, 0.00005 * (i - start + 1), 0.0])
+        frames[i] = dataclasses.replace(frames[i], robot_pose_believed=pose)
+
+    def ground_after(anchor_shift_m):
+        params = RunParams(pipeline=PipelineParams(anchor_shift_m=anchor_shift_m))
+        pipeline = Pipeline(params)
+        for f in frames:
+            pipeline.process(f)
+        floor = np.asarray(pipeline.mapper.floor())
+        return floor[np.isfinite(floor) & (floor < 0.025)]
+
+    ground = ground_after(PipelineParams().anchor_shift_m)
+    assert ground.size > 100
+    np.testing.assert_allclose(ground, 0.0, atol=1e-5)  # float32 depth
+    assert np.abs(ground_after(0.0)).max() > 2e-4
+
+
+def test_anchor_shift_must_be_finite_and_not_negative():
+    for bad in (-0.001, float("nan"), float("inf")):
+        with pytest.raises(FogsimError, match=r"PipelineParams\.anchor_shift_m"):
+            PipelineParams(anchor_shift_m=bad)
+
+
 def test_descending_start_defers_the_frames_until_the_ground_under_the_feet_is_seen():
     # The robot starts on a 122 mm platform that is out of view (only the ground 122 mm below
     # and the box are seen), its camera believed 6 mm too low; then it stands on the ground.

@@ -108,8 +108,21 @@ def test_non_floor_regions_are_never_measured():
         ("min_area_m2", -1.0),
         ("min_frames", 0),
         ("max_wait_frames", -1),
+        ("frame_gate_m", 0.0),
     ],
 )
 def test_bad_parameters_are_refused_naming_the_field(field, value):
     with pytest.raises(InvalidParameterError, match=f"HeightReferenceParams.{field}"):
         HeightReferenceParams(**{field: value})
+
+
+def test_a_frame_agreeing_with_the_estimate_takes_its_own_measurement():
+    # Bias 6 mm; the encoders' noise moves one frame's camera height by ±1.5 mm.
+    reference = HeightReference()
+    for h in (-0.006,) * reference.params.min_frames:
+        feed(reference, [h], [GROUND_AREA_M2])
+    gate = reference.params.frame_gate_m
+    assert reference.frame_shift_m(0.0075) == 0.0075  # its own ground lies exactly on 0
+    assert reference.frame_shift_m(0.0045) == 0.0045
+    assert reference.frame_shift_m(0.006 + gate + 1e-4) == pytest.approx(0.006)  # a fragment
+    assert reference.frame_shift_m(None) == pytest.approx(0.006)  # no ground in view

@@ -7,7 +7,9 @@ Per frame (paper Fig. 1, 2 and Sec. IV), with the pose the robot *believes*:
    segmentation's own rotation correction (and, with ``pipe.use_height_reference`` off, its
    per-frame ground-plane shift).
 2. Height reference (``mapper.reference``, issue 11): the camera height error is estimated over
-   frames from the ground under the feet and its shift added to every frame's z. Frames
+   frames from the ground under the feet and its shift added to every frame's z (a frame whose
+   own ground measurement agrees with the estimate takes its own: its ground then lies exactly
+   at the feet's height, whatever the encoders' noise did to this frame's camera). Frames
    segmented before it is known are *deferred*, then mapped in order (steps 3-8) with the
    converged shift just before the frame that makes it known: the start pose's exact odometry,
    not one frame's ground fragment, anchors the map, also when the start surface is out of view.
@@ -21,9 +23,10 @@ Per frame (paper Fig. 1, 2 and Sec. IV), with the pose the robot *believes*:
    points' z, their floor heights and the camera origin. If it is not accepted (few pairs or an
    implausible shift) and the segmentation found no ground plane either, the frame is
    *withdrawn* (Sec. IV); otherwise the unshifted data are used. A frame that measured the
-   height reference (its data are right relative to the feet) is not shifted: its accepted
-   shift is the robot's elevation error and goes to the elevation filter (shifting every such
-   frame onto the map let the map drift by about −3 mm over a stage run).
+   height reference (its data are right relative to the feet) is shifted only by up to
+   ``pipe.anchor_shift_m`` (the odometry's drift: the map anchored at the start holds); a
+   larger shift is the robot's elevation error and goes to the elevation filter (shifting every
+   such frame onto the map let the map drift by about −3 mm over a stage run).
 7. ``FloorObstacleMapper.update`` and ``AveragingMap.update`` get exactly the same data.
 8. Robot elevation filter (``mapper.RobotElevationFilter``): the offset on odometry's z is
    pulled towards ``Floor(x_R, y_R)`` when the floor map has a height under the robot.
@@ -116,7 +119,8 @@ class _FrameData:
         floor_heights_m: (N,) their floor heights [m], NaN = not floor.
         transform_camera_to_robot: 4×4 tilt-corrected camera pose in the robot frame.
         ground_plane_found: The segmentation found a ground plane near the expected height.
-        ground_measured: The frame measured the height reference (its ground was in view).
+        measured_shift_m: The frame's measurement of the height reference [m] (None: its
+            ground was not in view).
     """
 
     frame: Frame
@@ -124,7 +128,7 @@ class _FrameData:
     floor_heights_m: NDArray[np.float64]
     transform_camera_to_robot: NDArray[np.float64]
     ground_plane_found: bool
-    ground_measured: bool
+    measured_shift_m: float | None
     position: int
 
 
@@ -266,12 +270,12 @@ class Pipeline:
         self._deferred.clear()
         return frames
 
-    def _measure_reference(self, seg: SegmentationResult) -> bool:
-        """Give the frame's floor regions to the height reference; True if it measured it."""
+    def _measure_reference(self, seg: SegmentationResult) -> float | None:
+        """Give the frame's floor regions to the height reference; its measurement [m] or None."""
         if not self._use_reference:
-            return False
+            return None
         floors = seg.floors
-        return self.reference.update(floors.heights_m, floors.areas_m2, floors.is_floor) is not None
+        return self.reference.update(floors.heights_m, floors.areas_m2, floors.is_floor)
 
     def _map(self, data: _FrameData, use_z_match: bool = True) -> tuple[bool, bool, float]:
         """Heading, world transform, z-match and map update of one segmented frame.
@@ -287,7 +291,9 @@ class Pipeline:
             time [ms] (NaN when withdrawn).
         """
         frame = data.frame
-        shift_m = self.reference.shift_m if self._use_reference else 0.0
+        shift_m = (
+            self.reference.frame_shift_m(data.measured_shift_m) if self._use_reference else 0.0
+        )
         points_robot = data.points_robot + np.array([0.0, 0.0, shift_m])
         floor_robot = data.floor_heights_m + shift_m
         transform_camera_to_robot = data.transform_camera_to_robot.copy()
@@ -307,12 +313,16 @@ class Pipeline:
         matched = withdrawn = False
         if self.params.use_z_match and use_z_match:
             match = self.mapper.match_z(points_world, floor_world)
-            decision = frame_decision(match, data.ground_plane_found or data.ground_measured)
-            if data.ground_measured and decision == ZDecision.APPLY_SHIFT:
+            decision = frame_decision(
+                match, data.ground_plane_found or data.measured_shift_m is not None
+            )
+            if data.measured_shift_m is not None and decision == ZDecision.APPLY_SHIFT:
                 # The frame saw the ground under the feet: its data are right relative to the
-                # feet, so the map's disagreement is the robot's elevation error. Shifting
-                # every frame onto the map let the map drift (stage: -3 mm over a run).
-                decision = ZDecision.KEEP_UNSHIFTED
+                # feet, so the map's disagreement is the robot's elevation error. A small one
+                # (`anchor_shift_m`) is the odometry's drift: the map holds. Shifting every
+                # frame onto the map let the map drift (stage: -3 mm over a run).
+                if abs(match.shift_m) > self.params.anchor_shift_m:
+                    decision = ZDecision.KEEP_UNSHIFTED
                 if self.params.use_elevation_filter:
                     self.elevation.update(
                         float(frame.robot_pose_believed[2]), pose[2] + float(match.shift_m)
