@@ -18,11 +18,6 @@ away, and that surface replaces the stored height only when no vote is left. The
 (cap 0) lets a single stray point of a higher surface take a cell for good: noise carries a
 tread's points a few cm into the lower tread's last column, a rough top taken for a plane in
 one frame stays a floor. With votes, a cell holds the surface most of its points come from.
-A frame that shows only a higher surface in a column, nothing of the stored floor, takes an
-eighth of the cap at once: the floor is covered (a box slid onto it takes over within 8 frames
-however few points reach the cell; moving_box seeds 1-8: the box row 8.67 mm mean, 60.31 mm
-worst with one vote per point, 1.05 / 1.41 mm with this; the price: the stage's cells unsafe
-85 → 103 mean, a rough top seen as a plane in a few frames takes the cell sooner).
 
 Beyond the paper too, each frame gives a verdict on every stored floor it sees
 (`frame_verdicts`, `MapperParams.floor_frame_cap`): a rough top that one frame took for a plane
@@ -111,8 +106,7 @@ def update_floor(
         eps: Gate of eq. 9 [m].
         nu: Smoothing factor of eq. 9.
         vote_cap: The most votes a stored floor height holds (`MapperParams.floor_vote_cap`);
-            0 = the paper's eq. 9. A frame with no point on a column's stored floor takes
-            ``vote_cap // 8`` of them at its first point of a higher surface there.
+            0 = the paper's eq. 9.
 
     Returns:
         (floor points used, floor points rejected by eq. 7).
@@ -124,12 +118,6 @@ def update_floor(
     floor_flat = floor.reshape(-1)
     votes_flat = votes.reshape(-1)
     frames_flat = frame_votes.reshape(-1)
-    # This frame's floor points on each stored floor (within ±eps of it, before any change).
-    support = np.zeros(floor_flat.shape[0], dtype=np.int32)
-    for i in range(point_cell.shape[0]):
-        col = point_cell[i]
-        if col >= 0 and abs(floor_heights[i] - floor_flat[col]) <= eps:  # NaN: never
-            support[col] += 1
     used = 0
     rejected = 0
     for i in range(point_cell.shape[0]):
@@ -147,31 +135,18 @@ def update_floor(
             floor_flat[col] = h
             votes_flat[col] = 1
             frames_flat[col] = 1
-            support[col] = 1
         elif h <= f + eps and h >= f - eps:
             floor_flat[col] = nu * f + (1.0 - nu) * h
             votes_flat[col] = min(votes_flat[col] + 1, max(vote_cap, 1))
         elif vote_cap == 0:
             if h > f + eps:  # the paper: a higher surface replaces, a lower one is ignored
                 floor_flat[col] = h
-        elif h > f + eps and support[col] == 0:
-            # The frame shows nothing of the stored floor here but a higher surface: it may be
-            # covered (a box slid onto it). An eighth of the cap goes at once (once a frame),
-            # so a surface covering it in 8 frames takes over whatever the points per frame.
-            support[col] = -1
-            votes_flat[col] -= max(1, vote_cap // 8)
-            if votes_flat[col] <= 0:
-                floor_flat[col] = h
-                votes_flat[col] = 1
-                frames_flat[col] = 1
-                support[col] = 1
         else:  # another surface: one vote away, replaced when none is left
             votes_flat[col] -= 1
             if votes_flat[col] <= 0:
                 floor_flat[col] = h
                 votes_flat[col] = 1
                 frames_flat[col] = 1
-                support[col] = 1
     return used, rejected
 
 

@@ -229,32 +229,3 @@ def test_only_points_at_or_just_below_the_floor_count_against_it():
 
 def test_no_frame_verdicts_with_cap_zero():
     assert verdict([ROUGH] * 5, 0) == (TOP, 1, 0)
-
-
-def test_votes_a_covered_floor_loses_an_eighth_of_the_cap_each_frame():
-    # A box slides onto the lower tread's cell: the frames show only the box's top there,
-    # nothing of the stored floor. Each such frame takes cap // 8 votes at once (8 with cap 64)
-    # and one per further point, so the box takes over within 8 frames however few points
-    # reach the cell. One point of the stored floor in the frame: a stray point, votes decide.
-    def frames(*later, stored=(LOW,) * 20):
-        og, floor = grids()
-        og[:] = OCC
-        votes = np.zeros(floor.shape, dtype=np.int32)
-        for heights in ((*stored,), *later):
-            run_update(floor, og, [(0, 0)] * len(heights), list(heights), 64, votes)
-        return floor[0, 0], int(votes[0, 0])
-
-    assert frames([HIGH]) == (pytest.approx(LOW, abs=1e-15), 20 - 8)
-    assert frames([HIGH, HIGH, HIGH]) == (pytest.approx(LOW, abs=1e-15), 20 - 8 - 2)
-    assert frames([HIGH], [HIGH]) == (pytest.approx(LOW, abs=1e-15), 4)
-    assert frames([HIGH], [HIGH], [HIGH]) == (HIGH, 1)
-    assert frames([LOW, HIGH]) == (pytest.approx(LOW, abs=1e-15), 20)
-    assert frames([HIGH, LOW]) == (pytest.approx(LOW, abs=1e-15), 20)
-    # A lower surface takes one vote per point only: the stored floor may hide it.
-    assert frames([LOW], stored=(HIGH,) * 20) == (pytest.approx(HIGH, abs=1e-15), 19)
-    # The paper's rule (cap 0) is unchanged: a higher point replaces at once.
-    og, floor = grids()
-    og[:] = OCC
-    run_update(floor, og, [(0, 0)] * 2, [LOW, LOW], 0)
-    run_update(floor, og, [(0, 0)], [HIGH], 0)
-    assert floor[0, 0] == HIGH
