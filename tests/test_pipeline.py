@@ -11,8 +11,9 @@ from fogsim.config import RunParams, load_scenario, resolve_params
 from fogsim.config.params import PipelineParams
 from fogsim.data.frame import Frame
 from fogsim.data.recording import Recording
-from fogsim.errors import FogsimError
+from fogsim.errors import FogsimError, ParameterError
 from fogsim.eval.archive import cells_in_view
+from fogsim.eval.report.build import param_tables
 from fogsim.mapping.pipeline import FrameError, FrameTiming, Pipeline
 from fogsim.run.runner import replay_report, run_frames, truth_params
 from fogsim.world.truth import ObjectState, SceneTruth, TruthParams
@@ -285,6 +286,19 @@ def test_height_reference_waits_for_convergence_and_is_exactly_zero_on_exact_dat
     floor = np.isfinite(labelled.floor_heights_m)
     ground = floor & (labelled.points_world[:, 0] < 1.1)
     np.testing.assert_allclose(labelled.floor_heights_m[ground], 0.0, atol=1e-6)
+
+
+def test_the_run_s_reference_parameters_reach_the_pipeline_and_the_report():
+    """``ref.min_frames=3`` (an override, as tune and replay_report pass them): 2 frames wait."""
+    params = resolve_params(None, {"ref.min_frames": 3, "ref.frame_gate_m": 0.002})
+    pipeline = Pipeline(params)
+    timings = [pipeline.process(f) for f in make_frames(4)]
+    assert [t.withdrawn for t in timings] == [True, True, False, False]
+    assert pipeline.reference.params == HeightReferenceParams(min_frames=3, frame_gate_m=0.002)
+    tables = param_tables(params)
+    assert tables.reference["min_frames"] == 3 and tables.reference["gate_m"] == 0.02
+    with pytest.raises(ParameterError, match=r"^reference\.min_frame: unknown reference"):
+        resolve_params(None, {"ref.min_frame": 3})
 
 
 def test_height_reference_removes_a_camera_height_error():

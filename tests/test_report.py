@@ -127,7 +127,14 @@ def test_report_has_every_results_key_in_order(written):
     assert list(timing["update_ms"]) == ["median", "p99", "max"]
     assert r["pose_error"]["frames"] == 60
     assert r["pose_error"]["camera_in_world"]["translation_mm"]["max"] == pytest.approx(0.0)
-    assert list(r["params"]) == ["mapper", "segmentation", "elevation", "pipeline", "heading"]
+    assert list(r["params"]) == [
+        "mapper",
+        "segmentation",
+        "elevation",
+        "pipeline",
+        "heading",
+        "reference",
+    ]
     assert r["params"]["mapper"]["max_range_m"] is None  # infinite range is written as null
     assert r["versions"]["numpy"] == np.__version__
 

@@ -20,6 +20,7 @@ from typing import TYPE_CHECKING, Any, TypeVar
 from fogsim.config.decode import shown
 from fogsim.errors import ParameterError
 from mapper import ElevationFilterParams, HeadingParams, MapperParams
+from mapper.reference import HeightReferenceParams
 from mapper.segmentation import SegmentationParams
 
 if TYPE_CHECKING:  # for the annotation only: the schema imports this module
@@ -145,6 +146,8 @@ class RunParams:
         elevation: Robot elevation filter (``elev.<field>``).
         pipeline: The pipeline's own switches (``pipe.<field>``).
         heading: Camera heading correction (``head.<field>``, `mapper.heading`).
+        reference: The camera height reference over frames (``ref.<field>``,
+            `mapper.reference`; used with ``pipeline.use_height_reference``).
     """
 
     mapper: MapperParams = field(default_factory=MapperParams)
@@ -152,6 +155,7 @@ class RunParams:
     elevation: ElevationFilterParams = field(default_factory=ElevationFilterParams)
     pipeline: PipelineParams = field(default_factory=PipelineParams)
     heading: HeadingParams = field(default_factory=HeadingParams)
+    reference: HeightReferenceParams = field(default_factory=HeightReferenceParams)
 
     def to_dict(self) -> dict[str, dict[str, Any]]:
         """Plain ``{"mapper": {...}, "segmentation": {...}, ...}``."""
@@ -170,6 +174,7 @@ OVERRIDE_PREFIXES: dict[str, str] = {
     "elevation": "elev.",
     "pipeline": "pipe.",
     "heading": "head.",
+    "reference": "ref.",
 }
 """Prefix of each :class:`RunParams` group in override keys (``mapper.`` is also accepted)."""
 
@@ -205,7 +210,8 @@ def resolve_params(
         sensor: ``SegmentationParams`` fields of the camera's noise model
             (:func:`fogsim.run.runner.sensor_fields`), below the scenario's table.
         overrides: Keys ``"<mapper field>"`` (e.g. ``"p_occ"``, or ``"mapper.p_occ"``),
-            ``"seg.<field>"``, ``"elev.<field>"``, ``"pipe.<field>"`` and ``"head.<field>"``.
+            ``"seg.<field>"``, ``"elev.<field>"``, ``"pipe.<field>"``, ``"head.<field>"``
+            and ``"ref.<field>"``.
 
     Raises:
         ParameterError: An unknown key (the message lists the allowed ones) or a bad value.
@@ -217,6 +223,7 @@ def resolve_params(
         "elevation": {},
         "pipeline": {},
         "heading": {},
+        "reference": {},
     }
     for key, value in (overrides or {}).items():
         group, name = split_override_key(key)

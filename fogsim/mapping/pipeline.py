@@ -165,7 +165,7 @@ class Pipeline:
         self.baseline = AveragingMap(self.mapper_params)
         self.elevation = RobotElevationFilter(self.run_params.elevation)
         self.heading = HeadingEstimator(self.run_params.heading)
-        self.reference = HeightReference()
+        self.reference = HeightReference(self.run_params.reference)
         self._deferred: list[_FrameData] = []
         self._processed = 0
         self.mapped_late: list[LateMapping] = []

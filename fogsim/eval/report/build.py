@@ -76,6 +76,7 @@ def param_tables(params: RunParams) -> ParamTables:
         elevation=_param_table(dataclasses.asdict(params.elevation)),
         pipeline=_param_table(dataclasses.asdict(params.pipeline)),
         heading=_param_table(dataclasses.asdict(params.heading)),
+        reference=_param_table(dataclasses.asdict(params.reference)),
     )
 
 

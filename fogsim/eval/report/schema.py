@@ -522,6 +522,7 @@ class ParamTables:
     elevation: dict[str, ParamValue]
     pipeline: dict[str, ParamValue]
     heading: dict[str, ParamValue] | UnsetType = UNSET
+    reference: dict[str, ParamValue] | UnsetType = UNSET
 
 
 @dataclass(frozen=True)
