@@ -133,17 +133,17 @@ class GridGeometry:
         if p.ndim != 2 or p.shape[1] not in (2, 3):
             raise InvalidInputError(f"points_world must have shape (N, 3) or (N, 2), got {p.shape}")
         ox, oy = self.origin_xy_m
+        lowest = (ox, oy, self.z_min_m)
+        size = (self.cell_m, self.cell_m, self.layer_m)
+        upper = (self.nx, self.ny, self.nz)
+        valid = np.ones(p.shape[0], dtype=bool)
+        axes = []
         with np.errstate(invalid="ignore"):
-            g = np.empty_like(p)
-            g[:, 0] = np.floor((p[:, 0] - ox) / self.cell_m)
-            g[:, 1] = np.floor((p[:, 1] - oy) / self.cell_m)
-            upper = [self.nx, self.ny]
-            if p.shape[1] == 3:
-                g[:, 2] = np.floor((p[:, 2] - self.z_min_m) / self.layer_m)
-                upper.append(self.nz)
-            valid = np.all(np.isfinite(g) & (g >= 0) & (g < np.array(upper)), axis=1)
-        idx = np.full(p.shape, -1, dtype=np.int64)
-        idx[valid] = g[valid].astype(np.int64)
+            for k in range(p.shape[1]):  # per axis, not per point: NaN and inf fail the tests
+                g = np.floor((p[:, k] - lowest[k]) / size[k])
+                valid &= (g >= 0) & (g < upper[k])
+                axes.append(g)
+        idx = np.where(valid[:, None], np.stack(axes, axis=1), -1.0).astype(np.int64)
         return idx, valid
 
     def cell_center(

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import functools
 import math
 from dataclasses import dataclass
 
@@ -111,11 +112,11 @@ class PinholeIntrinsics:
         return np.array([[self.fx, 0.0, self.cx], [0.0, self.fy, self.cy], [0.0, 0.0, 1.0]])
 
     def ray_directions_camera(self) -> NDArray[np.float64]:
-        """Per-pixel ray directions with unit z, shape (height, width, 3), camera frame."""
-        u = (np.arange(self.width) - self.cx) / self.fx
-        v = (np.arange(self.height) - self.cy) / self.fy
-        uu, vv = np.meshgrid(u, v)
-        return np.stack([uu, vv, np.ones_like(uu)], axis=-1)
+        """Per-pixel ray directions with unit z, shape (height, width, 3), camera frame.
+
+        Read-only and made once per camera: every frame back-projects through them.
+        """
+        return _ray_directions_camera(self)
 
     def depth_to_points_camera(self, depth_m: NDArray[np.floating]) -> NDArray[np.float64]:
         """Back-project a depth image (metres along z, NaN or 0 = none) to (height, width, 3).
@@ -129,3 +130,14 @@ class PinholeIntrinsics:
             )
         depth = np.where(depth > 0.0, depth, np.nan)
         return self.ray_directions_camera() * depth[..., None]
+
+
+@functools.lru_cache(maxsize=8)
+def _ray_directions_camera(intrinsics: PinholeIntrinsics) -> NDArray[np.float64]:
+    """:meth:`PinholeIntrinsics.ray_directions_camera`, computed (read-only, cached)."""
+    u = (np.arange(intrinsics.width) - intrinsics.cx) / intrinsics.fx
+    v = (np.arange(intrinsics.height) - intrinsics.cy) / intrinsics.fy
+    uu, vv = np.meshgrid(u, v)
+    rays = np.stack([uu, vv, np.ones_like(uu)], axis=-1)
+    rays.flags.writeable = False
+    return rays

@@ -51,7 +51,6 @@ origin on the ground below the robot.
 
 from __future__ import annotations
 
-import functools
 import math
 from collections.abc import Mapping
 from dataclasses import dataclass, fields, replace
@@ -596,7 +595,8 @@ def segment_depth(
     plane_ids = labels.reshape(-1)[pixel_index]
     counts = np.bincount(plane_ids + 1, minlength=len(counts) + 1)[1:]
     rotation = transform[:3, :3]
-    points_camera = _unit_z_rays(intrinsics)[pixel_index] * depth.reshape(-1)[pixel_index, None]
+    rays_camera = intrinsics.ray_directions_camera().reshape(-1, 3)
+    points_camera = rays_camera[pixel_index] * depth.reshape(-1)[pixel_index, None]
     normals_camera = plane_table[:, :3] / np.linalg.norm(plane_table[:, :3], axis=1)[:, None]
     normals = normals_camera @ rotation.T
     normals *= np.where(normals[:, 2] < 0.0, -1.0, 1.0)[:, None]
@@ -623,7 +623,7 @@ def segment_depth(
     origin = transform_tilted[:3, 3].copy()
     rays, points_tilted, sigma_z = scanline.level_geometry(
         depth,
-        _unit_z_rays(intrinsics),
+        intrinsics.ray_directions_camera().reshape(-1, 3),
         transform_tilted[:3, :3].copy(),
         origin,
         typical_sigma,
@@ -823,14 +823,6 @@ def _normal_sigma_deg(plane_table, correlation, min_inv_sigma=None):
     across = np.maximum(np.trace(covariance, axis1=1, axis2=2) - along, 0.0)
     sigma = np.degrees(np.sqrt(across) / norm)
     return np.where(np.isfinite(sigma), sigma, np.inf)
-
-
-@functools.lru_cache(maxsize=8)
-def _unit_z_rays(intrinsics: PinholeIntrinsics) -> NDArray[np.float64]:
-    """(H·W, 3) camera-frame rays with unit z, row-major (read-only, cached)."""
-    rays = intrinsics.ray_directions_camera().reshape(-1, 3)
-    rays.flags.writeable = False
-    return rays
 
 
 def _floor_shape(normals, eigen, counts, params: SegmentationParams) -> NDArray[np.bool_]:
