@@ -1,5 +1,7 @@
 """Suite: figures and their rules, the baseline file and its check, the suite over seeds."""
 
+import dataclasses
+
 import pytest
 from report_factory import row
 from test_seeds import StepEdge, contract_report, event, fake_runs, seed_run
@@ -7,6 +9,7 @@ from test_seeds import StepEdge, contract_report, event, fake_runs, seed_run
 from fogsim.cli import main
 from fogsim.errors import FogsimError, ReportError
 from fogsim.eval.report.io import load_json, load_report
+from fogsim.eval.report.schema import MedianMax, PoseErrorStats
 from fogsim.paths import SCENARIOS_DIR
 from fogsim.run.baseline import (
     NEVER_FRAMES,
@@ -60,6 +63,23 @@ def test_report_metrics_flatten_the_report():
     }
     assert poor_reasons(REPORT) == ()
     assert poor_reasons(contract_report(poor=["map is empty"])) == ("map is empty",)
+
+
+def test_report_metrics_take_the_residual_heading_median_when_the_run_has_one():
+    with_heading = dataclasses.replace(
+        REPORT,
+        pose_error=PoseErrorStats(
+            frames=5,
+            residual_heading_deg=MedianMax(median=0.4, max=2.5),
+        ),
+    )
+    metrics = report_metrics(with_heading)
+    assert metrics["pose_error.residual_heading_deg.median"] == 0.4
+    assert metrics.keys() - report_metrics(REPORT).keys() == {
+        "pose_error.residual_heading_deg.median"
+    }
+    heading = rule_for("pose_error.residual_heading_deg.median")
+    assert heading.worse_by(0.64, 0.4) < 0 and heading.worse_by(0.66, 0.4) > 0
 
 
 def test_rules_allow_the_tolerance_and_flag_beyond_it():

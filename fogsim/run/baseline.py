@@ -22,6 +22,8 @@ figure                                        direction  tolerance    meaning
                                                                       shows the object
 ``events.<object>.floor_again_frames``        lower      3 frames     until ≥ 90 % of it is
                                                                       floor within 10 mm
+``pose_error.residual_heading_deg.median``    lower      0.25°        median |yaw| of the
+                                                                      corrected camera
 ``timing.frame_ms_median``                    lower      not checked  pipeline time per frame
 ============================================  =========  ===========  =========================
 
@@ -42,6 +44,8 @@ point) may move a figure before the check calls it a regression.
 * Event frames are counted at 12.5 Hz: 3 frames (0.24 s) is one odd frame (a withdrawn frame,
   a late ray) at either end of the count; a footprint that never clears or never becomes
   floor again counts as :data:`NEVER_FRAMES`.
+* The residual heading is a median over hundreds of frames: a harmless change moves it by
+  hundredths of a degree; 0.25° (4 mm sideways at 1 m) flags a heading estimate that changed.
 * Frame times are wall-clock: reported in the summary, never checked (a loaded machine would
   fail the check; speed is measured in ``bench/``).
 
@@ -71,6 +75,8 @@ from collections.abc import Mapping
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Literal
+
+from msgspec import UnsetType
 
 from fogsim.errors import FogsimError, ReportError
 from fogsim.eval.report import Report
@@ -122,6 +128,8 @@ def rule_for(metric: str) -> MetricRule:
         return MetricRule("lower", 20.0)
     if metric.endswith((".cleared_frames", ".floor_again_frames")):
         return MetricRule("lower", 3.0)
+    if metric == "pose_error.residual_heading_deg.median":
+        return MetricRule("lower", 0.25)
     if metric.startswith("timing."):
         return MetricRule("lower", 5.0, 1.0, checked=False)
     raise FogsimError(f"no tolerance rule for figure {metric!r}")
@@ -162,6 +170,9 @@ def report_metrics(report: Report) -> dict[str, float]:
             metrics[f"events.{event.object}.floor_again_frames"] = _frames(
                 event.floor_again_frames.fog
             )
+    residual = report.pose_error.residual_heading_deg
+    if not isinstance(residual, UnsetType) and residual.median is not None:
+        metrics["pose_error.residual_heading_deg.median"] = float(residual.median)
     median = report.timing.frame_ms.median
     if median is not None:
         metrics["timing.frame_ms_median"] = float(median)
