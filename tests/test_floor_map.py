@@ -238,6 +238,8 @@ def test_frames_seeing_the_floor_level_but_no_plane_say_nothing():
     assert verdict([[*LEVEL, (TOP - 0.012, np.nan)]], 40) == (TOP, 1, 0)  # 17 mm apart
     spread = [*LEVEL, (TOP - P.eps_m, np.nan)]  # 25 mm apart: rough
     assert np.isnan(verdict([spread], 40)[0])
+    # One or two points are level whatever the surface: they count against it as before.
+    assert np.isnan(verdict([LEVEL[:2]], 40)[0])
 
 
 def test_no_frame_verdicts_with_cap_zero():
