@@ -33,6 +33,13 @@ import numba
 import numpy as np
 from numpy.typing import NDArray
 
+#: Points that are not floor a column needs within ``±eps`` of its floor for `frame_verdicts` to
+#: call it level there. One or two points are level whatever the surface: on the ``stairs``
+#: scenario (seeds 1–8) a single point of a tread's edge spilled into the lower tread's last
+#: column kept the higher height there for good (unsafe cells 104.4 → 106.5 mean with 1,
+#: 104.5 with 3); moving_box's box top gives 5–9 points a column a frame at 1.3 m.
+LEVEL_MIN_POINTS = 3
+
 
 @numba.njit(cache=True, inline="always")
 def _layer_of(h: float, z_min: float, layer: float, nz: int) -> int:
@@ -170,6 +177,15 @@ def frame_verdicts(
     left; a frame with more for adds one, up to ``frame_cap``. A rough top that one frame took
     for a plane is thus removed by the frames that see it rough.
 
+    A frame whose points that are not floor within ``±eps`` of ``F`` — at least
+    `LEVEL_MIN_POINTS` of them — lie within ``eps`` of each other says nothing: in this column
+    they are level at the floor's height, so the
+    segmentation's "no plane" came from elsewhere in the region (moving_box: the 6 cm box top,
+    a region of 260 pixels at 1.3 m whose RMS ratio hovers about the 1.05 limit, is a floor in
+    every other frame; the other frames took the floor away and the box top showed as an
+    obstacle or not at all). A rough top's bumps (up to 10 cm in 8 cm, stage) spread the
+    points of a 4 cm column over more than ``eps``.
+
     Args:
         floor: (nx, ny) floor heights [m], NaN = invalid; updated in place.
         frame_votes: (nx, ny) frame votes of the stored floors; updated in place.
@@ -188,20 +204,31 @@ def frame_verdicts(
     votes_flat = frame_votes.reshape(-1)
     support = np.zeros(floor_flat.shape[0], dtype=np.int32)
     against = np.zeros(floor_flat.shape[0], dtype=np.int32)
+    # Lowest and highest non-floor point within ±eps of the floor, and how many, per column.
+    low = np.full(floor_flat.shape[0], np.inf)
+    high = np.full(floor_flat.shape[0], -np.inf)
+    near = np.zeros(floor_flat.shape[0], dtype=np.int32)
     for i in range(point_cell.shape[0]):
         col = point_cell[i]
         if col < 0:
             continue
         f = floor_flat[col]
         h = floor_heights[i]
+        z = points_z[i]
         if np.isfinite(h):
             if abs(h - f) <= eps:  # NaN floor: never
                 support[col] += 1
-        elif points_z[i] <= f and points_z[i] >= f - eps:
-            against[col] += 1
+        elif abs(z - f) <= eps:
+            low[col] = min(low[col], z)
+            high[col] = max(high[col], z)
+            near[col] += 1
+            if z <= f:
+                against[col] += 1
     removed = 0
     for col in range(floor_flat.shape[0]):
         if against[col] > support[col]:
+            if near[col] >= LEVEL_MIN_POINTS and high[col] - low[col] <= eps:
+                continue  # level at the floor's height: no verdict
             votes_flat[col] -= 1
             if votes_flat[col] <= 0:
                 floor_flat[col] = np.nan

@@ -198,7 +198,10 @@ def verdict(frames, cap, frame_votes=1):
     return floor[0, 0], int(votes[0, 0]), removed
 
 
-ROUGH = [(TOP - 0.005, np.nan)] * 3  # no plane, at the floor's height
+# No plane, at the floor's height and spread over more than eps (a rough top): 3 points at
+# or below the floor count against it, one above it does not.
+ROUGH = [(TOP - 0.015, np.nan), (TOP - 0.005, np.nan), (TOP, np.nan), (TOP + 0.008, np.nan)]
+LEVEL = [(TOP - 0.005, np.nan), (TOP, np.nan), (TOP + 0.005, np.nan)]  # no plane, level
 PLANE = [(TOP + 0.001, TOP + 0.001)] * 2
 
 
@@ -225,6 +228,18 @@ def test_only_points_at_or_just_below_the_floor_count_against_it():
     assert verdict([above, below, other], 40)[:2] == (TOP, 1)
     assert np.isnan(verdict([ROUGH + PLANE], 40)[0])  # 3 against 2
     assert verdict([ROUGH[:2] + PLANE], 40)[:2] == (TOP, 2)  # 2 against 2: a tie is for it
+
+
+def test_frames_seeing_the_floor_level_but_no_plane_say_nothing():
+    # Points that are not floor but lie within eps of each other at the floor's height: the
+    # segmentation found no plane in the region, this column looks like the floor.
+    assert verdict([LEVEL] * 5, 40) == (TOP, 1, 0)
+    assert verdict([LEVEL, PLANE, LEVEL, PLANE], 40)[:2] == (TOP, 3)
+    assert verdict([[*LEVEL, (TOP - 0.012, np.nan)]], 40) == (TOP, 1, 0)  # 17 mm apart
+    spread = [*LEVEL, (TOP - P.eps_m, np.nan)]  # 25 mm apart: rough
+    assert np.isnan(verdict([spread], 40)[0])
+    # One or two points are level whatever the surface: they count against it as before.
+    assert np.isnan(verdict([LEVEL[:2]], 40)[0])
 
 
 def test_no_frame_verdicts_with_cap_zero():
