@@ -32,6 +32,14 @@ shift for the run from many frames and applies it to every frame:
   trusted (shift 0, or the median so far), so a robot that never sees the surface under its
   feet still maps — with the encoders' error.
 
+Walking down from the start, the frames wait while odometry's z drifts (foot-to-foot kinematics:
+stage_down, seeds 1-8, −1 to −4 mm by the time the robot stands on the ground), and the
+elevation filter, which follows the map under the robot, cannot see it: those frames built that
+map. The surface the robot arrives on was already seen from the start, where odometry is exact,
+so `arrival_drift_m` measures the drift as the difference between where odometry puts the feet
+on arrival and where the first frames put that surface; the caller takes it out of the waiting
+frames (growing from 0 at the start) and of the robot's elevation from then on.
+
 On exact data (ideal depth, no encoder error) every measurement is 0 and so is the shift.
 On a flat floor each frame's ground lies exactly at the feet's height (0), as the paper's
 per-frame shift put it.
@@ -47,7 +55,7 @@ from numpy.typing import NDArray
 
 from mapper.validation import check_field
 
-__all__ = ["HeightReference", "HeightReferenceParams"]
+__all__ = ["HeightReference", "HeightReferenceParams", "arrival_drift_m"]
 
 
 @dataclass(frozen=True)
@@ -161,6 +169,23 @@ class HeightReference:
             return measured_m
         return estimate
 
+    def ground_sized_m(
+        self,
+        heights_m: NDArray[np.float64],
+        areas_m2: NDArray[np.float64],
+        is_floor: NDArray[np.bool_],
+    ) -> NDArray[np.float64]:
+        """Heights of the floor regions large enough to be the ground around the robot [m].
+
+        No gate: what a waiting frame saw at any height (`arrival_drift_m`'s start surfaces).
+
+        Args:
+            heights_m: (F,) region heights in the tilt-corrected robot frame, unshifted [m].
+            areas_m2: (F,) their footprints [m²].
+            is_floor: (F,) the region is a floor.
+        """
+        return np.asarray(heights_m[is_floor & (areas_m2 >= self.params.min_area_m2)])
+
     def update(
         self,
         heights_m: NDArray[np.float64],
@@ -187,3 +212,39 @@ class HeightReference:
         measured = -float(heights_m[largest])
         self.measurements_m.append(measured)
         return measured
+
+
+def arrival_drift_m(
+    start_surfaces_m: list[NDArray[np.float64]],
+    fractions: NDArray[np.float64],
+    arrival_z_m: float,
+    params: HeightReferenceParams,
+) -> float | None:
+    """Odometry's z drift on arriving on a surface the first frames saw [m] (None: not seen).
+
+    When the height reference converges, the robot stands on the ground it measured: its feet
+    are at that surface's height, which odometry puts at ``arrival_z_m``. The frames waiting
+    since the start (where odometry is exact) saw the large floor surfaces at world heights
+    ``start_surfaces_m`` (odometry's z + region height + the frame's shift). Of each frame, in
+    order, the surface nearest ``arrival_z_m`` within `gate_m` is taken, from the first
+    `min_frames` frames that have one (the earliest: the least drift). The drift grows in
+    proportion to the way walked (foot-to-foot kinematics add a like error at every step), so
+    a frame ``f`` of the way from the start to the arrival saw the surface ``f·D`` off, and
+    ``D = (arrival_z_m − height) / (1 − f)``; the drift is the median over those frames.
+
+    Args:
+        start_surfaces_m: per waiting frame in order, the world heights of its ground-sized
+            floor regions [m].
+        fractions: (W,) each waiting frame's place between the start (0) and the arrival (1).
+        arrival_z_m: odometry's z of the robot when the reference converged [m].
+        params: the reference's parameters (`gate_m`, `min_frames`).
+    """
+    drifts: list[float] = []
+    for surfaces, fraction in zip(start_surfaces_m, fractions, strict=True):
+        offsets = np.abs(surfaces - arrival_z_m)
+        if offsets.size and offsets.min() <= params.gate_m:
+            height = float(surfaces[int(np.argmin(offsets))])
+            drifts.append((arrival_z_m - height) / (1.0 - float(fraction)))
+            if len(drifts) == params.min_frames:
+                return float(np.median(np.asarray(drifts)))
+    return None

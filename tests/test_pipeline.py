@@ -409,6 +409,53 @@ def test_descending_start_defers_the_frames_until_the_ground_under_the_feet_is_s
     np.testing.assert_allclose(ground, 0.0, atol=1e-3)
 
 
+def test_walking_down_odometry_s_z_drift_is_taken_out_of_the_map():
+    # Exact depth and camera. The robot starts on a 122 mm platform (out of view), sees the
+    # ground from it, steps down and stands on the ground; odometry's z drifts down by 0.4 mm a
+    # frame from the start (stage_down: -1 to -4 mm when the ground is reached). The frames
+    # wait until the ground under the feet converges the reference; where the first frames (on
+    # the platform, odometry exact) saw the ground gives the drift on arrival. Without taking it
+    # out, the waiting frames and the map under the robot carry it (-2 to -8 mm here).
+    on_platform = ROBOT_POSE + np.array([0.0, 0.0, 0.122, 0.0])
+    poses = [on_platform] * 12 + [ROBOT_POSE] * (HeightReferenceParams().min_frames + 6)
+    frames = []
+    for i, pose in enumerate(poses):
+        world = planar_pose_to_matrix(pose) @ CAMERA_IN_ROBOT
+        believed = pose - np.array([0.0, 0.0, 0.0002 * i, 0.0])
+        frames.append(
+            Frame(
+                index=i,
+                time_s=i / RATE_HZ,
+                depth_m=render_boxes(INTR, world, [BOX]).astype(np.float32),
+                intrinsics=INTR,
+                transform_camera_to_robot_believed=CAMERA_IN_ROBOT,
+                robot_pose_believed=believed,
+                transform_camera_to_world_true=world,
+                robot_pose_true=pose,
+            )
+        )
+
+    def ground_and_top(use_elevation_filter):
+        pipeline = Pipeline(
+            RunParams(pipeline=PipelineParams(use_elevation_filter=use_elevation_filter))
+        )
+        for f in frames:
+            pipeline.process(f)
+        floor = np.asarray(pipeline.mapper.floor())
+        seen = np.isfinite(floor)
+        return floor[seen & (floor < 0.025)], floor[seen & (floor >= 0.025)]
+
+    ground, top = ground_and_top(True)
+    assert ground.size > 100 and top.size > 20
+    # Within 0.2 mm: the drift goes on after the arrival (0.2 mm a frame, 10 times the
+    # stage's), which the elevation filter follows with a lag.
+    np.testing.assert_allclose(ground, 0.0, atol=2e-4)
+    np.testing.assert_allclose(top, 0.05, atol=2e-4)
+    # Without the elevation filter nothing carries the correction: the drift stays.
+    ground_drifting, _ = ground_and_top(False)
+    assert ground_drifting.min() < -0.001
+
+
 def test_a_run_shorter_than_the_reference_needs_maps_its_frames_at_the_end():
     """Fewer frames than the reference needs to converge: nothing is lost, the run maps them."""
     wait = HeightReferenceParams().min_frames - 1
