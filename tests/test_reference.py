@@ -10,11 +10,14 @@ GROUND_AREA_M2 = 5.0  # the ground seen from the stage's camera covers 3-6 m²
 TREAD_AREA_M2 = 0.2  # a stage tread: 0.2 m × 1 m
 
 
-def feed(reference, heights, areas, floors=None):
-    """One frame's floor regions (heights in the tilt-corrected robot frame, unshifted)."""
+def feed(reference, heights, areas, floors=None, rise_m=0.0):
+    """One frame's floor regions (heights in the tilt-corrected robot frame, unshifted).
+
+    ``rise_m``: odometry's z minus the start's (0: the robot stands at its start level).
+    """
     heights = np.asarray(heights, dtype=np.float64)
     floors = np.ones(heights.shape, dtype=bool) if floors is None else np.asarray(floors)
-    return reference.update(heights, np.asarray(areas, dtype=np.float64), floors)
+    return reference.update(heights, np.asarray(areas, dtype=np.float64), floors, rise_m)
 
 
 def test_exact_data_give_exactly_zero_shift():
@@ -77,6 +80,29 @@ def test_descending_start_waits_then_measures_the_ground_under_the_feet():
     assert reference.known and reference.shift_m == pytest.approx(0.004)
 
 
+def test_a_7_degree_neck_error_takes_the_ground_not_a_patch_of_the_first_step():
+    # The paper's 7° neck bound puts the camera 24 mm too low (stage, seed 2): the ground
+    # appears at -24 mm (beyond the 20 mm gate), a 0.31 m² patch of the 31 mm step at +7 mm.
+    reference = HeightReference()
+    for _ in range(reference.params.min_frames):
+        assert feed(reference, [-0.024, 0.007], [4.0, 0.31]) == pytest.approx(0.024)
+    assert reference.converged and reference.shift_m == pytest.approx(0.024)
+    # Converged: the gate centres on the estimate, the step is not the ground.
+    assert feed(reference, [0.007, -0.025], [0.31, 4.0], rise_m=0.2) == pytest.approx(0.025)
+
+
+def test_the_wide_start_gate_ends_at_the_first_step_down():
+    # Walking down: on the first tread (31 mm above the ground, odometry 31 mm below the start)
+    # the ground appears 31 mm below the feet, +7 mm with a camera error of +7 mm: not the
+    # ground under the feet. At the start level it would have been taken (-24 mm, 4 m²).
+    reference = HeightReference()
+    assert feed(reference, [-0.024], [4.0], rise_m=-0.031) is None
+    assert feed(reference, [-0.024], [4.0], rise_m=-0.009) == pytest.approx(0.024)
+    # Beyond the start gate or smaller than the ground around the robot: never.
+    assert feed(reference, [-0.041], [4.0]) is None
+    assert feed(reference, [-0.024], [0.9]) is None
+
+
 def test_after_max_wait_frames_the_kinematics_are_trusted():
     reference = HeightReference(HeightReferenceParams(max_wait_frames=5))
     for i in range(5):
@@ -109,6 +135,9 @@ def test_non_floor_regions_are_never_measured():
         ("min_frames", 0),
         ("max_wait_frames", -1),
         ("frame_gate_m", 0.0),
+        ("start_gate_m", -0.01),
+        ("start_min_area_m2", float("inf")),
+        ("start_level_m", 0.0),
     ],
 )
 def test_bad_parameters_are_refused_naming_the_field(field, value):

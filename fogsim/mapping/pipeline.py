@@ -182,6 +182,8 @@ class Pipeline:
         if self._use_reference:
             self.segmentation_params = replace(self.segmentation_params, correct_ground_shift=False)
         self._last_pose_believed: NDArray[np.float64] | None = None
+        self._start_z_m: float | None = None  # odometry's z of the first frame
+        self._rise_m = 0.0  # odometry's z of this frame minus the start's
         self.last_points: LabelledPoints | None = None
 
     def check_frame(self, frame: Frame) -> None:
@@ -231,6 +233,9 @@ class Pipeline:
         t0 = time.perf_counter()
         self.check_frame(frame)
         self._last_pose_believed = np.asarray(frame.robot_pose_believed, dtype=np.float64)
+        if self._start_z_m is None:
+            self._start_z_m = float(self._last_pose_believed[2])
+        self._rise_m = float(self._last_pose_believed[2]) - self._start_z_m
         seg = segment_depth(
             frame.depth_m,
             frame.intrinsics,
@@ -332,7 +337,9 @@ class Pipeline:
         if not self._use_reference:
             return None
         floors = seg.floors
-        return self.reference.update(floors.heights_m, floors.areas_m2, floors.is_floor)
+        return self.reference.update(
+            floors.heights_m, floors.areas_m2, floors.is_floor, self._rise_m
+        )
 
     def _ground_sized_m(self, seg: SegmentationResult) -> NDArray[np.float64]:
         """Heights of the frame's ground-sized floor regions [m] (empty without the reference)."""
