@@ -345,27 +345,36 @@ def test_the_ground_lies_exactly_on_the_feet_when_the_camera_error_changes_every
 def test_the_map_anchored_at_the_start_holds_while_odometry_drifts_in_z():
     # Exact depth and camera; after the reference converged, odometry's z drifts down by
     # 0.05 mm a frame (foot-to-foot kinematics; flat_floor: up to -1.6 mm in 66 frames). The
-    # frames measure their ground, and the map's small disagreement (the drift) is matched
-    # away, so the ground stays exactly where the start pose put it. Without that (anchor 0)
-    # the map follows the unshifted frames down.
+    # frames measure the ground under their feet, which the first frames saw: the robot stands
+    # on it, and the ground stays exactly where the start pose put it. Without that (a start
+    # surface gate too narrow to hold), the map's small disagreement (the drift) is matched
+    # away (`anchor_shift_m`); without either, the map follows the unshifted frames down.
     frames = make_frames(40)
     start = HeightReferenceParams().min_frames + 2
     for i in range(start, len(frames)):
         pose = ROBOT_POSE - np.array([0.0, 0.0, 0.00005 * (i - start + 1), 0.0])
         frames[i] = dataclasses.replace(frames[i], robot_pose_believed=pose)
 
-    def ground_after(anchor_shift_m):
-        params = RunParams(pipeline=PipelineParams(anchor_shift_m=anchor_shift_m))
+    def ground_after(anchor_shift_m, surface_gate_m):
+        params = RunParams(
+            pipeline=PipelineParams(anchor_shift_m=anchor_shift_m),
+            reference=HeightReferenceParams(surface_gate_m=surface_gate_m),
+        )
         pipeline = Pipeline(params)
         for f in frames:
             pipeline.process(f)
         floor = np.asarray(pipeline.mapper.floor())
         return floor[np.isfinite(floor) & (floor < 0.025)]
 
-    ground = ground_after(PipelineParams().anchor_shift_m)
-    assert ground.size > 100
-    np.testing.assert_allclose(ground, 0.0, atol=1e-5)  # float32 depth
-    assert np.abs(ground_after(0.0)).max() > 2e-4
+    anchor_m, surface_gate_m = (
+        PipelineParams().anchor_shift_m,
+        HeightReferenceParams().surface_gate_m,
+    )
+    for ground in (ground_after(anchor_m, surface_gate_m), ground_after(anchor_m, 1e-9)):
+        assert ground.size > 100
+        np.testing.assert_allclose(ground, 0.0, atol=1e-5)  # float32 depth
+    assert np.abs(ground_after(0.0, surface_gate_m)).max() <= 1e-5
+    assert np.abs(ground_after(0.0, 1e-9)).max() > 2e-4
 
 
 def test_anchor_shift_must_be_finite_and_not_negative():

@@ -69,7 +69,7 @@ from mapper import (
     ZDecision,
     frame_decision,
 )
-from mapper.reference import HeightReference, arrival_drift_m
+from mapper.reference import HeightReference, arrival_drift_m, start_surface_m
 from mapper.segmentation import SegmentationResult, segment_depth
 from mapper.transforms import apply_transform, planar_pose_to_matrix
 
@@ -184,6 +184,9 @@ class Pipeline:
         self._last_pose_believed: NDArray[np.float64] | None = None
         self._start_z_m: float | None = None  # odometry's z of the first frame
         self._rise_m = 0.0  # odometry's z of this frame minus the start's
+        # World heights of the ground-sized floors the first (deferred) frames saw, odometry's
+        # drift taken out: where the robot stands when it measures the ground under its feet.
+        self._start_surfaces_m: list[NDArray[np.float64]] = []
         self.last_points: LabelledPoints | None = None
 
     def check_frame(self, frame: Frame) -> None:
@@ -292,6 +295,12 @@ class Pipeline:
         deferred = self._deferred
         fractions = self._way_fractions(arrival)
         drift_m = self._arrival_drift_m(arrival, fractions)
+        if arrival is not None and arrival.measured_shift_m is not None and deferred:
+            surfaces_m = self._deferred_surfaces_m()
+            drift = 0.0 if drift_m is None else drift_m
+            self._start_surfaces_m = [
+                heights - drift * float(f) for heights, f in zip(surfaces_m, fractions, strict=True)
+            ]
         for data, fraction in zip(deferred, fractions, strict=True):
             frame_drift_m = None if drift_m is None else drift_m * float(fraction)
             withdrawn, _, update_ms = self._map(data, use_z_match=False, drift_m=frame_drift_m)
@@ -323,14 +332,19 @@ class Pipeline:
             or not self.params.use_elevation_filter
         ):
             return None
-        surfaces_m = [
+        arrival_z_m = float(arrival.frame.robot_pose_believed[2])
+        return arrival_drift_m(
+            self._deferred_surfaces_m(), fractions, arrival_z_m, self.reference.params
+        )
+
+    def _deferred_surfaces_m(self) -> list[NDArray[np.float64]]:
+        """World heights of each deferred frame's ground-sized floors (odometry, its shift)."""
+        return [
             data.ground_sized_m
             + float(data.frame.robot_pose_believed[2])
             + self.reference.frame_shift_m(data.measured_shift_m)
             for data in self._deferred
         ]
-        arrival_z_m = float(arrival.frame.robot_pose_believed[2])
-        return arrival_drift_m(surfaces_m, fractions, arrival_z_m, self.reference.params)
 
     def _measure_reference(self, seg: SegmentationResult) -> float | None:
         """Give the frame's floor regions to the height reference; its measurement [m] or None."""
@@ -376,6 +390,7 @@ class Pipeline:
         pose = self.robot_pose(frame)
         if drift_m is not None:
             pose[2] = float(frame.robot_pose_believed[2]) - drift_m
+        on_start_surface = self._stand_on_start_surface(data, pose)
         # Heading correction (mapper.heading): a yaw about the camera centre, before the pose.
         transform_robot_to_world = planar_pose_to_matrix(pose) @ self.heading.correct(
             points_robot, floor_robot, transform_camera_to_robot, pose
@@ -388,7 +403,7 @@ class Pipeline:
         self.baseline.recenter(pose[0], pose[1])
 
         matched = withdrawn = False
-        if self.params.use_z_match and use_z_match:
+        if self.params.use_z_match and use_z_match and not on_start_surface:
             match = self.mapper.match_z(points_world, floor_world)
             decision = frame_decision(
                 match, data.ground_plane_found or data.measured_shift_m is not None
@@ -418,11 +433,29 @@ class Pipeline:
             self.mapper.update(points_world, floor_world, sensor_origin)
             update_ms = 1000.0 * (time.perf_counter() - t2)
             self.baseline.update(points_world, floor_world, sensor_origin)
-            if self.params.use_elevation_filter and drift_m is None:
+            if self.params.use_elevation_filter and drift_m is None and not on_start_surface:
                 self.elevation.update(
                     float(frame.robot_pose_believed[2]), self.mapper.floor_at(pose[0], pose[1])
                 )
         return withdrawn, matched, update_ms
+
+    def _stand_on_start_surface(self, data: _FrameData, pose: NDArray[np.float64]) -> bool:
+        """Put the robot on the start surface under its feet; whether it was (sets ``pose``).
+
+        A frame that measured the ground under its feet stands on it; when the first frames
+        saw a surface within ``ref.surface_gate_m`` of the robot's filtered elevation
+        ``pose[2]``, the robot's elevation is that surface's height (``pose[2]`` and the
+        elevation filter's offset are set to it). The frame's data are then right relative
+        to the start and are neither z-matched nor used to pull the elevation to the map.
+        """
+        if data.measured_shift_m is None or not self.params.use_elevation_filter:
+            return False
+        height_m = start_surface_m(self._start_surfaces_m, pose[2], self.reference.params)
+        if height_m is None:
+            return False
+        pose[2] = height_m
+        self.elevation.offset_m = height_m - float(data.frame.robot_pose_believed[2])
+        return True
 
     def maps(self) -> tuple[NDArray[np.int8], NDArray[np.float64], NDArray[np.float64]]:
         """Current FOG types, FOG heights [m] and baseline heights [m] (NaN = none)."""
