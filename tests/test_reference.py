@@ -4,7 +4,12 @@ import numpy as np
 import pytest
 
 from mapper.errors import InvalidParameterError
-from mapper.reference import HeightReference, HeightReferenceParams
+from mapper.reference import (
+    HeightReference,
+    HeightReferenceParams,
+    arrival_drift_m,
+    start_surface_m,
+)
 
 GROUND_AREA_M2 = 5.0  # the ground seen from the stage's camera covers 3-6 m²
 TREAD_AREA_M2 = 0.2  # a stage tread: 0.2 m × 1 m
@@ -138,6 +143,7 @@ def test_non_floor_regions_are_never_measured():
         ("start_gate_m", -0.01),
         ("start_min_area_m2", float("inf")),
         ("start_level_m", 0.0),
+        ("surface_gate_m", float("nan")),
     ],
 )
 def test_bad_parameters_are_refused_naming_the_field(field, value):
@@ -155,3 +161,28 @@ def test_a_frame_agreeing_with_the_estimate_takes_its_own_measurement():
     assert reference.frame_shift_m(0.0045) == 0.0045
     assert reference.frame_shift_m(0.006 + gate + 1e-4) == pytest.approx(0.006)  # a fragment
     assert reference.frame_shift_m(None) == pytest.approx(0.006)  # no ground in view
+
+
+def test_arrival_drift_from_the_surface_the_first_frames_saw():
+    # Walking down from a 122 mm platform, odometry drifts to -4 mm on arrival on the ground
+    # (true height 0), in proportion to the way: frame k of 10 saw the ground 0.4·k mm low.
+    # Each frame also sees the platform's edge (0.122); frame 2 sees no ground.
+    params = HeightReferenceParams()
+    fractions = np.arange(12) / 12.0
+    surfaces = [np.array([-0.004 * f, 0.122]) for f in fractions]
+    surfaces[2] = np.array([0.122])
+    drift = arrival_drift_m(surfaces, fractions, -0.004, params)
+    assert drift == pytest.approx(-0.004, abs=1e-12)
+    # Fewer than min_frames frames saw it (or none within the gate): unknown.
+    assert arrival_drift_m(surfaces[:8], fractions[:8], -0.004, params) is None
+    assert arrival_drift_m(surfaces, fractions, -0.004 - 0.021, params) is None
+
+
+def test_the_start_surface_under_the_feet_is_the_median_of_the_first_frames():
+    params = HeightReferenceParams()
+    surfaces = [np.array([0.001, 0.122]), np.array([0.121]), np.array([-0.002, 0.12])]
+    surfaces += [np.array([0.0005])]
+    # Nearest within 10 mm of 3 mm, per frame that has one: 1, -2, 0.5 mm; their median.
+    assert start_surface_m(surfaces, 0.003, params) == pytest.approx(0.0005)
+    assert start_surface_m(surfaces, 0.118, params) == pytest.approx(0.121)
+    assert start_surface_m(surfaces, 0.05, params) is None
