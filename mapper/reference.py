@@ -206,10 +206,11 @@ class HeightReference:
         Args:
             measured_m: the frame's measurement (`update`'s result; None: none).
         """
-        estimate = self.shift_m
-        if measured_m is not None and abs(measured_m - estimate) <= self.params.frame_gate_m:
-            return measured_m
-        return estimate
+        return measured_m if self.agrees(measured_m) else self.shift_m
+
+    def agrees(self, measured_m: float | None) -> bool:
+        """A frame's measurement lies within `frame_gate_m` of the estimate (None: no)."""
+        return measured_m is not None and abs(measured_m - self.shift_m) <= self.params.frame_gate_m
 
     def ground_sized_m(
         self,

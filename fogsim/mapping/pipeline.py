@@ -442,13 +442,16 @@ class Pipeline:
     def _stand_on_start_surface(self, data: _FrameData, pose: NDArray[np.float64]) -> bool:
         """Put the robot on the start surface under its feet; whether it was (sets ``pose``).
 
-        A frame that measured the ground under its feet stands on it; when the first frames
-        saw a surface within ``ref.surface_gate_m`` of the robot's filtered elevation
-        ``pose[2]``, the robot's elevation is that surface's height (``pose[2]`` and the
-        elevation filter's offset are set to it). The frame's data are then right relative
-        to the start and are neither z-matched nor used to pull the elevation to the map.
+        A frame that measured the ground under its feet and was shifted by its own measurement
+        (it agrees with the reference's estimate) has its data right relative to its feet,
+        which stand on that ground; when the first frames saw a surface within
+        ``ref.surface_gate_m`` of the robot's filtered elevation ``pose[2]``, the robot's
+        elevation is that surface's height (``pose[2]`` and the elevation filter's offset are
+        set to it). The frame's data are then right relative to the start and are neither
+        z-matched nor used to pull the elevation to the map. A frame shifted by the estimate
+        instead (stereo: its measurement scatters by ±10 mm) is z-matched as before.
         """
-        if data.measured_shift_m is None or not self.params.use_elevation_filter:
+        if not self.reference.agrees(data.measured_shift_m) or not self.params.use_elevation_filter:
             return False
         height_m = start_surface_m(self._start_surfaces_m, pose[2], self.reference.params)
         if height_m is None:
