@@ -383,14 +383,10 @@ def test_anchor_shift_must_be_finite_and_not_negative():
             PipelineParams(anchor_shift_m=bad)
 
 
-def test_descending_start_defers_the_frames_until_the_ground_under_the_feet_is_seen():
-    # The robot starts on a 122 mm platform that is out of view (only the ground 122 mm below
-    # and the box are seen), its camera believed 6 mm too low; then it stands on the ground.
-    believed = CAMERA_IN_ROBOT.copy()
-    believed[2, 3] -= 0.006
-    on_platform = ROBOT_POSE + np.array([0.0, 0.0, 0.122, 0.0])
+def posed_frames(poses, camera_believed=CAMERA_IN_ROBOT, z_drift_per_frame_m=0.0):
+    """Exact depth of the box scene from each true robot pose; odometry's z drifts down."""
     frames = []
-    for i, pose in enumerate([on_platform] * 5 + [ROBOT_POSE] * HeightReferenceParams().min_frames):
+    for i, pose in enumerate(poses):
         world = planar_pose_to_matrix(pose) @ CAMERA_IN_ROBOT
         frames.append(
             Frame(
@@ -398,12 +394,23 @@ def test_descending_start_defers_the_frames_until_the_ground_under_the_feet_is_s
                 time_s=i / RATE_HZ,
                 depth_m=render_boxes(INTR, world, [BOX]).astype(np.float32),
                 intrinsics=INTR,
-                transform_camera_to_robot_believed=believed,
-                robot_pose_believed=pose,
+                transform_camera_to_robot_believed=camera_believed,
+                robot_pose_believed=pose - np.array([0.0, 0.0, z_drift_per_frame_m * i, 0.0]),
                 transform_camera_to_world_true=world,
                 robot_pose_true=pose,
             )
         )
+    return frames
+
+
+def test_descending_start_defers_the_frames_until_the_ground_under_the_feet_is_seen():
+    # The robot starts on a 122 mm platform that is out of view (only the ground 122 mm below
+    # and the box are seen), its camera believed 6 mm too low; then it stands on the ground.
+    believed = CAMERA_IN_ROBOT.copy()
+    believed[2, 3] -= 0.006
+    on_platform = ROBOT_POSE + np.array([0.0, 0.0, 0.122, 0.0])
+    poses = [on_platform] * 5 + [ROBOT_POSE] * HeightReferenceParams().min_frames
+    frames = posed_frames(poses, camera_believed=believed)
     pipeline = Pipeline()
     timings = [pipeline.process(f) for f in frames]
     # Nothing measured on the platform (the ground is 122 mm below the feet): no shift onto it.
@@ -420,29 +427,15 @@ def test_descending_start_defers_the_frames_until_the_ground_under_the_feet_is_s
 
 def test_walking_down_odometry_s_z_drift_is_taken_out_of_the_map():
     # Exact depth and camera. The robot starts on a 122 mm platform (out of view), sees the
-    # ground from it, steps down and stands on the ground; odometry's z drifts down by 0.4 mm a
+    # ground from it, steps down and stands on the ground; odometry's z drifts down by 0.2 mm a
     # frame from the start (stage_down: -1 to -4 mm when the ground is reached). The frames
     # wait until the ground under the feet converges the reference; where the first frames (on
     # the platform, odometry exact) saw the ground gives the drift on arrival. Without taking it
-    # out, the waiting frames and the map under the robot carry it (-2 to -8 mm here).
+    # out, the waiting frames and the map under the robot carry it (-3 mm here before the
+    # change).
     on_platform = ROBOT_POSE + np.array([0.0, 0.0, 0.122, 0.0])
     poses = [on_platform] * 12 + [ROBOT_POSE] * (HeightReferenceParams().min_frames + 6)
-    frames = []
-    for i, pose in enumerate(poses):
-        world = planar_pose_to_matrix(pose) @ CAMERA_IN_ROBOT
-        believed = pose - np.array([0.0, 0.0, 0.0002 * i, 0.0])
-        frames.append(
-            Frame(
-                index=i,
-                time_s=i / RATE_HZ,
-                depth_m=render_boxes(INTR, world, [BOX]).astype(np.float32),
-                intrinsics=INTR,
-                transform_camera_to_robot_believed=CAMERA_IN_ROBOT,
-                robot_pose_believed=believed,
-                transform_camera_to_world_true=world,
-                robot_pose_true=pose,
-            )
-        )
+    frames = posed_frames(poses, z_drift_per_frame_m=0.0002)
 
     def ground_and_top(use_elevation_filter):
         pipeline = Pipeline(

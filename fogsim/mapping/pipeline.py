@@ -31,6 +31,10 @@ Per frame (paper Fig. 1, 2 and Sec. IV), with the pose the robot *believes*:
    ``pipe.anchor_shift_m`` (the odometry's drift: the map anchored at the start holds); a
    larger shift is the robot's elevation error and goes to the elevation filter (shifting every
    such frame onto the map let the map drift by about −3 mm over a stage run).
+   When its own measurement shifted it and the first frames saw a surface at the robot's
+   elevation (``ref.surface_gate_m``), the robot stands on that surface: its elevation is set
+   to the surface's height from the start and the frame is not z-matched (the filter's lag
+   behind odometry went into the map ahead and came back: stairs s7, the ground 2 mm low).
 7. ``FloorObstacleMapper.update`` and ``AveragingMap.update`` get exactly the same data.
 8. Robot elevation filter (``mapper.RobotElevationFilter``): the offset on odometry's z is
    pulled towards ``Floor(x_R, y_R)`` when the floor map has a height under the robot.
