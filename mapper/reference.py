@@ -17,7 +17,14 @@ shift for the run from many frames and applies it to every frame:
   the robot (`min_area_m2`: larger than any stair tread or sill top, so neither can be taken for
   it) and lies within `gate_m` of where the ground must be: the kinematic prior (height 0: the
   feet stand on it) until the estimate has converged, the estimate afterwards. Of several such
-  regions the largest (the most precise height) is measured;
+  regions the largest (the most precise height) is measured. While the robot still stands at
+  its start level (odometry's z within `start_level_m` of the start pose's) and the estimate has
+  not converged, a region of at least `start_min_area_m2` (only the ground around the robot
+  is that large) is a candidate up to `start_gate_m` from the prior: a neck error of the
+  paper's 7° puts the camera up to 24 mm off (stage, seed 2), and the 20 mm gate then took a
+  0.31 m² patch of the first step for the ground (every row −31 mm). Walking down still needs
+  the narrow gate (a tread's ground 31 mm below the feet), so the wide one ends at the first
+  step;
 - the estimate is the median of the frames' measurements (one wrong frame cannot move it); it
   has *converged* after `min_frames` measurements;
 - a frame is shifted by its *own* measurement when that lies within `frame_gate_m` of the
@@ -31,6 +38,22 @@ shift for the run from many frames and applies it to every frame:
   the map). After `max_wait_frames` frames without convergence the kinematics alone are
   trusted (shift 0, or the median so far), so a robot that never sees the surface under its
   feet still maps — with the encoders' error.
+
+Walking down from the start, the frames wait while odometry's z drifts (foot-to-foot kinematics:
+stage_down, seeds 1-8, −1 to −4 mm by the time the robot stands on the ground), and the
+elevation filter, which follows the map under the robot, cannot see it: those frames built that
+map. The surface the robot arrives on was already seen from the start, where odometry is exact,
+so `arrival_drift_m` measures the drift as the difference between where odometry puts the feet
+on arrival and where the first frames put that surface; the caller takes it out of the waiting
+frames (growing from 0 at the start) and of the robot's elevation from then on.
+
+The same holds for the rest of the run: the elevation filter follows the map under the robot,
+and the map ahead of the robot is made by the frames just before, so a small lag of the filter
+behind odometry's drift goes into the map and from there into the robot's elevation again
+(stairs, seed 7: the ground 2 mm low after 100 frames of level walking, every frame measuring
+it at the feet). A frame that measured the ground under its feet stands on it: when the first
+frames saw a surface within `surface_gate_m` of the robot's filtered elevation, the robot's
+elevation is that surface's height from the start (`start_surface_m`).
 
 On exact data (ideal depth, no encoder error) every measurement is 0 and so is the shift.
 On a flat floor each frame's ground lies exactly at the feet's height (0), as the paper's
@@ -47,7 +70,7 @@ from numpy.typing import NDArray
 
 from mapper.validation import check_field
 
-__all__ = ["HeightReference", "HeightReferenceParams"]
+__all__ = ["HeightReference", "HeightReferenceParams", "arrival_drift_m", "start_surface_m"]
 
 
 @dataclass(frozen=True)
@@ -77,6 +100,21 @@ class HeightReferenceParams:
             measurement lies within 2.6 mm of the estimate in 95 % of the frames (at most
             5.3 mm) — the encoders' noise, which the measurement follows; a ground fragment or
             a surface farther off than that takes the estimate.
+        start_gate_m: at the start level, before convergence, a region of at least
+            `start_min_area_m2` is a candidate up to this from the prior [m]. 0.04: a neck
+            bias of 7° (the paper's bound) puts the camera up to 24 mm off on the stage (seeds
+            1-8), plus a frame's ±4 mm scatter.
+        start_min_area_m2: smallest footprint of a candidate beyond `gate_m` at the start
+            level [m²]. 1.0: the ground seen from the robot covers 3-6 m²; the largest tread
+            of the shipped scenes covers 0.45 m² and a patch of a step taken for the ground
+            0.31 m².
+        start_level_m: the robot is at its start level while odometry's z lies within this of
+            the start pose's [m]. 0.01: the lowest step of the shipped scenes is 31 mm, and
+            odometry drifts by about 1 mm until the robot steps.
+        surface_gate_m: a frame that measured the ground under its feet stands on a surface
+            the first frames saw when the robot's filtered elevation lies within this of it
+            [m] (`start_surface_m`). 0.01: the filter is at most 3 mm off after a walk
+            (stage_down, seeds 1-8); the lowest step of the shipped scenes is 31 mm.
     """
 
     gate_m: float = 0.02
@@ -84,9 +122,21 @@ class HeightReferenceParams:
     min_frames: int = 8
     max_wait_frames: int = 400
     frame_gate_m: float = 0.005
+    start_gate_m: float = 0.04
+    start_min_area_m2: float = 1.0
+    start_level_m: float = 0.01
+    surface_gate_m: float = 0.01
 
     def __post_init__(self) -> None:
-        for name in ("gate_m", "min_area_m2", "frame_gate_m"):
+        for name in (
+            "gate_m",
+            "min_area_m2",
+            "frame_gate_m",
+            "start_gate_m",
+            "start_min_area_m2",
+            "start_level_m",
+            "surface_gate_m",
+        ):
             check_field(
                 "HeightReferenceParams",
                 name,
@@ -156,16 +206,35 @@ class HeightReference:
         Args:
             measured_m: the frame's measurement (`update`'s result; None: none).
         """
-        estimate = self.shift_m
-        if measured_m is not None and abs(measured_m - estimate) <= self.params.frame_gate_m:
-            return measured_m
-        return estimate
+        return measured_m if self.agrees(measured_m) else self.shift_m
+
+    def agrees(self, measured_m: float | None) -> bool:
+        """A frame's measurement lies within `frame_gate_m` of the estimate (None: no)."""
+        return measured_m is not None and abs(measured_m - self.shift_m) <= self.params.frame_gate_m
+
+    def ground_sized_m(
+        self,
+        heights_m: NDArray[np.float64],
+        areas_m2: NDArray[np.float64],
+        is_floor: NDArray[np.bool_],
+    ) -> NDArray[np.float64]:
+        """Heights of the floor regions large enough to be the ground around the robot [m].
+
+        No gate: what a waiting frame saw at any height (`arrival_drift_m`'s start surfaces).
+
+        Args:
+            heights_m: (F,) region heights in the tilt-corrected robot frame, unshifted [m].
+            areas_m2: (F,) their footprints [m²].
+            is_floor: (F,) the region is a floor.
+        """
+        return np.asarray(heights_m[is_floor & (areas_m2 >= self.params.min_area_m2)])
 
     def update(
         self,
         heights_m: NDArray[np.float64],
         areas_m2: NDArray[np.float64],
         is_floor: NDArray[np.bool_],
+        rise_m: float,
     ) -> float | None:
         """Take one frame's floor regions; return its measured shift [m] (None: no ground).
 
@@ -173,17 +242,89 @@ class HeightReference:
             heights_m: (F,) region heights in the tilt-corrected robot frame, unshifted [m].
             areas_m2: (F,) their footprints [m²].
             is_floor: (F,) the region is a floor.
+            rise_m: odometry's z minus the start pose's [m] (the robot's change of level).
         """
         self.frames += 1
+        params = self.params
         expected = self.shift_m if self.converged else 0.0
-        candidate = (
-            is_floor
-            & (areas_m2 >= self.params.min_area_m2)
-            & (np.abs(-heights_m - expected) <= self.params.gate_m)
-        )
+        offset = np.abs(-heights_m - expected)
+        candidate = is_floor & (areas_m2 >= params.min_area_m2) & (offset <= params.gate_m)
+        if not self.converged and abs(rise_m) <= params.start_level_m:
+            candidate |= (
+                is_floor & (areas_m2 >= params.start_min_area_m2) & (offset <= params.start_gate_m)
+            )
         if not candidate.any():
             return None
         largest = int(np.argmax(np.where(candidate, areas_m2, -np.inf)))
         measured = -float(heights_m[largest])
         self.measurements_m.append(measured)
         return measured
+
+
+def _nearest_per_frame(
+    start_surfaces_m: list[NDArray[np.float64]], z_m: float, gate_m: float, count: int
+) -> list[tuple[int, float]]:
+    """(frame, height) of each frame's surface nearest ``z_m`` within ``gate_m``.
+
+    The first ``count`` frames that have one, in order (fewer when fewer frames do).
+    """
+    found: list[tuple[int, float]] = []
+    for index, surfaces in enumerate(start_surfaces_m):
+        offsets = np.abs(surfaces - z_m)
+        if offsets.size and offsets.min() <= gate_m:
+            found.append((index, float(surfaces[int(np.argmin(offsets))])))
+            if len(found) == count:
+                break
+    return found
+
+
+def arrival_drift_m(
+    start_surfaces_m: list[NDArray[np.float64]],
+    fractions: NDArray[np.float64],
+    arrival_z_m: float,
+    params: HeightReferenceParams,
+) -> float | None:
+    """Odometry's z drift on arriving on a surface the first frames saw [m] (None: not seen).
+
+    When the height reference converges, the robot stands on the ground it measured: its feet
+    are at that surface's height, which odometry puts at ``arrival_z_m``. The frames waiting
+    since the start (where odometry is exact) saw the large floor surfaces at world heights
+    ``start_surfaces_m`` (odometry's z + region height + the frame's shift). Of each frame, in
+    order, the surface nearest ``arrival_z_m`` within `gate_m` is taken, from the first
+    `min_frames` frames that have one (the earliest: the least drift). The drift grows in
+    proportion to the way walked (foot-to-foot kinematics add a like error at every step), so
+    a frame ``f`` of the way from the start to the arrival saw the surface ``f·D`` off, and
+    ``D = (arrival_z_m − height) / (1 − f)``; the drift is the median over those frames.
+
+    Args:
+        start_surfaces_m: per waiting frame in order, the world heights of its ground-sized
+            floor regions [m].
+        fractions: (W,) each waiting frame's place between the start (0) and the arrival (1).
+        arrival_z_m: odometry's z of the robot when the reference converged [m].
+        params: the reference's parameters (`gate_m`, `min_frames`).
+    """
+    found = _nearest_per_frame(start_surfaces_m, arrival_z_m, params.gate_m, params.min_frames)
+    if len(found) < params.min_frames:
+        return None
+    drifts = [(arrival_z_m - height) / (1.0 - float(fractions[i])) for i, height in found]
+    return float(np.median(np.asarray(drifts)))
+
+
+def start_surface_m(
+    start_surfaces_m: list[NDArray[np.float64]], z_m: float, params: HeightReferenceParams
+) -> float | None:
+    """Height of the surface the first frames saw within `surface_gate_m` of ``z_m`` [m].
+
+    The median, over the first `min_frames` frames that saw one, of each frame's surface
+    nearest ``z_m`` (None: no frame saw one).
+
+    Args:
+        start_surfaces_m: per first frame in order, the world heights of its ground-sized
+            floor regions, odometry's drift taken out [m].
+        z_m: the robot's filtered elevation [m].
+        params: the reference's parameters (`surface_gate_m`, `min_frames`).
+    """
+    found = _nearest_per_frame(start_surfaces_m, z_m, params.surface_gate_m, params.min_frames)
+    if not found:
+        return None
+    return float(np.median(np.asarray([height for _, height in found])))

@@ -345,27 +345,36 @@ def test_the_ground_lies_exactly_on_the_feet_when_the_camera_error_changes_every
 def test_the_map_anchored_at_the_start_holds_while_odometry_drifts_in_z():
     # Exact depth and camera; after the reference converged, odometry's z drifts down by
     # 0.05 mm a frame (foot-to-foot kinematics; flat_floor: up to -1.6 mm in 66 frames). The
-    # frames measure their ground, and the map's small disagreement (the drift) is matched
-    # away, so the ground stays exactly where the start pose put it. Without that (anchor 0)
-    # the map follows the unshifted frames down.
+    # frames measure the ground under their feet, which the first frames saw: the robot stands
+    # on it, and the ground stays exactly where the start pose put it. Without that (a start
+    # surface gate too narrow to hold), the map's small disagreement (the drift) is matched
+    # away (`anchor_shift_m`); without either, the map follows the unshifted frames down.
     frames = make_frames(40)
     start = HeightReferenceParams().min_frames + 2
     for i in range(start, len(frames)):
         pose = ROBOT_POSE - np.array([0.0, 0.0, 0.00005 * (i - start + 1), 0.0])
         frames[i] = dataclasses.replace(frames[i], robot_pose_believed=pose)
 
-    def ground_after(anchor_shift_m):
-        params = RunParams(pipeline=PipelineParams(anchor_shift_m=anchor_shift_m))
+    def ground_after(anchor_shift_m, surface_gate_m):
+        params = RunParams(
+            pipeline=PipelineParams(anchor_shift_m=anchor_shift_m),
+            reference=HeightReferenceParams(surface_gate_m=surface_gate_m),
+        )
         pipeline = Pipeline(params)
         for f in frames:
             pipeline.process(f)
         floor = np.asarray(pipeline.mapper.floor())
         return floor[np.isfinite(floor) & (floor < 0.025)]
 
-    ground = ground_after(PipelineParams().anchor_shift_m)
-    assert ground.size > 100
-    np.testing.assert_allclose(ground, 0.0, atol=1e-5)  # float32 depth
-    assert np.abs(ground_after(0.0)).max() > 2e-4
+    anchor_m, surface_gate_m = (
+        PipelineParams().anchor_shift_m,
+        HeightReferenceParams().surface_gate_m,
+    )
+    for ground in (ground_after(anchor_m, surface_gate_m), ground_after(anchor_m, 1e-9)):
+        assert ground.size > 100
+        np.testing.assert_allclose(ground, 0.0, atol=1e-5)  # float32 depth
+    assert np.abs(ground_after(0.0, surface_gate_m)).max() <= 1e-5
+    assert np.abs(ground_after(0.0, 1e-9)).max() > 2e-4
 
 
 def test_anchor_shift_must_be_finite_and_not_negative():
@@ -374,14 +383,10 @@ def test_anchor_shift_must_be_finite_and_not_negative():
             PipelineParams(anchor_shift_m=bad)
 
 
-def test_descending_start_defers_the_frames_until_the_ground_under_the_feet_is_seen():
-    # The robot starts on a 122 mm platform that is out of view (only the ground 122 mm below
-    # and the box are seen), its camera believed 6 mm too low; then it stands on the ground.
-    believed = CAMERA_IN_ROBOT.copy()
-    believed[2, 3] -= 0.006
-    on_platform = ROBOT_POSE + np.array([0.0, 0.0, 0.122, 0.0])
+def posed_frames(poses, camera_believed=CAMERA_IN_ROBOT, z_drift_per_frame_m=0.0):
+    """Exact depth of the box scene from each true robot pose; odometry's z drifts down."""
     frames = []
-    for i, pose in enumerate([on_platform] * 5 + [ROBOT_POSE] * HeightReferenceParams().min_frames):
+    for i, pose in enumerate(poses):
         world = planar_pose_to_matrix(pose) @ CAMERA_IN_ROBOT
         frames.append(
             Frame(
@@ -389,12 +394,23 @@ def test_descending_start_defers_the_frames_until_the_ground_under_the_feet_is_s
                 time_s=i / RATE_HZ,
                 depth_m=render_boxes(INTR, world, [BOX]).astype(np.float32),
                 intrinsics=INTR,
-                transform_camera_to_robot_believed=believed,
-                robot_pose_believed=pose,
+                transform_camera_to_robot_believed=camera_believed,
+                robot_pose_believed=pose - np.array([0.0, 0.0, z_drift_per_frame_m * i, 0.0]),
                 transform_camera_to_world_true=world,
                 robot_pose_true=pose,
             )
         )
+    return frames
+
+
+def test_descending_start_defers_the_frames_until_the_ground_under_the_feet_is_seen():
+    # The robot starts on a 122 mm platform that is out of view (only the ground 122 mm below
+    # and the box are seen), its camera believed 6 mm too low; then it stands on the ground.
+    believed = CAMERA_IN_ROBOT.copy()
+    believed[2, 3] -= 0.006
+    on_platform = ROBOT_POSE + np.array([0.0, 0.0, 0.122, 0.0])
+    poses = [on_platform] * 5 + [ROBOT_POSE] * HeightReferenceParams().min_frames
+    frames = posed_frames(poses, camera_believed=believed)
     pipeline = Pipeline()
     timings = [pipeline.process(f) for f in frames]
     # Nothing measured on the platform (the ground is 122 mm below the feet): no shift onto it.
@@ -407,6 +423,39 @@ def test_descending_start_defers_the_frames_until_the_ground_under_the_feet_is_s
     ground = floor[np.isfinite(floor) & (floor < 0.025)]
     assert ground.size > 100
     np.testing.assert_allclose(ground, 0.0, atol=1e-3)
+
+
+def test_walking_down_odometry_s_z_drift_is_taken_out_of_the_map():
+    # Exact depth and camera. The robot starts on a 122 mm platform (out of view), sees the
+    # ground from it, steps down and stands on the ground; odometry's z drifts down by 0.2 mm a
+    # frame from the start (stage_down: -1 to -4 mm when the ground is reached). The frames
+    # wait until the ground under the feet converges the reference; where the first frames (on
+    # the platform, odometry exact) saw the ground gives the drift on arrival. Without taking it
+    # out, the waiting frames and the map under the robot carry it (-3 mm here before the
+    # change).
+    on_platform = ROBOT_POSE + np.array([0.0, 0.0, 0.122, 0.0])
+    poses = [on_platform] * 12 + [ROBOT_POSE] * (HeightReferenceParams().min_frames + 6)
+    frames = posed_frames(poses, z_drift_per_frame_m=0.0002)
+
+    def ground_and_top(use_elevation_filter):
+        pipeline = Pipeline(
+            RunParams(pipeline=PipelineParams(use_elevation_filter=use_elevation_filter))
+        )
+        for f in frames:
+            pipeline.process(f)
+        floor = np.asarray(pipeline.mapper.floor())
+        seen = np.isfinite(floor)
+        return floor[seen & (floor < 0.025)], floor[seen & (floor >= 0.025)]
+
+    ground, top = ground_and_top(True)
+    assert ground.size > 100 and top.size > 20
+    # Within 0.2 mm: the drift goes on after the arrival (0.2 mm a frame, 10 times the
+    # stage's), which the elevation filter follows with a lag.
+    np.testing.assert_allclose(ground, 0.0, atol=2e-4)
+    np.testing.assert_allclose(top, 0.05, atol=2e-4)
+    # Without the elevation filter nothing carries the correction: the drift stays.
+    ground_drifting, _ = ground_and_top(False)
+    assert ground_drifting.min() < -0.001
 
 
 def test_a_run_shorter_than_the_reference_needs_maps_its_frames_at_the_end():

@@ -4,17 +4,25 @@ import numpy as np
 import pytest
 
 from mapper.errors import InvalidParameterError
-from mapper.reference import HeightReference, HeightReferenceParams
+from mapper.reference import (
+    HeightReference,
+    HeightReferenceParams,
+    arrival_drift_m,
+    start_surface_m,
+)
 
 GROUND_AREA_M2 = 5.0  # the ground seen from the stage's camera covers 3-6 m²
 TREAD_AREA_M2 = 0.2  # a stage tread: 0.2 m × 1 m
 
 
-def feed(reference, heights, areas, floors=None):
-    """One frame's floor regions (heights in the tilt-corrected robot frame, unshifted)."""
+def feed(reference, heights, areas, floors=None, rise_m=0.0):
+    """One frame's floor regions (heights in the tilt-corrected robot frame, unshifted).
+
+    ``rise_m``: odometry's z minus the start's (0: the robot stands at its start level).
+    """
     heights = np.asarray(heights, dtype=np.float64)
     floors = np.ones(heights.shape, dtype=bool) if floors is None else np.asarray(floors)
-    return reference.update(heights, np.asarray(areas, dtype=np.float64), floors)
+    return reference.update(heights, np.asarray(areas, dtype=np.float64), floors, rise_m)
 
 
 def test_exact_data_give_exactly_zero_shift():
@@ -77,6 +85,29 @@ def test_descending_start_waits_then_measures_the_ground_under_the_feet():
     assert reference.known and reference.shift_m == pytest.approx(0.004)
 
 
+def test_a_7_degree_neck_error_takes_the_ground_not_a_patch_of_the_first_step():
+    # The paper's 7° neck bound puts the camera 24 mm too low (stage, seed 2): the ground
+    # appears at -24 mm (beyond the 20 mm gate), a 0.31 m² patch of the 31 mm step at +7 mm.
+    reference = HeightReference()
+    for _ in range(reference.params.min_frames):
+        assert feed(reference, [-0.024, 0.007], [4.0, 0.31]) == pytest.approx(0.024)
+    assert reference.converged and reference.shift_m == pytest.approx(0.024)
+    # Converged: the gate centres on the estimate, the step is not the ground.
+    assert feed(reference, [0.007, -0.025], [0.31, 4.0], rise_m=0.2) == pytest.approx(0.025)
+
+
+def test_the_wide_start_gate_ends_at_the_first_step_down():
+    # Walking down: on the first tread (31 mm above the ground, odometry 31 mm below the start)
+    # the ground appears 31 mm below the feet, +7 mm with a camera error of +7 mm: not the
+    # ground under the feet. At the start level it would have been taken (-24 mm, 4 m²).
+    reference = HeightReference()
+    assert feed(reference, [-0.024], [4.0], rise_m=-0.031) is None
+    assert feed(reference, [-0.024], [4.0], rise_m=-0.009) == pytest.approx(0.024)
+    # Beyond the start gate or smaller than the ground around the robot: never.
+    assert feed(reference, [-0.041], [4.0]) is None
+    assert feed(reference, [-0.024], [0.9]) is None
+
+
 def test_after_max_wait_frames_the_kinematics_are_trusted():
     reference = HeightReference(HeightReferenceParams(max_wait_frames=5))
     for i in range(5):
@@ -109,6 +140,10 @@ def test_non_floor_regions_are_never_measured():
         ("min_frames", 0),
         ("max_wait_frames", -1),
         ("frame_gate_m", 0.0),
+        ("start_gate_m", -0.01),
+        ("start_min_area_m2", float("inf")),
+        ("start_level_m", 0.0),
+        ("surface_gate_m", float("nan")),
     ],
 )
 def test_bad_parameters_are_refused_naming_the_field(field, value):
@@ -126,3 +161,28 @@ def test_a_frame_agreeing_with_the_estimate_takes_its_own_measurement():
     assert reference.frame_shift_m(0.0045) == 0.0045
     assert reference.frame_shift_m(0.006 + gate + 1e-4) == pytest.approx(0.006)  # a fragment
     assert reference.frame_shift_m(None) == pytest.approx(0.006)  # no ground in view
+
+
+def test_arrival_drift_from_the_surface_the_first_frames_saw():
+    # Walking down from a 122 mm platform, odometry drifts to -4 mm on arrival on the ground
+    # (true height 0), in proportion to the way: frame k of 10 saw the ground 0.4·k mm low.
+    # Each frame also sees the platform's edge (0.122); frame 2 sees no ground.
+    params = HeightReferenceParams()
+    fractions = np.arange(12) / 12.0
+    surfaces = [np.array([-0.004 * f, 0.122]) for f in fractions]
+    surfaces[2] = np.array([0.122])
+    drift = arrival_drift_m(surfaces, fractions, -0.004, params)
+    assert drift == pytest.approx(-0.004, abs=1e-12)
+    # Fewer than min_frames frames saw it (or none within the gate): unknown.
+    assert arrival_drift_m(surfaces[:8], fractions[:8], -0.004, params) is None
+    assert arrival_drift_m(surfaces, fractions, -0.004 - 0.021, params) is None
+
+
+def test_the_start_surface_under_the_feet_is_the_median_of_the_first_frames():
+    params = HeightReferenceParams()
+    surfaces = [np.array([0.001, 0.122]), np.array([0.121]), np.array([-0.002, 0.12])]
+    surfaces += [np.array([0.0005])]
+    # Nearest within 10 mm of 3 mm, per frame that has one: 1, -2, 0.5 mm; their median.
+    assert start_surface_m(surfaces, 0.003, params) == pytest.approx(0.0005)
+    assert start_surface_m(surfaces, 0.118, params) == pytest.approx(0.121)
+    assert start_surface_m(surfaces, 0.05, params) is None

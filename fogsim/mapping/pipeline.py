@@ -13,6 +13,10 @@ Per frame (paper Fig. 1, 2 and Sec. IV), with the pose the robot *believes*:
    segmented before it is known are *deferred*, then mapped in order (steps 3-8) with the
    converged shift just before the frame that makes it known: the start pose's exact odometry,
    not one frame's ground fragment, anchors the map, also when the start surface is out of view.
+   The robot then stands on the ground it measured; where the first frames saw that surface
+   gives odometry's z drift since the start (``mapper.reference.arrival_drift_m``), taken out of
+   the deferred frames (growing from 0 at the start) and, through the elevation filter's offset,
+   of the frames after them (walking down, the drift otherwise went into the map: stage_down).
 3. Heading correction (``mapper.HeadingEstimator``, beyond the paper): the camera's yaw error,
    estimated from how well the structure seen from different places agrees, is taken out by a
    rotation about the vertical through the camera centre.
@@ -27,6 +31,10 @@ Per frame (paper Fig. 1, 2 and Sec. IV), with the pose the robot *believes*:
    ``pipe.anchor_shift_m`` (the odometry's drift: the map anchored at the start holds); a
    larger shift is the robot's elevation error and goes to the elevation filter (shifting every
    such frame onto the map let the map drift by about −3 mm over a stage run).
+   When its own measurement shifted it and the first frames saw a surface at the robot's
+   elevation (``ref.surface_gate_m``), the robot stands on that surface: its elevation is set
+   to the surface's height from the start and the frame is not z-matched (the filter's lag
+   behind odometry went into the map ahead and came back: stairs s7, the ground 2 mm low).
 7. ``FloorObstacleMapper.update`` and ``AveragingMap.update`` get exactly the same data.
 8. Robot elevation filter (``mapper.RobotElevationFilter``): the offset on odometry's z is
    pulled towards ``Floor(x_R, y_R)`` when the floor map has a height under the robot.
@@ -65,7 +73,7 @@ from mapper import (
     ZDecision,
     frame_decision,
 )
-from mapper.reference import HeightReference
+from mapper.reference import HeightReference, arrival_drift_m, start_surface_m
 from mapper.segmentation import SegmentationResult, segment_depth
 from mapper.transforms import apply_transform, planar_pose_to_matrix
 
@@ -121,6 +129,9 @@ class _FrameData:
         ground_plane_found: The segmentation found a ground plane near the expected height.
         measured_shift_m: The frame's measurement of the height reference [m] (None: its
             ground was not in view).
+        ground_sized_m: Heights of its floor regions large enough to be the ground around the
+            robot, tilt-corrected robot frame, no shift [m] (empty without the reference).
+        position: The frame's place in the run (0 = the first frame processed).
     """
 
     frame: Frame
@@ -129,6 +140,7 @@ class _FrameData:
     transform_camera_to_robot: NDArray[np.float64]
     ground_plane_found: bool
     measured_shift_m: float | None
+    ground_sized_m: NDArray[np.float64]
     position: int
 
 
@@ -174,6 +186,11 @@ class Pipeline:
         if self._use_reference:
             self.segmentation_params = replace(self.segmentation_params, correct_ground_shift=False)
         self._last_pose_believed: NDArray[np.float64] | None = None
+        self._start_z_m: float | None = None  # odometry's z of the first frame
+        self._rise_m = 0.0  # odometry's z of this frame minus the start's
+        # World heights of the ground-sized floors the first (deferred) frames saw, odometry's
+        # drift taken out: where the robot stands when it measures the ground under its feet.
+        self._start_surfaces_m: list[NDArray[np.float64]] = []
         self.last_points: LabelledPoints | None = None
 
     def check_frame(self, frame: Frame) -> None:
@@ -223,6 +240,9 @@ class Pipeline:
         t0 = time.perf_counter()
         self.check_frame(frame)
         self._last_pose_believed = np.asarray(frame.robot_pose_believed, dtype=np.float64)
+        if self._start_z_m is None:
+            self._start_z_m = float(self._last_pose_believed[2])
+        self._rise_m = float(self._last_pose_believed[2]) - self._start_z_m
         seg = segment_depth(
             frame.depth_m,
             frame.intrinsics,
@@ -237,6 +257,7 @@ class Pipeline:
             np.asarray(seg.transform_camera_to_robot, dtype=np.float64),
             bool(seg.correction.ground_plane_found),
             self._measure_reference(seg),
+            self._ground_sized_m(seg),
             self._processed,
         )
         self._processed += 1
@@ -245,7 +266,7 @@ class Pipeline:
             self._deferred.append(data)
             self.last_points = None
         else:
-            self.finish()
+            self._map_deferred(arrival=data)
             withdrawn, matched, update_ms = self._map(data)
         return FrameTiming(
             segmentation_ms=1000.0 * (t1 - t0),
@@ -263,28 +284,100 @@ class Pipeline:
         ends before the reference converged maps its frames with the reference's estimate so
         far (the kinematics when nothing was measured) instead of dropping them.
         """
-        frames = [data.frame for data in self._deferred]
-        for data in self._deferred:
-            withdrawn, _, update_ms = self._map(data, use_z_match=False)
+        return self._map_deferred(arrival=None)
+
+    def _map_deferred(self, arrival: _FrameData | None) -> list[Frame]:
+        """Map the deferred frames in order, without z-match; returns them.
+
+        Args:
+            arrival: The frame that made the reference known (None: the run's end). When it
+                measured the ground under its feet and the first frames saw that surface,
+                odometry's z drift since the start is taken out of the deferred frames (in
+                proportion to their place between the start and ``arrival``) and of the robot's
+                elevation from ``arrival`` on (the elevation filter's offset).
+        """
+        deferred = self._deferred
+        fractions = self._way_fractions(arrival)
+        drift_m = self._arrival_drift_m(arrival, fractions)
+        if arrival is not None and arrival.measured_shift_m is not None and deferred:
+            surfaces_m = self._deferred_surfaces_m()
+            drift = 0.0 if drift_m is None else drift_m
+            self._start_surfaces_m = [
+                heights - drift * float(f) for heights, f in zip(surfaces_m, fractions, strict=True)
+            ]
+        for data, fraction in zip(deferred, fractions, strict=True):
+            frame_drift_m = None if drift_m is None else drift_m * float(fraction)
+            withdrawn, _, update_ms = self._map(data, use_z_match=False, drift_m=frame_drift_m)
             self.mapped_late.append(LateMapping(data.position, withdrawn, update_ms))
-        self._deferred.clear()
-        return frames
+        if drift_m is not None:
+            self.elevation.offset_m = -drift_m
+        self._deferred = []
+        return [data.frame for data in deferred]
+
+    def _way_fractions(self, arrival: _FrameData | None) -> NDArray[np.float64]:
+        """Each deferred frame's place between the start (0) and ``arrival`` (1); 0 without."""
+        positions = np.array([data.position for data in self._deferred], dtype=np.float64)
+        if arrival is None or positions.size == 0:
+            return np.zeros(positions.size)
+        return (positions - positions[0]) / (arrival.position - positions[0])
+
+    def _arrival_drift_m(
+        self, arrival: _FrameData | None, fractions: NDArray[np.float64]
+    ) -> float | None:
+        """Odometry's z drift at ``arrival`` measured on the start frames' surfaces [m] or None.
+
+        None without the elevation filter (nothing carries the correction forward), without
+        deferred frames, or when ``arrival`` did not measure the ground under its feet.
+        """
+        if (
+            arrival is None
+            or arrival.measured_shift_m is None
+            or not self._deferred
+            or not self.params.use_elevation_filter
+        ):
+            return None
+        arrival_z_m = float(arrival.frame.robot_pose_believed[2])
+        return arrival_drift_m(
+            self._deferred_surfaces_m(), fractions, arrival_z_m, self.reference.params
+        )
+
+    def _deferred_surfaces_m(self) -> list[NDArray[np.float64]]:
+        """World heights of each deferred frame's ground-sized floors (odometry, its shift)."""
+        return [
+            data.ground_sized_m
+            + float(data.frame.robot_pose_believed[2])
+            + self.reference.frame_shift_m(data.measured_shift_m)
+            for data in self._deferred
+        ]
 
     def _measure_reference(self, seg: SegmentationResult) -> float | None:
         """Give the frame's floor regions to the height reference; its measurement [m] or None."""
         if not self._use_reference:
             return None
         floors = seg.floors
-        return self.reference.update(floors.heights_m, floors.areas_m2, floors.is_floor)
+        return self.reference.update(
+            floors.heights_m, floors.areas_m2, floors.is_floor, self._rise_m
+        )
 
-    def _map(self, data: _FrameData, use_z_match: bool = True) -> tuple[bool, bool, float]:
+    def _ground_sized_m(self, seg: SegmentationResult) -> NDArray[np.float64]:
+        """Heights of the frame's ground-sized floor regions [m] (empty without the reference)."""
+        if not self._use_reference:
+            return np.empty(0)
+        floors = seg.floors
+        return self.reference.ground_sized_m(floors.heights_m, floors.areas_m2, floors.is_floor)
+
+    def _map(
+        self, data: _FrameData, use_z_match: bool = True, drift_m: float | None = None
+    ) -> tuple[bool, bool, float]:
         """Heading, world transform, z-match and map update of one segmented frame.
 
         Deferred frames are mapped without z-match (``use_z_match`` False): their odometry is
         the run's freshest (from the start pose) and matching them onto a map they are still
         building let it drift (stage_down seed 2: z shifts of −1 to −2 mm per frame while the
         robot stood on the platform with exact odometry; worst row 2.89 → 1.60 mm). The
-        elevation filter still corrects their robot z from the map under the robot.
+        elevation filter still corrects their robot z from the map under the robot, unless
+        ``drift_m`` (odometry's z drift at this frame, measured on arrival) is given: then the
+        robot's z is odometry's minus it and the filter is left alone.
 
         Returns:
             Whether the frame was withdrawn, whether it was z-matched, and the mapper update
@@ -299,6 +392,9 @@ class Pipeline:
         transform_camera_to_robot = data.transform_camera_to_robot.copy()
         transform_camera_to_robot[2, 3] += shift_m
         pose = self.robot_pose(frame)
+        if drift_m is not None:
+            pose[2] = float(frame.robot_pose_believed[2]) - drift_m
+        on_start_surface = self._stand_on_start_surface(data, pose)
         # Heading correction (mapper.heading): a yaw about the camera centre, before the pose.
         transform_robot_to_world = planar_pose_to_matrix(pose) @ self.heading.correct(
             points_robot, floor_robot, transform_camera_to_robot, pose
@@ -311,7 +407,7 @@ class Pipeline:
         self.baseline.recenter(pose[0], pose[1])
 
         matched = withdrawn = False
-        if self.params.use_z_match and use_z_match:
+        if self.params.use_z_match and use_z_match and not on_start_surface:
             match = self.mapper.match_z(points_world, floor_world)
             decision = frame_decision(
                 match, data.ground_plane_found or data.measured_shift_m is not None
@@ -341,11 +437,32 @@ class Pipeline:
             self.mapper.update(points_world, floor_world, sensor_origin)
             update_ms = 1000.0 * (time.perf_counter() - t2)
             self.baseline.update(points_world, floor_world, sensor_origin)
-            if self.params.use_elevation_filter:
+            if self.params.use_elevation_filter and drift_m is None and not on_start_surface:
                 self.elevation.update(
                     float(frame.robot_pose_believed[2]), self.mapper.floor_at(pose[0], pose[1])
                 )
         return withdrawn, matched, update_ms
+
+    def _stand_on_start_surface(self, data: _FrameData, pose: NDArray[np.float64]) -> bool:
+        """Put the robot on the start surface under its feet; whether it was (sets ``pose``).
+
+        A frame that measured the ground under its feet and was shifted by its own measurement
+        (it agrees with the reference's estimate) has its data right relative to its feet,
+        which stand on that ground; when the first frames saw a surface within
+        ``ref.surface_gate_m`` of the robot's filtered elevation ``pose[2]``, the robot's
+        elevation is that surface's height (``pose[2]`` and the elevation filter's offset are
+        set to it). The frame's data are then right relative to the start and are neither
+        z-matched nor used to pull the elevation to the map. A frame shifted by the estimate
+        instead (stereo: its measurement scatters by ±10 mm) is z-matched as before.
+        """
+        if not self.reference.agrees(data.measured_shift_m) or not self.params.use_elevation_filter:
+            return False
+        height_m = start_surface_m(self._start_surfaces_m, pose[2], self.reference.params)
+        if height_m is None:
+            return False
+        pose[2] = height_m
+        self.elevation.offset_m = height_m - float(data.frame.robot_pose_believed[2])
+        return True
 
     def maps(self) -> tuple[NDArray[np.int8], NDArray[np.float64], NDArray[np.float64]]:
         """Current FOG types, FOG heights [m] and baseline heights [m] (NaN = none)."""
