@@ -5,7 +5,9 @@ Conventions (heights in world metres, NaN = invalid):
 - ``Obstacle(x, y)`` is the *top face* of the highest occupied cell of the column,
   ``z_min + (k + 1)·layer`` — the coarse upper bound of what is there.
 - FOG: obstacle if ``h_o > h_f + δ`` (with an invalid floor every valid ``h_o`` counts), else
-  floor if ``h_f`` is valid, else unknown. Obstacles below the floor surface are ignored; an
+  floor if ``h_f`` is valid, else unknown. Beyond the paper, a floor whose points do not cover
+  its cell (`mapper.floor_cover`, `MapperParams.floor_pass_fraction`) counts as invalid here.
+  Obstacles below the floor surface are ignored; an
   occupied cell hanging above a floor (curtain, table top) makes the cell an obstacle.
 - ``Ceiling(x, y)`` is the *bottom face* of the lowest occupied cell above the free space a
   robot could use: where the floor is valid, the lowest occupied cell whose top is above
@@ -43,8 +45,17 @@ def update_fog_area(
     ix1: int,
     iy0: int,
     iy1: int,
+    cover_ends: NDArray[np.int32],
+    cover_passes: NDArray[np.int32],
+    min_rays: int,
+    pass_fraction: float,
 ) -> None:
-    """Recompute ``obstacle`` (eq. 10) and the FOG (eq. 11) in ``[ix0, ix1) × [iy0, iy1)``."""
+    """Recompute ``obstacle`` (eq. 10) and the FOG (eq. 11) in ``[ix0, ix1) × [iy0, iy1)``.
+
+    A floor reached by at least ``min_rays`` rays of which more than ``pass_fraction`` passed
+    through it (`mapper.floor_cover`) does not cover its cell: the cell is then unknown unless
+    eq. 11 makes it an obstacle; ``pass_fraction`` 0 = off (the paper).
+    """
     nz = og.shape[2]
     for ix in range(ix0, ix1):
         for iy in range(iy0, iy1):
@@ -55,10 +66,15 @@ def update_fog_area(
             top = z_min + (k_top + 1) * layer if k_top >= 0 else np.nan
             obstacle[ix, iy] = top
             hf = floor[ix, iy]
+            passes = cover_passes[ix, iy]
+            reached = cover_ends[ix, iy] + passes
+            covered = not (
+                pass_fraction > 0.0 and reached >= min_rays and passes > pass_fraction * reached
+            )
             if not np.isnan(top) and (np.isnan(hf) or top > hf + delta):
                 fog_types[ix, iy] = _OBSTACLE
                 fog_heights[ix, iy] = top
-            elif not np.isnan(hf):
+            elif not np.isnan(hf) and covered:
                 fog_types[ix, iy] = _FLOOR
                 fog_heights[ix, iy] = hf
             else:

@@ -13,6 +13,7 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from mapper.errors import InvalidParameterError
+from mapper.floor_cover import accumulate_cover, frame_floor_heights
 from mapper.floor_map import frame_verdicts, update_floor, verify_floor
 from mapper.fog import ceiling_map, update_fog_area
 from mapper.grid import (
@@ -73,6 +74,9 @@ class FloorObstacleMapper:
         self._floor = np.full((p.nx, p.ny), np.nan)
         self._floor_votes = np.zeros((p.nx, p.ny), dtype=np.int32)
         self._floor_frame_votes = np.zeros((p.nx, p.ny), dtype=np.int32)
+        self._cover_ref = np.full((p.nx, p.ny), np.nan)
+        self._cover_ends = np.zeros((p.nx, p.ny), dtype=np.int32)
+        self._cover_passes = np.zeros((p.nx, p.ny), dtype=np.int32)
         self._obstacle = np.full((p.nx, p.ny), np.nan)
         self._fog_types = np.full((p.nx, p.ny), CellType.UNKNOWN, dtype=np.int8)
         self._fog_heights = np.full((p.nx, p.ny), np.nan)
@@ -203,6 +207,22 @@ class FloorObstacleMapper:
             p.nu,
             p.floor_vote_cap,
         )
+        if p.floor_pass_fraction > 0.0:
+            accumulate_cover(
+                self._floor,
+                self._cover_ref,
+                self._cover_ends,
+                self._cover_passes,
+                point_cell,
+                pts,
+                heights,
+                origin,
+                frame_floor_heights(heights, p.eps_m),
+                ox,
+                oy,
+                g.cell_m,
+                p.eps_m,
+            )
         update_fog_area(
             self._og,
             self._floor,
@@ -217,6 +237,10 @@ class FloorObstacleMapper:
             ix1,
             iy0,
             iy1,
+            self._cover_ends,
+            self._cover_passes,
+            p.floor_pass_min_rays,
+            p.floor_pass_fraction,
         )
         return UpdateResult(
             AffectedArea(int(ix0), int(ix1), int(iy0), int(iy1)),
@@ -297,6 +321,9 @@ class FloorObstacleMapper:
         scroll_xy(self._floor, sx, sy, np.nan)
         scroll_xy(self._floor_votes, sx, sy, 0)
         scroll_xy(self._floor_frame_votes, sx, sy, 0)
+        scroll_xy(self._cover_ref, sx, sy, np.nan)
+        scroll_xy(self._cover_ends, sx, sy, 0)
+        scroll_xy(self._cover_passes, sx, sy, 0)
         scroll_xy(self._obstacle, sx, sy, np.nan)
         scroll_xy(self._fog_types, sx, sy, CellType.UNKNOWN)
         scroll_xy(self._fog_heights, sx, sy, np.nan)

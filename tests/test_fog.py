@@ -19,8 +19,22 @@ def fog_of_column(levels, hf):
     obstacle = np.full((1, 1), np.nan)
     types = np.zeros((1, 1), dtype=np.int8)
     heights = np.zeros((1, 1))
+    no_cover = (np.zeros((1, 1), dtype=np.int32), np.zeros((1, 1), dtype=np.int32), 1, 0.0)
     update_fog_area(
-        og, floor, obstacle, types, heights, P.occ_threshold_level, Z0, L, P.delta_m, 0, 1, 0, 1
+        og,
+        floor,
+        obstacle,
+        types,
+        heights,
+        P.occ_threshold_level,
+        Z0,
+        L,
+        P.delta_m,
+        0,
+        1,
+        0,
+        1,
+        *no_cover,
     )
     return CellType(types[0, 0]), heights[0, 0], obstacle[0, 0]
 
