@@ -50,6 +50,9 @@ def test_report_metrics_flatten_the_report():
     assert report_metrics(REPORT) == {
         "table1.ground.abs_error_mm": 0.4,
         "table1.sill.abs_error_mm": 2.5,
+        "table1.ground.coverage": 0.1,  # 10 of 100 cells (report_factory.row)
+        "table1.sill.coverage": 0.1,
+        "table1.far.coverage": 0.0,  # never estimated: no cell of it
         "cells.floor_recall": 0.97,
         "cells.floor_precision": 0.99,
         "cells.obstacle_recall": 0.4,
@@ -78,6 +81,8 @@ def test_report_metrics_take_the_residual_heading_median_when_the_run_has_one():
     assert metrics.keys() - report_metrics(REPORT).keys() == {
         "pose_error.residual_heading_deg.median"
     }
+    coverage = rule_for("table1.sill.coverage")
+    assert coverage.worse_by(0.46, 0.5) < 0 and coverage.worse_by(0.44, 0.5) > 0
     heading = rule_for("pose_error.residual_heading_deg.median")
     assert heading.worse_by(0.64, 0.4) < 0 and heading.worse_by(0.66, 0.4) > 0
 

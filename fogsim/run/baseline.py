@@ -6,6 +6,9 @@ Figures (flat names, one value per run; ``direction`` says which way is better):
 figure                                        direction  tolerance    meaning
 ============================================  =========  ===========  =========================
 ``table1.<surface>.abs_error_mm``             lower      1.0 mm       FOG Table I row error
+``table1.<surface>.coverage``                 higher     0.05         fraction of the row's
+                                                                      interior cells the FOG
+                                                                      has a floor height in
 ``cells.floor_recall``                        higher     0.01         true floor cells seen and
                                                                       labelled floor
 ``cells.floor_precision``                     higher     0.01         FOG floor cells that are
@@ -33,6 +36,9 @@ point) may move a figure before the check calls it a regression.
 
 * Table I rows are medians over about a hundred cells of smoothed heights: a millimetre is
   below the paper's own Table I resolution (its rows differ by 1–4 mm) and above rounding.
+* A Table I row's coverage says how many cells its error stands on (a row measured on 1 of
+  50 cells is one cell's height): 0.05 is a few cells of a step, flagging a surface the map
+  lost.
 * Floor classes hold thousands of seen cells on the stage, so 0.01 is tens of cells; obstacle
   classes hold 50–100 seen cells (the stage's boxes), so one cell is 1–2 % and 0.05 lets
   two or three cells flip, no more.
@@ -116,6 +122,8 @@ class MetricRule:
 
 def rule_for(metric: str) -> MetricRule:
     """The tolerance rule of a figure name (see the module table)."""
+    if metric.startswith("table1.") and metric.endswith(".coverage"):
+        return MetricRule("higher", 0.05)
     if metric.startswith("table1."):
         return MetricRule("lower", 1.0)
     if metric in ("cells.floor_recall", "cells.floor_precision"):
@@ -151,6 +159,8 @@ def report_metrics(report: Report) -> dict[str, float]:
         for row in report.table1.fog:
             if row.error_mm is not None:
                 metrics[f"table1.{row.name}.abs_error_mm"] = abs(float(row.error_mm))
+            if row.surface_cells:
+                metrics[f"table1.{row.name}.coverage"] = row.cells / row.surface_cells
     if report.cells is not None:
         classes = report.cells.fog.classes
         for label, scores in (("floor", classes.floor), ("obstacle", classes.obstacle)):
