@@ -988,3 +988,17 @@ def test_any_ray_address_is_accepted_or_refused_with_a_message(address):
         assert str(exc).startswith(f"--ray {address!r}: must be auto, local or HOST:PORT")
     else:
         assert endpoint is None or 1 <= endpoint.port <= 65535
+
+
+def test_the_command_line_imports_optuna_only_for_tune():
+    """Every ``fogsim`` command builds the tune parser; only ``fogsim tune`` needs Optuna."""
+    root = Path(__file__).resolve().parent.parent
+    code = (
+        "import sys\n"
+        "import fogsim.cli\n"
+        "assert 'optuna' not in sys.modules, 'fogsim.cli imported optuna'\n"
+        "from fogsim.tune import tune\n"
+        "assert 'optuna' in sys.modules\n"
+    )
+    env = dict(os.environ, PYTHONPATH=str(root))
+    subprocess.run([sys.executable, "-c", code], env=env, check=True)

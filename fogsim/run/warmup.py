@@ -11,8 +11,12 @@ On a cold cache the groups are compiled in two processes at once: a helper proce
 compiles :data:`HELPER_GROUP` into the cache while this process compiles the others, then this
 process loads the helper's kernels from the cache. Compiling holds numba's compiler lock (and
 mostly the GIL), so a second thread would not help; a second process halves the wait on two
-cores. A helper that fails is reported on the stream (its last line of standard error) and its
-group compiled here instead.
+cores. Each group's step calls only its own kernels (the mapper's are driven through the
+``mapper`` API, not through a :class:`Pipeline`, which would segment and so compile the
+segmentation a second time beside the helper); a last step runs a :class:`Pipeline` on the
+synthetic frames, which loads every kernel from the cache and compiles whatever a group missed.
+A helper that fails is reported on the stream (its last line of standard error) and its group
+compiled here instead.
 
 Where the cache is: numba keeps it beside the sources (``__pycache__/*.nbi`` index files and
 ``*.nbc`` code) and, when that folder is not writable (a wheel in a read-only site-packages),
@@ -42,6 +46,7 @@ import mapper.averaging
 import mapper.floor_map
 import mapper.fog
 import mapper.grid
+import mapper.heading
 import mapper.occupancy
 import mapper.scanline
 import mapper.zmatch
@@ -50,8 +55,11 @@ from fogsim.data.frame import Frame
 from fogsim.mapping.pipeline import Pipeline
 from fogsim.robot import self_filter
 from fogsim.run.process_exit import exit_process
+from mapper import AveragingMap, FloorObstacleMapper
+from mapper.heading import heading_scores
 from mapper.intrinsics import PinholeIntrinsics
 from mapper.segmentation import segment_depth
+from mapper.transforms import apply_transform
 
 MESSAGE = "compiling kernels (first run only)"
 """What standard error says before the first kernel group is compiled."""
@@ -88,9 +96,18 @@ SEGMENTATION = KernelGroup("segmentation", (mapper.scanline,))
 
 MAPPER = KernelGroup(
     "mapper",
-    (mapper.grid, mapper.occupancy, mapper.floor_map, mapper.fog, mapper.averaging, mapper.zmatch),
+    (
+        mapper.grid,
+        mapper.occupancy,
+        mapper.floor_map,
+        mapper.fog,
+        mapper.averaging,
+        mapper.zmatch,
+        mapper.heading,
+    ),
 )
-"""The map update kernels: frame checks, occupancy, floor map, FOG types, averaging, z-match."""
+"""The map update kernels: frame checks, occupancy, floor map, FOG types, averaging, z-match,
+heading scores."""
 
 SELF_FILTER = KernelGroup("self-filter", (self_filter,))
 """The kernel removing the robot's body from simulated depth images."""
@@ -107,10 +124,11 @@ took about half of the cold compile), so the two processes finish at about the s
 def warm_up_kernels(params: RunParams, stream: TextIO | None = sys.stderr) -> float:
     """Compile (or load from numba's cache) the kernels a run of ``params`` uses.
 
-    Runs :data:`SEGMENTATION`, then :data:`MAPPER` (a throwaway :class:`Pipeline`) on synthetic
-    frames, then :data:`SELF_FILTER` on a 2 × 2 image; with more than one group's cache cold,
-    :data:`HELPER_GROUP` is compiled by a helper process meanwhile (module doc). Nothing of the
-    run's own state is touched.
+    Runs :data:`SEGMENTATION` and :data:`MAPPER` (throwaway maps) on synthetic frames, then
+    :data:`SELF_FILTER` on a 2 × 2 image; with more than one group's cache cold,
+    :data:`HELPER_GROUP` is compiled by a helper process meanwhile (module doc). Then a
+    throwaway :class:`Pipeline` maps the synthetic frames (every kernel loaded from the cache).
+    Nothing of the run's own state is touched.
 
     Args:
         params: The run's parameters (the kernels are compiled for their types).
@@ -143,6 +161,7 @@ def warm_up_kernels(params: RunParams, stream: TextIO | None = sys.stderr) -> fl
             say(f" {helper.seconds():.1f} s (second process)", file=stream, flush=True)
             if failure:
                 say(f"  (the second process failed, compiled here: {failure})", file=stream)
+        _pipeline(_floor_frames(), params)
     finally:
         if helper is not None:
             helper.stop()
@@ -272,24 +291,54 @@ def _floor_depth_m(transform_camera_to_world: NDArray[np.float64]) -> NDArray[np
 
 
 def _segment(frame: Frame, params: RunParams) -> None:
+    """Segment ``frame`` with the parameters the run's pipeline segments with."""
     segment_depth(
         frame.depth_m,
         frame.intrinsics,
         frame.transform_camera_to_robot_believed,
-        params.segmentation,
+        Pipeline(params).segmentation_params,
     )
 
 
 def _map(frames: tuple[Frame, ...], params: RunParams) -> None:
+    """Both maps, z-matching and the heading scores on the frames' floor points (no segmentation).
+
+    Every pixel sees the floor z = 0, so the points are the floor's, at height 0, in the world.
+    """
+    fog = FloorObstacleMapper(params.mapper)
+    baseline = AveragingMap(params.mapper)
+    for frame in frames:
+        points_camera = frame.depth_m[..., None] * frame.intrinsics.ray_directions_camera()
+        transform = frame.transform_camera_to_world_true
+        points_world = apply_transform(transform, points_camera.reshape(-1, 3))
+        floor_world = np.zeros(len(points_world))
+        origin = np.ascontiguousarray(transform[:3, 3])
+        for grid in (fog, baseline):
+            grid.recenter(float(origin[0]), float(origin[1]))
+            grid.update(points_world, floor_world, origin)
+        fog.match_z(points_world, floor_world)
+    fog.fog(), fog.floor(), fog.obstacle(), fog.ceiling(), fog.floor_at(0.0, 0.0)
+    baseline.heights()
+    offsets_xy = np.ascontiguousarray(points_world[:4, :2])
+    heading_scores(
+        offsets_xy,
+        points_world[:4, 2].copy(),
+        np.array([0, 2, 4], dtype=np.int64),
+        offsets_xy[:2].copy(),
+        np.zeros(2),
+        np.zeros(3),
+        params.heading.cell_m,
+        params.heading.layer_m,
+    )
+
+
+def _pipeline(frames: tuple[Frame, ...], params: RunParams) -> None:
+    """A throwaway :class:`Pipeline` on the frames: what a run calls, from the cache now."""
     pipeline = Pipeline(params)
     for frame in frames:
         pipeline.process(frame)
     pipeline.finish()  # frames waiting for the height reference are mapped now
-    points = pipeline.last_points
-    assert points is not None  # the frames were mapped
-    pipeline.mapper.match_z(points.points_world, points.floor_heights_m)
     pipeline.maps()
-    pipeline.mapper.floor(), pipeline.mapper.obstacle(), pipeline.mapper.ceiling()
 
 
 def _helper_main(group_name: str) -> None:

@@ -10,7 +10,6 @@ from fogsim.tune.config import RECORDINGS_DIR, SamplerKind, TuneConfig
 from fogsim.tune.executors import check_ray_address
 from fogsim.tune.objective import ObjectiveWeights
 from fogsim.tune.space import ParamSpec, check_ranges
-from fogsim.tune.study import tune
 from fogsim.tune.suite import load_suite
 
 
@@ -78,6 +77,8 @@ def add_tune_arguments(
 
 def run_tune(args: argparse.Namespace) -> int:
     """Run ``fogsim tune`` from parsed arguments; prints the best block and the top table."""
+    from fogsim.tune.study import tune  # Optuna: imported by this command only (package doc)
+
     params = tuple(ParamSpec.parse(text) for text in args.param)
     check_ranges(params)  # before the suite is recorded: errors come before long work
     config = TuneConfig(

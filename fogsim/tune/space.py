@@ -11,12 +11,15 @@ from __future__ import annotations
 import math
 from collections.abc import Sequence
 from dataclasses import dataclass
+from typing import TYPE_CHECKING
 
 import numpy as np
-import optuna
 
 from fogsim.config import RunParams, override_key, replace_params, split_override_key
 from fogsim.errors import ParameterError
+
+if TYPE_CHECKING:
+    import optuna
 
 TUNED_TABLES = ("mapper", "segmentation")
 """The :class:`~fogsim.config.params.RunParams` groups (scenario tables) tuning may change."""
