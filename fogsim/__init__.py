@@ -12,9 +12,9 @@ The public API is imported lazily (``import fogsim`` stays cheap and needs no Mu
 
 from __future__ import annotations
 
-import importlib
 import os
-from typing import Any
+
+from fogsim.lazy import lazy_getattr
 
 # Rendering is headless: MuJoCo picks its OpenGL backend from these when it is first imported,
 # so they are set (unless the user chose otherwise) before any fogsim module imports it.
@@ -42,8 +42,4 @@ _EXPORTS = {
 __all__ = sorted(_EXPORTS)
 
 
-def __getattr__(name: str) -> Any:
-    module = _EXPORTS.get(name)
-    if module is None:
-        raise AttributeError(f"module 'fogsim' has no attribute {name!r}")
-    return getattr(importlib.import_module(module), name)
+__getattr__ = lazy_getattr(__name__, _EXPORTS)

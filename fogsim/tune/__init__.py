@@ -18,8 +18,7 @@ A tune from Python::
     result = tune(config, suite, report_function=replay_report)
 """
 
-import importlib
-from typing import Any
+from fogsim.lazy import lazy_getattr
 
 _EXPORTS = {
     "ObjectiveWeights": "fogsim.tune.objective",
@@ -42,8 +41,4 @@ Optuna (~0.1 s CPU) into every run."""
 __all__ = sorted(_EXPORTS)
 
 
-def __getattr__(name: str) -> Any:
-    module = _EXPORTS.get(name)
-    if module is None:
-        raise AttributeError(f"module 'fogsim.tune' has no attribute {name!r}")
-    return getattr(importlib.import_module(module), name)
+__getattr__ = lazy_getattr(__name__, _EXPORTS)
