@@ -43,6 +43,7 @@ from numba.core.dispatcher import Dispatcher
 from numpy.typing import NDArray
 
 import mapper.averaging
+import mapper.floor_cover
 import mapper.floor_map
 import mapper.fog
 import mapper.grid
@@ -100,14 +101,15 @@ MAPPER = KernelGroup(
         mapper.grid,
         mapper.occupancy,
         mapper.floor_map,
+        mapper.floor_cover,
         mapper.fog,
         mapper.averaging,
         mapper.zmatch,
         mapper.heading,
     ),
 )
-"""The map update kernels: frame checks, occupancy, floor map, FOG types, averaging, z-match,
-heading scores."""
+"""The map update kernels: frame checks, occupancy, floor map, floor cover, FOG types, averaging,
+z-match, heading scores."""
 
 SELF_FILTER = KernelGroup("self-filter", (self_filter,))
 """The kernel removing the robot's body from simulated depth images."""
