@@ -4,7 +4,7 @@ import numpy as np
 import pytest
 
 from mapper import MapperParams
-from mapper.floor_map import frame_verdicts, update_floor, verify_floor
+from mapper.floor_map import LEVEL_MIN_POINTS, frame_verdicts, update_floor, verify_floor
 
 # The hand values below are for these thresholds (the defaults before tuning, see MapperParams).
 P = MapperParams(
@@ -201,7 +201,8 @@ def verdict(frames, cap, frame_votes=1):
 # No plane, at the floor's height and spread over more than eps (a rough top): 3 points at
 # or below the floor count against it, one above it does not.
 ROUGH = [(TOP - 0.015, np.nan), (TOP - 0.005, np.nan), (TOP, np.nan), (TOP + 0.008, np.nan)]
-LEVEL = [(TOP - 0.005, np.nan), (TOP, np.nan), (TOP + 0.005, np.nan)]  # no plane, level
+# No plane, level: 5 points within 10 mm (LEVEL_MIN_POINTS), 2 of them above the floor.
+LEVEL = [(TOP + dz, np.nan) for dz in (-0.005, -0.002, 0.0, 0.002, 0.005)]
 PLANE = [(TOP + 0.001, TOP + 0.001)] * 2
 
 
@@ -238,8 +239,9 @@ def test_frames_seeing_the_floor_level_but_no_plane_say_nothing():
     assert verdict([[*LEVEL, (TOP - 0.012, np.nan)]], 40) == (TOP, 1, 0)  # 17 mm apart
     spread = [*LEVEL, (TOP - P.eps_m, np.nan)]  # 25 mm apart: rough
     assert np.isnan(verdict([spread], 40)[0])
-    # One or two points are level whatever the surface: they count against it as before.
-    assert np.isnan(verdict([LEVEL[:2]], 40)[0])
+    # Fewer points are level whatever the surface: they count against it as before.
+    assert len(LEVEL) == LEVEL_MIN_POINTS
+    assert np.isnan(verdict([LEVEL[:-1]], 40)[0])
 
 
 def test_no_frame_verdicts_with_cap_zero():
