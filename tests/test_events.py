@@ -142,10 +142,11 @@ def test_each_object_has_its_own_footprint_and_known_frame_counts():
     assert b.floor_again_frames == EventFrames(fog=5, averaging=None)
     assert "cleared FOG 5 / averaging not seen; floor again FOG 5 / averaging not seen" in b.text()
 
-    # The slider's footprint: the 27 × 3 cells it slid over less the 2 × 3 it ends on. It stands
-    # on its footprint until it arrives at 6 s (frame 60); the maps follow it at once.
+    # The slider's footprint: the 27 × 3 cells it slid over less the 2 × 3 it ends on and the
+    # column beside them (within one cell). It stands on its footprint until it arrives at 6 s
+    # (frame 60); the maps follow it at once.
     assert (slider.object, slider.kind, slider.start_frame) == ("slider", "move", 10)
-    assert (slider.footprint_cells, slider.excluded_cells) == (75, 0)
+    assert (slider.footprint_cells, slider.excluded_cells) == (72, 0)
     assert slider.seen == EventSeen(fog=True, averaging=True)
     assert slider.cleared_frames == EventFrames(fog=50, averaging=50)
     assert slider.floor_again_frames == EventFrames(fog=50, averaging=50)
@@ -170,8 +171,9 @@ def test_a_moved_box_sweeps_the_cells_between_its_places_and_smears_count():
     tracker.update(1, 1.0, centers, CELL, types, heights, smeared)
     tracker.update(2, 2.0, centers, CELL, types, heights, heights)
     (result,) = tracker.results()
-    # 20 × 4 cells from x 0.22 to 0.98 (rows 0.54–0.66), less the 5 × 4 it ends on.
-    assert (result.kind, result.footprint_cells, result.excluded_cells) == ("move", 60, 0)
+    # 20 × 4 cells from x 0.22 to 0.98 (rows 0.54–0.66), less the 5 × 4 it ends on and the
+    # column beside them (x 0.78, within one cell).
+    assert (result.kind, result.footprint_cells, result.excluded_cells) == ("move", 56, 0)
     assert result.seen == EventSeen(fog=True, averaging=False)  # the baseline had only floor
     assert result.cleared_frames == EventFrames(fog=0, averaging=None)
     assert result.intermediate_floor_cells.fog == MaxFinal(max=0, final=0)
@@ -214,3 +216,36 @@ def test_an_event_after_the_last_frame_has_no_start_and_no_figure():
     assert result.seen == EventSeen(fog=True, averaging=True)
     assert result.cleared_frames == EventFrames(None, None)
     assert result.text() == "remove box (25 cells): the run ended before the event"
+
+
+def test_floor_again_counts_the_cells_the_map_knows_when_it_knows_half_the_place():
+    box = ObjectState("box", (0.3, 0.3), (0.2, 0.2, 0.06), 0.0, 0.0, True)
+    names = ("ground", "box")
+    with_box, without = SceneTruth(0.0, (box,), names), SceneTruth(1.0, (), names)
+
+    def world_at(t: float) -> SceneTruth:
+        return with_box if t < 1.0 else without
+
+    centers = lattice(0.02, 30, 0.02, 30)
+    footprint = (np.abs(centers[..., 0] - 0.3) < 0.1) & (np.abs(centers[..., 1] - 0.3) < 0.1)
+    tracker = EventTracker([Event(at=1.0, remove="box")], world_at)
+    tracker.update(
+        0, 0.0, centers, CELL, *maps_of(with_box, centers), maps_of(with_box, centers)[1]
+    )
+    types, heights = maps_of(without, centers)
+    # Frame 1: the map knows one cell of the place (floor), the rest erased: not floor again.
+    one_known = types.copy()
+    one_known[footprint] = CellType.UNKNOWN
+    first = np.argwhere(footprint)[0]
+    one_known[tuple(first)] = CellType.FLOOR
+    tracker.update(1, 1.0, centers, CELL, one_known, heights, heights)
+    # Frame 2: it knows 60 % of the place, all floor: floor again (the rest is unknown).
+    some_known = types.copy()
+    cells = np.argwhere(footprint)
+    for i, j in cells[int(0.6 * len(cells)) :]:
+        some_known[i, j] = CellType.UNKNOWN
+    tracker.update(2, 2.0, centers, CELL, some_known, heights, heights)
+    (result,) = tracker.results()
+    assert result.footprint_cells == len(cells) == 25
+    assert result.cleared_frames.fog == 0  # unknown cells never show the object
+    assert result.floor_again_frames.fog == 1
