@@ -182,7 +182,21 @@ def test_the_start_surface_under_the_feet_is_the_median_of_the_first_frames():
     params = HeightReferenceParams()
     surfaces = [np.array([0.001, 0.122]), np.array([0.121]), np.array([-0.002, 0.12])]
     surfaces += [np.array([0.0005])]
-    # Nearest within 10 mm of 3 mm, per frame that has one: 1, -2, 0.5 mm; their median.
+    # Largest (listed first) within 10 mm of 3 mm, per frame that has one: 1, -2, 0.5 mm;
+    # their median.
     assert start_surface_m(surfaces, 0.003, params) == pytest.approx(0.0005)
     assert start_surface_m(surfaces, 0.118, params) == pytest.approx(0.121)
     assert start_surface_m(surfaces, 0.05, params) is None
+
+
+def test_the_largest_fragment_of_a_start_surface_is_taken_wherever_the_robot_is():
+    # Depth noise split the ground of every first frame into a 4 m² plane at 0 and a 0.5 m²
+    # fragment 0.8 mm lower (room, seed 3): the elevation near either gives the ground.
+    params = HeightReferenceParams()
+    reference = HeightReference(params)
+    heights = np.array([-0.0008, 0.0, -0.122])  # the fragment, the ground, a pit
+    ordered = reference.ground_sized_m(heights, np.array([0.5, 4.0, 1.0]), np.ones(3, bool))
+    np.testing.assert_array_equal(ordered, [0.0, -0.122, -0.0008])
+    surfaces = [ordered] * 8  # world heights with odometry's z 0 and no shift
+    assert start_surface_m(surfaces, -0.0008, params) == 0.0
+    assert start_surface_m(surfaces, 0.0, params) == 0.0
