@@ -158,7 +158,8 @@ def stage_recording(directory: Path, width: int, height: int) -> Path:
         directory.mkdir(parents=True, exist_ok=True)
         command = [sys.executable, "-m", "fogsim", "record", "stage", "--out", str(path)]
         command += ["--set", f"camera.width={width}", "--set", f"camera.height={height}"]
-        subprocess.run([*command, "--quiet"], check=True, cwd=ROOT)
+        # Its "recorded ..." line goes to stderr: a child's stdout holds only JSON rows.
+        subprocess.run([*command, "--quiet"], check=True, cwd=ROOT, stdout=sys.stderr)
     return path
 
 
