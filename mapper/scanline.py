@@ -965,7 +965,7 @@ def plane_refits(inv_depth, x, y, labels, planes, factor, min_noise_m):
     for r in range(height):
         for c in range(width):
             p = labels[r, c]
-            if p < 0 or not planes[p, 0] == planes[p, 0]:
+            if p < 0 or math.isnan(planes[p, 0]):
                 continue
             z = inv_depth[r, c]
             residual = abs(z - (planes[p, 0] * x[c] + planes[p, 1] * y[r] + planes[p, 2]))

@@ -474,9 +474,9 @@ def test_correlated_noise_doubles_the_normal_error_and_tau_accounts_for_it():
 
 def _edge_fattened_ground_normal_errors(refit_sigma, draws=20):
     """Normal angle errors [deg] of the ground's inverse-depth plane (0.9 m, 35° down, white
-    stereo noise 0.13 px) whose two rightmost pixel columns read a box face at 0.7 of their depth, as a
-    matcher's window gives the pixels beside a box silhouette the box's disparity; the first
-    fit (``refit_sigma`` 0) or its refit on the pixels within ``refit_sigma`` sigma."""
+    stereo noise 0.13 px) whose two rightmost pixel columns read a box face at 0.7 of their
+    depth, as a matcher's window gives the pixels beside a box silhouette the box's disparity;
+    the first fit (``refit_sigma`` 0) or its refit on the pixels within ``refit_sigma`` sigma."""
     camera = look_down_camera((0.0, 0.0, 0.9), pitch_down_deg=35.0)
     scene = render_scene(SMALL, camera)
     x = (np.arange(SMALL.width) - SMALL.cx) / SMALL.fx
