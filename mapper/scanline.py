@@ -946,6 +946,41 @@ def plane_fits(inv_depth, x, y, labels, n_planes):
 
 
 @numba.njit(cache=True)
+def plane_refits(inv_depth, x, y, labels, planes, factor, min_noise_m):
+    """Refit each plane of `plane_fits` on its pixels within ``factor`` sigma of the first fit.
+
+    A pixel of plane ``p`` is an inlier if its inverse-depth residual is at most
+    ``factor·max(s_p, min_noise_m/d²)``: ``s_p`` the first fit's RMS residual (``planes[p, 3]``
+    is its square), the floor the depth-noise floor in inverse depth at the pixel's depth d
+    (exact data has ``s_p ≈ 0``). The labels and counts stay; only the parameters change, so
+    a few outlier pixels (a stereo matcher's edge fattening) no longer pull the normal. A
+    plane whose inliers are degenerate keeps its first fit (the first fit is the answer then).
+
+    Returns:
+        (P, 13) plane table as `plane_fits`'s, refitted.
+    """
+    height, width = labels.shape
+    n_planes = planes.shape[0]
+    sums = np.zeros((n_planes, _N_SUMS))
+    for r in range(height):
+        for c in range(width):
+            p = labels[r, c]
+            if p < 0 or math.isnan(planes[p, 0]):
+                continue
+            z = inv_depth[r, c]
+            residual = abs(z - (planes[p, 0] * x[c] + planes[p, 1] * y[r] + planes[p, 2]))
+            if residual <= factor * max(math.sqrt(planes[p, 3]), min_noise_m * z * z):
+                _accumulate(sums[p], x[c], y[r], z)
+    refits = planes.copy()
+    for p in range(n_planes):
+        if not _solve_plane(sums[p], refits[p]):
+            refits[p] = planes[p]
+        # The residual variance stays the first fit's: the trimmed one underestimates the noise.
+        refits[p, 3] = planes[p, 3]
+    return refits
+
+
+@numba.njit(cache=True)
 def fill_pixels(values, x, y, labels, sigma, model, factor, tolerance_floor_m, passes, inverse):
     """Let unassigned pixels join a 4-neighbour's label if they lie on it within tolerance.
 

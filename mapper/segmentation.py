@@ -97,6 +97,7 @@ _NON_NEGATIVE_FIELDS = (
     "floor_height_tolerance_m",
     "floor_max_segment_chi2",
     "disparity_noise_px",
+    "plane_refit_sigma",
     "stereo_baseline_m",
 )
 """`SegmentationParams` fields that must be finite and >= 0."""
@@ -224,6 +225,12 @@ class SegmentationParams:
             row reads 10-25 mm low while its inner rows are within 4 mm, and the steps' floor
             pixels at 1-1.5 m (seed 4, true pose) are labelled twice as often and within 3 mm in
             the median instead of 11 mm low.
+        plane_refit_sigma: the tilt correction takes each plane's normal from a refit on its
+            pixels within this many sigma of the first least-squares fit (sigma: that fit's
+            RMS residual, at least ``min_noise_m`` at the pixel's depth;
+            `scanline.plane_refits`), so a stereo matcher's edge-fattened pixels don't tilt
+            it; everything else uses the first fit. 0 (default): off (a depth sensor without
+            a matching window). For fogsim's stereo head 1 (`fogsim.sim.camera.noise_model`).
     """
 
     min_depth_m: float = 0.05
@@ -264,6 +271,7 @@ class SegmentationParams:
     stereo_baseline_m: float = 0.0
     noise_correlation_factor: float = 1.0
     floor_edge_margin_px: int = 0
+    plane_refit_sigma: float = 0.0
 
     def __post_init__(self) -> None:
         def check(name: str, kind: type, allowed: str, ok=lambda _: True) -> None:
@@ -608,12 +616,28 @@ def segment_depth(
     rms = np.sqrt(plane_table[:, 3]) * centroids_camera[:, 2] ** 2
     # The noise is never below min_noise_m (exact data: no plane is infinitely certain).
     min_inv_sigma = params.min_noise_m / centroids_camera[:, 2] ** 2
-    normal_sigma_deg = _normal_sigma_deg(
-        plane_table, params.noise_correlation_factor, min_inv_sigma
-    )
+    # The tilt's normals come from the planes refitted without their outliers (if on).
+    tilt_table = plane_table
+    tilt_normals = normals
+    if params.plane_refit_sigma > 0.0:
+        tilt_table = scanline.plane_refits(
+            inv_depth,
+            x,
+            y,
+            new_id[grown_labels],
+            plane_table,
+            params.plane_refit_sigma,
+            params.min_noise_m,
+        )
+        tilt_normals = tilt_table[:, :3] / np.linalg.norm(tilt_table[:, :3], axis=1)[:, None]
+        tilt_normals = tilt_normals @ rotation.T
+        tilt_normals *= np.where(tilt_normals[:, 2] < 0.0, -1.0, 1.0)[:, None]
+    normal_sigma_deg = _normal_sigma_deg(tilt_table, params.noise_correlation_factor, min_inv_sigma)
     # The tilt's planes are weighted by the information of their normals (1/σ²), not by area:
     # a far plane's footprint is large while its normal, under stereo noise, is poor.
-    correction = estimate_tilt(normals, 1.0 / normal_sigma_deg**2, eigen, counts, pivot, params)
+    correction = estimate_tilt(
+        tilt_normals, 1.0 / normal_sigma_deg**2, eigen, counts, pivot, params
+    )
     centroids_c = (centroids - pivot) @ correction.rotation.T + pivot
     normals_c = normals @ correction.rotation.T
     is_floor_shape = _floor_shape(normals_c, eigen, counts, params)
