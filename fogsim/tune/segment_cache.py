@@ -32,10 +32,11 @@ from mapper.intrinsics import PinholeIntrinsics
 from mapper.segmentation import SegmentationParams, SegmentationResult, segment_depth
 
 CACHE_BYTES = 512 * 2**20
-"""Bytes of segmentation results one process keeps (512 MiB). A stage recording's results
-take ~170 MB (its 88×72 frames: ~0.85 MB each, mostly the (N, 3) points and per-point ids),
-so a suite of about three stage-sized recordings fits; with ``--workers 2`` the tune holds
-at most 1 GiB. Beyond it new results are not kept (see :class:`SegmentationCache`)."""
+"""Bytes of segmentation results one process keeps (512 MiB). A stage recording's results take
+~300 MB (832 frames of 88×72 pixels, ~0.36 MB each: the (N, 3) points, the per-point heights
+and ids, and the depth image of the key), box_removal's 132 frames ~50 MB, so the default
+suite (``bench/bench_tune.py``: stage and box_removal) fits; a tune holds at most this much
+per worker. Beyond it new results are not kept (see :class:`SegmentationCache`)."""
 
 
 def result_bytes(value: Any) -> int:
