@@ -8,16 +8,20 @@
    archive vs ground truth, Table I, cells, events, report assembly), ``objective`` = reducing
    the report (:func:`fogsim.tune.objective.objective_terms`).
 3. A fresh tune of ``--trials`` trials (TPE, three parameters) with ``--workers`` processes: wall
-   time, trials per minute, best vs defaults objective.
+   time, the CPU of this process and its workers, trials per minute, best vs defaults objective.
+   Its trials reuse each worker's segmentations (:mod:`fogsim.tune.segment_cache`, as ``fogsim
+   tune`` does) unless ``--no-segment-cache``.
 
 Run: ``.venv/bin/python bench/bench_tune.py [--trials 100] [--workers 2]
-[--scenarios stage box_removal] [--out runs/bench_tune]``. Timings on a shared machine are noisy.
+[--scenarios stage box_removal] [--out runs/bench_tune] [--no-segment-cache]``. Timings on a
+shared machine are noisy.
 """
 
 from __future__ import annotations
 
 import argparse
 import os
+import resource
 import statistics
 import sys
 import time
@@ -34,6 +38,7 @@ from fogsim.run.runner import replay_report, run_frames, sensor_fields
 from fogsim.tune import ParamSpec, TuneConfig, parameter_defaults, tune
 from fogsim.tune.config import RECORDINGS_DIR
 from fogsim.tune.objective import ObjectiveWeights, objective_terms
+from fogsim.tune.segment_cache import cached_replay_report
 from fogsim.tune.suite import load_suite
 
 PARAMS = ("p_occ=0.55:0.95", "eps_m=0.005:0.05:log", "delta_m=0.01:0.06")
@@ -48,6 +53,15 @@ def median_s(function, repeats: int) -> float:
     return statistics.median(times)
 
 
+def cpu_s() -> float:
+    """User + system CPU of this process and its waited-for children (the pool workers) [s]."""
+    own, children = (
+        resource.getrusage(resource.RUSAGE_SELF),
+        resource.getrusage(resource.RUSAGE_CHILDREN),
+    )
+    return own.ru_utime + own.ru_stime + children.ru_utime + children.ru_stime
+
+
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--trials", type=int, default=100)
@@ -55,6 +69,9 @@ def main() -> None:
     parser.add_argument("--repeats", type=int, default=3)
     parser.add_argument("--scenarios", nargs="+", default=["stage", "box_removal"])
     parser.add_argument("--out", type=Path, default=Path("runs/bench_tune"))
+    parser.add_argument(
+        "--no-segment-cache", action="store_true", help="segment every frame in every trial"
+    )
     args = parser.parse_args()
 
     start = time.perf_counter()
@@ -85,12 +102,14 @@ def main() -> None:
         params=specs, trials=args.trials, out_dir=args.out, workers=args.workers, seed=0,
         study_name=f"bench-{time.strftime('%Y%m%d-%H%M%S')}",
     )  # fmt: skip
-    start = time.perf_counter()
-    result = tune(config, suite, report_function=replay_report)
-    wall = time.perf_counter() - start
+    report_function = replay_report if args.no_segment_cache else cached_replay_report
+    start, cpu_start = time.perf_counter(), cpu_s()
+    result = tune(config, suite, report_function=report_function)
+    wall, cpu = time.perf_counter() - start, cpu_s() - cpu_start
     print(
-        f"\ntune: {result.complete} trials, {args.workers} workers, {wall:.1f} s wall "
-        f"({60 * result.complete / wall:.1f} trials/min, target: 100 trials <= 600 s)"
+        f"\ntune: {result.complete} trials, {args.workers} workers, {wall:.1f} s wall, "
+        f"{cpu:.1f} s CPU, segmentation cache {'off' if args.no_segment_cache else 'on'} "
+        f"({60 * result.complete / wall:.1f} trials/min, target: 100 trials <= 180 s)"
     )
     print(f"defaults objective {result.defaults_value:.4f}, best {result.best_value:.4f}")
     print(f"best {result.best_params}; results in {args.out}")

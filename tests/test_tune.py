@@ -1002,3 +1002,81 @@ def test_the_command_line_imports_optuna_only_for_tune():
     )
     env = dict(os.environ, PYTHONPATH=str(root))
     subprocess.run([sys.executable, "-c", code], env=env, check=True)
+
+
+# ----------------------------------------------------------------------------- segmentation cache
+
+
+def _without_times(report):
+    """A report with its timing reduced to the frame counts (times differ run to run)."""
+    import dataclasses
+
+    timing = report.timing
+    counts = (timing.frames, timing.withdrawn_frames, timing.z_matched_frames)
+    return dataclasses.replace(report, timing=counts)
+
+
+def test_trials_with_cached_segmentations_give_the_reports_of_segmenting_afresh():
+    from fogsim.run.runner import replay_report
+    from fogsim.tune.segment_cache import SegmentationCache
+
+    (entry,) = synthetic_box_removal_suite(frames=50)
+    cache = SegmentationCache()
+    trials = ({"p_occ": 0.7}, {"p_occ": 0.6, "eps_m": 0.02})
+    for number, overrides in enumerate(trials):
+        afresh = replay_report(entry.recording, overrides)
+        cached = replay_report(entry.recording, overrides, segment=cache.segment)
+        assert _without_times(cached) == _without_times(afresh)
+        # The first trial segments every frame once; the second only reads the cache.
+        assert (cache.misses, cache.hits) == (50, 50 * number)
+    assert _without_times(afresh) != _without_times(replay_report(entry.recording, trials[0]))
+
+
+def test_a_tuned_segmentation_parameter_is_segmented_afresh_every_trial(monkeypatch):
+    import fogsim.tune.segment_cache as segment_cache
+    from fogsim.run.runner import replay_report
+    from fogsim.tune.segment_cache import SegmentationCache, cached_replay_report
+
+    (entry,) = synthetic_box_removal_suite(frames=20)
+    # Another parameter value is another key: never a result of the other value.
+    cache = SegmentationCache()
+    for pixels in (10.0, 60.0):
+        overrides = {"seg.min_plane_pixels": pixels}
+        cached = replay_report(entry.recording, overrides, segment=cache.segment)
+        assert _without_times(cached) == _without_times(replay_report(entry.recording, overrides))
+    assert (cache.misses, cache.hits) == (40, 0)
+    # tune's report function does not even ask the process's cache then; otherwise it does.
+    process_cache = SegmentationCache()
+    monkeypatch.setattr(segment_cache, "_PROCESS_CACHE", process_cache)
+    cached_replay_report(entry.recording, {"seg.min_plane_pixels": 10.0, "p_occ": 0.7})
+    assert (process_cache.misses, process_cache.stored_bytes) == (0, 0)
+    for _ in range(2):
+        cached_replay_report(entry.recording, {"p_occ": 0.7})
+    assert (process_cache.misses, process_cache.hits) == (20, 20)
+
+
+def test_the_cache_keeps_results_up_to_its_byte_cap_read_only():
+    import numpy as np
+
+    from fogsim.config import resolve_params
+    from fogsim.tune.segment_cache import SegmentationCache, result_bytes
+    from mapper.segmentation import segment_depth
+
+    (entry,) = synthetic_box_removal_suite(frames=3)
+    params = resolve_params(entry.recording.scenario).segmentation
+    frames = entry.recording.frames
+    args = [(f.depth_m, f.intrinsics, f.transform_camera_to_robot_believed, params) for f in frames]
+    key_bytes = frames[0].depth_m.nbytes + np.asarray(args[0][2]).nbytes
+    one = result_bytes(segment_depth(*args[0])) + key_bytes
+    assert one > 4 * 88 * 72  # at least the points of the image's pixels
+    cache = SegmentationCache(max_bytes=one + one // 2)  # room for one frame's result
+    first = [cache.segment(*a) for a in args]
+    assert cache.stored_bytes == one and cache.misses == 3
+    again = [cache.segment(*a) for a in args]
+    assert again[0] is first[0] and again[1] is not first[1] and again[2] is not first[2]
+    assert (cache.misses, cache.hits) == (5, 1)
+    np.testing.assert_array_equal(again[1].points, first[1].points)
+    with pytest.raises(ValueError, match="read-only"):
+        first[0].points[0, 0] = 1.0  # shared between trials: nobody may write into it
+    with pytest.raises(FogsimError, match="max_bytes must be >= 0, got -1"):
+        SegmentationCache(max_bytes=-1)

@@ -80,13 +80,17 @@ from mapper.transforms import apply_transform, planar_pose_to_matrix
 FrameCallback = Callable[[Frame, "Pipeline"], None]
 """Called after every frame with the frame and the pipeline (progress bars, video)."""
 
+SegmentFunction = Callable[..., SegmentationResult]
+"""``(depth_m, intrinsics, transform_camera_to_robot, params) -> SegmentationResult``:
+:func:`~mapper.segmentation.segment_depth`, or a cache in front of it (``fogsim tune``)."""
+
 
 @dataclass(frozen=True)
 class FrameTiming:
     """What processing one frame took and decided.
 
     Attributes:
-        segmentation_ms: ``segment_depth`` time [ms].
+        segmentation_ms: Segmentation time [ms] (a lookup when the result was cached).
         update_ms: ``FloorObstacleMapper.update`` time [ms]; NaN when the frame was withdrawn.
         frame_ms: The whole frame [ms].
         withdrawn: The z-match rule withdrew the frame (no map update).
@@ -166,9 +170,19 @@ class Pipeline:
         last_points: The last mapped frame's labelled points (None before the first, and while
             frames are deferred until the height reference is known).
         mapped_late: The deferred frames' outcomes once mapped, in order.
+
+    Args:
+        params: All parameters (defaults when None).
+        segment: Segments a frame's depth image; called with the frame's depth, intrinsics,
+            believed camera transform and the segmentation parameters, and nothing else. The
+            pipeline only reads its result, so a cache may hand out the same result again
+            (:mod:`fogsim.tune.segment_cache`).
     """
 
-    def __init__(self, params: RunParams | None = None) -> None:
+    def __init__(
+        self, params: RunParams | None = None, segment: SegmentFunction = segment_depth
+    ) -> None:
+        self._segment = segment
         self.run_params = params or RunParams()
         self.mapper_params = self.run_params.mapper
         self.segmentation_params = self.run_params.segmentation
@@ -243,7 +257,7 @@ class Pipeline:
         if self._start_z_m is None:
             self._start_z_m = float(self._last_pose_believed[2])
         self._rise_m = float(self._last_pose_believed[2]) - self._start_z_m
-        seg = segment_depth(
+        seg = self._segment(
             frame.depth_m,
             frame.intrinsics,
             frame.transform_camera_to_robot_believed,

@@ -34,7 +34,7 @@ from fogsim.eval.pose_error import PoseErrorAccumulator
 from fogsim.eval.report import Report, build_report, write_report
 from fogsim.eval.report.schema import Source
 from fogsim.eval.result import RunResult, Snapshot
-from fogsim.mapping.pipeline import FrameCallback, FrameTiming, Pipeline
+from fogsim.mapping.pipeline import FrameCallback, FrameTiming, Pipeline, SegmentFunction
 from fogsim.robot import load_description
 from fogsim.run.run_folder import RunFolder
 from fogsim.run.warmup import warm_up_kernels
@@ -47,7 +47,7 @@ from fogsim.viz.rerun_log import RerunLogger
 from fogsim.viz.video import RunVideoWriter
 from fogsim.world.truth import TruthParams
 from mapper import MapperParams
-from mapper.segmentation import SegmentationParams
+from mapper.segmentation import SegmentationParams, segment_depth
 
 
 class _Fig5Snapshots:
@@ -118,6 +118,7 @@ def run_frames(
     *,
     params: RunParams | None = None,
     on_frame: FrameCallback | None = None,
+    segment: SegmentFunction = segment_depth,
 ) -> RunResult:
     """Feed frames through the pipeline and score the run.
 
@@ -132,6 +133,7 @@ def run_frames(
             tables; ``mapper_params`` / ``segmentation_params`` still override its parts.
         on_frame: Called after every frame with the frame and the pipeline (progress bars,
             video).
+        segment: The pipeline's segmentation (:class:`~fogsim.mapping.pipeline.Pipeline`).
 
     Raises:
         FogsimError: No frames.
@@ -142,7 +144,7 @@ def run_frames(
         run_params = dataclasses.replace(run_params, mapper=mapper_params)
     if segmentation_params is not None:
         run_params = dataclasses.replace(run_params, segmentation=segmentation_params)
-    pipeline = Pipeline(run_params)
+    pipeline = Pipeline(run_params, segment)
     cell_m = pipeline.mapper_params.cell_m
     events = scenario.events if scenario is not None else ()
     tracker = None
@@ -247,19 +249,25 @@ def sensor_fields(scenario: Scenario | None) -> dict[str, float | int]:
     return segmentation_noise_fields(scenario.camera, baseline_m)
 
 
-def replay_report(recording: Recording, overrides: Mapping[str, float] | None = None) -> Report:
+def replay_report(
+    recording: Recording,
+    overrides: Mapping[str, float] | None = None,
+    segment: SegmentFunction = segment_depth,
+) -> Report:
     """Replay a recording with parameter overrides and return its report (no pictures).
 
     Args:
         recording: The recording.
         overrides: ``{"p_occ": 0.7, "eps_m": 0.01, "seg.<name>": ..., "elev.<name>": ...,
             "pipe.<name>": ...}`` on top of the recording's scenario tables.
+        segment: The pipeline's segmentation (``fogsim tune`` passes a cache in front of it).
     """
     result = run_frames(
         recording.frames,
         recording.truth_at if recording.has_truth else None,
         recording.scenario,
         params=resolve_params(recording.scenario, overrides, sensor_fields(recording.scenario)),
+        segment=segment,
     )
     return build_report(result, recording.scenario, source="replay")
 

@@ -3,19 +3,20 @@
 Modules, each one job: :mod:`~fogsim.tune.space` (tunable parameters and a tuned range),
 :mod:`~fogsim.tune.config` (:class:`TuneConfig`), :mod:`~fogsim.tune.objective` (a report to one
 number), :mod:`~fogsim.tune.suite` (the recordings and their cache),
-:mod:`~fogsim.tune.executors` (inline, process pool, Ray), :mod:`~fogsim.tune.recovery`
+:mod:`~fogsim.tune.executors` (inline, process pool, Ray), :mod:`~fogsim.tune.segment_cache`
+(one segmentation per recorded frame across a process's trials), :mod:`~fogsim.tune.recovery`
 (heartbeats, retrying a dead run's trials), :mod:`~fogsim.tune.study` (the ask/tell loop),
 :mod:`~fogsim.tune.writers` and :mod:`~fogsim.tune.plots` (result files),
 :mod:`~fogsim.tune.cli` (``fogsim tune``).
 
 A tune from Python::
 
-    from fogsim.run.runner import replay_report
     from fogsim.tune import ParamSpec, TuneConfig, load_suite, tune
+    from fogsim.tune.segment_cache import cached_replay_report
 
     config = TuneConfig(params=(ParamSpec.parse("p_occ=0.55:0.95"),), trials=20, out_dir=out)
     suite = load_suite("scenarios", out / "recordings", quick=True)
-    result = tune(config, suite, report_function=replay_report)
+    result = tune(config, suite, report_function=cached_replay_report)
 """
 
 from fogsim.lazy import lazy_getattr

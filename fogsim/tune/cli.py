@@ -5,10 +5,10 @@ from __future__ import annotations
 import argparse
 from pathlib import Path
 
-from fogsim.run.runner import replay_report
 from fogsim.tune.config import RECORDINGS_DIR, SamplerKind, TuneConfig
 from fogsim.tune.executors import check_ray_address
 from fogsim.tune.objective import ObjectiveWeights
+from fogsim.tune.segment_cache import cached_replay_report
 from fogsim.tune.space import ParamSpec, check_ranges
 from fogsim.tune.suite import load_suite
 
@@ -99,7 +99,7 @@ def run_tune(args: argparse.Namespace) -> int:
     if config.ray_address is not None:
         check_ray_address(config.ray_address)
     suite = load_suite(args.suite, config.out_dir / RECORDINGS_DIR, quick=args.quick)
-    result = tune(config, suite, report_function=replay_report)
+    result = tune(config, suite, report_function=cached_replay_report)
     print((result.out_dir / "best_params.toml").read_text(encoding="utf-8"))
     print((result.out_dir / "trials.md").read_text(encoding="utf-8"))
     return 0

@@ -1,0 +1,136 @@
+"""One segmentation per recorded frame, shared by the trials a tune process scores.
+
+A trial replays every recording with its parameters, and segmenting the depth images is about
+40 % of a replay (stage, depth: 1.8 of 4.4 s CPU). The mapper, z-match, elevation and pipeline
+parameters a tune usually searches do not change the segmentation, so a process keeps each
+frame's :class:`~mapper.segmentation.SegmentationResult` and hands it to the next trial.
+
+The key is every argument of :func:`~mapper.segmentation.segment_depth`: the depth image's bytes,
+shape and dtype, the camera's intrinsics, its believed transform and the segmentation
+parameters. A trial that tunes a segmentation parameter (or a scenario whose camera differs)
+asks with another key and is segmented afresh, so a cached result is exactly what
+``segment_depth`` would return (it is deterministic); :func:`cached_replay_report` does not even
+ask when the overrides hold a ``seg.`` parameter (each trial's key would be new). Cached arrays
+are made read-only: a consumer that wrote into a result shared between trials would raise
+instead of changing the next trial's input.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+from collections.abc import Mapping
+from typing import Any
+
+import numpy as np
+from numpy.typing import NDArray
+
+from fogsim.data.recording import Recording
+from fogsim.errors import TuneError
+from fogsim.eval.report import Report
+from fogsim.run.runner import replay_report
+from mapper.intrinsics import PinholeIntrinsics
+from mapper.segmentation import SegmentationParams, SegmentationResult, segment_depth
+
+CACHE_BYTES = 512 * 2**20
+"""Bytes of segmentation results one process keeps (512 MiB). A stage recording's results take
+~300 MB (832 frames of 88×72 pixels, ~0.36 MB each: the (N, 3) points, the per-point heights
+and ids, and the depth image of the key), box_removal's 132 frames ~50 MB, so the default
+suite (``bench/bench_tune.py``: stage and box_removal) fits; a tune holds at most this much
+per worker. Beyond it new results are not kept (see :class:`SegmentationCache`)."""
+
+
+def result_bytes(value: Any) -> int:
+    """Bytes of the numpy arrays in a (nested) frozen dataclass such as a segmentation result."""
+    if isinstance(value, np.ndarray):
+        return int(value.nbytes)
+    if dataclasses.is_dataclass(value):
+        return sum(result_bytes(getattr(value, f.name)) for f in dataclasses.fields(value))
+    return 0
+
+
+def _freeze(value: Any) -> None:
+    """Make every numpy array in a (nested) dataclass read-only."""
+    if isinstance(value, np.ndarray):
+        value.flags.writeable = False
+    elif dataclasses.is_dataclass(value):
+        for f in dataclasses.fields(value):
+            _freeze(getattr(value, f.name))
+
+
+class SegmentationCache:
+    """Segmentation results by every argument of ``segment_depth``, up to a byte cap.
+
+    When the cap is reached new results are computed but not kept; the ones kept stay. Every
+    trial replays the suite in the same order, so a least-recently-used cache smaller than the
+    suite would evict exactly the frame the next trial asks for first and never hit; keeping
+    the first results makes as much of the suite hit as fits.
+
+    Args:
+        max_bytes: The cap [bytes] on the kept results' arrays (:func:`result_bytes`) and
+            their keys' depth and transform bytes, >= 0.
+
+    Raises:
+        TuneError: ``max_bytes`` < 0.
+
+    Attributes:
+        hits: Results handed out again.
+        misses: Results computed.
+        stored_bytes: Bytes kept.
+    """
+
+    def __init__(self, max_bytes: int = CACHE_BYTES) -> None:
+        if max_bytes < 0:
+            raise TuneError(f"segmentation cache max_bytes must be >= 0, got {max_bytes!r}")
+        self.max_bytes = max_bytes
+        self.hits = self.misses = self.stored_bytes = 0
+        self._results: dict[tuple[Any, ...], SegmentationResult] = {}
+
+    def segment(
+        self,
+        depth_m: NDArray[np.floating],
+        intrinsics: PinholeIntrinsics,
+        transform_camera_to_robot: NDArray[np.floating],
+        params: SegmentationParams,
+    ) -> SegmentationResult:
+        """``segment_depth(depth_m, intrinsics, transform_camera_to_robot, params)``, cached."""
+        depth = np.ascontiguousarray(depth_m)
+        transform = np.ascontiguousarray(transform_camera_to_robot)
+        key = (
+            depth.tobytes(),
+            depth.shape,
+            depth.dtype.str,
+            transform.tobytes(),
+            transform.shape,
+            transform.dtype.str,
+            intrinsics,
+            params,
+        )
+        found = self._results.get(key)
+        if found is not None:
+            self.hits += 1
+            return found
+        self.misses += 1
+        result = segment_depth(depth_m, intrinsics, transform_camera_to_robot, params)
+        size = result_bytes(result) + depth.nbytes + transform.nbytes  # the key's bytes too
+        if self.stored_bytes + size <= self.max_bytes:
+            _freeze(result)
+            self._results[key] = result
+            self.stored_bytes += size
+        return result
+
+
+_PROCESS_CACHE = SegmentationCache()
+"""This process's cache: a pool worker's or Ray worker's own (a forked worker starts with the
+driver's, which scores nothing in a pool)."""
+
+
+def cached_replay_report(recording: Recording, overrides: Mapping[str, float]) -> Report:
+    """:func:`~fogsim.run.runner.replay_report` with this process's segmentation cache.
+
+    The report function of ``fogsim tune``: module-level, so it pickles by name for pool and
+    Ray workers, each of which keeps its own cache. With a ``seg.`` parameter among the
+    overrides it segments afresh and keeps nothing.
+    """
+    if any(name.startswith("seg.") for name in overrides):
+        return replay_report(recording, overrides)
+    return replay_report(recording, overrides, segment=_PROCESS_CACHE.segment)
