@@ -312,9 +312,9 @@ class Pipeline:
         """
         deferred = self._deferred
         fractions = self._way_fractions(arrival)
-        drift_m = self._arrival_drift_m(arrival, fractions)
+        surfaces_m = self._deferred_surfaces_m()
+        drift_m = self._arrival_drift_m(arrival, fractions, surfaces_m)
         if arrival is not None and arrival.measured_shift_m is not None and deferred:
-            surfaces_m = self._deferred_surfaces_m()
             drift = 0.0 if drift_m is None else drift_m
             self._start_surfaces_m = [
                 heights - drift * float(f) for heights, f in zip(surfaces_m, fractions, strict=True)
@@ -336,9 +336,14 @@ class Pipeline:
         return (positions - positions[0]) / (arrival.position - positions[0])
 
     def _arrival_drift_m(
-        self, arrival: _FrameData | None, fractions: NDArray[np.float64]
+        self,
+        arrival: _FrameData | None,
+        fractions: NDArray[np.float64],
+        surfaces_m: list[NDArray[np.float64]],
     ) -> float | None:
         """Odometry's z drift at ``arrival`` measured on the start frames' surfaces [m] or None.
+
+        ``surfaces_m`` are the deferred frames' ground-sized floors (`_deferred_surfaces_m`).
 
         None without the elevation filter (nothing carries the correction forward), without
         deferred frames, or when ``arrival`` did not measure the ground under its feet.
@@ -351,9 +356,7 @@ class Pipeline:
         ):
             return None
         arrival_z_m = float(arrival.frame.robot_pose_believed[2])
-        return arrival_drift_m(
-            self._deferred_surfaces_m(), fractions, arrival_z_m, self.reference.params
-        )
+        return arrival_drift_m(surfaces_m, fractions, arrival_z_m, self.reference.params)
 
     def _deferred_surfaces_m(self) -> list[NDArray[np.float64]]:
         """World heights of each deferred frame's ground-sized floors (odometry, its shift)."""
