@@ -35,6 +35,7 @@ from fogsim.eval.report import Report, build_report, write_report
 from fogsim.eval.report.schema import Source
 from fogsim.eval.result import RunResult, Snapshot
 from fogsim.mapping.pipeline import FrameCallback, FrameTiming, Pipeline, SegmentFunction
+from fogsim.mapping.prefetch import SegmentAhead
 from fogsim.robot import load_description
 from fogsim.run.run_folder import RunFolder
 from fogsim.run.warmup import warm_up_kernels
@@ -119,6 +120,7 @@ def run_frames(
     params: RunParams | None = None,
     on_frame: FrameCallback | None = None,
     segment: SegmentFunction = segment_depth,
+    segment_ahead: bool = True,
 ) -> RunResult:
     """Feed frames through the pipeline and score the run.
 
@@ -134,6 +136,9 @@ def run_frames(
         on_frame: Called after every frame with the frame and the pipeline (progress bars,
             video).
         segment: The pipeline's segmentation (:class:`~fogsim.mapping.pipeline.Pipeline`).
+        segment_ahead: Segment the frames on a second thread ahead of the mapping
+            (:class:`~fogsim.mapping.prefetch.SegmentAhead`: the same results, the two
+            overlapped); False: in line.
 
     Raises:
         FogsimError: No frames.
@@ -144,7 +149,30 @@ def run_frames(
         run_params = dataclasses.replace(run_params, mapper=mapper_params)
     if segmentation_params is not None:
         run_params = dataclasses.replace(run_params, segmentation=segmentation_params)
-    pipeline = Pipeline(run_params, segment)
+    if not segment_ahead:
+        pipeline = Pipeline(run_params, segment)
+        return _run_pipeline(
+            frames, None, pipeline, truth_provider, scenario, run_params, on_frame, start
+        )
+    with SegmentAhead(frames, segment) as ahead:
+        pipeline = Pipeline(run_params, ahead.segment)
+        ahead.start(pipeline.segmentation_params)
+        return _run_pipeline(
+            ahead, ahead, pipeline, truth_provider, scenario, run_params, on_frame, start
+        )
+
+
+def _run_pipeline(
+    frames: Iterable[Frame],
+    ahead: SegmentAhead | None,
+    pipeline: Pipeline,
+    truth_provider: TruthProvider | None,
+    scenario: Scenario | None,
+    run_params: RunParams,
+    on_frame: FrameCallback | None,
+    start: float,
+) -> RunResult:
+    """The frame loop and scoring of :func:`run_frames` (``ahead``: ``frames`` segmented ahead)."""
     cell_m = pipeline.mapper_params.cell_m
     events = scenario.events if scenario is not None else ()
     tracker = None
@@ -159,7 +187,10 @@ def run_frames(
     timings: list[FrameTiming] = []
     last: Frame | None = None
     for frame in frames:
-        timings.append(pipeline.process(frame))
+        timing = pipeline.process(frame)
+        if ahead is not None:  # the segmentation's own time, not the wait for it
+            timing = dataclasses.replace(timing, segmentation_ms=ahead.segmentation_ms)
+        timings.append(timing)
         pose_errors.add(frame, pipeline.heading.transform_camera_to_robot)
         maps = types, fog_heights, base_heights = pipeline.maps()
         _archive_maps(archive, pipeline, maps, cells_in_view(frame, pipeline.mapper.geometry))
