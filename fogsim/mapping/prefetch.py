@@ -180,11 +180,14 @@ class SegmentAhead:
     # ------------------------------------------------------------------ the thread
 
     def _run(self, params: SegmentationParams) -> None:
+        frames = iter(self._frames)
         try:
-            for frame in self._frames:
-                if self._stop.is_set() or not self._put(self._segmented(frame, params)):
+            while not self._stop.is_set():  # checked before taking a frame from the source
+                frame = next(frames, None)
+                if frame is None:
+                    self._put(_END)
                     return
-            self._put(_END)
+                self._put(self._segmented(frame, params))
         except BaseException as error:  # the frames' iterator's: raised where it happened
             self._put(_Failed(error))
 
