@@ -64,10 +64,10 @@ def test_same_maps_bit_for_bit_with_and_without_overlap(scenario, inline_frames,
 def test_runs_at_most_ahead_frames_ahead_and_stops_when_closed(scenario):
     source = BackgroundSimulation(lambda: Simulation(scenario), max_frames=FRAMES)
     deadline = time.monotonic() + 60.0
-    while source._queue.qsize() < AHEAD_FRAMES and time.monotonic() < deadline:
+    while source._handoff.qsize() < AHEAD_FRAMES and time.monotonic() < deadline:
         time.sleep(0.05)
     time.sleep(0.3)  # room for a frame too many, were the queue unbounded
-    assert source._queue.qsize() == AHEAD_FRAMES
+    assert source._handoff.qsize() == AHEAD_FRAMES
     assert simulation_threads()
     source.close()
     assert not simulation_threads()

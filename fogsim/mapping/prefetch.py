@@ -20,7 +20,6 @@ hands it the next one.
 
 from __future__ import annotations
 
-import queue
 import threading
 import time
 from collections.abc import Iterable, Iterator
@@ -32,6 +31,7 @@ from numpy.typing import NDArray
 from fogsim.data.frame import Frame
 from fogsim.errors import FogsimError
 from fogsim.mapping.pipeline import SegmentFunction
+from fogsim.sim.background import HandOff
 from mapper.intrinsics import PinholeIntrinsics
 from mapper.segmentation import SegmentationParams, SegmentationResult, segment_depth
 
@@ -39,9 +39,6 @@ AHEAD_FRAMES = 4
 """Segmented frames that may wait for the pipeline: enough to carry either side over a slow
 frame (a first z-match, a frame with many planes: 3-5 times the median), few enough to bound
 the memory (a stage frame's result is ~0.36 MB) and the work thrown away when a run stops."""
-
-_POLL_S = 0.05
-"""How often the thread, blocked on a full queue, checks whether it should stop [s]."""
 
 
 @dataclass(frozen=True)
@@ -99,8 +96,7 @@ class SegmentAhead:
             raise FogsimError(f"SegmentAhead: ahead must be >= 1 frame, got {ahead!r}")
         self._frames = frames
         self._segment = segment
-        self._queue: queue.Queue[object] = queue.Queue(maxsize=ahead)
-        self._stop = threading.Event()
+        self._handoff = HandOff(ahead)
         self._thread: threading.Thread | None = None
         self._params: SegmentationParams | None = None
         self._current: _Segmented | None = None
@@ -121,7 +117,7 @@ class SegmentAhead:
         if self._thread is None:
             raise FogsimError("SegmentAhead: start() it before iterating")
         while True:
-            item = self._queue.get()
+            item = self._handoff.get()
             if item is _END:
                 return
             if isinstance(item, _Failed):
@@ -165,11 +161,8 @@ class SegmentAhead:
 
     def close(self) -> None:
         """Stop the thread and wait for it; idempotent."""
-        self._stop.set()
-        while self._thread is not None and self._thread.is_alive():
-            self._drain()
-            self._thread.join(_POLL_S)
-        self._drain()
+        if self._thread is not None:
+            self._handoff.close(self._thread)
 
     def __enter__(self) -> SegmentAhead:
         return self
@@ -182,14 +175,14 @@ class SegmentAhead:
     def _run(self, params: SegmentationParams) -> None:
         frames = iter(self._frames)
         try:
-            while not self._stop.is_set():  # checked before taking a frame from the source
+            while not self._handoff.stopped:  # checked before taking a frame from the source
                 frame = next(frames, None)
                 if frame is None:
-                    self._put(_END)
+                    self._handoff.put(_END)
                     return
-                self._put(self._segmented(frame, params))
+                self._handoff.put(self._segmented(frame, params))
         except BaseException as error:  # the frames' iterator's: raised where it happened
-            self._put(_Failed(error))
+            self._handoff.put(_Failed(error))
 
     def _segmented(self, frame: Frame, params: SegmentationParams) -> _Segmented:
         """Segment ``frame``; its exception is kept for the pipeline's call."""
@@ -201,21 +194,3 @@ class SegmentAhead:
         except Exception as error:  # raised again by `segment` for this frame
             return _Segmented(frame, None, error, 1000.0 * (time.perf_counter() - start))
         return _Segmented(frame, result, None, 1000.0 * (time.perf_counter() - start))
-
-    def _put(self, item: object) -> bool:
-        """Queue ``item`` once there is room; False if told to stop first."""
-        while not self._stop.is_set():
-            try:
-                self._queue.put(item, timeout=_POLL_S)
-            except queue.Full:
-                continue
-            return True
-        return False
-
-    def _drain(self) -> None:
-        """Empty the queue (the thread, blocked on it, gets its stop signal sooner)."""
-        try:
-            while True:
-                self._queue.get_nowait()
-        except queue.Empty:
-            pass

@@ -73,6 +73,57 @@ _END = object()
 """Queued after the last frame."""
 
 
+class HandOff:
+    """A bounded queue from a producer thread to its consumer, who can tell the producer to stop.
+
+    Args:
+        size: Items that may wait for the consumer, >= 1.
+    """
+
+    def __init__(self, size: int) -> None:
+        self._queue: queue.Queue[object] = queue.Queue(maxsize=size)
+        self._stop = threading.Event()
+
+    @property
+    def stopped(self) -> bool:
+        """The consumer told the producer to stop."""
+        return self._stop.is_set()
+
+    def put(self, item: object) -> bool:
+        """Queue ``item`` once there is room (producer); False if told to stop first."""
+        while not self._stop.is_set():
+            try:
+                self._queue.put(item, timeout=_POLL_S)
+            except queue.Full:
+                continue
+            return True
+        return False
+
+    def get(self) -> object:
+        """The next item (consumer; waits for it)."""
+        return self._queue.get()
+
+    def qsize(self) -> int:
+        """Items waiting now."""
+        return self._queue.qsize()
+
+    def close(self, producer: threading.Thread) -> None:
+        """Tell ``producer`` to stop and wait for it, emptying the queue meanwhile; idempotent."""
+        self._stop.set()
+        while producer.is_alive():
+            self._drain()
+            producer.join(_POLL_S)
+        self._drain()
+
+    def _drain(self) -> None:
+        """Empty the queue (a producer blocked on it gets its stop signal sooner)."""
+        try:
+            while True:
+                self._queue.get_nowait()
+        except queue.Empty:
+            pass
+
+
 class BackgroundSimulation:
     """The frames of a simulation, made on a second thread; iterate them once.
 
@@ -88,8 +139,7 @@ class BackgroundSimulation:
         self._make_simulation = make_simulation
         self._max_frames = max_frames
         self._simulation: Future[FrameSimulation] = Future()
-        self._queue: queue.Queue[object] = queue.Queue(maxsize=AHEAD_FRAMES)
-        self._stop = threading.Event()
+        self._handoff = HandOff(AHEAD_FRAMES)
         self._thread = threading.Thread(target=self._run, name="fogsim-simulation", daemon=True)
         self._thread.start()
 
@@ -114,7 +164,7 @@ class BackgroundSimulation:
     def __iter__(self) -> Iterator[Frame]:
         """The frames in order; raises the simulation thread's exception where it happened."""
         while True:
-            item = self._queue.get()
+            item = self._handoff.get()
             if item is _END:
                 return
             if isinstance(item, _Failed):
@@ -125,10 +175,7 @@ class BackgroundSimulation:
 
     def close(self) -> None:
         """Stop the simulation thread, wait for it (it frees its renderer); idempotent."""
-        self._stop.set()
-        while self._thread.is_alive():
-            self._drain()
-            self._thread.join(_POLL_S)
+        self._handoff.close(self._thread)
 
     def __enter__(self) -> BackgroundSimulation:
         return self
@@ -143,33 +190,15 @@ class BackgroundSimulation:
             simulation = self._make_simulation()
         except BaseException as error:
             self._simulation.set_exception(error)
-            self._put(_Failed(error))
+            self._handoff.put(_Failed(error))
             return
         self._simulation.set_result(simulation)
         try:
             for frame in itertools.islice(simulation.frames(), self._max_frames):
-                if not self._put(frame):
+                if not self._handoff.put(frame):
                     return
-            self._put(_END)
+            self._handoff.put(_END)
         except BaseException as error:
-            self._put(_Failed(error))
+            self._handoff.put(_Failed(error))
         finally:
             simulation.close()
-
-    def _put(self, item: object) -> bool:
-        """Queue ``item`` once there is room; False if told to stop first."""
-        while not self._stop.is_set():
-            try:
-                self._queue.put(item, timeout=_POLL_S)
-            except queue.Full:
-                continue
-            return True
-        return False
-
-    def _drain(self) -> None:
-        """Empty the queue (a stopping thread blocked on it gets its stop signal sooner)."""
-        try:
-            while True:
-                self._queue.get_nowait()
-        except queue.Empty:
-            pass
