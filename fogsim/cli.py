@@ -8,6 +8,9 @@ a full disk); 3 ``run --strict`` and a run's map is poor (the report's ``quality
 reasons are printed); 130 interrupted (Ctrl-C). Every error is one line on standard error,
 never a traceback; a failed or interrupted run leaves nothing of itself (an earlier result in
 its folder stays as it was).
+
+What one command alone needs (rosbags, the comparison, the scene export, the recorder, Rerun's
+display check) is imported by that command, not here: ``fogsim run`` starts without them.
 """
 
 from __future__ import annotations
@@ -21,7 +24,6 @@ from dataclasses import replace
 from pathlib import Path
 from typing import NoReturn
 
-from fogsim.bags.read import bag_topics, import_bag
 from fogsim.bags.topics import (
     DEFAULT_BASE_FRAME,
     DEFAULT_DEPTH_TOPIC,
@@ -30,8 +32,6 @@ from fogsim.bags.topics import (
     DEFAULT_ODOM_FRAME,
     BagOptions,
 )
-from fogsim.bags.write import check_bag_target
-from fogsim.compare.command import compare_main
 from fogsim.compare.maps import MAP_NAMES
 from fogsim.config import CAMERA_MODES, Scenario, find_scenario_files, load_scenario
 from fogsim.data.recording import load_recording
@@ -47,15 +47,12 @@ from fogsim.run.baseline import (
 from fogsim.run.output_paths import check_output_path, child_path
 from fogsim.run.process_exit import exit_process
 from fogsim.run.ray_cluster import RAY_ADDRESS_HELP
-from fogsim.run.record import record_scenario
 from fogsim.run.run_folder import check_run_folder
 from fogsim.run.runner import run_scenario
 from fogsim.run.seeds import SEEDS_ALLOWED, check_workers, parse_seeds, run_seeds, worst_lines
 from fogsim.run.suite import check_against_baseline, run_suite, update_baseline
 from fogsim.sim.camera.depth import DEPTH_BACKENDS
-from fogsim.sim.export import export_scene
 from fogsim.tune.cli import add_tune_arguments
-from fogsim.viz.rerun_log import check_display
 from mapper.errors import MapperError
 
 
@@ -311,6 +308,8 @@ def _cmd_run(args: argparse.Namespace) -> int:
     if args.out is not None:
         check_run_folder(args.out, "--out")
     if args.mcap is not None:
+        from fogsim.bags.write import check_bag_target  # rosbags: only for --mcap
+
         check_output_path(check_bag_target(args.mcap, "--mcap"), "folder", "--mcap")
     if args.rerun is not None:
         check_output_path(args.rerun, "file", "--rerun")
@@ -320,6 +319,8 @@ def _cmd_run(args: argparse.Namespace) -> int:
                 "give --rerun FILE.rrd or --rerun-spawn, not both (the viewer can save what it "
                 "shows)"
             )
+        from fogsim.viz.rerun_log import check_display  # matplotlib: only for Rerun
+
         check_display()
     replay = None
     if args.replay is not None:
@@ -423,6 +424,8 @@ def _cmd_run_seeds(args: argparse.Namespace) -> int:
 
 
 def _cmd_record(args: argparse.Namespace) -> int:
+    from fogsim.run.record import record_scenario
+
     start = time.perf_counter()
     check_output_path(args.out, "file", "--out")
     scenario = _load(args.scenario, args)
@@ -438,6 +441,8 @@ def _cmd_record(args: argparse.Namespace) -> int:
 
 
 def _cmd_scene(args: argparse.Namespace) -> int:
+    from fogsim.sim.export import export_scene
+
     check_output_path(args.out, "file", "--out")
     scenario = _load(args.scenario, args)
     path = export_scene(scenario, args.out)
@@ -503,6 +508,8 @@ def _cmd_suite(args: argparse.Namespace) -> int:
 
 def _cmd_import_bag(args: argparse.Namespace) -> int:
     """``fogsim import-bag BAG --out FILE`` (or ``--list``)."""
+    from fogsim.bags.read import bag_topics, import_bag  # rosbags: only for this command
+
     if args.list:
         for topic in bag_topics(args.bag):
             print(f"{topic.name:<40} {topic.msgtype:<36} {topic.count:>8}")
@@ -551,6 +558,8 @@ def main(argv: Sequence[str] | None = None) -> int:
         if args.command == "scene":
             return _cmd_scene(args)
         if args.command == "compare":
+            from fogsim.compare.command import compare_main  # only for this command
+
             return compare_main(
                 args.inputs,
                 args.maps,

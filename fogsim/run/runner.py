@@ -21,7 +21,6 @@ import numpy as np
 from numpy.typing import NDArray
 from tqdm import tqdm
 
-from fogsim.bags.write import McapMapWriter
 from fogsim.config import RunParams, Scenario, resolve_params
 from fogsim.data.frame import Frame
 from fogsim.data.recording import Recording
@@ -43,9 +42,6 @@ from fogsim.sim.background import BackgroundSimulation
 from fogsim.sim.camera import segmentation_noise_fields
 from fogsim.sim.simulation import Simulation
 from fogsim.sim.third_person import FilmedSimulation
-from fogsim.viz.pictures import write_pictures
-from fogsim.viz.rerun_log import RerunLogger
-from fogsim.viz.video import RunVideoWriter
 from fogsim.world.truth import TruthParams
 from mapper import MapperParams
 from mapper.segmentation import SegmentationParams, segment_depth
@@ -474,6 +470,8 @@ def _run_and_write(
             bar = cleanup.enter_context(tqdm(total=total, unit="frame", desc=name))
             callbacks.append(lambda frame, pipeline: bar.update(1))
         if video:
+            from fogsim.viz.video import RunVideoWriter  # cv2, matplotlib: only for a video
+
             if scenario is None:
                 raise FogsimError(
                     "--video needs the scenario's frame rate; this recording has none"
@@ -484,8 +482,12 @@ def _run_and_write(
             cleanup.callback(writer.close)
             callbacks.append(writer.add)
         if options.mcap is not None:
+            from fogsim.bags.write import McapMapWriter  # rosbags: only for a bag
+
             callbacks.append(cleanup.enter_context(McapMapWriter(options.mcap)).add)
         if options.rerun is not None or options.rerun_spawn:
+            from fogsim.viz.rerun_log import RerunLogger  # matplotlib: only for Rerun
+
             run_id = f"{scenario.name}-seed{scenario.seed}" if scenario is not None else "run"
             logger = RerunLogger(options.rerun, run_id, source.truth_at, spawn=options.rerun_spawn)
             callbacks.append(cleanup.enter_context(logger).add)
@@ -507,6 +509,8 @@ def _run_and_write(
         return report
     write_maps(out / "maps.npz", result, result.final_truth)
     if options.pictures:
+        from fogsim.viz.pictures import write_pictures  # matplotlib: only for pictures
+
         picture_start = time.perf_counter()
         names = tuple(path.name for path in write_pictures(result, scenario, out))
         timing = dataclasses.replace(
