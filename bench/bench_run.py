@@ -2,7 +2,7 @@
 
 Usage:
     .venv/bin/python bench/bench_run.py [SCENARIO] [--repeats N] [--replay FILE] [--cold N]
-        [--parts] [--overlap N] [--no-commands]
+        [--parts] [--overlap N] [--ahead N] [--no-commands]
 
 Every figure is the median of N repeats (all of them printed), each command a fresh
 ``python -m fogsim`` process run from this tree (``PYTHONPATH`` = the tree), with the load
@@ -10,7 +10,9 @@ average (``os.getloadavg``, 2 cores) noted before and after each measurement:
 
 - ``run``: ``fogsim run SCENARIO --out TMP --quiet`` with pictures, warm caches; its CPU time
   (user + sys of the child) beside the wall time: on a loaded machine the wall time hides what
-  the run costs, the CPU time does not show the overlap of simulation and mapping;
+  the run costs, the CPU time does not show the overlap of simulation and mapping; and the
+  CPU time of its main, simulation and segmentation threads (on a loaded machine the longest
+  of them bounds the wall time a quiet one would show);
 - ``teardown``: of ``run``, the time from the last ``atexit`` handler to the process's exit
   (the interpreter's finalisation: modules freed, native destructors);
 - ``replay`` (``--replay FILE``): ``fogsim run --replay FILE --out TMP --quiet``, pictures on;
@@ -21,6 +23,10 @@ average (``os.getloadavg``, 2 cores) noted before and after each measurement:
   frame loop of a run (simulation + pipeline + scoring, no set-up, no pictures) with the
   simulation on its own thread (:class:`~fogsim.sim.background.BackgroundSimulation`) and in
   line (frames from :meth:`Simulation.frames` fed as they come);
+- ``--ahead N`` (with ``--replay``): in this process, interleaved N times, the frame loop of
+  the replay with its frames segmented on a second thread
+  (:class:`~fogsim.mapping.prefetch.SegmentAhead`) and in line: wall, CPU and the main
+  thread's CPU;
 - ``--parts``: the run's stages one after the other in this process (imports in a child):
   scene set-up, simulation alone, pipeline + scoring on the simulated frames, pictures.
 """
@@ -42,13 +48,26 @@ os.environ.setdefault("MESA_SHADER_CACHE_DISABLE", "true")
 sys.path.insert(0, str(ROOT))
 
 _CHILD = (
-    "import atexit, runpy, sys, time\n"
+    "import atexit, runpy, sys, threading, time\n"
     "sys.argv = ['fogsim', *sys.argv[1:]]\n"
     "atexit.register(lambda: print(f'@main_end {time.time()!r}', file=sys.stderr, flush=True))\n"
+    "def _cpu(name): print(f'@thread {name} {time.thread_time()!r}', file=sys.stderr, flush=True)\n"
+    "atexit.register(lambda: _cpu('main'))\n"
+    "_run = threading.Thread.run\n"
+    "def _timed_run(self):\n"
+    "    try:\n"
+    "        _run(self)\n"
+    "    finally:\n"
+    "        _cpu(self.name)\n"
+    "threading.Thread.run = _timed_run\n"
     "runpy.run_module('fogsim', run_name='__main__')\n"
 )
 """``python -m fogsim`` that prints the time its last ``atexit`` handler ran (registered first,
-it runs last, also with :func:`fogsim.run.process_exit.exit_process`): the rest is teardown."""
+it runs last, also with :func:`fogsim.run.process_exit.exit_process`): the rest is teardown;
+and the CPU time of each of its threads when it ends (the main thread's at exit)."""
+
+THREADS = ("main", "fogsim-simulation", "fogsim-segment-ahead")
+"""The threads whose CPU time ``run`` and ``replay`` report (0 when a run has no such thread)."""
 
 
 def load_note() -> str:
@@ -56,8 +75,9 @@ def load_note() -> str:
     return "load " + "/".join(f"{x:.1f}" for x in os.getloadavg())
 
 
-def fogsim(args: list[str], env: dict[str, str]) -> tuple[float, float, float]:
-    """Run ``fogsim ARGS`` in a child: (wall [s], CPU user + sys [s], teardown [s])."""
+def fogsim(args: list[str], env: dict[str, str]) -> tuple[float, ...]:
+    """Run ``fogsim ARGS`` in a child: wall [s], CPU user + sys [s], teardown [s], then the CPU
+    time [s] of each of :data:`THREADS`."""
     before = resource.getrusage(resource.RUSAGE_CHILDREN)
     start = time.perf_counter()
     done = subprocess.run(
@@ -75,7 +95,12 @@ def fogsim(args: list[str], env: dict[str, str]) -> tuple[float, float, float]:
     after = resource.getrusage(resource.RUSAGE_CHILDREN)
     cpu = (after.ru_utime - before.ru_utime) + (after.ru_stime - before.ru_stime)
     main_end = float(done.stderr.rsplit("@main_end ", 1)[1].split()[0])
-    return wall, cpu, end_wall - main_end
+    threads = dict.fromkeys(THREADS, 0.0)
+    for line in done.stderr.splitlines():
+        if line.startswith("@thread "):
+            name, seconds = line.removeprefix("@thread ").rsplit(" ", 1)
+            threads[name] = threads.get(name, 0.0) + float(seconds)
+    return wall, cpu, end_wall - main_end, *(threads[name] for name in THREADS)
 
 
 def repeat(label: str, n: int, measure: Callable[[], tuple[float, ...]], names: tuple[str, ...]):
@@ -85,10 +110,10 @@ def repeat(label: str, n: int, measure: Callable[[], tuple[float, ...]], names: 
     for i, name in enumerate(names):
         column = [v[i] for v in values]
         print(
-            f"  {label + ' ' + name:<24} median {statistics.median(column):6.2f} s   "
+            f"  {label + ' ' + name:<34} median {statistics.median(column):6.2f} s   "
             f"all {[round(v, 2) for v in column]}"
         )
-    print(f"  {'':<24} {note} before, {load_note()} after")
+    print(f"  {'':<34} {note} before, {load_note()} after")
 
 
 def parts(scenario_name: str, n: int, env: dict[str, str]) -> None:
@@ -163,6 +188,49 @@ def overlap(scenario_name: str, n: int) -> None:
     print(f"  {'':<24} {note} before, {load_note()} after")
 
 
+def ahead(recording: Path, n: int) -> None:
+    """The frame loop of a replay with the frames segmented ahead against in line, interleaved.
+
+    Wall, process CPU and main-thread CPU (the critical path when a core is free) of
+    :func:`~fogsim.run.runner.run_frames` on the recording's frames (no set-up, no writing).
+    """
+    from fogsim.config import resolve_params
+    from fogsim.data.recording import load_recording
+    from fogsim.run.runner import run_frames, sensor_fields
+    from fogsim.run.warmup import warm_up_kernels
+
+    replay = load_recording(recording)
+    params = resolve_params(replay.scenario, sensor=sensor_fields(replay.scenario))
+    warm_up_kernels(params, stream=None)
+    rows: dict[str, list[tuple[float, float, float]]] = {"in line": [], "segmented ahead": []}
+    note = load_note()
+    for _ in range(n):
+        for name, segment_ahead in (("in line", False), ("segmented ahead", True)):
+            wall, cpu, main = time.perf_counter(), time.process_time(), time.thread_time()
+            run_frames(
+                replay.frames,
+                replay.truth_at,
+                replay.scenario,
+                params=params,
+                segment_ahead=segment_ahead,
+            )
+            rows[name].append(
+                (
+                    time.perf_counter() - wall,
+                    time.process_time() - cpu,
+                    time.thread_time() - main,
+                )
+            )
+    for name, values in rows.items():
+        for i, figure in enumerate(("wall", "cpu", "cpu main")):
+            column = [v[i] for v in values]
+            print(
+                f"  {name + ' ' + figure:<34} median {statistics.median(column):6.2f} s   "
+                f"all {[round(v, 2) for v in column]}"
+            )
+    print(f"  {'':<34} {note} before, {load_note()} after")
+
+
 def fogsim_import(env: dict[str, str]) -> float:
     """Wall time [s] of a child importing the CLI, less that of a bare interpreter."""
     times = []
@@ -181,12 +249,19 @@ def main() -> None:
     parser.add_argument("--cold", type=int, default=0, help="repeats of the first run (0: none)")
     parser.add_argument("--parts", action="store_true", help="also the stages in one process")
     parser.add_argument("--overlap", type=int, default=0, help="repeats of overlap vs in line")
+    parser.add_argument(
+        "--ahead", type=int, default=0, help="repeats of the replay's frame loop, ahead vs in line"
+    )
     parser.add_argument("--no-commands", action="store_true", help="skip run/replay/cold")
     args = parser.parse_args()
     env = {**os.environ, "PYTHONPATH": str(ROOT)}
     print(f"fogsim run {args.scenario} from {ROOT}, {args.repeats} repeats, {os.cpu_count()} cores")
     if args.overlap:
         overlap(args.scenario, args.overlap)
+    if args.ahead:
+        if args.replay is None:
+            raise SystemExit("--ahead measures the frame loop of --replay FILE: give it")
+        ahead(args.replay, args.ahead)
     if args.no_commands:
         return
     with tempfile.TemporaryDirectory() as tmp:
@@ -196,18 +271,28 @@ def main() -> None:
             "run",
             args.repeats,
             lambda: fogsim(["run", args.scenario, "--out", out, "--quiet"], env),
-            ("wall", "cpu", "teardown"),
+            ("wall", "cpu", "teardown", *(f"cpu {name}" for name in THREADS)),
         )
         if args.replay is not None:
             replay = ["run", "--replay", str(args.replay.resolve()), "--out", out, "--quiet"]
-            repeat("replay", args.repeats, lambda: fogsim(replay, env), ("wall", "cpu"))
+            repeat(
+                "replay",
+                args.repeats,
+                lambda: fogsim(replay, env),
+                ("wall", "cpu", "teardown", *(f"cpu {name}" for name in THREADS)),
+            )
         if args.cold:
-            repeat("cold", args.cold, lambda: cold(args.scenario, out, env), ("wall", "cpu"))
+            repeat(
+                "cold",
+                args.cold,
+                lambda: cold(args.scenario, out, env),
+                ("wall", "cpu", "teardown"),
+            )
     if args.parts:
         parts(args.scenario, args.repeats, env)
 
 
-def cold(scenario: str, out: str, env: dict[str, str]) -> tuple[float, float, float]:
+def cold(scenario: str, out: str, env: dict[str, str]) -> tuple[float, ...]:
     """``fogsim run`` with empty numba and fogsim caches."""
     with tempfile.TemporaryDirectory() as numba, tempfile.TemporaryDirectory() as cache:
         cold_env = {**env, "NUMBA_CACHE_DIR": numba, "FOGSIM_CACHE": cache}
