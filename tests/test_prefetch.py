@@ -219,13 +219,15 @@ def test_looks_ahead_at_most_ahead_frames_and_stops_when_closed():
 
 def test_refuses_another_frame_other_parameters_and_a_second_ask(frames):
     params = SegmentationParams()
-    with SegmentAhead(frames[:2]) as ahead:
+    with SegmentAhead(frames[:3]) as ahead:
         ahead.start(params)
         iterator = iter(ahead)
         frame = next(iterator)
         args = (frame.intrinsics, frame.transform_camera_to_robot_believed)
         with pytest.raises(FogsimError, match="another frame"):
-            ahead.segment(frame.depth_m.copy(), *args, params)
+            ahead.segment(frames[1].depth_m, *args, params)
+        frame = next(iterator)
+        assert ahead.segment(frame.depth_m.copy(), *args, params) is not None  # equal values
         frame = next(iterator)
         with pytest.raises(FogsimError, match="other parameters"):
             ahead.segment(frame.depth_m, *args, dataclasses.replace(params, min_depth_m=0.2))

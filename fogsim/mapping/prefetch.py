@@ -137,15 +137,17 @@ class SegmentAhead:
 
         Raises:
             FogsimError: The arguments are not that frame's depth, intrinsics and believed
-                transform (the same objects) and the parameters given to :meth:`start`, or
-                it was already asked for.
+                transform (equal values) and the parameters given to :meth:`start`, or it was
+                already asked for.
         """
         current, self._current = self._current, None
         if (
             current is None
-            or depth_m is not current.frame.depth_m
+            or not _same_array(depth_m, current.frame.depth_m)
             or intrinsics != current.frame.intrinsics
-            or transform_camera_to_robot is not current.frame.transform_camera_to_robot_believed
+            or not _same_array(
+                transform_camera_to_robot, current.frame.transform_camera_to_robot_believed
+            )
             or params != self._params
         ):
             raise FogsimError(
@@ -194,3 +196,15 @@ class SegmentAhead:
         except Exception as error:  # raised again by `segment` for this frame
             return _Segmented(frame, None, error, 1000.0 * (time.perf_counter() - start))
         return _Segmented(frame, result, None, 1000.0 * (time.perf_counter() - start))
+
+
+def _same_array(given: NDArray[np.floating], expected: NDArray[np.floating]) -> bool:
+    """``given`` is ``expected`` or has its shape, dtype and values (NaN equal to NaN)."""
+    if given is expected:
+        return True
+    given = np.asarray(given)
+    return (
+        given.shape == expected.shape
+        and given.dtype == expected.dtype
+        and bool(np.array_equal(given, expected, equal_nan=True))
+    )
