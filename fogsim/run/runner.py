@@ -509,8 +509,6 @@ def _run_and_write(
         return report
     write_maps(out / "maps.npz", result, result.final_truth)
     if options.pictures:
-        from fogsim.viz.pictures import write_pictures  # matplotlib: only for pictures
-
         picture_start = time.perf_counter()
         names = tuple(path.name for path in write_pictures(result, scenario, out))
         timing = dataclasses.replace(
@@ -523,6 +521,18 @@ def _run_and_write(
         )
     write_report(out / "report.json", report)
     return report
+
+
+def write_pictures(
+    result: RunResult, scenario: Scenario | None, out_dir: str | os.PathLike[str]
+) -> list[Path]:
+    """The run's PNGs: :func:`fogsim.viz.pictures.write_pictures`, imported on the first call.
+
+    matplotlib is imported only by runs that draw pictures.
+    """
+    from fogsim.viz import pictures
+
+    return pictures.write_pictures(result, scenario, out_dir)
 
 
 def _all_of(callbacks: list[FrameCallback]) -> FrameCallback:
