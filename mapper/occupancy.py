@@ -107,7 +107,7 @@ def lookup_tables(params: MapperParams) -> tuple[NDArray[np.uint8], NDArray[np.u
 
 
 @numba.njit(cache=True, inline="always")
-def _floor_int(v: float) -> int:
+def floor_int(v: float) -> int:
     """``int(np.floor(v))`` for finite ``v``: truncation, one lower for negative non-integers.
 
     Written out because numba's ``generic`` target (x86-64 without SSE4.1) has no rounding
@@ -159,9 +159,9 @@ def grid_point(x, y, z, origin_x, origin_y, z_min, cell, layer, nx, ny, nz):
     gx = (x - origin_x) / cell
     gy = (y - origin_y) / cell
     gz = (z - z_min) / layer
-    ix = _floor_int(gx)
-    iy = _floor_int(gy)
-    iz = _floor_int(gz)
+    ix = floor_int(gx)
+    iy = floor_int(gy)
+    iz = floor_int(gz)
     inside = 0 <= ix < nx and 0 <= iy < ny and 0 <= iz < nz
     return (0 if inside else OUTSIDE), gx, gy, gz, ix, iy, iz
 
