@@ -29,6 +29,8 @@ import numba
 import numpy as np
 from numpy.typing import NDArray
 
+from mapper.occupancy import floor_int
+
 
 def frame_floor_heights(floor_heights: NDArray[np.float64], eps: float) -> NDArray[np.float64]:
     """The distinct floor heights of a frame [m], ascending, none within ``eps`` of the last kept.
@@ -36,20 +38,47 @@ def frame_floor_heights(floor_heights: NDArray[np.float64], eps: float) -> NDArr
     A ray crossing two planes of one frame within ``eps`` of each other (two fragments of one
     surface) must count once for the cell whose floor both match.
     """
-    heights = np.unique(floor_heights[np.isfinite(floor_heights)])
-    kept = []
+    return _kept_heights(np.ascontiguousarray(floor_heights, dtype=np.float64), float(eps))
+
+
+@numba.njit(cache=True)
+def _kept_heights(floor_heights: NDArray[np.float64], eps: float) -> NDArray[np.float64]:
+    """`frame_floor_heights` compiled: one pass, then a sort of the few values left.
+
+    A frame's floor heights come in runs (a plane's points are consecutive in the image), so
+    the pass keeps one value per run of equal finite values: the sort then takes some tens of
+    values instead of thousands (a frame's sort and unique in numpy cost 0.04 ms, ~5 % of an
+    update).
+    """
+    runs = np.empty(floor_heights.shape[0])
+    n = 0
+    for h in floor_heights:
+        if np.isfinite(h) and (n == 0 or h != runs[n - 1]):
+            runs[n] = h
+            n += 1
+    heights = np.unique(runs[:n])
+    kept = np.empty(heights.shape[0])
+    k = 0
     for h in heights:
-        if not kept or h > kept[-1] + eps:
-            kept.append(h)
-    return np.array(kept, dtype=np.float64)
+        if k == 0 or h > kept[k - 1] + eps:
+            kept[k] = h
+            k += 1
+    return kept[:k]
 
 
 @numba.njit(cache=True, inline="always")
-def _restart_if_new(col: int, f: float, ref, ends, passes, eps: float) -> None:
-    if not abs(f - ref[col]) <= eps:  # another surface (or none before): restart
-        ref[col] = f
-        ends[col] = 0
-        passes[col] = 0
+def _counts_for(f: float, ref: float, ends: int, passes: int, eps: float):
+    """A cell's (reference height, ends, passes) for its stored floor ``f``, restarted if new.
+
+    Restarted at ``f`` when ``f`` lies more than ``eps`` from the reference (another surface,
+    or none before: a NaN reference).
+
+    Scalars in and out: an inlined helper taking the count arrays costs reference counting per
+    call (measured: 0.06 of the kernel's 0.10 ms a stage frame).
+    """
+    if abs(f - ref) <= eps:
+        return ref, ends, passes
+    return f, 0, 0
 
 
 @numba.njit(cache=True)
@@ -103,7 +132,7 @@ def accumulate_cover(
         h = floor_heights[i]
         f = floor_flat[col]
         if np.isfinite(h) and abs(h - f) <= eps:  # NaN floor: never
-            _restart_if_new(col, f, ref, ends, passes, eps)
+            ref[col], ends[col], passes[col] = _counts_for(f, ref[col], ends[col], passes[col], eps)
             ends[col] += 1
         pz = points[i, 2]
         for k in range(plane_heights.shape[0]):
@@ -111,12 +140,14 @@ def accumulate_cover(
             if not (pz < hk - eps and hk < oz):
                 continue
             t = (oz - hk) / (oz - pz)
-            ix = int(np.floor((ox + t * (points[i, 0] - ox) - origin_x) / cell))
-            iy = int(np.floor((oy + t * (points[i, 1] - oy) - origin_y) / cell))
+            ix = floor_int((ox + t * (points[i, 0] - ox) - origin_x) / cell)
+            iy = floor_int((oy + t * (points[i, 1] - oy) - origin_y) / cell)
             if ix < 0 or ix >= nx or iy < 0 or iy >= ny:
                 continue
             crossed = ix * ny + iy
             f = floor_flat[crossed]
             if abs(hk - f) <= eps:
-                _restart_if_new(crossed, f, ref, ends, passes, eps)
+                ref[crossed], ends[crossed], passes[crossed] = _counts_for(
+                    f, ref[crossed], ends[crossed], passes[crossed], eps
+                )
                 passes[crossed] += 1

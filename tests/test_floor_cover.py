@@ -34,6 +34,14 @@ def test_frame_floor_heights_merges_heights_within_eps():
     assert frame_floor_heights(h, EPS).tolist() == [0.0, 0.03, 0.12]
 
 
+def test_frame_floor_heights_of_runs_as_in_a_frame():
+    """Runs of one plane's height, interleaved and repeated, ±inf and NaN (not floor)."""
+    h = np.array([np.nan, 0.03, 0.03, 0.0, 0.0, np.inf, 0.12, 0.12, 0.0, 0.009, 0.03, -np.inf])
+    assert frame_floor_heights(h, EPS).tolist() == [0.0, 0.03, 0.12]  # 0.009 within eps of 0
+    assert frame_floor_heights(np.full(4, np.nan), EPS).tolist() == []
+    assert frame_floor_heights(np.array([0.05]), EPS).tolist() == [0.05]
+
+
 def test_rays_ending_on_passing_through_and_stopping_short_of_a_floor_by_hand():
     points = [
         [0.06, 0.02, 0.10],  # a floor point on cell 1's floor: ends on it
