@@ -136,32 +136,28 @@ SEGMENTATION = KernelGroup(
 
 MAPPER = KernelGroup(
     "mapper",
-    _kernels(
-        mapper.grid,
-        mapper.occupancy,
-        mapper.floor_map,
-        mapper.floor_cover,
-        mapper.fog,
-        mapper.averaging,
-        mapper.zmatch,
-        mapper.heading,
-    ),
+    _kernels(mapper.grid, mapper.occupancy, mapper.floor_map, mapper.floor_cover, mapper.fog),
 )
-"""The map update kernels: frame checks, occupancy, floor map, floor cover, FOG types, averaging,
-z-match, heading scores."""
+"""The FOG map's update kernels: frame checks, occupancy, floor map, floor cover, FOG types."""
+
+MATCHING = KernelGroup(
+    "z-match, baseline, heading", _kernels(mapper.zmatch, mapper.averaging, mapper.heading)
+)
+"""z-matching, the averaging baseline map and the heading scores (no FOG map update)."""
 
 SELF_FILTER = KernelGroup("self-filter", _kernels(self_filter))
 """The kernel removing the robot's body from simulated depth images."""
 
 
-GROUPS = (FLOOR_REGIONS, MAPPER, SEGMENTATION, SELF_FILTER)
+GROUPS = (FLOOR_REGIONS, MAPPER, SEGMENTATION, MATCHING, SELF_FILTER)
 """Every group, in the order this process compiles them (without a helper)."""
 
-HELPER_GROUPS = (SEGMENTATION, SELF_FILTER)
+HELPER_GROUPS = (SEGMENTATION, MATCHING, SELF_FILTER)
 """The groups a helper process compiles on a cold cache, in this order. Compile CPU time on an
-empty cache (``bench/bench_cold.py kernels``, Intel Xeon, load 12-18): segmentation without
-its floor stage ~10 s + self-filter 0.5 s in the helper (after its ~0.5 s of imports), floor
-regions ~4 s + mapper ~8 s here."""
+empty cache, one after the other in one process (``bench/bench_cold.py kernels``, Intel Xeon,
+load 11-15): floor regions 7.6 s (the first group pays numba's start-up), mapper 6.2 s here
+after 1.2 s of imports; segmentation 9.1 s, z-match, baseline, heading 2.5 s, self-filter
+0.5 s in the helper after its 0.5 s of imports and numba's start-up (~1 s)."""
 
 
 def warm_up_kernels(params: RunParams, stream: TextIO | None = sys.stderr) -> float:
@@ -229,6 +225,7 @@ def _steps(params: RunParams) -> dict[KernelGroup, Callable[[], None]]:
         FLOOR_REGIONS: lambda: _floors(frames[0], Pipeline(params).segmentation_params),
         SEGMENTATION: lambda: _segment(frames[0], params),
         MAPPER: lambda: _map(frames, params),
+        MATCHING: lambda: _match(frames, params),
         SELF_FILTER: self_filter.compile_mask_kernel,
     }
 
@@ -242,7 +239,7 @@ class _Helper:
         self._process = subprocess.Popen(
             [sys.executable, "-m", "fogsim.run.warmup", *(group.name for group in groups)],
             stdin=subprocess.PIPE,
-            stdout=subprocess.DEVNULL,
+            stdout=subprocess.PIPE,
             stderr=subprocess.PIPE,
         )
         assert self._process.stdin is not None
@@ -251,18 +248,21 @@ class _Helper:
 
     def wait(self) -> str:
         """Wait for the helper; its last line of standard error if it failed, else ''."""
-        assert self._process.stderr is not None
-        with self._process.stderr as stderr:
+        assert self._process.stdout is not None and self._process.stderr is not None
+        with self._process.stderr as stderr, self._process.stdout as stdout:
             err = stderr.read()  # to its end: the helper has ended or closed it
+            out = stdout.read()  # one line
         self._process.wait()
         self._end = time.perf_counter()
         if self._process.returncode == 0:
+            # It printed the clock (time.time) when done: it may have ended long before.
+            self._end -= max(time.time() - float(out.split()[-1]), 0.0)
             return ""
         lines = err.decode(errors="replace").strip().splitlines()
         return lines[-1] if lines else f"exit status {self._process.returncode}"
 
     def seconds(self) -> float:
-        """The helper's wall time [s] (to :meth:`wait`'s return)."""
+        """The helper's wall time [s], start to end (after :meth:`wait`)."""
         return (self._end or time.perf_counter()) - self._start
 
     def stop(self) -> None:
@@ -372,24 +372,42 @@ def _floors(frame: Frame, params: SegmentationParams) -> None:
     )
 
 
-def _map(frames: tuple[Frame, ...], params: RunParams) -> None:
-    """Both maps, z-matching and the heading scores on the frames' floor points (no segmentation).
+def _floor_points_world(frame: Frame) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+    """``frame``'s points in the world and their floor heights (all on the floor, height 0)."""
+    points_camera = frame.depth_m[..., None] * frame.intrinsics.ray_directions_camera()
+    points_world = apply_transform(
+        frame.transform_camera_to_world_true, points_camera.reshape(-1, 3)
+    )
+    return points_world, np.zeros(len(points_world))
 
-    Every pixel sees the floor z = 0, so the points are the floor's, at height 0, in the world.
+
+def _map(frames: tuple[Frame, ...], params: RunParams) -> None:
+    """The FOG map's update and layers on the frames' floor points.
+
+    No segmentation and no z-matching: those are other groups' (the helper's).
+    """
+    fog = FloorObstacleMapper(params.mapper)
+    for frame in frames:
+        points_world, floor_world = _floor_points_world(frame)
+        origin = np.ascontiguousarray(frame.transform_camera_to_world_true[:3, 3])
+        fog.recenter(float(origin[0]), float(origin[1]))
+        fog.update(points_world, floor_world, origin)
+    fog.fog(), fog.floor(), fog.obstacle(), fog.ceiling(), fog.floor_at(0.0, 0.0)
+
+
+def _match(frames: tuple[Frame, ...], params: RunParams) -> None:
+    """z-matching, the averaging map's update and the heading scores on the frames' points.
+
+    z-matching is against an empty FOG map: its update is :data:`MAPPER`'s (this process's).
     """
     fog = FloorObstacleMapper(params.mapper)
     baseline = AveragingMap(params.mapper)
     for frame in frames:
-        points_camera = frame.depth_m[..., None] * frame.intrinsics.ray_directions_camera()
-        transform = frame.transform_camera_to_world_true
-        points_world = apply_transform(transform, points_camera.reshape(-1, 3))
-        floor_world = np.zeros(len(points_world))
-        origin = np.ascontiguousarray(transform[:3, 3])
-        for grid in (fog, baseline):
-            grid.recenter(float(origin[0]), float(origin[1]))
-            grid.update(points_world, floor_world, origin)
+        points_world, floor_world = _floor_points_world(frame)
+        origin = np.ascontiguousarray(frame.transform_camera_to_world_true[:3, 3])
+        baseline.recenter(float(origin[0]), float(origin[1]))
+        baseline.update(points_world, floor_world, origin)
         fog.match_z(points_world, floor_world)
-    fog.fog(), fog.floor(), fog.obstacle(), fog.ceiling(), fog.floor_at(0.0, 0.0)
     baseline.heights()
     offsets_xy = np.ascontiguousarray(points_world[:4, :2])
     heading_scores(
@@ -420,6 +438,7 @@ def _helper_main(group_names: list[str]) -> None:
     for name in group_names:
         (group,) = (g for g in GROUPS if g.name == name)
         steps[group]()
+    print(repr(time.time()), flush=True)  # when it was done (its exit takes a moment more)
     exit_process(0)
 
 
