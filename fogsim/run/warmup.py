@@ -372,13 +372,14 @@ def _floors(frame: Frame, params: SegmentationParams) -> None:
     )
 
 
-def _floor_points_world(frame: Frame) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
-    """``frame``'s points in the world and their floor heights (all on the floor, height 0)."""
+def _floor_points_world(
+    frame: Frame,
+) -> tuple[NDArray[np.float64], NDArray[np.float64], NDArray[np.float64]]:
+    """``frame``'s world points, their floor heights (all floor, height 0), the camera's place."""
     points_camera = frame.depth_m[..., None] * frame.intrinsics.ray_directions_camera()
-    points_world = apply_transform(
-        frame.transform_camera_to_world_true, points_camera.reshape(-1, 3)
-    )
-    return points_world, np.zeros(len(points_world))
+    transform = frame.transform_camera_to_world_true
+    points_world = apply_transform(transform, points_camera.reshape(-1, 3))
+    return points_world, np.zeros(len(points_world)), np.ascontiguousarray(transform[:3, 3])
 
 
 def _map(frames: tuple[Frame, ...], params: RunParams) -> None:
@@ -387,9 +388,7 @@ def _map(frames: tuple[Frame, ...], params: RunParams) -> None:
     No segmentation and no z-matching: those are other groups' (the helper's).
     """
     fog = FloorObstacleMapper(params.mapper)
-    for frame in frames:
-        points_world, floor_world = _floor_points_world(frame)
-        origin = np.ascontiguousarray(frame.transform_camera_to_world_true[:3, 3])
+    for points_world, floor_world, origin in map(_floor_points_world, frames):
         fog.recenter(float(origin[0]), float(origin[1]))
         fog.update(points_world, floor_world, origin)
     fog.fog(), fog.floor(), fog.obstacle(), fog.ceiling(), fog.floor_at(0.0, 0.0)
@@ -402,9 +401,7 @@ def _match(frames: tuple[Frame, ...], params: RunParams) -> None:
     """
     fog = FloorObstacleMapper(params.mapper)
     baseline = AveragingMap(params.mapper)
-    for frame in frames:
-        points_world, floor_world = _floor_points_world(frame)
-        origin = np.ascontiguousarray(frame.transform_camera_to_world_true[:3, 3])
+    for points_world, floor_world, origin in map(_floor_points_world, frames):
         baseline.recenter(float(origin[0]), float(origin[1]))
         baseline.update(points_world, floor_world, origin)
         fog.match_z(points_world, floor_world)
