@@ -153,11 +153,10 @@ GROUPS = (FLOOR_REGIONS, MAPPER, SEGMENTATION, MATCHING, SELF_FILTER)
 """Every group, in the order this process compiles them (without a helper)."""
 
 HELPER_GROUPS = (SEGMENTATION, MATCHING, SELF_FILTER)
-"""The groups a helper process compiles on a cold cache, in this order. Compile CPU time on an
-empty cache, one after the other in one process (``bench/bench_cold.py kernels``, Intel Xeon,
-load 11-15): floor regions 7.6 s (the first group pays numba's start-up), mapper 6.2 s here
-after 1.2 s of imports; segmentation 9.1 s, z-match, baseline, heading 2.5 s, self-filter
-0.5 s in the helper after its 0.5 s of imports and numba's start-up (~1 s)."""
+"""The groups a helper process compiles on a cold cache, in this order. Measured with
+``bench/bench_cold.py run`` (cold ``fogsim run stage``, Intel Xeon 2 cores, load 0.4-1.5):
+this process's floor regions 8.0 s + mapper 4.8 s, the helper's groups 12.8 s, so both end
+together (with the segmentation whole in the helper it took 16.6 s, this process 10 s)."""
 
 
 def warm_up_kernels(params: RunParams, stream: TextIO | None = sys.stderr) -> float:
