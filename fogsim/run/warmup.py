@@ -21,14 +21,15 @@ compiled here instead.
 The segmentation's kernels took two thirds of the compile time, so they are split: this
 process first compiles its last stage (:data:`FLOOR_REGIONS`, called on a synthetic image
 whose every row is one segment, with the argument types ``segment_depth`` passes), then the
-mapper's; the helper runs the whole segmentation and loads that stage from the cache when it
-gets there (it compiles it itself, once more, only if it gets there first). The split is
-measured by ``bench/bench_cold.py kernels``: both processes then take about as long.
+FOG map's update; the helper runs the whole segmentation, loading that stage from the cache
+when it gets there (it compiles it itself, once more, only if it gets there first), then
+z-matching, the baseline map and the heading scores. The split is measured by
+``bench/bench_cold.py``: both processes then take about as long (:data:`HELPER_GROUPS`).
 
 Where the cache is: numba keeps it beside the sources (``__pycache__/*.nbi`` index files and
 ``*.nbc`` code) and, when that folder is not writable (a wheel in a read-only site-packages),
 in its user-wide cache folder (``~/.cache/numba``, numba's ``UserWideCacheLocator``), or in
-``NUMBA_CACHE_DIR`` when that is set; :func:`cold_modules` asks numba's own cache objects where
+``NUMBA_CACHE_DIR`` when that is set; :func:`is_cold` asks numba's own cache objects where
 each kernel's index file is, so it follows the same choice.
 """
 
