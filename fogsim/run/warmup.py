@@ -7,21 +7,29 @@ three tiny synthetic frames of a flat floor, group by group, printing which grou
 it took on standard error when the cache holds no compiled version of a group's kernels.
 
 On a cold cache the groups are compiled in two processes at once: a helper process
-(``python -m fogsim.run.warmup GROUP``, the run's parameters pickled on its standard input)
-compiles :data:`HELPER_GROUP` into the cache while this process compiles the others, then this
+(``python -m fogsim.run.warmup GROUP ...``, the run's parameters pickled on its standard input)
+compiles :data:`HELPER_GROUPS` into the cache while this process compiles the others, then this
 process loads the helper's kernels from the cache. Compiling holds numba's compiler lock (and
 mostly the GIL), so a second thread would not help; a second process halves the wait on two
 cores. Each group's step calls only its own kernels (the mapper's are driven through the
 ``mapper`` API, not through a :class:`Pipeline`, which would segment and so compile the
 segmentation a second time beside the helper); a last step runs a :class:`Pipeline` on the
 synthetic frames, which loads every kernel from the cache and compiles whatever a group missed.
-A helper that fails is reported on the stream (its last line of standard error) and its group
+A helper that fails is reported on the stream (its last line of standard error) and its groups
 compiled here instead.
+
+The segmentation's kernels took two thirds of the compile time, so they are split: this
+process first compiles its last stage (:data:`FLOOR_REGIONS`, called on a synthetic image
+whose every row is one segment, with the argument types ``segment_depth`` passes), then the
+FOG map's update; the helper runs the whole segmentation, loading that stage from the cache
+when it gets there (it compiles it itself, once more, only if it gets there first), then
+z-matching, the baseline map and the heading scores. The split is measured by
+``bench/bench_cold.py``: both processes then take about as long (:data:`HELPER_GROUPS`).
 
 Where the cache is: numba keeps it beside the sources (``__pycache__/*.nbi`` index files and
 ``*.nbc`` code) and, when that folder is not writable (a wheel in a read-only site-packages),
 in its user-wide cache folder (``~/.cache/numba``, numba's ``UserWideCacheLocator``), or in
-``NUMBA_CACHE_DIR`` when that is set; :func:`cold_modules` asks numba's own cache objects where
+``NUMBA_CACHE_DIR`` when that is set; :func:`is_cold` asks numba's own cache objects where
 each kernel's index file is, so it follows the same choice.
 """
 
@@ -56,10 +64,10 @@ from fogsim.data.frame import Frame
 from fogsim.mapping.pipeline import Pipeline
 from fogsim.robot import self_filter
 from fogsim.run.process_exit import exit_process
-from mapper import AveragingMap, FloorObstacleMapper
+from mapper import AveragingMap, FloorObstacleMapper, SegmentationParams
 from mapper.heading import heading_scores
 from mapper.intrinsics import PinholeIntrinsics
-from mapper.segmentation import segment_depth
+from mapper.segmentation import _floor_regions, segment_depth
 from mapper.transforms import apply_transform
 
 MESSAGE = "compiling kernels (first run only)"
@@ -85,42 +93,71 @@ class KernelGroup:
 
     Attributes:
         name: What the message calls them.
-        modules: The modules defining the group's numba kernels.
+        kernels: The group's cached, not inlined numba kernels.
     """
 
     name: str
-    modules: tuple[ModuleType, ...]
+    kernels: tuple[Dispatcher, ...]
 
 
-SEGMENTATION = KernelGroup("segmentation", (mapper.scanline,))
-"""The depth-image segmentation's scan-line kernels."""
+def _kernels(*modules: ModuleType) -> tuple[Dispatcher, ...]:
+    """The cached, not inlined numba kernels defined in ``modules``."""
+    return tuple(
+        value
+        for module in modules
+        for value in vars(module).values()
+        if isinstance(value, Dispatcher)
+        and value.py_func.__module__ == module.__name__
+        and value.targetoptions.get("inline", "never") == "never"
+    )
+
+
+_FLOOR_KERNELS = (
+    mapper.scanline.level_geometry,
+    mapper.scanline.split_level,
+    mapper.scanline.horizontal_sums,
+    mapper.scanline.grow_floors,
+    mapper.scanline.region_interior,
+    mapper.scanline.floor_statistics,
+    mapper.scanline.floor_segment_fit,
+    mapper.scanline.floor_points,
+)
+"""The segmentation's last stage (level regions and the floor points) and what it calls."""
+
+FLOOR_REGIONS = KernelGroup(
+    "floor regions", tuple(k for k in _kernels(mapper.scanline) if k in _FLOOR_KERNELS)
+)
+"""The segmentation's last stage: level geometry, level regions grown and measured, floor
+points (the scan-line kernels it shares with the planes stage are the helper's)."""
+
+SEGMENTATION = KernelGroup(
+    "segmentation", tuple(k for k in _kernels(mapper.scanline) if k not in _FLOOR_KERNELS)
+)
+"""The rest of the depth-image segmentation's scan-line kernels: noise, row segments, planes."""
 
 MAPPER = KernelGroup(
     "mapper",
-    (
-        mapper.grid,
-        mapper.occupancy,
-        mapper.floor_map,
-        mapper.floor_cover,
-        mapper.fog,
-        mapper.averaging,
-        mapper.zmatch,
-        mapper.heading,
-    ),
+    _kernels(mapper.grid, mapper.occupancy, mapper.floor_map, mapper.floor_cover, mapper.fog),
 )
-"""The map update kernels: frame checks, occupancy, floor map, floor cover, FOG types, averaging,
-z-match, heading scores."""
+"""The FOG map's update kernels: frame checks, occupancy, floor map, floor cover, FOG types."""
 
-SELF_FILTER = KernelGroup("self-filter", (self_filter,))
+MATCHING = KernelGroup(
+    "z-match, baseline, heading", _kernels(mapper.zmatch, mapper.averaging, mapper.heading)
+)
+"""z-matching, the averaging baseline map and the heading scores (no FOG map update)."""
+
+SELF_FILTER = KernelGroup("self-filter", _kernels(self_filter))
 """The kernel removing the robot's body from simulated depth images."""
 
 
-GROUPS = (SEGMENTATION, MAPPER, SELF_FILTER)
-"""Every group, in the order they are compiled."""
+GROUPS = (FLOOR_REGIONS, MAPPER, SEGMENTATION, MATCHING, SELF_FILTER)
+"""Every group, in the order this process compiles them (without a helper)."""
 
-HELPER_GROUP = SEGMENTATION
-"""The group a helper process compiles on a cold cache: the largest (the segmentation's kernels
-took about half of the cold compile), so the two processes finish at about the same time."""
+HELPER_GROUPS = (SEGMENTATION, MATCHING, SELF_FILTER)
+"""The groups a helper process compiles on a cold cache, in this order. Measured with
+``bench/bench_cold.py run`` (cold ``fogsim run stage``, Intel Xeon 2 cores, load 0.4-1.5):
+this process's floor regions 8.0 s + mapper 4.8 s, the helper's groups 12.8 s, so both end
+together (with the segmentation whole in the helper it took 16.6 s, this process 10 s)."""
 
 
 def warm_up_kernels(params: RunParams, stream: TextIO | None = sys.stderr) -> float:
@@ -141,14 +178,16 @@ def warm_up_kernels(params: RunParams, stream: TextIO | None = sys.stderr) -> fl
     """
     start = time.perf_counter()
     steps = _steps(params)
-    cold = [group for group in GROUPS if cold_modules(group)]
+    cold = [group for group in GROUPS if is_cold(group)]
     say = print if stream is not None else _silent
+    away = [group for group in HELPER_GROUPS if group in cold]
+    helper = _Helper(params, away) if away and len(away) < len(cold) else None
     if cold:
-        say(f"fogsim: {MESSAGE}", file=stream, flush=True)
-    helper = _Helper(params) if HELPER_GROUP in cold and len(cold) > 1 else None
+        processes = " in 2 processes" if helper is not None else ""
+        say(f"fogsim: {MESSAGE}, {len(cold)} groups{processes}", file=stream, flush=True)
     try:
         for group in GROUPS:
-            if helper is not None and group is HELPER_GROUP:
+            if helper is not None and group in away:
                 continue
             if group in cold:
                 say(f"  {group.name} kernels ...", end="", file=stream, flush=True)
@@ -157,9 +196,11 @@ def warm_up_kernels(params: RunParams, stream: TextIO | None = sys.stderr) -> fl
             if group in cold:
                 say(f" {time.perf_counter() - group_start:.1f} s", file=stream, flush=True)
         if helper is not None:
-            say(f"  {HELPER_GROUP.name} kernels ...", end="", file=stream, flush=True)
+            names = ", ".join(group.name for group in away)
+            say(f"  {names} kernels ...", end="", file=stream, flush=True)
             failure = helper.wait()
-            steps[HELPER_GROUP]()  # loaded from the cache the helper filled
+            for group in away:
+                steps[group]()  # loaded from the cache the helper filled
             say(f" {helper.seconds():.1f} s (second process)", file=stream, flush=True)
             if failure:
                 say(f"  (the second process failed, compiled here: {failure})", file=stream)
@@ -181,22 +222,24 @@ def _steps(params: RunParams) -> dict[KernelGroup, Callable[[], None]]:
     """What compiles each group: a run of its kernels on synthetic data."""
     frames = _floor_frames()
     return {
+        FLOOR_REGIONS: lambda: _floors(frames[0], Pipeline(params).segmentation_params),
         SEGMENTATION: lambda: _segment(frames[0], params),
         MAPPER: lambda: _map(frames, params),
+        MATCHING: lambda: _match(frames, params),
         SELF_FILTER: self_filter.compile_mask_kernel,
     }
 
 
 class _Helper:
-    """A helper process compiling :data:`HELPER_GROUP` into numba's cache."""
+    """A helper process compiling ``groups`` into numba's cache, in their order."""
 
-    def __init__(self, params: RunParams) -> None:
+    def __init__(self, params: RunParams, groups: list[KernelGroup]) -> None:
         self._start = time.perf_counter()
         self._end: float | None = None
         self._process = subprocess.Popen(
-            [sys.executable, "-m", "fogsim.run.warmup", HELPER_GROUP.name],
+            [sys.executable, "-m", "fogsim.run.warmup", *(group.name for group in groups)],
             stdin=subprocess.PIPE,
-            stdout=subprocess.DEVNULL,
+            stdout=subprocess.PIPE,
             stderr=subprocess.PIPE,
         )
         assert self._process.stdin is not None
@@ -205,18 +248,21 @@ class _Helper:
 
     def wait(self) -> str:
         """Wait for the helper; its last line of standard error if it failed, else ''."""
-        assert self._process.stderr is not None
-        with self._process.stderr as stderr:
+        assert self._process.stdout is not None and self._process.stderr is not None
+        with self._process.stderr as stderr, self._process.stdout as stdout:
             err = stderr.read()  # to its end: the helper has ended or closed it
+            out = stdout.read()  # one line
         self._process.wait()
         self._end = time.perf_counter()
         if self._process.returncode == 0:
+            # It printed the clock (time.time) when done: it may have ended long before.
+            self._end -= max(time.time() - float(out.split()[-1]), 0.0)
             return ""
         lines = err.decode(errors="replace").strip().splitlines()
         return lines[-1] if lines else f"exit status {self._process.returncode}"
 
     def seconds(self) -> float:
-        """The helper's wall time [s] (to :meth:`wait`'s return)."""
+        """The helper's wall time [s], start to end (after :meth:`wait`)."""
         return (self._end or time.perf_counter()) - self._start
 
     def stop(self) -> None:
@@ -226,31 +272,17 @@ class _Helper:
         self._process.wait()
 
 
-def cold_modules(group: KernelGroup) -> tuple[str, ...]:
-    """The group's modules none of whose kernels has a cache index file (``*.nbi``).
+def is_cold(group: KernelGroup) -> bool:
+    """Whether none of the group's kernels has a cache index file (``*.nbi``).
 
-    A module counts as warm when any of its kernels is cached: not every kernel of a module is
-    used by a run (``mapper.occupancy`` keeps a second insertion kernel for comparison), and
-    kernels inlined into others (``inline="always"``) are never compiled on their own. A cache
-    made stale by edited sources is recompiled by numba without the message (a developer's
-    case; a fresh install has no cache at all).
+    A group counts as warm when any of its kernels is cached: not every kernel is used by a
+    run (``mapper.occupancy`` keeps a second insertion kernel for comparison, the stereo
+    camera's plane refit is not compiled for a depth camera), and kernels inlined into others
+    (``inline="always"``) are never compiled on their own. A cache made stale by edited
+    sources is recompiled by numba without the message (a developer's case; a fresh install
+    has no cache at all).
     """
-    return tuple(
-        module.__name__
-        for module in group.modules
-        if not any(_index_path(kernel).exists() for kernel in _kernels(module))
-    )
-
-
-def _kernels(module: ModuleType) -> list[Dispatcher]:
-    """The cached, not inlined numba kernels defined in ``module``."""
-    return [
-        value
-        for value in vars(module).values()
-        if isinstance(value, Dispatcher)
-        and value.py_func.__module__ == module.__name__
-        and value.targetoptions.get("inline", "never") == "never"
-    ]
+    return not any(_index_path(kernel).exists() for kernel in group.kernels)
 
 
 def _index_path(kernel: Dispatcher) -> Path:
@@ -302,24 +334,77 @@ def _segment(frame: Frame, params: RunParams) -> None:
     )
 
 
-def _map(frames: tuple[Frame, ...], params: RunParams) -> None:
-    """Both maps, z-matching and the heading scores on the frames' floor points (no segmentation).
+def _floors(frame: Frame, params: SegmentationParams) -> None:
+    """The segmentation's floor stage on ``frame``'s floor, every image row one segment.
 
-    Every pixel sees the floor z = 0, so the points are the floor's, at height 0, in the world.
+    The calls and argument types are ``segment_depth``'s (a type that differed would compile a
+    second version of a kernel, and the run would load neither): float64 images, the camera's
+    read-only ray table, int64 segment tables.
+    """
+    depth = np.asarray(frame.depth_m, dtype=np.float64)
+    height, width = depth.shape
+    rays_camera = frame.intrinsics.ray_directions_camera().reshape(-1, 3)
+    origin = frame.transform_camera_to_robot_believed[:3, 3].copy()
+    rotation = frame.transform_camera_to_robot_believed[:3, :3].copy()
+    typical_sigma = np.full((height, width), params.min_noise_m)
+    rays, points, sigma_z = mapper.scanline.level_geometry(
+        depth, rays_camera, rotation, origin, typical_sigma, params.min_noise_m
+    )
+    segments = (
+        np.arange(height, dtype=np.int64),
+        np.zeros(height, dtype=np.int64),
+        np.full(height, width, dtype=np.int64),
+    )
+    labels, floors = _floor_regions(
+        origin, rays, points, sigma_z, depth, segments, frame.intrinsics, params
+    )
+    mapper.scanline.floor_points(
+        np.flatnonzero(np.isfinite(depth)),
+        labels,
+        np.where(floors.is_floor, floors.heights_m, np.nan),
+        np.nan,
+        rays,
+        depth,
+        typical_sigma,
+        origin,
+        params.ground_relabel_sigma_factor,
+        params.floor_snap_sigma_factor,
+    )
+
+
+def _floor_points_world(
+    frame: Frame,
+) -> tuple[NDArray[np.float64], NDArray[np.float64], NDArray[np.float64]]:
+    """``frame``'s world points, their floor heights (all floor, height 0), the camera's place."""
+    points_camera = frame.depth_m[..., None] * frame.intrinsics.ray_directions_camera()
+    transform = frame.transform_camera_to_world_true
+    points_world = apply_transform(transform, points_camera.reshape(-1, 3))
+    return points_world, np.zeros(len(points_world)), np.ascontiguousarray(transform[:3, 3])
+
+
+def _map(frames: tuple[Frame, ...], params: RunParams) -> None:
+    """The FOG map's update and layers on the frames' floor points.
+
+    No segmentation and no z-matching: those are other groups' (the helper's).
+    """
+    fog = FloorObstacleMapper(params.mapper)
+    for points_world, floor_world, origin in map(_floor_points_world, frames):
+        fog.recenter(float(origin[0]), float(origin[1]))
+        fog.update(points_world, floor_world, origin)
+    fog.fog(), fog.floor(), fog.obstacle(), fog.ceiling(), fog.floor_at(0.0, 0.0)
+
+
+def _match(frames: tuple[Frame, ...], params: RunParams) -> None:
+    """z-matching, the averaging map's update and the heading scores on the frames' points.
+
+    z-matching is against an empty FOG map: its update is :data:`MAPPER`'s (this process's).
     """
     fog = FloorObstacleMapper(params.mapper)
     baseline = AveragingMap(params.mapper)
-    for frame in frames:
-        points_camera = frame.depth_m[..., None] * frame.intrinsics.ray_directions_camera()
-        transform = frame.transform_camera_to_world_true
-        points_world = apply_transform(transform, points_camera.reshape(-1, 3))
-        floor_world = np.zeros(len(points_world))
-        origin = np.ascontiguousarray(transform[:3, 3])
-        for grid in (fog, baseline):
-            grid.recenter(float(origin[0]), float(origin[1]))
-            grid.update(points_world, floor_world, origin)
+    for points_world, floor_world, origin in map(_floor_points_world, frames):
+        baseline.recenter(float(origin[0]), float(origin[1]))
+        baseline.update(points_world, floor_world, origin)
         fog.match_z(points_world, floor_world)
-    fog.fog(), fog.floor(), fog.obstacle(), fog.ceiling(), fog.floor_at(0.0, 0.0)
     baseline.heights()
     offsets_xy = np.ascontiguousarray(points_world[:4, :2])
     heading_scores(
@@ -343,13 +428,16 @@ def _pipeline(frames: tuple[Frame, ...], params: RunParams) -> None:
     pipeline.maps()
 
 
-def _helper_main(group_name: str) -> None:
-    """The helper process: compile group ``group_name`` for the parameters on standard input."""
+def _helper_main(group_names: list[str]) -> None:
+    """The helper process: compile the named groups, in order, for the parameters on stdin."""
     params = pickle.load(sys.stdin.buffer)
-    (group,) = (g for g in GROUPS if g.name == group_name)
-    _steps(params)[group]()
+    steps = _steps(params)
+    for name in group_names:
+        (group,) = (g for g in GROUPS if g.name == name)
+        steps[group]()
+    print(repr(time.time()), flush=True)  # when it was done (its exit takes a moment more)
     exit_process(0)
 
 
 if __name__ == "__main__":
-    _helper_main(sys.argv[1])
+    _helper_main(sys.argv[1:])

@@ -1,0 +1,220 @@
+"""The first run on a fresh machine: where its compile time goes, and A/B of trees.
+
+Usage:
+    .venv/bin/python bench/bench_cold.py kernels [--tree DIR ...] [--repeats N] [--top K]
+    .venv/bin/python bench/bench_cold.py run [--tree DIR ...] [--repeats N] [--scenario NAME]
+
+Every measurement is a fresh ``python`` process run from a tree (``PYTHONPATH`` = the tree)
+with an empty ``NUMBA_CACHE_DIR`` (and, for ``run``, an empty ``FOGSIM_CACHE``: the robot's
+meshes are converted and the scene compiled too). With several trees the repeats are
+interleaved (tree A, tree B, tree A, ...) so the load hits them alike; the load average
+(``os.getloadavg``, 2 cores) is noted before and after each measurement. CPU times are the
+measure on a shared machine: wall time only means something at load < 2.
+
+- ``kernels``: the warm-up's groups compiled one after the other in one process
+  (``fogsim.run.warmup._steps``, no helper process): per group its CPU time, per numba
+  dispatcher its compile CPU time inclusive and exclusive of the kernels it compiles inside
+  (``numba.core.event``'s ``numba:compile`` events, process CPU time), the kernels compiled
+  for more than one signature (each extra one is wasted compile time) and the CPU time of the
+  imports. Printed per tree: the median over the repeats of every figure.
+- ``run``: ``fogsim run SCENARIO --seed 1 --no-pictures --out TMP`` (progress shown, so the
+  warm-up reports its groups): wall, CPU (user + sys of the process and its helper) and the
+  warm-up's ``compiled in`` line.
+"""
+
+import argparse
+import json
+import os
+import resource
+import statistics
+import subprocess
+import sys
+import tempfile
+import time
+from pathlib import Path
+
+ROOT = Path(__file__).resolve().parent.parent
+PYTHON = sys.executable
+
+_PROFILE = r"""
+import json, sys, time
+start = time.process_time()
+from numba.core import event
+from numba.core.dispatcher import Dispatcher
+stack, inclusive, exclusive = [], {}, {}
+class Compiles(event.Listener):
+    def on_start(self, ev):
+        f = ev.data["dispatcher"].py_func
+        stack.append([f"{f.__module__}.{f.__qualname__}", time.process_time(), 0.0])
+    def on_end(self, ev):
+        name, begun, inner = stack.pop()
+        spent = time.process_time() - begun
+        inclusive[name] = inclusive.get(name, 0.0) + spent
+        exclusive[name] = exclusive.get(name, 0.0) + spent - inner
+        if stack:
+            stack[-1][2] += spent
+event.register("numba:compile", Compiles())
+from fogsim.config import RunParams
+from fogsim.run import warmup
+params = RunParams()
+groups = {"imports": time.process_time() - start}
+steps = warmup._steps(params)
+for group in warmup.GROUPS:
+    begun = time.process_time()
+    steps[group]()
+    groups[group.name] = time.process_time() - begun
+begun = time.process_time()
+warmup._pipeline(warmup._floor_frames(), params)
+groups["pipeline (should compile nothing)"] = time.process_time() - begun
+signatures = {}
+for module in list(sys.modules.values()):
+    for value in list(vars(module).values()) if module is not None else ():
+        if isinstance(value, Dispatcher) and len(value.signatures) > 1:
+            f = value.py_func
+            signatures[f"{f.__module__}.{f.__qualname__}"] = [str(s) for s in value.signatures]
+json.dump({"groups": groups, "inclusive": inclusive, "exclusive": exclusive,
+           "signatures": signatures}, sys.stdout)
+"""
+"""The ``kernels`` child: compiles the warm-up's groups in turn, prints JSON."""
+
+
+def load_note() -> str:
+    """The 1, 5 and 15 minute load averages."""
+    return "load " + "/".join(f"{x:.1f}" for x in os.getloadavg())
+
+
+def _env(tree: Path, scratch: Path) -> dict[str, str]:
+    """The environment of a cold child of ``tree``: empty caches in ``scratch``."""
+    (scratch / "numba").mkdir()
+    (scratch / "fogsim").mkdir()
+    return {
+        **os.environ,
+        "PYTHONPATH": str(tree),
+        "NUMBA_CACHE_DIR": str(scratch / "numba"),
+        "FOGSIM_CACHE": str(scratch / "fogsim"),
+        "MUJOCO_GL": os.environ.get("MUJOCO_GL", "egl"),
+        "MESA_SHADER_CACHE_DISABLE": "true",
+    }
+
+
+def profile_kernels(tree: Path) -> dict:
+    """One ``kernels`` measurement of ``tree`` (the child's JSON)."""
+    with tempfile.TemporaryDirectory() as scratch:
+        done = subprocess.run(
+            [PYTHON, "-W", "ignore", "-c", _PROFILE],
+            env=_env(tree, Path(scratch)),
+            cwd=tree,
+            capture_output=True,
+            text=True,
+            check=False,
+        )
+    if done.returncode != 0:
+        raise SystemExit(f"kernel profile of {tree} failed:\n{done.stderr}")
+    return json.loads(done.stdout)
+
+
+def cold_run(tree: Path, scenario: str) -> tuple[float, float, str]:
+    """One cold ``fogsim run`` of ``tree``: (wall [s], CPU [s], its ``compiled in`` line)."""
+    with tempfile.TemporaryDirectory() as scratch:
+        env = _env(tree, Path(scratch))
+        out = str(Path(scratch) / "out")
+        before = resource.getrusage(resource.RUSAGE_CHILDREN)
+        start = time.perf_counter()
+        done = subprocess.run(
+            [PYTHON, "-m", "fogsim", "run", scenario, "--seed", "1", "--no-pictures", "--out", out],
+            env=env,
+            cwd=tree,
+            capture_output=True,
+            text=True,
+            check=False,
+        )
+        wall = time.perf_counter() - start
+        after = resource.getrusage(resource.RUSAGE_CHILDREN)
+    if done.returncode != 0:
+        raise SystemExit(f"cold run of {tree} failed:\n{done.stderr}")
+    cpu = (after.ru_utime - before.ru_utime) + (after.ru_stime - before.ru_stime)
+    lines = [line.strip() for line in done.stderr.splitlines() if " kernels ..." in line]
+    compiled = [line.strip() for line in done.stderr.splitlines() if "compiled in" in line]
+    return wall, cpu, "; ".join(lines + compiled)
+
+
+def _median_table(runs: list[dict], key: str) -> dict[str, float]:
+    """Median over ``runs`` of each name's figure under ``key`` (0 where a run lacks it)."""
+    names = {name for run in runs for name in run[key]}
+    return {name: statistics.median(run[key].get(name, 0.0) for run in runs) for name in names}
+
+
+def kernels(trees: list[Path], repeats: int, top: int) -> None:
+    """The ``kernels`` command: interleaved profiles, then a table per tree."""
+    runs: dict[Path, list[dict]] = {tree: [] for tree in trees}
+    for i in range(repeats):
+        for tree in trees:
+            note = load_note()
+            runs[tree].append(profile_kernels(tree))
+            total = sum(runs[tree][-1]["groups"].values())
+            print(f"  {tree} repeat {i + 1}: {total:.2f} s CPU ({note} -> {load_note()})")
+    for tree in trees:
+        groups = _median_table(runs[tree], "groups")
+        inclusive = _median_table(runs[tree], "inclusive")
+        exclusive = _median_table(runs[tree], "exclusive")
+        print(f"\n{tree}: median of {repeats}, CPU seconds")
+        for name, seconds in groups.items():
+            print(f"  {name:40s} {seconds:6.2f}")
+        print(f"  {'total':40s} {sum(groups.values()):6.2f}")
+        print(f"  kernels by inclusive compile time (top {top}): inclusive / exclusive")
+        for name in sorted(inclusive, key=inclusive.get, reverse=True)[:top]:
+            print(f"    {inclusive[name]:6.2f} {exclusive[name]:6.2f}  {name}")
+        print(f"  exclusive time of numba's own overloads: {_numba_share(exclusive):.2f} s")
+        for name, signatures in runs[tree][-1]["signatures"].items():
+            print(f"  {len(signatures)} signatures: {name}")
+            for signature in signatures:
+                print(f"      {signature}")
+
+
+def _numba_share(exclusive: dict[str, float]) -> float:
+    """The part of the exclusive compile time spent in numba's own functions (overloads)."""
+    return sum(seconds for name, seconds in exclusive.items() if name.startswith("numba."))
+
+
+def runs(trees: list[Path], repeats: int, scenario: str) -> None:
+    """The ``run`` command: interleaved cold runs, then medians per tree."""
+    results: dict[Path, list[tuple[float, float]]] = {tree: [] for tree in trees}
+    for i in range(repeats):
+        for tree in trees:
+            note = load_note()
+            wall, cpu, compiled = cold_run(tree, scenario)
+            results[tree].append((wall, cpu))
+            print(
+                f"  {tree} repeat {i + 1}: wall {wall:.1f} s, CPU {cpu:.1f} s "
+                f"({note} -> {load_note()}): {compiled}"
+            )
+    for tree in trees:
+        walls = [wall for wall, _ in results[tree]]
+        cpus = [cpu for _, cpu in results[tree]]
+        print(
+            f"{tree}: cold run {scenario} median wall {statistics.median(walls):.1f} s, "
+            f"CPU {statistics.median(cpus):.1f} s over {repeats}"
+        )
+
+
+def main() -> None:
+    """Parse the command line and measure."""
+    parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    parser.add_argument("command", choices=("kernels", "run"))
+    parser.add_argument(
+        "--tree", type=Path, action="append", help="a source tree (repeatable; default: this)"
+    )
+    parser.add_argument("--repeats", type=int, default=1)
+    parser.add_argument("--top", type=int, default=25, help="kernels listed (kernels)")
+    parser.add_argument("--scenario", default="stage", help="scenario of the run (run)")
+    args = parser.parse_args()
+    trees = [tree.resolve() for tree in args.tree or [ROOT]]
+    print(f"{load_note()}, {os.cpu_count()} CPUs, python {PYTHON}")
+    if args.command == "kernels":
+        kernels(trees, args.repeats, args.top)
+    else:
+        runs(trees, args.repeats, args.scenario)
+
+
+if __name__ == "__main__":
+    main()
