@@ -356,7 +356,10 @@ class Pipeline:
         ):
             return None
         arrival_z_m = float(arrival.frame.robot_pose_believed[2])
-        return arrival_drift_m(surfaces_m, fractions, arrival_z_m, self.reference.params)
+        assert self._start_z_m is not None  # set by the first frame
+        return arrival_drift_m(
+            surfaces_m, fractions, arrival_z_m, self._start_z_m, self.reference.params
+        )
 
     def _deferred_surfaces_m(self) -> list[NDArray[np.float64]]:
         """World heights of each deferred frame's ground-sized floors (odometry, its shift)."""
@@ -474,7 +477,10 @@ class Pipeline:
         """
         if not self.reference.agrees(data.measured_shift_m) or not self.params.use_elevation_filter:
             return False
-        height_m = start_surface_m(self._start_surfaces_m, pose[2], self.reference.params)
+        assert self._start_z_m is not None  # set by the first frame
+        height_m = start_surface_m(
+            self._start_surfaces_m, pose[2], self._start_z_m, self.reference.params
+        )
         if height_m is None:
             return False
         pose[2] = height_m
