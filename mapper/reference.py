@@ -43,8 +43,11 @@ Walking down from the start, the frames wait while odometry's z drifts (foot-to-
 stage_down, seeds 1-8, −1 to −4 mm by the time the robot stands on the ground), and the
 elevation filter, which follows the map under the robot, cannot see it: those frames built that
 map. The surface the robot arrives on was already seen from the start, where odometry is exact,
-so `arrival_drift_m` measures the drift as the difference between where odometry puts the feet
-on arrival and where the first frames put that surface; the caller takes it out of the waiting
+so `arrival_drift_m` measures the drift as the slope of the heights at which the waiting frames
+saw that surface over the way walked (their camera height error, which they could not measure
+with the surface under their feet out of view, is the same in all of them and drops out);
+still at the start level, the surface under the feet is the start surface, at the start pose's
+z by the kinematics, and the drift is odometry's change. The caller takes it out of the waiting
 frames (growing from 0 at the start) and of the robot's elevation from then on.
 
 The same holds for the rest of the run: the elevation filter follows the map under the robot,
@@ -53,7 +56,9 @@ behind odometry's drift goes into the map and from there into the robot's elevat
 (stairs, seed 7: the ground 2 mm low after 100 frames of level walking, every frame measuring
 it at the feet). A frame that measured the ground under its feet stands on it: when the first
 frames saw a surface within `surface_gate_m` of the robot's filtered elevation, the robot's
-elevation is that surface's height from the start (`start_surface_m`).
+elevation is that surface's height from the start (`start_surface_m`: the median of all the
+waiting frames' views of it, odometry's drift taken out; the surface the feet stood on at the
+start lies at the start pose's z).
 
 On exact data (ideal depth, no encoder error) every measurement is 0 and so is the shift.
 On a flat floor each frame's ground lies exactly at the feet's height (0), as the paper's

@@ -218,6 +218,15 @@ def test_the_start_surface_under_the_feet_is_the_median_of_the_first_frames():
     assert start_surface_m(surfaces, 0.05, 0.122, params) is None
 
 
+def test_a_start_surface_is_the_median_of_every_waiting_frame_s_view_of_it():
+    # Walking down from the platform (start z 122 mm), 20 frames waited and saw the ground
+    # (drift taken out): the first 8 at -1.5 mm (their noise), the other 12 at 0. The median
+    # of all: 0; of the earliest 8 (before): -1.5 mm (stage_down seed 3, the ground row).
+    params = HeightReferenceParams()
+    surfaces = [np.array([-0.0015, 0.122])] * 8 + [np.array([0.0, 0.122])] * 12
+    assert start_surface_m(surfaces, 0.002, 0.122, params) == 0.0
+
+
 def test_the_surface_the_feet_stood_on_at_the_start_is_at_the_start_pose_s_z():
     # Stereo: the first frames' views of the ground under the feet scatter by +-20 mm, in two
     # clusters (seed 6). With the robot's elevation pulled 8 mm low, the views nearest it (-8
