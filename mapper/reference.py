@@ -43,8 +43,11 @@ Walking down from the start, the frames wait while odometry's z drifts (foot-to-
 stage_down, seeds 1-8, −1 to −4 mm by the time the robot stands on the ground), and the
 elevation filter, which follows the map under the robot, cannot see it: those frames built that
 map. The surface the robot arrives on was already seen from the start, where odometry is exact,
-so `arrival_drift_m` measures the drift as the difference between where odometry puts the feet
-on arrival and where the first frames put that surface; the caller takes it out of the waiting
+so `arrival_drift_m` measures the drift as the slope of the heights at which the waiting frames
+saw that surface over the way walked (their camera height error, which they could not measure
+with the surface under their feet out of view, is the same in all of them and drops out);
+still at the start level, the surface under the feet is the start surface, at the start pose's
+z by the kinematics, and the drift is odometry's change. The caller takes it out of the waiting
 frames (growing from 0 at the start) and of the robot's elevation from then on.
 
 The same holds for the rest of the run: the elevation filter follows the map under the robot,
@@ -53,7 +56,9 @@ behind odometry's drift goes into the map and from there into the robot's elevat
 (stairs, seed 7: the ground 2 mm low after 100 frames of level walking, every frame measuring
 it at the feet). A frame that measured the ground under its feet stands on it: when the first
 frames saw a surface within `surface_gate_m` of the robot's filtered elevation, the robot's
-elevation is that surface's height from the start (`start_surface_m`).
+elevation is that surface's height from the start (`start_surface_m`: the median of all the
+waiting frames' views of it, odometry's drift taken out; the surface the feet stood on at the
+start lies at the start pose's z).
 
 On exact data (ideal depth, no encoder error) every measurement is 0 and so is the shift.
 On a flat floor each frame's ground lies exactly at the feet's height (0), as the paper's
@@ -265,23 +270,20 @@ class HeightReference:
 
 
 def _largest_per_frame(
-    start_surfaces_m: list[NDArray[np.float64]], z_m: float, gate_m: float, count: int
+    start_surfaces_m: list[NDArray[np.float64]], z_m: float, gate_m: float
 ) -> list[tuple[int, float]]:
-    """(frame, height) of each frame's largest surface within ``gate_m`` of ``z_m``.
+    """(frame, height) of each frame's largest surface within ``gate_m`` of ``z_m``, in order.
 
-    The surfaces of a frame are listed largest first (`HeightReference.ground_sized_m`). The
-    first ``count`` frames that have one, in order (fewer when fewer frames do). The largest,
-    not the nearest: a frame whose ground is split into fragments a millimetre apart would
-    otherwise give the fragment nearest the robot's elevation, which then stays (room, seed 3:
-    the ground 0.8 mm low from frame 145 on).
+    The surfaces of a frame are listed largest first (`HeightReference.ground_sized_m`); frames
+    without one are left out. The largest, not the nearest: a frame whose ground is split into
+    fragments a millimetre apart would otherwise give the fragment nearest the robot's
+    elevation, which then stays (room, seed 3: the ground 0.8 mm low from frame 145 on).
     """
     found: list[tuple[int, float]] = []
     for index, surfaces in enumerate(start_surfaces_m):
         within = np.flatnonzero(np.abs(surfaces - z_m) <= gate_m)
         if within.size:
             found.append((index, float(surfaces[within[0]])))
-            if len(found) == count:
-                break
     return found
 
 
@@ -289,50 +291,75 @@ def arrival_drift_m(
     start_surfaces_m: list[NDArray[np.float64]],
     fractions: NDArray[np.float64],
     arrival_z_m: float,
+    start_z_m: float,
     params: HeightReferenceParams,
 ) -> float | None:
     """Odometry's z drift on arriving on a surface the first frames saw [m] (None: not seen).
 
-    When the height reference converges, the robot stands on the ground it measured: its feet
-    are at that surface's height, which odometry puts at ``arrival_z_m``. The frames waiting
-    since the start (where odometry is exact) saw the large floor surfaces at world heights
-    ``start_surfaces_m`` (odometry's z + region height + the frame's shift, largest first). Of
-    each frame, in order, the largest surface within `gate_m` of ``arrival_z_m`` is taken, from
-    the first
-    `min_frames` frames that have one (the earliest: the least drift). The drift grows in
-    proportion to the way walked (foot-to-foot kinematics add a like error at every step), so
-    a frame ``f`` of the way from the start to the arrival saw the surface ``f·D`` off, and
-    ``D = (arrival_z_m − height) / (1 − f)``; the drift is the median over those frames.
+    When the height reference converges, the robot stands on the ground it measured, which
+    odometry puts at ``arrival_z_m``. Still at its start level (within `start_level_m` of
+    ``start_z_m``, the start pose's z), that ground is the surface the feet stood on at the
+    start, at ``start_z_m`` by the kinematics: the drift is ``arrival_z_m − start_z_m``,
+    exactly. (The waiting frames' views of it would add their noise: stereo, seed 6, ±20 mm a
+    frame, and a drift of −3 mm made of it while odometry was exact.)
+
+    Arriving on another surface (walking down), the waiting frames saw it at world heights
+    ``start_surfaces_m`` (odometry's z + region height + the frame's shift, largest first). The
+    drift grows in proportion to the way walked (foot-to-foot kinematics add a like error at
+    every step), so frame ``f`` of the way saw the surface at ``G + e + f·D``: ``G`` its height,
+    ``e`` the waiting frames' camera height error, which none of them could measure (the
+    surface under their feet out of view: stage_down, seed 3, 1-1.5 mm) and ``D`` the drift.
+    ``D`` is the slope of the heights over the way (Theil–Sen: the median of the pairwise
+    slopes, robust to a frame's wrong surface), whatever ``e`` is. Of each frame the largest
+    surface within `gate_m` of ``arrival_z_m`` is taken, at least `min_frames` frames are
+    needed. (Taking ``e`` as 0 and each frame's ``(arrival_z_m − height) / (1 − f)`` put the
+    drift 1.5 mm short on stage_down seed 3: the waiting frames' camera error.)
 
     Args:
         start_surfaces_m: per waiting frame in order, the world heights of its ground-sized
             floor regions, largest first [m].
         fractions: (W,) each waiting frame's place between the start (0) and the arrival (1).
         arrival_z_m: odometry's z of the robot when the reference converged [m].
-        params: the reference's parameters (`gate_m`, `min_frames`).
+        start_z_m: odometry's z of the start pose (exact) [m].
+        params: the reference's parameters (`gate_m`, `min_frames`, `start_level_m`).
     """
-    found = _largest_per_frame(start_surfaces_m, arrival_z_m, params.gate_m, params.min_frames)
+    if abs(arrival_z_m - start_z_m) <= params.start_level_m:
+        return arrival_z_m - start_z_m
+    found = _largest_per_frame(start_surfaces_m, arrival_z_m, params.gate_m)
     if len(found) < params.min_frames:
         return None
-    drifts = [(arrival_z_m - height) / (1.0 - float(fractions[i])) for i, height in found]
-    return float(np.median(np.asarray(drifts)))
+    ways = np.array([float(fractions[i]) for i, _ in found])
+    heights = np.array([height for _, height in found])
+    first, second = np.triu_indices(ways.size, k=1)
+    return float(np.median((heights[second] - heights[first]) / (ways[second] - ways[first])))
 
 
 def start_surface_m(
-    start_surfaces_m: list[NDArray[np.float64]], z_m: float, params: HeightReferenceParams
+    start_surfaces_m: list[NDArray[np.float64]],
+    z_m: float,
+    start_z_m: float,
+    params: HeightReferenceParams,
 ) -> float | None:
     """Height of the surface the first frames saw within `surface_gate_m` of ``z_m`` [m].
 
-    The median, over the first `min_frames` frames that saw one, of each frame's largest
-    surface within the gate (None: no frame saw one).
+    The surface the feet stood on at the start lies at the start pose's z ``start_z_m`` (the
+    kinematics): within the gate of it, that is the surface, exactly. (The first frames' views
+    of it scatter: stereo, ±20 mm a frame, so the view nearest a drifting elevation locked the
+    robot 14 mm low for the rest of the run, seed 6.) Any other: the median, over all the first
+    frames that saw one, of each frame's largest surface within the gate (None: no frame saw
+    one). All, not the earliest `min_frames`: odometry's drift is taken out of them, and the
+    earliest 8 frames' median was 1.4 mm off on stage_down seed 3 (the ground row −1.5 mm).
 
     Args:
         start_surfaces_m: per first frame in order, the world heights of its ground-sized
             floor regions, largest first, odometry's drift taken out [m].
         z_m: the robot's filtered elevation [m].
-        params: the reference's parameters (`surface_gate_m`, `min_frames`).
+        start_z_m: odometry's z of the start pose (exact) [m].
+        params: the reference's parameters (`surface_gate_m`).
     """
-    found = _largest_per_frame(start_surfaces_m, z_m, params.surface_gate_m, params.min_frames)
+    if abs(z_m - start_z_m) <= params.surface_gate_m:
+        return start_z_m
+    found = _largest_per_frame(start_surfaces_m, z_m, params.surface_gate_m)
     if not found:
         return None
     return float(np.median(np.asarray([height for _, height in found])))

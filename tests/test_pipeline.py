@@ -377,6 +377,34 @@ def test_the_map_anchored_at_the_start_holds_while_odometry_drifts_in_z():
     assert np.abs(ground_after(0.0, 1e-9)).max() > 2e-4
 
 
+def test_a_frame_on_the_start_surface_stands_at_the_start_pose_s_z_whatever_the_first_views():
+    # Stereo-like start (seed 6): the first frames' views of the ground under the feet scatter
+    # by +-13 to 16 mm in two clusters (here: their believed camera heights), so none agrees with
+    # the estimate and each keeps its view. Then the elevation filter is pulled 8 mm low (noisy
+    # z-matches). A frame that measures the ground under its feet stands on the start surface,
+    # which the feet stood on at the start: at the start pose's z (0), exactly. Before, the views
+    # within 10 mm of the filtered elevation (-13 to -16 mm) set it: the robot and its ground
+    # 14.5 mm low for the rest of the run.
+    errors_m = [0.015, -0.015, 0.014, -0.014, 0.016, -0.016, 0.013, -0.013]
+    frames = make_frames(len(errors_m) + 3)
+    for i, error_m in enumerate(errors_m):
+        believed = CAMERA_IN_ROBOT.copy()
+        believed[2, 3] -= error_m
+        frames[i] = dataclasses.replace(frames[i], transform_camera_to_robot_believed=believed)
+    pipeline = Pipeline()
+    for f in frames[: len(errors_m)]:
+        pipeline.process(f)
+    assert pipeline.reference.known and pipeline.reference.shift_m == pytest.approx(0.0, abs=1e-4)
+    pipeline.elevation.offset_m = -0.008
+    for f in frames[len(errors_m) :]:
+        pipeline.process(f)
+        assert pipeline.elevation.offset_m == 0.0
+        labelled = pipeline.last_points
+        ground = np.isfinite(labelled.floor_heights_m) & (labelled.floor_heights_m < 0.025)
+        assert ground.sum() > 100
+        np.testing.assert_allclose(labelled.floor_heights_m[ground], 0.0, atol=1e-5)
+
+
 def test_anchor_shift_must_be_finite_and_not_negative():
     for bad in (-0.001, float("nan"), float("inf")):
         with pytest.raises(FogsimError, match=r"PipelineParams\.anchor_shift_m"):

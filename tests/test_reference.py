@@ -165,17 +165,46 @@ def test_a_frame_agreeing_with_the_estimate_takes_its_own_measurement():
 
 def test_arrival_drift_from_the_surface_the_first_frames_saw():
     # Walking down from a 122 mm platform, odometry drifts to -4 mm on arrival on the ground
-    # (true height 0), in proportion to the way: frame k of 10 saw the ground 0.4·k mm low.
+    # (true height 0), in proportion to the way: frame k of 12 saw the ground 4·k/12 mm low.
     # Each frame also sees the platform's edge (0.122); frame 2 sees no ground.
     params = HeightReferenceParams()
     fractions = np.arange(12) / 12.0
     surfaces = [np.array([-0.004 * f, 0.122]) for f in fractions]
     surfaces[2] = np.array([0.122])
-    drift = arrival_drift_m(surfaces, fractions, -0.004, params)
+    drift = arrival_drift_m(surfaces, fractions, -0.004, 0.122, params)
     assert drift == pytest.approx(-0.004, abs=1e-12)
     # Fewer than min_frames frames saw it (or none within the gate): unknown.
-    assert arrival_drift_m(surfaces[:8], fractions[:8], -0.004, params) is None
-    assert arrival_drift_m(surfaces, fractions, -0.004 - 0.021, params) is None
+    assert arrival_drift_m(surfaces[:8], fractions[:8], -0.004, 0.122, params) is None
+    assert arrival_drift_m(surfaces, fractions, -0.004 - 0.021, 0.122, params) is None
+
+
+def test_the_waiting_frames_camera_error_is_not_taken_for_drift():
+    # As above, but the waiting frames (on the platform, the surface under their feet out of
+    # view) had their camera 1.5 mm low, which none of them could measure: they saw the ground
+    # at -1.5 - 4·f mm (stage_down seed 3). The drift is the slope over the way, -4 mm; taking
+    # the camera error as 0 (each frame's (arrival - height) / (1 - f), the earliest frames'
+    # median of the first 8) gives -2.3 mm. Frame 5 saw a wrong surface (9 mm): the median of
+    # the slopes ignores it.
+    params = HeightReferenceParams()
+    fractions = np.arange(20) / 20.0
+    surfaces = [np.array([-0.0015 - 0.004 * f, 0.122]) for f in fractions]
+    surfaces[5] = np.array([0.009])
+    drift = arrival_drift_m(surfaces, fractions, -0.004, 0.122, params)
+    assert drift == pytest.approx(-0.004, abs=1e-12)
+
+
+def test_arriving_at_the_start_level_the_drift_is_odometry_s_change_exactly():
+    # The reference converged while the robot still stands at its start level: the ground under
+    # its feet is the start surface, at the start pose's z by the kinematics. The waiting
+    # frames' views of it scatter by +-20 mm (stereo), which must not become a drift.
+    params = HeightReferenceParams()
+    fractions = np.arange(8) / 8.0
+    views_m = np.array([0.0147, 0.0237, 0.0201, -0.0067, 0.0209, -0.0056, -0.0108, -0.0015])
+    surfaces = [np.array([v]) for v in views_m]
+    assert arrival_drift_m(surfaces, fractions, 0.0, 0.0, params) == 0.0
+    assert arrival_drift_m(surfaces, fractions, 0.1215, 0.122, params) == pytest.approx(-0.0005)
+    # Off the start level (a step down), the views are used.
+    assert arrival_drift_m(surfaces, fractions, -0.031, 0.0, params) is None  # none in gate
 
 
 def test_the_start_surface_under_the_feet_is_the_median_of_the_first_frames():
@@ -183,20 +212,44 @@ def test_the_start_surface_under_the_feet_is_the_median_of_the_first_frames():
     surfaces = [np.array([0.001, 0.122]), np.array([0.121]), np.array([-0.002, 0.12])]
     surfaces += [np.array([0.0005])]
     # Largest (listed first) within 10 mm of 3 mm, per frame that has one: 1, -2, 0.5 mm;
-    # their median.
-    assert start_surface_m(surfaces, 0.003, params) == pytest.approx(0.0005)
-    assert start_surface_m(surfaces, 0.118, params) == pytest.approx(0.121)
-    assert start_surface_m(surfaces, 0.05, params) is None
+    # their median (the robot started on the platform: 122 mm).
+    assert start_surface_m(surfaces, 0.003, 0.122, params) == pytest.approx(0.0005)
+    assert start_surface_m(surfaces, 0.118, 0.5, params) == pytest.approx(0.121)
+    assert start_surface_m(surfaces, 0.05, 0.122, params) is None
+
+
+def test_a_start_surface_is_the_median_of_every_waiting_frame_s_view_of_it():
+    # Walking down from the platform (start z 122 mm), 20 frames waited and saw the ground
+    # (drift taken out): the first 8 at -1.5 mm (their noise), the other 12 at 0. The median
+    # of all: 0; of the earliest 8 (before): -1.5 mm (stage_down seed 3, the ground row).
+    params = HeightReferenceParams()
+    surfaces = [np.array([-0.0015, 0.122])] * 8 + [np.array([0.0, 0.122])] * 12
+    assert start_surface_m(surfaces, 0.002, 0.122, params) == 0.0
+
+
+def test_the_surface_the_feet_stood_on_at_the_start_is_at_the_start_pose_s_z():
+    # Stereo: the first frames' views of the ground under the feet scatter by +-20 mm, in two
+    # clusters (seed 6). With the robot's elevation pulled 8 mm low, the views nearest it (-8
+    # to -17 mm) gave -13.5 mm, and the robot stood there for the rest of the run. The feet
+    # stood on that surface at the start: it is at the start pose's z, exactly.
+    params = HeightReferenceParams()
+    views_m = [-0.0081, -0.0171, -0.0135, 0.0133, -0.0143, 0.0122, 0.0174, 0.0081]
+    surfaces = [np.array([v]) for v in views_m]
+    assert start_surface_m(surfaces, -0.0081, 0.0, params) == 0.0
+    assert start_surface_m(surfaces, 0.128, 0.122, params) == 0.122
+    # Beyond the surface gate the views decide (another surface): -17.1, -14.3, -13.5, -8.1.
+    assert start_surface_m(surfaces, -0.0135, 0.0, params) == pytest.approx(-0.0139)
 
 
 def test_the_largest_fragment_of_a_start_surface_is_taken_wherever_the_robot_is():
     # Depth noise split the ground of every first frame into a 4 m² plane at 0 and a 0.5 m²
     # fragment 0.8 mm lower (room, seed 3): the elevation near either gives the ground.
+    # (The robot started on a 122 mm platform: the ground is not the start surface.)
     params = HeightReferenceParams()
     reference = HeightReference(params)
     heights = np.array([-0.0008, 0.0, -0.122])  # the fragment, the ground, a pit
     ordered = reference.ground_sized_m(heights, np.array([0.5, 4.0, 1.0]), np.ones(3, bool))
     np.testing.assert_array_equal(ordered, [0.0, -0.122, -0.0008])
     surfaces = [ordered] * 8  # world heights with odometry's z 0 and no shift
-    assert start_surface_m(surfaces, -0.0008, params) == 0.0
-    assert start_surface_m(surfaces, 0.0, params) == 0.0
+    assert start_surface_m(surfaces, -0.0008, 0.122, params) == 0.0
+    assert start_surface_m(surfaces, 0.0, 0.122, params) == 0.0

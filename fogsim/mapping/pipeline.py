@@ -13,8 +13,9 @@ Per frame (paper Fig. 1, 2 and Sec. IV), with the pose the robot *believes*:
    segmented before it is known are *deferred*, then mapped in order (steps 3-8) with the
    converged shift just before the frame that makes it known: the start pose's exact odometry,
    not one frame's ground fragment, anchors the map, also when the start surface is out of view.
-   The robot then stands on the ground it measured; where the first frames saw that surface
-   gives odometry's z drift since the start (``mapper.reference.arrival_drift_m``), taken out of
+   The robot then stands on the ground it measured; how the height at which the first frames
+   saw that surface changes over the way walked gives odometry's z drift since the start
+   (``mapper.reference.arrival_drift_m``; still at the start level, odometry's change), taken out of
    the deferred frames (growing from 0 at the start) and, through the elevation filter's offset,
    of the frames after them (walking down, the drift otherwise went into the map: stage_down).
 3. Heading correction (``mapper.HeadingEstimator``, beyond the paper): the camera's yaw error,
@@ -32,7 +33,8 @@ Per frame (paper Fig. 1, 2 and Sec. IV), with the pose the robot *believes*:
    larger shift is the robot's elevation error and goes to the elevation filter (shifting every
    such frame onto the map let the map drift by about −3 mm over a stage run).
    When its own measurement shifted it and the first frames saw a surface at the robot's
-   elevation (``ref.surface_gate_m``), the robot stands on that surface: its elevation is set
+   elevation (``ref.surface_gate_m``; the surface the feet stood on at the start is at the start
+   pose's z), the robot stands on that surface: its elevation is set
    to the surface's height from the start and the frame is not z-matched (the filter's lag
    behind odometry went into the map ahead and came back: stairs s7, the ground 2 mm low).
 7. ``FloorObstacleMapper.update`` and ``AveragingMap.update`` get exactly the same data.
@@ -356,7 +358,10 @@ class Pipeline:
         ):
             return None
         arrival_z_m = float(arrival.frame.robot_pose_believed[2])
-        return arrival_drift_m(surfaces_m, fractions, arrival_z_m, self.reference.params)
+        assert self._start_z_m is not None  # set by the first frame
+        return arrival_drift_m(
+            surfaces_m, fractions, arrival_z_m, self._start_z_m, self.reference.params
+        )
 
     def _deferred_surfaces_m(self) -> list[NDArray[np.float64]]:
         """World heights of each deferred frame's ground-sized floors (odometry, its shift)."""
@@ -474,7 +479,10 @@ class Pipeline:
         """
         if not self.reference.agrees(data.measured_shift_m) or not self.params.use_elevation_filter:
             return False
-        height_m = start_surface_m(self._start_surfaces_m, pose[2], self.reference.params)
+        assert self._start_z_m is not None  # set by the first frame
+        height_m = start_surface_m(
+            self._start_surfaces_m, pose[2], self._start_z_m, self.reference.params
+        )
         if height_m is None:
             return False
         pose[2] = height_m
