@@ -7,7 +7,7 @@ import numpy as np
 import pytest
 
 from mapper import HeadingEstimator, HeadingParams, InvalidParameterError
-from mapper.heading import heading_scores, yaw_about_pivot
+from mapper.heading import _band_centre_deg, heading_scores, yaw_about_pivot
 
 CAMERA_IN_ROBOT_M = np.array([0.05, 0.0, 0.9])
 """Camera centre in the robot frame (iCub-like head height)."""
@@ -173,9 +173,19 @@ def test_scores_count_pairs_of_different_keyframes_in_one_voxel():
         ("max_keyframes", 1),
         ("estimate_every", 0),
         ("min_contrast", 1.0),
+        ("peak_band", 1.0),
         ("correct_heading", 1),
     ],
 )
 def test_bad_parameters_are_refused_by_name(field, value):
     with pytest.raises(InvalidParameterError, match=f"HeadingParams.{field}"):
         HeadingParams(**{field: value})
+
+
+def test_the_estimate_is_the_centre_of_the_band_around_the_best_score():
+    # Scores by hand: best 10 at 1.0°; within 0.5 of it the run 0.5° .. 2.0° (9.6 at 2.5° is
+    # not, 9.9 at -1.0° is cut off from the run by 8 at -0.5°): centre 1.25°.
+    angles = np.arange(-1.0, 3.01, 0.5)  # -1.0 -0.5 0.0 0.5 1.0 1.5 2.0 2.5 3.0
+    scores = np.array([9.9, 8.0, 9.0, 9.6, 10.0, 9.7, 9.5, 9.4, 7.0])
+    assert _band_centre_deg(angles, scores, 0.5) == pytest.approx(1.25)
+    assert _band_centre_deg(angles, scores, 0.0) == pytest.approx(1.0)  # argmax alone
