@@ -18,6 +18,10 @@ columns can be compared. Reported, in output pixels of disparity ``d = f·b/z``:
   mean variance   n·var(mean of n row neighbours)/var(pixel) for runs of 4, 8, 16 px: how much
                   the correlation inflates a row segment's mean (1 for white noise)
   dropout         fraction of surface pixels without a measurement, per range bin
+  floor, raised   noise (robust std) on the floor (world z within 3 mm of 0) and on raised level
+                  surfaces (box tops, sill, treads: z above 10 mm with level neighbours) in the
+                  1-2 m band: a matcher that errs more on objects than on the floor (e.g. a
+                  streaked texture) shows here, not in the pooled figure
   edge            near depth edges (1–2 px, background side): dropout, and how often the
                   measurement is nearer the foreground's depth (nearest within 2 px) than the
                   true one (edge fattening)
@@ -46,6 +50,8 @@ RANGE_BINS_M = (0.5, 1.0, 1.5, 2.0, 3.0, 4.0)
 """Edges of the depth bins [m] the range dependence is reported in."""
 CORRELATION_LAGS_PX = ((0, 1), (0, 2), (0, 4), (0, 8), (1, 0), (2, 0), (4, 0))
 """(rows, columns) lags at which the disparity errors' correlation is reported."""
+SURFACE_KINDS = {"floor": 1, "raised": 2}
+"""Codes of :func:`surface_kind`: the floor, raised level surfaces (tops of boxes, sill, treads)."""
 MEAN_RUNS_PX = (4, 8, 16)
 """Row run lengths [px] whose means' variance inflation by correlated errors is reported."""
 ROBOT_BASELINE_M = 0.068
@@ -69,8 +75,24 @@ def edge_distance_px(exact_m: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     return distance, far_side
 
 
+def surface_kind(exact_m: np.ndarray, transform_camera_to_world: np.ndarray, intrinsics):
+    """Per pixel: 1 on the floor, 2 on a raised level surface, 0 elsewhere (see the docstring).
+
+    From the exact depth and the true camera pose: world z within 3 mm of 0 is floor; above
+    10 mm with its 3 × 3 neighbours' z within 3 mm of its own, a raised level surface.
+    """
+    rays = intrinsics.ray_directions_camera()
+    points = (rays * exact_m[..., None]) @ transform_camera_to_world[:3, :3].T
+    z = np.nan_to_num(points[..., 2] + transform_camera_to_world[2, 3], nan=-1.0)
+    spread = cv2.dilate(z, np.ones((3, 3), np.uint8)) - cv2.erode(z, np.ones((3, 3), np.uint8))
+    kind = np.zeros(z.shape, dtype=np.int8)
+    kind[np.abs(z) < 0.003] = 1
+    kind[(z > 0.010) & (spread < 0.003)] = 2
+    return kind
+
+
 def frame_pairs(seed: int, every: int, overrides: dict[str, object]):
-    """(exact, stereo, depth-mode) depth of every ``every``-th frame of the stage walk.
+    """(exact, stereo, depth-mode, surface kind) of every ``every``-th frame of the stage walk.
 
     The depth mode's error model is the scenario's with ``overrides``, at the robot's baseline.
     """
@@ -93,7 +115,10 @@ def frame_pairs(seed: int, every: int, overrides: dict[str, object]):
             rng = np.random.default_rng([seed, 7, index])
             stereo = sim.camera.capture(scene.data, rng)
             exact = sim.camera.exact_depth(scene.data)
-            yield exact, stereo, noise.apply(exact, rng)
+            kind = surface_kind(
+                exact, scene.camera_to_world(sim.depth_camera), sim.camera.intrinsics
+            )
+            yield exact, stereo, noise.apply(exact, rng), kind
     finally:
         sim.close()
 
@@ -114,7 +139,12 @@ def mean_variance_factor(error: np.ndarray, ok: np.ndarray, n: int) -> float:
 
 
 def statistics(
-    exact: np.ndarray, measured: np.ndarray, distance: np.ndarray, far: np.ndarray, fb: float
+    exact: np.ndarray,
+    measured: np.ndarray,
+    distance: np.ndarray,
+    far: np.ndarray,
+    kind: np.ndarray,
+    fb: float,
 ) -> dict[str, float]:
     """The figures of one mode over the pooled pixels (see the module docstring)."""
     in_range = np.isfinite(exact) & (exact >= RANGE_BINS_M[0]) & (exact <= RANGE_BINS_M[-1])
@@ -138,6 +168,9 @@ def statistics(
         tag = f"{low:.1f}-{high:.1f}m"
         result[f"noise_px {tag}"] = float(1.4826 * np.median(np.abs(e - np.median(e))))
         result[f"dropout {tag}"] = float(1.0 - good.sum() / max(part.sum(), 1))
+    for name, code in SURFACE_KINDS.items():
+        e = error[ok & (kind == code) & (exact >= 1.0) & (exact < 2.0)]
+        result[f"noise_px {name} 1-2m"] = float(1.4826 * np.median(np.abs(e - np.median(e))))
     for dy, dx in CORRELATION_LAGS_PX:
         pair = ok[:, dy:, dx:] & ok[:, : ok.shape[1] - dy, : ok.shape[2] - dx]
         a = error[:, dy:, dx:][pair]
@@ -176,21 +209,22 @@ def main() -> None:
     }
     overrides = {key: value for key, value in given.items() if value is not None}
     columns: dict[str, list[np.ndarray]] = {"exact": [], "stereo": [], "depth": []}
-    distances, fars = [], []
+    distances, fars, kinds = [], [], []
     for seed in parse_seeds(args.seeds):
-        for exact, stereo, depth in frame_pairs(seed, args.every, overrides):
+        for exact, stereo, depth, kind in frame_pairs(seed, args.every, overrides):
+            kinds.append(kind)
             distance, far = edge_distance_px(exact)
             for key, image in zip(columns, (exact, stereo, depth), strict=True):
                 columns[key].append(image)
             distances.append(distance)
             fars.append(far)
     exact = np.stack(columns["exact"])
-    distance, far = np.stack(distances), np.stack(fars)
+    distance, far, kind = np.stack(distances), np.stack(fars), np.stack(kinds)
     intrinsics = camera_intrinsics(base)
     fb = intrinsics.fx * ROBOT_BASELINE_M  # output px · m
     print(f"stage seeds {args.seeds}, every {args.every}th frame: {exact.shape[0]} frames")
     stats = {
-        key: statistics(exact, np.stack(columns[key]), distance, far, fb)
+        key: statistics(exact, np.stack(columns[key]), distance, far, kind, fb)
         for key in ("stereo", "depth")
     }
     print(f"depth mode: the scenario's error model with {overrides or 'no changes'}")
