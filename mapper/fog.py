@@ -30,7 +30,7 @@ _FLOOR = np.int8(CellType.FLOOR)
 _OBSTACLE = np.int8(CellType.OBSTACLE)
 
 
-@numba.njit(cache=True, boundscheck=False)
+@numba.njit(cache=True, nogil=True, boundscheck=False)
 def update_fog_area(
     og: NDArray[np.uint8],
     floor: NDArray[np.float64],
@@ -82,7 +82,7 @@ def update_fog_area(
                 fog_heights[ix, iy] = np.nan
 
 
-@numba.njit(cache=True)
+@numba.njit(cache=True, nogil=True)
 def ceiling_map(
     og: NDArray[np.uint8],
     floor: NDArray[np.float64],

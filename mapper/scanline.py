@@ -1023,7 +1023,8 @@ def plane_refits(inv_depth, x, y, labels, planes, factor, min_noise_m):
     refits = planes.copy()
     for p in range(n_planes):
         if not _solve_plane(sums[p], refits[p]):
-            refits[p] = planes[p]
+            for k in range(planes.shape[1]):  # element-wise, as in plane_moments
+                refits[p, k] = planes[p, k]
         # The residual variance stays the first fit's: the trimmed one underestimates the noise.
         refits[p, 3] = planes[p, 3]
     return refits
@@ -1235,7 +1236,9 @@ def plane_moments(points_camera, ids, normals_camera, n_planes, fx, fy):
         cov[1, 1] = row[7] / n - my * my
         cov[1, 2] = cov[2, 1] = row[8] / n - my * mz
         cov[2, 2] = row[9] / n - mz * mz
-        eigen[p] = np.linalg.eigvalsh(cov)
+        values = np.linalg.eigvalsh(cov)
+        for k in range(3):  # element-wise: a row assignment compiles a shape check (~1.5 s)
+            eigen[p, k] = values[k]
     return centroids, eigen, areas
 
 

@@ -157,12 +157,13 @@ def test_render_and_depth_buffer_settings_come_from_the_asset_pieces():
     assert model.vis.quality.shadowsize == 0 and model.vis.quality.offsamples == 0
     assert (model.vis.global_.offwidth, model.vis.global_.offheight) == (640, 480)
     assert not model.light_castshadow[model.light("sun").id]
-    # Objects' materials are of class "object": the box texture, uniform, repeated 2 x 2.
+    # Objects' materials are of class "object": the box texture, repeated 2 x 2 by the meshes'
+    # texture coordinates (not texuniform: that streaks a flat box's top, materials.xml).
     tex_box = model.texture("tex_box").id
     for obj in load_scenario("simulated_world").objects:
         material = model.material(f"mat_{obj.name}").id
         assert tex_box in model.mat_texid[material]
-        assert model.mat_texuniform[material]
+        assert not model.mat_texuniform[material]
         np.testing.assert_array_equal(model.mat_texrepeat[material], [2.0, 2.0])
     floor = model.material("mat_floor").id
     assert model.texture("tex_speckle").id in model.mat_texid[floor]

@@ -280,6 +280,8 @@ def replay_report(
     recording: Recording,
     overrides: Mapping[str, float] | None = None,
     segment: SegmentFunction = segment_depth,
+    *,
+    segment_ahead: bool = True,
 ) -> Report:
     """Replay a recording with parameter overrides and return its report (no pictures).
 
@@ -288,6 +290,8 @@ def replay_report(
         overrides: ``{"p_occ": 0.7, "eps_m": 0.01, "seg.<name>": ..., "elev.<name>": ...,
             "pipe.<name>": ...}`` on top of the recording's scenario tables.
         segment: The pipeline's segmentation (``fogsim tune`` passes a cache in front of it).
+        segment_ahead: Segment on a second thread ahead of the mapping (:func:`run_frames`);
+            ``fogsim tune`` turns it off: its worker processes already keep every core busy.
     """
     result = run_frames(
         recording.frames,
@@ -295,6 +299,7 @@ def replay_report(
         recording.scenario,
         params=resolve_params(recording.scenario, overrides, sensor_fields(recording.scenario)),
         segment=segment,
+        segment_ahead=segment_ahead,
     )
     return build_report(result, recording.scenario, source="replay")
 

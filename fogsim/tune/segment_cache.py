@@ -132,5 +132,5 @@ def cached_replay_report(recording: Recording, overrides: Mapping[str, float]) -
     overrides it segments afresh and keeps nothing.
     """
     if any(name.startswith("seg.") for name in overrides):
-        return replay_report(recording, overrides)
-    return replay_report(recording, overrides, segment=_PROCESS_CACHE.segment)
+        return replay_report(recording, overrides, segment_ahead=False)
+    return replay_report(recording, overrides, segment=_PROCESS_CACHE.segment, segment_ahead=False)
