@@ -203,9 +203,9 @@ class SegmentationParams:
             local estimate never falls below it: a matcher's errors are correlated over its
             window and second differences of neighbours read them at about 0.6× their size
             (fogsim's stereo head on the stage). 0 (default): no model, the noise is the
-            image's own (any depth sensor). For fogsim's stereo head 0.125 px: the std of the
-            Gaussian with the matcher's 99th percentile (`bench/stereo_stats.py`, stage seed
-            1: robust std 0.076 px, 99 % tail 0.126 px; k-sigma tests need the tail).
+            image's own (any depth sensor). For fogsim's stereo head 0.109 px: the std of the
+            Gaussian with the matcher's 99th percentile (`bench/stereo_stats.py`, stage seeds
+            1-3: robust std 0.074 px, 99 % tail 0.109 px; k-sigma tests need the tail).
         stereo_baseline_m: the stereo baseline b [m] of that model (0: no model).
         noise_correlation_factor: how much correlated noise inflates the variance of a mean
             of n neighbouring pixels of a row over the white-noise σ²/n (τ ≥ 1). Every test
