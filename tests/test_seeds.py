@@ -9,6 +9,7 @@ import pytest
 from report_factory import GOOD, make_report, row, safety_with
 from report_factory import event as factory_event
 
+import fogsim.run.seeds as seeds_module
 from fogsim.cli import main
 from fogsim.errors import FogsimError
 from fogsim.eval.report.io import load_json, load_report
@@ -232,7 +233,29 @@ def test_run_seeds_summary_and_console(monkeypatch, tmp_path, capsys):
     assert (floor.worst, floor.worst_seed) == (0.93, 7)
     assert "table1     worst: sill 7 (seed 7, mean 3.25)" in out
     assert "cells      worst: floor_precision 0.99 (seed 1, mean 0.99), floor_recall 0.93" in out
-    assert "# fogsim run flat_floor, seeds 1-3,7" in (tmp_path / "summary.md").read_text()
+    assert summary.ray_address is None
+    markdown = (tmp_path / "summary.md").read_text()
+    assert "# fogsim run flat_floor, seeds 1-3,7" in markdown
+    assert "4 seeds, 1 workers, " in markdown
+
+
+def test_seeds_on_ray_say_so_instead_of_the_unused_workers(monkeypatch, tmp_path):
+    fake_runs(monkeypatch)
+    asked = []
+    run_locally = seeds_module.run_jobs
+
+    def run_jobs_here(jobs, workers, ray_address=None):  # the cluster stood in for by this process
+        asked.append(ray_address)
+        return run_locally(jobs, 1)
+
+    monkeypatch.setattr(seeds_module, "check_ray_address", lambda address: None)
+    monkeypatch.setattr(seeds_module, "run_jobs", run_jobs_here)
+    args = ["run", "flat_floor", "--seeds", "1-2", "--ray", "auto", "--out", str(tmp_path)]
+    assert main(args) == 0
+    assert asked == ["auto"]
+    summary = load_json(tmp_path / "summary.json", SeedsSummary, "seeds summary")
+    assert summary.ray_address == "auto"
+    assert "2 seeds, on Ray at auto, " in (tmp_path / "summary.md").read_text()
 
 
 def test_strict_exits_3_naming_the_poor_seeds(monkeypatch, tmp_path, capsys):

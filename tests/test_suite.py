@@ -1,6 +1,7 @@
 """Suite: figures and their rules, the baseline file and its check, the suite over seeds."""
 
 import dataclasses
+import json
 
 import pytest
 from report_factory import row
@@ -8,7 +9,7 @@ from test_seeds import StepEdge, contract_report, event, fake_runs, seed_run
 
 from fogsim.cli import main
 from fogsim.errors import FogsimError, ReportError
-from fogsim.eval.report.io import load_json, load_report
+from fogsim.eval.report.io import load_json, load_report, write_json
 from fogsim.eval.report.schema import MedianMax, PoseErrorStats
 from fogsim.paths import SCENARIOS_DIR
 from fogsim.run.baseline import (
@@ -263,6 +264,19 @@ def test_summary_markdown_lists_scenarios_figures_and_the_comparison():
     assert text.endswith("## Baseline\n\nNo baseline given: nothing compared.\n")
     assert summary_markdown(summary, []).endswith("Nothing got worse than the baseline.\n")
     assert summary_markdown(summary, ["stage: x got worse"]).endswith("- stage: x got worse\n")
+
+
+def test_a_suite_on_ray_says_so_instead_of_its_unused_workers(tmp_path):
+    summary = dataclasses.replace(suite_of({"stage": sill_runs(1.0)}), ray_address="auto")
+    assert "1 scenarios, seeds 1-3, on Ray at auto, 1.0 s wall" in summary_markdown(summary)
+    path = tmp_path / "summary.json"
+    write_json(path, summary)
+    assert load_json(path, SuiteSummary, "suite summary").ray_address == "auto"
+    # a summary written before the field existed: local processes
+    older = json.loads(path.read_text())
+    del older["ray_address"]
+    path.write_text(json.dumps(older))
+    assert load_json(path, SuiteSummary, "suite summary").ray_address is None
 
 
 # --- fogsim suite through the command line (runs replaced by hand-made reports)

@@ -348,10 +348,12 @@ class SeedsSummary:
         version: Schema version, 1.
         scenario: The scenario's name.
         seeds: The seeds run, canonical spec (``"1-8"``).
-        workers: Parallel processes.
+        workers: Parallel processes (not used when ``ray_address`` is set).
         wall_s: Wall time of all runs [s].
         runs: Each seed's run, in seed order.
         figures: Each figure's mean and worst over the seeds, names sorted.
+        ray_address: The Ray cluster the seeds ran on (its CPUs, not ``workers``); None =
+            local processes (and in summaries written before the field existed).
     """
 
     format: Literal["fogsim-seeds"]
@@ -362,6 +364,7 @@ class SeedsSummary:
     wall_s: float
     runs: tuple[SeedRun, ...]
     figures: dict[str, FigureStats]
+    ray_address: str | None = None
 
 
 def seed_jobs(
@@ -454,6 +457,7 @@ def run_seeds(
             wall_s=round(time.perf_counter() - start, 2),
             runs=tuple(runs),
             figures=figure_stats(runs),
+            ray_address=ray_address,
         )
         write_json(folder.path / "summary.json", summary)
         write_text_atomic(folder.path / "summary.md", seeds_markdown(summary))
@@ -466,6 +470,11 @@ def format_value(value: float) -> str:
     if value >= NEVER_FRAMES:
         return "never"
     return f"{value:.4g}" if math.isfinite(value) else "–"
+
+
+def where_run(workers: int, ray_address: str | None) -> str:
+    """Where the runs went, for the summaries: ``"2 workers"`` or ``"on Ray at ADDRESS"``."""
+    return f"on Ray at {ray_address}" if ray_address is not None else f"{workers} workers"
 
 
 def _group(name: str) -> str:
@@ -549,7 +558,8 @@ def seeds_markdown(summary: SeedsSummary) -> str:
     lines = [
         f"# fogsim run {summary.scenario}, seeds {summary.seeds}",
         "",
-        f"{len(summary.runs)} seeds, {summary.workers} workers, {summary.wall_s} s wall. "
+        f"{len(summary.runs)} seeds, {where_run(summary.workers, summary.ray_address)}, "
+        f"{summary.wall_s} s wall. "
         "Worst = the largest error, the smallest recall or precision; each seed's report is "
         "in `seed_<n>/report.json`.",
         "",

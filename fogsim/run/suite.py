@@ -50,6 +50,7 @@ from fogsim.run.seeds import (
     run_jobs,
     runs_markdown,
     seed_jobs,
+    where_run,
 )
 
 QUICK_SCENARIOS = ("flat_floor", "box_removal", "stairs")
@@ -90,9 +91,11 @@ class SuiteSummary:
         quick: Only the quick subset was run, each cut after ``QUICK_MAX_FRAMES`` frames.
         seeds: The seeds every scenario ran over (canonical spec, ``"1-8"``); None = each
             scenario at its own seed.
-        workers: Parallel processes.
+        workers: Parallel processes (not used when ``ray_address`` is set).
         wall_s: Wall time of the whole suite [s].
         scenarios: Each scenario's runs and figures, by name, in file order.
+        ray_address: The Ray cluster the runs went to (its CPUs, not ``workers``); None =
+            local processes (and in summaries written before the field existed).
     """
 
     format: Literal["fogsim-suite"]
@@ -102,6 +105,7 @@ class SuiteSummary:
     workers: int
     wall_s: float
     scenarios: dict[str, ScenarioRuns]
+    ray_address: str | None = None
 
     def failures(self) -> dict[str, list[str]]:
         """Failed scenarios → why (see :meth:`ScenarioRuns.failures`)."""
@@ -202,6 +206,7 @@ def run_suite(
             workers=workers,
             wall_s=round(time.perf_counter() - start, 2),
             scenarios=scenarios,
+            ray_address=ray_address,
         )
         comparison = check_against_baseline(summary, baseline) if baseline is not None else None
         write_json(folder.path / "summary.json", summary)
@@ -276,7 +281,8 @@ def summary_markdown(summary: SuiteSummary, comparison: Sequence[str] | None = N
     lines = [
         "# fogsim suite",
         "",
-        f"{len(summary.scenarios)} scenarios, {seeds}, {summary.workers} workers, "
+        f"{len(summary.scenarios)} scenarios, {seeds}, "
+        f"{where_run(summary.workers, summary.ray_address)}, "
         f"{summary.wall_s} s wall{' (quick subset)' if summary.quick else ''}. "
         "Worst = the largest error, the smallest recall or precision.",
         "",
