@@ -51,17 +51,6 @@ class _Segmented:
     segmentation_ms: float
 
 
-@dataclass(frozen=True)
-class _Failed:
-    """The frames' iterator raised: queued in place of the next frame."""
-
-    error: BaseException
-
-
-_END = object()
-"""Queued after the last frame."""
-
-
 class SegmentAhead:
     """Iterate frames whose segmentation was done ahead on a second thread; iterate once.
 
@@ -116,12 +105,7 @@ class SegmentAhead:
         """The frames in order; raises the frames' iterator's exception where it happened."""
         if self._thread is None:
             raise FogsimError("SegmentAhead: start() it before iterating")
-        while True:
-            item = self._handoff.get()
-            if item is _END:
-                return
-            if isinstance(item, _Failed):
-                raise item.error
+        for item in self._handoff.items():
             assert isinstance(item, _Segmented)
             self._current = item
             yield item.frame
@@ -180,11 +164,11 @@ class SegmentAhead:
             while not self._handoff.stopped:  # checked before taking a frame from the source
                 frame = next(frames, None)
                 if frame is None:
-                    self._handoff.put(_END)
+                    self._handoff.finish()
                     return
                 self._handoff.put(self._segmented(frame, params))
         except BaseException as error:  # the frames' iterator's: raised where it happened
-            self._handoff.put(_Failed(error))
+            self._handoff.fail(error)
 
     def _segmented(self, frame: Frame, params: SegmentationParams) -> _Segmented:
         """Segment ``frame``; its exception is kept for the pipeline's call."""

@@ -64,17 +64,20 @@ class FrameSimulation(Protocol):
 
 @dataclass(frozen=True)
 class _Failed:
-    """The simulation thread's exception, queued in place of a frame."""
+    """The producer's exception, queued in place of an item."""
 
     error: BaseException
 
 
 _END = object()
-"""Queued after the last frame."""
+"""Queued after the last item."""
 
 
 class HandOff:
     """A bounded queue from a producer thread to its consumer, who can tell the producer to stop.
+
+    The producer calls :meth:`put` for each item, then :meth:`finish` (or :meth:`fail` with its
+    exception); the consumer iterates :meth:`items`.
 
     Args:
         size: Items that may wait for the consumer, >= 1.
@@ -99,9 +102,23 @@ class HandOff:
             return True
         return False
 
-    def get(self) -> object:
-        """The next item (consumer; waits for it)."""
-        return self._queue.get()
+    def finish(self) -> bool:
+        """Mark the end of the items (producer); False if told to stop first."""
+        return self.put(_END)
+
+    def fail(self, error: BaseException) -> bool:
+        """End the items with ``error`` (producer); False if told to stop first."""
+        return self.put(_Failed(error))
+
+    def items(self) -> Iterator[object]:
+        """The items in order (consumer; waits for each); raises the producer's :meth:`fail`."""
+        while True:
+            item = self._queue.get()
+            if item is _END:
+                return
+            if isinstance(item, _Failed):
+                raise item.error
+            yield item
 
     def qsize(self) -> int:
         """Items waiting now."""
@@ -163,15 +180,13 @@ class BackgroundSimulation:
 
     def __iter__(self) -> Iterator[Frame]:
         """The frames in order; raises the simulation thread's exception where it happened."""
-        while True:
-            item = self._handoff.get()
-            if item is _END:
-                return
-            if isinstance(item, _Failed):
-                self.close()
-                raise item.error
-            assert isinstance(item, Frame)
-            yield item
+        try:
+            for item in self._handoff.items():
+                assert isinstance(item, Frame)
+                yield item
+        except BaseException:
+            self.close()
+            raise
 
     def close(self) -> None:
         """Stop the simulation thread, wait for it (it frees its renderer); idempotent."""
@@ -190,15 +205,15 @@ class BackgroundSimulation:
             simulation = self._make_simulation()
         except BaseException as error:
             self._simulation.set_exception(error)
-            self._handoff.put(_Failed(error))
+            self._handoff.fail(error)
             return
         self._simulation.set_result(simulation)
         try:
             for frame in itertools.islice(simulation.frames(), self._max_frames):
                 if not self._handoff.put(frame):
                     return
-            self._handoff.put(_END)
+            self._handoff.finish()
         except BaseException as error:
-            self._handoff.put(_Failed(error))
+            self._handoff.fail(error)
         finally:
             simulation.close()
