@@ -70,7 +70,13 @@ from mapper.pose_correction import (
 )
 from mapper.validation import check_field, real_array, rigid_transform
 
-__all__ = ["PoseCorrection", "SegmentationParams", "SegmentationResult", "segment_depth"]
+__all__ = [
+    "PoseCorrection",
+    "SegmentationParams",
+    "SegmentationResult",
+    "floor_regions",
+    "segment_depth",
+]
 
 
 _POSITIVE_FIELDS = (
@@ -653,7 +659,7 @@ def segment_depth(
         typical_sigma,
         params.min_noise_m,
     )
-    floor_labels, floors = _floor_regions(
+    floor_labels, floors = floor_regions(
         origin,
         rays,
         points_tilted,
@@ -709,8 +715,10 @@ def segment_depth(
     )
 
 
-def _floor_regions(origin, rays, points, sigma_z, depth, segments, intrinsics, params):
+def floor_regions(origin, rays, points, sigma_z, depth, segments, intrinsics, params):
     """Level regions of the image (`scanline.grow_floors`) and their table.
+
+    The floor stage of `segment_depth` (public for the warm-up, which compiles it alone).
 
     Args:
         origin: (3,) camera centre in the tilt-corrected robot frame [m].

@@ -67,7 +67,7 @@ from fogsim.run.process_exit import exit_process
 from mapper import AveragingMap, FloorObstacleMapper, SegmentationParams
 from mapper.heading import heading_scores
 from mapper.intrinsics import PinholeIntrinsics
-from mapper.segmentation import _floor_regions, segment_depth
+from mapper.segmentation import floor_regions, segment_depth
 from mapper.transforms import apply_transform
 
 MESSAGE = "compiling kernels (first run only)"
@@ -355,7 +355,7 @@ def _floors(frame: Frame, params: SegmentationParams) -> None:
         np.zeros(height, dtype=np.int64),
         np.full(height, width, dtype=np.int64),
     )
-    labels, floors = _floor_regions(
+    labels, floors = floor_regions(
         origin, rays, points, sigma_z, depth, segments, frame.intrinsics, params
     )
     mapper.scanline.floor_points(
