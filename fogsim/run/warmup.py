@@ -124,9 +124,7 @@ _FLOOR_KERNELS = (
 )
 """The segmentation's last stage (level regions and the floor points) and what it calls."""
 
-FLOOR_REGIONS = KernelGroup(
-    "floor regions", tuple(k for k in _kernels(mapper.scanline) if k in _FLOOR_KERNELS)
-)
+FLOOR_REGIONS = KernelGroup("floor regions", _FLOOR_KERNELS)
 """The segmentation's last stage: level geometry, level regions grown and measured, floor
 points (the scan-line kernels it shares with the planes stage are the helper's)."""
 
