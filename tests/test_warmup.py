@@ -78,7 +78,7 @@ def test_message_with_a_cold_cache_only(tmp_path):
     assert MESSAGE in cold and f"{len(GROUPS)} groups in 2 processes" in cold
     assert "floor regions kernels ..." in cold
     assert "mapper kernels ..." in cold
-    assert "segmentation, z-match, baseline, heading, self-filter kernels ..." in cold
+    assert "self-filter, segmentation, z-match, baseline, heading kernels ..." in cold
     assert "(second process)" in cold and "failed" not in cold  # compiled beside the others
     assert "compiled in" in cold
     assert list(tmp_path.rglob("*.nbi")), "the warm-up filled the cache"

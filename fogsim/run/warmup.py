@@ -151,20 +151,24 @@ SELF_FILTER = KernelGroup("self-filter", _kernels(self_filter))
 GROUPS = (FLOOR_REGIONS, MAPPER, SEGMENTATION, MATCHING, SELF_FILTER)
 """Every group, in the order this process compiles them (without a helper)."""
 
-HELPER_GROUPS = (SEGMENTATION, MATCHING, SELF_FILTER)
+HELPER_GROUPS = (SELF_FILTER, SEGMENTATION, MATCHING)
 """The groups a helper process compiles on a cold cache, in this order. Measured with
 ``bench/bench_cold.py run`` (cold ``fogsim run stage``, Intel Xeon 2 cores, load 0.4-1.5):
 this process's floor regions 8.0 s + mapper 4.8 s, the helper's groups 12.8 s, so both end
-together (with the segmentation whole in the helper it took 16.6 s, this process 10 s)."""
+together (with the segmentation whole in the helper it took 16.6 s, this process 10 s).
+
+The self-filter comes first: a simulation's thread calls its kernel on its first frame, once
+the scene is set up (seconds into the warm-up); compiled last, the kernel was not in the cache
+yet and that thread compiled it a second time, in this process, beside its groups (1 s)."""
 
 
 def warm_up_kernels(params: RunParams, stream: TextIO | None = sys.stderr) -> float:
     """Compile (or load from numba's cache) the kernels a run of ``params`` uses.
 
-    Runs :data:`SEGMENTATION` and :data:`MAPPER` (throwaway maps) on synthetic frames, then
-    :data:`SELF_FILTER` on a 2 × 2 image; with more than one group's cache cold,
-    :data:`HELPER_GROUP` is compiled by a helper process meanwhile (module doc). Then a
-    throwaway :class:`Pipeline` maps the synthetic frames (every kernel loaded from the cache).
+    Runs each group of :data:`GROUPS` on synthetic data (throwaway maps, a 2 × 2 image for
+    :data:`SELF_FILTER`); with more than one group's cache cold, :data:`HELPER_GROUPS` are
+    compiled by a helper process meanwhile (module doc). Then a throwaway :class:`Pipeline`
+    maps the synthetic frames (every kernel loaded from the cache).
     Nothing of the run's own state is touched.
 
     Args:
