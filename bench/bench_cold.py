@@ -18,8 +18,9 @@ measure on a shared machine: wall time only means something at load < 2.
   for more than one signature (each extra one is wasted compile time) and the CPU time of the
   imports. Printed per tree: the median over the repeats of every figure.
 - ``run``: ``fogsim run SCENARIO --seed 1 --no-pictures --out TMP`` (progress shown, so the
-  warm-up reports its groups): wall, CPU (user + sys of the process and its helper) and the
-  warm-up's ``compiled in`` line.
+  warm-up reports its groups): wall, CPU (user + sys of the process and its helper), each
+  process's share (the main process's CPU is the critical path's bound when the load makes
+  wall time meaningless) and the warm-up's ``compiled in`` line.
 """
 
 import argparse
@@ -78,6 +79,22 @@ json.dump({"groups": groups, "inclusive": inclusive, "exclusive": exclusive,
 """The ``kernels`` child: compiles the warm-up's groups in turn, prints JSON."""
 
 
+_RUN = r"""
+import atexit, resource, sys
+def cpu_shares():
+    own = resource.getrusage(resource.RUSAGE_SELF)
+    helper = resource.getrusage(resource.RUSAGE_CHILDREN)
+    print(f"bench_cold CPU main {own.ru_utime + own.ru_stime:.3f} "
+          f"helper {helper.ru_utime + helper.ru_stime:.3f}", file=sys.stderr)
+atexit.register(cpu_shares)  # registered first: runs last, after the command's own handlers
+sys.argv = ["fogsim", *sys.argv[1:]]
+from fogsim.cli import entry
+entry()
+"""
+"""The ``run`` child: the ``fogsim`` command, printing at its exit the CPU time of its own
+process (all threads) and of its children (the warm-up's helper process, waited for)."""
+
+
 def load_note() -> str:
     """The 1, 5 and 15 minute load averages."""
     return "load " + "/".join(f"{x:.1f}" for x in os.getloadavg())
@@ -114,14 +131,15 @@ def profile_kernels(tree: Path) -> dict:
 
 
 def cold_run(tree: Path, scenario: str) -> tuple[float, float, str]:
-    """One cold ``fogsim run`` of ``tree``: (wall [s], CPU [s], its ``compiled in`` line)."""
+    """One cold ``fogsim run`` of ``tree``: (wall [s], CPU [s], what it printed of its compile
+    and each process's CPU time)."""
     with tempfile.TemporaryDirectory() as scratch:
         env = _env(tree, Path(scratch))
         out = str(Path(scratch) / "out")
         before = resource.getrusage(resource.RUSAGE_CHILDREN)
         start = time.perf_counter()
         done = subprocess.run(
-            [PYTHON, "-m", "fogsim", "run", scenario, "--seed", "1", "--no-pictures", "--out", out],
+            [PYTHON, "-c", _RUN, "run", scenario, "--seed", "1", "--no-pictures", "--out", out],
             env=env,
             cwd=tree,
             capture_output=True,
@@ -135,7 +153,8 @@ def cold_run(tree: Path, scenario: str) -> tuple[float, float, str]:
     cpu = (after.ru_utime - before.ru_utime) + (after.ru_stime - before.ru_stime)
     lines = [line.strip() for line in done.stderr.splitlines() if " kernels ..." in line]
     compiled = [line.strip() for line in done.stderr.splitlines() if "compiled in" in line]
-    return wall, cpu, "; ".join(lines + compiled)
+    shares = [line.strip() for line in done.stderr.splitlines() if "bench_cold CPU" in line]
+    return wall, cpu, "; ".join(lines + compiled + shares)
 
 
 def _median_table(runs: list[dict], key: str) -> dict[str, float]:
