@@ -781,22 +781,25 @@ def _walk_columns(miss_cols, range_masks, c, z_entry, axis_x, axis_y, z_line, z_
     # branches in this loop (the stage's insert 8 % faster, host and generic codegen).
     z_lo = float(z_range[0])
     z_hi = float(z_range[1])
+    # The step written out in each branch, not a parameter selected and one step after the if:
+    # the select made LLVM move the two parameters between registers on every crossing (26
+    # instructions a crossing; the insert 5-6 % faster written out, 88 x 72 and 176 x 144).
+    # The indices are non-negative: unsigned, so numba adds no negative-index wraparound.
     while rem_x > 0 and rem_y > 0:
         if tmx <= tmy:
-            t_exit = tmx
+            z_exit = int(min(max(sz + tmx * dz, z_lo), z_hi))
+            miss_cols[np.uint64(c)] |= range_masks[np.uint64(z_entry), np.uint64(z_exit)]
+            z_entry = z_exit
+            c += dcol_x
             tmx += tdx
             rem_x -= 1
-            step = dcol_x
         else:
-            t_exit = tmy
+            z_exit = int(min(max(sz + tmy * dz, z_lo), z_hi))
+            miss_cols[np.uint64(c)] |= range_masks[np.uint64(z_entry), np.uint64(z_exit)]
+            z_entry = z_exit
+            c += dcol_y
             tmy += tdy
             rem_y -= 1
-            step = dcol_y
-        # The indices are non-negative: unsigned, so numba adds no negative-index wraparound.
-        z_exit = int(min(max(sz + t_exit * dz, z_lo), z_hi))
-        miss_cols[np.uint64(c)] |= range_masks[np.uint64(z_entry), np.uint64(z_exit)]
-        z_entry = z_exit
-        c += step
     if rem_x > 0:
         t_exit, t_step, rem, step = tmx, tdx, rem_x, dcol_x
     else:
