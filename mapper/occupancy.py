@@ -783,7 +783,8 @@ def _walk_columns(miss_cols, range_masks, c, z_entry, axis_x, axis_y, z_line, z_
     z_hi = float(z_range[1])
     # The step written out in each branch, not a parameter selected and one step after the if:
     # the select made LLVM move the two parameters between registers on every crossing (26
-    # instructions a crossing; the insert 5-6 % faster written out, 88 x 72 and 176 x 144).
+    # instructions a crossing, 20 written out; the stage's insert 5.6 % faster host, 12 %
+    # generic at 88 x 72, 5.8 % host at 176 x 144; the same marks).
     # The indices are non-negative: unsigned, so numba adds no negative-index wraparound.
     while rem_x > 0 and rem_y > 0:
         if tmx <= tmy:
