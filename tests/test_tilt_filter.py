@@ -57,25 +57,53 @@ def test_constant_bias_with_white_noise_is_estimated_within_its_steady_state_sig
     assert estimate.sigma_rad / DEG == pytest.approx(sigma_x_deg, rel=0.01)
 
 
+def _steady_filter(tilt_rad):
+    """A filter at steady state on noise-free measurements ``tilt_rad`` (hand case above)."""
+    tilt_filter = TiltFilter(TiltFilterParams(noise_deg=NOISE_DEG, bias_deg=BIAS_DEG))
+    for _ in range(200):
+        tilt_filter.update(tilt_rad, SIGMA_DEG * DEG, TURN_RAD)
+    return tilt_filter
+
+
 def test_a_bias_step_is_followed_at_the_hand_computed_rate():
     # Noise-free data from a filter at steady state (turning 0.088 rad per frame): after a step
-    # of Δ in the bias, the estimate's error at the j-th frame from the step is
-    # -(1 - Kx)·Δ·(1 - Kb)^j = -0.32·Δ·0.5^j (hand gains above): within σ_x = 0.33° of a
-    # 4° step from j = 2 (0.32°), not at j = 1 (0.64°).
-    tilt_filter = TiltFilter(TiltFilterParams(noise_deg=NOISE_DEG, bias_deg=BIAS_DEG))
+    # of Δ = 2° in the bias, the estimate's error at the j-th frame from the step is
+    # -(1 - Kx)·Δ·(1 - Kb)^j = -0.64°·0.5^j (hand gains above): within σ_x = 0.33° from j = 1
+    # (0.32°), not at j = 0 (0.64°). The step's innovation passes the gate: 2²/(P⁻ + R) = 8.
     before = np.array([1.0, -2.0]) * DEG
-    for _ in range(200):
-        tilt_filter.update(before, SIGMA_DEG * DEG, TURN_RAD)
-    step = np.array([4.0, 0.0]) * DEG
+    tilt_filter = _steady_filter(before)
+    step = np.array([2.0, 0.0]) * DEG
     errors_deg = []
     for _ in range(6):
         estimate = tilt_filter.update(before + step, SIGMA_DEG * DEG, TURN_RAD)
+        assert estimate.measured
         errors_deg.append((estimate.tilt_rad - before - step) / DEG)
-    expected = [-0.32 * 4.0 * 0.5**j for j in range(6)]
-    np.testing.assert_allclose([e[0] for e in errors_deg], expected, rtol=1e-9)
+    np.testing.assert_allclose([e[0] for e in errors_deg], [-0.64 * 0.5**j for j in range(6)])
     np.testing.assert_allclose([e[1] for e in errors_deg], 0.0, atol=1e-12)
     within = [abs(e[0]) <= math.sqrt(0.1088) for e in errors_deg]
-    assert within == [False, False, True, True, True, True]
+    assert within == [False, True, True, True, True, True]
+
+
+def test_the_gate_refuses_an_improbable_measurement_until_the_bias_is_uncertain_enough():
+    # Steady state: P⁻ + R = 0.5 deg². An innovation of 2.5° (12.5 < 13.82) is used, one of 3°
+    # (18) is refused: the frame takes b̂⁻. A lasting 4° step (32) is refused while
+    # 16/(0.5 + 0.125·j) > 13.8155 (P⁻ grows by q = 0.125 deg² per refused frame), i.e. for
+    # j = 0..5 (j = 5: 16/1.125 = 14.2), and used at j = 6 (16/1.25 = 12.8).
+    before = np.array([1.0, -2.0]) * DEG
+    accepted = _steady_filter(before).update(
+        before + np.array([0.0, 2.5]) * DEG, SIGMA_DEG * DEG, TURN_RAD
+    )
+    assert accepted.measured
+    tilt_filter = _steady_filter(before)
+    refused = tilt_filter.update(before + np.array([0.0, 3.0]) * DEG, SIGMA_DEG * DEG, TURN_RAD)
+    assert not refused.measured
+    np.testing.assert_allclose(refused.tilt_rad, before, rtol=1e-12)
+    tilt_filter = _steady_filter(before)
+    used = [
+        tilt_filter.update(before + np.array([4.0, 0.0]) * DEG, SIGMA_DEG * DEG, TURN_RAD).measured
+        for _ in range(8)
+    ]
+    assert used == [False] * 6 + [True, True]
 
 
 def test_a_frame_without_a_measurement_takes_the_bias_estimate_and_loses_certainty():
@@ -91,7 +119,9 @@ def test_a_frame_without_a_measurement_takes_the_bias_estimate_and_loses_certain
     assert estimate.sigma_rad == pytest.approx(math.sqrt(expected + (0.3 * DEG) ** 2), rel=1e-12)
 
 
-@pytest.mark.parametrize(("name", "value"), [("noise_deg", -0.1), ("bias_deg", math.inf)])
+@pytest.mark.parametrize(
+    ("name", "value"), [("noise_deg", -0.1), ("bias_deg", math.inf), ("gate_chi2", 0.0)]
+)
 def test_params_refuse_negative_or_infinite_levels_naming_the_field(name, value):
     with pytest.raises(InvalidParameterError, match=f"TiltFilterParams.{name}"):
         TiltFilterParams(**{name: value})
