@@ -1,20 +1,18 @@
 """The pipeline applies the tilt filtered over frames (`mapper.tilt_filter`, issue 12)."""
 
+import dataclasses
 import math
 
 import numpy as np
-from synthetic_depth import Box, look_down_camera, render_boxes
+from synthetic_depth import Box, render_boxes
+from test_pipeline import CAMERA_IN_ROBOT, INTR, camera_in_world, make_frames
 
 from fogsim.config import RunParams
 from fogsim.config.params import PipelineParams
-from fogsim.data.frame import Frame
 from fogsim.mapping.pipeline import Pipeline
-from mapper.intrinsics import PinholeIntrinsics
 from mapper.segmentation import segment_depth
 
-INTR = PinholeIntrinsics.from_fov(88, 72, 47.0, 39.0)
-CAMERA_IN_ROBOT = look_down_camera((0.0, 0.0, 0.9), pitch_down_deg=35.0)
-ROBOT_POSE = np.array([0.3, 0.5, 0.0, 0.0])
+# The test_pipeline robot (x = 0.3 m, camera 0.9 m high looking 35° down).
 # A wall 0.55 m ahead of the camera fills the whole view (rays 15.5-54.5° down meet its face
 # 0.13-0.75 m high): no horizontal plane, so no tilt measurement.
 WALL = Box((0.95, 0.5), (0.2, 3.0, 1.5))
@@ -30,32 +28,18 @@ def _believed_camera():
     return out
 
 
-def _camera_in_world():
-    t = np.eye(4)
-    t[:3, 3] = ROBOT_POSE[:3]
-    return t @ CAMERA_IN_ROBOT
-
-
 def _frames(n_ground, n_wall):
     """Standing robot: ``n_ground`` frames of bare ground, then ``n_wall`` of the wall."""
-    world = _camera_in_world()
-    believed = _believed_camera()
-    frames = []
-    for i in range(n_ground + n_wall):
-        depth = render_boxes(INTR, world, [] if i < n_ground else [WALL])
-        frames.append(
-            Frame(
-                index=i,
-                time_s=i / 12.5,
-                depth_m=depth.astype(np.float32),
-                intrinsics=INTR,
-                transform_camera_to_robot_believed=believed,
-                robot_pose_believed=ROBOT_POSE,
-                transform_camera_to_world_true=world,
-                robot_pose_true=ROBOT_POSE,
-            )
+    world = camera_in_world()
+    ground, wall = render_boxes(INTR, world, []), render_boxes(INTR, world, [WALL])
+    return [
+        dataclasses.replace(
+            frame,
+            depth_m=(ground if i < n_ground else wall).astype(np.float32),
+            transform_camera_to_robot_believed=_believed_camera(),
         )
-    return frames
+        for i, frame in enumerate(make_frames(n_ground + n_wall))
+    ]
 
 
 def _pipeline(use_tilt_filter):
