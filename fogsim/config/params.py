@@ -50,6 +50,13 @@ class PipelineParams:
             (0.36 mm mean, 0.72 mm worst with 0: odometry drifts up to −1.6 mm in 66 frames
             and the map follows unshifted frames); 0.002 changes nothing there; with no limit
             stage_down's platform row goes from 2.45 to 3.17 mm worst.
+        use_tilt_filter: Rotate each frame by the tilt filtered over frames
+            (`mapper.tilt_filter`) instead of the tilt its own planes measured (issue 12: the
+            stereo fit's noise, ~0.2° per frame, tilted far surfaces by several mm).
+        tilt_noise_deg: The camera tilt's per-frame noise per axis [deg], the filter's
+            `TiltFilterParams.noise_deg` (0.3: the scenarios' neck encoder noise).
+        tilt_bias_deg: The neck encoders' per-run bias std [deg], the filter's
+            `TiltFilterParams.bias_deg` (4.0: the scenarios' neck encoder bias).
     """
 
     use_z_match: bool = True
@@ -57,6 +64,9 @@ class PipelineParams:
     use_height_reference: bool = True
     event_tolerance_m: float = 0.01
     anchor_shift_m: float = 0.001
+    use_tilt_filter: bool = True
+    tilt_noise_deg: float = 0.3
+    tilt_bias_deg: float = 4.0
 
     def __post_init__(self) -> None:
         if not self.event_tolerance_m > 0.0:
@@ -68,6 +78,12 @@ class PipelineParams:
                 f"PipelineParams.anchor_shift_m must be a finite float >= 0 m, "
                 f"got {self.anchor_shift_m!r}"
             )
+        for name in ("tilt_noise_deg", "tilt_bias_deg"):
+            value = getattr(self, name)
+            if not 0.0 <= value < float("inf"):
+                raise ParameterError(
+                    f"PipelineParams.{name} must be a finite float >= 0 deg, got {value!r}"
+                )
 
 
 def replace_params(params: P, changes: Mapping[str, object], where: str) -> P:

@@ -77,6 +77,7 @@ from mapper import (
 )
 from mapper.reference import HeightReference, arrival_drift_m, start_surface_m
 from mapper.segmentation import SegmentationResult, segment_depth
+from mapper.tilt_filter import TiltFilter, TiltFilterParams, apply_tilt, measured_tilt
 from mapper.transforms import apply_transform, planar_pose_to_matrix
 
 FrameCallback = Callable[[Frame, "Pipeline"], None]
@@ -194,6 +195,12 @@ class Pipeline:
         self.elevation = RobotElevationFilter(self.run_params.elevation)
         self.heading = HeadingEstimator(self.run_params.heading)
         self.reference = HeightReference(self.run_params.reference)
+        self.tilt = (
+            TiltFilter(TiltFilterParams(self.params.tilt_noise_deg, self.params.tilt_bias_deg))
+            if self.params.use_tilt_filter and self.segmentation_params.correct_tilt
+            else None
+        )
+        self._last_camera_rotation: NDArray[np.float64] | None = None
         self._deferred: list[_FrameData] = []
         self._processed = 0
         self.mapped_late: list[LateMapping] = []
@@ -265,6 +272,8 @@ class Pipeline:
             frame.transform_camera_to_robot_believed,
             self.segmentation_params,
         )
+        if self.tilt is not None:
+            seg = self._filtered_tilt(seg, frame)
         t1 = time.perf_counter()
         data = _FrameData(
             frame,
@@ -292,6 +301,22 @@ class Pipeline:
             z_matched=matched,
             ground_plane_found=data.ground_plane_found,
         )
+
+    def _filtered_tilt(self, seg: SegmentationResult, frame: Frame) -> SegmentationResult:
+        """``seg`` rotated by the tilt filtered over frames (`mapper.tilt_filter`).
+
+        The filter's process noise scales with the believed camera's turn in the robot frame
+        since the previous frame (the neck bias's effect turns with the neck).
+        """
+        assert self.tilt is not None
+        rotation = np.asarray(frame.transform_camera_to_robot_believed, dtype=np.float64)[:3, :3]
+        previous, self._last_camera_rotation = self._last_camera_rotation, rotation
+        turn_rad = 0.0
+        if previous is not None:
+            cos_turn = (float(np.trace(previous.T @ rotation)) - 1.0) / 2.0
+            turn_rad = float(np.arccos(np.clip(cos_turn, -1.0, 1.0)))
+        measured, sigma_rad = measured_tilt(seg, self.segmentation_params)
+        return apply_tilt(seg, self.tilt.update(measured, sigma_rad, turn_rad).tilt_rad)
 
     def finish(self) -> list[Frame]:
         """Map the deferred frames now, in order, without z-match; returns them.

@@ -1,0 +1,271 @@
+"""Temporal filter of the camera tilt the segmentation measures (beyond the paper).
+
+The paper (Sec. IV) rotates every frame by the tilt its own near-horizontal planes give. That
+measurement carries the plane fit's noise (stereo: about 0.2° per axis, independent from frame
+to frame), and at 2 m a 0.2° rotation moves a point by 7 mm in height. The quantity measured,
+the camera's true tilt error in the believed robot frame, is
+
+    x_k = b_k + w_k,
+
+``b_k`` the neck encoders' per-run bias as the current neck pose turns it (slowly varying: it
+changes only while the camera turns in the robot frame) and ``w_k`` the encoders' per-frame
+reading noise (white, ``noise_deg`` per tilt axis). The measurement is ``z_k = x_k + v_k`` with
+``v_k`` the fit's noise (white, ``σ_k`` per axis, predicted per frame from the plane fits).
+
+A Kalman filter estimates ``b`` (random walk with per-frame variance ``(bias_deg·Δθ_k)²``,
+``Δθ_k`` the believed camera rotation since the previous frame [rad]: each neck joint's bias
+error turns with its axis, and no joint axis turns more than the camera). The applied estimate
+is of ``x_k``, not ``b_k``: with the prior ``b ~ N(b̂⁻, P⁻)``
+
+    x̂_k = b̂⁻ + Kx·(z_k − b̂⁻),  Kx = (P⁻ + σ_w²) / (P⁻ + σ_w² + σ_k²),
+    Var(x̂_k − x_k) = (P⁻ + σ_w²)·σ_k² / (P⁻ + σ_w² + σ_k²)  (≤ σ_k², the raw measurement's),
+
+so a precise measurement (depth camera, σ_k ≪ σ_w) is taken almost as it is, a noisy one is
+pulled towards the bias estimate, and a frame without tilt planes takes ``b̂⁻``. The bias update
+is ``b̂ = b̂⁻ + Kb·(z_k − b̂⁻)``, ``Kb = P⁻ / (P⁻ + σ_w² + σ_k²)``.
+
+Validation gate: a measurement whose innovation is improbable under this model,
+``|z_k − b̂⁻|² / (P⁻ + σ_w² + σ_k²)`` above ``gate_chi2`` (χ² with 2 degrees of freedom), is
+not used: the frame takes ``b̂⁻`` as if it had measured nothing. The segmentation's tilt has
+gross errors when a wrong plane wins its consensus (stage stereo seeds 4, 8: 1.5 % of the frames
+more than 1° off, up to 15°); one such frame maps everything it sees tilted.
+
+The tilt is the ground normal's (x, y) in the believed robot frame R (small angles, rad); the
+two axes are filtered independently with the same gains.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, replace
+
+import numpy as np
+from numpy.typing import NDArray
+
+from mapper.errors import InvalidParameterError
+from mapper.pose_correction import _rotation_to_vertical as rotation_to_vertical
+from mapper.pose_correction import within_deg_of_vertical
+from mapper.segmentation import SegmentationParams, SegmentationResult
+
+__all__ = [
+    "TiltEstimate",
+    "TiltFilter",
+    "TiltFilterParams",
+    "apply_tilt",
+    "measured_tilt",
+    "steady_state",
+]
+
+
+@dataclass(frozen=True)
+class TiltFilterParams:
+    """Noise levels of the camera's tilt error (the robot's encoders), per tilt axis.
+
+    Attributes:
+        noise_deg: Std of the per-frame (white) tilt error of the believed camera pose [deg].
+            0.3: the stage scenarios' neck encoder noise (``head_noise_deg``), which maps one to
+            one into the camera's tilt (measured on the stage stereo recordings, seeds 1, 4, 6,
+            8: frame-to-frame differences of the true tilt error give 0.29-0.31° per axis).
+        bias_deg: Std of the per-run encoder bias of the neck joints [deg]: the prior of the
+            bias and, times the camera's turn per frame, its process noise. 4.0: the stage
+            scenarios' ``head_bias_deg``.
+        gate_chi2: Innovations beyond this normalised square (χ², 2 degrees of freedom) are
+            refused. 13.8155 = −2·ln(0.001): a measurement the model explains is refused once
+            in 1000 frames. inf: every measurement is used.
+    """
+
+    noise_deg: float = 0.3
+    bias_deg: float = 4.0
+    gate_chi2: float = -2.0 * math.log(1e-3)
+
+    def __post_init__(self) -> None:
+        for name in ("noise_deg", "bias_deg"):
+            value = getattr(self, name)
+            if not (isinstance(value, int | float) and 0.0 <= value < math.inf):
+                raise InvalidParameterError(
+                    f"TiltFilterParams.{name} must be a finite number >= 0 deg, got {value!r}"
+                )
+        if not (isinstance(self.gate_chi2, int | float) and self.gate_chi2 > 0.0):
+            raise InvalidParameterError(
+                f"TiltFilterParams.gate_chi2 must be a number > 0 (inf: no gate), "
+                f"got {self.gate_chi2!r}"
+            )
+
+
+@dataclass(frozen=True)
+class TiltEstimate:
+    """The filter's output for one frame.
+
+    Attributes:
+        tilt_rad: (2,) estimated (x, y) of the ground normal in the believed robot frame.
+        sigma_rad: Its predicted std per axis [rad].
+        measured: The frame's measurement was used (False: none, or refused by the gate).
+    """
+
+    tilt_rad: NDArray[np.float64]
+    sigma_rad: float
+    measured: bool
+
+
+class TiltFilter:
+    """Kalman filter of the camera tilt over frames (module docstring); feed frames in order."""
+
+    def __init__(self, params: TiltFilterParams | None = None) -> None:
+        self.params = params or TiltFilterParams()
+        self._noise_var = math.radians(self.params.noise_deg) ** 2
+        self._bias_var = math.radians(self.params.bias_deg) ** 2
+        self.bias_rad = np.zeros(2)
+        self.bias_var = self._bias_var  # the prior: b ~ N(0, bias_deg²)
+
+    def update(
+        self, measured_rad: NDArray[np.float64] | None, sigma_rad: float, turn_rad: float
+    ) -> TiltEstimate:
+        """Filter one frame's measurement.
+
+        Args:
+            measured_rad: (2,) the frame's measured tilt, None when it measured none.
+            sigma_rad: The measurement's std per axis [rad] (ignored without a measurement).
+            turn_rad: Rotation angle of the believed camera pose in R since the previous frame.
+
+        Returns:
+            The estimate of this frame's tilt and its std (``b̂⁻`` without a measurement or
+            when the gate refused it).
+        """
+        prior_var = self.bias_var + self._bias_var * turn_rad**2
+        signal_var = prior_var + self._noise_var  # Var(x_k) given the past
+        total_var = signal_var + sigma_rad**2
+        innovation = (
+            None
+            if measured_rad is None or not math.isfinite(sigma_rad)
+            else np.asarray(measured_rad, dtype=np.float64) - self.bias_rad
+        )
+        if innovation is None or float(innovation @ innovation) > self.params.gate_chi2 * total_var:
+            self.bias_var = prior_var
+            return TiltEstimate(self.bias_rad.copy(), math.sqrt(signal_var), measured=False)
+        tilt = self.bias_rad + (signal_var / total_var) * innovation
+        self.bias_rad = self.bias_rad + (prior_var / total_var) * innovation
+        self.bias_var = prior_var * (1.0 - prior_var / total_var)
+        return TiltEstimate(tilt, math.sqrt(signal_var * sigma_rad**2 / total_var), measured=True)
+
+
+def steady_state(
+    noise_rad: float, sigma_rad: float, process_rad: float
+) -> tuple[float, float, float]:
+    """Steady-state gains and error of `TiltFilter` for constant noise levels.
+
+    The prior variance solves ``P⁻ = P⁻·R/(P⁻ + R) + q`` (``R = σ_w² + σ²``, ``q`` the process
+    variance): ``P⁻ = (q + sqrt(q² + 4qR)) / 2``.
+
+    Args:
+        noise_rad: σ_w, the per-frame tilt noise [rad].
+        sigma_rad: σ, the measurement's std [rad].
+        process_rad: sqrt(q), the bias's per-frame change [rad] (bias_deg·turn in rad).
+
+    Returns:
+        (Kx, Kb, σ_x): the applied gain, the bias gain and the applied estimate's error std.
+    """
+    q = process_rad**2
+    r = noise_rad**2 + sigma_rad**2
+    prior_var = 0.5 * (q + math.sqrt(q * q + 4.0 * q * r))
+    total_var = prior_var + r
+    signal_var = prior_var + noise_rad**2
+    return (
+        signal_var / total_var,
+        prior_var / total_var,
+        math.sqrt(signal_var * sigma_rad**2 / total_var),
+    )
+
+
+def measured_tilt(
+    result: SegmentationResult, params: SegmentationParams
+) -> tuple[NDArray[np.float64] | None, float]:
+    """The tilt a segmentation measured and its predicted std per axis [rad].
+
+    The tilt is the (x, y) of the ground normal its correction took to vertical (believed robot
+    frame). Its std is that of the consensus planes' weighted mean normal,
+    ``1/sqrt(Σ 1/σ_p²)`` over the planes within ``tilt_consensus_deg`` of vertical after the
+    correction that qualify as tilt candidates (`mapper.pose_correction.estimate_tilt`), per
+    axis (÷√2). A plane's normal std comes from its fit: ``σ_p² = c·σ⊥²·12/n·(1/a² + 1/b²)``,
+    ``σ⊥`` its RMS depth residual (at least ``min_noise_m``) projected on the normal along the
+    ray to its centroid, ``n`` its pixels, ``a, b`` its in-plane extents, ``c`` the
+    ``noise_correlation_factor``.
+
+    Returns:
+        (tilt, σ): tilt None and σ inf when the frame's correction used no plane.
+    """
+    correction = result.correction
+    planes = result.planes
+    if correction.tilt_planes == 0 or len(planes) == 0:
+        return None, math.inf
+    counts = planes.pixel_counts
+    used = np.flatnonzero(result.plane_ids >= 0)
+    ids = result.plane_ids[used]
+    sums = np.stack(
+        [np.bincount(ids, weights=result.points[used, j], minlength=len(planes)) for j in range(3)],
+        axis=1,
+    )
+    rays = sums / np.maximum(counts, 1)[:, None] - correction.pivot_m
+    rays /= np.linalg.norm(rays, axis=1)[:, None]
+    normals = planes.normals
+    minor, major = planes.extents_m[:, 0], planes.extents_m[:, 1]
+    perpendicular_m = np.maximum(planes.rms_m, params.min_noise_m) * np.abs(
+        np.einsum("pi,pi->p", rays, normals)
+    )
+    with np.errstate(divide="ignore", invalid="ignore"):
+        variance = (
+            params.noise_correlation_factor
+            * perpendicular_m**2
+            * 12.0
+            / counts
+            * (1.0 / minor**2 + 1.0 / major**2)
+        )
+    consensus = (
+        within_deg_of_vertical(normals, params.tilt_consensus_deg)
+        & (counts >= params.min_plane_pixels)
+        & (minor >= params.min_plane_extent_m)
+        & np.isfinite(variance)
+        & (variance > 0.0)
+    )
+    if not consensus.any():
+        return None, math.inf
+    up = correction.rotation.T @ np.array([0.0, 0.0, 1.0])
+    sigma = 1.0 / math.sqrt(float((1.0 / variance[consensus]).sum()) * 2.0)
+    return up[:2].copy(), sigma
+
+
+def apply_tilt(result: SegmentationResult, tilt_rad: NDArray[np.float64]) -> SegmentationResult:
+    """``result`` with the tilt correction for ``tilt_rad`` instead of its own.
+
+    The points, their floor heights, the floor regions' heights and the camera transform are
+    turned about the correction's pivot (the camera centre) by ``R_new·R_ownᵀ``, the z shift
+    kept: a floor point's height follows its point (it lay on its floor's height and still
+    does, on its ray), a region's height moves by its points' mean change.
+    """
+    correction = result.correction
+    tilt = np.asarray(tilt_rad, dtype=np.float64)
+    normal = np.array([tilt[0], tilt[1], math.sqrt(max(1.0 - float(tilt @ tilt), 0.0))])
+    rotation = rotation_to_vertical(normal)
+    turn = rotation @ correction.rotation.T
+    shift = np.array([0.0, 0.0, correction.z_shift_m])
+    origin = correction.pivot_m + shift
+    points = (result.points - origin) @ turn.T + origin
+    dz = points[:, 2] - result.points[:, 2]
+    floors = result.floors
+    in_floor = np.flatnonzero(result.floor_ids >= 0)
+    region = result.floor_ids[in_floor]
+    counts = np.bincount(region, minlength=len(floors))
+    region_dz = np.bincount(region, weights=dz[in_floor], minlength=len(floors)) / np.maximum(
+        counts, 1
+    )
+    new_correction = replace(correction, rotation=rotation)
+    step = np.eye(4)
+    step[:3, :3] = turn
+    step[:3, 3] = origin - turn @ origin
+    return replace(
+        result,
+        points=points,
+        floor_heights=result.floor_heights + dz,
+        correction=new_correction,
+        floors=replace(floors, heights_m=floors.heights_m + region_dz),
+        transform_camera_to_robot=step @ result.transform_camera_to_robot,
+    )

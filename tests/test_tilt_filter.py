@@ -1,0 +1,170 @@
+"""The camera tilt filter (`mapper.tilt_filter`): gains, steady-state error, steps, application."""
+
+import math
+
+import numpy as np
+import pytest
+from synthetic_depth import look_down_camera, render_boxes
+
+from mapper.errors import InvalidParameterError
+from mapper.intrinsics import PinholeIntrinsics
+from mapper.segmentation import SegmentationParams, segment_depth
+from mapper.tilt_filter import (
+    TiltFilter,
+    TiltFilterParams,
+    apply_tilt,
+    measured_tilt,
+    steady_state,
+)
+
+DEG = math.pi / 180.0
+
+# Hand-computed case (deg², per axis): σ_w = 0.3, σ = 0.4, R = σ_w² + σ² = 0.25. A process
+# variance q = 0.125 gives P⁻ = (q + sqrt(q² + 4qR))/2 = (0.125 + 0.375)/2 = 0.25, so
+# Kb = P⁻/(P⁻ + R) = 0.5, Kx = (P⁻ + σ_w²)/(P⁻ + R) = 0.34/0.5 = 0.68 and
+# σ_x = sqrt(0.34·0.16/0.5) = sqrt(0.1088) = 0.329848°. sqrt(q) = 0.353553° = bias_deg·turn
+# with bias_deg = 4: turn = 0.0883883 rad per frame.
+NOISE_DEG, SIGMA_DEG, BIAS_DEG = 0.3, 0.4, 4.0
+TURN_RAD = math.sqrt(0.125) / BIAS_DEG
+
+
+def test_steady_state_gains_are_the_hand_computed_ones():
+    kx, kb, sigma_x = steady_state(NOISE_DEG * DEG, SIGMA_DEG * DEG, BIAS_DEG * DEG * TURN_RAD)
+    assert kx == pytest.approx(0.68, rel=1e-12)
+    assert kb == pytest.approx(0.5, rel=1e-12)
+    assert sigma_x / DEG == pytest.approx(math.sqrt(0.1088), rel=1e-12)
+
+
+def test_constant_bias_with_white_noise_is_estimated_within_its_steady_state_sigma():
+    # No turn: the bias is constant, its estimate converges (P ~ R/k), and the estimate of the
+    # frame's tilt b + w takes Kx = σ_w²/(σ_w² + σ²) = 0.5 of the measurement when σ = σ_w:
+    # σ_x = σ/√2 = 0.212132° (hand), against 0.3° for the raw measurement and for b alone.
+    rng = np.random.default_rng(12)
+    bias = np.array([2.5, -0.9]) * DEG
+    tilt_filter = TiltFilter(TiltFilterParams(noise_deg=0.3, bias_deg=4.0))
+    errors = []
+    for k in range(4100):
+        truth = bias + rng.normal(0.0, 0.3 * DEG, 2)
+        measured = truth + rng.normal(0.0, 0.3 * DEG, 2)
+        estimate = tilt_filter.update(measured, 0.3 * DEG, 0.0)
+        if k >= 100:
+            errors.append(estimate.tilt_rad - truth)
+    rms_deg = float(np.sqrt(np.mean(np.square(errors)))) / DEG
+    sigma_x_deg = 0.3 / math.sqrt(2.0)
+    # 8000 samples: the RMS's relative standard error is 1/sqrt(16000) = 0.8 %; allow 3 of them.
+    assert rms_deg <= sigma_x_deg * 1.024
+    assert rms_deg >= sigma_x_deg * 0.976  # and it is that error, not a smaller one by luck
+    assert estimate.sigma_rad / DEG == pytest.approx(sigma_x_deg, rel=0.01)
+
+
+def _steady_filter(tilt_rad):
+    """A filter at steady state on noise-free measurements ``tilt_rad`` (hand case above)."""
+    tilt_filter = TiltFilter(TiltFilterParams(noise_deg=NOISE_DEG, bias_deg=BIAS_DEG))
+    for _ in range(200):
+        tilt_filter.update(tilt_rad, SIGMA_DEG * DEG, TURN_RAD)
+    return tilt_filter
+
+
+def test_a_bias_step_is_followed_at_the_hand_computed_rate():
+    # Noise-free data from a filter at steady state (turning 0.088 rad per frame): after a step
+    # of Δ = 2° in the bias, the estimate's error at the j-th frame from the step is
+    # -(1 - Kx)·Δ·(1 - Kb)^j = -0.64°·0.5^j (hand gains above): within σ_x = 0.33° from j = 1
+    # (0.32°), not at j = 0 (0.64°). The step's innovation passes the gate: 2²/(P⁻ + R) = 8.
+    before = np.array([1.0, -2.0]) * DEG
+    tilt_filter = _steady_filter(before)
+    step = np.array([2.0, 0.0]) * DEG
+    errors_deg = []
+    for _ in range(6):
+        estimate = tilt_filter.update(before + step, SIGMA_DEG * DEG, TURN_RAD)
+        assert estimate.measured
+        errors_deg.append((estimate.tilt_rad - before - step) / DEG)
+    np.testing.assert_allclose([e[0] for e in errors_deg], [-0.64 * 0.5**j for j in range(6)])
+    np.testing.assert_allclose([e[1] for e in errors_deg], 0.0, atol=1e-12)
+    within = [abs(e[0]) <= math.sqrt(0.1088) for e in errors_deg]
+    assert within == [False, True, True, True, True, True]
+
+
+def test_the_gate_refuses_an_improbable_measurement_until_the_bias_is_uncertain_enough():
+    # Steady state: P⁻ + R = 0.5 deg². An innovation of 2.5° (12.5 < 13.82) is used, one of 3°
+    # (18) is refused: the frame takes b̂⁻. A lasting 4° step (32) is refused while
+    # 16/(0.5 + 0.125·j) > 13.8155 (P⁻ grows by q = 0.125 deg² per refused frame), i.e. for
+    # j = 0..5 (j = 5: 16/1.125 = 14.2), and used at j = 6 (16/1.25 = 12.8).
+    before = np.array([1.0, -2.0]) * DEG
+    accepted = _steady_filter(before).update(
+        before + np.array([0.0, 2.5]) * DEG, SIGMA_DEG * DEG, TURN_RAD
+    )
+    assert accepted.measured
+    tilt_filter = _steady_filter(before)
+    refused = tilt_filter.update(before + np.array([0.0, 3.0]) * DEG, SIGMA_DEG * DEG, TURN_RAD)
+    assert not refused.measured
+    np.testing.assert_allclose(refused.tilt_rad, before, rtol=1e-12)
+    tilt_filter = _steady_filter(before)
+    used = [
+        tilt_filter.update(before + np.array([4.0, 0.0]) * DEG, SIGMA_DEG * DEG, TURN_RAD).measured
+        for _ in range(8)
+    ]
+    assert used == [False] * 6 + [True, True]
+
+
+def test_a_frame_without_a_measurement_takes_the_bias_estimate_and_loses_certainty():
+    tilt_filter = TiltFilter(TiltFilterParams(noise_deg=0.3, bias_deg=4.0))
+    for _ in range(50):
+        tilt_filter.update(np.array([0.02, 0.01]), 0.3 * DEG, 0.0)
+    bias, var = tilt_filter.bias_rad.copy(), tilt_filter.bias_var
+    estimate = tilt_filter.update(None, math.inf, 0.1)
+    np.testing.assert_array_equal(estimate.tilt_rad, bias)
+    # Var(x) = P + q + σ_w², q = (4° · 0.1)².
+    expected = var + (4.0 * DEG * 0.1) ** 2
+    assert tilt_filter.bias_var == pytest.approx(expected, rel=1e-12)
+    assert estimate.sigma_rad == pytest.approx(math.sqrt(expected + (0.3 * DEG) ** 2), rel=1e-12)
+
+
+@pytest.mark.parametrize(
+    ("name", "value"), [("noise_deg", -0.1), ("bias_deg", math.inf), ("gate_chi2", 0.0)]
+)
+def test_params_refuse_negative_or_infinite_levels_naming_the_field(name, value):
+    with pytest.raises(InvalidParameterError, match=f"TiltFilterParams.{name}"):
+        TiltFilterParams(**{name: value})
+
+
+INTR = PinholeIntrinsics.from_fov(88, 72, 47.0, 39.0)
+
+
+def _tilted(transform, angle_deg):
+    """``transform`` turned about the robot's x axis through the camera centre."""
+    c, s = math.cos(math.radians(angle_deg)), math.sin(math.radians(angle_deg))
+    out = transform.copy()
+    out[:3, :3] = np.array([[1.0, 0.0, 0.0], [0.0, c, -s], [0.0, s, c]]) @ transform[:3, :3]
+    return out
+
+
+def test_the_measured_tilt_is_the_believed_pose_s_error_and_applying_the_truth_levels_the_ground():
+    # Exact ground seen by a camera at 0.9 m looking 35° down; the robot believes it 2° off
+    # about x. The measured tilt is the ground normal in the believed frame: (0, -sin 2°)
+    # (the believed rotation Rx(2°) turns the true up vector (0, 0, 1) to (0, -sin 2°, cos 2°)).
+    true = look_down_camera((0.0, 0.0, 0.9), pitch_down_deg=35.0)
+    believed = _tilted(true, 2.0)
+    depth = render_boxes(INTR, true, [])
+    params = SegmentationParams(correct_ground_shift=False)
+    result = segment_depth(depth, INTR, believed, params)
+    measured, sigma = measured_tilt(result, params)
+    assert measured is not None
+    np.testing.assert_allclose(measured, [0.0, -math.sin(math.radians(2.0))], atol=1e-6)
+    assert 0.0 < sigma < 1e-3
+    # Applying a 1° tilt instead: the ground tilts by the remaining 1° about the camera centre.
+    half = apply_tilt(result, np.array([0.0, -math.sin(math.radians(1.0))]))
+    np.testing.assert_allclose(
+        half.transform_camera_to_robot[:3, :3], _tilted(true, 1.0)[:3, :3], atol=1e-6
+    )
+    floor = np.isfinite(half.floor_heights)
+    assert floor.mean() > 0.9
+    np.testing.assert_allclose(half.floor_heights[floor], half.points[floor, 2], atol=1e-9)
+    assert np.ptp(half.points[floor, 2]) > 0.01  # no longer level
+    # And back to the measured one: the segmentation's own result.
+    again = apply_tilt(half, measured)
+    np.testing.assert_allclose(again.points, result.points, atol=1e-9)
+    np.testing.assert_allclose(again.floor_heights, result.floor_heights, atol=1e-9)
+    np.testing.assert_allclose(again.floors.heights_m, result.floors.heights_m, atol=1e-9)
+    np.testing.assert_allclose(
+        again.transform_camera_to_robot, result.transform_camera_to_robot, atol=1e-9
+    )
