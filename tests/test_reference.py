@@ -85,6 +85,25 @@ def test_descending_start_waits_then_measures_the_ground_under_the_feet():
     assert reference.known and reference.shift_m == pytest.approx(0.004)
 
 
+def test_walking_down_a_tread_taking_the_ground_below_for_its_own_is_outvoted():
+    # Stereo, stage_down seed 5: on the first step (odometry 90 mm below the start) five frames
+    # took the ground one rise below the feet (31 mm) for the ground under them: their noise
+    # put it at -12 ... -20 mm, inside the gate. On the ground (121 mm below) the ground under
+    # the feet appears at +4 mm (camera error -4 mm). Only the lowest level's measurements
+    # count: the median of the first 8 measurements (+16 mm) is never the estimate.
+    reference = HeightReference()
+    for h in (-0.016, -0.012, -0.020, -0.012, -0.019):
+        assert feed(reference, [h], [GROUND_AREA_M2], rise_m=-0.090) == pytest.approx(-h)
+    assert reference.shift_m == pytest.approx(0.016)  # all it has seen, not converged
+    ground = (0.004, 0.003, 0.006, 0.002, 0.005, 0.004, 0.001)
+    for h in ground:
+        feed(reference, [h], [GROUND_AREA_M2], rise_m=-0.121)
+        assert not reference.known  # 5 + up to 7 measurements: 8 of them, but not 8 down here
+    feed(reference, [0.004], [GROUND_AREA_M2], rise_m=-0.118)  # odometry's noise: same level
+    assert reference.known
+    assert reference.shift_m == pytest.approx(-float(np.median((*ground, 0.004))))
+
+
 def test_a_7_degree_neck_error_takes_the_ground_not_a_patch_of_the_first_step():
     # The paper's 7° neck bound puts the camera 24 mm too low (stage, seed 2): the ground
     # appears at -24 mm (beyond the 20 mm gate), a 0.31 m² patch of the 31 mm step at +7 mm.
