@@ -1,13 +1,11 @@
 """The FOG's obstacle margin (`MapperParams.obstacle_margin_cells`) on hand-built grids.
 
 The rule (`mapper.fog`): with a margin of m cells a cell whose floor ``h_f`` eq. 11 keeps is an
-obstacle when within m cells (a) the highest obstacle top (eq. 10, ``z_min + (k + 1)·layer`` of
-the highest occupied layer k) exceeds ``h_f + δ`` — its height is then that top — or (b) a floor
-lies in a layer k below the layer of ``h_f − ε`` and the cell's own layer k is occupied — its
-height is then the top of ``h_f``'s layer. With the default grid (z_min −0.06 m, layers of
-0.04 m, δ 0.05 m, ε 0.01 m) a surface at h lies in layer ``floor((h + 0.06) / 0.04)``, so its
-cells' top is: ground 0 → 0.02, sill 0.038 → 0.06, 31 mm → 0.06, 61 mm → 0.10, 92 mm → 0.10,
-122 mm → 0.14.
+obstacle when the highest obstacle top (eq. 10, ``z_min + (k + 1)·layer`` of the highest
+occupied layer k) within m cells exceeds ``h_f + δ``; its height is then that top. With the
+default grid (z_min −0.06 m, layers of 0.04 m, δ 0.05 m) a surface at h lies in layer
+``floor((h + 0.06) / 0.04)``, so its cells' top is: ground 0 → 0.02, sill 0.038 → 0.06,
+31 mm → 0.06, 61 mm → 0.10, 92 mm → 0.10, 122 mm → 0.14.
 """
 
 import numpy as np
@@ -48,7 +46,7 @@ def fog(og, floor, margin, area=None, types=None):
     zeros = np.zeros((nx, ny), dtype=np.int32)
     update_fog_area(
         og, floor, obstacle, types, heights, P.occ_threshold_level, Z0, L, P.delta_m,
-        ix0, ix1, iy0, iy1, zeros, zeros, 1, 0.0, margin, P.eps_m,
+        ix0, ix1, iy0, iy1, zeros, zeros, 1, 0.0, margin,
     )  # fmt: skip
     return types, heights
 
@@ -84,30 +82,6 @@ def test_plain_floor_beside_a_lower_surface_or_a_low_rise_stays_floor():
     og, floor = surfaces_grid([0.122, 0.0, 0.009])
     types, _ = fog(og, floor, margin=1)
     assert types[:, 1].tolist() == [F, OB, F]  # the ground at the platform's foot only
-
-
-def test_sill_edge_cell_that_took_the_sill_height_is_obstacle():
-    # x: ground | the near edge cell, floor at the sill's 0.037 but the ground seen in it too
-    # (layer 1 occupied) | sill | sill | ground. Rule (b) for cell 1: floor(0.027 + 0.06) / 0.04
-    # = layer 2 for its own floor's reach, the ground's floor 0 lies in layer 1 < 2 and its
-    # column's layer 1 is occupied. The sill's inner cells never see layer 1 (under a solid).
-    # Cells 0 and 4 are rule (a): the sill's top 0.06 > 0 + δ.
-    og, floor = surfaces_grid([0.0, 0.037, 0.037, 0.037, 0.0])
-    og[1, :, layer_of(0.0)] = OCC
-    types, heights = fog(og, floor, margin=1)
-    assert types[:, 1].tolist() == [OB, OB, F, F, OB]
-    assert heights[:, 1] == pytest.approx([0.06, 0.06, 0.037, 0.037, 0.06])
-    assert fog(og, floor, margin=0)[0][:, 1].tolist() == [F] * 5
-
-
-def test_a_lower_floor_within_the_floors_own_noise_layer_is_no_edge():
-    # A 25 mm tread: its own noise (−ε = 0.015) reaches layer 1, the ground's layer, and fills
-    # its column's layer 1: rule (b) does not count the ground (layer 1 is not below layer 1).
-    # Its top 0.06 is not above 0.025 + δ; the ground beside it is rule (a): 0.06 > 0.05.
-    og, floor = surfaces_grid([0.0, 0.025])
-    og[1, :, layer_of(0.015)] = OCC
-    types, _ = fog(og, floor, margin=1)
-    assert types[:, 1].tolist() == [OB, F]
 
 
 def test_diagonal_neighbour_and_margin_two():
