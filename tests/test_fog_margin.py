@@ -128,5 +128,6 @@ def test_margin_validated(margin):
 
 
 def test_margin_override_takes_integral_floats():
-    assert P.with_overrides(obstacle_margin_cells=0.0).obstacle_margin_cells == 0
-    assert P.obstacle_margin_cells == 1
+    margin = P.with_overrides(obstacle_margin_cells=1.0).obstacle_margin_cells
+    assert margin == 1 and type(margin) is int
+    assert P.obstacle_margin_cells == 0  # the paper's eq. 11
