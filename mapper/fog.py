@@ -9,6 +9,10 @@ Conventions (heights in world metres, NaN = invalid):
   its cell (`mapper.floor_cover`, `MapperParams.floor_pass_fraction`) counts as invalid here.
   Obstacles below the floor surface are ignored; an
   occupied cell hanging above a floor (curtain, table top) makes the cell an obstacle.
+  Beyond the paper, with a margin of ``m`` cells (`MapperParams.obstacle_margin_cells`) eq. 11
+  compares the floor with the highest ``h_o`` over the ``(2m + 1)²`` cells around it: a floor
+  beside something more than δ above it — a box, the top of a step or sill whose edge may lie
+  inside this cell — is an obstacle with that height (0 = the paper).
 - ``Ceiling(x, y)`` is the *bottom face* of the lowest occupied cell above the free space a
   robot could use: where the floor is valid, the lowest occupied cell whose top is above
   ``h_f + δ`` (the cells the FOG counts as obstacle); where it is not, the lowest occupied cell
@@ -30,6 +34,19 @@ _FLOOR = np.int8(CellType.FLOOR)
 _OBSTACLE = np.int8(CellType.OBSTACLE)
 
 
+@numba.njit(cache=True, inline="always")
+def _highest_within(obstacle: NDArray[np.float64], ix: int, iy: int, margin: int) -> float:
+    """Highest ``obstacle`` within ``margin`` cells of ``(ix, iy)`` (clipped), -inf if none."""
+    nx, ny = obstacle.shape
+    highest = -np.inf
+    for jx in range(max(ix - margin, 0), min(ix + margin + 1, nx)):
+        for jy in range(max(iy - margin, 0), min(iy + margin + 1, ny)):
+            near = obstacle[jx, jy]
+            if near > highest:  # NaN: never
+                highest = near
+    return highest
+
+
 @numba.njit(cache=True, nogil=True, boundscheck=False)
 def update_fog_area(
     og: NDArray[np.uint8],
@@ -49,23 +66,35 @@ def update_fog_area(
     cover_passes: NDArray[np.int32],
     min_rays: int,
     pass_fraction: float,
+    margin: int = 0,
 ) -> None:
     """Recompute ``obstacle`` (eq. 10) and the FOG (eq. 11) in ``[ix0, ix1) × [iy0, iy1)``.
 
     A floor reached by at least ``min_rays`` rays of which more than ``pass_fraction`` passed
     through it (`mapper.floor_cover`) does not cover its cell: the cell is then unknown unless
     eq. 11 makes it an obstacle; ``pass_fraction`` 0 = off (the paper).
+
+    With ``margin`` m > 0 (`MapperParams.obstacle_margin_cells`) eq. 11 takes ``h_o`` as the
+    highest top within m cells (module docstring), so the FOG is recomputed m cells beyond
+    the area too (clipped to the grid): their windows reach into it. ``obstacle`` outside the
+    area is current, as only the area's columns changed.
     """
-    nz = og.shape[2]
+    nx, ny, nz = og.shape
     for ix in range(ix0, ix1):
         for iy in range(iy0, iy1):
             # Highest occupied layer, as a branch-free scan the compiler vectorises.
             k_top = -1
             for k in range(nz):
                 k_top = k if og[ix, iy, k] > occ_level else k_top
-            top = z_min + (k_top + 1) * layer if k_top >= 0 else np.nan
-            obstacle[ix, iy] = top
+            obstacle[ix, iy] = z_min + (k_top + 1) * layer if k_top >= 0 else np.nan
+    for ix in range(max(ix0 - margin, 0), min(ix1 + margin, nx)):
+        for iy in range(max(iy0 - margin, 0), min(iy1 + margin, ny)):
+            top = obstacle[ix, iy]
             hf = floor[ix, iy]
+            if margin > 0 and not np.isnan(hf) and not top > hf + delta:
+                beside = _highest_within(obstacle, ix, iy, margin)
+                if beside > hf + delta:
+                    top = beside
             passes = cover_passes[ix, iy]
             reached = cover_ends[ix, iy] + passes
             covered = not (

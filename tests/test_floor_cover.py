@@ -121,10 +121,14 @@ def test_a_lower_surface_never_carries_the_spilled_tread_height(fraction):
 
 
 def test_a_riser_on_a_cell_boundary_leaves_both_cells_floor():
-    """Exact data, no spill: every cell on either side of the riser keeps its floor."""
+    """Exact data, no spill: every cell on either side of the riser keeps its floor.
+
+    The FOG's obstacle margin is off: with it the cells at the riser's foot are obstacles
+    whatever the cover check says (`tests/test_fog_margin.py`).
+    """
     rng = np.random.default_rng(5)
     riser = Box((1.0, 0.0), (0.4, 0.8, 0.03))  # front edge at x = 0.8, a cell boundary
-    m = FloorObstacleMapper(MapperParams())
+    m = FloorObstacleMapper(MapperParams(obstacle_margin_cells=0))
     for _ in range(30):
         camera = np.array([rng.uniform(0.0, 0.04), rng.uniform(-0.02, 0.02), 0.6])
         pts, h = cast_frame(camera, RAYS, [riser])

@@ -1,0 +1,133 @@
+"""The FOG's obstacle margin (`MapperParams.obstacle_margin_cells`) on hand-built grids.
+
+The rule (`mapper.fog`): with a margin of m cells a cell whose floor ``h_f`` eq. 11 keeps is an
+obstacle when the highest obstacle top (eq. 10, ``z_min + (k + 1)·layer`` of the highest
+occupied layer k) within m cells exceeds ``h_f + δ``; its height is then that top. With the
+default grid (z_min −0.06 m, layers of 0.04 m, δ 0.05 m) a surface at h lies in layer
+``floor((h + 0.06) / 0.04)``, so its cells' top is: ground 0 → 0.02, sill 0.038 → 0.06,
+31 mm → 0.06, 61 mm → 0.10, 92 mm → 0.10, 122 mm → 0.14.
+"""
+
+import numpy as np
+import pytest
+
+from mapper import CellType, InvalidParameterError, MapperParams
+from mapper.fog import update_fog_area
+
+P = MapperParams()
+Z0, L = P.z_min_m, P.layer_m
+OCC = 230
+F, OB, U = CellType.FLOOR, CellType.OBSTACLE, CellType.UNKNOWN
+
+
+def layer_of(h):
+    return int(np.floor((h - Z0) / L))
+
+
+def surfaces_grid(heights_m, ny=3):
+    """A (n, ny) grid: column ix holds a floor at ``heights_m[ix]`` (NaN: none, nothing seen)."""
+    n = len(heights_m)
+    og = np.full((n, ny, P.nz), 128, dtype=np.uint8)
+    floor = np.full((n, ny), np.nan)
+    for ix, h in enumerate(heights_m):
+        if np.isfinite(h):
+            og[ix, :, layer_of(h)] = OCC
+            floor[ix, :] = h
+    return og, floor
+
+
+def fog(og, floor, margin, area=None, types=None):
+    """Types and heights after `update_fog_area` over ``area`` (default: the whole grid)."""
+    nx, ny = floor.shape
+    ix0, ix1, iy0, iy1 = area or (0, nx, 0, ny)
+    types = np.full((nx, ny), -1, dtype=np.int8) if types is None else types
+    heights = np.full((nx, ny), -1.0)
+    obstacle = np.full((nx, ny), np.nan)
+    zeros = np.zeros((nx, ny), dtype=np.int32)
+    update_fog_area(
+        og, floor, obstacle, types, heights, P.occ_threshold_level, Z0, L, P.delta_m,
+        ix0, ix1, iy0, iy1, zeros, zeros, 1, 0.0, margin,
+    )  # fmt: skip
+    return types, heights
+
+
+def test_sill_edge_inside_a_cell_is_obstacle():
+    # x: ground, ground, the sill's near edge cell (3/4 ground: its points and floor are the
+    # ground's, its sliver of sill top left no occupied cell), sill, sill, the far edge cell
+    # (ground behind the sill), ground. The sill cells' top is 0.06 > 0 + δ = 0.05.
+    og, floor = surfaces_grid([0.0, 0.0, 0.0, 0.038, 0.038, 0.0, 0.0])
+    types, heights = fog(og, floor, margin=1)
+    assert types[:, 1].tolist() == [F, F, OB, F, F, OB, F]
+    assert heights[2, 1] == pytest.approx(0.06) and heights[5, 1] == pytest.approx(0.06)
+    assert heights[3, 1] == 0.038  # the sill's own cells: 0.06 <= 0.038 + δ, floor
+    # The paper (margin 0): every cell a floor at its own height.
+    types0, heights0 = fog(og, floor, margin=0)
+    assert types0[:, 1].tolist() == [F] * 7
+    assert np.array_equal(heights0, floor)
+
+
+def test_staircase_riser_feet_by_the_layer_rule():
+    # ground | 31 | 61 | 92 | 122 mm, one cell each, tops 0.02, 0.06, 0.10, 0.10, 0.14:
+    # ground beside 31: 0.06 > 0.05 obstacle; 31 beside 61: 0.10 > 0.081 obstacle;
+    # 61 beside 92: 0.10 <= 0.111 floor; 92 beside 122: 0.14 <= 0.142 floor; 122 floor.
+    og, floor = surfaces_grid([0.0, 0.031, 0.061, 0.092, 0.122])
+    types, heights = fog(og, floor, margin=1)
+    assert types[:, 1].tolist() == [OB, OB, F, F, F]
+    assert heights[:, 1] == pytest.approx([0.06, 0.10, 0.061, 0.092, 0.122])
+
+
+def test_plain_floor_beside_a_lower_surface_or_a_low_rise_stays_floor():
+    # A floor is compared only with what stands above it: the platform's edge cell (0.122)
+    # beside the ground, and ground beside ground 9 mm higher (the same layer, top 0.02).
+    og, floor = surfaces_grid([0.122, 0.0, 0.009])
+    types, _ = fog(og, floor, margin=1)
+    assert types[:, 1].tolist() == [F, OB, F]  # the ground at the platform's foot only
+
+
+def test_diagonal_neighbour_and_margin_two():
+    # A box (layers 2–5 occupied, top −0.06 + 6 × 0.04 = 0.18) in the corner cell (0, 0)
+    # of ground 5 × 5.
+    og, floor = surfaces_grid([0.0] * 5, ny=5)
+    og[0, 0, 2:6] = OCC
+    types, heights = fog(og, floor, margin=1)
+    expected = np.full((5, 5), F)
+    expected[:2, :2] = OB  # the box (eq. 11) and its three neighbours, (1, 1) diagonal
+    assert np.array_equal(types, expected)
+    assert heights[1, 1] == pytest.approx(0.18)
+    types2, _ = fog(og, floor, margin=2)
+    expected[:3, :3] = OB
+    assert np.array_equal(types2, expected)
+
+
+def test_an_obstacle_keeps_its_own_top_and_no_floor_stays_unknown():
+    # Cell 0: a box, layers 2–8 (top 0.30); cell 1: a ground floor with something in layer 3
+    # (its own top 0.10 > δ: eq. 11's obstacle); cell 2: nothing seen. Cell 1 keeps its own
+    # top, not the box's; cell 2 has no floor to compare.
+    og, floor = surfaces_grid([0.0, 0.0, np.nan])
+    og[0, :, 2:9] = OCC
+    og[1, :, 3] = OCC
+    types, heights = fog(og, floor, margin=1)
+    assert types[:, 1].tolist() == [OB, OB, U]
+    assert heights[:2, 1] == pytest.approx([0.30, 0.10])
+    assert np.isnan(heights[2, 1])
+
+
+def test_cells_within_the_margin_of_the_area_are_relabelled():
+    # Only cell 2 changed (its column now holds a box): cells 1 and 3 lie outside the area but
+    # their window reaches it; cells 0 and 4 are not touched (their sentinel -1 stays).
+    og, floor = surfaces_grid([0.0] * 5, ny=1)
+    og[2, 0, 2:6] = OCC
+    types, _ = fog(og, floor, margin=1, area=(2, 3, 0, 1))
+    assert types[:, 0].tolist() == [-1, OB, OB, OB, -1]
+
+
+@pytest.mark.parametrize("margin", [-1, 100, 1.5, True])
+def test_margin_validated(margin):
+    with pytest.raises(InvalidParameterError, match="obstacle_margin_cells"):
+        MapperParams(obstacle_margin_cells=margin)
+
+
+def test_margin_override_takes_integral_floats():
+    margin = P.with_overrides(obstacle_margin_cells=1.0).obstacle_margin_cells
+    assert margin == 1 and type(margin) is int
+    assert P.obstacle_margin_cells == 0  # the paper's eq. 11
