@@ -241,6 +241,7 @@ class FloorObstacleMapper:
             self._cover_passes,
             p.floor_pass_min_rays,
             p.floor_pass_fraction,
+            p.obstacle_margin_cells,
         )
         return UpdateResult(
             AffectedArea(int(ix0), int(ix1), int(iy0), int(iy1)),
