@@ -16,6 +16,7 @@ from collections.abc import Callable, Iterable, Mapping
 from contextlib import ExitStack
 from dataclasses import dataclass
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 import numpy as np
 from numpy.typing import NDArray
@@ -42,9 +43,13 @@ from fogsim.sim.background import BackgroundSimulation
 from fogsim.sim.camera import segmentation_noise_fields
 from fogsim.sim.simulation import Simulation
 from fogsim.sim.third_person import FilmedSimulation
+from fogsim.viz.forked import ForkedCall
 from fogsim.world.truth import TruthParams
 from mapper import MapperParams
 from mapper.segmentation import SegmentationParams, segment_depth
+
+if TYPE_CHECKING:
+    from fogsim.viz.video import RunVideoWriter
 
 
 class _Fig5Snapshots:
@@ -457,7 +462,54 @@ def _run_and_write(
     options: _RunOptions,
     start: float,
 ) -> Report:
-    """Run the frames and write the results into ``out`` (None: write nothing)."""
+    """Run the frames and write the results into ``out`` (None: write nothing).
+
+    The pictures are drawn by a process forked before the run
+    (:class:`~fogsim.viz.forked.ForkedCall`, :func:`_draw_pictures`): it imports matplotlib
+    while the frames are mapped and draws while this process builds the report and writes
+    ``maps.npz``; ``pictures_s`` is the time from handing it the result to its last picture.
+    """
+    with ExitStack() as drawing:
+        painter = None
+        if options.pictures and out is not None:  # forked now: before the run's threads
+            painter = drawing.enter_context(
+                ForkedCall(_draw_pictures, prepare=_import_pictures, what="the picture process")
+            )
+        result, kind, writer = _run_frames_into(scenario, params, out, options)
+        picture_start = time.perf_counter()
+        if painter is not None:
+            painter.submit(result, scenario, out)
+        report = build_report(
+            result,
+            scenario,
+            source=kind,
+            wall_s=time.perf_counter() - start,
+            duration_s=result.frames / scenario.frame_rate_hz if scenario is not None else None,
+        )
+        if out is None:
+            return report
+        write_maps(out / "maps.npz", result, result.final_truth)
+        if painter is not None:
+            names = tuple(path.name for path in painter.result())
+            timing = dataclasses.replace(
+                report.timing, pictures_s=round(time.perf_counter() - picture_start, 3)
+            )
+            report = dataclasses.replace(report, pictures=names, timing=timing)
+    if writer is not None:
+        report = dataclasses.replace(
+            report, video=writer.path.name, video_codec=writer.codec.describe()
+        )
+    write_report(out / "report.json", report)
+    return report
+
+
+def _run_frames_into(
+    scenario: Scenario | None, params: RunParams, out: Path | None, options: _RunOptions
+) -> tuple[RunResult, Source, RunVideoWriter | None]:
+    """The run's frames through :func:`run_frames`: the result, the frames' source, the video.
+
+    The video, bag and Rerun recording asked for are written on the way.
+    """
     video = options.video and out is not None
     callbacks: list[FrameCallback] = []
     writer = None
@@ -481,6 +533,7 @@ def _run_and_write(
                 raise FogsimError(
                     "--video needs the scenario's frame rate; this recording has none"
                 )
+            assert out is not None
             writer = RunVideoWriter(
                 out / "run.mp4", fps=scenario.frame_rate_hz, third_person=source.take_picture
             )
@@ -503,29 +556,17 @@ def _run_and_write(
             params=params,
             on_frame=_all_of(callbacks) if callbacks else None,
         )
-    report = build_report(
-        result,
-        scenario,
-        source=source.kind,
-        wall_s=time.perf_counter() - start,
-        duration_s=result.frames / scenario.frame_rate_hz if scenario is not None else None,
-    )
-    if out is None:
-        return report
-    write_maps(out / "maps.npz", result, result.final_truth)
-    if options.pictures:
-        picture_start = time.perf_counter()
-        names = tuple(path.name for path in write_pictures(result, scenario, out))
-        timing = dataclasses.replace(
-            report.timing, pictures_s=round(time.perf_counter() - picture_start, 3)
-        )
-        report = dataclasses.replace(report, pictures=names, timing=timing)
-    if writer is not None:
-        report = dataclasses.replace(
-            report, video=writer.path.name, video_codec=writer.codec.describe()
-        )
-    write_report(out / "report.json", report)
-    return report
+    return result, source.kind, writer
+
+
+def _import_pictures() -> None:
+    """Import the picture modules (matplotlib): the picture process's preparation."""
+    import fogsim.viz.pictures  # noqa: F401
+
+
+def _draw_pictures(result: RunResult, scenario: Scenario | None, out_dir: Path) -> list[Path]:
+    """:func:`write_pictures` as the picture process calls it (looked up when it is called)."""
+    return write_pictures(result, scenario, out_dir)
 
 
 def write_pictures(
