@@ -227,7 +227,7 @@ def places(tmp_path_factory):
 def test_generated_command_lines_exit_cleanly_and_write_only_their_output(
     places, monkeypatch, command
 ):
-    monkeypatch.setattr("fogsim.run.runner.Simulation", FakeSimulation)
+    monkeypatch.setattr("fogsim.sim.simulation.Simulation", FakeSimulation)
     monkeypatch.setattr("fogsim.sim.third_person.ThirdPersonCamera", FakeThirdPersonCamera)
     monkeypatch.setattr("fogsim.run.record.Simulation", FakeSimulation)
     monkeypatch.setattr("fogsim.run.runner.write_pictures", stub_pictures)

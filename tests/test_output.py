@@ -74,7 +74,7 @@ class FakeThirdPersonCamera:
 
 @pytest.fixture
 def fake_simulation(monkeypatch):
-    monkeypatch.setattr("fogsim.run.runner.Simulation", FakeSimulation)
+    monkeypatch.setattr("fogsim.sim.simulation.Simulation", FakeSimulation)
     monkeypatch.setattr("fogsim.sim.third_person.ThirdPersonCamera", FakeThirdPersonCamera)
     monkeypatch.setattr("fogsim.run.record.Simulation", FakeSimulation)
 
@@ -122,7 +122,7 @@ def a_file(tmp_path):
     ],
 )
 def test_a_bad_out_exits_2_before_any_work(make_out, problem, a_file, monkeypatch, capsys):
-    monkeypatch.setattr("fogsim.run.runner.Simulation", no_work)
+    monkeypatch.setattr("fogsim.sim.simulation.Simulation", no_work)
     monkeypatch.setattr("fogsim.run.record.Simulation", no_work)
     out = make_out(a_file)
     shown = repr(str(out)) if "\0" in str(out) else str(out)  # a NUL is not printed raw
@@ -184,7 +184,7 @@ def test_an_unwritable_folder_is_found_by_writing_there(code, message, tmp_path,
 
 
 def test_a_full_disk_is_found_before_the_run(tmp_path, monkeypatch, capsys):
-    monkeypatch.setattr("fogsim.run.runner.Simulation", no_work)
+    monkeypatch.setattr("fogsim.sim.simulation.Simulation", no_work)
     full = SimpleNamespace(f_bavail=10, f_frsize=4096, f_files=100, f_favail=50)
     monkeypatch.setattr("fogsim.run.output_paths.os.statvfs", lambda path: full)
     assert run(tmp_path / "out") == 2
@@ -422,7 +422,7 @@ def test_a_link_out_of_the_folder_is_refused(tmp_path):
 
 
 def test_a_hostile_scenario_name_writes_nothing_outside(tmp_path, monkeypatch, capsys):
-    monkeypatch.setattr("fogsim.run.runner.Simulation", no_work)
+    monkeypatch.setattr("fogsim.sim.simulation.Simulation", no_work)
     monkeypatch.chdir(tmp_path)
     assert main(["run", "flat_floor", "--set", "name=../../escaped"]) == 2
     # Refused where the name enters (the scenario's own check); child_path is the second line.

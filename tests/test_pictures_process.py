@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import os
+from pathlib import Path
 
 import pytest
 from test_maps import hand_built_maps, run_result
@@ -41,3 +42,24 @@ def test_a_picture_process_that_dies_is_an_error_naming_its_exit_status(tmp_path
     archive, truth = hand_built_maps()
     with pytest.raises(FogsimError, match=r"ended without a word \(exit status 4\)"):
         write_pictures(run_result(archive, truth), None, tmp_path)
+
+
+def test_a_runs_pictures_are_drawn_by_the_process_forked_for_them(tmp_path, monkeypatch):
+    from test_pipeline import make_frames
+
+    from fogsim.config import load_scenario
+    from fogsim.data.recording import load_recording, save_recording
+    from fogsim.run.runner import run_scenario
+
+    def pictures_elsewhere(result, scenario, folder):
+        path = Path(folder) / "fog_map.png"
+        path.write_text(f"{os.getpid()} {result.frames} {scenario.name}")
+        return [path]
+
+    monkeypatch.setattr("fogsim.run.runner.write_pictures", pictures_elsewhere)
+    scenario = load_scenario("flat_floor")
+    save_recording(tmp_path / "rec.npz", make_frames(6), scenario=scenario)
+    report = run_scenario(scenario, tmp_path / "out", replay=load_recording(tmp_path / "rec.npz"))
+    pid, frames, name = (tmp_path / "out" / "fog_map.png").read_text().split()
+    assert int(pid) != os.getpid() and (int(frames), name) == (6, "flat_floor")
+    assert report.pictures == ("fog_map.png",) and report.timing.pictures_s >= 0.0

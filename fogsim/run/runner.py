@@ -16,6 +16,7 @@ from collections.abc import Callable, Iterable, Mapping
 from contextlib import ExitStack
 from dataclasses import dataclass
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 import numpy as np
 from numpy.typing import NDArray
@@ -35,16 +36,21 @@ from fogsim.eval.report.schema import Source
 from fogsim.eval.result import RunResult, Snapshot
 from fogsim.mapping.pipeline import FrameCallback, FrameTiming, Pipeline, SegmentFunction
 from fogsim.mapping.prefetch import SegmentAhead
-from fogsim.robot import load_description
+from fogsim.robot.description import load_description
 from fogsim.run.run_folder import RunFolder
 from fogsim.run.warmup import warm_up_kernels
 from fogsim.sim.background import BackgroundSimulation
-from fogsim.sim.camera import segmentation_noise_fields
-from fogsim.sim.simulation import Simulation
-from fogsim.sim.third_person import FilmedSimulation
+from fogsim.sim.camera.noise_model import segmentation_noise_fields
+from fogsim.viz.forked import ForkedCall
 from fogsim.world.truth import TruthParams
 from mapper import MapperParams
+from mapper.grid import GridGeometry
 from mapper.segmentation import SegmentationParams, segment_depth
+
+if TYPE_CHECKING:
+    from fogsim.sim.simulation import Simulation
+    from fogsim.sim.third_person import FilmedSimulation
+    from fogsim.viz.video import RunVideoWriter
 
 
 class _Fig5Snapshots:
@@ -179,6 +185,7 @@ def _run_pipeline(
     fig5 = _Fig5Snapshots(min(float(e.at) for e in events)) if events else None
 
     archive = WorldArchive(cell_m)
+    archiver = _GridArchiver(archive)
     pose_errors = PoseErrorAccumulator()
     timings: list[FrameTiming] = []
     last: Frame | None = None
@@ -189,7 +196,7 @@ def _run_pipeline(
         timings.append(timing)
         pose_errors.add(frame, pipeline.heading.transform_camera_to_robot)
         maps = types, fog_heights, base_heights = pipeline.maps()
-        _archive_maps(archive, pipeline, maps, cells_in_view(frame, pipeline.mapper.geometry))
+        archiver.add(pipeline, maps, cells_in_view(frame, pipeline.mapper.geometry))
         if tracker is not None or fig5 is not None:  # every cell's centre: only for these
             centers = pipeline.cell_centers_xy()
         if tracker is not None:
@@ -207,7 +214,8 @@ def _run_pipeline(
     if flushed:
         geometry = pipeline.mapper.geometry
         in_view = np.logical_or.reduce([cells_in_view(f, geometry) for f in flushed])
-        _archive_maps(archive, pipeline, pipeline.maps(), in_view)
+        archiver.add(pipeline, pipeline.maps(), in_view)
+    archiver.flush()
 
     for late in pipeline.mapped_late:  # deferred frames: withdrawn when seen, mapped later
         timings[late.position] = dataclasses.replace(
@@ -241,27 +249,56 @@ def _run_pipeline(
     )
 
 
-def _archive_maps(
-    archive: WorldArchive,
-    pipeline: Pipeline,
-    maps: tuple[NDArray[np.int8], NDArray[np.float64], NDArray[np.float64]],
-    in_view: NDArray[np.bool_],
-) -> None:
-    """Store the current maps (``Pipeline.maps()``) in the scoring archive.
+class _GridArchiver:
+    """Stores a run's maps in its scoring archive once per place of the grid.
 
-    ``in_view``: the cells the camera saw.
+    The archive keeps each cell's last value (:class:`~fogsim.eval.archive.WorldArchive`), and
+    the grid moves only when the robot has walked a whole cell (the stage: 116 moves in 832
+    frames). :meth:`add` keeps each frame's maps and stores the previous frame's only when the
+    grid has moved; :meth:`flush` stores the last. The archive is the one storing every frame
+    would leave, bit for bit: a cell's last value is that of the last frame whose grid held it,
+    which is the last frame at that place of the grid; the cells seen are added up over the
+    frames at one place (a union, in any order), and the bounding box grows through the same
+    places in the same order. The maps handed over are the pipeline's own copies
+    (``Pipeline.maps()``, ``floor()``, ``obstacle()``, ``ceiling()``: fresh arrays), kept
+    unchanged until stored.
     """
-    types, fog_heights, base_heights = maps
-    archive.store_grid(
-        pipeline.mapper.geometry.cell_center(0, 0),
-        types,
-        fog_heights,
-        base_heights,
-        floor_m=pipeline.mapper.floor(),
-        obstacle_m=pipeline.mapper.obstacle(),
-        ceiling_m=pipeline.mapper.ceiling(),
-        in_view=in_view,
-    )
+
+    def __init__(self, archive: WorldArchive) -> None:
+        self._archive = archive
+        self._geometry: GridGeometry | None = None
+        self._pending: dict[str, NDArray[np.generic]] = {}
+
+    def add(
+        self,
+        pipeline: Pipeline,
+        maps: tuple[NDArray[np.int8], NDArray[np.float64], NDArray[np.float64]],
+        in_view: NDArray[np.bool_],
+    ) -> None:
+        """The pipeline's current maps (``Pipeline.maps()``); ``in_view``: the cells seen."""
+        geometry = pipeline.mapper.geometry
+        if geometry != self._geometry:
+            self.flush()
+        elif self._pending:
+            in_view = in_view | self._pending["in_view"]
+        types, fog_heights, base_heights = maps
+        self._geometry = geometry
+        self._pending = {
+            "fog_types": types,
+            "fog_heights_m": fog_heights,
+            "baseline_heights_m": base_heights,
+            "floor_m": pipeline.mapper.floor(),
+            "obstacle_m": pipeline.mapper.obstacle(),
+            "ceiling_m": pipeline.mapper.ceiling(),
+            "in_view": in_view,
+        }
+
+    def flush(self) -> None:
+        """Store the maps added last (nothing if they are stored already)."""
+        if self._geometry is None or not self._pending:
+            return
+        self._archive.store_grid(self._geometry.cell_center(0, 0), **self._pending)
+        self._pending = {}
 
 
 def sensor_fields(scenario: Scenario | None) -> dict[str, float | int]:
@@ -349,6 +386,9 @@ def _frame_source(
         )
     if scenario is None:
         raise FogsimError("a run needs a scenario to simulate or a recording to replay")
+    # MuJoCo and the robot's kinematics: imported by a simulated run only, never by a replay.
+    from fogsim.sim.simulation import Simulation
+    from fogsim.sim.third_person import FilmedSimulation
 
     def make_simulation() -> Simulation | FilmedSimulation:
         simulation = Simulation(scenario, depth_backend=depth_backend)
@@ -457,7 +497,54 @@ def _run_and_write(
     options: _RunOptions,
     start: float,
 ) -> Report:
-    """Run the frames and write the results into ``out`` (None: write nothing)."""
+    """Run the frames and write the results into ``out`` (None: write nothing).
+
+    The pictures are drawn by a process forked before the run
+    (:class:`~fogsim.viz.forked.ForkedCall`, :func:`_draw_pictures`): it imports matplotlib
+    while the frames are mapped and draws while this process builds the report and writes
+    ``maps.npz``; ``pictures_s`` is the time from handing it the result to its last picture.
+    """
+    with ExitStack() as drawing:
+        painter = None
+        if options.pictures and out is not None:  # forked now: before the run's threads
+            painter = drawing.enter_context(
+                ForkedCall(_draw_pictures, prepare=_import_pictures, what="the picture process")
+            )
+        result, kind, writer = _run_frames_into(scenario, params, out, options)
+        picture_start = time.perf_counter()
+        if painter is not None:
+            painter.submit(result, scenario, out)
+        report = build_report(
+            result,
+            scenario,
+            source=kind,
+            wall_s=time.perf_counter() - start,
+            duration_s=result.frames / scenario.frame_rate_hz if scenario is not None else None,
+        )
+        if out is None:
+            return report
+        write_maps(out / "maps.npz", result, result.final_truth)
+        if painter is not None:
+            names = tuple(path.name for path in painter.result())
+            timing = dataclasses.replace(
+                report.timing, pictures_s=round(time.perf_counter() - picture_start, 3)
+            )
+            report = dataclasses.replace(report, pictures=names, timing=timing)
+    if writer is not None:
+        report = dataclasses.replace(
+            report, video=writer.path.name, video_codec=writer.codec.describe()
+        )
+    write_report(out / "report.json", report)
+    return report
+
+
+def _run_frames_into(
+    scenario: Scenario | None, params: RunParams, out: Path | None, options: _RunOptions
+) -> tuple[RunResult, Source, RunVideoWriter | None]:
+    """The run's frames through :func:`run_frames`: the result, the frames' source, the video.
+
+    The video, bag and Rerun recording asked for are written on the way.
+    """
     video = options.video and out is not None
     callbacks: list[FrameCallback] = []
     writer = None
@@ -481,6 +568,7 @@ def _run_and_write(
                 raise FogsimError(
                     "--video needs the scenario's frame rate; this recording has none"
                 )
+            assert out is not None
             writer = RunVideoWriter(
                 out / "run.mp4", fps=scenario.frame_rate_hz, third_person=source.take_picture
             )
@@ -503,29 +591,17 @@ def _run_and_write(
             params=params,
             on_frame=_all_of(callbacks) if callbacks else None,
         )
-    report = build_report(
-        result,
-        scenario,
-        source=source.kind,
-        wall_s=time.perf_counter() - start,
-        duration_s=result.frames / scenario.frame_rate_hz if scenario is not None else None,
-    )
-    if out is None:
-        return report
-    write_maps(out / "maps.npz", result, result.final_truth)
-    if options.pictures:
-        picture_start = time.perf_counter()
-        names = tuple(path.name for path in write_pictures(result, scenario, out))
-        timing = dataclasses.replace(
-            report.timing, pictures_s=round(time.perf_counter() - picture_start, 3)
-        )
-        report = dataclasses.replace(report, pictures=names, timing=timing)
-    if writer is not None:
-        report = dataclasses.replace(
-            report, video=writer.path.name, video_codec=writer.codec.describe()
-        )
-    write_report(out / "report.json", report)
-    return report
+    return result, source.kind, writer
+
+
+def _import_pictures() -> None:
+    """Import the picture modules (matplotlib): the picture process's preparation."""
+    import fogsim.viz.pictures  # noqa: F401
+
+
+def _draw_pictures(result: RunResult, scenario: Scenario | None, out_dir: Path) -> list[Path]:
+    """:func:`write_pictures` as the picture process calls it (looked up when it is called)."""
+    return write_pictures(result, scenario, out_dir)
 
 
 def write_pictures(

@@ -17,14 +17,8 @@ grid, each with its last value there, :class:`fogsim.eval.maps.RunMaps`), not th
 
 from __future__ import annotations
 
-import multiprocessing
 import os
-import pickle
-import traceback
-from collections.abc import Callable
-from dataclasses import dataclass
 from pathlib import Path
-from typing import NoReturn
 
 import matplotlib.pyplot as plt
 import numpy as np
@@ -34,10 +28,10 @@ from matplotlib.figure import Figure
 from numpy.typing import NDArray
 
 from fogsim.config import Scenario
-from fogsim.errors import FogsimError
 from fogsim.eval.maps import RunMaps, archive_maps
 from fogsim.eval.result import RunResult
 from fogsim.viz.difference import draw_difference
+from fogsim.viz.forked import ForkedCall
 from fogsim.viz.style import (
     CMAP,
     OBSTACLE_RGB,
@@ -222,93 +216,22 @@ def write_pictures(
 
     ``result.final_truth`` must be the truth on the archive's cells (or None without truth).
     Fig. 3 (the slowest: a 3-D scatter, ~40 % of the drawing) is drawn by a forked process
-    while this one draws the others (:func:`_draw_beside`): on two cores the pictures take the
-    time of the longer half. Where there is no ``fork`` all are drawn here.
+    (:class:`~fogsim.viz.forked.ForkedCall`) while this one draws the others: on two cores the
+    pictures take the time of the longer half. Where there is no ``fork`` all are drawn here.
     """
     out = Path(out_dir)
     title = (scenario.name if scenario is not None else None) or "run"
     maps = archive_maps(result.archive, result.final_truth)
     fig3 = out / "fig3_panels.png"
-    beside = _draw_beside(lambda: draw_fig3(result, maps, title, fig3))
-    try:
+    with ForkedCall(
+        lambda: draw_fig3(result, maps, title, fig3), what="the picture process"
+    ) as beside:
+        beside.submit()
         paths = [draw_fog_map(maps, title, out / "fog_map.png"), fig3]
         if maps.truth is not None:
             paths.append(draw_difference(maps, title, out / "difference.png"))
         if result.snapshots:
             cell_m = result.archive.cell_m
             paths.append(draw_fig5(result, title, out / "fig5_comparison.png", cell_m))
-    finally:
-        beside()
+        beside.result()
     return paths
-
-
-def _draw_beside(draw: Callable[[], Path]) -> Callable[[], None]:
-    """Start ``draw`` in a forked process; returns the wait for it, raising its exception.
-
-    Forked, the child has this process's maps and matplotlib already (nothing pickled, nothing
-    imported) and ends with ``os._exit`` (``multiprocessing``): it touches no OpenGL state it
-    may have inherited. Without ``fork`` (Windows), ``draw`` runs now and the wait is empty.
-    """
-    if "fork" not in multiprocessing.get_all_start_methods():
-        draw()
-        return lambda: None
-    context = multiprocessing.get_context("fork")
-    receive, send = context.Pipe(duplex=False)
-
-    def child() -> None:
-        try:
-            draw()
-            send.send(None)
-        except BaseException as error:
-            send.send(_ChildFailure.of(error))
-
-    process = context.Process(target=child, name="fogsim-pictures", daemon=True)
-    process.start()
-    send.close()
-
-    def wait() -> None:
-        try:
-            failure = receive.recv()
-        except EOFError:
-            process.join()
-            raise FogsimError(
-                f"the picture process ended without a word (exit status {process.exitcode})"
-            ) from None
-        finally:
-            receive.close()
-        process.join()
-        if failure is not None:
-            failure.reraise("the picture process")
-
-    return wait
-
-
-@dataclass(frozen=True)
-class _ChildFailure:
-    """The picture process's exception (pickled) and its traceback as text, sent to this one.
-
-    Attributes:
-        error: The pickled exception; one that does not pickle is sent as a RuntimeError
-            with its type's name and its message.
-        traceback: The child's traceback.
-    """
-
-    error: bytes
-    traceback: str
-
-    @classmethod
-    def of(cls, error: BaseException) -> _ChildFailure:
-        """``error`` as the child sends it."""
-        text = "".join(traceback.format_exception(error))
-        try:
-            pickled = pickle.dumps(error)
-            pickle.loads(pickled)
-        except Exception:
-            pickled = pickle.dumps(RuntimeError(f"{type(error).__name__}: {error}"))
-        return cls(pickled, text)
-
-    def reraise(self, where: str) -> NoReturn:
-        """Raise the exception here, with the child's traceback as a note naming ``where``."""
-        error = pickle.loads(self.error)
-        error.add_note(f"in {where}:\n{self.traceback}")
-        raise error
