@@ -17,6 +17,7 @@ from mapper.segmentation import (
     SegmentationResult,
     segment_depth,
 )
+from mapper.tilt_filter import TiltFilter, TiltFilterParams
 from mapper.zmatch import ZDecision, ZMatch, apply_z_shift, frame_decision
 
 __all__ = [
@@ -42,6 +43,8 @@ __all__ = [
     "SegmentationParams",
     "SegmentationResult",
     "StepRuleParams",
+    "TiltFilter",
+    "TiltFilterParams",
     "UpdateResult",
     "ZDecision",
     "ZMatch",

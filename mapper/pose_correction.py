@@ -16,7 +16,13 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import NDArray
 
-__all__ = ["PoseCorrection", "estimate_tilt", "ground_shift", "within_deg_of_vertical"]
+__all__ = [
+    "PoseCorrection",
+    "estimate_tilt",
+    "ground_shift",
+    "rotation_to_vertical",
+    "within_deg_of_vertical",
+]
 
 
 @dataclass(frozen=True)
@@ -96,7 +102,7 @@ def estimate_tilt(normals, areas, eigen, counts, pivot, params) -> PoseCorrectio
     if not within_deg_of_vertical(mean[None], params.max_tilt_correction_deg)[0]:
         return identity
     return PoseCorrection(
-        rotation=_rotation_to_vertical(mean),
+        rotation=rotation_to_vertical(mean),
         pivot_m=pivot,
         z_shift_m=0.0,
         ground_plane_found=False,
@@ -123,7 +129,7 @@ def ground_shift(correction, heights, areas, is_floor, params) -> PoseCorrection
     )
 
 
-def _rotation_to_vertical(normal: NDArray[np.float64]) -> NDArray[np.float64]:
+def rotation_to_vertical(normal: NDArray[np.float64]) -> NDArray[np.float64]:
     """Smallest rotation taking the unit vector ``normal`` (z > 0) to +z (Rodrigues)."""
     nx, ny, nz = (float(v) for v in normal)
     s = math.hypot(nx, ny)  # sin of the angle; axis = normal × z = (ny, -nx, 0) / s

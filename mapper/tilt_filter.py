@@ -43,8 +43,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from mapper.errors import InvalidParameterError
-from mapper.pose_correction import _rotation_to_vertical as rotation_to_vertical
-from mapper.pose_correction import within_deg_of_vertical
+from mapper.pose_correction import rotation_to_vertical, within_deg_of_vertical
 from mapper.segmentation import SegmentationParams, SegmentationResult
 
 __all__ = [
