@@ -8,11 +8,11 @@ Every figure is the median of N repeats (all of them printed), each command a fr
 ``python -m fogsim`` process run from this tree (``PYTHONPATH`` = the tree), with the load
 average (``os.getloadavg``, 2 cores) noted before and after each measurement:
 
-- ``run``: ``fogsim run SCENARIO --out TMP --quiet`` with pictures, warm caches; its CPU time
-  (user + sys of the child and of the picture processes it forks) beside the wall time: on a
-  loaded machine the wall time hides what the run costs, the CPU time does not show the
-  overlap of simulation and mapping; and the CPU time of its main, simulation and segmentation threads (on a loaded machine the longest
-  of them bounds the wall time a quiet one would show);
+- ``run``: ``fogsim run SCENARIO --out TMP --quiet`` with pictures, warm caches; its CPU time (user
+  + sys of the child and of the picture processes it forks) beside the wall time: on a loaded
+  machine the wall time hides what the run costs, the CPU time does not show the overlap of
+  simulation and mapping; and the CPU time of its main, simulation and segmentation threads (on a
+  loaded machine the longest of them bounds the wall time a quiet one would show);
 - ``teardown``: of ``run``, the time from the last ``atexit`` handler to the process's exit
   (the interpreter's finalisation: modules freed, native destructors);
 - ``replay`` (``--replay FILE``): ``fogsim run --replay FILE --out TMP --quiet``, pictures on;
