@@ -115,7 +115,7 @@ def point_height_variance_m2(
     return sigma_n**2 * uz2 + sigma_l**2 * (1.0 - uz2)
 
 
-@numba.njit(cache=True)
+@numba.njit(cache=True, no_cfunc_wrapper=True)
 def _visibility_cleanup(
     points, point_var, origin, origin_x, origin_y, cell, height, variance, gate
 ):
@@ -167,7 +167,7 @@ def _visibility_cleanup(
     return remove
 
 
-@numba.njit(cache=True)
+@numba.njit(cache=True, no_cfunc_wrapper=True)
 def _fuse(
     ix, iy, heights, point_var, height, variance, stamp, frame, gate, noise, min_var, max_var
 ):

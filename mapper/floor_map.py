@@ -51,7 +51,7 @@ def _layer_of(h: float, z_min: float, layer: float, nz: int) -> int:
     return k
 
 
-@numba.njit(cache=True, nogil=True)
+@numba.njit(cache=True, no_cfunc_wrapper=True, nogil=True)
 def verify_floor(
     floor: NDArray[np.float64],
     og: NDArray[np.uint8],
@@ -82,7 +82,7 @@ def verify_floor(
     return removed
 
 
-@numba.njit(cache=True, nogil=True)
+@numba.njit(cache=True, no_cfunc_wrapper=True, nogil=True)
 def update_floor(
     floor: NDArray[np.float64],
     votes: NDArray[np.int32],
@@ -159,7 +159,7 @@ def update_floor(
     return used, rejected
 
 
-@numba.njit(cache=True, nogil=True)
+@numba.njit(cache=True, no_cfunc_wrapper=True, nogil=True)
 def frame_verdicts(
     floor: NDArray[np.float64],
     frame_votes: NDArray[np.int32],

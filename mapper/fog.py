@@ -47,7 +47,7 @@ def _highest_within(obstacle: NDArray[np.float64], ix: int, iy: int, margin: int
     return highest
 
 
-@numba.njit(cache=True, nogil=True, boundscheck=False)
+@numba.njit(cache=True, no_cfunc_wrapper=True, nogil=True, boundscheck=False)
 def update_fog_area(
     og: NDArray[np.uint8],
     floor: NDArray[np.float64],
@@ -111,7 +111,7 @@ def update_fog_area(
                 fog_heights[ix, iy] = np.nan
 
 
-@numba.njit(cache=True, nogil=True)
+@numba.njit(cache=True, no_cfunc_wrapper=True, nogil=True)
 def ceiling_map(
     og: NDArray[np.uint8],
     floor: NDArray[np.float64],

@@ -394,7 +394,7 @@ def _discretized(cells, end, sensor_grid, scale, shape, need_length, max_range):
     return True, status, gx, gy, gz, ix, iy, iz, length
 
 
-@numba.njit(cache=True, nogil=True, error_model="numpy")
+@numba.njit(cache=True, no_cfunc_wrapper=True, nogil=True, error_model="numpy")
 def insert_frame(
     points: NDArray[np.float64],
     sensor_origin: NDArray[np.float64],
@@ -814,7 +814,7 @@ def _walk_columns(miss_cols, range_masks, c, z_entry, axis_x, axis_y, z_line, z_
     return c, z_entry
 
 
-@numba.njit(cache=True, nogil=True, error_model="numpy", boundscheck=False)
+@numba.njit(cache=True, no_cfunc_wrapper=True, nogil=True, error_model="numpy", boundscheck=False)
 def insert_frame_columns(
     points: NDArray[np.float64],
     sensor_origin: NDArray[np.float64],
@@ -968,7 +968,7 @@ def insert_frame_columns(
     )
 
 
-@numba.njit(cache=True, nogil=True, boundscheck=False)
+@numba.njit(cache=True, no_cfunc_wrapper=True, nogil=True, boundscheck=False)
 def _apply_columns(flat, nz, ny, hit_cols, miss_cols, table, ix0, ix1, iy0, iy1) -> int:
     """Table lookups for the marked layers in ``[ix0, ix1] × [iy0, iy1]``; clears the marks.
 

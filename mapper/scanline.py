@@ -46,7 +46,7 @@ _GROWING = np.bool_(True)  # `_segment_misfit` of a growing plane (its uncertain
 _SEED_TEST = np.bool_(False)  # `_segment_misfit` of a seed's own plane (segment noise only)
 
 
-@numba.njit(cache=True, nogil=True)
+@numba.njit(cache=True, no_cfunc_wrapper=True, nogil=True)
 def _box_mean(values, clip, half_rows, half_cols):
     """Mean of min(values, clip) over a (2·half_rows+1)×(2·half_cols+1) box; NaN = absent."""
     height, width = values.shape
@@ -85,7 +85,7 @@ def _box_mean(values, clip, half_rows, half_cols):
     return out
 
 
-@numba.njit(cache=True, nogil=True)
+@numba.njit(cache=True, no_cfunc_wrapper=True, nogil=True)
 def local_noise_depth_m(inv_depth, window, min_noise_m, cap_factor, model_inv_sigma):
     """Per-pixel standard deviation of the depth [m], estimated from the data.
 
@@ -158,7 +158,7 @@ def local_noise_depth_m(inv_depth, window, min_noise_m, cap_factor, model_inv_si
     return out, typical
 
 
-@numba.njit(cache=True, nogil=True)
+@numba.njit(cache=True, no_cfunc_wrapper=True, nogil=True)
 def _range_profile(sigma, inv_depth, min_noise_m):
     """The image's typical depth noise at each pixel's depth [m] (NaN where invalid).
 
@@ -218,7 +218,7 @@ def _range_profile(sigma, inv_depth, min_noise_m):
     return typical
 
 
-@numba.njit(cache=True, nogil=True)
+@numba.njit(cache=True, no_cfunc_wrapper=True, nogil=True)
 def _line_from_sums(w, wx, wxx, wz, wxz, wzz):
     """Weighted least squares ``z = p + q·x`` from sums; returns (p, q, weighted RSS)."""
     det = w * wxx - wx * wx
@@ -230,13 +230,13 @@ def _line_from_sums(w, wx, wxx, wz, wxz, wzz):
     return p, q, max(wzz - p * wz - q * wxz, 0.0)
 
 
-@numba.njit(cache=True, nogil=True)
+@numba.njit(cache=True, no_cfunc_wrapper=True, nogil=True)
 def _depth_gap(inv_a, inv_b):
     """|1/inv_a − 1/inv_b| [m] for inverse depths."""
     return abs(inv_a - inv_b) / (inv_a * inv_b)
 
 
-@numba.njit(cache=True, nogil=True)
+@numba.njit(cache=True, no_cfunc_wrapper=True, nogil=True)
 def split_rows(
     inv_depth,
     x,
@@ -379,7 +379,7 @@ def split_rows(
     return rows[:count].copy(), starts[:count].copy(), stops[:count].copy(), table[:count].copy()
 
 
-@numba.njit(cache=True, nogil=True)
+@numba.njit(cache=True, no_cfunc_wrapper=True, nogil=True)
 def _weighted_line(inv_row, x, sigma_row, a, b):
     """Weighted line ``1/d = p + q·x`` over columns a:b and the mean sigma [m]."""
     w = wx = wxx = wz = wxz = wzz = 0.0
@@ -398,7 +398,7 @@ def _weighted_line(inv_row, x, sigma_row, a, b):
     return p, q, s / (b - a)
 
 
-@numba.njit(cache=True, nogil=True)
+@numba.njit(cache=True, no_cfunc_wrapper=True, nogil=True)
 def propagate_breaks(
     inv_depth,
     x,
@@ -493,7 +493,7 @@ def propagate_breaks(
     )
 
 
-@numba.njit(cache=True, nogil=True)
+@numba.njit(cache=True, no_cfunc_wrapper=True, nogil=True)
 def _accumulate(sums, x, yv, z):
     sums[0] += 1.0
     sums[1] += x
@@ -507,7 +507,7 @@ def _accumulate(sums, x, yv, z):
     sums[9] += z * z
 
 
-@numba.njit(cache=True, nogil=True)
+@numba.njit(cache=True, no_cfunc_wrapper=True, nogil=True)
 def _solve_plane(sums, out):
     """Inverse-depth plane from sums: out = [A, B, C, s², inv(M) as 9 values]; False if singular.
 
@@ -559,7 +559,7 @@ def _solve_plane(sums, out):
     return True
 
 
-@numba.njit(cache=True, nogil=True)
+@numba.njit(cache=True, no_cfunc_wrapper=True, nogil=True)
 def _predict_sigma_depth(plane, x, yv, inv_pred):
     """Standard deviation [m] of the plane's predicted depth at (x, y)."""
     g0 = x
@@ -572,7 +572,7 @@ def _predict_sigma_depth(plane, x, yv, inv_pred):
     return math.sqrt(max(plane[3] * quad, 0.0)) / (inv_pred * inv_pred)
 
 
-@numba.njit(cache=True, nogil=True)
+@numba.njit(cache=True, no_cfunc_wrapper=True, nogil=True)
 def _residual_square_sum(plane, sums):
     """Σ (z − A·x − B·y − C)² from a segment's (weighted) moment sums (10 values)."""
     pa = plane[0]
@@ -589,7 +589,7 @@ def _residual_square_sum(plane, sums):
     return max(total, 0.0)
 
 
-@numba.njit(cache=True, nogil=True)
+@numba.njit(cache=True, no_cfunc_wrapper=True, nogil=True)
 def _segment_rms(plane, seg_sums_row):
     """RMS depth residual [m] of a segment against a plane, from its sums (see `segment_sums`).
 
@@ -598,7 +598,7 @@ def _segment_rms(plane, seg_sums_row):
     return math.sqrt(_residual_square_sum(plane, seg_sums_row[_N_SUMS:]) / seg_sums_row[0])
 
 
-@numba.njit(cache=True, nogil=True)
+@numba.njit(cache=True, no_cfunc_wrapper=True, nogil=True)
 def _segment_misfit(plane, seg_sums_row, x, yv, a, b, seg, grow_factor, rms_factor, tol0, use_pred):
     """How badly a segment (columns a:b of the row at image y = yv) fits a plane.
 
@@ -625,7 +625,7 @@ def _segment_misfit(plane, seg_sums_row, x, yv, a, b, seg, grow_factor, rms_fact
     return max(worst, _segment_rms(plane, seg_sums_row) / limit)
 
 
-@numba.njit(cache=True, nogil=True)
+@numba.njit(cache=True, no_cfunc_wrapper=True, nogil=True)
 def _segment_fits(plane, seg_sums_row, x, yv, a, b, seg, grow_factor, rms_factor, tol0):
     """Whether a segment lies on a growing plane (see `_segment_misfit`)."""
     return (
@@ -636,13 +636,13 @@ def _segment_fits(plane, seg_sums_row, x, yv, a, b, seg, grow_factor, rms_factor
     )
 
 
-@numba.njit(cache=True, nogil=True)
+@numba.njit(cache=True, no_cfunc_wrapper=True, nogil=True)
 def _add_segment(sums, seg_sums_row):
     for k in range(_N_SUMS):
         sums[k] += seg_sums_row[k]
 
 
-@numba.njit(cache=True, nogil=True)
+@numba.njit(cache=True, no_cfunc_wrapper=True, nogil=True)
 def segment_sums(inv_depth, x, y, seg_rows, seg_starts, seg_stops):
     """(S, 20) moment sums of every segment for the inverse-depth plane model.
 
@@ -674,12 +674,12 @@ def segment_sums(inv_depth, x, y, seg_rows, seg_starts, seg_stops):
     return out
 
 
-@numba.njit(cache=True, nogil=True)
+@numba.njit(cache=True, no_cfunc_wrapper=True, nogil=True)
 def _overlap(a0, a1, b0, b1, gap):
     return a0 < b1 + gap and b0 < a1 + gap
 
 
-@numba.njit(cache=True, nogil=True)
+@numba.njit(cache=True, no_cfunc_wrapper=True, nogil=True)
 def _row_index(seg_rows, height):
     """row_first (H+1,): segments of row r are row_first[r]:row_first[r+1]."""
     n_seg = seg_rows.shape[0]
@@ -692,7 +692,7 @@ def _row_index(seg_rows, height):
     return row_first
 
 
-@numba.njit(cache=True, nogil=True)
+@numba.njit(cache=True, no_cfunc_wrapper=True, nogil=True)
 def _stable_order(values):
     """``np.argsort(values, kind="mergesort")``, bit for bit, compiled in a fraction of the time.
 
@@ -724,13 +724,13 @@ def _stable_order(values):
     return order
 
 
-@numba.njit(cache=True, nogil=True)
+@numba.njit(cache=True, no_cfunc_wrapper=True, nogil=True)
 def _before(a, b):
     """``a`` sorts strictly before ``b``: smaller, or a number against NaN (NaN last)."""
     return a < b or (b != b and a == a)
 
 
-@numba.njit(cache=True, nogil=True)
+@numba.njit(cache=True, no_cfunc_wrapper=True, nogil=True)
 def _best_seed(
     s,
     seg_sums,
@@ -828,7 +828,7 @@ def _best_seed(
     return best_score
 
 
-@numba.njit(cache=True, nogil=True)
+@numba.njit(cache=True, no_cfunc_wrapper=True, nogil=True)
 def grow_planes(
     inv_depth,
     x,
@@ -971,7 +971,7 @@ def grow_planes(
     return plane_of
 
 
-@numba.njit(cache=True, nogil=True)
+@numba.njit(cache=True, no_cfunc_wrapper=True, nogil=True)
 def plane_fits(inv_depth, x, y, labels, n_planes):
     """Inverse-depth plane (A, B, C) per label ``1/d = A·x + B·y + C`` and pixel counts.
 
@@ -994,7 +994,7 @@ def plane_fits(inv_depth, x, y, labels, n_planes):
     return planes, counts
 
 
-@numba.njit(cache=True, nogil=True)
+@numba.njit(cache=True, no_cfunc_wrapper=True, nogil=True)
 def plane_refits(inv_depth, x, y, labels, planes, factor, min_noise_m):
     """Refit each plane of `plane_fits` on its pixels within ``factor`` sigma of the first fit.
 
@@ -1030,7 +1030,7 @@ def plane_refits(inv_depth, x, y, labels, planes, factor, min_noise_m):
     return refits
 
 
-@numba.njit(cache=True, nogil=True)
+@numba.njit(cache=True, no_cfunc_wrapper=True, nogil=True)
 def fill_pixels(values, x, y, labels, sigma, model, factor, tolerance_floor_m, passes, inverse):
     """Let unassigned pixels join a 4-neighbour's label if they lie on it within tolerance.
 
@@ -1074,7 +1074,7 @@ def fill_pixels(values, x, y, labels, sigma, model, factor, tolerance_floor_m, p
                     labels[r, c] = best
 
 
-@numba.njit(cache=True, nogil=True)
+@numba.njit(cache=True, no_cfunc_wrapper=True, nogil=True)
 def reassign_segments(
     inv_depth,
     x,
@@ -1166,7 +1166,7 @@ def reassign_segments(
     return moved_total
 
 
-@numba.njit(cache=True, nogil=True)
+@numba.njit(cache=True, no_cfunc_wrapper=True, nogil=True)
 def plane_moments(points_camera, ids, normals_camera, n_planes, fx, fy):
     """Per-plane geometry of labelled points.
 
@@ -1242,7 +1242,7 @@ def plane_moments(points_camera, ids, normals_camera, n_planes, fx, fy):
     return centroids, eigen, areas
 
 
-@numba.njit(cache=True, nogil=True)
+@numba.njit(cache=True, no_cfunc_wrapper=True, nogil=True)
 def segment_labels(valid, seg_rows, seg_starts, seg_stops, plane_of):
     """(H, W) int64 plane id per pixel from segment assignments: -1 none, -2 invalid."""
     height, width = valid.shape
@@ -1259,7 +1259,7 @@ def segment_labels(valid, seg_rows, seg_starts, seg_stops, plane_of):
     return labels
 
 
-@numba.njit(cache=True, nogil=True)
+@numba.njit(cache=True, no_cfunc_wrapper=True, nogil=True)
 def horizontal_sums(points, sigma_z, seg_rows, seg_starts, seg_stops, correlation):
     """(S, 6) sums of every segment for the horizontal model ``z = h``.
 
@@ -1285,7 +1285,7 @@ def horizontal_sums(points, sigma_z, seg_rows, seg_starts, seg_stops, correlatio
     return out
 
 
-@numba.njit(cache=True, nogil=True)
+@numba.njit(cache=True, no_cfunc_wrapper=True, nogil=True)
 def grow_floors(
     seg_rows,
     seg_starts,
@@ -1400,7 +1400,7 @@ def grow_floors(
     return floor_of
 
 
-@numba.njit(cache=True, nogil=True)
+@numba.njit(cache=True, no_cfunc_wrapper=True, nogil=True)
 def _merge_floors(
     floor_of,
     n_floors,
@@ -1475,7 +1475,7 @@ def _merge_floors(
         floor_of[i] = new_id[a]
 
 
-@numba.njit(cache=True, nogil=True)
+@numba.njit(cache=True, no_cfunc_wrapper=True, nogil=True)
 def split_level(z, sigma_z, seg_rows, seg_starts, seg_stops, step_factor, min_pixels, correlation):
     """Split row segments where their height steps (for the horizontal model).
 
@@ -1546,7 +1546,7 @@ def split_level(z, sigma_z, seg_rows, seg_starts, seg_stops, step_factor, min_pi
     return rows[:count].copy(), starts[:count].copy(), stops[:count].copy()
 
 
-@numba.njit(cache=True, nogil=True)
+@numba.njit(cache=True, no_cfunc_wrapper=True, nogil=True)
 def floor_segment_fit(seg_hsums, floor_of_segment, n_floors, tolerance_m, prior_extent_m):
     """Plane fits of every floor's segment mean heights (see `grow_floors`).
 
@@ -1637,7 +1637,7 @@ def floor_segment_fit(seg_hsums, floor_of_segment, n_floors, tolerance_m, prior_
     return chi2, n_segments
 
 
-@numba.njit(cache=True, nogil=True)
+@numba.njit(cache=True, no_cfunc_wrapper=True, nogil=True)
 def region_interior(labels, margin_px):
     """(H, W) bool: the pixels in the interior of their region.
 
@@ -1670,7 +1670,7 @@ def region_interior(labels, margin_px):
     return out
 
 
-@numba.njit(cache=True, nogil=True)
+@numba.njit(cache=True, no_cfunc_wrapper=True, nogil=True)
 def floor_statistics(
     labels, grown, interior, points, sigma_z, depth, rays, origin_z, fx, fy, n_floors, tolerance_m
 ):
@@ -1795,7 +1795,7 @@ def floor_statistics(
     return counts, heights, rms, extents, areas, slope
 
 
-@numba.njit(cache=True, nogil=True)
+@numba.njit(cache=True, no_cfunc_wrapper=True, nogil=True)
 def _fit_slope(sums):
     """|(a, b)| of the weighted least squares ``z = h + a·x + b·y`` from sums (0 if singular)."""
     s0, sx, sy, sxx, sxy, syy, sz, sxz, syz = (
@@ -1823,7 +1823,7 @@ def _fit_slope(sums):
     return math.hypot(a, b)
 
 
-@numba.njit(cache=True, nogil=True)
+@numba.njit(cache=True, no_cfunc_wrapper=True, nogil=True)
 def level_geometry(depth, unit_rays, rotation, origin, typical, min_noise_m):
     """Pixel rays, points and height noise in a rotated frame, for the horizontal model.
 
@@ -1859,7 +1859,7 @@ def level_geometry(depth, unit_rays, rotation, origin, typical, min_noise_m):
     return rays, points, sigma_z
 
 
-@numba.njit(cache=True, nogil=True)
+@numba.njit(cache=True, no_cfunc_wrapper=True, nogil=True)
 def floor_points(
     pixel_index,
     floor_labels,

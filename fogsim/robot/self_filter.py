@@ -46,7 +46,7 @@ class SelfFilterParams:
             )
 
 
-@numba.njit(cache=True, nogil=True)
+@numba.njit(cache=True, no_cfunc_wrapper=True, nogil=True)
 def _mask_kernel(
     depth: np.ndarray,  # (H, W) depth along the optical axis [m], NaN/<=0 = none
     fx: float,
