@@ -54,10 +54,9 @@ class PipelineParams:
             (`mapper.tilt_filter`) instead of the tilt its own planes measured (issue 12: the
             stereo fit's noise, ~0.2° per frame, tilted far surfaces by several mm).
         tilt_noise_deg: The camera tilt's per-frame noise per axis [deg], the filter's
-            `TiltFilterParams.noise_deg` (0.3: the default neck encoder noise; a scenario's
-            ``[encoders]`` level replaces it, see `resolve_params`).
+            `TiltFilterParams.noise_deg` (0.3: the scenarios' neck encoder noise).
         tilt_bias_deg: The neck encoders' per-run bias std [deg], the filter's
-            `TiltFilterParams.bias_deg` (4.0: the default neck encoder bias; likewise).
+            `TiltFilterParams.bias_deg` (4.0: the scenarios' neck encoder bias).
     """
 
     use_z_match: bool = True
@@ -222,11 +221,8 @@ def resolve_params(
 ) -> RunParams:
     """Parameters: defaults ← sensor ← scenario ``[mapper]`` / ``[segmentation]`` ← overrides.
 
-    The tilt filter's noise and bias levels are the scenario's neck encoder levels
-    (``[encoders]``): the robot's own error specification, as a robot's data sheet gives it.
-
     Args:
-        scenario: A Scenario (its ``mapper``, ``segmentation`` and ``encoders`` tables) or None.
+        scenario: A Scenario (its ``mapper`` and ``segmentation`` tables) or None.
         sensor: ``SegmentationParams`` fields of the camera's noise model
             (:func:`fogsim.run.runner.sensor_fields`), below the scenario's table.
         overrides: Keys ``"<mapper field>"`` (e.g. ``"p_occ"``, or ``"mapper.p_occ"``),
@@ -241,14 +237,7 @@ def resolve_params(
         "segmentation": dict(sensor or {})
         | (dict(scenario.segmentation) if scenario is not None else {}),
         "elevation": {},
-        "pipeline": (
-            {
-                "tilt_noise_deg": scenario.encoders.head_noise_deg,
-                "tilt_bias_deg": scenario.encoders.head_bias_deg,
-            }
-            if scenario is not None
-            else {}
-        ),
+        "pipeline": {},
         "heading": {},
         "reference": {},
     }
