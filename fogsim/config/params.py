@@ -54,9 +54,12 @@ class PipelineParams:
             (`mapper.tilt_filter`) instead of the tilt its own planes measured (issue 12: the
             stereo fit's noise, ~0.2° per frame, tilted far surfaces by several mm).
         tilt_noise_deg: The camera tilt's per-frame noise per axis [deg], the filter's
-            `TiltFilterParams.noise_deg` (0.3: the scenarios' neck encoder noise).
+            `TiltFilterParams.noise_deg` (0.3: the default neck encoder noise; not the
+            scenario's own level: the camera's tilt error is more than the neck's, and
+            moving_box's 0.2 / 0.5° made the filter refuse the true tilt on seed 2, whose box
+            top was then never mapped).
         tilt_bias_deg: The neck encoders' per-run bias std [deg], the filter's
-            `TiltFilterParams.bias_deg` (4.0: the scenarios' neck encoder bias).
+            `TiltFilterParams.bias_deg` (4.0: the default neck encoder bias).
     """
 
     use_z_match: bool = True
