@@ -237,8 +237,10 @@ def apply_tilt(result: SegmentationResult, tilt_rad: NDArray[np.float64]) -> Seg
 
     The points, their floor heights, the floor regions' heights and the camera transform are
     turned about the correction's pivot (the camera centre) by ``R_new·R_ownᵀ``, the z shift
-    kept: a floor point's height follows its point (it lay on its floor's height and still
-    does, on its ray), a region's height moves by its points' mean change.
+    kept: a floor region's height, and the floor height of each of its points, moves by its
+    points' mean change (one height per region, as the segmentation gives it: per-point
+    heights made every cell's set of floor heights distinct and the mapper's update 0.2 ms
+    slower on the stage).
     """
     correction = result.correction
     tilt = np.asarray(tilt_rad, dtype=np.float64)
@@ -260,10 +262,12 @@ def apply_tilt(result: SegmentationResult, tilt_rad: NDArray[np.float64]) -> Seg
     step = np.eye(4)
     step[:3, :3] = turn
     step[:3, 3] = origin - turn @ origin
+    floor_heights = result.floor_heights.copy()
+    floor_heights[in_floor] += region_dz[region]
     return replace(
         result,
         points=points,
-        floor_heights=result.floor_heights + dz,
+        floor_heights=floor_heights,
         correction=new_correction,
         floors=replace(floors, heights_m=floors.heights_m + region_dz),
         transform_camera_to_robot=step @ result.transform_camera_to_robot,
