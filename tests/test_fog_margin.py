@@ -11,7 +11,7 @@ default grid (z_min −0.06 m, layers of 0.04 m, δ 0.05 m) a surface at h lies 
 import numpy as np
 import pytest
 
-from mapper import CellType, InvalidParameterError, MapperParams
+from mapper import CellType, FloorObstacleMapper, InvalidParameterError, MapperParams
 from mapper.fog import update_fog_area
 
 P = MapperParams()
@@ -131,3 +131,38 @@ def test_margin_override_takes_integral_floats():
     margin = P.with_overrides(obstacle_margin_cells=1.0).obstacle_margin_cells
     assert margin == 1 and type(margin) is int
     assert P.obstacle_margin_cells == 0  # the paper's eq. 11
+
+
+def test_the_mapper_takes_the_margin_from_its_params():
+    """End to end: `FloorObstacleMapper` passes `obstacle_margin_cells` to eq. 11.
+
+    A floor patch at 0 over x 0.6..1.0 (cells 65..74), an obstacle 0.055 m high filling cell
+    (70, 50) (x 0.80..0.84, y 0..0.04). Margin 0: its neighbours are floor (the paper's rule);
+    margin 1: the 8 cells around it are obstacles at its top, cells two away stay floor.
+    """
+    sensor = np.array([0.0, 0.0, 0.55])
+    labels = {}
+    for margin in (0, 1):
+        rng = np.random.default_rng(2)
+        m = FloorObstacleMapper(MapperParams(obstacle_margin_cells=margin))
+        for _ in range(10):
+            n = 600
+            floor_pts = np.column_stack(
+                [rng.uniform(0.6, 1.0, n), rng.uniform(-0.2, 0.2, n), rng.uniform(-0.005, 0.005, n)]
+            )
+            zz = np.linspace(0.0, 0.055, 12)
+            face = np.column_stack([np.full(12, 0.8001), np.full(12, 0.02), zz])
+            lid = np.column_stack(
+                [rng.uniform(0.8, 0.84, 12), rng.uniform(0, 0.04, 12), np.full(12, 0.055)]
+            )
+            points = np.vstack([floor_pts, face, lid])
+            heights = np.concatenate([np.zeros(n), np.full(24, np.nan)])
+            m.update(points, heights, sensor)
+        labels[margin] = m.fog()
+    (types0, _), (types1, heights1) = labels[0], labels[1]
+    ring = (slice(69, 72), slice(49, 52))
+    assert types0[70, 50] == CellType.OBSTACLE and types1[70, 50] == CellType.OBSTACLE
+    assert np.sum(types0[ring] == CellType.FLOOR) == 8
+    assert np.all(types1[ring] == CellType.OBSTACLE)
+    assert np.allclose(heights1[ring], heights1[70, 50])
+    assert types1[68, 50] == CellType.FLOOR and types1[70, 48] == CellType.FLOOR
