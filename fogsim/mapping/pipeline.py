@@ -55,6 +55,7 @@ evaluation layer (:mod:`fogsim.eval`).
 
 from __future__ import annotations
 
+import math
 import time
 from collections.abc import Callable
 from dataclasses import dataclass, replace
@@ -78,7 +79,7 @@ from mapper import (
 from mapper.reference import HeightReference, arrival_drift_m, start_surface_m
 from mapper.segmentation import SegmentationResult, segment_depth
 from mapper.tilt_filter import TiltFilter, TiltFilterParams, apply_tilt, measured_tilt
-from mapper.transforms import apply_transform, planar_pose_to_matrix
+from mapper.transforms import apply_transform, planar_pose_to_matrix, rotation_angle_deg
 
 FrameCallback = Callable[[Frame, "Pipeline"], None]
 """Called after every frame with the frame and the pipeline (progress bars, video)."""
@@ -311,10 +312,9 @@ class Pipeline:
         assert self.tilt is not None
         rotation = np.asarray(frame.transform_camera_to_robot_believed, dtype=np.float64)[:3, :3]
         previous, self._last_camera_rotation = self._last_camera_rotation, rotation
-        turn_rad = 0.0
-        if previous is not None:
-            cos_turn = (float(np.trace(previous.T @ rotation)) - 1.0) / 2.0
-            turn_rad = float(np.arccos(np.clip(cos_turn, -1.0, 1.0)))
+        turn_rad = (
+            0.0 if previous is None else math.radians(rotation_angle_deg(previous.T @ rotation))
+        )
         measured, sigma_rad = measured_tilt(seg, self.segmentation_params)
         return apply_tilt(seg, self.tilt.update(measured, sigma_rad, turn_rad).tilt_rad)
 
