@@ -51,7 +51,7 @@ from fogsim.run.run_folder import check_run_folder
 from fogsim.run.runner import run_scenario
 from fogsim.run.seeds import SEEDS_ALLOWED, check_workers, parse_seeds, run_seeds, worst_lines
 from fogsim.run.suite import check_against_baseline, run_suite, update_baseline
-from fogsim.sim.camera.depth import DEPTH_BACKENDS
+from fogsim.sim.camera.backends import DEPTH_BACKENDS
 from fogsim.tune.cli import add_tune_arguments
 from mapper.errors import MapperError
 

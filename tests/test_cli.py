@@ -1,6 +1,10 @@
 """The fogsim command line: list, run (replay, no MuJoCo), record, errors with exit codes."""
 
 import json
+import os
+import subprocess
+import sys
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -18,6 +22,29 @@ def removal_recording(tmp_path_factory):
     truths = [provider_removed_at(4.0)(f.time_s) for f in frames]
     path = tmp_path_factory.mktemp("rec") / "box_removal.npz"
     return save_recording(path, frames, scenario=load_scenario("box_removal"), truths=truths)
+
+
+SIMULATION_MODULES = ("mujoco", "dm_control", "pinocchio", "coal", "OpenGL")
+"""What only a simulation needs: MuJoCo, its MJCF tools, the robot's kinematics, OpenGL."""
+
+
+def test_a_replay_imports_nothing_of_the_simulation(removal_recording, tmp_path):
+    """``run --replay`` maps a recording without MuJoCo: none of it is imported (a new process)."""
+    out = str(tmp_path / "run")
+    code = (
+        "import sys\n"
+        "from fogsim.cli import main\n"
+        f"args = ['run', '--replay', {str(removal_recording)!r}, '--out', {out!r}, "
+        "'--quiet', '--no-pictures']\n"
+        "assert main(args) == 0\n"
+        f"print(' '.join(m for m in {SIMULATION_MODULES!r} if m in sys.modules))\n"
+    )
+    env = dict(os.environ, PYTHONPATH=str(Path(__file__).resolve().parent.parent))
+    done = subprocess.run(
+        [sys.executable, "-c", code], env=env, capture_output=True, text=True, check=True
+    )
+    assert (tmp_path / "run" / "report.json").is_file()
+    assert done.stdout.splitlines()[-1] == "", f"a replay imported {done.stdout.splitlines()[-1]}"
 
 
 def test_list_names_every_scenario(capsys):

@@ -1,5 +1,7 @@
 """Lazily exported package names: imported on first use, an unknown name named with its package."""
 
+import importlib
+
 import pytest
 
 import fogsim
@@ -21,3 +23,12 @@ def test_an_unknown_name_is_an_attribute_error_naming_the_package(package, name)
 def test_the_packages_export_what_they_list():
     assert fogsim.load_recording.__module__ == "fogsim.data.recording"
     assert fogsim.tune.TuneConfig.__module__ == "fogsim.tune.config"
+
+
+@pytest.mark.parametrize("package", ["fogsim.sim", "fogsim.sim.camera", "fogsim.robot"])
+def test_every_lazily_exported_name_is_its_modules(package):
+    """Each name the package lists is the object of the module it names (no typo, no stale name)."""
+    module = importlib.import_module(package)
+    for name, source in module._EXPORTS.items():
+        assert getattr(module, name) is getattr(importlib.import_module(source), name), name
+    assert module.__all__ == sorted(module._EXPORTS)

@@ -6,39 +6,32 @@ its cache), `kinematics` (`Robot`: frames and forward kinematics), `model` (`loa
 `meshes`, `body_boxes`.
 """
 
-from fogsim.robot.body_boxes import BodyBox
-from fogsim.robot.description import (
-    CAMERA_NAMES,
-    ROBOT_NAMES,
-    RobotDescription,
-    load_description,
-    read_description,
-)
-from fogsim.robot.encoders import EncoderModel, JointGroup, joint_groups
-from fogsim.robot.kinematics import Robot, Stance
-from fogsim.robot.model import load_robot
-from fogsim.robot.odometry import Odometry
-from fogsim.robot.self_filter import SelfFilter, SelfFilterParams
-from fogsim.robot.walking import Footstep, GaitParams, Trajectory, plan_route
+from fogsim.lazy import lazy_getattr
 
-__all__ = [
-    "CAMERA_NAMES",
-    "ROBOT_NAMES",
-    "BodyBox",
-    "EncoderModel",
-    "Footstep",
-    "GaitParams",
-    "JointGroup",
-    "Odometry",
-    "Robot",
-    "RobotDescription",
-    "SelfFilter",
-    "SelfFilterParams",
-    "Stance",
-    "Trajectory",
-    "joint_groups",
-    "load_description",
-    "load_robot",
-    "plan_route",
-    "read_description",
-]
+_EXPORTS = {
+    "BodyBox": "fogsim.robot.body_boxes",
+    "CAMERA_NAMES": "fogsim.robot.description",
+    "ROBOT_NAMES": "fogsim.robot.description",
+    "RobotDescription": "fogsim.robot.description",
+    "load_description": "fogsim.robot.description",
+    "read_description": "fogsim.robot.description",
+    "EncoderModel": "fogsim.robot.encoders",
+    "Footstep": "fogsim.robot.walking",
+    "GaitParams": "fogsim.robot.walking",
+    "JointGroup": "fogsim.robot.encoders",
+    "Odometry": "fogsim.robot.odometry",
+    "Robot": "fogsim.robot.kinematics",
+    "SelfFilter": "fogsim.robot.self_filter",
+    "SelfFilterParams": "fogsim.robot.self_filter",
+    "Stance": "fogsim.robot.kinematics",
+    "Trajectory": "fogsim.robot.walking",
+    "joint_groups": "fogsim.robot.encoders",
+    "load_robot": "fogsim.robot.model",
+    "plan_route": "fogsim.robot.walking",
+}
+"""The package's names and their modules, imported on first use: a replay reads the
+robot's description (:mod:`~fogsim.robot.description`) without pinocchio, MuJoCo or dm_control."""
+
+__all__ = sorted(_EXPORTS)
+
+__getattr__ = lazy_getattr(__name__, _EXPORTS)

@@ -6,20 +6,26 @@ joint readings places the boxes relative to the camera (the same kinematics that
 believed camera pose, so no world pose is needed); every pixel whose back-projected point falls
 in a box is flagged. Points at or below the believed ground plane of R (z_R below
 ``ground_clearance_m``) are never flagged, so the floor next to the feet survives.
+
+MuJoCo is imported by :class:`SelfFilter` when one is made (a simulation), not with the module:
+the run's kernel warm-up (:mod:`fogsim.run.warmup`) loads the mask kernel in replays too.
 """
 
 from __future__ import annotations
 
+import functools
 from dataclasses import dataclass
+from typing import TYPE_CHECKING
 
-import mujoco
 import numba
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from fogsim.errors import CameraError, ParameterError, RobotModelError
-from fogsim.robot.kinematics import Robot
 from mapper.intrinsics import PinholeIntrinsics
+
+if TYPE_CHECKING:
+    from fogsim.robot.kinematics import Robot
 
 
 @dataclass(frozen=True)
@@ -145,6 +151,8 @@ class SelfFilter:
     def __init__(
         self, robot: Robot, params: SelfFilterParams | None = None, camera: str = "head_camera"
     ) -> None:
+        import mujoco  # only where a filter is made (module doc)
+
         self.robot = robot
         self.params = params or SelfFilterParams()
         self.mj_model = mujoco.MjModel.from_xml_path(str(robot.mjcf_path))
@@ -162,6 +170,7 @@ class SelfFilter:
         self.box_centres_in_body = np.stack([b.transform_box_to_joint[:3, 3] for b in boxes])
         self.box_axes_in_body = np.stack([b.transform_box_to_joint[:3, :3] for b in boxes])
         self.half = np.stack([b.half_extents_m for b in boxes]) + self.params.margin_m
+        self._kinematics = functools.partial(mujoco.mj_kinematics, self.mj_model, self.mj_data)
 
     def boxes_in_camera(
         self, q_read: ArrayLike
@@ -169,7 +178,7 @@ class SelfFilter:
         """Box axes (B, 3, 3), centres (B, 3) [m] in the camera frame and half extents (B, 3)."""
         robot = self.robot
         self.mj_data.qpos[:] = robot.qpos_mujoco(robot.configuration_at_origin(q_read))
-        mujoco.mj_kinematics(self.mj_model, self.mj_data)
+        self._kinematics()
         body_rot = self.mj_data.xmat[self.body_ids].reshape(-1, 3, 3)
         body_pos = self.mj_data.xpos[self.body_ids]
         cam_rot = self.mj_data.site_xmat[self.camera_site].reshape(3, 3)

@@ -20,7 +20,6 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 from numpy.typing import NDArray
-from tqdm import tqdm
 
 from fogsim.config import RunParams, Scenario, resolve_params
 from fogsim.data.frame import Frame
@@ -557,6 +556,8 @@ def _run_frames_into(
         # measures frames only.
         warm_up_kernels(params, sys.stderr if options.progress else None)
         if options.progress:
+            from tqdm import tqdm  # only for the progress bar
+
             name = scenario.name if scenario is not None else "run"
             total = source.frame_count()
             bar = cleanup.enter_context(tqdm(total=total, unit="frame", desc=name))

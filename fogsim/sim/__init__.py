@@ -7,8 +7,16 @@
 * :mod:`fogsim.sim.third_person` — the robot seen from a camera following it, for the video.
 """
 
-from fogsim.sim.camera import HeadCamera
-from fogsim.sim.scene import Scene
-from fogsim.sim.simulation import Simulation
+from fogsim.lazy import lazy_getattr
 
-__all__ = ["HeadCamera", "Scene", "Simulation"]
+_EXPORTS = {
+    "HeadCamera": "fogsim.sim.camera",
+    "Scene": "fogsim.sim.scene",
+    "Simulation": "fogsim.sim.simulation",
+}
+"""The package's names and their modules, imported on first use: a replay imports
+:mod:`fogsim.sim.background` and :mod:`fogsim.sim.camera.noise_model` only, never MuJoCo."""
+
+__all__ = sorted(_EXPORTS)
+
+__getattr__ = lazy_getattr(__name__, _EXPORTS)

@@ -17,7 +17,6 @@ from fogsim.config import Scenario, load_scenario
 from fogsim.data.recording import FORMAT_VERSION, Recording, load_recording
 from fogsim.errors import TuneError
 from fogsim.run.output_paths import child_path
-from fogsim.run.record import record_scenario
 from fogsim.run.suite import QUICK_MAX_FRAMES, QUICK_SCENARIOS
 from fogsim.tune.objective import SuiteEntry
 
@@ -120,6 +119,9 @@ def load_suite(
         )
         if not cached.is_file():
             print(f"fogsim tune: recording {scenario.name} once into {cached}", file=sys.stderr)
+            # MuJoCo and the robot: imported only to record (every command builds tune's parser).
+            from fogsim.run.record import record_scenario
+
             record_scenario(scenario, cached, max_frames=max_frames)
         entries.append(_entry(scenario.name, load_recording(cached)))
     if not entries:

@@ -10,21 +10,22 @@
 Depth is metres along the optical axis (OpenCV camera z), float32, NaN = no measurement.
 """
 
-from fogsim.sim.camera.depth import DEPTH_BACKENDS, RaycastDepth, RendererDepth
-from fogsim.sim.camera.error_model import StereoErrorModel
-from fogsim.sim.camera.head import HeadCamera
-from fogsim.sim.camera.intrinsics import camera_intrinsics, set_model_intrinsics
-from fogsim.sim.camera.noise_model import segmentation_noise_fields
-from fogsim.sim.camera.stereo import StereoMatcher
+from fogsim.lazy import lazy_getattr
 
-__all__ = [
-    "DEPTH_BACKENDS",
-    "HeadCamera",
-    "RaycastDepth",
-    "RendererDepth",
-    "StereoErrorModel",
-    "StereoMatcher",
-    "camera_intrinsics",
-    "segmentation_noise_fields",
-    "set_model_intrinsics",
-]
+_EXPORTS = {
+    "DEPTH_BACKENDS": "fogsim.sim.camera.backends",
+    "HeadCamera": "fogsim.sim.camera.head",
+    "RaycastDepth": "fogsim.sim.camera.depth",
+    "RendererDepth": "fogsim.sim.camera.depth",
+    "StereoErrorModel": "fogsim.sim.camera.error_model",
+    "StereoMatcher": "fogsim.sim.camera.stereo",
+    "camera_intrinsics": "fogsim.sim.camera.intrinsics",
+    "segmentation_noise_fields": "fogsim.sim.camera.noise_model",
+    "set_model_intrinsics": "fogsim.sim.camera.intrinsics",
+}
+"""The package's names and their modules, imported on first use: the segmentation's
+noise model (:mod:`~fogsim.sim.camera.noise_model`, a replay's) needs neither MuJoCo nor OpenGL."""
+
+__all__ = sorted(_EXPORTS)
+
+__getattr__ = lazy_getattr(__name__, _EXPORTS)

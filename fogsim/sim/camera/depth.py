@@ -26,8 +26,6 @@ from numpy.typing import NDArray
 from fogsim.geometry import MJ_FROM_CV
 from mapper.intrinsics import PinholeIntrinsics
 
-DEPTH_BACKENDS = ("renderer", "raycast")
-"""Names of the depth backends: :class:`RendererDepth` and :class:`RaycastDepth`."""
 VISIBLE_GEOMGROUPS = (0, 1, 2)
 """Geom groups a camera sees by default: MuJoCo's default visible groups (the scene's
 objects, the floor and the robot's meshes are in them)."""

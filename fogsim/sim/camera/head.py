@@ -18,7 +18,8 @@ from numpy.typing import NDArray
 
 from fogsim.config import CameraConfig
 from fogsim.errors import CameraError
-from fogsim.sim.camera.depth import DEPTH_BACKENDS, VISIBLE_GEOMGROUPS, RaycastDepth, RendererDepth
+from fogsim.sim.camera.backends import DEPTH_BACKENDS
+from fogsim.sim.camera.depth import VISIBLE_GEOMGROUPS, RaycastDepth, RendererDepth
 from fogsim.sim.camera.error_model import StereoErrorModel
 from fogsim.sim.camera.intrinsics import camera_intrinsics, set_model_intrinsics
 from fogsim.sim.camera.stereo import (

@@ -11,12 +11,14 @@ casting in tests/test_camera.py); a vertical offset is refused.
 from __future__ import annotations
 
 import math
-
-import mujoco
+from typing import TYPE_CHECKING
 
 from fogsim.config import CameraConfig
 from fogsim.errors import CameraError
 from mapper.intrinsics import PinholeIntrinsics
+
+if TYPE_CHECKING:  # a replay's noise model uses camera_intrinsics without MuJoCo
+    import mujoco
 
 PIXEL_PITCH_M = 1e-5
 """Notional sensor pixel size [m]: MuJoCo wants a sensor size and a focal length in metres, and
