@@ -1,5 +1,6 @@
-"""Frames segmented ahead on a second thread: the results of ``segment_depth`` in order, the same
-run bit for bit, errors raised as the frame's own, bounded, stopped with the run."""
+"""Frames segmented ahead on a second thread: a segmenter's results (segmentation and tilt filter)
+in order, the same run bit for bit, errors raised as the frame's own, bounded, stopped with the
+run."""
 
 from __future__ import annotations
 
@@ -11,14 +12,16 @@ import numpy as np
 import pytest
 from synthetic_depth import Box, add_depth_noise, look_down_camera, render_boxes
 
+from fogsim.config import RunParams
 from fogsim.data.frame import Frame
 from fogsim.errors import FogsimError, FrameError
 from fogsim.eval.maps import write_maps
 from fogsim.mapping.prefetch import SegmentAhead
+from fogsim.mapping.segmenter import FrameSegmenter
 from fogsim.run.runner import run_frames
 from fogsim.world.truth import ObjectState, SceneTruth
 from mapper.intrinsics import PinholeIntrinsics
-from mapper.segmentation import SegmentationParams, segment_depth
+from mapper.segmentation import segment_depth
 
 INTR = PinholeIntrinsics.from_fov(88, 72, 47.0, 39.0)
 CAMERA_IN_ROBOT = look_down_camera((0.0, 0.0, 0.9), pitch_down_deg=35.0)
@@ -80,19 +83,16 @@ def frames():
     return walk_frames()
 
 
-def test_hands_out_exactly_the_segment_depth_results_in_order(frames):
-    params = SegmentationParams()
-    with SegmentAhead(frames, ahead=2) as ahead:
-        ahead.start(params)
+def test_hands_out_exactly_the_segmenters_results_in_order(frames):
+    """The tilt-filtered segmentations, each that of a segmenter fed the frames in line."""
+    in_line = FrameSegmenter(RunParams())
+    assert in_line.tilt is not None  # the filter's state carries over the frames
+    with SegmentAhead(frames, FrameSegmenter(RunParams()), ahead=2) as ahead:
+        ahead.start()
         seen = []
         for frame in ahead:
-            result = ahead.segment(
-                frame.depth_m, frame.intrinsics, frame.transform_camera_to_robot_believed, params
-            )
-            expected = segment_depth(
-                frame.depth_m, frame.intrinsics, frame.transform_camera_to_robot_believed, params
-            )
-            assert_same_result(result, expected, f"frame {frame.index}")
+            result = ahead.segmented(frame)
+            assert_same_result(result, in_line(frame), f"frame {frame.index}")
             assert ahead.segmentation_ms > 0.0
             seen.append(frame.index)
     assert seen == list(range(FRAMES))
@@ -201,8 +201,8 @@ def test_looks_ahead_at_most_ahead_frames_and_stops_when_closed():
                 np.zeros(4),
             )
 
-    source = SegmentAhead(endless(), lambda *args: "segmented", ahead=3)
-    source.start(SegmentationParams())
+    source = SegmentAhead(endless(), lambda frame: "segmented", ahead=3)
+    source.start()
     iterator = iter(source)
     next(iterator)
     deadline = time.monotonic() + 30.0
@@ -217,26 +217,24 @@ def test_looks_ahead_at_most_ahead_frames_and_stops_when_closed():
     source.close()  # idempotent
 
 
-def test_refuses_another_frame_other_parameters_and_a_second_ask(frames):
-    params = SegmentationParams()
-    with SegmentAhead(frames[:3]) as ahead:
-        ahead.start(params)
+def test_refuses_another_frame_and_a_second_ask(frames):
+    with SegmentAhead(frames[:3], FrameSegmenter(RunParams())) as ahead:
+        ahead.start()
         iterator = iter(ahead)
         frame = next(iterator)
-        args = (frame.intrinsics, frame.transform_camera_to_robot_believed)
         with pytest.raises(FogsimError, match="another frame"):
-            ahead.segment(frames[1].depth_m, *args, params)
+            ahead.segmented(frames[1])
         frame = next(iterator)
-        assert ahead.segment(frame.depth_m.copy(), *args, params) is not None  # equal values
+        with pytest.raises(FogsimError, match="another frame"):  # an equal copy is not it
+            ahead.segmented(dataclasses.replace(frame))
         frame = next(iterator)
-        with pytest.raises(FogsimError, match="other parameters"):
-            ahead.segment(frame.depth_m, *args, dataclasses.replace(params, min_depth_m=0.2))
+        assert ahead.segmented(frame) is not None
         with pytest.raises(FogsimError, match="another frame"):  # asked already
-            ahead.segment(frame.depth_m, *args, params)
+            ahead.segmented(frame)
 
 
 def test_refuses_no_look_ahead_and_iterating_before_start(frames):
     with pytest.raises(FogsimError, match="ahead must be >= 1 frame, got 0"):
-        SegmentAhead(frames, ahead=0)
+        SegmentAhead(frames, FrameSegmenter(RunParams()), ahead=0)
     with pytest.raises(FogsimError, match="start"):
-        next(iter(SegmentAhead(frames)))
+        next(iter(SegmentAhead(frames, FrameSegmenter(RunParams()))))

@@ -5,7 +5,9 @@ Per frame (paper Fig. 1, 2 and Sec. IV), with the pose the robot *believes*:
 1. ``segment_depth`` labels the (already self-filtered) depth image: points in the robot frame
    R with the height ``h`` of the horizontal plane each belongs to (NaN = not floor), after the
    segmentation's own rotation correction (and, with ``pipe.use_height_reference`` off, its
-   per-frame ground-plane shift).
+   per-frame ground-plane shift); the tilt filtered over the frames replaces that rotation
+   (``pipe.use_tilt_filter``). Both depend on the frames alone
+   (:class:`~fogsim.mapping.segmenter.FrameSegmenter`: a run does them on a second thread).
 2. Height reference (``mapper.reference``, issue 11): the camera height error is estimated over
    frames from the ground under the feet and its shift added to every frame's z (a frame whose
    own ground measurement agrees with the estimate takes its own: its ground then lies exactly
@@ -55,10 +57,9 @@ evaluation layer (:mod:`fogsim.eval`).
 
 from __future__ import annotations
 
-import math
 import time
 from collections.abc import Callable
-from dataclasses import dataclass, replace
+from dataclasses import dataclass
 
 import numpy as np
 from numpy.typing import NDArray
@@ -68,6 +69,12 @@ from fogsim.data.checks import pose_problem, step_problem, transform_problem
 from fogsim.data.frame import Frame
 from fogsim.data.limits import MAX_CAMERA_OFFSET_M
 from fogsim.errors import FrameError
+from fogsim.mapping.segmenter import (
+    FrameSegmenter,
+    Segmented,
+    SegmentFunction,
+    pipeline_segmentation_params,
+)
 from mapper import (
     AveragingMap,
     FloorObstacleMapper,
@@ -78,15 +85,10 @@ from mapper import (
 )
 from mapper.reference import HeightReference, arrival_drift_m, start_surface_m
 from mapper.segmentation import SegmentationResult, segment_depth
-from mapper.tilt_filter import TiltFilter, TiltFilterParams, apply_tilt, measured_tilt
-from mapper.transforms import apply_transform, planar_pose_to_matrix, rotation_angle_deg
+from mapper.transforms import apply_transform, planar_pose_to_matrix
 
 FrameCallback = Callable[[Frame, "Pipeline"], None]
 """Called after every frame with the frame and the pipeline (progress bars, video)."""
-
-SegmentFunction = Callable[..., SegmentationResult]
-"""``(depth_m, intrinsics, transform_camera_to_robot, params) -> SegmentationResult``:
-:func:`~mapper.segmentation.segment_depth`, or a cache in front of it (``fogsim tune``)."""
 
 
 @dataclass(frozen=True)
@@ -177,38 +179,36 @@ class Pipeline:
 
     Args:
         params: All parameters (defaults when None).
-        segment: Segments a frame's depth image; called with the frame's depth, intrinsics,
-            believed camera transform and the segmentation parameters, and nothing else. The
-            pipeline only reads its result, so a cache may hand out the same result again
-            (:mod:`fogsim.tune.segment_cache`).
+        segment: Segments a frame's depth image (:class:`~fogsim.mapping.segmenter.FrameSegmenter`
+            calls it: the frame's depth, intrinsics, believed camera transform and the
+            segmentation parameters, and nothing else).
+        segmented: The frames' segmentations made elsewhere by a
+            :class:`~fogsim.mapping.segmenter.FrameSegmenter` of the same ``params`` (a second
+            thread's, :meth:`~fogsim.mapping.prefetch.SegmentAhead.segmented`), called with each
+            frame processed, in order; None: a segmenter of this pipeline's with ``segment``.
     """
 
     def __init__(
-        self, params: RunParams | None = None, segment: SegmentFunction = segment_depth
+        self,
+        params: RunParams | None = None,
+        segment: SegmentFunction = segment_depth,
+        *,
+        segmented: Segmented | None = None,
     ) -> None:
-        self._segment = segment
         self.run_params = params or RunParams()
+        self._segmented = segmented or FrameSegmenter(self.run_params, segment)
         self.mapper_params = self.run_params.mapper
-        self.segmentation_params = self.run_params.segmentation
+        self.segmentation_params = pipeline_segmentation_params(self.run_params)
         self.params = self.run_params.pipeline
         self.mapper = FloorObstacleMapper(self.mapper_params)
         self.baseline = AveragingMap(self.mapper_params)
         self.elevation = RobotElevationFilter(self.run_params.elevation)
         self.heading = HeadingEstimator(self.run_params.heading)
         self.reference = HeightReference(self.run_params.reference)
-        self.tilt = (
-            TiltFilter(TiltFilterParams(self.params.tilt_noise_deg, self.params.tilt_bias_deg))
-            if self.params.use_tilt_filter and self.segmentation_params.correct_tilt
-            else None
-        )
-        self._last_camera_rotation: NDArray[np.float64] | None = None
         self._deferred: list[_FrameData] = []
         self._processed = 0
         self.mapped_late: list[LateMapping] = []
         self._use_reference = self.params.use_height_reference
-        # The reference replaces the segmentation's per-frame ground shift.
-        if self._use_reference:
-            self.segmentation_params = replace(self.segmentation_params, correct_ground_shift=False)
         self._last_pose_believed: NDArray[np.float64] | None = None
         self._start_z_m: float | None = None  # odometry's z of the first frame
         self._rise_m = 0.0  # odometry's z of this frame minus the start's
@@ -267,14 +267,7 @@ class Pipeline:
         if self._start_z_m is None:
             self._start_z_m = float(self._last_pose_believed[2])
         self._rise_m = float(self._last_pose_believed[2]) - self._start_z_m
-        seg = self._segment(
-            frame.depth_m,
-            frame.intrinsics,
-            frame.transform_camera_to_robot_believed,
-            self.segmentation_params,
-        )
-        if self.tilt is not None:
-            seg = self._filtered_tilt(seg, frame)
+        seg = self._segmented(frame)
         t1 = time.perf_counter()
         data = _FrameData(
             frame,
@@ -302,21 +295,6 @@ class Pipeline:
             z_matched=matched,
             ground_plane_found=data.ground_plane_found,
         )
-
-    def _filtered_tilt(self, seg: SegmentationResult, frame: Frame) -> SegmentationResult:
-        """``seg`` rotated by the tilt filtered over frames (`mapper.tilt_filter`).
-
-        The filter's process noise scales with the believed camera's turn in the robot frame
-        since the previous frame (the neck bias's effect turns with the neck).
-        """
-        assert self.tilt is not None
-        rotation = np.asarray(frame.transform_camera_to_robot_believed, dtype=np.float64)[:3, :3]
-        previous, self._last_camera_rotation = self._last_camera_rotation, rotation
-        turn_rad = (
-            0.0 if previous is None else math.radians(rotation_angle_deg(previous.T @ rotation))
-        )
-        measured, sigma_rad = measured_tilt(seg, self.segmentation_params)
-        return apply_tilt(seg, self.tilt.update(measured, sigma_rad, turn_rad).tilt_rad)
 
     def finish(self) -> list[Frame]:
         """Map the deferred frames now, in order, without z-match; returns them.

@@ -33,8 +33,9 @@ from fogsim.eval.pose_error import PoseErrorAccumulator
 from fogsim.eval.report import Report, build_report, write_report
 from fogsim.eval.report.schema import Source
 from fogsim.eval.result import RunResult, Snapshot
-from fogsim.mapping.pipeline import FrameCallback, FrameTiming, Pipeline, SegmentFunction
+from fogsim.mapping.pipeline import FrameCallback, FrameTiming, Pipeline
 from fogsim.mapping.prefetch import SegmentAhead
+from fogsim.mapping.segmenter import FrameSegmenter, SegmentFunction
 from fogsim.robot.description import load_description
 from fogsim.run.run_folder import RunFolder
 from fogsim.run.warmup import warm_up_kernels
@@ -137,9 +138,9 @@ def run_frames(
         on_frame: Called after every frame with the frame and the pipeline (progress bars,
             video).
         segment: The pipeline's segmentation (:class:`~fogsim.mapping.pipeline.Pipeline`).
-        segment_ahead: Segment the frames on a second thread ahead of the mapping
-            (:class:`~fogsim.mapping.prefetch.SegmentAhead`: the same results, the two
-            overlapped); False: in line.
+        segment_ahead: Segment the frames and filter their tilt on a second thread ahead of
+            the mapping (:class:`~fogsim.mapping.prefetch.SegmentAhead`: the same results, the
+            two overlapped); False: in line.
 
     Raises:
         FogsimError: No frames.
@@ -155,9 +156,9 @@ def run_frames(
         return _run_pipeline(
             frames, None, pipeline, truth_provider, scenario, run_params, on_frame, start
         )
-    with SegmentAhead(frames, segment) as ahead:
-        pipeline = Pipeline(run_params, ahead.segment)
-        ahead.start(pipeline.segmentation_params)
+    with SegmentAhead(frames, FrameSegmenter(run_params, segment)) as ahead:
+        pipeline = Pipeline(run_params, segmented=ahead.segmented)
+        ahead.start()
         return _run_pipeline(
             ahead, ahead, pipeline, truth_provider, scenario, run_params, on_frame, start
         )
