@@ -144,26 +144,52 @@ def _walk_frames(rng, geometry, count):
         )
 
 
-def test_storing_once_per_place_leaves_the_archive_of_every_frame():
+def _fake_pipeline(geometry, types, heights):
+    """What the archiver reads of a pipeline: its grid and its maps (fresh copies)."""
+    fog, base, floor, obstacle, ceiling = heights
+    mapper = SimpleNamespace(
+        geometry=geometry, floor=floor.copy, obstacle=obstacle.copy, ceiling=ceiling.copy
+    )
+    return SimpleNamespace(mapper=mapper, maps=lambda: (types.copy(), fog.copy(), base.copy()))
+
+
+@pytest.mark.parametrize("spurious_keeps", [0.0, 0.5])
+def test_storing_once_per_place_leaves_the_archive_of_every_frame(spurious_keeps):
+    """Maps kept before each frame that moves the grid (and, with ``spurious_keeps``, before
+    random others that do not: a pipeline that cannot tell) give the archive of every frame."""
     rng = np.random.default_rng(3)
     start = GridGeometry.from_params(MapperParams(nx=12, ny=9))
     every, once = WorldArchive(start.cell_m), WorldArchive(start.cell_m)
     archiver = _GridArchiver(once)
-    stores, places, previous = [], 0, None
+    stores, places = [], 0
     once_store = once.store_grid
     once.store_grid = lambda *args, **kwargs: stores.append(1) or once_store(*args, **kwargs)
-    for geometry, types, (fog, base, floor, obstacle, ceiling), in_view in _walk_frames(
-        rng, start, 80
-    ):
-        places += geometry != previous
-        previous = geometry
+    pipeline = None  # the pipeline's state after the previous frame
+    for geometry, types, heights, in_view in _walk_frames(rng, start, 80):
+        fog, base, floor, obstacle, ceiling = heights
         layers = {"floor_m": floor, "obstacle_m": obstacle, "ceiling_m": ceiling}
         every.store_grid(geometry.cell_center(0, 0), types, fog, base, **layers, in_view=in_view)
-        mapper = SimpleNamespace(geometry=geometry, **{k[:-2]: v.copy for k, v in layers.items()})
-        archiver.add(SimpleNamespace(mapper=mapper), (types, fog, base), in_view)
-    archiver.flush()
+        moves = pipeline is None or pipeline.mapper.geometry != geometry
+        places += moves
+        if pipeline is not None and (moves or rng.random() < spurious_keeps):
+            archiver.keep(pipeline)
+        pipeline = _fake_pipeline(geometry, types, heights)  # the frame mapped
+        archiver.add(geometry, in_view)
+    archiver.flush(pipeline)
     assert len(stores) == places < 80
     for name in LAYERS:
         np.testing.assert_array_equal(getattr(once, name), getattr(every, name), err_msg=name)
     np.testing.assert_array_equal(once.cell_centers_xy(), every.cell_centers_xy())
     assert once.storage_cells == every.storage_cells
+
+
+def test_a_move_without_the_maps_kept_before_it_is_refused():
+    """The run must keep the maps before a frame that moves the grid: else nothing to store."""
+    rng = np.random.default_rng(4)
+    start = GridGeometry.from_params(MapperParams(nx=12, ny=9))
+    archiver = _GridArchiver(WorldArchive(start.cell_m))
+    (first, *_, in_view), (moved, *_) = list(_walk_frames(rng, start, 7))[::6]
+    assert moved != first
+    archiver.add(first, in_view)
+    with pytest.raises(AssertionError):
+        archiver.add(moved, in_view)

@@ -494,3 +494,34 @@ def test_a_run_shorter_than_the_reference_needs_maps_its_frames_at_the_end():
     assert result.frames == wait - 2 and result.withdrawn == 0
     assert np.isfinite(result.update_ms).all()
     assert np.isfinite(np.asarray(result.mapper.floor())).any()
+
+
+@pytest.mark.parametrize("use_height_reference", [False, True])
+def test_keeps_grid_says_when_a_frame_leaves_the_grid_where_it_is(use_height_reference):
+    """True exactly when it is certain (checked against what process() then does): the believed
+    position in the grid's central cell and no frames waiting for the height reference. A step
+    of one cell, a position process() refuses, frames deferred (the reference not yet known
+    after six frames of this standing robot): False."""
+    params = RunParams(pipeline=PipelineParams(use_height_reference=use_height_reference))
+    pipeline = Pipeline(params)
+    cell_m = pipeline.mapper_params.cell_m
+    frames = [
+        dataclasses.replace(
+            f, robot_pose_believed=ROBOT_POSE + np.array([cell_m * (i // 3), 0, 0, 0])
+        )
+        for i, f in enumerate(make_frames(6))
+    ]
+    answers = []
+    for frame in frames:
+        before = pipeline.mapper.geometry
+        keeps = pipeline.keeps_grid(frame)
+        pipeline.process(frame)
+        assert not keeps or pipeline.mapper.geometry == before, frame.index
+        answers.append(keeps)
+    if use_height_reference:
+        assert not pipeline.reference.known
+        assert answers == [False] * 6
+    else:  # frame 0: the grid is made at the origin; frame 3 steps one cell
+        assert answers == [False, True, True, False, True, True]
+    nan = dataclasses.replace(frames[0], robot_pose_believed=np.array([np.nan, 0, 0, 0.0]))
+    assert not pipeline.keeps_grid(nan)

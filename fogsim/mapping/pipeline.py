@@ -83,6 +83,7 @@ from mapper import (
     ZDecision,
     frame_decision,
 )
+from mapper.limits import MAX_COORDINATE_M
 from mapper.reference import HeightReference, arrival_drift_m, start_surface_m
 from mapper.segmentation import SegmentationResult, segment_depth
 from mapper.transforms import apply_transform, planar_pose_to_matrix
@@ -243,6 +244,22 @@ class Pipeline:
         for key, problem in problems:
             if problem is not None:
                 raise FrameError(f"frame {frame.index}: {key}: {problem.what}")
+
+    def keeps_grid(self, frame: Frame) -> bool:
+        """Whether :meth:`process` of ``frame`` will leave the grids where they are.
+
+        True only when that is certain: the frame is mapped alone (the height reference is off
+        or known, so no deferred frame is mapped with it) and its believed (x, y), where the
+        grids are centred, lies in their central cell already. False otherwise: the grids
+        scroll, frames may be mapped with it, or its position is no coordinate (:meth:`process`
+        refuses the frame).
+        """
+        if self._use_reference and not self.reference.known:
+            return False
+        x_m, y_m = np.asarray(frame.robot_pose_believed, dtype=np.float64).reshape(-1)[:2]
+        if not (abs(x_m) <= MAX_COORDINATE_M and abs(y_m) <= MAX_COORDINATE_M):  # NaN too
+            return False
+        return self.mapper.geometry.shift_to(float(x_m), float(y_m)) == (0, 0)
 
     def robot_pose(self, frame: Frame) -> NDArray[np.float64]:
         """Believed robot pose (x, y, z, yaw) with the elevation filter's z."""

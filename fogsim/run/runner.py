@@ -190,14 +190,17 @@ def _run_pipeline(
     timings: list[FrameTiming] = []
     last: Frame | None = None
     for frame in frames:
+        if not pipeline.keeps_grid(frame):
+            archiver.keep(pipeline)
         timing = pipeline.process(frame)
         if ahead is not None:  # the segmentation's own time, not the wait for it
             timing = dataclasses.replace(timing, segmentation_ms=ahead.segmentation_ms)
         timings.append(timing)
         pose_errors.add(frame, pipeline.heading.transform_camera_to_robot)
-        maps = types, fog_heights, base_heights = pipeline.maps()
-        archiver.add(pipeline, maps, cells_in_view(frame, pipeline.mapper.geometry))
-        if tracker is not None or fig5 is not None:  # every cell's centre: only for these
+        geometry = pipeline.mapper.geometry
+        archiver.add(geometry, cells_in_view(frame, geometry))
+        if tracker is not None or fig5 is not None:  # the maps, every cell's centre: for these
+            types, fog_heights, base_heights = pipeline.maps()
             centers = pipeline.cell_centers_xy()
         if tracker is not None:
             tracker.update(
@@ -210,12 +213,13 @@ def _run_pipeline(
         last = frame
     if last is None:
         raise FogsimError("run_frames got no frames")
+    archiver.keep(pipeline)
     flushed = pipeline.finish()  # frames still waiting for the height reference
     if flushed:
         geometry = pipeline.mapper.geometry
         in_view = np.logical_or.reduce([cells_in_view(f, geometry) for f in flushed])
-        archiver.add(pipeline, pipeline.maps(), in_view)
-    archiver.flush()
+        archiver.add(geometry, in_view)
+    archiver.flush(pipeline)
 
     for late in pipeline.mapped_late:  # deferred frames: withdrawn when seen, mapped later
         timings[late.position] = dataclasses.replace(
@@ -254,51 +258,65 @@ class _GridArchiver:
 
     The archive keeps each cell's last value (:class:`~fogsim.eval.archive.WorldArchive`), and
     the grid moves only when the robot has walked a whole cell (the stage: 116 moves in 832
-    frames). :meth:`add` keeps each frame's maps and stores the previous frame's only when the
-    grid has moved; :meth:`flush` stores the last. The archive is the one storing every frame
+    frames). The run calls :meth:`keep` before a frame that may move the grid
+    (``Pipeline.keeps_grid``) and :meth:`add` after every frame; when the grid has moved, the
+    maps kept before that frame, the last ones at the old place, are stored with the cells seen
+    there; :meth:`flush` stores the last place's. The archive is the one storing every frame
     would leave, bit for bit: a cell's last value is that of the last frame whose grid held it,
     which is the last frame at that place of the grid; the cells seen are added up over the
     frames at one place (a union, in any order), and the bounding box grows through the same
-    places in the same order. The maps handed over are the pipeline's own copies
-    (``Pipeline.maps()``, ``floor()``, ``obstacle()``, ``ceiling()``: fresh arrays), kept
-    unchanged until stored.
+    places in the same order. The maps are read only when they may be the last at a place (the
+    stage: before about 120 of 832 frames), as the pipeline's own copies (``Pipeline.maps()``,
+    ``floor()``, ``obstacle()``, ``ceiling()``: fresh arrays).
     """
 
     def __init__(self, archive: WorldArchive) -> None:
         self._archive = archive
         self._geometry: GridGeometry | None = None
-        self._pending: dict[str, NDArray[np.generic]] = {}
+        self._in_view: NDArray[np.bool_] | None = None
+        self._kept: dict[str, NDArray[np.generic]] | None = None
 
-    def add(
-        self,
-        pipeline: Pipeline,
-        maps: tuple[NDArray[np.int8], NDArray[np.float64], NDArray[np.float64]],
-        in_view: NDArray[np.bool_],
-    ) -> None:
-        """The pipeline's current maps (``Pipeline.maps()``); ``in_view``: the cells seen."""
-        geometry = pipeline.mapper.geometry
-        if geometry != self._geometry:
-            self.flush()
-        elif self._pending:
-            in_view = in_view | self._pending["in_view"]
-        types, fog_heights, base_heights = maps
-        self._geometry = geometry
-        self._pending = {
+    def keep(self, pipeline: Pipeline) -> None:
+        """Keep the pipeline's maps now (before a frame that may move the grid)."""
+        if self._geometry is None:  # nothing mapped yet
+            return
+        types, fog_heights, base_heights = pipeline.maps()
+        self._kept = {
             "fog_types": types,
             "fog_heights_m": fog_heights,
             "baseline_heights_m": base_heights,
             "floor_m": pipeline.mapper.floor(),
             "obstacle_m": pipeline.mapper.obstacle(),
             "ceiling_m": pipeline.mapper.ceiling(),
-            "in_view": in_view,
         }
 
-    def flush(self) -> None:
-        """Store the maps added last (nothing if they are stored already)."""
-        if self._geometry is None or not self._pending:
+    def add(self, geometry: GridGeometry, in_view: NDArray[np.bool_]) -> None:
+        """After a frame: the grid's geometry now and the cells the frame saw there."""
+        if geometry != self._geometry:
+            self._store()
+            self._in_view = in_view
+        else:
+            assert self._in_view is not None
+            self._in_view = self._in_view | in_view
+            self._kept = None  # this frame changed the maps at this place: no longer the last
+        self._geometry = geometry
+
+    def flush(self, pipeline: Pipeline) -> None:
+        """Store the last place's maps, as they are now (after the run's last frame)."""
+        self.keep(pipeline)
+        self._store()
+        self._geometry = None
+
+    def _store(self) -> None:
+        """Store the maps kept at the current place with the cells seen there (if any)."""
+        if self._geometry is None:
             return
-        self._archive.store_grid(self._geometry.cell_center(0, 0), **self._pending)
-        self._pending = {}
+        # The run keeps the maps before every frame that may move the grid (class doc).
+        assert self._kept is not None and self._in_view is not None
+        self._archive.store_grid(
+            self._geometry.cell_center(0, 0), **self._kept, in_view=self._in_view
+        )
+        self._kept = None
 
 
 def sensor_fields(scenario: Scenario | None) -> dict[str, float | int]:
