@@ -2,11 +2,14 @@
 
 Usage:
     .venv/bin/python bench/bench_run.py [SCENARIO] [--repeats N] [--replay FILE] [--cold N]
-        [--parts] [--overlap N] [--ahead N] [--no-commands]
+        [--parts] [--overlap N] [--ahead N] [--no-commands] [--tree DIR ...]
 
 Every figure is the median of N repeats (all of them printed), each command a fresh
 ``python -m fogsim`` process run from this tree (``PYTHONPATH`` = the tree), with the load
-average (``os.getloadavg``, 2 cores) noted before and after each measurement:
+average (``os.getloadavg``, 2 cores) noted before and after each measurement. With
+``--tree DIR`` (repeatable) the commands (``run``, ``replay``, ``cold``) run from each tree
+instead, their repeats interleaved (tree A, tree B, tree A, ...) so the load hits them alike;
+the in-process figures (``--overlap``, ``--ahead``, ``--parts``) are this tree's:
 
 - ``run``: ``fogsim run SCENARIO --out TMP --quiet`` with pictures, warm caches; its CPU time (user
   + sys of the child and of the picture processes it forks) beside the wall time: on a loaded
@@ -75,15 +78,15 @@ def load_note() -> str:
     return "load " + "/".join(f"{x:.1f}" for x in os.getloadavg())
 
 
-def fogsim(args: list[str], env: dict[str, str]) -> tuple[float, ...]:
-    """Run ``fogsim ARGS`` in a child: wall [s], CPU user + sys [s], teardown [s], then the CPU
-    time [s] of each of :data:`THREADS`."""
+def fogsim(args: list[str], env: dict[str, str], tree: Path = ROOT) -> tuple[float, ...]:
+    """Run ``fogsim ARGS`` in a child from ``tree`` (its ``PYTHONPATH`` in ``env``): wall [s],
+    CPU user + sys [s], teardown [s], then the CPU time [s] of each of :data:`THREADS`."""
     before = resource.getrusage(resource.RUSAGE_CHILDREN)
     start = time.perf_counter()
     done = subprocess.run(
         [sys.executable, "-c", _CHILD, *args],
         env=env,
-        cwd=ROOT,
+        cwd=tree,
         stdout=subprocess.DEVNULL,
         stderr=subprocess.PIPE,
         text=True,
@@ -103,16 +106,29 @@ def fogsim(args: list[str], env: dict[str, str]) -> tuple[float, ...]:
     return wall, cpu, end_wall - main_end, *(threads[name] for name in THREADS)
 
 
-def repeat(label: str, n: int, measure: Callable[[], tuple[float, ...]], names: tuple[str, ...]):
-    """Print the median and all values of each figure ``measure`` returns over ``n`` calls."""
+def repeat(
+    label: str,
+    n: int,
+    measure: Callable[[Path], tuple[float, ...]],
+    names: tuple[str, ...],
+    trees: list[Path],
+) -> None:
+    """Print the median and all values of each figure ``measure(tree)`` returns over ``n``
+    calls per tree, the trees interleaved (named when there are several)."""
     note = load_note()
-    values = [measure() for _ in range(n)]
-    for i, name in enumerate(names):
-        column = [v[i] for v in values]
-        print(
-            f"  {label + ' ' + name:<34} median {statistics.median(column):6.2f} s   "
-            f"all {[round(v, 2) for v in column]}"
-        )
+    values: dict[Path, list[tuple[float, ...]]] = {tree: [] for tree in trees}
+    for _ in range(n):
+        for tree in trees:
+            values[tree].append(measure(tree))
+    for tree in trees:
+        if len(trees) > 1:
+            print(f"  {tree}")
+        for i, name in enumerate(names):
+            column = [v[i] for v in values[tree]]
+            print(
+                f"  {label + ' ' + name:<34} median {statistics.median(column):6.2f} s   "
+                f"all {[round(v, 2) for v in column]}"
+            )
     print(f"  {'':<34} {note} before, {load_note()} after")
 
 
@@ -253,8 +269,15 @@ def main() -> None:
         "--ahead", type=int, default=0, help="repeats of the replay's frame loop, ahead vs in line"
     )
     parser.add_argument("--no-commands", action="store_true", help="skip run/replay/cold")
+    parser.add_argument(
+        "--tree",
+        type=Path,
+        action="append",
+        help="run the commands from this tree (repeatable: interleaved A/B); default this one",
+    )
     args = parser.parse_args()
-    env = {**os.environ, "PYTHONPATH": str(ROOT)}
+    trees = [tree.resolve() for tree in args.tree] if args.tree else [ROOT]
+    envs = {tree: {**os.environ, "PYTHONPATH": str(tree)} for tree in trees}
     print(f"fogsim run {args.scenario} from {ROOT}, {args.repeats} repeats, {os.cpu_count()} cores")
     if args.overlap:
         overlap(args.scenario, args.overlap)
@@ -266,37 +289,37 @@ def main() -> None:
         return
     with tempfile.TemporaryDirectory() as tmp:
         out = str(Path(tmp) / "out")
-        fogsim(["run", args.scenario, "--out", out, "--quiet"], env)  # caches warm first
-        repeat(
-            "run",
-            args.repeats,
-            lambda: fogsim(["run", args.scenario, "--out", out, "--quiet"], env),
-            ("wall", "cpu", "teardown", *(f"cpu {name}" for name in THREADS)),
-        )
+        run = ["run", args.scenario, "--out", out, "--quiet"]
+        for tree in trees:
+            fogsim(run, envs[tree], tree)  # caches warm first
+        figures = ("wall", "cpu", "teardown", *(f"cpu {name}" for name in THREADS))
+        repeat("run", args.repeats, lambda tree: fogsim(run, envs[tree], tree), figures, trees)
         if args.replay is not None:
             replay = ["run", "--replay", str(args.replay.resolve()), "--out", out, "--quiet"]
             repeat(
                 "replay",
                 args.repeats,
-                lambda: fogsim(replay, env),
-                ("wall", "cpu", "teardown", *(f"cpu {name}" for name in THREADS)),
+                lambda tree: fogsim(replay, envs[tree], tree),
+                figures,
+                trees,
             )
         if args.cold:
             repeat(
                 "cold",
                 args.cold,
-                lambda: cold(args.scenario, out, env),
+                lambda tree: cold(args.scenario, out, envs[tree], tree),
                 ("wall", "cpu", "teardown"),
+                trees,
             )
     if args.parts:
-        parts(args.scenario, args.repeats, env)
+        parts(args.scenario, args.repeats, {**os.environ, "PYTHONPATH": str(ROOT)})
 
 
-def cold(scenario: str, out: str, env: dict[str, str]) -> tuple[float, ...]:
-    """``fogsim run`` with empty numba and fogsim caches."""
+def cold(scenario: str, out: str, env: dict[str, str], tree: Path = ROOT) -> tuple[float, ...]:
+    """``fogsim run`` of ``tree`` with empty numba and fogsim caches."""
     with tempfile.TemporaryDirectory() as numba, tempfile.TemporaryDirectory() as cache:
         cold_env = {**env, "NUMBA_CACHE_DIR": numba, "FOGSIM_CACHE": cache}
-        return fogsim(["run", scenario, "--out", out, "--quiet"], cold_env)
+        return fogsim(["run", scenario, "--out", out, "--quiet"], cold_env, tree)
 
 
 if __name__ == "__main__":
