@@ -156,6 +156,10 @@ class MapperParams:
         floor_pass_min_rays: Rays that must have reached a floor (ended on it or passed
             through it) before `floor_pass_fraction` judges it: 20, so that one or two noisy
             rays do not take a floor seen a few times. Only judged floors are affected.
+        edge_band_m: Beyond the paper: a floor is unknown when one of its 8 neighbours is a
+            floor more than this above or below it, or an obstacle more than ``delta_m``
+            above it (`mapper.fog`): the edge between them lies in one of the two cells, and
+            the camera pose's error moves it a cell either way. FIGURES. 0 = off (the paper).
         obstacle_margin_cells: Beyond the paper: eq. 11 compares a cell's floor with the
             highest obstacle top (eq. 10) within this many cells of it (`mapper.fog`), so a
             floor beside something more than ``delta_m`` above it is an obstacle. The truth
@@ -196,6 +200,7 @@ class MapperParams:
     discretize_rays: bool = False
     floor_pass_fraction: float = 0.2
     floor_pass_min_rays: int = 20
+    edge_band_m: float = 0.02
     obstacle_margin_cells: int = 0
 
     def __post_init__(self) -> None:
@@ -235,7 +240,7 @@ class MapperParams:
         check("p_max", float, "in (0.5, 1)", lambda v: 0.5 < v < 1.0)
         check("nu", float, "in [0, 1]", lambda v: 0.0 <= v <= 1.0)
         check("floor_pass_fraction", float, "in [0, 1) (0: off)", lambda v: 0.0 <= v < 1.0)
-        for name in ("eps_m", "delta_m", "free_margin_m"):
+        for name in ("eps_m", "delta_m", "free_margin_m", "edge_band_m"):
             check(name, float, "a finite float >= 0 [m]", lambda v: math.isfinite(v) and v >= 0)
         check("max_range_m", float, "a float > 0 [m] (inf: no limit)", lambda v: v > 0)
         for name in ("clear_outside", "discretize_rays"):

@@ -138,13 +138,14 @@ def test_the_mapper_takes_the_margin_from_its_params():
 
     A floor patch at 0 over x 0.6..1.0 (cells 65..74), an obstacle 0.055 m high filling cell
     (70, 50) (x 0.80..0.84, y 0..0.04). Margin 0: its neighbours are floor (the paper's rule);
-    margin 1: the 8 cells around it are obstacles at its top, cells two away stay floor.
+    margin 1: the 8 cells around it are obstacles at its top, cells two away stay floor. The
+    edge band is off (it would make the floor beside the obstacle unknown).
     """
     sensor = np.array([0.0, 0.0, 0.55])
     labels = {}
     for margin in (0, 1):
         rng = np.random.default_rng(2)
-        m = FloorObstacleMapper(MapperParams(obstacle_margin_cells=margin))
+        m = FloorObstacleMapper(MapperParams(obstacle_margin_cells=margin, edge_band_m=0.0))
         for _ in range(10):
             n = 600
             floor_pts = np.column_stack(
