@@ -56,26 +56,20 @@ def _highest_within(obstacle: NDArray[np.float64], ix: int, iy: int, margin: int
 
 @numba.njit(cache=True, inline="always")
 def _label(
-    obstacle: NDArray[np.float64],
-    floor: NDArray[np.float64],
-    cover_ends: NDArray[np.int32],
-    cover_passes: NDArray[np.int32],
-    ix: int,
-    iy: int,
+    top: float,
+    hf: float,
+    ends: int,
+    passes: int,
     delta: float,
     min_rays: int,
     pass_fraction: float,
-    margin: int,
 ) -> tuple[np.int8, float]:
-    """Eq. 11 with the cover check and the margin for one cell: (type, height), no edge band."""
-    top = obstacle[ix, iy]
-    hf = floor[ix, iy]
-    if margin > 0 and not np.isnan(hf) and not top > hf + delta:
-        beside = _highest_within(obstacle, ix, iy, margin)
-        if beside > hf + delta:
-            top = beside
-    passes = cover_passes[ix, iy]
-    reached = cover_ends[ix, iy] + passes
+    """Eq. 11 with the cover check for one cell: (type, height), before the edge band.
+
+    Scalars in and out: an inlined helper taking the maps costs reference counting per call
+    (measured: 18 → 96 µs for a 50 × 50 area).
+    """
+    reached = ends + passes
     covered = not (pass_fraction > 0.0 and reached >= min_rays and passes > pass_fraction * reached)
     if not np.isnan(top) and (np.isnan(hf) or top > hf + delta):
         return _OBSTACLE, top
@@ -155,10 +149,15 @@ def update_fog_area(
     heights = np.empty((wx1 - wx0, wy1 - wy0))
     for ix in range(wx0, wx1):
         for iy in range(wy0, wy1):
+            top = obstacle[ix, iy]
+            hf = floor[ix, iy]
+            if margin > 0 and not np.isnan(hf) and not top > hf + delta:
+                beside = _highest_within(obstacle, ix, iy, margin)
+                if beside > hf + delta:
+                    top = beside
             kinds[ix - wx0, iy - wy0], heights[ix - wx0, iy - wy0] = _label(
-                obstacle, floor, cover_ends, cover_passes, ix, iy, delta, min_rays,
-                pass_fraction, margin,
-            )  # fmt: skip
+                top, hf, cover_ends[ix, iy], cover_passes[ix, iy], delta, min_rays, pass_fraction
+            )
     for ix in range(max(ix0 - ring, 0), min(ix1 + ring, nx)):
         for iy in range(max(iy0 - ring, 0), min(iy1 + ring, ny)):
             i, j = ix - wx0, iy - wy0
