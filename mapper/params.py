@@ -159,7 +159,16 @@ class MapperParams:
         edge_band_m: Beyond the paper: a floor is unknown when one of its 8 neighbours is a
             floor more than this above or below it, or an obstacle more than ``delta_m``
             above it (`mapper.fog`): the edge between them lies in one of the two cells, and
-            the camera pose's error moves it a cell either way. FIGURES. 0 = off (the paper).
+            the camera pose's error (stage: 23 mm median, 45 mm worst) moves it a cell
+            either way from frame to frame, so neither cell is a floor to step on. 0.02 m,
+            the scores' safety tolerance: a smaller jump is within it. Replays of seeds
+            1–8, depth, mean (worst): stage unsafe cells 44.2 (72) → 12.2 (26), obstacle
+            recall 85.7 (74.8) → 97.0 (91.3) %, floor precision 99.7 (99.4) → 99.9 (99.8) %,
+            floor recall 99.4 (99.2) → 99.4 (99.1) %, 3.4 % fewer cells labelled, Table I
+            rows within 0.06 mm of before; stage_down 25.0 (59) → 2.5 (9), recall 100 %.
+            Step edges move up to a cell (the band takes a cell on each side). With the true
+            camera pose the stage has 12.1 (21) unsafe cells *without* the band. 0 = off
+            (the paper).
         obstacle_margin_cells: Beyond the paper: eq. 11 compares a cell's floor with the
             highest obstacle top (eq. 10) within this many cells of it (`mapper.fog`), so a
             floor beside something more than ``delta_m`` above it is an obstacle. The truth
