@@ -13,9 +13,10 @@ Conventions (heights in world metres, NaN = invalid):
   compares the floor with the highest ``h_o`` over the ``(2m + 1)²`` cells around it: a floor
   beside something more than δ above it — a box, the top of a step or sill whose edge may lie
   inside this cell — is an obstacle with that height (0 = the paper).
-- Beyond the paper, a floor beside an edge is unknown (`MapperParams.edge_band_m`): when one
-  of its 8 neighbours is a floor more than ``edge_band_m`` above or below it, or an obstacle
-  more than δ above it (both as eq. 11 and the cover check label the neighbour). The edge lies
+- Beyond the paper, a floor beside an edge is unknown: when one of its 8 neighbours is an
+  obstacle more than δ above it (`MapperParams.unknown_beside_obstacles`) or, optionally, a
+  floor more than `MapperParams.edge_band_m` above or below it (both as eq. 11 and the cover
+  check label the neighbour). The edge lies
   within a cell of their common boundary, but the camera pose's error (1–4 cm at the stage's
   ranges) and the segmentation's snapping move a surface's points a cell either way from frame
   to frame, so the map cannot tell which of the two cells holds it — and a cell an edge crosses
@@ -80,16 +81,22 @@ def _label(
 
 @numba.njit(cache=True, inline="always")
 def _beside_edge(
-    kinds: NDArray[np.int8], heights: NDArray[np.float64], i: int, j: int, delta: float, band: float
+    kinds: NDArray[np.int8],
+    heights: NDArray[np.float64],
+    i: int,
+    j: int,
+    delta: float,
+    band: float,
+    beside_obstacles: bool,
 ) -> bool:
     """Whether the floor at ``(i, j)`` of the labels has a neighbour putting it in the band."""
     hf = heights[i, j]
     for ki in range(max(i - 1, 0), min(i + 2, kinds.shape[0])):
         for kj in range(max(j - 1, 0), min(j + 2, kinds.shape[1])):
             kind = kinds[ki, kj]
-            if kind == _FLOOR and abs(heights[ki, kj] - hf) > band:  # itself: never
+            if band > 0.0 and kind == _FLOOR and abs(heights[ki, kj] - hf) > band:  # itself: never
                 return True
-            if kind == _OBSTACLE and heights[ki, kj] > hf + delta:
+            if beside_obstacles and kind == _OBSTACLE and heights[ki, kj] > hf + delta:
                 return True
     return False
 
@@ -115,6 +122,7 @@ def update_fog_area(
     pass_fraction: float,
     margin: int = 0,
     band: float = 0.0,
+    beside_obstacles: bool = False,
 ) -> None:
     """Recompute ``obstacle`` (eq. 10) and the FOG (eq. 11) in ``[ix0, ix1) × [iy0, iy1)``.
 
@@ -127,7 +135,9 @@ def update_fog_area(
     the area too (clipped to the grid): their windows reach into it. ``obstacle`` outside the
     area is current, as only the area's columns changed.
 
-    With ``band`` > 0 (`MapperParams.edge_band_m`) a floor is unknown beside an edge (module
+    With ``band`` > 0 (`MapperParams.edge_band_m`) a floor is unknown beside a floor more than
+    ``band`` above or below it, with ``beside_obstacles``
+    (`MapperParams.unknown_beside_obstacles`) beside an obstacle more than δ above it (module
     docstring). The neighbours' labels are recomputed from the maps (never read from
     ``fog_types``, which holds banded labels), so the result does not depend on the order
     of the cells; the FOG is recomputed ``m + 1`` cells beyond the area.
@@ -141,8 +151,9 @@ def update_fog_area(
                 k_top = k if og[ix, iy, k] > occ_level else k_top
             obstacle[ix, iy] = z_min + (k_top + 1) * layer if k_top >= 0 else np.nan
     # The cells recomputed, and around them (with the band) their neighbours' labels.
-    ring = margin + 1 if band > 0.0 else margin
-    reach = ring + 1 if band > 0.0 else ring
+    banded = band > 0.0 or beside_obstacles
+    ring = margin + 1 if banded else margin
+    reach = ring + 1 if banded else ring
     wx0, wx1 = max(ix0 - reach, 0), min(ix1 + reach, nx)
     wy0, wy1 = max(iy0 - reach, 0), min(iy1 + reach, ny)
     kinds = np.empty((wx1 - wx0, wy1 - wy0), dtype=np.int8)
@@ -162,9 +173,9 @@ def update_fog_area(
         for iy in range(max(iy0 - ring, 0), min(iy1 + ring, ny)):
             i, j = ix - wx0, iy - wy0
             if (
-                band > 0.0
+                banded
                 and kinds[i, j] == _FLOOR
-                and _beside_edge(kinds, heights, i, j, delta, band)
+                and _beside_edge(kinds, heights, i, j, delta, band, beside_obstacles)
             ):
                 fog_types[ix, iy] = _UNKNOWN
                 fog_heights[ix, iy] = np.nan

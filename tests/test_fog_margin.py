@@ -44,7 +44,7 @@ def surfaces_grid(heights_m, ny=3, tops_m=None):
     return og, floor
 
 
-def fog(og, floor, margin=0, area=None, types=None, band=0.0, ends=None, passes=None):
+def fog(og, floor, margin=0, area=None, types=None, band=0.0, beside=False, ends=None, passes=None):
     """Types and heights after `update_fog_area` over ``area`` (default: the whole grid);
     ``types`` pre-fills the FOG (default −1: no label, to see which cells were written). The
     cover check has its default parameters and, unless given, no rays counted (off)."""
@@ -59,7 +59,7 @@ def fog(og, floor, margin=0, area=None, types=None, band=0.0, ends=None, passes=
     update_fog_area(
         og, floor, obstacle, types, heights, P.occ_threshold_level, Z0, L, P.delta_m,
         ix0, ix1, iy0, iy1, ends, passes, P.floor_pass_min_rays, P.floor_pass_fraction,
-        margin, band,
+        margin, band, beside,
     )  # fmt: skip
     return types, heights
 
@@ -152,13 +152,15 @@ def test_the_mapper_takes_the_margin_from_its_params():
     A floor patch at 0 over x 0.6..1.0 (cells 65..74), an obstacle 0.055 m high filling cell
     (70, 50) (x 0.80..0.84, y 0..0.04). Margin 0: its neighbours are floor (the paper's rule);
     margin 1: the 8 cells around it are obstacles at its top, cells two away stay floor. The
-    edge band is off (it would make the floor beside the obstacle unknown).
+    unknown beside obstacles is off (it would make the floor beside the obstacle unknown).
     """
     sensor = np.array([0.0, 0.0, 0.55])
     labels = {}
     for margin in (0, 1):
         rng = np.random.default_rng(2)
-        m = FloorObstacleMapper(MapperParams(obstacle_margin_cells=margin, edge_band_m=0.0))
+        m = FloorObstacleMapper(
+            MapperParams(obstacle_margin_cells=margin, unknown_beside_obstacles=False)
+        )
         for _ in range(10):
             n = 600
             floor_pts = np.column_stack(
@@ -193,12 +195,12 @@ def test_sill_whose_near_edge_cell_took_the_sill_height():
     # the near edge cell 37 mm off the ground under most of it.
     floors = [0.0, 0.0, 0.037, 0.037, 0.037, 0.0, 0.0, 0.0]
     og, floor = surfaces_grid(floors)
-    types, heights = fog(og, floor, band=BAND)
+    types, heights = fog(og, floor, band=BAND, beside=True)
     # Jumps of 37 mm between cells 1|2 and 4|5: the four cells beside them are unknown.
     assert types[:, 1].tolist() == [F, U, U, F, U, U, F, F]
     assert np.isnan(heights[[1, 2, 4, 5], 1]).all()
     assert heights[3, 1] == 0.037 and heights[0, 1] == 0.0
-    types0, heights0 = fog(og, floor)  # the paper
+    types0, heights0 = fog(og, floor, beside=True)  # the default: no floor band
     assert types0[:, 1].tolist() == [F] * 8 and np.array_equal(heights0, floor)
 
 
@@ -206,11 +208,11 @@ def test_jumps_within_the_band_stay_floor():
     # Steps of 20 mm (not more than the band: floor), 21 mm (unknown on both sides), and
     # the diagonal neighbour counts as much as the others.
     og, floor = surfaces_grid([0.0, 0.02, 0.02, 0.041, 0.041])
-    types, _ = fog(og, floor, band=BAND)
+    types, _ = fog(og, floor, band=BAND, beside=True)
     assert types[:, 1].tolist() == [F, F, U, U, F]
     og, floor = surfaces_grid([0.0, 0.0, 0.0], ny=3)
     floor[2, 2] = 0.03  # one cell, its diagonal neighbour (1, 1)
-    types, _ = fog(og, floor, band=BAND)
+    types, _ = fog(og, floor, band=BAND, beside=True)
     assert types[1, 1] == U and types[0, 0] == F and types[2, 2] == U
     assert types[0, 2] == F  # two cells from (2, 2)
 
@@ -220,8 +222,11 @@ def test_floor_beside_an_obstacle_more_than_delta_above_it():
     # cells: its neighbours are unknown, it stays an obstacle at its top, cells two away floor.
     nan = np.nan
     og, floor = surfaces_grid([0.0, 0.0, nan, 0.0, 0.0], tops_m=[nan, nan, 0.25, nan, nan])
-    types, heights = fog(og, floor, band=BAND)
+    types, heights = fog(og, floor, band=BAND, beside=True)
     assert types[:, 1].tolist() == [F, U, OB, U, F]
+    only_obstacles, _ = fog(og, floor, beside=True)  # the default: no floor band
+    assert np.array_equal(only_obstacles, types)
+    assert fog(og, floor)[0][:, 1].tolist() == [F, F, OB, F, F]  # the paper
     assert heights[2, 1] == pytest.approx(Z0 + (layer_of(0.25) + 1) * L) == pytest.approx(0.26)
 
 
@@ -230,7 +235,7 @@ def test_obstacle_within_delta_of_the_higher_floor_bands_only_the_lower():
     # than δ above the ground but not above 0.122 + 0.05, so the platform stays floor.
     nan = np.nan
     og, floor = surfaces_grid([0.0, 0.0, nan, 0.122, 0.122], tops_m=[nan, nan, 0.12, nan, nan])
-    types, _ = fog(og, floor, band=BAND)
+    types, _ = fog(og, floor, band=BAND, beside=True)
     assert types[:, 1].tolist() == [F, U, OB, F, F]
 
 
@@ -241,7 +246,7 @@ def test_neighbour_the_cover_check_makes_unknown_bands_nothing():
     ends = np.zeros(floor.shape, dtype=np.int32)
     passes = np.zeros(floor.shape, dtype=np.int32)
     ends[2, :], passes[2, :] = 20, 10
-    types, _ = fog(og, floor, band=BAND, ends=ends, passes=passes)
+    types, _ = fog(og, floor, band=BAND, beside=True, ends=ends, passes=passes)
     assert types[:, 1].tolist() == [F, F, U, F, F]
 
 
@@ -252,10 +257,10 @@ def test_ring_around_the_area_is_relabelled_as_a_whole_grid_update_would():
     # whole-grid update gives the same labels: the neighbours' labels come from the maps, not
     # from the FOG being written.
     og, floor = surfaces_grid([0.0, 0.0, 0.0, 0.061, 0.061, 0.061, 0.0, 0.0, 0.0])
-    types, heights = fog(og, floor, band=BAND, area=(4, 5, 0, 3))
+    types, heights = fog(og, floor, band=BAND, beside=True, area=(4, 5, 0, 3))
     assert types[:, 1].tolist() == [-1, -1, -1, U, F, U, -1, -1, -1]
     assert heights[4, 1] == 0.061
-    full, _ = fog(og, floor, band=BAND)
+    full, _ = fog(og, floor, band=BAND, beside=True)
     assert np.array_equal(full[3:6], types[3:6])
     assert full[:, 1].tolist() == [F, F, U, U, F, U, U, F, F]
 
@@ -266,5 +271,5 @@ def test_band_validated(band):
         MapperParams(edge_band_m=band)
 
 
-def test_band_default():
-    assert P.edge_band_m == 0.02
+def test_band_defaults():
+    assert P.edge_band_m == 0.0 and P.unknown_beside_obstacles is True
