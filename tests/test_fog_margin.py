@@ -200,7 +200,7 @@ def test_sill_whose_near_edge_cell_took_the_sill_height():
     assert types[:, 1].tolist() == [F, U, U, F, U, U, F, F]
     assert np.isnan(heights[[1, 2, 4, 5], 1]).all()
     assert heights[3, 1] == 0.037 and heights[0, 1] == 0.0
-    types0, heights0 = fog(og, floor, beside=True)  # the default: no floor band
+    types0, heights0 = fog(og, floor, beside=True)  # no floor band
     assert types0[:, 1].tolist() == [F] * 8 and np.array_equal(heights0, floor)
 
 
@@ -224,7 +224,7 @@ def test_floor_beside_an_obstacle_more_than_delta_above_it():
     og, floor = surfaces_grid([0.0, 0.0, nan, 0.0, 0.0], tops_m=[nan, nan, 0.25, nan, nan])
     types, heights = fog(og, floor, band=BAND, beside=True)
     assert types[:, 1].tolist() == [F, U, OB, U, F]
-    only_obstacles, _ = fog(og, floor, beside=True)  # the default: no floor band
+    only_obstacles, _ = fog(og, floor, beside=True)  # no floor band
     assert np.array_equal(only_obstacles, types)
     assert fog(og, floor)[0][:, 1].tolist() == [F, F, OB, F, F]  # the paper
     assert heights[2, 1] == pytest.approx(Z0 + (layer_of(0.25) + 1) * L) == pytest.approx(0.26)
@@ -272,4 +272,4 @@ def test_band_validated(band):
 
 
 def test_band_defaults():
-    assert P.edge_band_m == 0.0 and P.unknown_beside_obstacles is True
+    assert P.edge_band_m == 0.0 and P.unknown_beside_obstacles is False  # the paper
