@@ -242,6 +242,8 @@ class FloorObstacleMapper:
             p.floor_pass_min_rays,
             p.floor_pass_fraction,
             p.obstacle_margin_cells,
+            p.edge_band_m,
+            p.unknown_beside_obstacles,
         )
         return UpdateResult(
             AffectedArea(int(ix0), int(ix1), int(iy0), int(iy1)),
