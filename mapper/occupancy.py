@@ -713,6 +713,8 @@ def insert_with_scratch(
 # ---------------------------------------------------------------- column kernel (nz <= 64)
 #: Largest ``nz`` the column kernel handles (one bit per layer in a uint64 word).
 MAX_COLUMN_LAYERS = 64
+#: ``log2(MAX_COLUMN_LAYERS)``: the row shift of `layer_range_masks`.
+_LAYER_BITS = 6
 
 
 def column_mask_dtype(nz: int) -> np.dtype:
@@ -724,14 +726,26 @@ def column_mask_dtype(nz: int) -> np.dtype:
 
 
 def layer_range_masks(nz: int) -> NDArray:
-    """(nz, nz) table: ``masks[a, b]`` has the bits of layers ``min(a, b) … max(a, b)`` set."""
+    """Flat table of the layer runs: ``masks[a * 64 + b]`` has layers ``min(a, b) … max(a, b)``.
+
+    ``(nz * MAX_COLUMN_LAYERS,)`` words (`column_mask_dtype`), read by `_range_mask`. A row of
+    64 entries whatever ``nz``: the index is a shift and an add, where a ``(nz, nz)`` table's
+    runtime stride costs a multiplication and reloads on every crossing of the walk (the
+    stage's insert 3 % faster compiled for the host, the same with ``generic``).
+    """
     dtype = column_mask_dtype(nz)
-    masks = np.zeros((nz, nz), dtype=dtype)
+    masks = np.zeros(nz * MAX_COLUMN_LAYERS, dtype=dtype)
     for a in range(nz):
         for b in range(nz):
             lo, hi = min(a, b), max(a, b)
-            masks[a, b] = sum(1 << k for k in range(lo, hi + 1))
+            masks[(a << _LAYER_BITS) + b] = sum(1 << k for k in range(lo, hi + 1))
     return masks
+
+
+@numba.njit(cache=True, inline="always")
+def _range_mask(range_masks, a, b):
+    """The word with layers ``min(a, b) … max(a, b)`` set (``a, b`` in ``0 … nz - 1``)."""
+    return range_masks[(np.uint64(a) << np.uint64(_LAYER_BITS)) + np.uint64(b)]
 
 
 def update_table(hit_table: NDArray[np.uint8], miss_table: NDArray[np.uint8]) -> NDArray[np.uint8]:
@@ -789,14 +803,14 @@ def _walk_columns(miss_cols, range_masks, c, z_entry, axis_x, axis_y, z_line, z_
     while rem_x > 0 and rem_y > 0:
         if tmx <= tmy:
             z_exit = int(min(max(sz + tmx * dz, z_lo), z_hi))
-            miss_cols[np.uint64(c)] |= range_masks[np.uint64(z_entry), np.uint64(z_exit)]
+            miss_cols[np.uint64(c)] |= _range_mask(range_masks, z_entry, z_exit)
             z_entry = z_exit
             c += dcol_x
             tmx += tdx
             rem_x -= 1
         else:
             z_exit = int(min(max(sz + tmy * dz, z_lo), z_hi))
-            miss_cols[np.uint64(c)] |= range_masks[np.uint64(z_entry), np.uint64(z_exit)]
+            miss_cols[np.uint64(c)] |= _range_mask(range_masks, z_entry, z_exit)
             z_entry = z_exit
             c += dcol_y
             tmy += tdy
@@ -807,7 +821,7 @@ def _walk_columns(miss_cols, range_masks, c, z_entry, axis_x, axis_y, z_line, z_
         t_exit, t_step, rem, step = tmy, tdy, rem_y, dcol_y
     for _ in range(rem):
         z_exit = int(min(max(sz + t_exit * dz, z_lo), z_hi))
-        miss_cols[np.uint64(c)] |= range_masks[np.uint64(z_entry), np.uint64(z_exit)]
+        miss_cols[np.uint64(c)] |= _range_mask(range_masks, z_entry, z_exit)
         z_entry = z_exit
         c += step
         t_exit += t_step
@@ -922,7 +936,7 @@ def insert_frame_columns(
             ix1 = max(ix1, ix)
             iy0 = min(iy0, iy)
             iy1 = max(iy1, iy)
-            hit_cols[np.uint64(ix * ny + iy)] |= range_masks[np.uint64(iz), np.uint64(iz)]
+            hit_cols[np.uint64(ix * ny + iy)] |= _range_mask(range_masks, iz, iz)
             if not cast:
                 continue
             clip = _clip_ray(ox, oy, oz, gx, gy, gz, ix, iy, iz, nx, ny, nz, free_margin, length)
@@ -950,10 +964,10 @@ def insert_frame_columns(
         # The last column: its layers down to the end (or stop) cell. The end cell itself is
         # only marked when it is a stop cell (an end cell is hit, and the hit wins anyway).
         if stop_cleared:
-            miss_cols[np.uint64(c)] |= range_masks[np.uint64(z_entry), np.uint64(ez)]
+            miss_cols[np.uint64(c)] |= _range_mask(range_masks, z_entry, ez)
         elif z_entry != ez:
             z_before_end = ez - 1 if ez > z_entry else ez + 1
-            miss_cols[np.uint64(c)] |= range_masks[np.uint64(z_entry), np.uint64(z_before_end)]
+            miss_cols[np.uint64(c)] |= _range_mask(range_masks, z_entry, z_before_end)
     n_touched = _apply_columns(flat, nz, ny, hit_cols, miss_cols, table, ix0, ix1, iy0, iy1)
     return (
         used,

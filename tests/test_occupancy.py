@@ -11,8 +11,10 @@ from mapper.occupancy import (
     NONFINITE,
     OUTSIDE,
     _clamped_cell,
+    _range_mask,
     bayes_update,
     grid_point,
+    layer_range_masks,
     lookup_tables,
     traversed_cells,
 )
@@ -36,6 +38,20 @@ def test_tables_by_hand():
     assert (miss[128], miss[77], miss[40]) == (77, 40, 31)
     assert hit[248] == 248 and miss[31] == 31
     assert hit.max() == 248 and miss.min() == 31
+
+
+def test_layer_range_masks_by_hand():
+    """Flat rows of 64: entry a*64 + b holds layers min(a, b) … max(a, b), either order."""
+    masks = layer_range_masks(4)
+    assert masks.dtype == np.uint8 and masks.shape == (4 * 64,)
+    assert masks[1 * 64 + 3] == masks[3 * 64 + 1] == 0b1110
+    assert masks[2 * 64 + 2] == 0b0100
+    assert masks[0 * 64 + 3] == 0b1111
+    assert not masks[[a * 64 + b for a in range(4) for b in range(4, 64)]].any()
+    assert _range_mask(masks, 3, 0) == 0b1111 and _range_mask(masks, 1, 2) == 0b0110
+    tall = layer_range_masks(64)
+    assert tall.dtype == np.uint64 and tall[0 * 64 + 63] == np.uint64(2**64 - 1)
+    assert tall[63 * 64 + 62] == np.uint64(3 << 62)
 
 
 def test_tables_monotone_and_never_stall():
