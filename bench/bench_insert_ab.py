@@ -7,7 +7,9 @@ mapper's inputs captured: `bench_mapper.stage_frames`), each on its own grid, re
 mapper is before every update. Per frame the order alternates, and after it both grids and both
 return values must be identical (the run stops at the first difference: the change must give
 the same map bit for bit). The figures are each kernel's median, 10th and 90th percentile per
-frame over every frame of every recording, with ``os.getloadavg()`` before and after.
+frame over every frame of every recording (CPU time of the calling thread, ``time.thread_time``:
+on a loaded machine wall time counts the waits for a core), with ``os.getloadavg()`` before and
+after.
 
 Code generation is numba's default (the host CPU) unless ``NUMBA_CPU_NAME=generic`` is set (give
 it its own ``NUMBA_CACHE_DIR``); run once each way.
@@ -80,7 +82,7 @@ class Kernel:
             scroll_xy(self.og, *shift, 128)
         p = self.params
         point_cell = np.empty(len(frame.points), dtype=np.int64)
-        t0 = time.perf_counter()
+        t0 = time.thread_time()
         result = self.module.insert_frame_columns(
             frame.points,
             frame.sensor_origin,
@@ -96,7 +98,7 @@ class Kernel:
             bool(p.clear_outside),
             *self.extra,
         )
-        return time.perf_counter() - t0, result, point_cell
+        return time.thread_time() - t0, result, point_cell
 
 
 def compare(frame_set: FrameSet, base: ModuleType, discretize: bool) -> dict[str, list[float]]:
