@@ -1696,9 +1696,9 @@ def floor_statistics(
         tolerance_m: added to sigma_z for the RMS (exact data) [m].
 
     Returns:
-        pixel counts (F,) int64, heights (F,) [m] (weighted mean z of the grown pixels), RMS
-        height residual over all pixels in units of sqrt(sigma_z² + tolerance_m²), squared
-        residuals clipped at 9 (F,),
+        pixel counts (F,) int64, heights (F,) [m] (the grown pixels' level fit in inverse
+        depth, `_level_height`), RMS height residual over all pixels in units of
+        sqrt(sigma_z² + tolerance_m²), squared residuals clipped at 9 (F,),
         footprint widths (F, 2) minor first [m] (sqrt(12)·std of the points moved onto the
         height along their rays) and footprint areas (F,) [m²] (pixel footprints on a
         horizontal plane, incidence capped at cos 0.1) and slopes (F,) ``|(a, b)|`` of the
@@ -1706,8 +1706,9 @@ def floor_statistics(
         carry no depth noise).
     """
     height, width = labels.shape
-    w_sum = np.zeros((n_floors, 2))  # all grown pixels, interior ones
-    wz_sum = np.zeros((n_floors, 2))
+    # Normal equations of the level model in inverse depth, q = ray_z·u with u = 1/(h − origin_z)
+    # (see `_level_height`): Σw·ray_z², Σw·ray_z·q over all grown pixels and interior ones.
+    normal_sums = np.zeros((n_floors, 2, 2))
     has_interior = np.zeros(n_floors, np.bool_)
     for r in range(height):
         for c in range(width):
@@ -1716,18 +1717,17 @@ def floor_statistics(
                 has_interior[f] = True
             f = grown[r, c]
             if f >= 0:
-                w = 1.0 / (sigma_z[r, c] * sigma_z[r, c])
+                ray_z = rays[r, c, 2]
+                d = depth[r, c]
+                # 1/σ² of the inverse depth: depth noise σ_z/|ray_z| along the ray, over d².
+                w = (d * d * ray_z / sigma_z[r, c]) ** 2
                 k = 1 if interior[r, c] else 0
-                w_sum[f, k] += w
-                wz_sum[f, k] += w * points[r, c, 2]
+                normal_sums[f, k, 0] += w * ray_z * ray_z
+                normal_sums[f, k, 1] += w * ray_z / d
     heights = np.zeros(n_floors)
     for f in range(n_floors):
-        if w_sum[f, 1] > 0.0:
-            heights[f] = wz_sum[f, 1] / w_sum[f, 1]
-        elif w_sum[f, 0] > 0.0:
-            heights[f] = wz_sum[f, 0] / w_sum[f, 0]
-        else:
-            heights[f] = np.nan
+        k = 1 if normal_sums[f, 1, 0] > 0.0 else 0
+        heights[f] = _level_height(normal_sums[f, k, 0], normal_sums[f, k, 1], origin_z)
     used = np.zeros(n_floors, np.int64)
     counts = np.zeros(n_floors, np.int64)
     square = np.zeros(n_floors)
@@ -1793,6 +1793,33 @@ def floor_statistics(
         extents[f, 0] = math.sqrt(12.0 * max(half - root, 0.0))
         extents[f, 1] = math.sqrt(12.0 * max(half + root, 0.0))
     return counts, heights, rms, extents, areas, slope
+
+
+@numba.njit(cache=True, no_cfunc_wrapper=True, nogil=True)
+def _level_height(sum_ray_z2, sum_ray_z_q, origin_z):
+    """Height [m] of a level surface from its pixels' normal equations in inverse depth.
+
+    A pixel's ray (unit optical-axis component, z component ``ray_z``) meets the plane
+    ``z = h`` at depth ``(h − origin_z)/ray_z``: its inverse depth ``q = ray_z·u`` is linear in
+    ``u = 1/(h − origin_z)``. A stereo camera's noise is additive and unbiased in inverse depth
+    (disparity), so the weighted least squares ``u = Σw·ray_z·q / Σw·ray_z²`` is unbiased,
+    and ``h = origin_z + 1/u`` only by the square of u's standard error relative to u (a
+    region of n pixels: about σ_q²/(n·q²)). A weighted mean of the points' z is not: their
+    depth ``1/q`` is biased by ``d·(σ_q/q)²``, and weights ``1/σ_z²`` from the measured depths
+    (σ_z ∝ d²) favour the points measured too near — on a ground 1-2.5 m away under the depth
+    mode's noise 0.3 mm too high, which the ground shift passed to every other surface.
+
+    Args:
+        sum_ray_z2: Σw·ray_z² of the pixels (w: 1/σ² of their inverse depth).
+        sum_ray_z_q: Σw·ray_z·q.
+        origin_z: z of the camera centre [m].
+
+    Returns:
+        The height [m]; NaN without pixels (or with rays parallel to the plane only).
+    """
+    if not sum_ray_z2 > 0.0 or sum_ray_z_q == 0.0:
+        return np.nan
+    return origin_z + sum_ray_z2 / sum_ray_z_q
 
 
 @numba.njit(cache=True, no_cfunc_wrapper=True, nogil=True)
