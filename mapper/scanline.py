@@ -1672,19 +1672,34 @@ def region_interior(labels, margin_px):
 
 @numba.njit(cache=True, no_cfunc_wrapper=True, nogil=True)
 def floor_statistics(
-    labels, grown, interior, points, sigma_z, depth, rays, origin_z, fx, fy, n_floors, tolerance_m
+    labels,
+    grown,
+    interior,
+    height_interior,
+    points,
+    sigma_z,
+    depth,
+    rays,
+    origin_z,
+    fx,
+    fy,
+    n_floors,
+    tolerance_m,
 ):
     """Per-floor pixel statistics of the level regions.
 
-    Height, RMS and slope come from a region's *interior* pixels (`region_interior`) when it
-    has any, else from all of them: a stereo matcher's window blends the pixels at a region's
-    border with the neighbouring surface (a sill's far row reads 10-25 mm low, a tread's rows
-    next to its riser too), which would pull a narrow region's height and count as roughness.
+    RMS and slope come from a region's *interior* pixels (`region_interior`) when it has any,
+    else from all of them: a stereo matcher's window blends the pixels at a region's border
+    with the neighbouring surface (a sill's far row reads 10-25 mm low, a tread's rows next to
+    its riser too), which would count as roughness. The height comes from the pixels of
+    ``height_interior`` the same way: besides the blending, a region's border is where the
+    growing selects one-sidedly (see `SegmentationParams.floor_height_margin_px`).
 
     Args:
         labels: (H, W) floor of each pixel after the fill (-1 none, -2 invalid).
         grown: (H, W) floor of each pixel before the fill (its segments').
         interior: (H, W) bool, the pixel is in its region's interior (`region_interior`).
+        height_interior: (H, W) bool, the interior the height is taken from.
         points: (H, W, 3) points in the tilt-corrected robot frame [m].
         sigma_z: (H, W) their noise along z [m].
         depth: (H, W) measured depths [m].
@@ -1697,8 +1712,9 @@ def floor_statistics(
 
     Returns:
         pixel counts (F,) int64, heights (F,) [m] (the grown pixels' level fit in inverse
-        depth, `_level_height`), RMS height residual over all pixels in units of
-        sqrt(sigma_z² + tolerance_m²), squared residuals clipped at 9 (F,),
+        depth, `_level_height`), RMS height residual over all pixels (about the level fit of
+        the same pixels) in units of sqrt(sigma_z² + tolerance_m²), squared residuals clipped
+        at 9 (F,),
         footprint widths (F, 2) minor first [m] (sqrt(12)·std of the points moved onto the
         height along their rays) and footprint areas (F,) [m²] (pixel footprints on a
         horizontal plane, incidence capped at cos 0.1) and slopes (F,) ``|(a, b)|`` of the
@@ -1707,8 +1723,9 @@ def floor_statistics(
     """
     height, width = labels.shape
     # Normal equations of the level model in inverse depth, q = ray_z·u with u = 1/(h − origin_z)
-    # (see `_level_height`): Σw·ray_z², Σw·ray_z·q over all grown pixels and interior ones.
-    normal_sums = np.zeros((n_floors, 2, 2))
+    # (see `_level_height`): Σw·ray_z², Σw·ray_z·q over the grown pixels: all of them, the
+    # interior ones, those of the height's interior.
+    normal_sums = np.zeros((n_floors, 3, 2))
     has_interior = np.zeros(n_floors, np.bool_)
     for r in range(height):
         for c in range(width):
@@ -1721,13 +1738,17 @@ def floor_statistics(
                 d = depth[r, c]
                 # 1/σ² of the inverse depth: depth noise σ_z/|ray_z| along the ray, over d².
                 w = (d * d * ray_z / sigma_z[r, c]) ** 2
-                k = 1 if interior[r, c] else 0
-                normal_sums[f, k, 0] += w * ray_z * ray_z
-                normal_sums[f, k, 1] += w * ray_z / d
+                for k, member in ((0, True), (1, interior[r, c]), (2, height_interior[r, c])):
+                    if member:
+                        normal_sums[f, k, 0] += w * ray_z * ray_z
+                        normal_sums[f, k, 1] += w * ray_z / d
     heights = np.zeros(n_floors)
+    rms_heights = np.zeros(n_floors)  # the reference of the RMS: its own pixels' level
     for f in range(n_floors):
-        k = 1 if normal_sums[f, 1, 0] > 0.0 else 0
+        k = 2 if normal_sums[f, 2, 0] > 0.0 else 0
         heights[f] = _level_height(normal_sums[f, k, 0], normal_sums[f, k, 1], origin_z)
+        k = 1 if normal_sums[f, 1, 0] > 0.0 else 0
+        rms_heights[f] = _level_height(normal_sums[f, k, 0], normal_sums[f, k, 1], origin_z)
     used = np.zeros(n_floors, np.int64)
     counts = np.zeros(n_floors, np.int64)
     square = np.zeros(n_floors)
@@ -1741,7 +1762,7 @@ def floor_statistics(
                 continue
             counts[f] += 1
             sigma = sigma_z[r, c]
-            residual = points[r, c, 2] - heights[f]
+            residual = points[r, c, 2] - rms_heights[f]
             counted = interior[r, c] or not has_interior[f]
             if counted:
                 used[f] += 1

@@ -12,6 +12,7 @@ error (−0.18 ± 0.08 mm here).
 from __future__ import annotations
 
 import math
+from dataclasses import replace
 
 import numpy as np
 from synthetic_depth import Box, add_stereo_noise, look_down_camera, render_scene
@@ -62,3 +63,34 @@ def test_camera_height_and_tilt_from_noisy_ground_are_unbiased():
         assert np.all(np.abs(mean) <= 3.0 * standard_error), (mean, standard_error)
     assert np.std(height_errors_m) < 1e-3  # the test resolves 0.25 mm
     assert np.degrees(np.abs(np.array(tilt_errors)).max()) < 0.2  # the 1° error was removed
+
+
+def _box_top_minus_ground_m(params: SegmentationParams, frames: int) -> np.ndarray:
+    """Height of the box top's level region above the ground's, minus the true 60 mm [m], per
+    frame: the box 0.45 m to the side, so its side face is in view beside the top."""
+    box = Box((0.9, 0.45), (0.3, 0.3, 0.06))
+    scene = render_scene(SMALL, CAMERA, [box])
+    top = (scene.box_index == 0) & scene.on_top
+    differences = []
+    for seed in range(frames):
+        rng = np.random.default_rng(seed)
+        depth = add_stereo_noise(scene.depth_m, SMALL.fx * BASELINE_M, DISPARITY_NOISE_PX, 0.0, rng)
+        result = segment_depth(depth, SMALL, CAMERA, params)
+        regions = result.labels_image("floor_region")
+        box_region = np.bincount(regions[top & (regions >= 0)]).argmax()
+        ground = int(np.argmin(np.abs(result.floors.heights_m)))
+        heights = result.floors.heights_m
+        differences.append(heights[box_region] - heights[ground] - box.top_z_m)
+    return np.array(differences)
+
+
+def test_box_top_height_is_unbiased_with_its_side_face_in_view():
+    """The side-face pixels just below the rim that join the top's region are left out of its
+    height (`floor_height_margin_px` 1): over 60 frames the top lies 60 mm above the ground
+    within 3 standard errors (−0.18 ± 0.12 mm); with every pixel counted it read 1.2 mm low."""
+    differences = _box_top_minus_ground_m(PARAMS, FRAMES)
+    standard_error = differences.std(ddof=1) / math.sqrt(FRAMES)
+    assert abs(differences.mean()) <= 3.0 * standard_error, (differences.mean(), standard_error)
+    assert standard_error < 0.15e-3
+    every_pixel = _box_top_minus_ground_m(replace(PARAMS, floor_height_margin_px=0), 20)
+    assert every_pixel.mean() < -0.5e-3  # the bias the margin removes, at this noise
