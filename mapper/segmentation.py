@@ -133,7 +133,14 @@ class SegmentationParams:
 
     Attributes:
         min_depth_m: depths below this are no measurement [m].
-        max_depth_m: depths above this are no measurement [m].
+        max_depth_m: depths above this are no measurement [m]; set it to the sensor's range
+            limit when the sensor cuts there itself. The cut is on the measured depth, so near
+            it only the pixels measured too near are left: the tilt's normals come from each
+            plane's pixels predicted well inside it (`scanline.plane_refits`). 10 (default):
+            beyond any indoor scene; fogsim's depth and stereo modes cut at the camera's
+            ``range_m`` (4 m), and with 10 here the stage's tilt read 0.38 mrad off in the
+            forward direction (depth mode, seed 1), which put the treads near the camera
+            0.4 mm high against the far ground in the map.
         noise_window_px: half width of the box (3 rows high) estimating local noise [px].
             Windows and passes are bounded by `mapper.limits.MAX_WINDOW_PX` and
             `mapper.limits.MAX_SEGMENTATION_PASSES` (their cost grows with them).
@@ -245,8 +252,9 @@ class SegmentationParams:
             pixels within this many sigma of the first least-squares fit (sigma: that fit's
             RMS residual, at least ``min_noise_m`` at the pixel's depth;
             `scanline.plane_refits`), so a stereo matcher's edge-fattened pixels don't tilt
-            it; everything else uses the first fit. 0 (default): off (a depth sensor without
-            a matching window). For fogsim's stereo head 1 (`fogsim.sim.camera.noise_model`).
+            it; everything else uses the first fit. 0 (default): no outlier test (a depth
+            sensor without a matching window; the refit still leaves out the pixels near
+            `max_depth_m`). For fogsim's stereo head 1 (`fogsim.sim.camera.noise_model`).
     """
 
     min_depth_m: float = 0.05
@@ -633,22 +641,21 @@ def segment_depth(
     rms = np.sqrt(plane_table[:, 3]) * centroids_camera[:, 2] ** 2
     # The noise is never below min_noise_m (exact data: no plane is infinitely certain).
     min_inv_sigma = params.min_noise_m / centroids_camera[:, 2] ** 2
-    # The tilt's normals come from the planes refitted without their outliers (if on).
-    tilt_table = plane_table
-    tilt_normals = normals
-    if params.plane_refit_sigma > 0.0:
-        tilt_table = scanline.plane_refits(
-            inv_depth,
-            x,
-            y,
-            new_id[grown_labels],
-            plane_table,
-            params.plane_refit_sigma,
-            params.min_noise_m,
-        )
-        tilt_normals = tilt_table[:, :3] / np.linalg.norm(tilt_table[:, :3], axis=1)[:, None]
-        tilt_normals = tilt_normals @ rotation.T
-        tilt_normals *= np.where(tilt_normals[:, 2] < 0.0, -1.0, 1.0)[:, None]
+    # The tilt's normals come from the planes refitted on their pixels clear of the range limit
+    # and (if on) without their outliers.
+    tilt_table = scanline.plane_refits(
+        inv_depth,
+        x,
+        y,
+        new_id[grown_labels],
+        plane_table,
+        params.plane_refit_sigma,
+        params.min_noise_m,
+        1.0 / params.max_depth_m,
+    )
+    tilt_normals = tilt_table[:, :3] / np.linalg.norm(tilt_table[:, :3], axis=1)[:, None]
+    tilt_normals = tilt_normals @ rotation.T
+    tilt_normals *= np.where(tilt_normals[:, 2] < 0.0, -1.0, 1.0)[:, None]
     normal_sigma_deg = _normal_sigma_deg(tilt_table, params.noise_correlation_factor, min_inv_sigma)
     # The tilt's planes are weighted by the information of their normals (1/σ²), not by area:
     # a far plane's footprint is large while its normal, under stereo noise, is poor.
