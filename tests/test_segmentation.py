@@ -491,7 +491,9 @@ def _edge_fattened_ground_normal_errors(refit_sigma, draws=20):
         depth[:, -2:] *= 0.7
         plane, _ = scanline.plane_fits(1.0 / depth, x, y, labels, 1)
         if refit_sigma > 0.0:
-            plane = scanline.plane_refits(1.0 / depth, x, y, labels, plane, refit_sigma, 0.0005, 0.0)
+            plane = scanline.plane_refits(
+                1.0 / depth, x, y, labels, plane, refit_sigma, 0.0005, 0.0
+            )
         unit = plane[0, :3] / np.linalg.norm(plane[0, :3])
         errors.append(math.degrees(math.acos(min(1.0, unit @ truth / np.linalg.norm(truth)))))
     return np.array(errors)
