@@ -139,9 +139,10 @@ class SegmentationParams:
             it only the pixels measured too near are left: the tilt's normals come from each
             plane's pixels predicted well inside it (`scanline.plane_refits`). 10 (default):
             beyond any indoor scene; fogsim's depth and stereo modes cut at the camera's
-            ``range_m`` (4 m), and with 10 here the stage's tilt read 0.38 mrad off in the
-            forward direction (depth mode, seed 1), which put the treads near the camera
-            0.4 mm high against the far ground in the map.
+            ``range_m`` (4 m): with 10 here the stage's tilt read −0.38 mrad forward (depth
+            mode, seed 1, every 4th frame; −0.15 with 4 here, the rest the treads' borders:
+            `plane_normal_margin_px`), which put the treads near the camera 0.4 mm high
+            against the far ground in the map.
         noise_window_px: half width of the box (3 rows high) estimating local noise [px].
             Windows and passes are bounded by `mapper.limits.MAX_WINDOW_PX` and
             `mapper.limits.MAX_SEGMENTATION_PASSES` (their cost grows with them).
