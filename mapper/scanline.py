@@ -45,6 +45,11 @@ _NO_GAP = np.int64(0)  # `_overlap`'s gap between segments of adjacent rows (mus
 _GROWING = np.bool_(True)  # `_segment_misfit` of a growing plane (its uncertainty counts)
 _SEED_TEST = np.bool_(False)  # `_segment_misfit` of a seed's own plane (segment noise only)
 
+#: How far [sigma] inside the sensor's range limit a pixel's predicted inverse depth must lie for
+#: `plane_refits` to count it: a pixel that far inside is lost to the cut with probability 0.13 %,
+#: which moves the mean of those kept by 0.004 sigma.
+RANGE_MARGIN_SIGMAS = 3.0
+
 
 @numba.njit(cache=True, no_cfunc_wrapper=True, nogil=True)
 def _box_mean(values, clip, half_rows, half_cols):
@@ -995,15 +1000,26 @@ def plane_fits(inv_depth, x, y, labels, n_planes):
 
 
 @numba.njit(cache=True, no_cfunc_wrapper=True, nogil=True)
-def plane_refits(inv_depth, x, y, labels, planes, factor, min_noise_m):
-    """Refit each plane of `plane_fits` on its pixels within ``factor`` sigma of the first fit.
+def plane_refits(inv_depth, x, y, labels, planes, factor, min_noise_m, min_inv_depth):
+    """Refit each plane of `plane_fits` on its pixels clear of outliers and of the range limit.
 
-    A pixel of plane ``p`` is an inlier if its inverse-depth residual is at most
-    ``factor·max(s_p, min_noise_m/d²)``: ``s_p`` the first fit's RMS residual (``planes[p, 3]``
-    is its square), the floor the depth-noise floor in inverse depth at the pixel's depth d
-    (exact data has ``s_p ≈ 0``). The labels and counts stay; only the parameters change, so
-    a few outlier pixels (a stereo matcher's edge fattening) no longer pull the normal. A
-    plane whose inliers are degenerate keeps its first fit (the first fit is the answer then).
+    ``sigma`` of a pixel of plane ``p``: ``max(s_p, min_noise_m/d²)`` in inverse depth, ``s_p``
+    the first fit's RMS residual (``planes[p, 3]`` is its square), the floor the depth-noise
+    floor at its depth d (exact data has ``s_p ≈ 0``). A pixel counts if
+
+    - its residual is at most ``factor·sigma`` (``factor`` 0: no outlier test): a few
+      outlier pixels (a stereo matcher's edge fattening) no longer pull the normal;
+    - its inverse depth predicted by the first fit lies ``RANGE_MARGIN_SIGMAS·sigma`` above
+      ``min_inv_depth`` (1/the sensor's range limit; 0: none). A sensor cuts at its range on
+      the *measured* depth, so near the limit only the pixels measured too near are there:
+      the plane's far side reads near and its normal leans back (synthetic ground, 0.85 m,
+      30° down, the stage's depth-mode errors, 4 m cut: the tilt 0.18 mrad off, camera height
+      0.2 mm; without the cut 0.02 mrad). Whether a pixel that far inside was measured does
+      not depend on its noise, so the pixels kept are unbiased.
+
+    The labels and counts stay; only the parameters change. A plane whose pixels left are
+    degenerate keeps its first fit; one that lost none gets it back bit for bit (same sums
+    in the same order).
 
     Returns:
         (P, 13) plane table as `plane_fits`'s, refitted.
@@ -1017,9 +1033,14 @@ def plane_refits(inv_depth, x, y, labels, planes, factor, min_noise_m):
             if p < 0 or math.isnan(planes[p, 0]):
                 continue
             z = inv_depth[r, c]
-            residual = abs(z - (planes[p, 0] * x[c] + planes[p, 1] * y[r] + planes[p, 2]))
-            if residual <= factor * max(math.sqrt(planes[p, 3]), min_noise_m * z * z):
-                _accumulate(sums[p], x[c], y[r], z)
+            predicted = planes[p, 0] * x[c] + planes[p, 1] * y[r] + planes[p, 2]
+            s_p = math.sqrt(planes[p, 3])
+            floor = min_noise_m * predicted * predicted
+            if predicted - RANGE_MARGIN_SIGMAS * max(s_p, floor) < min_inv_depth:
+                continue
+            if factor > 0.0 and abs(z - predicted) > factor * max(s_p, min_noise_m * z * z):
+                continue
+            _accumulate(sums[p], x[c], y[r], z)
     refits = planes.copy()
     for p in range(n_planes):
         if not _solve_plane(sums[p], refits[p]):
@@ -1672,19 +1693,34 @@ def region_interior(labels, margin_px):
 
 @numba.njit(cache=True, no_cfunc_wrapper=True, nogil=True)
 def floor_statistics(
-    labels, grown, interior, points, sigma_z, depth, rays, origin_z, fx, fy, n_floors, tolerance_m
+    labels,
+    grown,
+    interior,
+    height_interior,
+    points,
+    sigma_z,
+    depth,
+    rays,
+    origin_z,
+    fx,
+    fy,
+    n_floors,
+    tolerance_m,
 ):
     """Per-floor pixel statistics of the level regions.
 
-    Height, RMS and slope come from a region's *interior* pixels (`region_interior`) when it
-    has any, else from all of them: a stereo matcher's window blends the pixels at a region's
-    border with the neighbouring surface (a sill's far row reads 10-25 mm low, a tread's rows
-    next to its riser too), which would pull a narrow region's height and count as roughness.
+    RMS and slope come from a region's *interior* pixels (`region_interior`) when it has any,
+    else from all of them: a stereo matcher's window blends the pixels at a region's border
+    with the neighbouring surface (a sill's far row reads 10-25 mm low, a tread's rows next to
+    its riser too), which would count as roughness. The height comes from the pixels of
+    ``height_interior`` the same way: besides the blending, a region's border is where the
+    growing selects one-sidedly (see `SegmentationParams.floor_height_margin_px`).
 
     Args:
         labels: (H, W) floor of each pixel after the fill (-1 none, -2 invalid).
         grown: (H, W) floor of each pixel before the fill (its segments').
         interior: (H, W) bool, the pixel is in its region's interior (`region_interior`).
+        height_interior: (H, W) bool, the interior the height is taken from.
         points: (H, W, 3) points in the tilt-corrected robot frame [m].
         sigma_z: (H, W) their noise along z [m].
         depth: (H, W) measured depths [m].
@@ -1696,9 +1732,10 @@ def floor_statistics(
         tolerance_m: added to sigma_z for the RMS (exact data) [m].
 
     Returns:
-        pixel counts (F,) int64, heights (F,) [m] (weighted mean z of the grown pixels), RMS
-        height residual over all pixels in units of sqrt(sigma_z² + tolerance_m²), squared
-        residuals clipped at 9 (F,),
+        pixel counts (F,) int64, heights (F,) [m] (the grown pixels' level fit in inverse
+        depth, `_level_height`), RMS height residual over all pixels (about the level fit of
+        the same pixels) in units of sqrt(sigma_z² + tolerance_m²), squared residuals clipped
+        at 9 (F,),
         footprint widths (F, 2) minor first [m] (sqrt(12)·std of the points moved onto the
         height along their rays) and footprint areas (F,) [m²] (pixel footprints on a
         horizontal plane, incidence capped at cos 0.1) and slopes (F,) ``|(a, b)|`` of the
@@ -1706,8 +1743,10 @@ def floor_statistics(
         carry no depth noise).
     """
     height, width = labels.shape
-    w_sum = np.zeros((n_floors, 2))  # all grown pixels, interior ones
-    wz_sum = np.zeros((n_floors, 2))
+    # Normal equations of the level model in inverse depth, q = ray_z·u with u = 1/(h − origin_z)
+    # (see `_level_height`): Σw·ray_z², Σw·ray_z·q over the grown pixels: all of them, the
+    # interior ones, those of the height's interior.
+    normal_sums = np.zeros((n_floors, 3, 2))
     has_interior = np.zeros(n_floors, np.bool_)
     for r in range(height):
         for c in range(width):
@@ -1716,18 +1755,21 @@ def floor_statistics(
                 has_interior[f] = True
             f = grown[r, c]
             if f >= 0:
-                w = 1.0 / (sigma_z[r, c] * sigma_z[r, c])
-                k = 1 if interior[r, c] else 0
-                w_sum[f, k] += w
-                wz_sum[f, k] += w * points[r, c, 2]
+                ray_z = rays[r, c, 2]
+                d = depth[r, c]
+                # 1/σ² of the inverse depth: depth noise σ_z/|ray_z| along the ray, over d².
+                w = (d * d * ray_z / sigma_z[r, c]) ** 2
+                for k, member in ((0, True), (1, interior[r, c]), (2, height_interior[r, c])):
+                    if member:
+                        normal_sums[f, k, 0] += w * ray_z * ray_z
+                        normal_sums[f, k, 1] += w * ray_z / d
     heights = np.zeros(n_floors)
+    rms_heights = np.zeros(n_floors)  # the reference of the RMS: its own pixels' level
     for f in range(n_floors):
-        if w_sum[f, 1] > 0.0:
-            heights[f] = wz_sum[f, 1] / w_sum[f, 1]
-        elif w_sum[f, 0] > 0.0:
-            heights[f] = wz_sum[f, 0] / w_sum[f, 0]
-        else:
-            heights[f] = np.nan
+        k = 2 if normal_sums[f, 2, 0] > 0.0 else 0
+        heights[f] = _level_height(normal_sums[f, k, 0], normal_sums[f, k, 1], origin_z)
+        k = 1 if normal_sums[f, 1, 0] > 0.0 else 0
+        rms_heights[f] = _level_height(normal_sums[f, k, 0], normal_sums[f, k, 1], origin_z)
     used = np.zeros(n_floors, np.int64)
     counts = np.zeros(n_floors, np.int64)
     square = np.zeros(n_floors)
@@ -1741,7 +1783,7 @@ def floor_statistics(
                 continue
             counts[f] += 1
             sigma = sigma_z[r, c]
-            residual = points[r, c, 2] - heights[f]
+            residual = points[r, c, 2] - rms_heights[f]
             counted = interior[r, c] or not has_interior[f]
             if counted:
                 used[f] += 1
@@ -1793,6 +1835,33 @@ def floor_statistics(
         extents[f, 0] = math.sqrt(12.0 * max(half - root, 0.0))
         extents[f, 1] = math.sqrt(12.0 * max(half + root, 0.0))
     return counts, heights, rms, extents, areas, slope
+
+
+@numba.njit(cache=True, no_cfunc_wrapper=True, nogil=True)
+def _level_height(sum_ray_z2, sum_ray_z_q, origin_z):
+    """Height [m] of a level surface from its pixels' normal equations in inverse depth.
+
+    A pixel's ray (unit optical-axis component, z component ``ray_z``) meets the plane
+    ``z = h`` at depth ``(h − origin_z)/ray_z``: its inverse depth ``q = ray_z·u`` is linear in
+    ``u = 1/(h − origin_z)``. A stereo camera's noise is additive and unbiased in inverse depth
+    (disparity), so the weighted least squares ``u = Σw·ray_z·q / Σw·ray_z²`` is unbiased,
+    and ``h = origin_z + 1/u`` only by the square of u's standard error relative to u (a
+    region of n pixels: about σ_q²/(n·q²)). A weighted mean of the points' z is not: their
+    depth ``1/q`` is biased by ``d·(σ_q/q)²``, and weights ``1/σ_z²`` from the measured depths
+    (σ_z ∝ d²) favour the points measured too near — on a ground 1-2.5 m away under the depth
+    mode's noise 0.3 mm too high, which the ground shift passed to every other surface.
+
+    Args:
+        sum_ray_z2: Σw·ray_z² of the pixels (w: 1/σ² of their inverse depth).
+        sum_ray_z_q: Σw·ray_z·q.
+        origin_z: z of the camera centre [m].
+
+    Returns:
+        The height [m]; NaN without pixels (or with rays parallel to the plane only).
+    """
+    if not sum_ray_z2 > 0.0 or sum_ray_z_q == 0.0:
+        return np.nan
+    return origin_z + sum_ray_z2 / sum_ray_z_q
 
 
 @numba.njit(cache=True, no_cfunc_wrapper=True, nogil=True)

@@ -118,6 +118,8 @@ _INTEGER_RANGES: dict[str, tuple[int, int | None]] = {
     "seed_min_pixels": (2, None),
     "min_plane_pixels": (3, None),
     "floor_edge_margin_px": (0, MAX_WINDOW_PX),
+    "floor_height_margin_px": (0, MAX_WINDOW_PX),
+    "plane_normal_margin_px": (0, MAX_WINDOW_PX),
 }
 """Integer `SegmentationParams` fields: (lowest, highest or None) allowed. The windows' widths
 and the passes' counts are bounded (`mapper.limits`); the pixel counts only filter."""
@@ -132,7 +134,15 @@ class SegmentationParams:
 
     Attributes:
         min_depth_m: depths below this are no measurement [m].
-        max_depth_m: depths above this are no measurement [m].
+        max_depth_m: depths above this are no measurement [m]; set it to the sensor's range
+            limit when the sensor cuts there itself. The cut is on the measured depth, so near
+            it only the pixels measured too near are left: the tilt's normals come from each
+            plane's pixels predicted well inside it (`scanline.plane_refits`). 10 (default):
+            beyond any indoor scene; fogsim's depth and stereo modes cut at the camera's
+            ``range_m`` (4 m): with 10 here the stage's tilt read −0.38 mrad forward (depth
+            mode, seed 1, every 4th frame; −0.15 with 4 here, the rest the treads' borders:
+            `plane_normal_margin_px`), which put the treads near the camera 0.4 mm high
+            against the far ground in the map.
         noise_window_px: half width of the box (3 rows high) estimating local noise [px].
             Windows and passes are bounded by `mapper.limits.MAX_WINDOW_PX` and
             `mapper.limits.MAX_SEGMENTATION_PASSES` (their cost grows with them).
@@ -220,23 +230,42 @@ class SegmentationParams:
             uncertainty) widens its standard error by sqrt(τ). 1 (default): white noise. For
             fogsim's stereo head 3: `bench/stereo_stats.py` measures 1.9, 2.3, 2.7 for runs
             of 4, 8, 16 pixels (stage seed 1) and row segments span 10–40 pixels.
-        floor_edge_margin_px: a floor region's height, RMS ratio and slope come from its
-            pixels farther than this from its border (up, down, left and right; all of them
-            when it has none so far inside): a stereo matcher's window blends the border pixels
-            with the neighbouring surface, which pulls a narrow region's height and reads as
-            roughness. 0 (default): every pixel counts (a depth sensor without a matching
-            window; left out, the border of a rough box top no longer counts against it: stage
-            depth seed 1, 7 % more box pixels labelled floor). For fogsim's stereo head 1 (its
-            window is 5 render px, 2.5 output pixels): on the stage (seed 1) the sill top's far
-            row reads 10-25 mm low while its inner rows are within 4 mm, and the steps' floor
-            pixels at 1-1.5 m (seed 4, true pose) are labelled twice as often and within 3 mm in
-            the median instead of 11 mm low.
+        floor_edge_margin_px: a floor region's RMS ratio and slope come from its pixels
+            farther than this from its border (up, down, left and right; all of them when it
+            has none so far inside): a stereo matcher's window blends the border pixels with
+            the neighbouring surface, which reads as roughness (and pulls a narrow region's
+            height: `floor_height_margin_px`). 0 (default): every pixel counts (a depth sensor
+            without a matching window; left out, the border of a rough box top no longer counts
+            against it: stage depth seed 1, 7 % more box pixels labelled floor). For fogsim's
+            stereo head 1 (its window is 5 render px, 2.5 output pixels): on the stage (seed 1)
+            the sill top's far row reads 10-25 mm low while its inner rows are within 4 mm, and
+            the steps' floor pixels at 1-1.5 m (seed 4, true pose) are labelled twice as often
+            and within 3 mm in the median instead of 11 mm low.
+        floor_height_margin_px: a floor region's height comes from its pixels farther than
+            this from its border (as `floor_edge_margin_px`). Growing selects one-sidedly at a
+            border: at a box top's rim the pixels just over the edge, on the side face, lie
+            below the top, and those within the noise tolerance join the top's region — only
+            from below, so they pull its height down in proportion to the noise (not at all on
+            exact data). 1 (default): the rim's ring of pixels is left out (moving_box, depth
+            mode, seeds 1-8, frames 180-218: the flat box top 0.75 ± 0.07 mm below the ground's
+            +60 mm with every pixel, 0.10 ± 0.05 mm without the ring; a synthetic box seen
+            from the side: 0.79 mm low with 13 side-face pixels in its region of 234, 0.04).
         plane_refit_sigma: the tilt correction takes each plane's normal from a refit on its
             pixels within this many sigma of the first least-squares fit (sigma: that fit's
             RMS residual, at least ``min_noise_m`` at the pixel's depth;
             `scanline.plane_refits`), so a stereo matcher's edge-fattened pixels don't tilt
-            it; everything else uses the first fit. 0 (default): off (a depth sensor without
-            a matching window). For fogsim's stereo head 1 (`fogsim.sim.camera.noise_model`).
+            it; everything else uses the first fit. 0 (default): no outlier test (a depth
+            sensor without a matching window; the refit still leaves out the pixels near
+            `max_depth_m`). For fogsim's stereo head 1 (`fogsim.sim.camera.noise_model`).
+        plane_normal_margin_px: the tilt correction takes each plane's normal from its pixels
+            farther than this from its border (as `floor_height_margin_px`; a plane without
+            such pixels keeps its first fit). Growing takes the neighbouring surface's pixels
+            within the noise tolerance at a plane's border, from one side: at a tread's back
+            edge the riser above it, at its front edge the riser below, both leaning its
+            normal back towards the camera, the narrower the plane the more. 1 (default): the
+            ring of border pixels is left out (stage, depth mode, seeds 1-3, every 4th frame,
+            the treads' normals 4-8 mrad off and the frames' tilt −0.09 to −0.17 mrad, at most
+            −0.05 without the ring; with `max_depth_m` 4). 0: every pixel counts.
     """
 
     min_depth_m: float = 0.05
@@ -277,7 +306,9 @@ class SegmentationParams:
     stereo_baseline_m: float = 0.0
     noise_correlation_factor: float = 1.0
     floor_edge_margin_px: int = 0
+    floor_height_margin_px: int = 1
     plane_refit_sigma: float = 0.0
+    plane_normal_margin_px: int = 1
 
     def __post_init__(self) -> None:
         def check(name: str, kind: type, allowed: str, ok=lambda _: True) -> None:
@@ -622,22 +653,25 @@ def segment_depth(
     rms = np.sqrt(plane_table[:, 3]) * centroids_camera[:, 2] ** 2
     # The noise is never below min_noise_m (exact data: no plane is infinitely certain).
     min_inv_sigma = params.min_noise_m / centroids_camera[:, 2] ** 2
-    # The tilt's normals come from the planes refitted without their outliers (if on).
-    tilt_table = plane_table
-    tilt_normals = normals
-    if params.plane_refit_sigma > 0.0:
-        tilt_table = scanline.plane_refits(
-            inv_depth,
-            x,
-            y,
-            new_id[grown_labels],
-            plane_table,
-            params.plane_refit_sigma,
-            params.min_noise_m,
-        )
-        tilt_normals = tilt_table[:, :3] / np.linalg.norm(tilt_table[:, :3], axis=1)[:, None]
-        tilt_normals = tilt_normals @ rotation.T
-        tilt_normals *= np.where(tilt_normals[:, 2] < 0.0, -1.0, 1.0)[:, None]
+    # The tilt's normals come from the planes refitted on their interior pixels clear of the
+    # range limit and (if on) without their outliers.
+    refit_labels = new_id[grown_labels]
+    if params.plane_normal_margin_px > 0:
+        interior = scanline.region_interior(refit_labels, params.plane_normal_margin_px)
+        refit_labels = np.where(interior, refit_labels, -1)
+    tilt_table = scanline.plane_refits(
+        inv_depth,
+        x,
+        y,
+        refit_labels,
+        plane_table,
+        params.plane_refit_sigma,
+        params.min_noise_m,
+        1.0 / params.max_depth_m,
+    )
+    tilt_normals = tilt_table[:, :3] / np.linalg.norm(tilt_table[:, :3], axis=1)[:, None]
+    tilt_normals = tilt_normals @ rotation.T
+    tilt_normals *= np.where(tilt_normals[:, 2] < 0.0, -1.0, 1.0)[:, None]
     normal_sigma_deg = _normal_sigma_deg(tilt_table, params.noise_correlation_factor, min_inv_sigma)
     # The tilt's planes are weighted by the information of their normals (1/σ²), not by area:
     # a far plane's footprint is large while its normal, under stereo noise, is poor.
@@ -784,10 +818,17 @@ def floor_regions(origin, rays, points, sigma_z, depth, segments, intrinsics, pa
             params.fill_passes,
             False,
         )
+    interior = scanline.region_interior(labels, params.floor_edge_margin_px)
+    height_interior = (
+        interior
+        if params.floor_height_margin_px == params.floor_edge_margin_px
+        else scanline.region_interior(labels, params.floor_height_margin_px)
+    )
     counts, heights, rms, extents, areas, slope = scanline.floor_statistics(
         labels,
         grown,
-        scanline.region_interior(labels, params.floor_edge_margin_px),
+        interior,
+        height_interior,
         points,
         sigma_z,
         depth,

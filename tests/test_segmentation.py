@@ -491,7 +491,9 @@ def _edge_fattened_ground_normal_errors(refit_sigma, draws=20):
         depth[:, -2:] *= 0.7
         plane, _ = scanline.plane_fits(1.0 / depth, x, y, labels, 1)
         if refit_sigma > 0.0:
-            plane = scanline.plane_refits(1.0 / depth, x, y, labels, plane, refit_sigma, 0.0005)
+            plane = scanline.plane_refits(
+                1.0 / depth, x, y, labels, plane, refit_sigma, 0.0005, 0.0
+            )
         unit = plane[0, :3] / np.linalg.norm(plane[0, :3])
         errors.append(math.degrees(math.acos(min(1.0, unit @ truth / np.linalg.norm(truth)))))
     return np.array(errors)
@@ -519,7 +521,7 @@ def test_refit_of_an_exact_plane_is_the_first_fit():
     y = (np.arange(SMALL.height) - SMALL.cy) / SMALL.fy
     labels = np.zeros(inv_depth.shape, np.int64)
     plane, _ = scanline.plane_fits(inv_depth, x, y, labels, 1)
-    refit = scanline.plane_refits(inv_depth, x, y, labels, plane, 3.0, 0.0005)
+    refit = scanline.plane_refits(inv_depth, x, y, labels, plane, 3.0, 0.0005, 0.0)
     np.testing.assert_allclose(refit, plane, rtol=1e-9, atol=1e-12)
 
 
