@@ -324,7 +324,8 @@ def test_error_model_equivalent_noise_and_mean_variance_factor_known_answers():
 
 def test_segmentation_noise_fields_per_mode():
     """stereo: the matcher's measured figures and the robot's baseline; depth: the error
-    model's; ideal: none (the segmentation estimates the noise from the image)."""
+    model's; both the camera's range; ideal: none (the segmentation estimates the noise from
+    the image)."""
     camera = CameraConfig()
     stereo = segmentation_noise_fields(dataclasses.replace(camera, mode="stereo"), 0.068)
     assert stereo == {
@@ -332,9 +333,11 @@ def test_segmentation_noise_fields_per_mode():
         "stereo_baseline_m": 0.068,
         "noise_correlation_factor": MATCHER_MEAN_VARIANCE_FACTOR,
         "floor_edge_margin_px": MATCHER_EDGE_MARGIN_PX,
+        "max_depth_m": camera.range_m[1],
     }
     depth = segmentation_noise_fields(dataclasses.replace(camera, mode="depth"), 0.068)
     assert depth["stereo_baseline_m"] == camera.baseline_m
+    assert depth["max_depth_m"] == camera.range_m[1]
     assert depth["disparity_noise_px"] == pytest.approx(
         math.hypot(camera.disparity_noise_px, camera.disparity_step_px / math.sqrt(12.0))
     )

@@ -45,10 +45,11 @@ def segmentation_noise_fields(
         stereo_baseline_m: The robot's stereo baseline [m] (``stereo`` mode).
 
     Returns:
-        ``disparity_noise_px``, ``stereo_baseline_m`` and ``noise_correlation_factor`` for
-        ``stereo`` and ``depth``, and ``floor_edge_margin_px`` for ``stereo`` (the error model
-        of ``depth`` has no matching window); empty for ``ideal`` (the image's own noise
-        estimate).
+        ``disparity_noise_px``, ``stereo_baseline_m``, ``noise_correlation_factor`` and
+        ``max_depth_m`` (the camera's ``range_m`` cut: near it only the pixels measured too
+        near are left, which the segmentation's tilt leaves out) for ``stereo`` and ``depth``,
+        and ``floor_edge_margin_px`` for ``stereo`` (the error model of ``depth`` has no
+        matching window); empty for ``ideal`` (the image's own noise estimate).
     """
     if config.mode == "stereo":
         return {
@@ -56,6 +57,7 @@ def segmentation_noise_fields(
             "stereo_baseline_m": stereo_baseline_m,
             "noise_correlation_factor": MATCHER_MEAN_VARIANCE_FACTOR,
             "floor_edge_margin_px": MATCHER_EDGE_MARGIN_PX,
+            "max_depth_m": config.range_m[1],
         }
     if config.mode == "depth":
         model = StereoErrorModel.from_config(config, camera_intrinsics(config).fx)
@@ -65,5 +67,6 @@ def segmentation_noise_fields(
             "disparity_noise_px": model.equivalent_noise_px(),
             "stereo_baseline_m": config.baseline_m,
             "noise_correlation_factor": model.mean_variance_factor(),
+            "max_depth_m": config.range_m[1],
         }
     return {}
