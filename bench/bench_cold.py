@@ -2,6 +2,7 @@
 
 Usage:
     .venv/bin/python bench/bench_cold.py kernels [--tree DIR ...] [--repeats N] [--top K]
+        [--group NAME ...]
     .venv/bin/python bench/bench_cold.py run [--tree DIR ...] [--repeats N] [--scenario NAME]
 
 Every measurement is a fresh ``python`` process run from a tree (``PYTHONPATH`` = the tree)
@@ -16,7 +17,9 @@ measure on a shared machine: wall time only means something at load < 2.
   dispatcher its compile CPU time inclusive and exclusive of the kernels it compiles inside
   (``numba.core.event``'s ``numba:compile`` events, process CPU time), the kernels compiled
   for more than one signature (each extra one is wasted compile time) and the CPU time of the
-  imports. Printed per tree: the median over the repeats of every figure.
+  imports. ``--group NAME`` (repeatable) compiles only the named groups (each group's step
+  calls only its own kernels), for a quicker A/B of one group. Printed per tree: the median
+  over the repeats of every figure.
 - ``run``: ``fogsim run SCENARIO --seed 1 --no-pictures --out TMP`` (progress shown, so the
   warm-up reports its groups): wall, CPU (user + sys of the process and its helper), each
   process's share (the main process's CPU is the critical path's bound when the load makes
@@ -60,13 +63,15 @@ from fogsim.run import warmup
 params = RunParams()
 groups = {"imports": time.process_time() - start}
 steps = warmup._steps(params)
-for group in warmup.GROUPS:
+chosen = sys.argv[1:]
+for group in (g for g in warmup.GROUPS if not chosen or g.name in chosen):
     begun = time.process_time()
     steps[group]()
     groups[group.name] = time.process_time() - begun
-begun = time.process_time()
-warmup._pipeline(warmup._floor_frames(), params)
-groups["pipeline (should compile nothing)"] = time.process_time() - begun
+if not chosen:
+    begun = time.process_time()
+    warmup._pipeline(warmup._floor_frames(), params)
+    groups["pipeline (should compile nothing)"] = time.process_time() - begun
 signatures = {}
 for module in list(sys.modules.values()):
     for value in list(vars(module).values()) if module is not None else ():
@@ -114,11 +119,12 @@ def _env(tree: Path, scratch: Path) -> dict[str, str]:
     }
 
 
-def profile_kernels(tree: Path) -> dict:
-    """One ``kernels`` measurement of ``tree`` (the child's JSON)."""
+def profile_kernels(tree: Path, groups: list[str]) -> dict:
+    """One ``kernels`` measurement of ``tree`` (the child's JSON): ``groups`` (names; none =
+    every group, then the pipeline that should find them all in the cache)."""
     with tempfile.TemporaryDirectory() as scratch:
         done = subprocess.run(
-            [PYTHON, "-W", "ignore", "-c", _PROFILE],
+            [PYTHON, "-W", "ignore", "-c", _PROFILE, *groups],
             env=_env(tree, Path(scratch)),
             cwd=tree,
             capture_output=True,
@@ -163,13 +169,13 @@ def _median_table(runs: list[dict], key: str) -> dict[str, float]:
     return {name: statistics.median(run[key].get(name, 0.0) for run in runs) for name in names}
 
 
-def kernels(trees: list[Path], repeats: int, top: int) -> None:
+def kernels(trees: list[Path], repeats: int, top: int, groups: list[str]) -> None:
     """The ``kernels`` command: interleaved profiles, then a table per tree."""
     runs: dict[Path, list[dict]] = {tree: [] for tree in trees}
     for i in range(repeats):
         for tree in trees:
             note = load_note()
-            runs[tree].append(profile_kernels(tree))
+            runs[tree].append(profile_kernels(tree, groups))
             total = sum(runs[tree][-1]["groups"].values())
             print(f"  {tree} repeat {i + 1}: {total:.2f} s CPU ({note} -> {load_note()})")
     for tree in trees:
@@ -226,11 +232,14 @@ def main() -> None:
     parser.add_argument("--repeats", type=int, default=1)
     parser.add_argument("--top", type=int, default=25, help="kernels listed (kernels)")
     parser.add_argument("--scenario", default="stage", help="scenario of the run (run)")
+    parser.add_argument(
+        "--group", action="append", default=[], help="only this warm-up group (kernels; repeatable)"
+    )
     args = parser.parse_args()
     trees = [tree.resolve() for tree in args.tree or [ROOT]]
     print(f"{load_note()}, {os.cpu_count()} CPUs, python {PYTHON}")
     if args.command == "kernels":
-        kernels(trees, args.repeats, args.top)
+        kernels(trees, args.repeats, args.top, args.group)
     else:
         runs(trees, args.repeats, args.scenario)
 
