@@ -24,13 +24,6 @@ Beyond the paper too, each frame gives a verdict on every stored floor it sees
 is seen as no plane — points at its height that are not floor — by most other frames, and
 those frames remove it; a floor seen as a plane in most frames keeps its votes.
 
-Eq. 7 asks the cell of the floor height ``h``; beyond the paper, a floor height is supported when
-any layer within ``±ε`` of it is occupied (`_supported`). A surface whose height lies near a layer
-boundary (the moving box's 60 mm top, on the boundary of −60 + 3 × 40 mm) puts its noisy points,
-and so its occupied evidence, in both layers; the cell of ``h`` alone then rejects the surface in
-whichever frames ``h`` lands on the other side (moving_box seed 2: the box top never mapped,
-−60 mm; ε is eq. 9's own "same surface" tolerance). With ``ε`` = 0 it is the paper's test.
-
 Points are applied one after the other in input order (deterministic).
 """
 
@@ -51,29 +44,11 @@ LEVEL_MIN_POINTS = 5
 
 
 @numba.njit(cache=True, inline="always")
-def _supported(
-    og_flat: NDArray[np.uint8],
-    col: int,
-    h: float,
-    occ_level: int,
-    z_min: float,
-    layer: float,
-    nz: int,
-    margin: float,
-) -> bool:
-    """Eq. 7 for floor height ``h`` [m] in column ``col``: a layer within ``±margin`` is occupied.
-
-    A height outside the grid's z range has no cell and is unsupported, whatever the margin.
-    """
+def _layer_of(h: float, z_min: float, layer: float, nz: int) -> int:
     k = int(np.floor((h - z_min) / layer))
     if k < 0 or k >= nz:
-        return False
-    lo = max(int(np.floor((h - margin - z_min) / layer)), 0)
-    hi = min(int(np.floor((h + margin - z_min) / layer)), nz - 1)
-    for kk in range(lo, hi + 1):
-        if og_flat[col * nz + kk] > occ_level:
-            return True
-    return False
+        return -1
+    return k
 
 
 @numba.njit(cache=True, no_cfunc_wrapper=True, nogil=True)
@@ -87,27 +62,21 @@ def verify_floor(
     ix1: int,
     iy0: int,
     iy1: int,
-    margin: float,
 ) -> int:
-    """Eq. 8 in ``[ix0, ix1) × [iy0, iy1)``: invalidate floors with no cell above p_occ.
-
-    Args:
-        margin: Layers within ``±margin`` [m] of a floor height support it (`_supported`; the
-            mapper passes eq. 9's ε; 0 = the paper's cell of the height alone).
+    """Eq. 8 in ``[ix0, ix1) × [iy0, iy1)``: invalidate floors whose cell is not above p_occ.
 
     Returns:
         How many floor heights were invalidated.
     """
     nz = og.shape[2]
-    ny = og.shape[1]
-    og_flat = og.reshape(-1)
     removed = 0
     for ix in range(ix0, ix1):
         for iy in range(iy0, iy1):
             h = floor[ix, iy]
             if np.isnan(h):
                 continue
-            if not _supported(og_flat, ix * ny + iy, h, occ_level, z_min, layer, nz, margin):
+            k = _layer_of(h, z_min, layer, nz)
+            if k < 0 or og[ix, iy, k] <= occ_level:
                 floor[ix, iy] = np.nan
                 removed += 1
     return removed
@@ -143,7 +112,7 @@ def update_floor(
         occ_level: Occupied iff level > occ_level (eq. 7).
         z_min: World z of the grid's lowest face [m].
         layer: Layer height [m].
-        eps: Gate of eq. 9 [m], also the margin of eq. 7's layers (`_supported`).
+        eps: Gate of eq. 9 [m].
         nu: Smoothing factor of eq. 9.
         vote_cap: The most votes a stored floor height holds (`MapperParams.floor_vote_cap`);
             0 = the paper's eq. 9.
@@ -165,7 +134,8 @@ def update_floor(
         h = floor_heights[i]
         if col < 0 or not np.isfinite(h):
             continue
-        if not _supported(og_flat, col, h, occ_level, z_min, layer, nz, eps):
+        k = _layer_of(h, z_min, layer, nz)
+        if k < 0 or og_flat[col * nz + k] <= occ_level:
             rejected += 1
             continue
         used += 1
@@ -224,7 +194,7 @@ def frame_verdicts(
         point_cell: (N,) column index ``ix*ny + iy`` of each point, negative if dropped.
         points_z: (N,) world z of each point [m].
         floor_heights: (N,) height ``h`` of each point's plane [m]; non-finite = not floor.
-        eps: Gate of eq. 9 [m], also the margin of eq. 7's layers (`_supported`).
+        eps: Gate of eq. 9 [m].
         frame_cap: Most frame votes a floor holds (`MapperParams.floor_frame_cap`); 0 = off.
 
     Returns:

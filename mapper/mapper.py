@@ -182,16 +182,7 @@ class FloorObstacleMapper:
         if cells == 0:
             return UpdateResult(None, used, nonfinite, outside, 0, 0, 0, beyond)
         verify_floor(
-            self._floor,
-            self._og,
-            self._occ_level,
-            g.z_min_m,
-            g.layer_m,
-            ix0,
-            ix1,
-            iy0,
-            iy1,
-            p.eps_m,
+            self._floor, self._og, self._occ_level, g.z_min_m, g.layer_m, ix0, ix1, iy0, iy1
         )
         frame_verdicts(
             self._floor,

@@ -52,7 +52,7 @@ def test_eq8_keeps_supported_and_invalidates_unsupported_floor():
     og[2, 0, layer_of(0.10)] = 192  # exactly p_occ: not above it
     og[3, 0, layer_of(0.10)] = FREE  # outside the affected area below
     floor[3, 0] = 0.10
-    removed = verify_floor(floor, og, P.occ_threshold_level, Z0, L, 0, 3, 0, 3, P.eps_m)
+    removed = verify_floor(floor, og, P.occ_threshold_level, Z0, L, 0, 3, 0, 3)
     assert removed == 2
     assert floor[0, 0] == 0.10
     assert np.isnan(floor[1, 0]) and np.isnan(floor[2, 0])
@@ -62,31 +62,8 @@ def test_eq8_keeps_supported_and_invalidates_unsupported_floor():
 def test_eq8_floor_outside_z_range_is_unsupported():
     og, floor = grids()
     floor[0, 0] = P.z_max_m + 0.01
-    verify_floor(floor, og, P.occ_threshold_level, Z0, L, 0, 1, 0, 1, P.eps_m)
+    verify_floor(floor, og, P.occ_threshold_level, Z0, L, 0, 1, 0, 1)
     assert np.isnan(floor[0, 0])
-
-
-def test_eq7_layer_boundary_a_floor_is_supported_by_the_layer_within_eps():
-    """A top at 60 mm lies on the boundary of layers 2 and 3 (−60 + 3 × 40 mm): its evidence in
-    layer 2 supports a height of 60.3 mm (layer 3) with the margin ε (20 mm here), not without it;
-    a height 25 mm above the boundary (85 mm) is not supported by layer 2 either way."""
-    assert P.eps_m == 0.02 and Z0 == -0.06 and L == 0.04
-    og, floor = grids()
-    og[:, :, 2] = OCC  # the top's points below 60 mm
-    og[:, :, 3] = FREE
-    floor[0, 0] = floor[1, 0] = 0.0603
-    floor[2, 0] = 0.085
-    removed = verify_floor(floor, og, P.occ_threshold_level, Z0, L, 0, 1, 0, 1, P.eps_m)
-    assert removed == 0 and floor[0, 0] == 0.0603
-    removed = verify_floor(floor, og, P.occ_threshold_level, Z0, L, 1, 3, 0, 1, 0.0)
-    assert removed == 2 and np.isnan(floor[1, 0]) and np.isnan(floor[2, 0])
-    floor[2, 0] = 0.085
-    assert verify_floor(floor, og, P.occ_threshold_level, Z0, L, 2, 3, 0, 1, P.eps_m) == 1
-    # eq. 9's update takes the same test: 60.3 mm used with ε, 85 mm rejected.
-    floor = np.full(floor.shape, np.nan)
-    used, rejected = run_update(floor, og, [(0, 0), (1, 1)], [0.0603, 0.085])
-    assert (used, rejected) == (1, 1)
-    assert floor[0, 0] == 0.0603 and np.isnan(floor[1, 1])
 
 
 @pytest.mark.parametrize(
