@@ -1,4 +1,4 @@
-"""End to end: `FloorObstacleMapper` takes `MapperParams.edge_band_m` to the FOG (mapper.py hunk)."""
+"""End to end: `FloorObstacleMapper` passes `MapperParams.edge_band_m` to the FOG update."""
 
 import numpy as np
 
@@ -26,5 +26,8 @@ def test_the_mapper_takes_the_edge_band_from_its_params():
     assert types0[68:72, row].tolist() == [CellType.FLOOR] * 4
     assert abs(heights0[69, row]) < 0.005 and abs(heights0[70, row] - 0.061) < 0.005
     assert types1[68:72, row].tolist() == [
-        CellType.FLOOR, CellType.UNKNOWN, CellType.UNKNOWN, CellType.FLOOR
+        CellType.FLOOR,
+        CellType.UNKNOWN,
+        CellType.UNKNOWN,
+        CellType.FLOOR,
     ]
