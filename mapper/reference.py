@@ -189,6 +189,7 @@ class HeightReference:
         self.rises_m: list[float] = []
         self.frames = 0
         self._lowest_m: NDArray[np.float64] = np.empty(0)
+        self._shift_m = 0.0  # median of _lowest_m, kept by `update` (read 2-3 times a frame)
 
     @property
     def converged(self) -> bool:
@@ -204,9 +205,7 @@ class HeightReference:
     @property
     def shift_m(self) -> float:
         """The z shift to add to every frame's data [m]: median at the lowest level, 0 without."""
-        if not self._lowest_m.size:
-            return 0.0
-        return float(np.median(self._lowest_m))
+        return self._shift_m
 
     def frame_shift_m(self, measured_m: float | None) -> float:
         """The shift of one frame [m]: its own measurement if it agrees with the estimate.
@@ -280,6 +279,7 @@ class HeightReference:
         self._lowest_m = np.asarray(self.measurements_m)[
             rises <= rises.min() + params.start_level_m
         ]
+        self._shift_m = float(np.median(self._lowest_m))
         return measured
 
 
