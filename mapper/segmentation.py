@@ -642,9 +642,7 @@ def segment_depth(
     rotation = transform[:3, :3]
     rays_camera = intrinsics.ray_directions_camera().reshape(-1, 3)
     points_camera = rays_camera[pixel_index] * depth.reshape(-1)[pixel_index, None]
-    normals_camera = plane_table[:, :3] / np.linalg.norm(plane_table[:, :3], axis=1)[:, None]
-    normals = normals_camera @ rotation.T
-    normals *= np.where(normals[:, 2] < 0.0, -1.0, 1.0)[:, None]
+    normals_camera, normals = _unit_normals(plane_table, rotation)
     centroids_camera, eigen, areas = scanline.plane_moments(
         points_camera, grown_ids, normals_camera, len(counts), intrinsics.fx, intrinsics.fy
     )
@@ -669,9 +667,7 @@ def segment_depth(
         params.min_noise_m,
         1.0 / params.max_depth_m,
     )
-    tilt_normals = tilt_table[:, :3] / np.linalg.norm(tilt_table[:, :3], axis=1)[:, None]
-    tilt_normals = tilt_normals @ rotation.T
-    tilt_normals *= np.where(tilt_normals[:, 2] < 0.0, -1.0, 1.0)[:, None]
+    _, tilt_normals = _unit_normals(tilt_table, rotation)
     normal_sigma_deg = _normal_sigma_deg(tilt_table, params.noise_correlation_factor, min_inv_sigma)
     # The tilt's planes are weighted by the information of their normals (1/σ²), not by area:
     # a far plane's footprint is large while its normal, under stereo noise, is poor.
@@ -866,6 +862,21 @@ def floor_regions(origin, rays, points, sigma_z, depth, segments, intrinsics, pa
         is_floor=is_floor,
     )
     return labels, floors
+
+
+def _unit_normals(
+    plane_table: NDArray[np.float64], rotation: NDArray[np.float64]
+) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+    """Unit normals of a plane table's planes, in the camera frame and turned up in the robot's.
+
+    Returns:
+        (P, 3) in the camera frame; (P, 3) rotated by ``rotation`` (camera to robot) and
+        turned to point up (z >= 0).
+    """
+    normals_camera = plane_table[:, :3] / np.linalg.norm(plane_table[:, :3], axis=1)[:, None]
+    normals = normals_camera @ rotation.T
+    normals *= np.where(normals[:, 2] < 0.0, -1.0, 1.0)[:, None]
+    return normals_camera, normals
 
 
 def _normal_sigma_deg(plane_table, correlation, min_inv_sigma=None):
