@@ -278,24 +278,23 @@ class HeadingEstimator:
         """Keyframes held."""
         return len(self._keyframes)
 
-    def correct(
+    def observe(
         self,
         points_robot: NDArray[np.float64],
         floor_heights_m: NDArray[np.float64],
         transform_camera_to_robot: NDArray[np.float64],
         robot_pose: NDArray[np.float64],
-    ) -> NDArray[np.float64]:
-        """Learn from one frame; the 4×4 correction of its robot-frame data.
+    ) -> None:
+        """Learn from one frame: keep it as a keyframe if it is one, and re-estimate.
+
+        Depends on the frame's pose and points only, never on a map: a pipeline can observe a
+        frame when it is segmented and map it later (with the estimate it helped make).
 
         Args:
             points_robot: (N, 3) tilt-corrected robot-frame points [m].
             floor_heights_m: (N,) their floor heights [m], NaN = not floor.
             transform_camera_to_robot: 4×4 tilt-corrected camera pose in the robot frame.
             robot_pose: (4,) believed robot pose (x [m], y [m], z [m], yaw [rad]) in the world.
-
-        Returns:
-            4×4 rotation about the vertical axis through the camera centre by the (possibly
-            updated) correction, to apply to the points and the camera pose.
         """
         transform = np.asarray(transform_camera_to_robot, dtype=np.float64)
         if (
@@ -304,6 +303,20 @@ class HeadingEstimator:
             and self._added % self.params.estimate_every == 0
         ):
             self._estimate()
+
+    def rotation(self, transform_camera_to_robot: NDArray[np.float64]) -> NDArray[np.float64]:
+        """The 4×4 correction of a frame's robot-frame data by the current estimate.
+
+        Also sets `transform_camera_to_robot` (the frame's corrected camera pose).
+
+        Args:
+            transform_camera_to_robot: 4×4 tilt-corrected camera pose in the robot frame.
+
+        Returns:
+            4×4 rotation about the vertical axis through the camera centre by the correction,
+            to apply to the points and the camera pose.
+        """
+        transform = np.asarray(transform_camera_to_robot, dtype=np.float64)
         correction = yaw_about_pivot(self.correction_rad, transform[:3, 3])
         self.transform_camera_to_robot = correction @ transform
         return correction

@@ -74,6 +74,12 @@ def frame(points_world, floor_world, robot_pose, yaw_error_deg):
     )
 
 
+def correct(estimator, points_robot, floor_heights_m, camera, robot_pose):
+    """Observe the frame, then its correction by the estimate that includes it."""
+    estimator.observe(points_robot, floor_heights_m, camera, robot_pose)
+    return estimator.rotation(camera)
+
+
 WALK = [(0.0, 0.5, 0.0), (0.3, 0.5, 0.02), (0.6, 0.5, -0.01), (0.9, 0.52, 0.0)]
 """Robot poses (x [m], y [m], yaw [rad]) of the walk: 0.3 m steps towards the boxes."""
 
@@ -84,8 +90,8 @@ def test_a_known_yaw_error_is_recovered_within_half_a_degree(yaw_error_deg):
     boxes = box_points_world(rng)
     estimator = HeadingEstimator(HeadingParams(estimate_every=1))
     for x, y, yaw in WALK:
-        correction = estimator.correct(
-            *frame(boxes, floor_points_world(x), (x, y, yaw), yaw_error_deg)
+        correction = correct(
+            estimator, *frame(boxes, floor_points_world(x), (x, y, yaw), yaw_error_deg)
         )
     assert estimator.estimates == 2  # from the third pose on the cameras span 0.5 m
     # The correction undoes the error: the corrected optical axis points along the robot's x
@@ -104,7 +110,7 @@ def test_two_robot_positions_suffice():
     boxes = box_points_world(rng)
     estimator = HeadingEstimator(HeadingParams(estimate_every=1))
     for x, y, yaw in (WALK[0], WALK[2]):
-        estimator.correct(*frame(boxes, floor_points_world(x), (x, y, yaw), 4.0))
+        correct(estimator, *frame(boxes, floor_points_world(x), (x, y, yaw), 4.0))
     assert estimator.estimates == 1
     assert math.degrees(estimator.correction_rad) == pytest.approx(-4.0, abs=0.5)
 
@@ -113,8 +119,8 @@ def test_a_flat_floor_leaves_the_prior():
     estimator = HeadingEstimator(HeadingParams(prior_deg=1.5, estimate_every=1))
     no_structure = np.zeros((0, 3))
     for x, y, yaw in WALK:
-        correction = estimator.correct(
-            *frame(no_structure, floor_points_world(x), (x, y, yaw), 4.0)
+        correction = correct(
+            estimator, *frame(no_structure, floor_points_world(x), (x, y, yaw), 4.0)
         )
     assert estimator.keyframes == 0 and estimator.estimates == 0
     assert estimator.correction_rad == math.radians(1.5)
@@ -126,7 +132,7 @@ def test_structure_seen_from_one_place_only_leaves_the_prior():
     boxes = box_points_world(rng)
     estimator = HeadingEstimator(HeadingParams(estimate_every=1))
     for yaw in (0.0, -0.35, 0.35):  # turning on the spot: new sectors, no baseline
-        estimator.correct(*frame(boxes, floor_points_world(0.0), (0.0, 0.5, yaw), 4.0))
+        correct(estimator, *frame(boxes, floor_points_world(0.0), (0.0, 0.5, yaw), 4.0))
     assert estimator.keyframes >= 2 and estimator.estimates == 0
     assert estimator.correction_rad == 0.0
 
@@ -136,7 +142,7 @@ def test_switched_off_never_changes():
     boxes = box_points_world(rng)
     estimator = HeadingEstimator(HeadingParams(correct_heading=False, estimate_every=1))
     for x, y, yaw in WALK:
-        estimator.correct(*frame(boxes, floor_points_world(x), (x, y, yaw), 3.0))
+        correct(estimator, *frame(boxes, floor_points_world(x), (x, y, yaw), 3.0))
     assert estimator.keyframes == 0 and estimator.correction_rad == 0.0
 
 

@@ -162,12 +162,43 @@ class LateMapping:
     Attributes:
         position: The frame's place in the run (0 = the first frame processed).
         withdrawn: The z-match rule withdrew it after all.
+        z_matched: An accepted z shift was applied to its data.
         update_ms: ``FloorObstacleMapper.update`` time [ms]; NaN when withdrawn.
+        transform_camera_to_robot: 4×4 camera pose in the robot frame it was mapped with (the
+            heading correction then held applied).
     """
 
     position: int
     withdrawn: bool
+    z_matched: bool
     update_ms: float
+    transform_camera_to_robot: NDArray[np.float64]
+
+
+@dataclass(frozen=True)
+class _MapJob:
+    """A segmented frame waiting to be mapped, with what was decided when it was queued.
+
+    The height reference's state moves on while frames wait for the heading: what it said of
+    a frame is fixed when the frame is queued, so a frame is mapped as it would have been then.
+
+    Attributes:
+        data: The frame.
+        shift_m: The height reference's shift of its data [m] (0 without the reference).
+        agrees: Its own ground measurement agreed with the reference's estimate.
+        use_z_match: z-match it (False: a frame deferred by the height reference).
+        drift_m: Odometry's z drift at the frame, measured when the reference became known [m]
+            (None: not measured; the elevation filter gives the robot's z).
+        elevation_offset_m: Set the elevation filter's offset to this before mapping the frame
+            [m] (the drift taken out of the frames after the deferred ones; None: leave it).
+    """
+
+    data: _FrameData
+    shift_m: float
+    agrees: bool
+    use_z_match: bool
+    drift_m: float | None
+    elevation_offset_m: float | None
 
 
 class Pipeline:
@@ -206,7 +237,9 @@ class Pipeline:
         self.elevation = RobotElevationFilter(self.run_params.elevation)
         self.heading = HeadingEstimator(self.run_params.heading)
         self.reference = HeightReference(self.run_params.reference)
-        self._deferred: list[_FrameData] = []
+        self._deferred: list[_FrameData] = []  # waiting for the height reference
+        self._queue: list[_MapJob] = []  # waiting for the heading's first estimate
+        self._hold_over = False  # `heading_wait_frames` ran out before the first estimate
         self._processed = 0
         self.mapped_late: list[LateMapping] = []
         self._use_reference = self.params.use_height_reference
@@ -248,13 +281,13 @@ class Pipeline:
     def keeps_grid(self, frame: Frame) -> bool:
         """Whether :meth:`process` of ``frame`` will leave the grids where they are.
 
-        True only when that is certain: the frame is mapped alone (the height reference is off
-        or known, so no deferred frame is mapped with it) and its believed (x, y), where the
-        grids are centred, lies in their central cell already. False otherwise: the grids
-        scroll, frames may be mapped with it, or its position is no coordinate (:meth:`process`
-        refuses the frame).
+        True only when that is certain: the frame is mapped alone or not at all (the height
+        reference is off or known and no frame waits for the heading, so none is mapped with
+        it) and its believed (x, y), where the grids are centred, lies in their central cell
+        already. False otherwise: the grids scroll, frames may be mapped with it, or its
+        position is no coordinate (:meth:`process` refuses the frame).
         """
-        if self._use_reference and not self.reference.known:
+        if (self._use_reference and not self.reference.known) or self._queue:
             return False
         x_m, y_m = np.asarray(frame.robot_pose_believed, dtype=np.float64).reshape(-1)[:2]
         if not (abs(x_m) <= MAX_COORDINATE_M and abs(y_m) <= MAX_COORDINATE_M):  # NaN too
@@ -274,6 +307,11 @@ class Pipeline:
         With the height reference (``pipe.use_height_reference``) a frame segmented before the
         reference is known is *deferred*: its timing says withdrawn, and it is mapped, in
         order and with the converged reference, just before the frame that makes it known.
+        Frames are also *held* until the heading's first estimate (at most
+        ``pipe.heading_wait_frames`` of them), then mapped in order with it: the heading
+        estimator learns from every frame when it is segmented (its keyframes depend on the
+        pose and the points only), so the first frames are not mapped with the neck's yaw error.
+        A held frame's timing says withdrawn too; :attr:`mapped_late` gives its outcome.
 
         Raises:
             FrameError: The frame's believed pose is refused (:meth:`check_frame`).
@@ -297,13 +335,20 @@ class Pipeline:
             self._processed,
         )
         self._processed += 1
-        withdrawn, matched, update_ms = True, False, float("nan")
+        self._observe_heading(data)
         if self._use_reference and not self.reference.known:
             self._deferred.append(data)
-            self.last_points = None
         else:
-            self._map_deferred(arrival=data)
-            withdrawn, matched, update_ms = self._map(data)
+            offset_m = self._queue_deferred(arrival=data)
+            self._queue.append(self._job(data, elevation_offset_m=offset_m))
+        withdrawn, matched, update_ms = True, False, float("nan")
+        if self._queue and not self._holding():
+            *earlier, (mapped, outcome) = self._map_queue()
+            assert mapped is data  # the queue ends with the frame just queued
+            self._record_late(earlier)
+            withdrawn, matched, update_ms = outcome.withdrawn, outcome.z_matched, outcome.update_ms
+        else:
+            self.last_points = None
         return FrameTiming(
             segmentation_ms=1000.0 * (t1 - t0),
             update_ms=update_ms,
@@ -314,41 +359,105 @@ class Pipeline:
         )
 
     def finish(self) -> list[Frame]:
-        """Map the deferred frames now, in order, without z-match; returns them.
+        """Map the deferred and held frames now, in order (deferred ones without z-match).
 
-        Called when the height reference becomes known, and by the run at its end: a run that
-        ends before the reference converged maps its frames with the reference's estimate so
-        far (the kinematics when nothing was measured) instead of dropping them.
+        Called by the run at its end: a run that ends before the height reference converged
+        maps its frames with the reference's estimate so far (the kinematics when nothing was
+        measured), one that ends before the heading's first estimate with its prior, instead
+        of dropping them.
+
+        Returns:
+            The frames mapped.
         """
-        return self._map_deferred(arrival=None)
+        self._queue_deferred(arrival=None)
+        mapped = self._map_queue()
+        self._record_late(mapped)
+        return [data.frame for data, _ in mapped]
 
-    def _map_deferred(self, arrival: _FrameData | None) -> list[Frame]:
-        """Map the deferred frames in order, without z-match; returns them.
+    def _holding(self) -> bool:
+        """Whether the queued frames wait for the heading's first estimate.
+
+        The wait ends for good when more than ``pipe.heading_wait_frames`` frames wait: they
+        are mapped with the prior.
+        """
+        if self._hold_over or not self.heading.params.correct_heading or self.heading.estimates:
+            return False
+        if len(self._queue) > self.params.heading_wait_frames:
+            self._hold_over = True
+            return False
+        return True
+
+    def _observe_heading(self, data: _FrameData) -> None:
+        """Give the segmented frame to the heading estimator (the reference's shift so far)."""
+        shift_m = self._shift_m(data)
+        transform = data.transform_camera_to_robot.copy()
+        transform[2, 3] += shift_m
+        self.heading.observe(
+            data.points_robot + np.array([0.0, 0.0, shift_m]),
+            data.floor_heights_m + shift_m,
+            transform,
+            self.robot_pose(data.frame),
+        )
+
+    def _shift_m(self, data: _FrameData) -> float:
+        """The height reference's shift of the frame's data now [m] (0 without it)."""
+        if not self._use_reference:
+            return 0.0
+        return self.reference.frame_shift_m(data.measured_shift_m)
+
+    def _job(
+        self,
+        data: _FrameData,
+        use_z_match: bool = True,
+        drift_m: float | None = None,
+        elevation_offset_m: float | None = None,
+    ) -> _MapJob:
+        """The frame's map job, with the height reference's verdict on it now."""
+        return _MapJob(
+            data,
+            self._shift_m(data),
+            self.reference.agrees(data.measured_shift_m),
+            use_z_match,
+            drift_m,
+            elevation_offset_m,
+        )
+
+    def _map_queue(self) -> list[tuple[_FrameData, LateMapping]]:
+        """Map the queued frames in order; each frame with its outcome."""
+        jobs, self._queue = self._queue, []
+        return [(job.data, self._map(job)) for job in jobs]
+
+    def _record_late(self, mapped: list[tuple[_FrameData, LateMapping]]) -> None:
+        """Add the outcomes of frames mapped after their timing was given to `mapped_late`."""
+        self.mapped_late.extend(outcome for _, outcome in mapped)
+
+    def _queue_deferred(self, arrival: _FrameData | None) -> float | None:
+        """Queue the deferred frames in order, without z-match; the arrival's elevation offset.
 
         Args:
             arrival: The frame that made the reference known (None: the run's end). When it
                 measured the ground under its feet and the first frames saw that surface,
                 odometry's z drift since the start is taken out of the deferred frames (in
                 proportion to their place between the start and ``arrival``) and of the robot's
-                elevation from ``arrival`` on (the elevation filter's offset).
+                elevation from ``arrival`` on (the elevation filter's offset, returned: to set
+                before mapping ``arrival``; None: leave it).
         """
+        if not self._deferred:
+            return None
         deferred = self._deferred
         fractions = self._way_fractions(arrival)
         surfaces_m = self._deferred_surfaces_m()
         drift_m = self._arrival_drift_m(arrival, fractions, surfaces_m)
-        if arrival is not None and arrival.measured_shift_m is not None and deferred:
+        if arrival is not None and arrival.measured_shift_m is not None:
             drift = 0.0 if drift_m is None else drift_m
             self._start_surfaces_m = [
                 heights - drift * float(f) for heights, f in zip(surfaces_m, fractions, strict=True)
             ]
         for data, fraction in zip(deferred, fractions, strict=True):
             frame_drift_m = None if drift_m is None else drift_m * float(fraction)
-            withdrawn, _, update_ms = self._map(data, use_z_match=False, drift_m=frame_drift_m)
-            self.mapped_late.append(LateMapping(data.position, withdrawn, update_ms))
-        if drift_m is not None:
-            self.elevation.offset_m = -drift_m
+            self._queue.append(self._job(data, use_z_match=False, drift_m=frame_drift_m))
         self._deferred = []
-        return [data.frame for data in deferred]
+        return None if drift_m is None else -drift_m
 
     def _way_fractions(self, arrival: _FrameData | None) -> NDArray[np.float64]:
         """Each deferred frame's place between the start (0) and ``arrival`` (1); 0 without."""
@@ -408,27 +517,25 @@ class Pipeline:
         floors = seg.floors
         return self.reference.ground_sized_m(floors.heights_m, floors.areas_m2, floors.is_floor)
 
-    def _map(
-        self, data: _FrameData, use_z_match: bool = True, drift_m: float | None = None
-    ) -> tuple[bool, bool, float]:
+    def _map(self, job: _MapJob) -> LateMapping:
         """Heading, world transform, z-match and map update of one segmented frame.
 
-        Deferred frames are mapped without z-match (``use_z_match`` False): their odometry is
-        the run's freshest (from the start pose) and matching them onto a map they are still
+        Deferred frames are mapped without z-match (``job.use_z_match`` False): their odometry
+        is the run's freshest (from the start pose) and matching them onto a map they are still
         building let it drift (stage_down seed 2: z shifts of −1 to −2 mm per frame while the
         robot stood on the platform with exact odometry; worst row 2.89 → 1.60 mm). The
         elevation filter still corrects their robot z from the map under the robot, unless
-        ``drift_m`` (odometry's z drift at this frame, measured on arrival) is given: then the
-        robot's z is odometry's minus it and the filter is left alone.
+        ``job.drift_m`` (odometry's z drift at this frame, measured on arrival) is given: then
+        the robot's z is odometry's minus it and the filter is left alone.
 
         Returns:
-            Whether the frame was withdrawn, whether it was z-matched, and the mapper update
-            time [ms] (NaN when withdrawn).
+            The frame's outcome: whether it was withdrawn, whether it was z-matched, the mapper
+            update time [ms] (NaN when withdrawn) and its corrected camera pose.
         """
+        data, shift_m, drift_m = job.data, job.shift_m, job.drift_m
+        if job.elevation_offset_m is not None:
+            self.elevation.offset_m = job.elevation_offset_m
         frame = data.frame
-        shift_m = (
-            self.reference.frame_shift_m(data.measured_shift_m) if self._use_reference else 0.0
-        )
         points_robot = data.points_robot + np.array([0.0, 0.0, shift_m])
         floor_robot = data.floor_heights_m + shift_m
         transform_camera_to_robot = data.transform_camera_to_robot.copy()
@@ -436,10 +543,10 @@ class Pipeline:
         pose = self.robot_pose(frame)
         if drift_m is not None:
             pose[2] = float(frame.robot_pose_believed[2]) - drift_m
-        on_start_surface = self._stand_on_start_surface(data, pose)
+        on_start_surface = self._stand_on_start_surface(job, pose)
         # Heading correction (mapper.heading): a yaw about the camera centre, before the pose.
-        transform_robot_to_world = planar_pose_to_matrix(pose) @ self.heading.correct(
-            points_robot, floor_robot, transform_camera_to_robot, pose
+        transform_robot_to_world = planar_pose_to_matrix(pose) @ self.heading.rotation(
+            transform_camera_to_robot
         )
         points_world = apply_transform(transform_robot_to_world, points_robot)
         floor_world = floor_robot + pose[2]
@@ -449,7 +556,7 @@ class Pipeline:
         self.baseline.recenter(pose[0], pose[1])
 
         matched = withdrawn = False
-        if self.params.use_z_match and use_z_match and not on_start_surface:
+        if self.params.use_z_match and job.use_z_match and not on_start_surface:
             match = self.mapper.match_z(points_world, floor_world)
             decision = frame_decision(
                 match, data.ground_plane_found or data.measured_shift_m is not None
@@ -483,9 +590,12 @@ class Pipeline:
                 self.elevation.update(
                     float(frame.robot_pose_believed[2]), self.mapper.floor_at(pose[0], pose[1])
                 )
-        return withdrawn, matched, update_ms
+        assert self.heading.transform_camera_to_robot is not None  # set by `rotation` above
+        return LateMapping(
+            data.position, withdrawn, matched, update_ms, self.heading.transform_camera_to_robot
+        )
 
-    def _stand_on_start_surface(self, data: _FrameData, pose: NDArray[np.float64]) -> bool:
+    def _stand_on_start_surface(self, job: _MapJob, pose: NDArray[np.float64]) -> bool:
         """Put the robot on the start surface under its feet; whether it was (sets ``pose``).
 
         A frame that measured the ground under its feet and was shifted by its own measurement
@@ -497,7 +607,7 @@ class Pipeline:
         z-matched nor used to pull the elevation to the map. A frame shifted by the estimate
         instead (stereo: its measurement scatters by ±10 mm) is z-matched as before.
         """
-        if not self.reference.agrees(data.measured_shift_m) or not self.params.use_elevation_filter:
+        if not job.agrees or not self.params.use_elevation_filter:
             return False
         assert self._start_z_m is not None  # set by the first frame
         height_m = start_surface_m(
@@ -506,7 +616,7 @@ class Pipeline:
         if height_m is None:
             return False
         pose[2] = height_m
-        self.elevation.offset_m = height_m - float(data.frame.robot_pose_believed[2])
+        self.elevation.offset_m = height_m - float(job.data.frame.robot_pose_believed[2])
         return True
 
     def maps(self) -> tuple[NDArray[np.int8], NDArray[np.float64], NDArray[np.float64]]:
