@@ -60,10 +60,11 @@ class PipelineParams:
             top was then never mapped).
         tilt_bias_deg: The neck encoders' per-run bias std [deg], the filter's
             `TiltFilterParams.bias_deg` (4.0: the default neck encoder bias).
-        heading_wait_frames: Frames held back, before the heading's first estimate, to be
-            mapped with it (issue 11: until then they carried the neck's 2–3° yaw error, 8–17
-            cm at 2 m); when more wait, they are mapped with the prior and no frame waits
-            again. 0: none (map at once). Each held frame keeps its points (88×72: ~0.2 MB).
+        heading_rebuild_frames: When the heading's first estimate comes, the maps are rebuilt
+            from the frames mapped before it (issue 11: they carried the neck's 2–3° yaw error,
+            8–17 cm at 2 m), if there are at most this many (each is kept until then: 88×72
+            points, ~0.2 MB). 300: the first estimate came at frame ~115 of the stage, ~186 of
+            stage_down, ~259 of room (seed 1). 0: no rebuild.
     """
 
     use_z_match: bool = True
@@ -74,7 +75,7 @@ class PipelineParams:
     use_tilt_filter: bool = True
     tilt_noise_deg: float = 0.3
     tilt_bias_deg: float = 4.0
-    heading_wait_frames: int = 300
+    heading_rebuild_frames: int = 300
 
     def __post_init__(self) -> None:
         if not self.event_tolerance_m > 0.0:
@@ -92,12 +93,13 @@ class PipelineParams:
                 raise ParameterError(
                     f"PipelineParams.{name} must be a finite float >= 0 deg, got {value!r}"
                 )
-        if isinstance(self.heading_wait_frames, bool) or not (
-            isinstance(self.heading_wait_frames, int) and 0 <= self.heading_wait_frames <= 10_000
+        if isinstance(self.heading_rebuild_frames, bool) or not (
+            isinstance(self.heading_rebuild_frames, int)
+            and 0 <= self.heading_rebuild_frames <= 10_000
         ):
             raise ParameterError(
-                f"PipelineParams.heading_wait_frames must be an integer in [0, 10000], "
-                f"got {self.heading_wait_frames!r}"
+                f"PipelineParams.heading_rebuild_frames must be an integer in [0, 10000], "
+                f"got {self.heading_rebuild_frames!r}"
             )
 
 

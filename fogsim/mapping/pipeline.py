@@ -22,7 +22,9 @@ Per frame (paper Fig. 1, 2 and Sec. IV), with the pose the robot *believes*:
    of the frames after them (walking down, the drift otherwise went into the map: stage_down).
 3. Heading correction (``mapper.HeadingEstimator``, beyond the paper): the camera's yaw error,
    estimated from how well the structure seen from different places agrees, is taken out by a
-   rotation about the vertical through the camera centre.
+   rotation about the vertical through the camera centre. The estimator takes its keyframes
+   when a frame is segmented; when its first estimate comes, both maps are rebuilt from the
+   frames mapped before it (``pipe.heading_rebuild_frames``), with it.
 4. Points and heights go to the world with the believed robot pose (x, y, yaw from odometry,
    z from the *elevation filter* below): ``h_G = h_R + z_R``.
 5. The grids follow the robot: both maps ``recenter`` on the believed (x, y).
@@ -165,7 +167,7 @@ class LateMapping:
         z_matched: An accepted z shift was applied to its data.
         update_ms: ``FloorObstacleMapper.update`` time [ms]; NaN when withdrawn.
         transform_camera_to_robot: 4×4 camera pose in the robot frame it was mapped with (the
-            heading correction then held applied).
+            heading correction of that moment applied).
     """
 
     position: int
@@ -207,7 +209,11 @@ class Pipeline:
     Attributes:
         last_points: The last mapped frame's labelled points (None before the first, and while
             frames are deferred until the height reference is known).
-        mapped_late: The deferred frames' outcomes once mapped, in order.
+        mapped_late: The outcomes of frames mapped after their :meth:`process` returned, in
+            order: deferred frames, and frames mapped again when the maps were rebuilt with
+            the heading's first estimate (a frame's last entry is its outcome).
+        mapped_now: The frames mapped (again) by the last :meth:`process` before its own frame
+            (the cells they saw count as seen at the grid's place now).
 
     Args:
         params: All parameters (defaults when None).
@@ -238,10 +244,17 @@ class Pipeline:
         self.heading = HeadingEstimator(self.run_params.heading)
         self.reference = HeightReference(self.run_params.reference)
         self._deferred: list[_FrameData] = []  # waiting for the height reference
-        self._queue: list[_MapJob] = []  # waiting for the heading's first estimate
-        self._hold_over = False  # `heading_wait_frames` ran out before the first estimate
+        self._queue: list[_MapJob] = []  # to map at this frame
+        # Every frame mapped so far, for the rebuild with the heading's first estimate (None:
+        # no rebuild: done, off, or more than `heading_rebuild_frames` frames mapped before it).
+        self._mapped: list[_MapJob] | None = (
+            []
+            if self.heading.params.correct_heading and self.params.heading_rebuild_frames > 0
+            else None
+        )
         self._processed = 0
         self.mapped_late: list[LateMapping] = []
+        self.mapped_now: list[Frame] = []
         self._use_reference = self.params.use_height_reference
         self._last_pose_believed: NDArray[np.float64] | None = None
         self._start_z_m: float | None = None  # odometry's z of the first frame
@@ -307,11 +320,13 @@ class Pipeline:
         With the height reference (``pipe.use_height_reference``) a frame segmented before the
         reference is known is *deferred*: its timing says withdrawn, and it is mapped, in
         order and with the converged reference, just before the frame that makes it known.
-        Frames are also *held* until the heading's first estimate (at most
-        ``pipe.heading_wait_frames`` of them), then mapped in order with it: the heading
-        estimator learns from every frame when it is segmented (its keyframes depend on the
-        pose and the points only), so the first frames are not mapped with the neck's yaw error.
-        A held frame's timing says withdrawn too; :attr:`mapped_late` gives its outcome.
+        The heading estimator learns from every frame when it is segmented (its keyframes
+        depend on the pose and the points only). Frames are mapped at once with the heading
+        correction of the moment; when its first estimate comes (after at most
+        ``pipe.heading_rebuild_frames`` mapped frames), the maps are *rebuilt*: they start
+        anew and every frame mapped so far is mapped again, in order and as it was decided
+        then, with the estimate (until then frames carried the neck's yaw error). The outcomes
+        of the frames mapped again are added to :attr:`mapped_late`.
 
         Raises:
             FrameError: The frame's believed pose is refused (:meth:`check_frame`).
@@ -342,13 +357,15 @@ class Pipeline:
             offset_m = self._queue_deferred(arrival=data)
             self._queue.append(self._job(data, elevation_offset_m=offset_m))
         withdrawn, matched, update_ms = True, False, float("nan")
-        if self._queue and not self._holding():
+        if self._queue:
             *earlier, (mapped, outcome) = self._map_queue()
             assert mapped is data  # the queue ends with the frame just queued
             self._record_late(earlier)
+            self.mapped_now = [late.frame for late, _ in earlier]
             withdrawn, matched, update_ms = outcome.withdrawn, outcome.z_matched, outcome.update_ms
         else:
             self.last_points = None
+            self.mapped_now = []
         return FrameTiming(
             segmentation_ms=1000.0 * (t1 - t0),
             update_ms=update_ms,
@@ -359,12 +376,11 @@ class Pipeline:
         )
 
     def finish(self) -> list[Frame]:
-        """Map the deferred and held frames now, in order (deferred ones without z-match).
+        """Map the deferred frames now, in order, without z-match.
 
         Called by the run at its end: a run that ends before the height reference converged
         maps its frames with the reference's estimate so far (the kinematics when nothing was
-        measured), one that ends before the heading's first estimate with its prior, instead
-        of dropping them.
+        measured) instead of dropping them.
 
         Returns:
             The frames mapped.
@@ -374,18 +390,32 @@ class Pipeline:
         self._record_late(mapped)
         return [data.frame for data, _ in mapped]
 
-    def _holding(self) -> bool:
-        """Whether the queued frames wait for the heading's first estimate.
+    def _take_queue(self) -> list[_MapJob]:
+        """The queued frames to map now; with the heading's first estimate, all so far.
 
-        The wait ends for good when more than ``pipe.heading_wait_frames`` frames wait: they
-        are mapped with the prior.
+        When the first estimate has come and frames were mapped before it, the maps start
+        anew (`_restart_maps`) and those frames come first. Beyond
+        ``pipe.heading_rebuild_frames`` frames mapped without an estimate there is no rebuild.
         """
-        if self._hold_over or not self.heading.params.correct_heading or self.heading.estimates:
-            return False
-        if len(self._queue) > self.params.heading_wait_frames:
-            self._hold_over = True
-            return False
-        return True
+        jobs, self._queue = self._queue, []
+        if self._mapped is None:
+            return jobs
+        if self.heading.estimates:
+            if self._mapped:
+                jobs = self._mapped + jobs
+                self._restart_maps()
+            self._mapped = None
+            return jobs
+        self._mapped.extend(jobs)
+        if len(self._mapped) > self.params.heading_rebuild_frames:
+            self._mapped = None
+        return jobs
+
+    def _restart_maps(self) -> None:
+        """Both maps and the elevation filter as at the start (nothing mapped)."""
+        self.mapper = FloorObstacleMapper(self.mapper_params)
+        self.baseline = AveragingMap(self.mapper_params)
+        self.elevation = RobotElevationFilter(self.run_params.elevation)
 
     def _observe_heading(self, data: _FrameData) -> None:
         """Give the segmented frame to the heading estimator (the reference's shift so far)."""
@@ -423,9 +453,8 @@ class Pipeline:
         )
 
     def _map_queue(self) -> list[tuple[_FrameData, LateMapping]]:
-        """Map the queued frames in order; each frame with its outcome."""
-        jobs, self._queue = self._queue, []
-        return [(job.data, self._map(job)) for job in jobs]
+        """Map the queued frames in order (`_take_queue`); each frame with its outcome."""
+        return [(job.data, self._map(job)) for job in self._take_queue()]
 
     def _record_late(self, mapped: list[tuple[_FrameData, LateMapping]]) -> None:
         """Add the outcomes of frames mapped after their timing was given to `mapped_late`."""
