@@ -1,0 +1,152 @@
+"""The pipeline's heading rebuild: frames mapped before the heading's first estimate are mapped
+again with it (synthetic walk, exact depth, a known 3° camera yaw error), no MuJoCo."""
+
+import math
+
+import numpy as np
+import pytest
+from synthetic_depth import Box, look_down_camera, render_boxes
+
+from fogsim.config import RunParams
+from fogsim.config.params import PipelineParams
+from fogsim.data.frame import Frame
+from fogsim.errors import ParameterError
+from fogsim.mapping.pipeline import Pipeline
+from mapper import HeadingParams
+from mapper.heading import yaw_about_pivot
+from mapper.intrinsics import PinholeIntrinsics
+from mapper.transforms import planar_pose_to_matrix
+
+INTR = PinholeIntrinsics.from_fov(88, 72, 47.0, 39.0)
+CAMERA_IN_ROBOT = look_down_camera((0.05, 0.0, 0.9), pitch_down_deg=35.0)
+YAW_ERROR_DEG = 3.0
+CAMERA_BELIEVED = yaw_about_pivot(math.radians(YAW_ERROR_DEG), CAMERA_IN_ROBOT[:3, 3]) @ (
+    CAMERA_IN_ROBOT
+)
+"""The believed camera: turned 3° (to the left) about its centre, as a neck yaw bias does."""
+BOXES = (
+    Box((1.6, 0.2), (0.3, 0.3, 0.25)),
+    Box((1.7, 0.85), (0.3, 0.3, 0.2)),
+    Box((2.3, 0.45), (0.3, 0.3, 0.3)),
+)
+STEP_M = 0.04
+"""The robot walks along x at y = 0.5 m, 4 cm a frame (0.5 m a second at 12.5 Hz)."""
+FIRST_ESTIMATE = 17
+"""The frame of the heading's first estimate on this walk: the keyframes (one per 0.1 m) span
+the 0.5 m baseline from frame 14 on, and the estimate comes with the 8th keyframe
+(`estimate_every` 4)."""
+
+
+def walk(n):
+    """Exact depth of the boxes from the robot walking along x; its camera believed 3° off."""
+    frames = []
+    for i in range(n):
+        pose = np.array([STEP_M * i, 0.5, 0.0, 0.0])
+        world = planar_pose_to_matrix(pose) @ CAMERA_IN_ROBOT
+        frames.append(
+            Frame(
+                index=i,
+                time_s=i / 12.5,
+                depth_m=render_boxes(INTR, world, BOXES).astype(np.float32),
+                intrinsics=INTR,
+                transform_camera_to_robot_believed=CAMERA_BELIEVED,
+                robot_pose_believed=pose,
+                transform_camera_to_world_true=world,
+                robot_pose_true=pose,
+            )
+        )
+    return frames
+
+
+FRAMES = walk(FIRST_ESTIMATE + 3)
+
+
+def run(rebuild_frames=300, heading=None):
+    pipeline = Pipeline(
+        RunParams(
+            pipeline=PipelineParams(heading_rebuild_frames=rebuild_frames),
+            heading=heading if heading is not None else HeadingParams(),
+        )
+    )
+    for frame in FRAMES:
+        pipeline.process(frame)
+    pipeline.finish()
+    return pipeline
+
+
+def raised_cells_off_the_boxes(pipeline):
+    """FOG cells 10 cm or more above the ground (box tops and sides) lying more than one cell
+    (4 cm) outside every box's footprint: where a yaw error puts a box's edges."""
+    types, heights = (np.asarray(a) for a in pipeline.mapper.fog())
+    xy = np.asarray(pipeline.mapper.geometry.cell_centers_xy())
+    raised = (types != 0) & (np.nan_to_num(heights, nan=0.0) >= 0.1)
+    on_a_box = np.zeros(types.shape, dtype=bool)
+    for box in BOXES:
+        half_x, half_y = box.size_m[0] / 2 + 0.04, box.size_m[1] / 2 + 0.04
+        on_a_box |= (np.abs(xy[..., 0] - box.center_xy_m[0]) <= half_x) & (
+            np.abs(xy[..., 1] - box.center_xy_m[1]) <= half_y
+        )
+    return int((raised & ~on_a_box).sum()), int((raised & on_a_box).sum())
+
+
+def assert_same_maps(a, b):
+    for x, y in zip(a.mapper.fog(), b.mapper.fog(), strict=True):
+        np.testing.assert_array_equal(np.asarray(x), np.asarray(y))
+    np.testing.assert_array_equal(
+        np.asarray(a.baseline.heights()), np.asarray(b.baseline.heights())
+    )
+
+
+@pytest.fixture(scope="module")
+def rebuilt():
+    return run()
+
+
+def test_the_first_estimate_undoes_the_yaw_error(rebuilt):
+    assert rebuilt.heading.estimates == 1  # one estimate on this walk, at FIRST_ESTIMATE
+    # Within the peak band's half step (0.25°) of −3°.
+    assert math.degrees(rebuilt.heading.correction_rad) == pytest.approx(-YAW_ERROR_DEG, abs=0.3)
+
+
+def test_frames_mapped_before_the_first_estimate_are_mapped_again_with_it(rebuilt):
+    # The first 7 frames waited for the height reference (mapped late at frame 7); frames 0-16
+    # were mapped again at frame 17, when the estimate came.
+    positions = [late.position for late in rebuilt.mapped_late]
+    reference_wait = positions.index(0, 1)
+    assert positions[:reference_wait] == list(range(reference_wait))
+    assert positions[reference_wait:] == list(range(FIRST_ESTIMATE))
+    for late in rebuilt.mapped_late[reference_wait:]:  # with the estimate: 3° back
+        axis = late.transform_camera_to_robot[:3, 2]
+        assert math.degrees(math.atan2(axis[1], axis[0])) == pytest.approx(0.0, abs=0.3)
+    # The rebuilt maps are those of a run that knew the correction from its first frame.
+    known = run(heading=HeadingParams(correct_heading=False, prior_deg=-3.25))
+    assert rebuilt.heading.correction_rad == math.radians(-3.25)
+    assert_same_maps(rebuilt, known)
+
+
+def test_the_boxes_edges_lie_where_they_are_only_with_the_rebuild(rebuilt):
+    # With the 3° error a box side 1.2-1.9 m from the camera lies 6-10 cm (1.5-2.5 cells)
+    # sideways in the first 17 frames: without the rebuild their box edges stay in the map.
+    off, on = raised_cells_off_the_boxes(rebuilt)
+    assert off == 0 and on > 50
+    off_without, _ = raised_cells_off_the_boxes(run(rebuild_frames=0))
+    assert off_without >= 5
+
+
+def test_no_rebuild_beyond_heading_rebuild_frames(rebuilt):
+    # 17 frames were mapped before the estimate: a bound of 17 keeps them all, 16 drops them
+    # (no rebuild: the maps of a run without it; nothing is kept from frame 16 on).
+    assert_same_maps(run(rebuild_frames=FIRST_ESTIMATE), rebuilt)
+    bounded = run(rebuild_frames=FIRST_ESTIMATE - 1)
+    assert [late.position for late in bounded.mapped_late] == list(range(7))
+    assert_same_maps(bounded, run(rebuild_frames=0))
+
+
+def test_same_frames_same_rebuilt_maps_bit_for_bit(rebuilt):
+    assert_same_maps(run(), rebuilt)
+
+
+@pytest.mark.parametrize("bad", [-1, 10_001, 2.0, True])
+def test_heading_rebuild_frames_must_be_an_integer_in_range(bad):
+    with pytest.raises(ParameterError, match=r"PipelineParams\.heading_rebuild_frames"):
+        PipelineParams(heading_rebuild_frames=bad)
