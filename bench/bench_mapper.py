@@ -167,7 +167,10 @@ def stage_frames(path: Path, count: int) -> FrameSet:
     """The mapper's inputs when the recording is replayed: ``count`` frames evenly spaced."""
     recording = load_recording(path)
     scenario = recording.scenario
-    pipeline = Pipeline(resolve_params(scenario, sensor=sensor_fields(scenario)))
+    # No heading rebuild: it would replace the mapper whose inputs are captured here.
+    pipeline = Pipeline(
+        resolve_params(scenario, {"pipe.heading_rebuild_frames": 0}, sensor=sensor_fields(scenario))
+    )
     mapper = pipeline.mapper
     captured: list[MapperInput] = []
     center: list[tuple[float, float]] = [(0.0, 0.0)]

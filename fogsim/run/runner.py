@@ -198,7 +198,10 @@ def _run_pipeline(
         timings.append(timing)
         pose_errors.add(frame, pipeline.heading.transform_camera_to_robot)
         geometry = pipeline.mapper.geometry
-        archiver.add(geometry, cells_in_view(frame, geometry))
+        in_view = cells_in_view(frame, geometry)
+        for late_frame in pipeline.mapped_now:  # frames mapped (again) with this one
+            in_view |= cells_in_view(late_frame, geometry)
+        archiver.add(geometry, in_view)
         if tracker is not None or fig5 is not None:  # the maps, every cell's centre: for these
             types, fog_heights, base_heights = pipeline.maps()
             centers = pipeline.cell_centers_xy()
@@ -223,7 +226,10 @@ def _run_pipeline(
 
     for late in pipeline.mapped_late:  # deferred frames: withdrawn when seen, mapped later
         timings[late.position] = dataclasses.replace(
-            timings[late.position], withdrawn=late.withdrawn, update_ms=late.update_ms
+            timings[late.position],
+            withdrawn=late.withdrawn,
+            z_matched=late.z_matched,
+            update_ms=late.update_ms,
         )
     scores = final_truth = None
     if truth_provider is not None:
