@@ -60,6 +60,31 @@ def test_the_boxes_wholly_outside_the_view_are_culled():
     }
 
 
+def test_a_mesh_on_the_camera_body_is_culled_when_each_of_its_triangles_is_outside():
+    """Two triangles each outside the view (one behind the camera, one far right of it) whose
+    bounding box spans the view: culled on the camera's body, kept on another body (the box
+    test alone); one triangle in view (below the camera) keeps the mesh."""
+    behind = "-1 -1 0.5  1 -1 0.5  0 1 0.5"  # the camera's body frame: it looks along -z
+    meshes = {
+        "unseen": f"{behind}  3 0 -1  3.5 0 -1  3 0.5 -1",  # x/z = 3: right of the view
+        "seen": f"{behind}  -0.1 -0.1 -1  0.1 -0.1 -1  0 0.1 -1",  # straight below
+    }
+    assets = "".join(
+        f'<mesh name="{name}" inertia="shell" vertex="{vertices}" face="0 1 2  3 4 5"/>'
+        for name, vertices in meshes.items()
+    )
+    xml = f"""<mujoco><asset>{assets}</asset><worldbody>
+    <geom name="floor" type="plane" size="5 5 .1"/>
+    <body name="head" pos="0 0 2"><camera name="down"/>
+      <geom name="unseen" type="mesh" mesh="unseen"/><geom name="seen" type="mesh" mesh="seen"/>
+    </body>
+    <body name="other" pos="0 0 2"><geom name="elsewhere" type="mesh" mesh="unseen"/></body>
+    </worldbody></mujoco>"""
+    model, data = _posed(xml)
+    culling = FrustumCulling(model, INTRINSICS, VISIBLE_GEOMGROUPS)
+    assert _names(model, culling.outside(data, 0)) == {"unseen"}
+
+
 def test_the_hidden_geoms_are_back_in_their_groups_afterwards_even_on_an_error():
     model, data = _posed(_scene_xml())
     culling = FrustumCulling(model, INTRINSICS, VISIBLE_GEOMGROUPS)
@@ -118,13 +143,16 @@ def test_stage_walk_depth_is_the_same_with_most_of_the_robot_culled(stage_walk):
     reference = mujoco.Renderer(scene.model, INTRINSICS.height, INTRINSICS.width)
     reference.enable_depth_rendering()
     culling = FrustumCulling(scene.model, INTRINSICS, VISIBLE_GEOMGROUPS)
-    chest = mujoco.mj_name2id(scene.model, mujoco.mjtObj.mjOBJ_GEOM, "icub/chest_0")
+    chest, head = (
+        mujoco.mj_name2id(scene.model, mujoco.mjtObj.mjOBJ_GEOM, f"icub/{name}_0")
+        for name in ("chest", "head")
+    )
     far_m = float(scene.model.vis.map.zfar * scene.model.stat.extent)
     try:
         poses = [(i, None) for i in range(0, stage_walk.frame_count, 16)] + [(0, 1.1), (400, 1.1)]
         for index, torso_pitch_rad in poses:
             _pose(stage_walk, index, torso_pitch_rad)
-            assert chest in culling.outside(scene.data, camera_id)
+            assert {chest, head} <= set(culling.outside(scene.data, camera_id).tolist())
             expected = _unculled_depth(reference, scene.data, camera_id, far_m)
             np.testing.assert_array_equal(depth.render(scene.data, camera_id), expected)
         robot_geoms = np.flatnonzero(scene.model.geom_bodyid > 0)

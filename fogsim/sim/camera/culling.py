@@ -2,17 +2,18 @@
 
 The head camera sees the course ahead and below it; the iCub's chest, torso, arms and legs,
 45 k of its 52 k mesh triangles, lie wholly outside its view in every frame of the stage
-walk, yet OpenGL transforms every triangle it is given: on a CPU renderer (Mesa's llvmpipe,
-what EGL gives a headless machine) most of an 88 × 72 depth render's time. Before MuJoCo
-builds the camera's scene (``mjv_updateScene``), :class:`FrustumCulling` finds the mesh and
-box geoms whose bounding box (MuJoCo's ``geom_aabb``, in the geom's frame) lies wholly on the
-outer side of one plane of the camera's view, widened by a margin, and
-:meth:`~FrustumCulling.hidden` moves them into a geom group the renderer does not draw for
-that call, then back.
+walk, and so does every triangle of the head mesh around the camera (6.6 k more), yet OpenGL
+transforms every triangle it is given: on a CPU renderer (Mesa's llvmpipe, what EGL gives a
+headless machine) most of an 88 × 72 depth render's time. Before MuJoCo builds the camera's
+scene (``mjv_updateScene``), :class:`FrustumCulling` finds the mesh and box geoms whose
+bounding box (MuJoCo's ``geom_aabb``, in the geom's frame) lies wholly on the outer side of
+one plane of the camera's view, widened by a margin, or, for the meshes that move with the
+camera, each of whose triangles does; :meth:`~FrustumCulling.hidden` moves them into a geom
+group the renderer does not draw for that call, then back.
 
-The images stay the same bit for bit: every vertex of a culled geom lies outside one clipping
-plane, so OpenGL would have clipped each of its triangles whole, leaving no fragment, and every
-other triangle is drawn as before. What could show a geom outside the view, reflections and
+The images stay the same bit for bit: each triangle of a culled geom has all three vertices
+outside one clipping plane, so OpenGL would have clipped it whole, leaving no fragment, and
+every other triangle is drawn as before. What could show a geom outside the view, reflections and
 shadows, the scenes have neither (``assets/mjcf/visual.xml``, ``materials.xml``); a model with
 a geom of reflective material or a shadow-casting light is never culled
 (:attr:`FrustumCulling.active`). tests/test_culling.py renders frames of a stage walk with and
@@ -79,16 +80,21 @@ class FrustumCulling:
         self._centres_geom = boxes[:, :3]
         self._half_sizes = boxes[:, 3:]
         self._normals_camera = _view_planes(intrinsics)
+        self._on_camera_body: dict[int, NDArray[np.intp]] = {}
 
     def outside(self, data: mujoco.MjData, camera_id: int) -> NDArray[np.intp]:
         """Ids of the geoms wholly outside the widened view of camera ``camera_id`` now.
 
-        A box is outside when it lies beyond one of the view's planes by more than
-        :data:`MARGIN_M`: its centre's signed distance below minus its extent along the
-        plane's normal (``Σ |n·axis_k| · half_size_k``).
+        A geom is outside when its bounding box lies beyond one of the view's planes by more
+        than :data:`MARGIN_M` (its centre's signed distance below minus its extent along the
+        plane's normal, ``Σ |n·axis_k| · half_size_k``), or, for a mesh on the camera's own
+        body (the head's, around the camera), when each of its triangles does
+        (:meth:`_unseen_on_camera_body`).
         """
         if self._geoms.size == 0:
             return self._geoms
+        if camera_id not in self._on_camera_body:
+            self._on_camera_body[camera_id] = self._unseen_on_camera_body(data, camera_id)
         rotation_cv = data.cam_xmat[camera_id].reshape(3, 3) @ MJ_FROM_CV
         rotations = data.geom_xmat[self._geoms].reshape(-1, 3, 3)
         centres_world = data.geom_xpos[self._geoms] + np.einsum(
@@ -102,7 +108,37 @@ class FrustumCulling:
             np.abs(np.einsum("pi,gik->gpk", self._normals_camera, axes_camera)),
             self._half_sizes,
         )
-        return self._geoms[np.any(distances < -extents - MARGIN_M, axis=1)]
+        boxes_outside = self._geoms[np.any(distances < -extents - MARGIN_M, axis=1)]
+        return np.union1d(boxes_outside, self._on_camera_body[camera_id])
+
+    def _unseen_on_camera_body(self, data: mujoco.MjData, camera_id: int) -> NDArray[np.intp]:
+        """Meshes on the camera's body whose every triangle lies wholly beyond a plane of its view.
+
+        Beyond by more than :data:`MARGIN_M`, each triangle beyond one of the widened view's
+        planes (not necessarily the same for all). Such a mesh never shows (OpenGL clips each
+        of its triangles whole), and it moves with the camera, so the answer holds for every
+        pose: it is computed once, from the vertices in the camera's frame now. The camera
+        sits inside its head mesh, whose bounding box therefore always meets the view.
+        """
+        body = self._model.cam_bodyid[camera_id]
+        rotation_cv = data.cam_xmat[camera_id].reshape(3, 3) @ MJ_FROM_CV
+        unseen = []
+        for geom in self._geoms[self._model.geom_bodyid[self._geoms] == body]:
+            if self._model.geom_type[geom] != mujoco.mjtGeom.mjGEOM_MESH:
+                continue
+            mesh = self._model.geom_dataid[geom]
+            first = self._model.mesh_vertadr[mesh]
+            vertices = self._model.mesh_vert[first : first + self._model.mesh_vertnum[mesh]]
+            faces = self._model.mesh_face[
+                self._model.mesh_faceadr[mesh] : self._model.mesh_faceadr[mesh]
+                + self._model.mesh_facenum[mesh]
+            ]
+            vertices_world = vertices @ data.geom_xmat[geom].reshape(3, 3).T + data.geom_xpos[geom]
+            vertices_camera = (vertices_world - data.cam_xpos[camera_id]) @ rotation_cv
+            beyond = vertices_camera @ self._normals_camera.T < -MARGIN_M  # (V, planes)
+            if np.all(np.any(np.all(beyond[faces], axis=1), axis=1)):
+                unseen.append(geom)
+        return np.array(unseen, dtype=np.intp)
 
     @contextmanager
     def hidden(self, data: mujoco.MjData, camera_id: int) -> Iterator[None]:
