@@ -217,7 +217,7 @@ def ahead(recording: Path, n: int) -> None:
 
     replay = load_recording(recording)
     params = resolve_params(replay.scenario, sensor=sensor_fields(replay.scenario))
-    warm_up_kernels(params, stream=None)
+    warm_up_kernels(params, stream=None, simulated=False)
     rows: dict[str, list[tuple[float, float, float]]] = {"in line": [], "segmented ahead": []}
     note = load_note()
     for _ in range(n):

@@ -3,7 +3,11 @@
 from __future__ import annotations
 
 import dataclasses
+import os
+import subprocess
+import sys
 import time
+from pathlib import Path
 
 import mujoco
 import numpy as np
@@ -17,6 +21,8 @@ from fogsim.sim.assets import MJCF_DIR, load_mjcf_piece
 from fogsim.sim.model_cache import content_key, model_cache_dir
 from fogsim.sim.scene import Scene, compile_scene, rough_elevation, scene_key
 from fogsim.world import SceneTruth, object_center_at
+
+ROOT = Path(__file__).resolve().parent.parent
 
 
 def ray_down(scene: Scene, xy) -> np.ndarray:
@@ -260,3 +266,22 @@ def test_model_cache_keeps_the_most_recently_used(tmp_path, monkeypatch):
     names = sorted(p.name for p in model_cache_dir().glob("*.mjb"))
     assert names == ["k1.0.mjb", "k3.0.mjb"]
     assert content_key((b"ab", b"c")) != content_key((b"a", b"bc"))
+
+
+def test_a_cached_scene_is_loaded_without_dm_control(tmp_path):
+    """dm_control (a quarter second of imports) builds scenes; a cached one does without it."""
+    code = (
+        "import sys\n"
+        "from fogsim.config import load_scenario\n"
+        "from fogsim.sim.scene import Scene\n"
+        "Scene(load_scenario('flat_floor'))\n"
+        "print(any(name.startswith('dm_control') for name in sys.modules))\n"
+    )
+    env = {**os.environ, "FOGSIM_CACHE": str(tmp_path), "PYTHONPATH": str(ROOT)}
+    imported = [
+        subprocess.run(
+            [sys.executable, "-c", code], env=env, capture_output=True, text=True, check=True
+        ).stdout.split()[-1]
+        for _ in range(2)
+    ]
+    assert imported == ["True", "False"]  # built (and cached) by the first, loaded by the second

@@ -110,7 +110,16 @@ def _signature_counts(cache_dir: Path) -> dict[str, int]:
 
 def test_a_run_with_progress_leaves_the_cache_warm():
     run_scenario(None, None, replay=_recording(), pictures=False, progress=True)
-    assert not any(is_cold(group) for group in GROUPS)
+    # a replay warms up every kernel but the self-filter's, which only a simulation calls
+    assert not any(is_cold(group) for group in GROUPS if group is not warmup.SELF_FILTER)
+
+
+@pytest.mark.parametrize("simulated", [True, False])
+def test_only_a_simulated_run_warms_the_self_filter_up(monkeypatch, simulated):
+    calls = []
+    monkeypatch.setattr(warmup.self_filter, "compile_mask_kernel", lambda: calls.append(1))
+    warmup.warm_up_kernels(RunParams(), stream=None, simulated=simulated)
+    assert calls == ([1] if simulated else [])
 
 
 def _recording():

@@ -9,6 +9,9 @@ does not say (soles, legs, neck, camera mount, quirks) comes from the robot's de
 
 import functools
 import warnings
+from importlib.metadata import version
+from pathlib import Path
+from typing import Any
 
 import example_robot_data
 import mujoco
@@ -19,13 +22,27 @@ from numpy.typing import NDArray
 from fogsim.errors import RobotModelError
 from fogsim.robot.body_boxes import body_boxes
 from fogsim.robot.description import CAMERA_NAMES, CameraMount, RobotDescription, load_description
+from fogsim.robot.disk_cache import content_key, load_or_build, source_digest
 from fogsim.robot.kinematics import Robot
-from fogsim.robot.mjcf import cached_mjcf
+from fogsim.robot.mjcf import cache_root, cached_mjcf
+
+MAX_CACHED_ROBOTS = 8
+"""Most loaded robot models kept on disk, the least recently used removed first: both robots
+with room for edited descriptions and code (a loaded iCub is ~110 kB)."""
+_LIBRARIES = ("example-robot-data", "pin", "coal", "mujoco", "numpy")
+"""The packages a loaded robot comes from: the URDF, SRDF and meshes ship with
+example-robot-data, pinocchio and coal parse them, MuJoCo compiles the MJCF."""
 
 
 @functools.cache
 def load_robot(name: str = "icub") -> Robot:
     """Load a humanoid into pinocchio and MuJoCo (cached per process and on disk).
+
+    On disk: what :func:`_load` builds (the URDF parsed, the meshes loaded, the MJCF
+    generated: about 0.3 s) is kept in ``robot_models`` beside :func:`~fogsim.robot.mjcf.cache_root`
+    under a key of the description, the versions of :data:`_LIBRARIES` and the source of
+    ``fogsim.robot`` (:mod:`fogsim.robot.disk_cache`); a later process loads it in milliseconds,
+    the same model to the bit (pinocchio's own serialisation).
 
     Args:
         name: One of `fogsim.robot.description.ROBOT_NAMES` ("icub" default, "talos").
@@ -35,6 +52,25 @@ def load_robot(name: str = "icub") -> Robot:
             joint the description names.
     """
     description = load_description(name)
+    key = content_key(
+        (
+            repr(description).encode(),
+            " ".join(f"{package} {version(package)}" for package in _LIBRARIES).encode(),
+            source_digest(Path(__file__).parent),
+        )
+    )
+    fields = load_or_build(
+        cache_root().parent / "robot_models" / f"{name}_{key}.pickle",
+        lambda: _load(description),
+        MAX_CACHED_ROBOTS,
+        usable=lambda loaded: Path(loaded["mjcf_path"]).exists(),  # the MJCF may be deleted
+    )
+    return Robot(description=description, pin_data=fields["pin_model"].createData(), **fields)
+
+
+def _load(description: RobotDescription) -> dict[str, Any]:
+    """The fields of the :class:`Robot` of ``description`` but its description and data."""
+    name = description.name
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")
         wrapper = example_robot_data.load(description.example_robot_data)
@@ -55,11 +91,9 @@ def load_robot(name: str = "icub") -> Robot:
     if mujoco_joint_names[0] != "root" or sorted(mujoco_joint_names[1:]) != sorted(joint_names):
         raise RobotModelError(f"{mjcf_path} joints do not match the pinocchio model of {name}")
     qpos_index = np.array([joint_names.index(j) for j in mujoco_joint_names[1:]], dtype=np.intp)
-    return Robot(
-        description=description,
+    return dict(
         mjcf_path=mjcf_path,
         pin_model=model,
-        pin_data=model.createData(),
         joint_names=joint_names,
         mujoco_joint_names=mujoco_joint_names,
         body_boxes=body_boxes(geometry_model, description.quirks.fix_y_up_meshes),

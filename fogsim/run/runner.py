@@ -410,11 +410,13 @@ def _frame_source(
         )
     if scenario is None:
         raise FogsimError("a run needs a scenario to simulate or a recording to replay")
-    # MuJoCo and the robot's kinematics: imported by a simulated run only, never by a replay.
-    from fogsim.sim.simulation import Simulation
-    from fogsim.sim.third_person import FilmedSimulation
 
     def make_simulation() -> Simulation | FilmedSimulation:
+        # MuJoCo and the robot's kinematics: imported by a simulated run only, never by a
+        # replay, and on the simulation's thread, while this one warms the kernels up.
+        from fogsim.sim.simulation import Simulation
+        from fogsim.sim.third_person import FilmedSimulation
+
         simulation = Simulation(scenario, depth_backend=depth_backend)
         return FilmedSimulation(simulation) if video else simulation
 
@@ -423,6 +425,8 @@ def _frame_source(
     if video:
 
         def take_picture(index: int) -> NDArray[np.uint8]:
+            from fogsim.sim.third_person import FilmedSimulation  # make_simulation's
+
             filmed = background.simulation
             assert isinstance(filmed, FilmedSimulation)
             return filmed.camera.take(index)
@@ -579,7 +583,9 @@ def _run_frames_into(
         # Compiled (or loaded) now, while the simulation sets up, not in frame 1 (in two
         # processes when numba's cache is cold, saying so with the bar): the bar's rate then
         # measures frames only.
-        warm_up_kernels(params, sys.stderr if options.progress else None)
+        warm_up_kernels(
+            params, sys.stderr if options.progress else None, simulated=options.replay is None
+        )
         if options.progress:
             from tqdm import tqdm  # only for the progress bar
 

@@ -162,7 +162,9 @@ the scene is set up (seconds into the warm-up); compiled last, the kernel was no
 yet and that thread compiled it a second time, in this process, beside its groups (1 s)."""
 
 
-def warm_up_kernels(params: RunParams, stream: TextIO | None = sys.stderr) -> float:
+def warm_up_kernels(
+    params: RunParams, stream: TextIO | None = sys.stderr, *, simulated: bool = True
+) -> float:
     """Compile (or load from numba's cache) the kernels a run of ``params`` uses.
 
     Runs each group of :data:`GROUPS` on synthetic data (throwaway maps, a 2 × 2 image for
@@ -174,13 +176,16 @@ def warm_up_kernels(params: RunParams, stream: TextIO | None = sys.stderr) -> fl
     Args:
         params: The run's parameters (the kernels are compiled for their types).
         stream: Where to report progress when a group's cache is cold; None = say nothing.
+        simulated: The run simulates its frames; False (a replay, real data): the
+            :data:`SELF_FILTER` group, which only a simulation calls, is left out.
 
     Returns:
         The warm-up's wall time [s].
     """
     start = time.perf_counter()
     steps = _steps(params)
-    cold = [group for group in GROUPS if is_cold(group)]
+    groups = GROUPS if simulated else tuple(g for g in GROUPS if g is not SELF_FILTER)
+    cold = [group for group in groups if is_cold(group)]
     say = print if stream is not None else _silent
     away = [group for group in HELPER_GROUPS if group in cold]
     helper = _Helper(params, away) if away and len(away) < len(cold) else None
@@ -188,7 +193,7 @@ def warm_up_kernels(params: RunParams, stream: TextIO | None = sys.stderr) -> fl
         processes = " in 2 processes" if helper is not None else ""
         say(f"fogsim: {MESSAGE}, {len(cold)} groups{processes}", file=stream, flush=True)
     try:
-        for group in GROUPS:
+        for group in groups:
             if helper is not None and group in away:
                 continue
             if group in cold:

@@ -15,14 +15,17 @@ from __future__ import annotations
 
 import tomllib
 from dataclasses import dataclass
+from typing import TYPE_CHECKING
 
 import cv2
 import numpy as np
-from dm_control import mjcf
 from numpy.typing import NDArray
 
 from fogsim.errors import FogsimError
 from fogsim.paths import ASSETS_DIR
+
+if TYPE_CHECKING:  # dm_control builds scenes only: a cached compiled scene does without it
+    from dm_control import mjcf
 
 MJCF_DIR = ASSETS_DIR / "mjcf"
 """Folder of the MJCF pieces."""
@@ -43,6 +46,8 @@ def load_mjcf_piece(name: str) -> mjcf.RootElement:
     if not path.is_file():
         pieces = ", ".join(sorted(p.stem for p in MJCF_DIR.glob("*.xml"))) or "none"
         raise FogsimError(f"no MJCF piece {name!r} ({path} is missing); pieces: {pieces}")
+    from dm_control import mjcf  # only to build a scene (TYPE_CHECKING import)
+
     return mjcf.from_path(str(path), resolve_references=False)
 
 

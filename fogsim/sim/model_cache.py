@@ -3,14 +3,14 @@
 Building a scene through ``dm_control.mjcf`` serialises megabytes of MJCF (the robot's meshes
 are inlined) and compiles them on every run; a compiled model saved with ``mj_saveModel``
 loads in milliseconds. :func:`load_or_compile` keeps one ``<key>.mjb`` per content key: the
-caller derives the key from everything the model is built from (:func:`content_key`), so a
+caller derives the key from everything the model is built from
+(:func:`fogsim.robot.disk_cache.content_key`), so a
 changed input gives a new key and misses the cache. Files are written atomically; the folder
 keeps at most :data:`MAX_CACHED_MODELS` files, the least recently used go first.
 """
 
 from __future__ import annotations
 
-import hashlib
 import os
 from collections.abc import Callable
 from pathlib import Path
@@ -20,7 +20,10 @@ import numpy as np
 
 from fogsim.atomic import write_atomic
 from fogsim.errors import FogsimError
+from fogsim.robot.disk_cache import content_key, prune
 from fogsim.robot.mjcf import cache_root
+
+__all__ = ["MAX_CACHED_MODELS", "content_key", "load_or_compile", "model_cache_dir"]
 
 MAX_CACHED_MODELS = 16
 """Most compiled models kept, the least recently used removed first: the 9 shipped scenarios
@@ -33,36 +36,12 @@ def model_cache_dir() -> Path:
     return cache_root().parent / "scenes"
 
 
-def content_key(parts: tuple[bytes, ...]) -> str:
-    """Hex sha256 of ``parts``, each length-prefixed so no two tuples share a key."""
-    digest = hashlib.sha256()
-    for part in parts:
-        digest.update(len(part).to_bytes(8, "little"))
-        digest.update(part)
-    return digest.hexdigest()
-
-
-def _mtime_ns(path: Path) -> int:
-    """Last use of a cached file, 0 if another process removed it meanwhile."""
-    try:
-        return path.stat().st_mtime_ns
-    except FileNotFoundError:
-        return 0
-
-
-def _prune(folder: Path, keep: int) -> None:
-    """Remove all but the ``keep`` most recently used ``.mjb`` files of ``folder``."""
-    files = sorted(folder.glob("*.mjb"), key=_mtime_ns, reverse=True)
-    for stale in files[keep:]:
-        stale.unlink(missing_ok=True)
-
-
 def _save(model: mujoco.MjModel, path: Path) -> None:
     """Write ``model`` as MuJoCo's binary model file, atomically, then bound the folder."""
     buffer = np.empty(mujoco.mj_sizeModel(model), dtype=np.uint8)
     mujoco.mj_saveModel(model, None, buffer)
     write_atomic(path, lambda f: f.write(buffer.tobytes()))
-    _prune(path.parent, MAX_CACHED_MODELS)
+    prune(path.parent, "*.mjb", MAX_CACHED_MODELS)
 
 
 def load_or_compile(key: str, compile_model: Callable[[], mujoco.MjModel]) -> mujoco.MjModel:
@@ -76,7 +55,7 @@ def load_or_compile(key: str, compile_model: Callable[[], mujoco.MjModel]) -> mu
     """
     path = model_cache_dir() / f"{key}.mjb"
     try:
-        os.utime(path)  # marks it recently used for _prune
+        os.utime(path)  # marks it recently used for prune
     except FileNotFoundError:  # not cached yet, or pruned by another process
         _save(compile_model(), path)
     try:

@@ -25,13 +25,11 @@ import functools
 import math
 from importlib.metadata import version
 from pathlib import Path
+from typing import TYPE_CHECKING
 from xml.etree import ElementTree
 
 import mujoco
 import numpy as np
-from dm_control import mjcf
-from dm_control import mujoco as dm_mujoco
-from dm_control.mujoco import wrapper as dm_wrapper
 from numpy.typing import ArrayLike, NDArray
 
 from fogsim.config import CameraConfig, Scenario, SceneObject
@@ -44,6 +42,10 @@ from fogsim.sim.camera.depth import VISIBLE_GEOMGROUPS
 from fogsim.sim.camera.stereo import stereo_render_px
 from fogsim.sim.model_cache import content_key, load_or_compile
 from fogsim.world import moving_objects, object_center_at
+
+if TYPE_CHECKING:  # dm_control builds scenes only: a cached compiled scene does without it
+    from dm_control import mjcf
+    from dm_control import mujoco as dm_mujoco
 
 WORLD_PIECES = ("visual", "lighting", "materials", "floor")
 """The MJCF pieces every scene starts from, in this order (element order sets MuJoCo's ids)."""
@@ -156,6 +158,8 @@ def _merge_piece(root: mjcf.RootElement, name: str) -> None:
 
 def _world_root(scenario: Scenario) -> mjcf.RootElement:
     """The scene's root: the world pieces, the off-screen buffer for the scenario's camera."""
+    from dm_control import mjcf  # only to build a scene (TYPE_CHECKING import)
+
     root = mjcf.RootElement(model=f"fogsim_{scenario.name}")
     for name, texture in scene_textures().items():
         root.asset.add("texture", name=name, type="2d", file=mjcf.Asset(texture.png(), ".png"))
@@ -294,6 +298,8 @@ def _attach_robot(root: mjcf.RootElement, robot: Robot, offscreen_size_px: tuple
     The robot's own MJCF sizes its off-screen buffer for itself; attaching demands equal
     values, so it takes the scene's (``offscreen_size_px``).
     """
+    from dm_control import mjcf  # only to build a scene (TYPE_CHECKING import)
+
     robot_model = mjcf.from_path(str(robot.mjcf_path))
     _set_offscreen(robot_model, offscreen_size_px)
     free = robot_model.find("joint", "root")
@@ -425,6 +431,9 @@ class Scene:
 
         For dm_control's renderer and named indexing; creating it runs one ``mj_forward``.
         """
+        from dm_control import mujoco as dm_mujoco  # only for dm_control users
+        from dm_control.mujoco import wrapper as dm_wrapper
+
         return dm_mujoco.Physics(dm_wrapper.MjData(self.data))
 
     def _mocap_id(self, body_name: str) -> int:

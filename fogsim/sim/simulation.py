@@ -28,16 +28,9 @@ import numpy as np
 
 from fogsim.config import Scenario
 from fogsim.data.frame import Frame
-from fogsim.robot import (
-    EncoderModel,
-    Odometry,
-    Robot,
-    SelfFilter,
-    Trajectory,
-    load_robot,
-    plan_route,
-)
+from fogsim.robot import EncoderModel, Odometry, Robot, SelfFilter, Trajectory, load_robot
 from fogsim.sim.camera import HeadCamera
+from fogsim.sim.route_cache import planned_route
 from fogsim.sim.scene import Scene
 from fogsim.world import SceneTruth
 from mapper.intrinsics import PinholeIntrinsics
@@ -66,15 +59,7 @@ class Simulation:
     def __init__(self, scenario: Scenario, *, depth_backend: str = "renderer") -> None:
         self.scenario = scenario
         self.robot: Robot = load_robot(scenario.robot.model)
-        initial_truth = SceneTruth.from_scenario(scenario, 0.0)
-        self.trajectory: Trajectory = plan_route(
-            self.robot,
-            scenario.robot.start,
-            scenario.route,
-            initial_truth.support_height_m,
-            scenario.frame_rate_hz,
-            origin=scenario.origin,
-        )
+        self.trajectory: Trajectory = planned_route(scenario, self.robot)
         self.scene = Scene(scenario, self.robot)
         self.scene.set_robot_qpos(self.robot.qpos_mujoco(self.trajectory.q[0]))
         self.scene.forward()
