@@ -207,10 +207,13 @@ class MapperParams:
             keeps mostly the last one or two frames' height. A surface's height scatters by
             3.7 mm (SD) from frame to frame at 1.0–1.3 m on the stage's stereo replays, by
             7.5 mm at 1.6–2 m (mostly the camera pose's error; lag-one autocorrelation 0–0.3).
-            8 frames (0.64 s): stereo stage replays, seeds 1–8, worst Table I row per seed
-            SEE_REPORT; 16 or 32 keep more of the far frames, whose heights read low (the
-            segmentation's, −0.7 mm at 1.0–1.3 m, −2.7 at 2.4–2.8 m), and the steps come out
-            lower.
+            8 frames (0.64 s): stereo stage replays, seeds 1–8, the worst Table I row per seed
+            3.45 mm on average (worst 5.50, the sill on seed 4) with 0 → 2.82 (3.47) with 8
+            (with range power 4; 2.78 (3.56) with power 2), 3.17 (3.94) with 16, 3.37 (4.24)
+            with 32 (power 2): a longer memory keeps more of the far frames, whose heights
+            read low (the segmentation's part: −0.7 mm at 1.0–1.3 m, −2.7 at 2.4–2.8 m), so
+            the steps come out lower. Depth replays: box_removal and moving_box's events and
+            rows as with 0.
         floor_range_power: Beyond the paper: with ``floor_memory``, a frame's measurement
             at range ``r`` [m] weighs ``(WEIGHT_RANGE_M / r)^floor_range_power`` (at most 1).
             4: the variance of stereo depth grows as ``z^4`` (constant disparity noise).
