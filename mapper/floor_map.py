@@ -35,7 +35,7 @@ surface's height scatters from frame to frame by 3.7 mm (SD) at 1.0–1.3 m and 
 that a mean cures (stereo seed 4: the sill's last frame before the robot stepped over it was
 +9.6 mm off, the map kept +5.5 mm; the mean of its 36 frames is −2.5 mm). So each point
 carries ``w / n`` of a frame, where ``n`` is the number of the frame's usable floor points in
-the column (eq. 7) and ``w = (WEIGHT_RANGE_M / range)^p`` (at most 1, ``p`` =
+the column (eq. 7) and ``w = (WEIGHT_RANGE_M / r)^p`` at their mean range ``r`` (at most 1, ``p`` =
 `MapperParams.floor_range_power`) weighs far frames down, as stereo noise grows with range;
 the stored height is the weighted mean ``F ← F + w/(W + w)·(h − F)`` with
 ``W ← min(W + w, memory)``, so the mean forgets at the rate of ``memory`` frames and a
@@ -112,16 +112,43 @@ def _supported(og_flat, col: int, h: float, z_min: float, layer: float, nz: int,
     return k >= 0 and og_flat[col * nz + k] > occ_level
 
 
-@numba.njit(cache=True, inline="always")
-def _frame_weight(point, sensor_origin, range_power: float) -> float:
-    """A point's weight as a frame's measurement: ``(WEIGHT_RANGE_M / range)^range_power``, <= 1."""
-    dx = point[0] - sensor_origin[0]
-    dy = point[1] - sensor_origin[1]
-    dz = point[2] - sensor_origin[2]
-    r = np.sqrt(dx * dx + dy * dy + dz * dz)
-    if r <= WEIGHT_RANGE_M:
-        return 1.0
-    return (WEIGHT_RANGE_M / r) ** range_power
+@numba.njit(cache=True, no_cfunc_wrapper=True, nogil=True)
+def _point_shares(
+    og_flat: NDArray[np.uint8],
+    point_cell: NDArray[np.int64],
+    points: NDArray[np.float64],
+    floor_heights: NDArray[np.float64],
+    sensor_origin: NDArray[np.float64],
+    occ_level: int,
+    z_min: float,
+    layer: float,
+    nz: int,
+    range_power: float,
+) -> NDArray[np.float64]:
+    """Per column, the weight each of the frame's usable floor points (eq. 7) carries there.
+
+    The frame's weight in a column is ``(WEIGHT_RANGE_M / r)^range_power`` (at most 1) at the
+    mean range ``r`` of those points, shared equally among them: one power per column, not
+    per point (a power per point took 0.07 of the kernel's 0.13 ms on a 88 × 72 frame).
+    """
+    count = np.zeros(og_flat.shape[0] // nz, dtype=np.int32)
+    shares = np.zeros(count.shape[0])  # the sum of the points' ranges first
+    for i in range(point_cell.shape[0]):
+        col = point_cell[i]
+        h = floor_heights[i]
+        if col >= 0 and np.isfinite(h) and _supported(og_flat, col, h, z_min, layer, nz, occ_level):
+            dx = points[i, 0] - sensor_origin[0]
+            dy = points[i, 1] - sensor_origin[1]
+            dz = points[i, 2] - sensor_origin[2]
+            count[col] += 1
+            shares[col] += np.sqrt(dx * dx + dy * dy + dz * dz)
+    for col in range(count.shape[0]):
+        n = count[col]
+        if n > 0:
+            r = shares[col] / n
+            weight = 1.0 if r <= WEIGHT_RANGE_M else (WEIGHT_RANGE_M / r) ** range_power
+            shares[col] = weight / n
+    return shares
 
 
 @numba.njit(cache=True, no_cfunc_wrapper=True, nogil=True)
@@ -187,18 +214,22 @@ def update_floor(
     votes_flat = votes.reshape(-1)
     frames_flat = frame_votes.reshape(-1)
     averaged = memory > 0.0
-    # The frame's usable floor points per column: each carries 1/count of the frame's weight.
-    count = np.zeros(floor_flat.shape[0] if averaged else 0, dtype=np.int32)
-    if averaged:
-        for i in range(point_cell.shape[0]):
-            col = point_cell[i]
-            h = floor_heights[i]
-            if (
-                col >= 0
-                and np.isfinite(h)
-                and _supported(og_flat, col, h, z_min, layer, nz, occ_level)
-            ):
-                count[col] += 1
+    shares = (
+        _point_shares(
+            og_flat,
+            point_cell,
+            points,
+            floor_heights,
+            sensor_origin,
+            occ_level,
+            z_min,
+            layer,
+            nz,
+            range_power,
+        )
+        if averaged
+        else np.zeros(0)
+    )
     used = 0
     rejected = 0
     for i in range(point_cell.shape[0]):
@@ -210,7 +241,7 @@ def update_floor(
             rejected += 1
             continue
         used += 1
-        w = _frame_weight(points[i], sensor_origin, range_power) / count[col] if averaged else 0.0
+        w = shares[col] if averaged else 0.0
         f = floor_flat[col]
         if np.isnan(f):
             floor_flat[col] = h
