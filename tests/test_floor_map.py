@@ -24,23 +24,45 @@ def grids(nx=4, ny=3):
     return og, floor
 
 
-def run_update(floor, og, cols, heights, vote_cap=0, votes=None):
-    """Eq. 9 for points in cells ``cols``; ``vote_cap`` 0 = the paper's rule."""
+def run_update(
+    floor,
+    og,
+    cols,
+    heights,
+    vote_cap=0,
+    votes=None,
+    weights=None,
+    memory=0.0,
+    ranges=None,
+    power=2.0,
+):
+    """Eq. 9 for points in cells ``cols``; ``vote_cap`` 0 = the paper's rule.
+
+    ``memory`` 0 = the paper's smoothing by nu, else the weighted mean; the points lie
+    ``ranges`` [m] (default 1) straight below a camera at the origin.
+    """
     ny = og.shape[1]
     point_cell = np.array([ix * ny + iy for ix, iy in cols], dtype=np.int64)
+    points = np.zeros((len(cols), 3))
+    points[:, 2] = -np.ones(len(cols)) if ranges is None else -np.asarray(ranges, dtype=float)
     return update_floor(
         floor,
+        np.zeros(floor.shape) if weights is None else weights,
         np.zeros(floor.shape, dtype=np.int32) if votes is None else votes,
         np.zeros(floor.shape, dtype=np.int32),
         og,
         point_cell,
+        points,
         np.asarray(heights, dtype=float),
+        np.zeros(3),
         P.occ_threshold_level,
         Z0,
         L,
         P.eps_m,
         P.nu,
         vote_cap,
+        memory,
+        power,
     )
 
 
@@ -101,17 +123,22 @@ def test_not_floor_and_dropped_points_are_ignored():
     point_cell = np.array([-1, -2, 0], dtype=np.int64)
     used, rejected = update_floor(
         floor,
+        np.zeros(floor.shape),
         np.zeros(floor.shape, dtype=np.int32),
         np.zeros(floor.shape, dtype=np.int32),
         og,
         point_cell,
+        np.zeros((3, 3)),
         np.array([0.1, 0.1, np.nan]),
+        np.array([0.0, 0.0, 1.0]),
         P.occ_threshold_level,
         Z0,
         L,
         P.eps_m,
         P.nu,
         64,
+        16.0,
+        2.0,
     )
     assert (used, rejected) == (0, 0)
     assert np.all(np.isnan(floor))
@@ -177,6 +204,114 @@ def test_votes_within_eps_smooth_as_eq9():
     height, votes = voted([0.10, 0.11, 0.085], 64)
     assert height == pytest.approx(0.9 * (0.9 * 0.10 + 0.1 * 0.11) + 0.1 * 0.085, abs=1e-15)
     assert votes == 3
+
+
+# ---------------------------------------------------------------- weighted mean (beyond the paper)
+# eps 0.02 (P); heights within it of the stored floor are averaged, one weight per frame.
+
+
+def averaged(frames, memory=16.0, vote_cap=64, power=2.0):
+    """Floor height and weight of cell (0, 0) after ``frames``: lists of (height, range [m])."""
+    og, floor = grids()
+    og[:] = OCC
+    votes = np.zeros(floor.shape, dtype=np.int32)
+    weights = np.zeros(floor.shape)
+    for points in frames:
+        heights = [h for h, _ in points]
+        ranges = [r for _, r in points]
+        run_update(
+            floor,
+            og,
+            [(0, 0)] * len(points),
+            heights,
+            vote_cap,
+            votes,
+            weights,
+            memory,
+            ranges,
+            power,
+        )
+    return floor[0, 0], weights[0, 0]
+
+
+def test_mean_of_frames_at_close_range():
+    # Three frames of one point each within 1 m: the plain mean, weight 3 frames.
+    height, weight = averaged([[(0.100, 0.8)], [(0.106, 1.0)], [(0.097, 0.5)]])
+    assert height == pytest.approx((0.100 + 0.106 + 0.097) / 3, abs=1e-15)
+    assert weight == 3.0
+
+
+def test_a_frame_weighs_one_however_many_points_it_has():
+    # Four points of one plane (one height) then one point: each frame counts once, (0.1 +
+    # 0.106) / 2, where eq. 9 per point would give 0.9 * 0.1 + 0.1 * 0.106 = 0.1006.
+    height, weight = averaged([[(0.100, 1.0)] * 4, [(0.106, 1.0)]])
+    assert height == pytest.approx(0.103, abs=1e-15)
+    assert weight == pytest.approx(2.0, abs=1e-15)
+
+
+def test_farther_frames_weigh_less():
+    # A frame at 2 m weighs (1/2)^2 = 0.25 with power 2, 0.0625 with power 4.
+    height, weight = averaged([[(0.100, 1.0)], [(0.110, 2.0)]])
+    assert height == pytest.approx(0.100 + 0.25 / 1.25 * 0.010, abs=1e-15)  # 0.102
+    assert weight == pytest.approx(1.25, abs=1e-15)
+    height, _ = averaged([[(0.100, 1.0)], [(0.110, 2.0)]], power=4.0)
+    assert height == pytest.approx(0.100 + 0.0625 / 1.0625 * 0.010, abs=1e-15)
+    # Power 0: every frame weighs one, whatever its range.
+    assert averaged([[(0.100, 3.0)], [(0.110, 2.0)]], power=0.0)[0] == pytest.approx(0.105)
+
+
+def test_a_frame_split_between_surfaces_weighs_its_share():
+    # A stored 0.100 (one frame), then a frame with 3 points at 0.104 and one of a surface
+    # 0.1 m higher (a vote away): the three carry 3/4 of a frame, 0.1 + 0.004 * 0.75 / 1.75.
+    height, weight = averaged([[(0.100, 1.0)], [(0.104, 1.0)] * 3 + [(0.200, 1.0)]])
+    assert height == pytest.approx(0.100 + 0.004 * 0.75 / 1.75, abs=1e-15)
+    assert weight == pytest.approx(1.75, abs=1e-15)
+
+
+def test_memory_caps_the_weight_so_the_map_follows_change():
+    # Memory 2: the third frame of 0.100 leaves the weight at 2, so a fourth frame at 0.106
+    # moves the height by a third (0.102) and a fifth by a third of the rest (0.1033).
+    frames = [[(0.100, 1.0)]] * 3 + [[(0.106, 1.0)]]
+    height, weight = averaged(frames, memory=2.0)
+    assert height == pytest.approx(0.102, abs=1e-15)
+    assert weight == 2.0
+    height, _ = averaged([*frames, [(0.106, 1.0)]], memory=2.0)
+    assert height == pytest.approx(0.102 + 0.004 / 3, abs=1e-15)
+
+
+def test_a_higher_surface_replaces_the_mean_and_starts_its_own():
+    # The paper's rule (cap 0): a point 30 mm higher replaces a floor of 10 frames; the new
+    # surface's mean starts from it (weight 1), so the next frame gives the mean of the two.
+    frames = [[(0.100, 1.0)]] * 10 + [[(0.130, 1.0)], [(0.136, 1.0)]]
+    height, weight = averaged(frames, vote_cap=0)
+    assert height == pytest.approx(0.133, abs=1e-15)
+    assert weight == 2.0
+    # With votes (cap 64): the 10 frames' 10 votes take 10 frames of the other surface; the
+    # 10th replaces, the next two average in.
+    height, weight = averaged([[(0.100, 1.0)]] * 10 + [[(0.130, 1.0)]] * 10 + [[(0.133, 1.0)]] * 2)
+    assert height == pytest.approx(0.132, abs=1e-15)
+    assert weight == 3.0
+
+
+def test_lower_heights_beyond_eps_are_not_averaged():
+    # 0.075 is 25 mm below 0.100 (> eps 20 mm): another surface, ignored by the mean.
+    assert averaged([[(0.100, 1.0)], [(0.075, 1.0)]], vote_cap=0) == (0.100, 1.0)
+
+
+def test_points_rejected_by_eq7_take_no_share_of_the_frame():
+    # Cell (0, 0): 0.100 in an occupied layer, 0.300 in a free one (rejected by eq. 7): the
+    # frame's one usable point carries the whole frame.
+    og, floor = grids()
+    og[0, 0, layer_of(0.100)] = OCC
+    og[0, 0, layer_of(0.300)] = FREE
+    floor[0, 0] = 0.104
+    weights = np.full(floor.shape, 1.0)
+    used, rejected = run_update(
+        floor, og, [(0, 0), (0, 0)], [0.300, 0.100], 64, None, weights, 16.0
+    )
+    assert (used, rejected) == (1, 1)
+    assert floor[0, 0] == pytest.approx(0.102, abs=1e-15)
+    assert weights[0, 0] == 2.0
 
 
 # ---------------------------------------------------------------- frame verdicts (beyond the paper)
