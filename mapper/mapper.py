@@ -72,6 +72,7 @@ class FloorObstacleMapper:
         self._occ_level = p.occ_threshold_level
         self._og = np.full((p.nx, p.ny, p.nz), LEVEL_UNKNOWN, dtype=np.uint8)
         self._floor = np.full((p.nx, p.ny), np.nan)
+        self._floor_weights = np.zeros((p.nx, p.ny))
         self._floor_votes = np.zeros((p.nx, p.ny), dtype=np.int32)
         self._floor_frame_votes = np.zeros((p.nx, p.ny), dtype=np.int32)
         self._cover_ref = np.full((p.nx, p.ny), np.nan)
@@ -195,17 +196,22 @@ class FloorObstacleMapper:
         )
         floor_used, floor_rejected = update_floor(
             self._floor,
+            self._floor_weights,
             self._floor_votes,
             self._floor_frame_votes,
             self._og,
             point_cell,
+            pts,
             heights,
+            origin,
             self._occ_level,
             g.z_min_m,
             g.layer_m,
             p.eps_m,
             p.nu,
             p.floor_vote_cap,
+            p.floor_memory,
+            p.floor_range_power,
         )
         if p.floor_pass_fraction > 0.0:
             accumulate_cover(
@@ -322,6 +328,7 @@ class FloorObstacleMapper:
             return (0, 0)
         scroll_xy(self._og, sx, sy, LEVEL_UNKNOWN)
         scroll_xy(self._floor, sx, sy, np.nan)
+        scroll_xy(self._floor_weights, sx, sy, 0.0)
         scroll_xy(self._floor_votes, sx, sy, 0)
         scroll_xy(self._floor_frame_votes, sx, sy, 0)
         scroll_xy(self._cover_ref, sx, sy, np.nan)
