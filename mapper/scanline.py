@@ -52,11 +52,14 @@ RANGE_MARGIN_SIGMAS = 3.0
 
 
 @numba.njit(cache=True, no_cfunc_wrapper=True, nogil=True, error_model="numpy")
-def _box_mean(values, clip, half_rows, half_cols):
-    """Mean of min(values, clip) over a (2·half_rows+1)×(2·half_cols+1) box; NaN = absent."""
+def _box_mean(values, clip_factor, clip, half_rows, half_cols, row_sum, row_cnt, out):
+    """Mean of min(values, clip_factor·clip) over a (2·half_rows+1)×(2·half_cols+1) box.
+
+    NaN = absent; clip_factor 0: no clipping. Written to ``out`` (NaN where the box holds
+    fewer than 3 values), which may be ``clip`` itself: the clipped row sums (work space
+    ``row_sum``, ``row_cnt``) are all taken before ``out`` is written.
+    """
     height, width = values.shape
-    row_sum = np.zeros((height, width))
-    row_cnt = np.zeros((height, width))
     for r in range(height):
         s = 0.0
         k = 0.0
@@ -66,18 +69,17 @@ def _box_mean(values, clip, half_rows, half_cols):
             if add < width:
                 v = values[r, add]
                 if v == v:
-                    s += min(v, clip[r, add]) if clip.shape[0] > 0 else v
+                    s += min(v, clip_factor * clip[r, add]) if clip_factor > 0.0 else v
                     k += 1.0
             drop = c - half_cols - 1
             if drop >= 0:
                 v = values[r, drop]
                 if v == v:
-                    s -= min(v, clip[r, drop]) if clip.shape[0] > 0 else v
+                    s -= min(v, clip_factor * clip[r, drop]) if clip_factor > 0.0 else v
                     k -= 1.0
             if c >= 0:
                 row_sum[r, c] = s
                 row_cnt[r, c] = k
-    out = np.full((height, width), np.nan)
     for r in range(height):
         for c in range(width):
             s = 0.0
@@ -85,9 +87,7 @@ def _box_mean(values, clip, half_rows, half_cols):
             for rr in range(max(0, r - half_rows), min(height, r + half_rows + 1)):
                 s += row_sum[rr, c]
                 k += row_cnt[rr, c]
-            if k >= 3.0:
-                out[r, c] = s / k
-    return out
+            out[r, c] = s / k if k >= 3.0 else np.nan
 
 
 @numba.njit(cache=True, no_cfunc_wrapper=True, nogil=True, error_model="numpy")
@@ -122,10 +122,12 @@ def local_noise_depth_m(inv_depth, window, min_noise_m, cap_factor, model_inv_si
     for r in range(height):
         for c in range(1, width - 1):
             second[r, c] = abs(inv_depth[r, c - 1] - 2.0 * inv_depth[r, c] + inv_depth[r, c + 1])
-    no_clip = np.empty((0, 0))
-    mean = _box_mean(second, no_clip, 1, window)
-    for _ in range(2):
-        mean = _box_mean(second, 2.5 * mean, 1, window)
+    row_sum = np.empty((height, width))
+    row_cnt = np.empty((height, width))
+    mean = np.empty((height, width))
+    _box_mean(second, 0.0, mean, 1, window, row_sum, row_cnt, mean)
+    for _ in range(2):  # clipped at 2.5× the previous mean
+        _box_mean(second, 2.5, mean, 1, window, row_sum, row_cnt, mean)
     # Pixels whose box had too few samples: the image-wide mean of the box means.
     fallback = 0.0
     n_finite = 0
@@ -187,15 +189,20 @@ def _range_profile(sigma, inv_depth, min_noise_m):
     if not d_max > d_min:
         return typical
     step = (d_max - d_min) / n_bins
+    bins = np.full((height, width), -1, np.int64)  # each pixel's bin, found once (-1: none)
+    for r in range(height):
+        for c in range(width):
+            z = inv_depth[r, c]
+            if z > 0.0:
+                bins[r, c] = min(int((1.0 / z - d_min) / step), n_bins - 1)
     level = np.full(n_bins, np.inf)
     for _ in range(3):
         total = np.zeros(n_bins)
         count = np.zeros(n_bins)
         for r in range(height):
             for c in range(width):
-                z = inv_depth[r, c]
-                if z > 0.0:
-                    b = min(int((1.0 / z - d_min) / step), n_bins - 1)
+                b = bins[r, c]
+                if b >= 0:
                     total[b] += min(sigma[r, c], 2.0 * level[b])
                     count[b] += 1.0
         for b in range(n_bins):
@@ -242,6 +249,20 @@ def _depth_gap(inv_a, inv_b):
 
 
 @numba.njit(cache=True, no_cfunc_wrapper=True, nogil=True, error_model="numpy")
+def _step_scales(edge_window, correlation):
+    """``sqrt(correlation·(1/kl + 1/kr))`` for window sizes kl, kr in 0..edge_window.
+
+    The standard error (in sigma units) of the difference of two windows' mean residuals,
+    looked up per pixel boundary instead of computed there (the same values).
+    """
+    scales = np.full((edge_window + 1, edge_window + 1), np.inf)
+    for kl in range(1, edge_window + 1):
+        for kr in range(1, edge_window + 1):
+            scales[kl, kr] = math.sqrt(correlation * (1.0 / kl + 1.0 / kr))
+    return scales
+
+
+@numba.njit(cache=True, no_cfunc_wrapper=True, nogil=True, error_model="numpy")
 def split_rows(
     inv_depth,
     x,
@@ -283,6 +304,7 @@ def split_rows(
     stack = np.empty((width + 2, 2), np.int64)
     pre = np.zeros((width + 1, 6))
     res_pre = np.zeros(width + 1)
+    step_scales = _step_scales(edge_window, correlation)
     for r in range(height):
         inv_row = inv_depth[r]
         c = 0
@@ -349,7 +371,7 @@ def split_rows(
                         continue
                     mean_l = (res_pre[m] - res_pre[m - kl]) / kl
                     mean_r = (res_pre[m + kr] - res_pre[m]) / kr
-                    t = abs(mean_r - mean_l) / math.sqrt(correlation * (1.0 / kl + 1.0 / kr))
+                    t = abs(mean_r - mean_l) / step_scales[kl, kr]
                     if t > edge:
                         edge = t
                         edge_at = a + m
@@ -442,6 +464,7 @@ def propagate_breaks(
     out_table = np.empty((cap, 3))
     count = 0
     res_pre = np.zeros(width + 1)
+    step_scales = _step_scales(edge_window, correlation)
     for i in range(n):
         r = rows[i]
         a = starts[i]
@@ -468,7 +491,7 @@ def propagate_breaks(
                 kr = min(edge_window, length - m)
                 mean_l = (res_pre[m] - res_pre[m - kl]) / kl
                 mean_r = (res_pre[m + kr] - res_pre[m]) / kr
-                t = abs(mean_r - mean_l) / math.sqrt(correlation * (1.0 / kl + 1.0 / kr))
+                t = abs(mean_r - mean_l) / step_scales[kl, kr]
                 if t > best:
                     best = t
                     split = c
