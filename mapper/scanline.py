@@ -1969,8 +1969,8 @@ def level_geometry(depth, unit_rays, rotation, origin, typical, min_noise_m):
     """
     height, width = depth.shape
     rays = np.empty((height, width, 3))
-    points = np.full((height, width, 3), np.nan)
-    sigma_z = np.full((height, width), np.nan)
+    points = np.empty((height, width, 3))
+    sigma_z = np.empty((height, width))
     for r in range(height):
         for c in range(width):
             i = r * width + c
@@ -1985,6 +1985,10 @@ def level_geometry(depth, unit_rays, rotation, origin, typical, min_noise_m):
                 for k in range(3):
                     points[r, c, k] = origin[k] + d * rays[r, c, k]
                 sigma_z[r, c] = max(typical[r, c] * abs(rays[r, c, 2]), min_noise_m)
+            else:
+                for k in range(3):
+                    points[r, c, k] = np.nan
+                sigma_z[r, c] = np.nan
     return rays, points, sigma_z
 
 
@@ -2010,6 +2014,9 @@ def floor_points(
     ``snap_factor`` sigma of its depth is moved there along the ray; one that does not loses
     its floor label (factor 0: points stay, labels too).
 
+    ``pixel_index`` (N,) are the valid pixels' indices into the flattened image in ascending
+    order (``np.flatnonzero``).
+
     Returns:
         (N, 3) points [m] and (N,) floor heights [m] (NaN: not floor).
     """
@@ -2017,8 +2024,11 @@ def floor_points(
     width = depth.shape[1]
     points = np.empty((n, 3))
     heights = np.full(n, np.nan)
+    r = 0
     for i in range(n):
-        r = pixel_index[i] // width
+        # pixel_index ascends (row-major order): the row follows by steps, no division.
+        while pixel_index[i] >= (r + 1) * width:
+            r += 1
         c = pixel_index[i] - r * width
         d = depth[r, c]
         ray_z = rays[r, c, 2]
