@@ -26,6 +26,12 @@ total-least-squares fit of ray-smeared points is; every tolerance is a depth dif
 5. `fill_pixels`: leftover pixels next to a plane (or a level floor) join it if they lie on it
    within tolerance.
 6. `plane_fits`, `plane_moments`, `segment_labels`: per-plane parameters and geometry.
+
+The kernels compile with numba's ``error_model="numpy"``: no branch before every division to
+raise ZeroDivisionError (a float division by zero gives inf or NaN, as in numpy); the same
+results otherwise, bit for bit, and 5-20 % faster. Helpers take arrays with a row index, not a
+row's view: a view made per call (an array struct and its reference count) cost more than the
+arithmetic of the per-segment and per-pixel helpers.
 """
 
 from __future__ import annotations
