@@ -17,16 +17,14 @@ from __future__ import annotations
 from dataclasses import replace
 
 import numpy as np
-from synthetic_depth import Box, add_stereo_noise, look_down_camera, render_scene
+from synthetic_depth import Box
+from test_segmentation_height_bias import BASELINE_M, box_top_frames
 
-from mapper.intrinsics import PinholeIntrinsics
-from mapper.segmentation import SegmentationParams, _foreign_rim, segment_depth
+from mapper.segmentation import SegmentationParams, _foreign_rim
 
-SMALL = PinholeIntrinsics.from_fov(88, 72, 47.0, 39.0)
-CAMERA = look_down_camera((0.0, 0.0, 0.84), pitch_down_deg=35.0)  # moving_box's iCub head
-BASELINE_M = 0.07
-DISPARITY_NOISE_PX = 0.053  # the depth mode's: 0.05 px and 1/16 px steps (equivalent_noise_px)
-PARAMS = SegmentationParams(disparity_noise_px=DISPARITY_NOISE_PX, stereo_baseline_m=BASELINE_M)
+# The depth mode's noise: 0.05 px and 1/16 px steps (`StereoErrorModel.equivalent_noise_px`),
+# seen by moving_box's iCub head (`test_segmentation_height_bias.CAMERA`).
+PARAMS = SegmentationParams(disparity_noise_px=0.053, stereo_baseline_m=BASELINE_M)
 FRAMES = 40
 
 
@@ -56,15 +54,8 @@ def _box_top_verdicts(params: SegmentationParams) -> tuple[float, float]:
     face in view, the top cut by the image's edge: moving_box's box at its new place): the
     fraction of frames in which the top's region is a floor and its mean RMS ratio."""
     box = Box((1.05, 0.5), (0.3, 0.3, 0.06))
-    scene = render_scene(SMALL, CAMERA, [box])
-    top = (scene.box_index == 0) & scene.on_top
     floors, ratios = [], []
-    for seed in range(FRAMES):
-        rng = np.random.default_rng(seed)
-        depth = add_stereo_noise(scene.depth_m, SMALL.fx * BASELINE_M, DISPARITY_NOISE_PX, 0.0, rng)
-        result = segment_depth(depth, SMALL, CAMERA, params)
-        regions = result.labels_image("floor_region")
-        region = np.bincount(regions[top & (regions >= 0)]).argmax()
+    for result, region in box_top_frames(box, params, FRAMES):
         floors.append(bool(result.floors.is_floor[region]))
         ratios.append(float(result.floors.rms_ratio[region]))
     return float(np.mean(floors)), float(np.mean(ratios))
