@@ -69,19 +69,27 @@ def test_camera_height_and_tilt_from_noisy_ground_are_unbiased():
     assert np.degrees(np.abs(np.array(tilt_errors)).max()) < 0.2  # the 1° error was removed
 
 
+def box_top_frames(box: Box, params: SegmentationParams, frames: int):
+    """Per seeded frame of ``box`` seen by `CAMERA` through the stereo noise ``params`` model
+    (its ``disparity_noise_px``): the segmentation's result and the floor region holding most of
+    the box top's pixels."""
+    scene = render_scene(SMALL, CAMERA, [box])
+    top = (scene.box_index == 0) & scene.on_top
+    for seed in range(frames):
+        rng = np.random.default_rng(seed)
+        noise_px = params.disparity_noise_px
+        depth = add_stereo_noise(scene.depth_m, SMALL.fx * BASELINE_M, noise_px, 0.0, rng)
+        result = segment_depth(depth, SMALL, CAMERA, params)
+        regions = result.labels_image("floor_region")
+        yield result, int(np.bincount(regions[top & (regions >= 0)]).argmax())
+
+
 def _box_top_minus_ground_m(params: SegmentationParams, frames: int) -> np.ndarray:
     """Height of the box top's level region above the ground's, minus the true 60 mm [m], per
     frame: the box 0.45 m to the side, so its side face is in view beside the top."""
     box = Box((0.9, 0.45), (0.3, 0.3, 0.06))
-    scene = render_scene(SMALL, CAMERA, [box])
-    top = (scene.box_index == 0) & scene.on_top
     differences = []
-    for seed in range(frames):
-        rng = np.random.default_rng(seed)
-        depth = add_stereo_noise(scene.depth_m, SMALL.fx * BASELINE_M, DISPARITY_NOISE_PX, 0.0, rng)
-        result = segment_depth(depth, SMALL, CAMERA, params)
-        regions = result.labels_image("floor_region")
-        box_region = np.bincount(regions[top & (regions >= 0)]).argmax()
+    for result, box_region in box_top_frames(box, params, frames):
         ground = int(np.argmin(np.abs(result.floors.heights_m)))
         heights = result.floors.heights_m
         differences.append(heights[box_region] - heights[ground] - box.top_z_m)
