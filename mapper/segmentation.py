@@ -638,15 +638,16 @@ def segment_depth(
     new_id = np.full(n_planes + 2, -1, dtype=np.int64)
     new_id[:n_planes][keep] = np.arange(int(keep.sum()))
     new_id[-2] = -2  # label -2: no measurement
-    labels = new_id[labels]
-    grown_ids = new_id[grown_labels].reshape(-1)[pixel_index]
+    # np.take, not fancy indexing: the same values in a fraction of the time.
+    labels = np.take(new_id, labels)
+    grown_ids = np.take(new_id, np.take(grown_labels, pixel_index))
     plane_table, counts = plane_table[keep], counts[keep]
 
-    plane_ids = labels.reshape(-1)[pixel_index]
+    plane_ids = np.take(labels, pixel_index)
     counts = np.bincount(plane_ids + 1, minlength=len(counts) + 1)[1:]
     rotation = transform[:3, :3]
     rays_camera = intrinsics.ray_directions_camera().reshape(-1, 3)
-    points_camera = rays_camera[pixel_index] * depth.reshape(-1)[pixel_index, None]
+    points_camera = np.take(rays_camera, pixel_index, axis=0) * np.take(depth, pixel_index)[:, None]
     normals_camera, normals = _unit_normals(plane_table, rotation)
     centroids_camera, eigen, areas = scanline.plane_moments(
         points_camera, grown_ids, normals_camera, len(counts), intrinsics.fx, intrinsics.fy
@@ -658,7 +659,7 @@ def segment_depth(
     min_inv_sigma = params.min_noise_m / centroids_camera[:, 2] ** 2
     # The tilt's normals come from the planes refitted on their interior pixels clear of the
     # range limit and (if on) without their outliers.
-    refit_labels = new_id[grown_labels]
+    refit_labels = np.take(new_id, grown_labels)
     if params.plane_normal_margin_px > 0:
         interior = scanline.region_interior(refit_labels, params.plane_normal_margin_px)
         refit_labels = np.where(interior, refit_labels, -1)
@@ -725,7 +726,7 @@ def segment_depth(
         params.ground_relabel_sigma_factor,
         params.floor_snap_sigma_factor,
     )
-    floor_ids = floor_labels.reshape(-1)[pixel_index]
+    floor_ids = np.take(floor_labels, pixel_index)
 
     planes = PlaneTable(
         pixel_counts=counts,
