@@ -63,6 +63,10 @@ def test_frozen():
         ("p_occ", True, "in (0.5, 1)"),
         ("nx", 20000 * 20000, "at most 4194304 columns"),
         ("z_min_m", 1e300, "finite"),
+        ("floor_memory", -1.0, "a finite float >= 0"),
+        ("floor_memory", float("nan"), "a finite float >= 0"),
+        ("floor_range_power", -1.0, "a finite float >= 0"),
+        ("floor_range_power", float("inf"), "a finite float >= 0"),
     ],
 )
 def test_invalid_values_name_field_and_range(field, value, allowed):
