@@ -244,29 +244,6 @@ def heading_scores(offsets_xy, z_world, starts, camera_xy, yaw_rad, angles_rad, 
     return scores
 
 
-@numba.njit(cache=True, no_cfunc_wrapper=True, nogil=True)
-def _structure_index(points_robot, floor_heights_m, camera_xy, z_shift_m, low_m, high_m, range_m):
-    """Indices of a frame's structure points, in order (numba; one pass over the points).
-
-    A structure point is not floor (NaN height), lies ``low_m``..``high_m`` above the robot's
-    ground once ``z_shift_m`` is added to its z, and within ``range_m`` of ``camera_xy``
-    horizontally (robot frame, metres).
-    """
-    index = np.empty(points_robot.shape[0], dtype=np.int64)
-    kept = 0
-    for i in range(points_robot.shape[0]):
-        z = points_robot[i, 2] + z_shift_m
-        if (
-            math.isnan(floor_heights_m[i])
-            and low_m <= z <= high_m
-            and math.hypot(points_robot[i, 0] - camera_xy[0], points_robot[i, 1] - camera_xy[1])
-            <= range_m
-        ):
-            index[kept] = i
-            kept += 1
-    return index[:kept]
-
-
 @dataclass(frozen=True)
 class _Keyframe:
     """Structure points of one keyframe (see the module docstring)."""
@@ -364,23 +341,23 @@ class HeadingEstimator:
         key = (int(cell[0]), int(cell[1]), sector)
         if any(k.key == key for k in self._keyframes):
             return False
-        index = _structure_index(
-            np.asarray(points_robot, dtype=np.float64),
-            np.asarray(floor_heights_m, dtype=np.float64),
-            transform[:2, 3].copy(),
-            float(z_shift_m),
-            p.min_height_m,
-            p.max_height_m,
-            p.max_range_m,
+        offsets = points_robot[:, :2] - transform[:2, 3]
+        z_robot = points_robot[:, 2] + z_shift_m
+        structure = (
+            np.isnan(floor_heights_m)
+            & (z_robot >= p.min_height_m)
+            & (z_robot <= p.max_height_m)
+            & (np.hypot(offsets[:, 0], offsets[:, 1]) <= p.max_range_m)
         )
+        index = np.flatnonzero(structure)
         if index.size < p.min_points:
             return False
         index = index[:: -(-index.size // p.max_points_per_keyframe)]
         self._keyframes.append(
             _Keyframe(
                 key=key,
-                offsets_xy=points_robot[index, :2] - transform[:2, 3],
-                z_world=(points_robot[index, 2] + z_shift_m) + pose[2],
+                offsets_xy=np.ascontiguousarray(offsets[index]),
+                z_world=z_robot[index] + pose[2],
                 camera_xy=camera_xy,
                 yaw_rad=float(pose[3]),
             )

@@ -7,7 +7,7 @@ import numpy as np
 import pytest
 
 from mapper import HeadingEstimator, HeadingParams, InvalidParameterError
-from mapper.heading import _band_centre_deg, _structure_index, heading_scores, yaw_about_pivot
+from mapper.heading import _band_centre_deg, heading_scores, yaw_about_pivot
 
 CAMERA_IN_ROBOT_M = np.array([0.05, 0.0, 0.9])
 """Camera centre in the robot frame (iCub-like head height)."""
@@ -157,25 +157,6 @@ def test_a_z_shift_given_to_observe_keeps_what_the_shifted_frame_keeps():
         assert a.z_world.size < c.z_world.size
     assert given.estimates == shifted.estimates == 2  # from the third pose on
     assert given.correction_rad == shifted.correction_rad
-
-
-def test_structure_points_are_off_the_floor_in_the_height_band_and_in_range():
-    points_robot = np.array(
-        [
-            [1.0, 0.0, 0.3],  # floor (height given): out
-            [1.0, 0.0, 0.015],  # 0.005 m after the shift: below 0.01 m, out
-            [1.0, 0.0, 1.5],  # above 1 m: out
-            [2.6, 0.0, 0.3],  # 2.55 m from the camera at (0.05, 0): out
-            [2.0, 1.0, 0.3],  # hypot(1.95, 1.0) = 2.19 m: out
-            [1.5, 1.0, 0.3],  # hypot(1.45, 1.0) = 1.76 m: in
-            [0.05, -1.9, 0.021],  # 1.9 m, 0.011 m after the shift: in
-        ]
-    )
-    floor_heights_m = np.array([0.0, *[np.nan] * 6])
-    index = _structure_index(
-        points_robot, floor_heights_m, np.array([0.05, 0.0]), -0.01, 0.01, 1.0, 2.0
-    )
-    np.testing.assert_array_equal(index, [5, 6])
 
 
 def test_switched_off_never_changes():
