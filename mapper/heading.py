@@ -284,6 +284,7 @@ class HeadingEstimator:
         floor_heights_m: NDArray[np.float64],
         transform_camera_to_robot: NDArray[np.float64],
         robot_pose: NDArray[np.float64],
+        z_shift_m: float = 0.0,
     ) -> None:
         """Learn from one frame: keep it as a keyframe if it is one, and re-estimate.
 
@@ -295,11 +296,14 @@ class HeadingEstimator:
             floor_heights_m: (N,) their floor heights [m], NaN = not floor.
             transform_camera_to_robot: 4×4 tilt-corrected camera pose in the robot frame.
             robot_pose: (4,) believed robot pose (x [m], y [m], z [m], yaw [rad]) in the world.
+            z_shift_m: Added to the z of the points and of the camera pose [m] (a height
+                correction; applied only to a frame that becomes a keyframe: the keyframe test
+                needs x and y alone).
         """
         transform = np.asarray(transform_camera_to_robot, dtype=np.float64)
         if (
             self.params.correct_heading
-            and self._add_keyframe(points_robot, floor_heights_m, transform, robot_pose)
+            and self._add_keyframe(points_robot, floor_heights_m, transform, robot_pose, z_shift_m)
             and self._added % self.params.estimate_every == 0
         ):
             self._estimate()
@@ -321,8 +325,12 @@ class HeadingEstimator:
         self.transform_camera_to_robot = correction @ transform
         return correction
 
-    def _add_keyframe(self, points_robot, floor_heights_m, transform, pose):
-        """Store the frame as a keyframe if its cell and sector are new; True if stored."""
+    def _add_keyframe(self, points_robot, floor_heights_m, transform, pose, z_shift_m):
+        """Store the frame as a keyframe if its cell and sector are new; True if stored.
+
+        ``z_shift_m`` is added to the points' z once the cell and sector are new (the floor
+        heights' NaN and the camera's x, y are all the test needs of the rest).
+        """
         p = self.params
         c, s = math.cos(pose[3]), math.sin(pose[3])
         rotation = np.array([[c, -s], [s, c]])
@@ -334,10 +342,11 @@ class HeadingEstimator:
         if any(k.key == key for k in self._keyframes):
             return False
         offsets = points_robot[:, :2] - transform[:2, 3]
+        z_robot = points_robot[:, 2] + z_shift_m
         structure = (
             np.isnan(floor_heights_m)
-            & (points_robot[:, 2] >= p.min_height_m)
-            & (points_robot[:, 2] <= p.max_height_m)
+            & (z_robot >= p.min_height_m)
+            & (z_robot <= p.max_height_m)
             & (np.hypot(offsets[:, 0], offsets[:, 1]) <= p.max_range_m)
         )
         index = np.flatnonzero(structure)
@@ -348,7 +357,7 @@ class HeadingEstimator:
             _Keyframe(
                 key=key,
                 offsets_xy=np.ascontiguousarray(offsets[index]),
-                z_world=points_robot[index, 2] + pose[2],
+                z_world=z_robot[index] + pose[2],
                 camera_xy=camera_xy,
                 yaw_rad=float(pose[3]),
             )

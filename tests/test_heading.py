@@ -137,6 +137,28 @@ def test_structure_seen_from_one_place_only_leaves_the_prior():
     assert estimator.correction_rad == 0.0
 
 
+def test_a_z_shift_given_to_observe_keeps_what_the_shifted_frame_keeps():
+    # The z shift is applied only to keyframes; each must hold what the frame shifted first
+    # holds. -0.1 m moves the boxes' lowest points below `min_height_m` (0.01 m): fewer kept.
+    rng = np.random.default_rng(11)
+    boxes = box_points_world(rng)
+    shifted, given, unshifted = (HeadingEstimator(HeadingParams(estimate_every=1)) for _ in "abc")
+    for x, y, yaw in WALK:
+        points, heights, camera, pose = frame(boxes, floor_points_world(x), (x, y, yaw), 3.0)
+        camera_shifted = camera.copy()
+        camera_shifted[2, 3] -= 0.1
+        shifted.observe(points + np.array([0.0, 0.0, -0.1]), heights - 0.1, camera_shifted, pose)
+        given.observe(points, heights, camera, pose, z_shift_m=-0.1)
+        unshifted.observe(points, heights, camera, pose)
+    assert given.keyframes == shifted.keyframes == len(WALK)
+    for a, b, c in zip(given._keyframes, shifted._keyframes, unshifted._keyframes, strict=True):
+        np.testing.assert_array_equal(a.z_world, b.z_world)
+        np.testing.assert_array_equal(a.offsets_xy, b.offsets_xy)
+        assert a.z_world.size < c.z_world.size
+    assert given.estimates == shifted.estimates == 2  # from the third pose on
+    assert given.correction_rad == shifted.correction_rad
+
+
 def test_switched_off_never_changes():
     rng = np.random.default_rng(11)
     boxes = box_points_world(rng)

@@ -419,14 +419,12 @@ class Pipeline:
 
     def _observe_heading(self, data: _FrameData) -> None:
         """Give the segmented frame to the heading estimator (the reference's shift so far)."""
-        shift_m = self._shift_m(data)
-        transform = data.transform_camera_to_robot.copy()
-        transform[2, 3] += shift_m
         self.heading.observe(
-            data.points_robot + np.array([0.0, 0.0, shift_m]),
-            data.floor_heights_m + shift_m,
-            transform,
+            data.points_robot,
+            data.floor_heights_m,
+            data.transform_camera_to_robot,
             self.robot_pose(data.frame),
+            z_shift_m=self._shift_m(data),
         )
 
     def _shift_m(self, data: _FrameData) -> float:
