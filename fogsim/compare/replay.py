@@ -19,10 +19,9 @@ Height scans (:mod:`fogsim.compare.scans`) are taken every ``every_frames`` fram
 
 from __future__ import annotations
 
-import dataclasses
 import time
 from collections.abc import Callable, Iterable
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
@@ -182,8 +181,8 @@ def compare_frames(
     scan = scan if scan is not None else HeightScanParams()
     # Every map gets the FOG's input as it comes: the FOG alone must not be rebuilt when the
     # heading's first estimate comes (Pipeline would replace its mapper, untapped).
-    no_rebuild = dataclasses.replace(params.pipeline, heading_rebuild_frames=0)
-    pipeline = Pipeline(dataclasses.replace(params, pipeline=no_rebuild))
+    no_rebuild = replace(params.pipeline, heading_rebuild_frames=0)
+    pipeline = Pipeline(replace(params, pipeline=no_rebuild))
     tap = _UpdateTap(pipeline.mapper)
     pipeline.mapper.update = tap  # type: ignore[method-assign]  # the FOG's input for all maps
     grid = pipeline.mapper_params

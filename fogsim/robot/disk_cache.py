@@ -18,6 +18,7 @@ import hashlib
 import os
 import pickle
 from collections.abc import Callable
+from importlib.metadata import version
 from pathlib import Path
 from typing import TypeVar
 
@@ -34,6 +35,14 @@ def content_key(parts: tuple[bytes, ...]) -> str:
         digest.update(len(part).to_bytes(8, "little"))
         digest.update(part)
     return digest.hexdigest()
+
+
+def library_versions(*packages: str) -> bytes:
+    """The installed versions of ``packages`` (distribution names), as bytes for a key.
+
+    A key that includes them changes with an upgrade of any of the packages.
+    """
+    return " ".join(f"{package} {version(package)}" for package in packages).encode()
 
 
 def source_digest(*folders: Path) -> bytes:

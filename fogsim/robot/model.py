@@ -9,7 +9,6 @@ does not say (soles, legs, neck, camera mount, quirks) comes from the robot's de
 
 import functools
 import warnings
-from importlib.metadata import version
 from pathlib import Path
 from typing import Any
 
@@ -22,7 +21,7 @@ from numpy.typing import NDArray
 from fogsim.errors import RobotModelError
 from fogsim.robot.body_boxes import body_boxes
 from fogsim.robot.description import CAMERA_NAMES, CameraMount, RobotDescription, load_description
-from fogsim.robot.disk_cache import content_key, load_or_build, source_digest
+from fogsim.robot.disk_cache import content_key, library_versions, load_or_build, source_digest
 from fogsim.robot.kinematics import Robot
 from fogsim.robot.mjcf import cache_root, cached_mjcf
 
@@ -55,7 +54,7 @@ def load_robot(name: str = "icub") -> Robot:
     key = content_key(
         (
             repr(description).encode(),
-            " ".join(f"{package} {version(package)}" for package in _LIBRARIES).encode(),
+            library_versions(*_LIBRARIES),
             source_digest(Path(__file__).parent),
         )
     )

@@ -9,7 +9,6 @@ loads it in milliseconds, the same arrays to the bit.
 
 from __future__ import annotations
 
-from importlib.metadata import version
 from pathlib import Path
 
 import fogsim.config
@@ -17,7 +16,7 @@ import fogsim.robot
 import fogsim.world
 from fogsim.config import Scenario
 from fogsim.robot import Robot, Trajectory, plan_route
-from fogsim.robot.disk_cache import content_key, load_or_build, source_digest
+from fogsim.robot.disk_cache import content_key, library_versions, load_or_build, source_digest
 from fogsim.robot.mjcf import cache_root
 from fogsim.world import SceneTruth
 
@@ -54,7 +53,7 @@ def route_key(scenario: Scenario, robot: Robot) -> str:
         (
             repr(inputs).encode(),
             *terrains,
-            " ".join(f"{package} {version(package)}" for package in _LIBRARIES).encode(),
+            library_versions(*_LIBRARIES),
             source_digest(*(Path(package.__file__).parent for package in packages)),
         )
     )
