@@ -31,11 +31,14 @@ Per frame (paper Fig. 1, 2 and Sec. IV), with the pose the robot *believes*:
 6. z-shift matching against the floor map (``match_z``): an accepted shift is added to the
    points' z, their floor heights and the camera origin. If it is not accepted (few pairs or an
    implausible shift) and the segmentation found no ground plane either, the frame is
-   *withdrawn* (Sec. IV); otherwise the unshifted data are used. A frame that measured the
-   height reference (its data are right relative to the feet) is shifted only by up to
+   *withdrawn* (Sec. IV); otherwise the unshifted data are used. The anchor rule: a frame
+   shifted by its own measurement of the height reference (it agrees with the estimate,
+   ``ref.frame_gate_m``: its data are right relative to the feet) is shifted only by up to
    ``pipe.anchor_shift_m`` (the odometry's drift: the map anchored at the start holds); a
    larger shift is the robot's elevation error and goes to the elevation filter (shifting every
-   such frame onto the map let the map drift by about −3 mm over a stage run).
+   such frame onto the map let the map drift by about −3 mm over a stage run). A frame whose
+   measurement disagrees was shifted by the estimate, not by its own ground, and is z-matched
+   as any other (stereo: keeping it unshifted put its measurement's ±10 mm scatter into the map).
    When its own measurement shifted it and the first frames saw a surface at the robot's
    elevation (``ref.surface_gate_m``; the surface the feet stood on at the start is at the start
    pose's z), the robot stands on that surface: its elevation is set
@@ -588,11 +591,15 @@ class Pipeline:
             decision = frame_decision(
                 match, data.ground_plane_found or data.measured_shift_m is not None
             )
-            if data.measured_shift_m is not None and decision == ZDecision.APPLY_SHIFT:
-                # The frame saw the ground under the feet: its data are right relative to the
-                # feet, so the map's disagreement is the robot's elevation error. A small one
+            if job.agrees and decision == ZDecision.APPLY_SHIFT:
+                # The frame saw the ground under the feet and was shifted by its own measurement
+                # (it agrees with the reference): its data are right relative to the feet, so
+                # the map's disagreement is the robot's elevation error. A small one
                 # (`anchor_shift_m`) is the odometry's drift: the map holds. Shifting every
-                # frame onto the map let the map drift (stage: -3 mm over a run).
+                # frame onto the map let the map drift (stage: -3 mm over a run). A frame whose
+                # measurement disagrees was shifted by the reference's estimate, not by its own
+                # ground: it is z-matched as any other (stereo: its measurement scatters by
+                # ±10 mm, and keeping such frames unshifted put their scatter into the map).
                 if abs(match.shift_m) > self.params.anchor_shift_m:
                     decision = ZDecision.KEEP_UNSHIFTED
                 if self.params.use_elevation_filter:
