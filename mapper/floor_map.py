@@ -112,6 +112,31 @@ def _supported(og_flat, col: int, h: float, z_min: float, layer: float, nz: int,
     return k >= 0 and og_flat[col * nz + k] > occ_level
 
 
+@numba.njit(cache=True, inline="always")
+def _covers(
+    og_flat,
+    col: int,
+    z: float,
+    f: float,
+    eps: float,
+    z_min: float,
+    layer: float,
+    nz: int,
+    occ_level: int,
+):
+    """Whether a point at ``z`` that is not floor shows a surface above the stored floor ``f``.
+
+    It does when it lies more than ``eps`` above ``f`` in a layer above ``f``'s and its cell is
+    occupied (eq. 7 at ``z``): the column holds something higher than the stored floor. Within
+    ``f``'s own layer the occupancy cannot tell a surface from the floor's own noisy points.
+    A NaN ``f`` never.
+    """
+    if not z > f + eps:
+        return False
+    k = _layer_of(z, z_min, layer, nz)
+    return k > _layer_of(f, z_min, layer, nz) and og_flat[col * nz + k] > occ_level
+
+
 @numba.njit(cache=True, no_cfunc_wrapper=True, nogil=True)
 def _point_shares(
     og_flat: NDArray[np.uint8],
@@ -235,7 +260,13 @@ def update_floor(
     for i in range(point_cell.shape[0]):
         col = point_cell[i]
         h = floor_heights[i]
-        if col < 0 or not np.isfinite(h):
+        if col < 0:
+            continue
+        if not np.isfinite(h):
+            if vote_cap > 0 and votes_flat[col] > 0:
+                f = floor_flat[col]
+                if _covers(og_flat, col, points[i, 2], f, eps, z_min, layer, nz, occ_level):
+                    votes_flat[col] -= 1  # a surface above: the next other surface replaces
             continue
         if not _supported(og_flat, col, h, z_min, layer, nz, occ_level):
             rejected += 1
