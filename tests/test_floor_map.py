@@ -206,6 +206,85 @@ def test_votes_within_eps_smooth_as_eq9():
     assert votes == 3
 
 
+# ---------------------------------------------------------------- a surface above (beyond the paper)
+# eps 0.02, layers of 0.04 from z_min −0.06 (P): the ground 0.0 lies in layer 1 [−0.02, 0.02),
+# a sill top at 0.045 in layer 2 [0.02, 0.06).
+GROUND, SILL = 0.0, 0.045
+
+
+def covered(points, vote_cap=64, votes=3, occupied=(GROUND, SILL)):
+    """Floor height and votes of cell (0, 0), ground stored with ``votes``, after ``points``.
+
+    ``points`` are (z, h) in order, ``h`` NaN = not floor; the layers of the heights in
+    ``occupied`` are occupied, the others unknown (0.5).
+    """
+    og, floor = grids()
+    for z in occupied:
+        og[0, 0, layer_of(z)] = OCC
+    floor[0, 0] = GROUND
+    votes_grid = np.zeros(floor.shape, dtype=np.int32)
+    votes_grid[0, 0] = votes
+    z = np.array([p[0] for p in points], dtype=float)
+    points_world = np.zeros((len(points), 3))
+    points_world[:, 2] = z
+    update_floor(
+        floor,
+        np.zeros(floor.shape),
+        votes_grid,
+        np.zeros(floor.shape, dtype=np.int32),
+        og,
+        np.zeros(len(points), dtype=np.int64),
+        points_world,
+        np.array([p[1] for p in points], dtype=float),
+        np.array([0.0, 0.0, 1.0]),
+        P.occ_threshold_level,
+        Z0,
+        L,
+        P.eps_m,
+        P.nu,
+        vote_cap,
+        0.0,
+        2.0,
+    )
+    return floor[0, 0], int(votes_grid[0, 0])
+
+
+TOP_POINT = (SILL, np.nan)  # a point of the sill's top that is not floor
+SILL_FLOOR = (SILL, SILL)  # one that is
+
+
+def test_points_of_a_surface_above_take_the_stored_floors_votes():
+    # The ground holds 3 votes; 3 points on the sill's top (not floor) take them all, but do not
+    # replace it (they have no plane height): the sill's first floor point then does.
+    assert covered([TOP_POINT] * 2) == (GROUND, 1)
+    assert covered([TOP_POINT] * 3) == (GROUND, 0)
+    assert covered([TOP_POINT] * 3 + [SILL_FLOOR]) == (SILL, 1)
+    # Without them the sill's floor point only takes one vote away (3 → 2).
+    assert covered([SILL_FLOOR]) == (GROUND, 2)
+    # Votes never go below 0; a ground point gives one back, two hold the ground against the
+    # sill's floor point (0.9·(0.9·0 + 0.1·0.001) + 0.1·0.001).
+    assert covered([TOP_POINT] * 5) == (GROUND, 0)
+    assert covered([TOP_POINT] * 3 + [(0.001, 0.001), SILL_FLOOR]) == (SILL, 1)
+    assert covered([TOP_POINT] * 3 + [(0.001, 0.001)] * 2 + [SILL_FLOOR]) == (
+        pytest.approx(0.9 * (0.9 * 0.0 + 0.1 * 0.001) + 0.1 * 0.001, abs=1e-15),
+        1,
+    )
+
+
+def test_only_points_in_an_occupied_layer_above_the_floor_count_as_a_surface_above():
+    # 0.019 is within eps of the ground and in its layer: the ground's own noise; 0.021 is
+    # in layer 2, more than eps above it.
+    assert covered([(0.019, np.nan)] * 3) == (GROUND, 3)
+    assert covered([(0.021, np.nan)] * 3) == (GROUND, 0)
+    # Layer 2 not occupied (one noisy frame): nothing.
+    assert covered([TOP_POINT] * 3, occupied=(GROUND,)) == (GROUND, 3)
+    # Below the floor, or floor points (their plane's height decides, as in eq. 9): nothing.
+    assert covered([(-0.03, np.nan)] * 3, occupied=(GROUND, -0.03)) == (GROUND, 3)
+    assert covered([(SILL, 0.001)] * 3) == (pytest.approx(0.0001 * (1 + 0.9 + 0.81)), 6)
+    # The paper's rule (cap 0): no votes, nothing.
+    assert covered([TOP_POINT] * 3, vote_cap=0, votes=0) == (GROUND, 0)
+
+
 # ---------------------------------------------------------------- weighted mean (beyond the paper)
 # eps 0.02 (P); heights within it of the stored floor are averaged, one weight per frame.
 
