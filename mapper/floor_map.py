@@ -19,6 +19,18 @@ away, and that surface replaces the stored height only when no vote is left. The
 tread's points a few cm into the lower tread's last column, a rough top taken for a plane in
 one frame stays a floor. With votes, a cell holds the surface most of its points come from.
 
+Points that are not floor count too (beyond the paper, votes only): a point more than ``ε``
+above the stored floor, in a layer above the floor's whose cell is occupied (eq. 7 at the
+point's z), shows a surface above the stored one, so it takes one vote away (down to 0, never
+replacing the floor: it has no plane height); the next floor point of another surface then
+replaces it. Without this a stored lower floor outlived the surface above it whenever that
+surface was seen mostly as points that are not floor: the stage_zigzag sill's interior cells
+took the ground's height from far frames whose stereo showed no sill there (up to 39 votes),
+and the sill top's few floor points a frame (3–6, against the ground's 1–4 a frame seen
+beside the sill's 2–5 points that are not floor) never took them back: on stereo seed 8,
+with the pipeline's anchor rule, the sill row was 19.3 mm off. Within the floor's own layer
+the occupancy cannot tell a surface from the floor's own noisy points, so they do not count.
+
 Beyond the paper too, each frame gives a verdict on every stored floor it sees
 (`frame_verdicts`, `MapperParams.floor_frame_cap`): a rough top that one frame took for a plane
 is seen as no plane — points at its height that are not floor — by most other frames, and
@@ -199,7 +211,9 @@ def update_floor(
     """Eq. 9 for every inserted point with a finite floor height, with per-cell votes.
 
     With ``memory > 0`` a height within ``±eps`` of the stored floor is averaged in (module doc,
-    "weighted mean") instead of smoothed by ``nu``.
+    "weighted mean") instead of smoothed by ``nu``. With ``vote_cap > 0`` a point that is not
+    floor and shows a surface above the stored floor (`_covers`) takes one of its votes away
+    (module doc).
 
     Args:
         floor: (nx, ny) floor heights [m], NaN = invalid; updated in place.
@@ -212,7 +226,8 @@ def update_floor(
             is stored anew.
         og: (nx, ny, nz) occupancy levels (already updated with this frame).
         point_cell: (N,) column index ``ix*ny + iy`` of each point, negative if dropped.
-        points: (N, 3) world points [m] (their range weighs them).
+        points: (N, 3) world points [m] (their range weighs them; the z of those that are not
+            floor tells a surface above the stored floor).
         floor_heights: (N,) height ``h`` of each point's horizontal plane [m]; non-finite =
             not floor.
         sensor_origin: (3,) camera centre in the world [m].

@@ -206,7 +206,7 @@ def test_votes_within_eps_smooth_as_eq9():
     assert votes == 3
 
 
-# ---------------------------------------------------------------- a surface above (beyond the paper)
+# ------------------------------------------------------------- a surface above (beyond the paper)
 # eps 0.02, layers of 0.04 from z_min −0.06 (P): the ground 0.0 lies in layer 1 [−0.02, 0.02),
 # a sill top at 0.045 in layer 2 [0.02, 0.06).
 GROUND, SILL = 0.0, 0.045

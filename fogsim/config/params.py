@@ -44,15 +44,15 @@ class PipelineParams:
         anchor_shift_m: The anchor rule: a frame shifted by its own measurement of the ground
             under the feet (it agrees with the height reference's estimate: its data are right
             relative to the feet) is still z-matched onto the map when the match's shift is at
-            most this [m]: that much is the odometry's z drift since the map around it was built, and the
-            map, anchored at the start pose, holds the ground there. A larger shift goes to the
-            elevation filter only (the map may be wrong there: walking down, it was built by
-            frames mapped before the reference was known). 0.001: flat_floor seeds 1-8 exact
-            (0.36 mm mean, 0.72 mm worst with 0: odometry drifts up to −1.6 mm in 66 frames
-            and the map follows unshifted frames); 0.002 changes nothing there; with no limit
-            stage_down's platform row goes from 2.45 to 3.17 mm worst. A frame whose measurement
-            disagrees with the estimate (shifted by the estimate) is z-matched whatever the
-            shift.
+            most this [m]: that much is the odometry's z drift since the map around it was
+            built, and the map, anchored at the start pose, holds the ground there. A larger
+            shift goes to the elevation filter only (the map may be wrong there: walking down,
+            it was built by frames mapped before the reference was known). A frame whose
+            measurement disagrees with the estimate (shifted by the estimate) is z-matched
+            whatever the shift. 0.001: flat_floor seeds 1-8 exact (0.36 mm mean, 0.72 mm worst
+            with 0: odometry drifts up to −1.6 mm in 66 frames and the map follows unshifted
+            frames); 0.002 changes nothing there; with no limit stage_down's platform row goes
+            from 2.45 to 3.17 mm worst.
         use_tilt_filter: Rotate each frame by the tilt filtered over frames
             (`mapper.tilt_filter`) instead of the tilt its own planes measured (issue 12: the
             stereo fit's noise, ~0.2° per frame, tilted far surfaces by several mm).
