@@ -460,3 +460,29 @@ def test_frames_seeing_the_floor_level_but_no_plane_say_nothing():
 
 def test_no_frame_verdicts_with_cap_zero():
     assert verdict([ROUGH] * 5, 0) == (TOP, 1, 0)
+
+
+def test_a_ground_with_many_votes_gives_way_to_a_sill_seen_mostly_as_points_that_are_not_floor():
+    # Through the mapper (default parameters): 10 frames see the ground in cell [0, 0.04)² (4
+    # floor points a frame: 40 votes), then frames see a 45 mm sill top there: 4 points that
+    # are not floor and 1 floor point a frame (the stage_zigzag sill on stereo). Its layer
+    # [0.02, 0.06) is occupied from the 2nd frame (eq. 7: the 1st frame's floor point is
+    # rejected); from then on each frame takes 5 votes: in the 9th the ground's 40 are gone and
+    # the sill's floor point takes the cell. Before, the one floor point a frame took one vote:
+    # 40 frames.
+    from mapper import FloorObstacleMapper
+
+    mapper = FloorObstacleMapper()
+    origin = np.array([0.02, 0.02, 1.0])
+    xy = np.array([[0.01, 0.01], [0.03, 0.01], [0.01, 0.03], [0.03, 0.03]])
+    ground = np.column_stack([xy, np.zeros(4)])
+    for _ in range(10):
+        mapper.update(ground, np.zeros(4), origin)
+    assert mapper.floor_at(0.02, 0.02) == 0.0
+    sill = np.vstack([np.column_stack([xy, np.full(4, SILL)]), [0.02, 0.02, SILL]])
+    sill_heights = np.array([np.nan] * 4 + [SILL])
+    heights = []
+    for _ in range(12):
+        mapper.update(sill, sill_heights, origin)
+        heights.append(mapper.floor_at(0.02, 0.02))
+    assert heights[:8] == [0.0] * 8 and heights[8:] == [SILL] * 4

@@ -525,3 +525,26 @@ def test_keeps_grid_says_when_a_frame_leaves_the_grid_where_it_is(use_height_ref
         assert answers == [False, True, True, False, True, True]
     nan = dataclasses.replace(frames[0], robot_pose_believed=np.array([np.nan, 0, 0, 0.0]))
     assert not pipeline.keeps_grid(nan)
+
+
+def test_a_frame_whose_measurement_disagrees_is_z_matched_as_any_other():
+    # The anchor rule: only a frame shifted by its own measurement of the ground under its
+    # feet (it agrees with the reference's estimate) is kept unshifted against the map. Here,
+    # after the reference converged on exact frames, one frame's believed camera is 8 mm low
+    # (beyond `frame_gate_m`, 5 mm): its measurement disagrees, the estimate shifts it, its
+    # data are 8 mm off and the z-match puts them back on the map's ground. Before the rule
+    # the frame was kept unshifted (8 mm > `anchor_shift_m`): its ground went 8 mm high.
+    frames = make_frames(HeightReferenceParams().min_frames + 4)
+    believed = CAMERA_IN_ROBOT.copy()
+    believed[2, 3] -= 0.008
+    frames[-1] = dataclasses.replace(frames[-1], transform_camera_to_robot_believed=believed)
+    pipeline = Pipeline()
+    for f in frames[:-1]:
+        pipeline.process(f)
+    assert pipeline.reference.known and pipeline.reference.shift_m == pytest.approx(0.0, abs=1e-4)
+    timing = pipeline.process(frames[-1])
+    assert timing.z_matched and not timing.withdrawn
+    labelled = pipeline.last_points
+    ground = np.isfinite(labelled.floor_heights_m) & (labelled.floor_heights_m < 0.025)
+    assert ground.sum() > 100
+    np.testing.assert_allclose(labelled.floor_heights_m[ground], 0.0, atol=2e-4)
