@@ -21,14 +21,18 @@ one frame stays a floor. With votes, a cell holds the surface most of its points
 
 Points that are not floor count too (beyond the paper, votes only): a point more than ``ε``
 above the stored floor, in a layer above the floor's whose cell is occupied (eq. 7 at the
-point's z), shows a surface above the stored one, so it takes one vote away (down to 0, never
-replacing the floor: it has no plane height); the next floor point of another surface then
-replaces it. Without this a stored lower floor outlived the surface above it whenever that
-surface was seen mostly as points that are not floor: the stage_zigzag sill's interior cells
-took the ground's height from far frames whose stereo showed no sill there (up to 39 votes),
-and the sill top's few floor points a frame (3–6, against the ground's 1–4 a frame seen
-beside the sill's 2–5 points that are not floor) never took them back: on stereo seed 8,
-with the pipeline's anchor rule, the sill row was 19.3 mm off. Within the floor's own layer
+point's z), shows a surface above the stored one. In a column a frame sees mostly above its
+floor (such points and floor points of a higher surface outnumber the points at the floor's
+height), each such point takes one vote away (down to 0, never replacing the floor: it has
+no plane height), before the frame's floor points; the next floor point of another surface
+then replaces it. A column the frame sees mostly at the floor's height keeps its votes: a
+riser inside the cell at a step's edge (3 of the cell's 4 cm the lower tread, stage depth
+seed 1: the sill's front cells took the sill's height when every such point counted).
+Without this a stored lower floor outlived the surface above it whenever that surface was
+seen mostly as points that are not floor: the stage_zigzag sill's interior cells took the
+ground's height from far frames whose stereo showed no sill there (up to 39 votes), and the
+sill top's few floor points a frame never took them back: on stereo seed 8, with the
+pipeline's anchor rule, the sill row was 19.3 mm off. Within the floor's own layer
 the occupancy cannot tell a surface from the floor's own noisy points, so they do not count.
 
 Beyond the paper too, each frame gives a verdict on every stored floor it sees
@@ -147,6 +151,55 @@ def _covers(
         return False
     k = _layer_of(z, z_min, layer, nz)
     return k > _layer_of(f, z_min, layer, nz) and og_flat[col * nz + k] > occ_level
+
+
+@numba.njit(cache=True, no_cfunc_wrapper=True, nogil=True)
+def _drain_covered(
+    og_flat: NDArray[np.uint8],
+    votes_flat: NDArray[np.int32],
+    floor_flat: NDArray[np.float64],
+    point_cell: NDArray[np.int64],
+    points: NDArray[np.float64],
+    floor_heights: NDArray[np.float64],
+    eps: float,
+    z_min: float,
+    layer: float,
+    nz: int,
+    occ_level: int,
+) -> None:
+    """Take the votes of stored floors a frame sees covered by a surface above (module doc).
+
+    Per column with a valid floor ``F``: ``above`` counts the points that are not floor and
+    show a surface above it (`_covers`), ``higher`` the floor points more than ``eps`` above
+    it, ``level`` the points at its height (floor points with ``|h − F| <= eps``, others with
+    ``|z − F| <= eps``). When ``above + higher > level`` (the frame sees the column mostly
+    above the floor) its ``above`` points take one vote each (down to 0); ``higher``'s are
+    counted by eq. 9's loop as before. A column split between the floor and a surface above
+    (a riser inside a cell at a step's edge, seen mostly as the lower tread) keeps its votes.
+    """
+    n_cols = floor_flat.shape[0]
+    above = np.zeros(n_cols, dtype=np.int32)
+    level = np.zeros(n_cols, dtype=np.int32)
+    for i in range(point_cell.shape[0]):
+        col = point_cell[i]
+        if col < 0 or votes_flat[col] <= 0:
+            continue
+        f = floor_flat[col]
+        if np.isnan(f):
+            continue
+        h = floor_heights[i]
+        if np.isfinite(h):
+            if abs(h - f) <= eps:
+                level[col] += 1
+            elif h > f + eps:
+                level[col] -= 1  # a higher floor point: ``above + higher > level``
+        elif abs(points[i, 2] - f) <= eps:
+            level[col] += 1
+        elif _covers(og_flat, col, points[i, 2], f, eps, z_min, layer, nz, occ_level):
+            above[col] += 1
+    for col in range(n_cols):
+        if above[col] > 0 and above[col] > level[col]:
+            votes_flat[col] = max(votes_flat[col] - above[col], 0)
 
 
 @numba.njit(cache=True, no_cfunc_wrapper=True, nogil=True)
@@ -270,18 +323,26 @@ def update_floor(
         if averaged
         else np.zeros(0)
     )
+    if vote_cap > 0:
+        _drain_covered(
+            og_flat,
+            votes_flat,
+            floor_flat,
+            point_cell,
+            points,
+            floor_heights,
+            eps,
+            z_min,
+            layer,
+            nz,
+            occ_level,
+        )
     used = 0
     rejected = 0
     for i in range(point_cell.shape[0]):
         col = point_cell[i]
         h = floor_heights[i]
-        if col < 0:
-            continue
-        if not np.isfinite(h):
-            if vote_cap > 0 and votes_flat[col] > 0:
-                f = floor_flat[col]
-                if _covers(og_flat, col, points[i, 2], f, eps, z_min, layer, nz, occ_level):
-                    votes_flat[col] -= 1  # a surface above: the next other surface replaces
+        if col < 0 or not np.isfinite(h):
             continue
         if not _supported(og_flat, col, h, z_min, layer, nz, occ_level):
             rejected += 1

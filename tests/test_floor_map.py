@@ -271,6 +271,18 @@ def test_points_of_a_surface_above_take_the_stored_floors_votes():
     )
 
 
+def test_a_column_seen_mostly_at_the_floor_keeps_its_votes():
+    # A riser inside the cell at a step's edge: as many points at the floor's height (floor
+    # points by their plane's height, others by z) as above it: no vote taken, the ground's
+    # two floor points add two. One point more above than at: all three above take one each.
+    at_floor = [(0.0, np.nan), (0.001, 0.001)]
+    assert covered([TOP_POINT] * 2 + at_floor)[1] == 4
+    assert covered([TOP_POINT] * 3 + at_floor)[1] == 1
+    # A floor point of a higher surface counts with those above (then takes its own vote in
+    # eq. 9's loop): 3 − 2, + 1 for the ground's floor point (0.1·0.001), − 1 for the sill's.
+    assert covered([TOP_POINT] * 2 + at_floor + [SILL_FLOOR]) == (pytest.approx(0.0001), 1)
+
+
 def test_only_points_in_an_occupied_layer_above_the_floor_count_as_a_surface_above():
     # 0.019 is within eps of the ground and in its layer: the ground's own noise; 0.021 is
     # in layer 2, more than eps above it.
