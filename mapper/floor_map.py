@@ -22,12 +22,13 @@ one frame stays a floor. With votes, a cell holds the surface most of its points
 Points that are not floor count too (beyond the paper, votes only): a point more than ``ε``
 above the stored floor, in a layer above the floor's whose cell is occupied (eq. 7 at the
 point's z), shows a surface above the stored one. In a column a frame sees mostly above its
-floor (such points and floor points of a higher surface outnumber the points at the floor's
-height), each such point takes one vote away (down to 0, never replacing the floor: it has
-no plane height), before the frame's floor points; the next floor point of another surface
-then replaces it. A column the frame sees mostly at the floor's height keeps its votes: a
-riser inside the cell at a step's edge (3 of the cell's 4 cm the lower tread, stage depth
-seed 1: the sill's front cells took the sill's height when every such point counted).
+floor (such points and floor points of a higher surface are more than `ABOVE_RATIO` times
+the points at the floor's height), each such point takes one vote away (down to 0, never
+replacing the floor: it has no plane height), before the frame's floor points; the next
+floor point of another surface then replaces it. A column the frame sees partly at the
+floor's height keeps its votes: a riser inside the cell at a step's edge (3 of the cell's
+4 cm the lower tread, stage depth seed 1: the sill's front cells took the sill's height when
+every such point counted).
 Without this a stored lower floor outlived the surface above it whenever that surface was
 seen mostly as points that are not floor: the stage_zigzag sill's interior cells took the
 ground's height from far frames whose stereo showed no sill there (up to 39 votes), and the
@@ -75,6 +76,13 @@ from numpy.typing import NDArray
 #: the rule but one cell with 5). moving_box's box top gives 5–9 points a column a frame at
 #: 1.3 m: with 7, seed 2's box row is 60 mm off again.
 LEVEL_MIN_POINTS = 5
+#: How many times the points at a stored floor's height the points showing a surface above it
+#: (and floor points of a higher surface) must be in a frame's column for them to take the
+#: floor's votes (`_drain_covered`). 2: a riser inside the cell at a step's edge is seen as
+#: about as many points above the lower tread as at it (stage depth seed 1, the sill's front
+#: column: with 1 its cells took the sill's height, unsafe cells 22 → 31); a surface covering
+#: the cell shows few or none at the floor's height.
+ABOVE_RATIO = 2
 #: Range [m] up to which a frame's floor height counts as one whole frame in the weighted mean
 #: (`update_floor` with `MapperParams.floor_memory`); farther, it counts
 #: ``(WEIGHT_RANGE_M / range)^floor_range_power``. 1 m: the nearest floor the stage's head
@@ -172,14 +180,15 @@ def _drain_covered(
     Per column with a valid floor ``F``: ``above`` counts the points that are not floor and
     show a surface above it (`_covers`), ``higher`` the floor points more than ``eps`` above
     it, ``level`` the points at its height (floor points with ``|h − F| <= eps``, others with
-    ``|z − F| <= eps``). When ``above + higher > level`` (the frame sees the column mostly
-    above the floor) its ``above`` points take one vote each (down to 0); ``higher``'s are
-    counted by eq. 9's loop as before. A column split between the floor and a surface above
-    (a riser inside a cell at a step's edge, seen mostly as the lower tread) keeps its votes.
+    ``|z − F| <= eps``). When ``above + higher > ABOVE_RATIO·level`` (the frame sees the
+    column mostly above the floor) its ``above`` points take one vote each (down to 0);
+    ``higher``'s are counted by eq. 9's loop as before. A column split between the floor and a
+    surface above (a riser inside a cell at a step's edge) keeps its votes.
     """
     n_cols = floor_flat.shape[0]
     above = np.zeros(n_cols, dtype=np.int32)
     level = np.zeros(n_cols, dtype=np.int32)
+    higher = np.zeros(n_cols, dtype=np.int32)
     for i in range(point_cell.shape[0]):
         col = point_cell[i]
         if col < 0 or votes_flat[col] <= 0:
@@ -192,13 +201,13 @@ def _drain_covered(
             if abs(h - f) <= eps:
                 level[col] += 1
             elif h > f + eps:
-                level[col] -= 1  # a higher floor point: ``above + higher > level``
+                higher[col] += 1
         elif abs(points[i, 2] - f) <= eps:
             level[col] += 1
         elif _covers(og_flat, col, points[i, 2], f, eps, z_min, layer, nz, occ_level):
             above[col] += 1
     for col in range(n_cols):
-        if above[col] > 0 and above[col] > level[col]:
+        if above[col] > 0 and above[col] + higher[col] > ABOVE_RATIO * level[col]:
             votes_flat[col] = max(votes_flat[col] - above[col], 0)
 
 

@@ -4,7 +4,13 @@ import numpy as np
 import pytest
 
 from mapper import MapperParams
-from mapper.floor_map import LEVEL_MIN_POINTS, frame_verdicts, update_floor, verify_floor
+from mapper.floor_map import (
+    ABOVE_RATIO,
+    LEVEL_MIN_POINTS,
+    frame_verdicts,
+    update_floor,
+    verify_floor,
+)
 
 # The hand values below are for these thresholds (the defaults before tuning, see MapperParams).
 P = MapperParams(
@@ -261,26 +267,24 @@ def test_points_of_a_surface_above_take_the_stored_floors_votes():
     assert covered([TOP_POINT] * 3 + [SILL_FLOOR]) == (SILL, 1)
     # Without them the sill's floor point only takes one vote away (3 → 2).
     assert covered([SILL_FLOOR]) == (GROUND, 2)
-    # Votes never go below 0; a ground point gives one back, two hold the ground against the
-    # sill's floor point (0.9·(0.9·0 + 0.1·0.001) + 0.1·0.001).
+    # Votes never go below 0; a ground point gives one back, the sill's floor point takes it.
     assert covered([TOP_POINT] * 5) == (GROUND, 0)
     assert covered([TOP_POINT] * 3 + [(0.001, 0.001), SILL_FLOOR]) == (SILL, 1)
-    assert covered([TOP_POINT] * 3 + [(0.001, 0.001)] * 2 + [SILL_FLOOR]) == (
-        pytest.approx(0.9 * (0.9 * 0.0 + 0.1 * 0.001) + 0.1 * 0.001, abs=1e-15),
-        1,
-    )
 
 
-def test_a_column_seen_mostly_at_the_floor_keeps_its_votes():
-    # A riser inside the cell at a step's edge: as many points at the floor's height (floor
-    # points by their plane's height, others by z) as above it: no vote taken, the ground's
-    # two floor points add two. One point more above than at: all three above take one each.
-    at_floor = [(0.0, np.nan), (0.001, 0.001)]
-    assert covered([TOP_POINT] * 2 + at_floor)[1] == 4
-    assert covered([TOP_POINT] * 3 + at_floor)[1] == 1
-    # A floor point of a higher surface counts with those above (then takes its own vote in
-    # eq. 9's loop): 3 − 2, + 1 for the ground's floor point (0.1·0.001), − 1 for the sill's.
-    assert covered([TOP_POINT] * 2 + at_floor + [SILL_FLOOR]) == (pytest.approx(0.0001), 1)
+def test_a_column_seen_partly_at_the_floor_keeps_its_votes():
+    # A riser inside the cell at a step's edge: points at the floor's height (floor points by
+    # their plane's height, others by z) and above it. Those above (with floor points of a
+    # higher surface) must be more than ABOVE_RATIO (2) times those at the floor to take votes.
+    assert ABOVE_RATIO == 2
+    at_floor = [(0.0, np.nan), (0.001, 0.001)]  # 2 at the floor, 1 of them a floor point
+    assert covered([TOP_POINT] * 4 + at_floor)[1] == 4  # 4 ≤ 2·2: none taken, + 1
+    assert covered([TOP_POINT] * 5 + at_floor)[1] == 1  # 5 > 4: 3 − 5 → 0, + 1
+    # A floor point of a higher surface counts with those above and takes its own vote in
+    # eq. 9's loop. 3 + 1 ≤ 4: 3, + 1 for the ground's floor point (0.1·0.001), − 1 for the
+    # sill's. 4 + 1 > 4: 3 − 4 → 0, + 1, − 1: the sill takes the cell.
+    assert covered([TOP_POINT] * 3 + at_floor + [SILL_FLOOR]) == (pytest.approx(0.0001), 3)
+    assert covered([TOP_POINT] * 4 + at_floor + [SILL_FLOOR]) == (SILL, 1)
 
 
 def test_only_points_in_an_occupied_layer_above_the_floor_count_as_a_surface_above():
