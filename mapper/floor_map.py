@@ -21,7 +21,8 @@ one frame stays a floor. With votes, a cell holds the surface most of its points
 
 Points that are not floor count too (beyond the paper, votes only): a point more than ``ε``
 above the stored floor, in a layer above the floor's whose cell is occupied (eq. 7 at the
-point's z), shows a surface above the stored one. In a column a frame sees mostly above its
+point's z), and at most ``δ`` above it (higher, eq. 11 makes the cell an obstacle whatever the
+floor), shows a surface above the stored one. In a column a frame sees mostly above its
 floor (such points and floor points of a higher surface are more than `ABOVE_RATIO` times
 the points at the floor's height), each such point takes one vote away (down to 0, never
 replacing the floor: it has no plane height), before the frame's floor points; the next
@@ -143,6 +144,7 @@ def _covers(
     z: float,
     f: float,
     eps: float,
+    delta: float,
     z_min: float,
     layer: float,
     nz: int,
@@ -150,12 +152,15 @@ def _covers(
 ):
     """Whether a point at ``z`` that is not floor shows a surface above the stored floor ``f``.
 
-    It does when it lies more than ``eps`` above ``f`` in a layer above ``f``'s and its cell is
-    occupied (eq. 7 at ``z``): the column holds something higher than the stored floor. Within
-    ``f``'s own layer the occupancy cannot tell a surface from the floor's own noisy points.
-    A NaN ``f`` never.
+    It does when it lies more than ``eps`` and at most ``delta`` (eq. 11's obstacle threshold)
+    above ``f`` in a layer above ``f``'s and its cell is occupied (eq. 7 at ``z``): the column
+    holds something higher than the stored floor that the FOG would not show (more than
+    ``delta`` above the floor, eq. 11 makes the cell an obstacle whatever the floor: a box on
+    the ground, whose rough top a frame may take for a plane, must not take the ground's
+    votes). Within ``f``'s own layer the occupancy cannot tell a surface from the floor's own
+    noisy points. A NaN ``f`` never.
     """
-    if not z > f + eps:
+    if not (z > f + eps and z <= f + delta):
         return False
     k = _layer_of(z, z_min, layer, nz)
     return k > _layer_of(f, z_min, layer, nz) and og_flat[col * nz + k] > occ_level
@@ -170,6 +175,7 @@ def _drain_covered(
     points: NDArray[np.float64],
     floor_heights: NDArray[np.float64],
     eps: float,
+    delta: float,
     z_min: float,
     layer: float,
     nz: int,
@@ -204,7 +210,7 @@ def _drain_covered(
                 higher[col] += 1
         elif abs(points[i, 2] - f) <= eps:
             level[col] += 1
-        elif _covers(og_flat, col, points[i, 2], f, eps, z_min, layer, nz, occ_level):
+        elif _covers(og_flat, col, points[i, 2], f, eps, delta, z_min, layer, nz, occ_level):
             above[col] += 1
     for col in range(n_cols):
         if above[col] > 0 and above[col] + higher[col] > ABOVE_RATIO * level[col]:
@@ -269,6 +275,7 @@ def update_floor(
     vote_cap: int,
     memory: float,
     range_power: float,
+    delta: float,
 ) -> tuple[int, int]:
     """Eq. 9 for every inserted point with a finite floor height, with per-cell votes.
 
@@ -303,6 +310,8 @@ def update_floor(
         memory: The most weight a stored floor height holds (`MapperParams.floor_memory`);
             0 = the paper's smoothing by ``nu``.
         range_power: How a frame's weight falls with range (`MapperParams.floor_range_power`).
+        delta: Obstacle threshold of eq. 11 [m]: a point that is not floor more than this above
+            the stored floor shows no surface above it (`_covers`).
 
     Returns:
         (floor points used, floor points rejected by eq. 7).
@@ -341,6 +350,7 @@ def update_floor(
             points,
             floor_heights,
             eps,
+            delta,
             z_min,
             layer,
             nz,

@@ -212,6 +212,7 @@ class FloorObstacleMapper:
             p.floor_vote_cap,
             p.floor_memory,
             p.floor_range_power,
+            p.delta_m,
         )
         if p.floor_pass_fraction > 0.0:
             accumulate_cover(

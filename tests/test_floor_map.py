@@ -69,6 +69,7 @@ def run_update(
         vote_cap,
         memory,
         power,
+        P.delta_m,
     )
 
 
@@ -145,6 +146,7 @@ def test_not_floor_and_dropped_points_are_ignored():
         64,
         16.0,
         2.0,
+        P.delta_m,
     )
     assert (used, rejected) == (0, 0)
     assert np.all(np.isnan(floor))
@@ -251,6 +253,7 @@ def covered(points, vote_cap=64, votes=3, occupied=(GROUND, SILL)):
         vote_cap,
         0.0,
         2.0,
+        P.delta_m,
     )
     return floor[0, 0], int(votes_grid[0, 0])
 
@@ -292,6 +295,11 @@ def test_only_points_in_an_occupied_layer_above_the_floor_count_as_a_surface_abo
     # in layer 2, more than eps above it.
     assert covered([(0.019, np.nan)] * 3) == (GROUND, 3)
     assert covered([(0.021, np.nan)] * 3) == (GROUND, 0)
+    # More than delta (eq. 11: 0.05) above the floor: the FOG shows an obstacle there anyway
+    # (a box on the ground, its rough top taken for a plane in one frame): nothing.
+    assert P.delta_m == 0.05
+    assert covered([(0.051, np.nan)] * 3, occupied=(GROUND, 0.051)) == (GROUND, 3)
+    assert covered([(0.05, np.nan)] * 3, occupied=(GROUND, 0.05)) == (GROUND, 0)
     # Layer 2 not occupied (one noisy frame): nothing.
     assert covered([TOP_POINT] * 3, occupied=(GROUND,)) == (GROUND, 3)
     # Below the floor, or floor points (their plane's height decides, as in eq. 9): nothing.
