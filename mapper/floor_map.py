@@ -34,7 +34,8 @@ Without this a stored lower floor outlived the surface above it whenever that su
 seen mostly as points that are not floor: the stage_zigzag sill's interior cells took the
 ground's height from far frames whose stereo showed no sill there (up to 39 votes), and the
 sill top's few floor points a frame never took them back: on stereo seed 8, with the
-pipeline's anchor rule, the sill row was 19.3 mm off. Within the floor's own layer
+pipeline's anchor rule, the sill row was 19.3 mm off (4.8 mm before the rule; 1.8 mm with
+this one). Within the floor's own layer
 the occupancy cannot tell a surface from the floor's own noisy points, so they do not count.
 
 Beyond the paper too, each frame gives a verdict on every stored floor it sees
