@@ -14,13 +14,18 @@ Conventions (heights in world metres, NaN = invalid):
   beside something more than δ above it — a box, the top of a step or sill whose edge may lie
   inside this cell — is an obstacle with that height (0 = the paper).
 - Beyond the paper, a floor beside an edge is unknown: when one of its 8 neighbours is an
-  obstacle more than δ above it (`MapperParams.unknown_beside_obstacles`) or, optionally, a
-  floor more than `MapperParams.edge_band_m` above or below it (both as eq. 11 and the cover
-  check label the neighbour). The edge lies
+  obstacle more than δ above it that is no higher floor's edge
+  (`MapperParams.unknown_beside_obstacles`; a step's edge cell, whose top is the layer of a
+  stored floor within a cell of it, leaves the tread at its foot a floor), or a floor more than
+  `MapperParams.edge_band_m` below it (the rim of a raised surface; both as eq. 11 and the
+  cover check label the neighbour). The edge lies
   within a cell of their common boundary, but the camera pose's error (1–4 cm at the stage's
   ranges) and the segmentation's snapping move a surface's points a cell either way from frame
   to frame, so the map cannot tell which of the two cells holds it — and a cell an edge crosses
-  is no floor to step on (its riser or the obstacle's side is in it).
+  is no floor to step on (its riser or the obstacle's side is in it). Eq. 9 keeps the highest
+  surface, so the cell an edge crosses takes the higher floor's height: the higher side's rim
+  is the unsafe one, the lower side's cell at the riser's foot is floor or (by the layer rule)
+  an obstacle.
 - ``Ceiling(x, y)`` is the *bottom face* of the lowest occupied cell above the free space a
   robot could use: where the floor is valid, the lowest occupied cell whose top is above
   ``h_f + δ`` (the cells the FOG counts as obstacle); where it is not, the lowest occupied cell
@@ -80,23 +85,51 @@ def _label(
 
 
 @numba.njit(cache=True, inline="always")
+def _step_top(floor: NDArray[np.float64], ix: int, iy: int, top: float, delta: float) -> bool:
+    """Whether an obstacle ``top`` at ``(ix, iy)`` is the edge of a higher floor.
+
+    It is when a stored floor within one cell of it (its own included) lies no more than δ
+    below ``top``: eq. 11 keeps that floor under such a top, so the top is that floor's layer.
+    """
+    nx, ny = floor.shape
+    for jx in range(max(ix - 1, 0), min(ix + 2, nx)):
+        for jy in range(max(iy - 1, 0), min(iy + 2, ny)):
+            if top <= floor[jx, jy] + delta:  # NaN: never
+                return True
+    return False
+
+
+@numba.njit(cache=True, inline="always")
 def _beside_edge(
     kinds: NDArray[np.int8],
     heights: NDArray[np.float64],
+    floor: NDArray[np.float64],
     i: int,
     j: int,
+    wx0: int,
+    wy0: int,
     delta: float,
     band: float,
     beside_obstacles: bool,
 ) -> bool:
-    """Whether the floor at ``(i, j)`` of the labels has a neighbour putting it in the band."""
+    """Whether the floor at ``(i, j)`` of the labels has a neighbour putting it in the band.
+
+    ``(i, j)`` index the window of labels starting at grid cell ``(wx0, wy0)``; ``floor`` is
+    the whole grid's floor map.
+    """
     hf = heights[i, j]
     for ki in range(max(i - 1, 0), min(i + 2, kinds.shape[0])):
         for kj in range(max(j - 1, 0), min(j + 2, kinds.shape[1])):
             kind = kinds[ki, kj]
-            if band > 0.0 and kind == _FLOOR and abs(heights[ki, kj] - hf) > band:  # itself: never
+            if band > 0.0 and kind == _FLOOR and heights[ki, kj] < hf - band:  # itself: never
                 return True
-            if beside_obstacles and kind == _OBSTACLE and heights[ki, kj] > hf + delta:
+            top = heights[ki, kj]
+            if (
+                beside_obstacles
+                and kind == _OBSTACLE
+                and top > hf + delta
+                and not _step_top(floor, ki + wx0, kj + wy0, top, delta)
+            ):
                 return True
     return False
 
@@ -136,11 +169,12 @@ def update_fog_area(
     area is current, as only the area's columns changed.
 
     With ``band`` > 0 (`MapperParams.edge_band_m`) a floor is unknown beside a floor more than
-    ``band`` above or below it, with ``beside_obstacles``
-    (`MapperParams.unknown_beside_obstacles`) beside an obstacle more than δ above it (module
-    docstring). The neighbours' labels are recomputed from the maps (never read from
-    ``fog_types``, which holds banded labels), so the result does not depend on the order
-    of the cells; the FOG is recomputed ``m + 1`` cells beyond the area.
+    ``band`` below it, with ``beside_obstacles`` (`MapperParams.unknown_beside_obstacles`)
+    beside an obstacle more than δ above it that is no higher floor's edge (module docstring).
+    The neighbours' labels are recomputed from the maps (never read from ``fog_types``, which
+    holds banded labels), so the result does not depend on the order of the cells; the FOG is
+    recomputed ``m + 1`` cells beyond the area, ``m + 2`` with ``beside_obstacles`` (whether
+    a neighbour is a higher floor's edge depends on the floors within a cell of it).
     """
     nx, ny, nz = og.shape
     for ix in range(ix0, ix1):
@@ -152,7 +186,7 @@ def update_fog_area(
             obstacle[ix, iy] = z_min + (k_top + 1) * layer if k_top >= 0 else np.nan
     # The cells recomputed, and around them (with the band) their neighbours' labels.
     banded = band > 0.0 or beside_obstacles
-    ring = margin + 1 if banded else margin
+    ring = margin + (2 if beside_obstacles else 1 if banded else 0)
     reach = ring + 1 if banded else ring
     wx0, wx1 = max(ix0 - reach, 0), min(ix1 + reach, nx)
     wy0, wy1 = max(iy0 - reach, 0), min(iy1 + reach, ny)
@@ -175,7 +209,9 @@ def update_fog_area(
             if (
                 banded
                 and kinds[i, j] == _FLOOR
-                and _beside_edge(kinds, heights, i, j, delta, band, beside_obstacles)
+                and _beside_edge(
+                    kinds, heights, floor, i, j, wx0, wy0, delta, band, beside_obstacles
+                )
             ):
                 fog_types[ix, iy] = _UNKNOWN
                 fog_heights[ix, iy] = np.nan

@@ -242,8 +242,8 @@ class MapperParams:
     discretize_rays: bool = False
     floor_pass_fraction: float = 0.2
     floor_pass_min_rays: int = 20
-    unknown_beside_obstacles: bool = False
-    edge_band_m: float = 0.0
+    unknown_beside_obstacles: bool = True
+    edge_band_m: float = 0.02
     obstacle_margin_cells: int = 0
     floor_memory: float = 8.0
     floor_range_power: float = 4.0
