@@ -18,7 +18,10 @@ Conventions (heights in world metres, NaN = invalid):
   (`MapperParams.unknown_beside_obstacles`; a step's edge cell, whose top is the layer of a
   stored floor within a cell of it, leaves the tread at its foot a floor), or a floor more than
   `MapperParams.edge_band_m` below it (the rim of a raised surface; both as eq. 11 and the
-  cover check label the neighbour). The edge lies
+  cover check label the neighbour), or, with the band, a cell where nothing is stored (no
+  floor, no obstacle) with such a lower floor beside it: the ground hidden behind a raised
+  surface's side edge, seen from on top or beside it, is never seen, and the rim's points
+  spilled over the edge make the cell before that shadow the raised floor's. The edge lies
   within a cell of their common boundary, but the camera pose's error (1–4 cm at the stage's
   ranges) and the segmentation's snapping move a surface's points a cell either way from frame
   to frame, so the map cannot tell which of the two cells holds it — and a cell an edge crosses
@@ -100,10 +103,23 @@ def _step_top(floor: NDArray[np.float64], ix: int, iy: int, top: float, delta: f
 
 
 @numba.njit(cache=True, inline="always")
+def _lower_floor_beside(
+    kinds: NDArray[np.int8], heights: NDArray[np.float64], i: int, j: int, below: float
+) -> bool:
+    """Whether a neighbour of ``(i, j)`` of the labels is a floor lower than ``below``."""
+    for ki in range(max(i - 1, 0), min(i + 2, kinds.shape[0])):
+        for kj in range(max(j - 1, 0), min(j + 2, kinds.shape[1])):
+            if kinds[ki, kj] == _FLOOR and heights[ki, kj] < below:
+                return True
+    return False
+
+
+@numba.njit(cache=True, inline="always")
 def _beside_edge(
     kinds: NDArray[np.int8],
     heights: NDArray[np.float64],
     floor: NDArray[np.float64],
+    obstacle: NDArray[np.float64],
     i: int,
     j: int,
     wx0: int,
@@ -114,8 +130,8 @@ def _beside_edge(
 ) -> bool:
     """Whether the floor at ``(i, j)`` of the labels has a neighbour putting it in the band.
 
-    ``(i, j)`` index the window of labels starting at grid cell ``(wx0, wy0)``; ``floor`` is
-    the whole grid's floor map.
+    ``(i, j)`` index the window of labels starting at grid cell ``(wx0, wy0)``; ``floor`` and
+    ``obstacle`` are the whole grid's maps.
     """
     hf = heights[i, j]
     for ki in range(max(i - 1, 0), min(i + 2, kinds.shape[0])):
@@ -123,12 +139,20 @@ def _beside_edge(
             kind = kinds[ki, kj]
             if band > 0.0 and kind == _FLOOR and heights[ki, kj] < hf - band:  # itself: never
                 return True
+            gx, gy = ki + wx0, kj + wy0
+            if (
+                band > 0.0
+                and np.isnan(floor[gx, gy])
+                and np.isnan(obstacle[gx, gy])
+                and _lower_floor_beside(kinds, heights, ki, kj, hf - band)
+            ):  # the shadow behind a rim: nothing stored, a lower floor beyond
+                return True
             top = heights[ki, kj]
             if (
                 beside_obstacles
                 and kind == _OBSTACLE
                 and top > hf + delta
-                and not _step_top(floor, ki + wx0, kj + wy0, top, delta)
+                and not _step_top(floor, gx, gy, top, delta)
             ):
                 return True
     return False
@@ -173,8 +197,8 @@ def update_fog_area(
     beside an obstacle more than δ above it that is no higher floor's edge (module docstring).
     The neighbours' labels are recomputed from the maps (never read from ``fog_types``, which
     holds banded labels), so the result does not depend on the order of the cells; the FOG is
-    recomputed ``m + 1`` cells beyond the area, ``m + 2`` with ``beside_obstacles`` (whether
-    a neighbour is a higher floor's edge depends on the floors within a cell of it).
+    recomputed ``m + 2`` cells beyond the area (whether a neighbour is a higher floor's edge,
+    or a shadow, depends on the maps within a cell of it).
     """
     nx, ny, nz = og.shape
     for ix in range(ix0, ix1):
@@ -186,8 +210,8 @@ def update_fog_area(
             obstacle[ix, iy] = z_min + (k_top + 1) * layer if k_top >= 0 else np.nan
     # The cells recomputed, and around them (with the band) their neighbours' labels.
     banded = band > 0.0 or beside_obstacles
-    ring = margin + (2 if beside_obstacles else 1 if banded else 0)
-    reach = ring + 1 if banded else ring
+    ring = margin + (2 if banded else 0)
+    reach = ring + 2 if banded else ring
     wx0, wx1 = max(ix0 - reach, 0), min(ix1 + reach, nx)
     wy0, wy1 = max(iy0 - reach, 0), min(iy1 + reach, ny)
     kinds = np.empty((wx1 - wx0, wy1 - wy0), dtype=np.int8)
@@ -210,7 +234,7 @@ def update_fog_area(
                 banded
                 and kinds[i, j] == _FLOOR
                 and _beside_edge(
-                    kinds, heights, floor, i, j, wx0, wy0, delta, band, beside_obstacles
+                    kinds, heights, floor, obstacle, i, j, wx0, wy0, delta, band, beside_obstacles
                 )
             ):
                 fog_types[ix, iy] = _UNKNOWN

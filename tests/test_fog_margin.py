@@ -271,20 +271,37 @@ def test_neighbour_the_cover_check_makes_unknown_bands_nothing():
 
 def test_ring_around_the_area_is_relabelled_as_a_whole_grid_update_would():
     # A 61 mm strip three cells wide (cells 3-5); only cell 4 changed (area [4, 5) x all rows).
-    # With the band alone its ring, cells 3 and 5, is relabelled too (above the ground beside:
-    # unknown), cell 4 between two floors of its own height is floor; cells two away are left
-    # as they were (-1). Unknown beside obstacles widens the ring to two cells (a neighbour's
-    # being a higher floor's edge depends on the floors beside it). The whole-grid update gives
+    # With the bands its ring two cells wide is relabelled too (whether a neighbour is a higher
+    # floor's edge or a shadow depends on the maps beside it): cells 3 and 5 above the ground
+    # beside them unknown, cell 4 between two floors of its own height and the ground cells
+    # 2 and 6 floor; cells three away are left as they were (-1). The whole-grid update gives
     # the same labels: the neighbours' labels come from the maps, not from the FOG being written.
     og, floor = surfaces_grid([0.0, 0.0, 0.0, 0.061, 0.061, 0.061, 0.0, 0.0, 0.0])
-    types, heights = fog(og, floor, band=BAND, area=(4, 5, 0, 3))
-    assert types[:, 1].tolist() == [-1, -1, -1, U, F, U, -1, -1, -1]
-    assert heights[4, 1] == 0.061
-    full, _ = fog(og, floor, band=BAND, beside=True)
-    assert np.array_equal(full[3:6], types[3:6])
-    assert full[:, 1].tolist() == [F, F, F, U, F, U, F, F, F]
-    wide, _ = fog(og, floor, band=BAND, beside=True, area=(4, 5, 0, 3))
-    assert wide[:, 1].tolist() == [-1, -1, F, U, F, U, F, -1, -1]
+    for beside in (False, True):
+        types, heights = fog(og, floor, band=BAND, beside=beside, area=(4, 5, 0, 3))
+        assert types[:, 1].tolist() == [-1, -1, F, U, F, U, F, -1, -1]
+        assert heights[4, 1] == 0.061
+        full, _ = fog(og, floor, band=BAND, beside=beside)
+        assert np.array_equal(full[2:7], types[2:7])
+        assert full[:, 1].tolist() == [F, F, F, U, F, U, F, F, F]
+    paper, _ = fog(og, floor, area=(4, 5, 0, 3))
+    assert paper[:, 1].tolist() == [-1, -1, -1, -1, F, -1, -1, -1, -1]
+
+
+def test_the_cell_before_a_shadow_behind_a_rim_is_unknown():
+    # Platform (122 mm) | its last cell, the platform's height spilled over its side edge |
+    # the ground hidden behind the edge: nothing stored | the ground seen beyond. The spilled
+    # cell is unknown; with a floor or an obstacle stored in the gap it is not (the band
+    # looks at direct neighbours only); without a lower floor beyond, neither.
+    nan = np.nan
+    og, floor = surfaces_grid([0.122, 0.122, 0.122, nan, 0.0, 0.0])
+    types, _ = fog(og, floor, band=BAND)
+    assert types[:, 1].tolist() == [F, F, U, U, F, F]
+    og2, floor2 = surfaces_grid([0.122, 0.122, 0.122, 0.122, 0.0, 0.0])
+    assert fog(og2, floor2, band=BAND)[0][:, 1].tolist() == [F, F, F, U, F, F]
+    og3, floor3 = surfaces_grid([0.122, 0.122, 0.122, nan, nan, nan])
+    assert fog(og3, floor3, band=BAND)[0][:, 1].tolist() == [F, F, F, U, U, U]
+    assert fog(og, floor)[0][:, 1].tolist() == [F, F, F, U, F, F]  # the paper
 
 
 def test_a_floor_change_beside_an_obstacle_relabels_two_cells_away():
@@ -292,13 +309,25 @@ def test_a_floor_change_beside_an_obstacle_relabels_two_cells_away():
     # changes from none (the edge a box's: cell 1 unknown) to 61 mm (a step's: cell 1 floor).
     # Only cell 3 is in the area; cell 1, two away, is relabelled as the whole grid would be.
     nan = np.nan
-    og, floor = surfaces_grid([0.0, 0.0, 0.0, nan, nan], tops_m=[nan, nan, nan, nan, nan])
+    og, floor = surfaces_grid([0.0, 0.0, 0.0, nan, nan])
     og[2, :, layer_of(0.061)] = OCC
     og[3, :, layer_of(0.061)] = OCC
-    types, _ = fog(og, floor, beside=True)
+    nx, ny = floor.shape
+    types = np.full((nx, ny), -1, dtype=np.int8)
+    heights = np.full((nx, ny), np.nan)
+    obstacle = np.full((nx, ny), np.nan)  # kept: the kernel takes it as current outside the area
+    zeros = np.zeros((nx, ny), dtype=np.int32)
+
+    def update(area):
+        update_fog_area(
+            og, floor, obstacle, types, heights, P.occ_threshold_level, Z0, L, P.delta_m,
+            *area, zeros, zeros, P.floor_pass_min_rays, P.floor_pass_fraction, 0, 0.0, True,
+        )  # fmt: skip
+
+    update((0, nx, 0, ny))
     assert types[:, 1].tolist() == [F, U, OB, OB, U]
     floor[3, :] = 0.061
-    types, _ = fog(og, floor, beside=True, area=(3, 4, 0, 3), types=types)
+    update((3, 4, 0, ny))
     assert types[:, 1].tolist() == [F, F, OB, F, U]
     assert np.array_equal(types, fog(og, floor, beside=True)[0])
 
