@@ -87,77 +87,6 @@ def _label(
     return _UNKNOWN, np.nan
 
 
-@numba.njit(cache=True, inline="always")
-def _step_top(floor: NDArray[np.float64], ix: int, iy: int, top: float, delta: float) -> bool:
-    """Whether an obstacle ``top`` at ``(ix, iy)`` is the edge of a higher floor.
-
-    It is when a stored floor within one cell of it (its own included) lies no more than δ
-    below ``top``: eq. 11 keeps that floor under such a top, so the top is that floor's layer.
-    """
-    nx, ny = floor.shape
-    for jx in range(max(ix - 1, 0), min(ix + 2, nx)):
-        for jy in range(max(iy - 1, 0), min(iy + 2, ny)):
-            if top <= floor[jx, jy] + delta:  # NaN: never
-                return True
-    return False
-
-
-@numba.njit(cache=True, inline="always")
-def _lower_floor_beside(
-    kinds: NDArray[np.int8], heights: NDArray[np.float64], i: int, j: int, below: float
-) -> bool:
-    """Whether a neighbour of ``(i, j)`` of the labels is a floor lower than ``below``."""
-    for ki in range(max(i - 1, 0), min(i + 2, kinds.shape[0])):
-        for kj in range(max(j - 1, 0), min(j + 2, kinds.shape[1])):
-            if kinds[ki, kj] == _FLOOR and heights[ki, kj] < below:
-                return True
-    return False
-
-
-@numba.njit(cache=True, inline="always")
-def _beside_edge(
-    kinds: NDArray[np.int8],
-    heights: NDArray[np.float64],
-    floor: NDArray[np.float64],
-    obstacle: NDArray[np.float64],
-    i: int,
-    j: int,
-    wx0: int,
-    wy0: int,
-    delta: float,
-    band: float,
-    beside_obstacles: bool,
-) -> bool:
-    """Whether the floor at ``(i, j)`` of the labels has a neighbour putting it in the band.
-
-    ``(i, j)`` index the window of labels starting at grid cell ``(wx0, wy0)``; ``floor`` and
-    ``obstacle`` are the whole grid's maps.
-    """
-    hf = heights[i, j]
-    for ki in range(max(i - 1, 0), min(i + 2, kinds.shape[0])):
-        for kj in range(max(j - 1, 0), min(j + 2, kinds.shape[1])):
-            kind = kinds[ki, kj]
-            if band > 0.0 and kind == _FLOOR and heights[ki, kj] < hf - band:  # itself: never
-                return True
-            gx, gy = ki + wx0, kj + wy0
-            if (
-                band > 0.0
-                and np.isnan(floor[gx, gy])
-                and np.isnan(obstacle[gx, gy])
-                and _lower_floor_beside(kinds, heights, ki, kj, hf - band)
-            ):  # the shadow behind a rim: nothing stored, a lower floor beyond
-                return True
-            top = heights[ki, kj]
-            if (
-                beside_obstacles
-                and kind == _OBSTACLE
-                and top > hf + delta
-                and not _step_top(floor, gx, gy, top, delta)
-            ):
-                return True
-    return False
-
-
 @numba.njit(cache=True, no_cfunc_wrapper=True, nogil=True, boundscheck=False)
 def update_fog_area(
     og: NDArray[np.uint8],
@@ -227,21 +156,47 @@ def update_fog_area(
             kinds[ix - wx0, iy - wy0], heights[ix - wx0, iy - wy0] = _label(
                 top, hf, cover_ends[ix, iy], cover_passes[ix, iy], delta, min_rays, pass_fraction
             )
+    # Per cell beside the relabelled ones: a floor at h beside it is in a band when h > above or
+    # h < below — beside a floor more than the band below (a rim), an empty cell next to such
+    # a floor (a shadow), an obstacle more than δ above that is no higher floor's edge (a stored
+    # floor within a cell of it lies within δ below its top). Inline loops, not helpers taking
+    # the maps: a helper call costs reference counting (module note in `_label`).
+    above = np.full(kinds.shape, np.inf)
+    below = np.full(kinds.shape, -np.inf)
+    if banded:
+        for ix in range(max(ix0 - ring - 1, 0), min(ix1 + ring + 1, nx)):
+            for iy in range(max(iy0 - ring - 1, 0), min(iy1 + ring + 1, ny)):
+                i, j = ix - wx0, iy - wy0
+                kind, h = kinds[i, j], heights[i, j]
+                if kind == _FLOOR:
+                    if band > 0.0:
+                        above[i, j] = h + band
+                elif kind == _OBSTACLE:
+                    if beside_obstacles:
+                        step = False
+                        for jx in range(max(ix - 1, 0), min(ix + 2, nx)):
+                            for jy in range(max(iy - 1, 0), min(iy + 2, ny)):
+                                step = step or h <= floor[jx, jy] + delta  # NaN: never
+                        if not step:
+                            below[i, j] = h - delta
+                elif band > 0.0 and np.isnan(floor[ix, iy]) and np.isnan(obstacle[ix, iy]):
+                    lowest = np.inf
+                    for ki in range(max(i - 1, 0), min(i + 2, kinds.shape[0])):
+                        for kj in range(max(j - 1, 0), min(j + 2, kinds.shape[1])):
+                            if kinds[ki, kj] == _FLOOR and heights[ki, kj] < lowest:
+                                lowest = heights[ki, kj]
+                    above[i, j] = lowest + band
     for ix in range(max(ix0 - ring, 0), min(ix1 + ring, nx)):
         for iy in range(max(iy0 - ring, 0), min(iy1 + ring, ny)):
             i, j = ix - wx0, iy - wy0
-            if (
-                banded
-                and kinds[i, j] == _FLOOR
-                and _beside_edge(
-                    kinds, heights, floor, obstacle, i, j, wx0, wy0, delta, band, beside_obstacles
-                )
-            ):
-                fog_types[ix, iy] = _UNKNOWN
-                fog_heights[ix, iy] = np.nan
-            else:
-                fog_types[ix, iy] = kinds[i, j]
-                fog_heights[ix, iy] = heights[i, j]
+            kind, h = kinds[i, j], heights[i, j]
+            if banded and kind == _FLOOR:
+                for ki in range(max(i - 1, 0), min(i + 2, kinds.shape[0])):
+                    for kj in range(max(j - 1, 0), min(j + 2, kinds.shape[1])):
+                        if h > above[ki, kj] or h < below[ki, kj]:  # itself: never
+                            kind, h = _UNKNOWN, np.nan
+            fog_types[ix, iy] = kind
+            fog_heights[ix, iy] = h
 
 
 @numba.njit(cache=True, no_cfunc_wrapper=True, nogil=True)
