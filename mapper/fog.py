@@ -14,13 +14,21 @@ Conventions (heights in world metres, NaN = invalid):
   beside something more than δ above it — a box, the top of a step or sill whose edge may lie
   inside this cell — is an obstacle with that height (0 = the paper).
 - Beyond the paper, a floor beside an edge is unknown: when one of its 8 neighbours is an
-  obstacle more than δ above it (`MapperParams.unknown_beside_obstacles`) or, optionally, a
-  floor more than `MapperParams.edge_band_m` above or below it (both as eq. 11 and the cover
-  check label the neighbour). The edge lies
+  obstacle more than δ above it that is no higher floor's edge
+  (`MapperParams.unknown_beside_obstacles`; a step's edge cell, whose top is the layer of a
+  stored floor within a cell of it, leaves the tread at its foot a floor), or a floor more than
+  `MapperParams.edge_band_m` below it (the rim of a raised surface; both as eq. 11 and the
+  cover check label the neighbour), or, with the band, a cell where nothing is stored (no
+  floor, no obstacle) with such a lower floor beside it: the ground hidden behind a raised
+  surface's side edge, seen from on top or beside it, is never seen, and the rim's points
+  spilled over the edge make the cell before that shadow the raised floor's. The edge lies
   within a cell of their common boundary, but the camera pose's error (1–4 cm at the stage's
   ranges) and the segmentation's snapping move a surface's points a cell either way from frame
   to frame, so the map cannot tell which of the two cells holds it — and a cell an edge crosses
-  is no floor to step on (its riser or the obstacle's side is in it).
+  is no floor to step on (its riser or the obstacle's side is in it). Eq. 9 keeps the highest
+  surface, so the cell an edge crosses takes the higher floor's height: the higher side's rim
+  is the unsafe one, the lower side's cell at the riser's foot is floor or (by the layer rule)
+  an obstacle.
 - ``Ceiling(x, y)`` is the *bottom face* of the lowest occupied cell above the free space a
   robot could use: where the floor is valid, the lowest occupied cell whose top is above
   ``h_f + δ`` (the cells the FOG counts as obstacle); where it is not, the lowest occupied cell
@@ -79,28 +87,6 @@ def _label(
     return _UNKNOWN, np.nan
 
 
-@numba.njit(cache=True, inline="always")
-def _beside_edge(
-    kinds: NDArray[np.int8],
-    heights: NDArray[np.float64],
-    i: int,
-    j: int,
-    delta: float,
-    band: float,
-    beside_obstacles: bool,
-) -> bool:
-    """Whether the floor at ``(i, j)`` of the labels has a neighbour putting it in the band."""
-    hf = heights[i, j]
-    for ki in range(max(i - 1, 0), min(i + 2, kinds.shape[0])):
-        for kj in range(max(j - 1, 0), min(j + 2, kinds.shape[1])):
-            kind = kinds[ki, kj]
-            if band > 0.0 and kind == _FLOOR and abs(heights[ki, kj] - hf) > band:  # itself: never
-                return True
-            if beside_obstacles and kind == _OBSTACLE and heights[ki, kj] > hf + delta:
-                return True
-    return False
-
-
 @numba.njit(cache=True, no_cfunc_wrapper=True, nogil=True, boundscheck=False)
 def update_fog_area(
     og: NDArray[np.uint8],
@@ -136,11 +122,12 @@ def update_fog_area(
     area is current, as only the area's columns changed.
 
     With ``band`` > 0 (`MapperParams.edge_band_m`) a floor is unknown beside a floor more than
-    ``band`` above or below it, with ``beside_obstacles``
-    (`MapperParams.unknown_beside_obstacles`) beside an obstacle more than δ above it (module
-    docstring). The neighbours' labels are recomputed from the maps (never read from
-    ``fog_types``, which holds banded labels), so the result does not depend on the order
-    of the cells; the FOG is recomputed ``m + 1`` cells beyond the area.
+    ``band`` below it, with ``beside_obstacles`` (`MapperParams.unknown_beside_obstacles`)
+    beside an obstacle more than δ above it that is no higher floor's edge (module docstring).
+    The neighbours' labels are recomputed from the maps (never read from ``fog_types``, which
+    holds banded labels), so the result does not depend on the order of the cells; the FOG is
+    recomputed ``m + 2`` cells beyond the area (whether a neighbour is a higher floor's edge,
+    or a shadow, depends on the maps within a cell of it).
     """
     nx, ny, nz = og.shape
     for ix in range(ix0, ix1):
@@ -152,8 +139,8 @@ def update_fog_area(
             obstacle[ix, iy] = z_min + (k_top + 1) * layer if k_top >= 0 else np.nan
     # The cells recomputed, and around them (with the band) their neighbours' labels.
     banded = band > 0.0 or beside_obstacles
-    ring = margin + 1 if banded else margin
-    reach = ring + 1 if banded else ring
+    ring = margin + (2 if banded else 0)
+    reach = ring + 2 if banded else ring
     wx0, wx1 = max(ix0 - reach, 0), min(ix1 + reach, nx)
     wy0, wy1 = max(iy0 - reach, 0), min(iy1 + reach, ny)
     kinds = np.empty((wx1 - wx0, wy1 - wy0), dtype=np.int8)
@@ -169,19 +156,47 @@ def update_fog_area(
             kinds[ix - wx0, iy - wy0], heights[ix - wx0, iy - wy0] = _label(
                 top, hf, cover_ends[ix, iy], cover_passes[ix, iy], delta, min_rays, pass_fraction
             )
+    # Per cell beside the relabelled ones: a floor at h beside it is in a band when h > above or
+    # h < below — beside a floor more than the band below (a rim), an empty cell next to such
+    # a floor (a shadow), an obstacle more than δ above that is no higher floor's edge (a stored
+    # floor within a cell of it lies within δ below its top). Inline loops, not helpers taking
+    # the maps: a helper call costs reference counting (module note in `_label`).
+    above = np.full(kinds.shape, np.inf)
+    below = np.full(kinds.shape, -np.inf)
+    if banded:
+        for ix in range(max(ix0 - ring - 1, 0), min(ix1 + ring + 1, nx)):
+            for iy in range(max(iy0 - ring - 1, 0), min(iy1 + ring + 1, ny)):
+                i, j = ix - wx0, iy - wy0
+                kind, h = kinds[i, j], heights[i, j]
+                if kind == _FLOOR:
+                    if band > 0.0:
+                        above[i, j] = h + band
+                elif kind == _OBSTACLE:
+                    if beside_obstacles:
+                        step = False
+                        for jx in range(max(ix - 1, 0), min(ix + 2, nx)):
+                            for jy in range(max(iy - 1, 0), min(iy + 2, ny)):
+                                step = step or h <= floor[jx, jy] + delta  # NaN: never
+                        if not step:
+                            below[i, j] = h - delta
+                elif band > 0.0 and np.isnan(floor[ix, iy]) and np.isnan(obstacle[ix, iy]):
+                    lowest = np.inf
+                    for ki in range(max(i - 1, 0), min(i + 2, kinds.shape[0])):
+                        for kj in range(max(j - 1, 0), min(j + 2, kinds.shape[1])):
+                            if kinds[ki, kj] == _FLOOR and heights[ki, kj] < lowest:
+                                lowest = heights[ki, kj]
+                    above[i, j] = lowest + band
     for ix in range(max(ix0 - ring, 0), min(ix1 + ring, nx)):
         for iy in range(max(iy0 - ring, 0), min(iy1 + ring, ny)):
             i, j = ix - wx0, iy - wy0
-            if (
-                banded
-                and kinds[i, j] == _FLOOR
-                and _beside_edge(kinds, heights, i, j, delta, band, beside_obstacles)
-            ):
-                fog_types[ix, iy] = _UNKNOWN
-                fog_heights[ix, iy] = np.nan
-            else:
-                fog_types[ix, iy] = kinds[i, j]
-                fog_heights[ix, iy] = heights[i, j]
+            kind, h = kinds[i, j], heights[i, j]
+            if banded and kind == _FLOOR:
+                for ki in range(max(i - 1, 0), min(i + 2, kinds.shape[0])):
+                    for kj in range(max(j - 1, 0), min(j + 2, kinds.shape[1])):
+                        if h > above[ki, kj] or h < below[ki, kj]:  # itself: never
+                            kind, h = _UNKNOWN, np.nan
+            fog_types[ix, iy] = kind
+            fog_heights[ix, iy] = h
 
 
 @numba.njit(cache=True, no_cfunc_wrapper=True, nogil=True)

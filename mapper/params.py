@@ -158,32 +158,34 @@ class MapperParams:
             through it) before `floor_pass_fraction` judges it: 20, so that one or two noisy
             rays do not take a floor seen a few times. Only judged floors are affected.
         unknown_beside_obstacles: Beyond the paper: a floor is unknown when one of its 8
-            neighbours is an obstacle more than ``delta_m`` above it (`mapper.fog`): the
-            obstacle's side lies in one of the two cells, and the camera pose's error (stage:
-            23 mm median, 45 mm worst) moves it a cell either way from frame to frame, so the
-            truth's "partly under the box: obstacle" cell is as likely the floor's. Replays
-            of seeds 1–8, depth, mean (worst) (stage live, the others on the final maps):
-            stage unsafe cells 44.2 (72) → 30.4 (50), obstacle recall 85.7 (74.8) → 90.8
-            (83.2) %, floor precision 99.7 → 99.8 %; room 72.9 (143) → 35.2 (91), recall
-            84.0 → 95.5 %; stage_zigzag 48.0 (102) → 34.4 (85); stage_down 25.0 (59) →
-            12.8 (29); moving_box 13.1 (17) → 7.0 (12); stereo stage 67.5 (89) → 54.1 (68);
-            floor recall within 0.1 point, Table I rows within 0.03 mm, but a tread beside a
-            riser's foot that eq. 11 makes an obstacle (31 → 61 mm) loses that cell: the
-            stage's step_1 Table I coverage 98 → 79 %, stage_down's lowest row 81 → 71 %,
-            moving_box's box top 61 → 51 %, the quick suite's stairs step_1 86 → 70 %. So
-            off by default (False = the paper) until riser feet are told from obstacles.
-        edge_band_m: Beyond the paper, opt-in: a floor is also unknown when one of its 8
-            neighbours is a floor more than this above or below it (`mapper.fog`): a step's
-            edge, placed no better than a cell either way for the same reason. Replays of
-            seeds 1–8, depth, mean (worst), with ``unknown_beside_obstacles``, at 0.02 m (the
-            scores' safety tolerance): stage unsafe cells 44.2 (72) → 12.2 (26), obstacle
-            recall 85.7 → 97.0 (91.3) %, stage_down 25.0 (59) → 2.5 (9), stage_zigzag 48.0
-            (102) → 19.4 (48), room 72.9 (143) → 26.0 (70) (its sill row kept), moving_box
-            13.1 (17) → 3.5 (6) (the box's old place cleared as before); floor recall and
-            Table I rows within 0.1 mm; but a tread loses its two edge cells: the stage's
-            treads' Table I coverage 98 → 57 %, the sill's 93 → 76 %, step edges move up to
-            a cell. With the true camera pose the stage has 12.1 (21) unsafe cells without
-            the band, 0.75 (3) with it. 0 = off (the default).
+            neighbours is an obstacle more than ``delta_m`` above it that is no higher
+            floor's edge (`mapper.fog`): the obstacle's side lies in one of the two cells, and
+            the camera pose's error (stage: 23 mm median, 45 mm worst) moves it a cell either
+            way from frame to frame, so the truth's "partly under the box: obstacle" cell is
+            as likely the floor's (stage depth replays, seeds 1–8: 39 of the 161 unsafe cells
+            were ground floors on a box's edge cell whose column never took the box). An
+            obstacle whose top lies within ``delta_m`` above a stored floor within a cell of
+            it is a higher floor's edge (a riser cell: its top is the next tread's layer) and
+            leaves its neighbours alone: with the earlier rule (every obstacle) a tread at a
+            riser's foot lost its cell (step_1's Table I coverage 98 → 79 %), now 122 → 121
+            cells (stage, seeds 1–8, mean). True (default); False = the paper.
+        edge_band_m: Beyond the paper: a floor is unknown when one of its 8 neighbours is a
+            floor more than this below it — the rim of a raised surface — or a cell where
+            nothing is stored (no floor, no obstacle) beside such a lower floor — the shadow
+            behind a raised surface's side edge, seen from on top or beside it (`mapper.fog`).
+            Eq. 9 keeps the highest surface, so the cell an edge crosses takes the higher
+            floor, and pose error spills the higher floor's points a cell over its edge: on
+            the stage depth replays (seeds 1–8) 57 of the 161 unsafe cells were the sill's
+            near edge cell (1 cm of sill, 3 cm of ground) at the sill's height and 43 ground
+            cells beside the platform's and treads' side edges at their height. The lower
+            side is left floor (the cell at a riser's foot is floor or, by the layer rule, an
+            obstacle): both sides unknown cost the treads' Table I coverage 98 → 57 %.
+            0.02 m (the scores' safety tolerance), with ``unknown_beside_obstacles``, stage
+            depth replays, seeds 1–8, mean (worst): unsafe cells 20.1 (57) → 2.1 (9), obstacle
+            recall 93.5 (83.4) → 99.0 (95.5) %, floor precision 99.86 (99.64) → 99.98 (99.91) %,
+            floor recall 99.55 → 99.54 %, Table I rows within 0.3 mm of before (worst 0.47 mm,
+            as before), their cells: treads 122 → 95, platform 486 → 450, sill 50 → 44. 0 = off
+            (the paper).
         obstacle_margin_cells: Beyond the paper: eq. 11 compares a cell's floor with the
             highest obstacle top (eq. 10) within this many cells of it (`mapper.fog`), so a
             floor beside something more than ``delta_m`` above it is an obstacle. The truth
@@ -242,8 +244,8 @@ class MapperParams:
     discretize_rays: bool = False
     floor_pass_fraction: float = 0.2
     floor_pass_min_rays: int = 20
-    unknown_beside_obstacles: bool = False
-    edge_band_m: float = 0.0
+    unknown_beside_obstacles: bool = True
+    edge_band_m: float = 0.02
     obstacle_margin_cells: int = 0
     floor_memory: float = 8.0
     floor_range_power: float = 4.0

@@ -101,7 +101,9 @@ def cells(m, x_range, y_range):
 
 @pytest.mark.parametrize("fraction", [0.0, MapperParams().floor_pass_fraction])
 def test_a_lower_surface_never_carries_the_spilled_tread_height(fraction):
-    m = walk(MapperParams(floor_pass_fraction=fraction), np.random.default_rng(4))
+    # The edge band off: it makes the rim and the hidden cells unknown whatever the cover
+    # check says (tests/test_fog_margin.py).
+    m = walk(MapperParams(floor_pass_fraction=fraction, edge_band_m=0.0), np.random.default_rng(4))
     types, heights = m.fog()
     beside = cells(m, (0.86, 1.14), (0.01, 0.03))  # hidden ground beside the side edge
     before = cells(m, (0.77, 0.79), (-0.5, -0.1))  # seen ground before the front riser
@@ -123,12 +125,13 @@ def test_a_lower_surface_never_carries_the_spilled_tread_height(fraction):
 def test_a_riser_on_a_cell_boundary_leaves_both_cells_floor():
     """Exact data, no spill: every cell on either side of the riser keeps its floor.
 
-    The FOG's obstacle margin is off: with it the cells at the riser's foot are obstacles
-    whatever the cover check says (`tests/test_fog_margin.py`).
+    The FOG's obstacle margin and edge band are off: with the margin the cells at the riser's
+    foot are obstacles, with the band the riser's rim cells unknown, whatever the cover check
+    says (`tests/test_fog_margin.py`).
     """
     rng = np.random.default_rng(5)
     riser = Box((1.0, 0.0), (0.4, 0.8, 0.03))  # front edge at x = 0.8, a cell boundary
-    m = FloorObstacleMapper(MapperParams(obstacle_margin_cells=0))
+    m = FloorObstacleMapper(MapperParams(obstacle_margin_cells=0, edge_band_m=0.0))
     for _ in range(30):
         camera = np.array([rng.uniform(0.0, 0.04), rng.uniform(-0.02, 0.02), 0.6])
         pts, h = cast_frame(camera, RAYS, [riser])

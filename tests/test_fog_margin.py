@@ -5,7 +5,9 @@ floor ``h_f`` eq. 11 keeps is an obstacle when the highest obstacle top (eq. 10,
 ``z_min + (k + 1)·layer`` of the highest occupied layer k) within m cells exceeds ``h_f + δ``;
 its height is then that top. Edge band (`MapperParams.edge_band_m`): a cell eq. 11 and the
 cover check label floor at ``h_f`` is unknown when one of its 8 neighbours is labelled floor
-more than the band above or below ``h_f``, or obstacle with a height more than δ above ``h_f``.
+more than the band below ``h_f`` (the rim of a raised surface), or (unknown beside obstacles)
+obstacle with a height more than δ above ``h_f`` that is no higher floor's edge (no stored
+floor within a cell of it lies within δ below its top).
 With the default grid (z_min −0.06 m, layers of 0.04 m, δ 0.05 m) a surface at h lies in layer
 ``floor((h + 0.06) / 0.04)``, so its cells' top is: ground 0 → 0.02, sill 0.038 → 0.06,
 31 mm → 0.06, 61 mm → 0.10, 92 mm → 0.10, 122 mm → 0.14.
@@ -196,24 +198,25 @@ def test_sill_whose_near_edge_cell_took_the_sill_height():
     floors = [0.0, 0.0, 0.037, 0.037, 0.037, 0.0, 0.0, 0.0]
     og, floor = surfaces_grid(floors)
     types, heights = fog(og, floor, band=BAND, beside=True)
-    # Jumps of 37 mm between cells 1|2 and 4|5: the four cells beside them are unknown.
-    assert types[:, 1].tolist() == [F, U, U, F, U, U, F, F]
-    assert np.isnan(heights[[1, 2, 4, 5], 1]).all()
+    # Jumps of 37 mm between cells 1|2 and 4|5: the sill's rim cells above them are unknown,
+    # the ground cells below them floor.
+    assert types[:, 1].tolist() == [F, F, U, F, U, F, F, F]
+    assert np.isnan(heights[[2, 4], 1]).all() and heights[[1, 5], 1].tolist() == [0.0, 0.0]
     assert heights[3, 1] == 0.037 and heights[0, 1] == 0.0
     types0, heights0 = fog(og, floor, beside=True)  # no floor band
     assert types0[:, 1].tolist() == [F] * 8 and np.array_equal(heights0, floor)
 
 
 def test_jumps_within_the_band_stay_floor():
-    # Steps of 20 mm (not more than the band: floor), 21 mm (unknown on both sides), and
+    # Steps of 20 mm (not more than the band: floor), 21 mm (the higher side unknown), and
     # the diagonal neighbour counts as much as the others.
     og, floor = surfaces_grid([0.0, 0.02, 0.02, 0.041, 0.041])
     types, _ = fog(og, floor, band=BAND, beside=True)
-    assert types[:, 1].tolist() == [F, F, U, U, F]
+    assert types[:, 1].tolist() == [F, F, F, U, F]
     og, floor = surfaces_grid([0.0, 0.0, 0.0], ny=3)
     floor[2, 2] = 0.03  # one cell, its diagonal neighbour (1, 1)
     types, _ = fog(og, floor, band=BAND, beside=True)
-    assert types[1, 1] == U and types[0, 0] == F and types[2, 2] == U
+    assert types[2, 2] == U and types[1, 1] == F and types[0, 0] == F  # (1, 1): lower
     assert types[0, 2] == F  # two cells from (2, 2)
 
 
@@ -230,13 +233,29 @@ def test_floor_beside_an_obstacle_more_than_delta_above_it():
     assert heights[2, 1] == pytest.approx(Z0 + (layer_of(0.25) + 1) * L) == pytest.approx(0.26)
 
 
-def test_obstacle_within_delta_of_the_higher_floor_bands_only_the_lower():
+def test_a_higher_floors_edge_is_no_obstacle_for_its_neighbours():
     # Ground | a riser cell seen as an obstacle (top 0.14) | the 122 mm platform: 0.14 is more
-    # than δ above the ground but not above 0.122 + 0.05, so the platform stays floor.
+    # than δ above the ground but not above 0.122 + 0.05, so the platform stays floor, and the
+    # obstacle is the platform's edge (its top is the platform's layer): the ground beside it
+    # stays floor too, as a tread does at the foot of the next riser.
     nan = np.nan
     og, floor = surfaces_grid([0.0, 0.0, nan, 0.122, 0.122], tops_m=[nan, nan, 0.12, nan, nan])
     types, _ = fog(og, floor, band=BAND, beside=True)
-    assert types[:, 1].tolist() == [F, U, OB, F, F]
+    assert types[:, 1].tolist() == [F, F, OB, F, F]
+
+
+def test_riser_foot_beside_the_next_tread_stays_floor_a_box_side_does_not():
+    # step_1 (31 mm) | the riser cell, its floor step_1's and its top step_2's layer (0.10 >
+    # 0.031 + δ: an obstacle) | step_2 (61 mm): the riser's top is step_2's, step_1 stays floor.
+    nan = np.nan
+    og, floor = surfaces_grid([0.031, 0.031, 0.031, 0.061, 0.061], tops_m=[nan] * 5)
+    og[2, :, layer_of(0.061)] = OCC  # step_2's edge inside the riser cell
+    types, _ = fog(og, floor, beside=True)
+    assert types[:, 1].tolist() == [F, F, OB, F, F]
+    # A box as high (top 0.10) with no floor near its top: the cells beside it are unknown.
+    og, floor = surfaces_grid([0.031, 0.031, 0.031, nan, nan], tops_m=[nan, nan, nan, 0.09, 0.09])
+    types, _ = fog(og, floor, beside=True)
+    assert types[:, 1].tolist() == [F, F, U, OB, OB]
 
 
 def test_neighbour_the_cover_check_makes_unknown_bands_nothing():
@@ -252,17 +271,65 @@ def test_neighbour_the_cover_check_makes_unknown_bands_nothing():
 
 def test_ring_around_the_area_is_relabelled_as_a_whole_grid_update_would():
     # A 61 mm strip three cells wide (cells 3-5); only cell 4 changed (area [4, 5) x all rows).
-    # Its ring, cells 3 and 5, is relabelled too (beside the ground: unknown), cell 4 between
-    # two floors of its own height is floor; cells two away are left as they were (-1). The
-    # whole-grid update gives the same labels: the neighbours' labels come from the maps, not
-    # from the FOG being written.
+    # With the bands its ring two cells wide is relabelled too (whether a neighbour is a higher
+    # floor's edge or a shadow depends on the maps beside it): cells 3 and 5 above the ground
+    # beside them unknown, cell 4 between two floors of its own height and the ground cells
+    # 2 and 6 floor; cells three away are left as they were (-1). The whole-grid update gives
+    # the same labels: the neighbours' labels come from the maps, not from the FOG being written.
     og, floor = surfaces_grid([0.0, 0.0, 0.0, 0.061, 0.061, 0.061, 0.0, 0.0, 0.0])
-    types, heights = fog(og, floor, band=BAND, beside=True, area=(4, 5, 0, 3))
-    assert types[:, 1].tolist() == [-1, -1, -1, U, F, U, -1, -1, -1]
-    assert heights[4, 1] == 0.061
-    full, _ = fog(og, floor, band=BAND, beside=True)
-    assert np.array_equal(full[3:6], types[3:6])
-    assert full[:, 1].tolist() == [F, F, U, U, F, U, U, F, F]
+    for beside in (False, True):
+        types, heights = fog(og, floor, band=BAND, beside=beside, area=(4, 5, 0, 3))
+        assert types[:, 1].tolist() == [-1, -1, F, U, F, U, F, -1, -1]
+        assert heights[4, 1] == 0.061
+        full, _ = fog(og, floor, band=BAND, beside=beside)
+        assert np.array_equal(full[2:7], types[2:7])
+        assert full[:, 1].tolist() == [F, F, F, U, F, U, F, F, F]
+    paper, _ = fog(og, floor, area=(4, 5, 0, 3))
+    assert paper[:, 1].tolist() == [-1, -1, -1, -1, F, -1, -1, -1, -1]
+
+
+def test_the_cell_before_a_shadow_behind_a_rim_is_unknown():
+    # Platform (122 mm) | its last cell, the platform's height spilled over its side edge |
+    # the ground hidden behind the edge: nothing stored | the ground seen beyond. The spilled
+    # cell is unknown; with a floor or an obstacle stored in the gap it is not (the band
+    # looks at direct neighbours only); without a lower floor beyond, neither.
+    nan = np.nan
+    og, floor = surfaces_grid([0.122, 0.122, 0.122, nan, 0.0, 0.0])
+    types, _ = fog(og, floor, band=BAND)
+    assert types[:, 1].tolist() == [F, F, U, U, F, F]
+    og2, floor2 = surfaces_grid([0.122, 0.122, 0.122, 0.122, 0.0, 0.0])
+    assert fog(og2, floor2, band=BAND)[0][:, 1].tolist() == [F, F, F, U, F, F]
+    og3, floor3 = surfaces_grid([0.122, 0.122, 0.122, nan, nan, nan])
+    assert fog(og3, floor3, band=BAND)[0][:, 1].tolist() == [F, F, F, U, U, U]
+    assert fog(og, floor)[0][:, 1].tolist() == [F, F, F, U, F, F]  # the paper
+
+
+def test_a_floor_change_beside_an_obstacle_relabels_two_cells_away():
+    # Ground | ground | an edge cell (floor 0, top 0.10: an obstacle) | cell 3, whose floor
+    # changes from none (the edge a box's: cell 1 unknown) to 61 mm (a step's: cell 1 floor).
+    # Only cell 3 is in the area; cell 1, two away, is relabelled as the whole grid would be.
+    nan = np.nan
+    og, floor = surfaces_grid([0.0, 0.0, 0.0, nan, nan])
+    og[2, :, layer_of(0.061)] = OCC
+    og[3, :, layer_of(0.061)] = OCC
+    nx, ny = floor.shape
+    types = np.full((nx, ny), -1, dtype=np.int8)
+    heights = np.full((nx, ny), np.nan)
+    obstacle = np.full((nx, ny), np.nan)  # kept: the kernel takes it as current outside the area
+    zeros = np.zeros((nx, ny), dtype=np.int32)
+
+    def update(area):
+        update_fog_area(
+            og, floor, obstacle, types, heights, P.occ_threshold_level, Z0, L, P.delta_m,
+            *area, zeros, zeros, P.floor_pass_min_rays, P.floor_pass_fraction, 0, 0.0, True,
+        )  # fmt: skip
+
+    update((0, nx, 0, ny))
+    assert types[:, 1].tolist() == [F, U, OB, OB, U]
+    floor[3, :] = 0.061
+    update((3, 4, 0, ny))
+    assert types[:, 1].tolist() == [F, F, OB, F, U]
+    assert np.array_equal(types, fog(og, floor, beside=True)[0])
 
 
 @pytest.mark.parametrize("band", [-0.01, float("nan"), float("inf")])
@@ -272,4 +339,6 @@ def test_band_validated(band):
 
 
 def test_band_defaults():
-    assert P.edge_band_m == 0.0 and P.unknown_beside_obstacles is False  # the paper
+    assert P.edge_band_m == 0.02 and P.unknown_beside_obstacles is True
+    paper = MapperParams(edge_band_m=0.0, unknown_beside_obstacles=False)
+    assert paper.edge_band_m == 0.0 and not paper.unknown_beside_obstacles

@@ -8,7 +8,8 @@ from mapper import CellType, FloorObstacleMapper, MapperParams
 def test_the_mapper_takes_the_edge_band_from_its_params():
     """A ground patch at 0 over x 0.6..1.0 (cells 65..74) and a 61 mm tread over x 0.8..1.0
     (cells 70..74), its riser on the boundary x = 0.8. Band 0 (the paper): cells 69 and 70 are
-    floors at 0 and 0.061; band 0.02: both unknown, cells 68 and 71 floors."""
+    floors at 0 and 0.061; band 0.02: the tread's rim cell 70 (beside a floor more than the band
+    below it) is unknown, the ground cell 69 at its foot and cells 68 and 71 floors."""
     sensor = np.array([0.0, 0.0, 0.55])
     fogs = {}
     for band in (0.0, 0.02):
@@ -27,7 +28,7 @@ def test_the_mapper_takes_the_edge_band_from_its_params():
     assert abs(heights0[69, row]) < 0.005 and abs(heights0[70, row] - 0.061) < 0.005
     assert types1[68:72, row].tolist() == [
         CellType.FLOOR,
-        CellType.UNKNOWN,
+        CellType.FLOOR,
         CellType.UNKNOWN,
         CellType.FLOOR,
     ]
