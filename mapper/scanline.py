@@ -58,42 +58,79 @@ RANGE_MARGIN_SIGMAS = 3.0
 
 
 @numba.njit(cache=True, no_cfunc_wrapper=True, nogil=True, error_model="numpy")
-def _box_mean(values, clip_factor, clip, half_rows, half_cols, row_sum, row_cnt, out):
-    """Mean of min(values, clip_factor·clip) over a (2·half_rows+1)×(2·half_cols+1) box.
+def _box_counts(values, half_cols, counts, row_cnt):
+    """Values present (not NaN) in every pixel's box of 3 rows × (2·half_cols+1) columns.
 
-    NaN = absent; clip_factor 0: no clipping. Written to ``out`` (NaN where the box holds
-    fewer than 3 values), which may be ``clip`` itself: the clipped row sums (work space
-    ``row_sum``, ``row_cnt``) are all taken before ``out`` is written.
+    Written to ``counts`` (work space ``row_cnt``): the same for every pass of `_box_mean`,
+    whose clipping changes the values summed but not which are present.
     """
     height, width = values.shape
     for r in range(height):
-        s = 0.0
         k = 0.0
-        # Running sums over columns [c - half_cols, c + half_cols].
-        for c in range(-half_cols, width):
+        for add in range(min(half_cols, width)):
+            k += 1.0 if values[r, add] == values[r, add] else 0.0
+        for c in range(width):
             add = c + half_cols
             if add < width:
-                v = values[r, add]
-                if v == v:
-                    s += min(v, clip_factor * clip[r, add]) if clip_factor > 0.0 else v
-                    k += 1.0
+                k += 1.0 if values[r, add] == values[r, add] else 0.0
             drop = c - half_cols - 1
             if drop >= 0:
-                v = values[r, drop]
-                if v == v:
-                    s -= min(v, clip_factor * clip[r, drop]) if clip_factor > 0.0 else v
-                    k -= 1.0
-            if c >= 0:
-                row_sum[r, c] = s
-                row_cnt[r, c] = k
+                k -= 1.0 if values[r, drop] == values[r, drop] else 0.0
+            row_cnt[r, c] = k
+    _sum_3_rows(row_cnt, counts)
+
+
+@numba.njit(cache=True, no_cfunc_wrapper=True, nogil=True, error_model="numpy")
+def _sum_3_rows(row_values, out):
+    """``out[r] = row_values[r − 1] + row_values[r] + row_values[r + 1]`` (rows in the image),
+    added in that order; whole rows at a time (vectorised, no loop over the rows per pixel)."""
+    height, width = row_values.shape
+    for r in range(height):
+        lo = max(0, r - 1)
+        hi = min(height, r + 2)
+        for c in range(width):
+            out[r, c] = row_values[lo, c]
+        for rr in range(lo + 1, hi):
+            for c in range(width):
+                out[r, c] += row_values[rr, c]
+
+
+@numba.njit(cache=True, no_cfunc_wrapper=True, nogil=True, error_model="numpy")
+def _box_mean(values, clip_factor, clip, half_cols, counts, work, row_sum, out):
+    """Mean of min(values, clip_factor·clip) over a 3 × (2·half_cols+1) box.
+
+    NaN = absent; clip_factor 0: no clipping; ``counts``: the values present in each box
+    (`_box_counts`). Written to ``out`` (NaN where the box holds fewer than 3 values), which
+    may be ``clip`` itself: the clipped values (work space ``work``, 0 where absent: adding 0
+    leaves a running sum of non-negative values bit for bit as skipping it does) are all taken
+    before ``out`` is written.
+    """
+    height, width = values.shape
     for r in range(height):
         for c in range(width):
-            s = 0.0
-            k = 0.0
-            for rr in range(max(0, r - half_rows), min(height, r + half_rows + 1)):
-                s += row_sum[rr, c]
-                k += row_cnt[rr, c]
-            out[r, c] = s / k if k >= 3.0 else np.nan
+            v = values[r, c]
+            if v == v:
+                work[r, c] = min(v, clip_factor * clip[r, c]) if clip_factor > 0.0 else v
+            else:
+                work[r, c] = 0.0
+    for r in range(height):
+        # Running sums over columns [c - half_cols, c + half_cols].
+        s = 0.0
+        for add in range(min(half_cols, width)):
+            s += work[r, add]
+        for c in range(width):
+            add = c + half_cols
+            if add < width:
+                s += work[r, add]
+            drop = c - half_cols - 1
+            if drop >= 0:
+                s -= work[r, drop]
+            row_sum[r, c] = s
+    _sum_3_rows(row_sum, work)
+    for r in range(height):
+        for c in range(width):
+            k = counts[r, c]
+            out[r, c] = work[r, c] / k if k >= 3.0 else np.nan
 
 
 @numba.njit(cache=True, no_cfunc_wrapper=True, nogil=True, error_model="numpy")
@@ -129,11 +166,13 @@ def local_noise_depth_m(inv_depth, window, min_noise_m, cap_factor, model_inv_si
         for c in range(1, width - 1):
             second[r, c] = abs(inv_depth[r, c - 1] - 2.0 * inv_depth[r, c] + inv_depth[r, c + 1])
     row_sum = np.empty((height, width))
-    row_cnt = np.empty((height, width))
+    work = np.empty((height, width))
+    counts = np.empty((height, width))
     mean = np.empty((height, width))
-    _box_mean(second, 0.0, mean, 1, window, row_sum, row_cnt, mean)
+    _box_counts(second, window, counts, row_sum)
+    _box_mean(second, 0.0, mean, window, counts, work, row_sum, mean)
     for _ in range(2):  # clipped at 2.5× the previous mean
-        _box_mean(second, 2.5, mean, 1, window, row_sum, row_cnt, mean)
+        _box_mean(second, 2.5, mean, window, counts, work, row_sum, mean)
     # Pixels whose box had too few samples: the image-wide mean of the box means.
     fallback = 0.0
     n_finite = 0
