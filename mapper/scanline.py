@@ -350,8 +350,33 @@ def split_rows(
     pre = np.zeros((width + 1, 6))
     res_pre = np.zeros(width + 1)
     step_scales = _step_scales(edge_window, correlation)
+    # Per pixel of the row, whatever piece it is in: the weighted terms of the line fit, the
+    # outlier tolerance and the residual's scale (computed once a row, not at every piece a
+    # pixel is in as the row is split: the same values, a third of the divisions).
+    terms = np.empty((width, 6))
+    split_tol = np.empty(width)
+    res_scale = np.empty(width)
+    # Per piece, each pixel's outlier ratio and residual and each boundary's step statistic
+    # are computed in loops of their own (no branches: vectorised divisions) before the
+    # serial maxima and sums, which keep their order.
+    ratios = np.empty(width)
+    residuals = np.empty(width)
+    steps = np.empty(width + 1)
+    window_f = float(edge_window)
+    interior_scale = step_scales[edge_window, edge_window]
     for r in range(height):
         inv_row = inv_depth[r]
+        for k in range(width):
+            z = inv_row[k]
+            wk = 1.0 / (z * z * sigma[r, k]) ** 2
+            terms[k, 0] = wk
+            terms[k, 1] = wk * x[k]
+            terms[k, 2] = wk * x[k] * x[k]
+            terms[k, 3] = wk * z
+            terms[k, 4] = wk * x[k] * z
+            terms[k, 5] = wk * z * z
+            split_tol[k] = split_factor * sigma[r, k] + tolerance_floor_m
+            res_scale[k] = z * z * sigma[r, k] + tolerance_floor_m * z * z
         c = 0
         while c < width:
             if not inv_row[c] > 0.0:
@@ -371,29 +396,29 @@ def split_rows(
                     continue
                 # Prefix sums of the weighted line fit (weights 1/sigma² of inverse depth).
                 for k in range(a, b):
-                    z = inv_row[k]
-                    wk = 1.0 / (z * z * sigma[r, k]) ** 2
                     i = k - a + 1
-                    pre[i, 0] = pre[i - 1, 0] + wk
-                    pre[i, 1] = pre[i - 1, 1] + wk * x[k]
-                    pre[i, 2] = pre[i - 1, 2] + wk * x[k] * x[k]
-                    pre[i, 3] = pre[i - 1, 3] + wk * z
-                    pre[i, 4] = pre[i - 1, 4] + wk * x[k] * z
-                    pre[i, 5] = pre[i - 1, 5] + wk * z * z
+                    pre[i, 0] = pre[i - 1, 0] + terms[k, 0]
+                    pre[i, 1] = pre[i - 1, 1] + terms[k, 1]
+                    pre[i, 2] = pre[i - 1, 2] + terms[k, 2]
+                    pre[i, 3] = pre[i - 1, 3] + terms[k, 3]
+                    pre[i, 4] = pre[i - 1, 4] + terms[k, 4]
+                    pre[i, 5] = pre[i - 1, 5] + terms[k, 5]
                 n = b - a
                 p, q, rss = _line_from_sums(
                     pre[n, 0], pre[n, 1], pre[n, 2], pre[n, 3], pre[n, 4], pre[n, 5]
                 )
+                for k in range(a, b):
+                    z = inv_row[k]
+                    line = p + q * x[k]
+                    ratios[k] = abs(z - line) / (z * line) / split_tol[k]  # `_depth_gap`
+                    residuals[k] = (z - line) / res_scale[k]
                 worst = 0.0
                 worst_at = a
                 s_sum = 0.0
                 for k in range(a, b):
-                    ratio = _depth_gap(inv_row[k], p + q * x[k]) / (
-                        split_factor * sigma[r, k] + tolerance_floor_m
-                    )
                     s_sum += sigma[r, k]
-                    if ratio > worst:
-                        worst = ratio
+                    if ratios[k] > worst:
+                        worst = ratios[k]
                         worst_at = k
                 # Weighted RMS in sigma units, with the floor tolerance as extra allowance.
                 chi = math.sqrt(rss / max(n - 2, 1))
@@ -403,23 +428,28 @@ def split_rows(
                 # right of each pixel boundary (a depth step the line fit half absorbed).
                 res_pre[0] = 0.0
                 for k in range(a, b):
-                    z = inv_row[k]
-                    res_pre[k - a + 1] = res_pre[k - a] + (z - (p + q * x[k])) / (
-                        z * z * sigma[r, k] + tolerance_floor_m * z * z
-                    )
+                    res_pre[k - a + 1] = res_pre[k - a] + residuals[k]
                 edge = 0.0
                 edge_at = a
-                for m in range(2, n - 1):  # boundary between pixels a+m-1 and a+m
-                    kl = min(edge_window, m)
-                    kr = min(edge_window, n - m)
-                    if kl < 2 or kr < 2:
-                        continue
-                    mean_l = (res_pre[m] - res_pre[m - kl]) / kl
-                    mean_r = (res_pre[m + kr] - res_pre[m]) / kr
-                    t = abs(mean_r - mean_l) / step_scales[kl, kr]
-                    if t > edge:
-                        edge = t
-                        edge_at = a + m
+                if edge_window >= 2:  # else no window holds 2 pixels: no step statistic
+                    # Boundary m lies between pixels a+m-1 and a+m; m in [2, n-2] (windows of
+                    # at least 2 pixels), full windows from m = edge_window to n - edge_window.
+                    for m in range(2, n - 1):
+                        if edge_window <= m <= n - edge_window:
+                            continue
+                        kl = min(edge_window, m)
+                        kr = min(edge_window, n - m)
+                        mean_l = (res_pre[m] - res_pre[m - kl]) / kl
+                        mean_r = (res_pre[m + kr] - res_pre[m]) / kr
+                        steps[m] = abs(mean_r - mean_l) / step_scales[kl, kr]
+                    for m in range(edge_window, n - edge_window + 1):
+                        mean_l = (res_pre[m] - res_pre[m - edge_window]) / window_f
+                        mean_r = (res_pre[m + edge_window] - res_pre[m]) / window_f
+                        steps[m] = abs(mean_r - mean_l) / interior_scale
+                    for m in range(2, n - 1):
+                        if steps[m] > edge:
+                            edge = steps[m]
+                            edge_at = a + m
                 if worst <= 1.0 and edge <= edge_factor and (n <= 3 or chi <= chi_limit):
                     rows[count] = r
                     starts[count] = a
