@@ -1832,6 +1832,29 @@ def region_interior(labels, margin_px):
 
 
 @numba.njit(cache=True, no_cfunc_wrapper=True, nogil=True, error_model="numpy")
+def foreign_rim(labels, height_interior, z, sigma_z, level_heights, factor):
+    """(H, W) bool: labelled pixels outside ``height_interior`` farther from their region's
+    level than ``factor`` times their noise along z (`segmentation._foreign_rim`, one pass).
+
+    Args:
+        labels: (H, W) floor region of each pixel (-1 none, -2 no measurement).
+        height_interior: (H, W) bool, the pixels the regions' heights come from.
+        z: (H, W) the pixels' heights [m].
+        sigma_z: (H, W) their noise along z [m].
+        level_heights: (F,) each region's level [m].
+        factor: the tolerance in sigma.
+    """
+    height, width = labels.shape
+    out = np.zeros((height, width), np.bool_)
+    for r in range(height):
+        for c in range(width):
+            f = labels[r, c]
+            if f >= 0 and not height_interior[r, c]:
+                out[r, c] = abs(z[r, c] - level_heights[f]) > factor * sigma_z[r, c]
+    return out
+
+
+@numba.njit(cache=True, no_cfunc_wrapper=True, nogil=True, error_model="numpy")
 def floor_statistics(
     labels,
     grown,
@@ -1899,10 +1922,16 @@ def floor_statistics(
                 d = depth[r, c]
                 # 1/σ² of the inverse depth: depth noise σ_z/|ray_z| along the ray, over d².
                 w = (d * d * ray_z / sigma_z[r, c]) ** 2
-                for k, member in ((0, True), (1, interior[r, c]), (2, height_interior[r, c])):
-                    if member:
-                        normal_sums[f, k, 0] += w * ray_z * ray_z
-                        normal_sums[f, k, 1] += w * ray_z / d
+                term_0 = w * ray_z * ray_z
+                term_1 = w * ray_z / d
+                normal_sums[f, 0, 0] += term_0  # all grown pixels
+                normal_sums[f, 0, 1] += term_1
+                if interior[r, c]:
+                    normal_sums[f, 1, 0] += term_0
+                    normal_sums[f, 1, 1] += term_1
+                if height_interior[r, c]:
+                    normal_sums[f, 2, 0] += term_0
+                    normal_sums[f, 2, 1] += term_1
     heights = np.zeros(n_floors)
     rms_heights = np.zeros(n_floors)  # the reference of the RMS: its own pixels' level
     for f in range(n_floors):
