@@ -1322,11 +1322,17 @@ def reassign_segments(
 
 
 @numba.njit(cache=True, no_cfunc_wrapper=True, nogil=True, error_model="numpy")
-def plane_moments(points_camera, ids, normals_camera, n_planes, fx, fy):
+def plane_moments(rays_camera, depth, pixel_index, ids, normals_camera, n_planes, fx, fy):
     """Per-plane geometry of labelled points.
 
+    The points are the pixels' rays times their depths, taken here pixel by pixel (the same
+    products as ``rays_camera[pixel_index] * depth.flat[pixel_index][:, None]``, without the
+    (N, 3) array and its two gathers).
+
     Args:
-        points_camera: (N, 3) points in the camera frame [m].
+        rays_camera: (H·W, 3) camera-frame rays with unit z, row-major.
+        depth: (H, W) depths [m].
+        pixel_index: (N,) the points' pixels, indices into the flattened image.
         ids: (N,) plane id per point (-1: none).
         normals_camera: (P, 3) unit plane normals in the camera frame.
         n_planes: P.
@@ -1339,17 +1345,23 @@ def plane_moments(points_camera, ids, normals_camera, n_planes, fx, fy):
     """
     sums = np.zeros((n_planes, _N_SUMS + 3))
     areas = np.zeros(n_planes)
+    depth_flat = depth.ravel()
     for i in range(ids.shape[0]):
         p = ids[i]
         if p < 0:
             continue
+        pixel = pixel_index[i]
+        d = depth_flat[pixel]
+        cx = rays_camera[pixel, 0] * d
+        cy = rays_camera[pixel, 1] * d
+        cz = rays_camera[pixel, 2] * d
         if sums[p, 0] == 0.0:  # indexed, not a row view: a view per point costs more
-            sums[p, 10] = points_camera[i, 0]
-            sums[p, 11] = points_camera[i, 1]
-            sums[p, 12] = points_camera[i, 2]
-        px = points_camera[i, 0] - sums[p, 10]
-        py = points_camera[i, 1] - sums[p, 11]
-        pz = points_camera[i, 2] - sums[p, 12]
+            sums[p, 10] = cx
+            sums[p, 11] = cy
+            sums[p, 12] = cz
+        px = cx - sums[p, 10]
+        py = cy - sums[p, 11]
+        pz = cz - sums[p, 12]
         sums[p, 0] += 1.0
         sums[p, 1] += px
         sums[p, 2] += py
@@ -1360,9 +1372,6 @@ def plane_moments(points_camera, ids, normals_camera, n_planes, fx, fy):
         sums[p, 7] += py * py
         sums[p, 8] += py * pz
         sums[p, 9] += pz * pz
-        cx = points_camera[i, 0]
-        cy = points_camera[i, 1]
-        cz = points_camera[i, 2]
         rng = math.sqrt(cx * cx + cy * cy + cz * cz)
         cos_inc = (
             abs(cx * normals_camera[p, 0] + cy * normals_camera[p, 1] + cz * normals_camera[p, 2])
