@@ -82,8 +82,10 @@ def _box_counts(values, half_cols, counts, row_cnt):
 
 @numba.njit(cache=True, no_cfunc_wrapper=True, nogil=True, error_model="numpy")
 def _sum_3_rows(row_values, out):
-    """``out[r] = row_values[r − 1] + row_values[r] + row_values[r + 1]`` (rows in the image),
-    added in that order; whole rows at a time (vectorised, no loop over the rows per pixel)."""
+    """``out[r] = row_values[r − 1] + row_values[r] + row_values[r + 1]`` (rows in the image).
+
+    Added in that order, whole rows at a time (vectorised, no loop over the rows per pixel).
+    """
     height, width = row_values.shape
     for r in range(height):
         lo = max(0, r - 1)
@@ -1842,8 +1844,10 @@ def region_interior(labels, margin_px):
 
 @numba.njit(cache=True, no_cfunc_wrapper=True, nogil=True, error_model="numpy")
 def foreign_rim(labels, height_interior, z, sigma_z, level_heights, factor):
-    """(H, W) bool: labelled pixels outside ``height_interior`` farther from their region's
-    level than ``factor`` times their noise along z (`segmentation._foreign_rim`, one pass).
+    """(H, W) bool: the floor regions' rim pixels of a neighbouring surface.
+
+    Labelled pixels outside ``height_interior`` farther from their region's level than
+    ``factor`` times their noise along z (`segmentation._foreign_rim`, in one pass).
 
     Args:
         labels: (H, W) floor region of each pixel (-1 none, -2 no measurement).
