@@ -58,42 +58,81 @@ RANGE_MARGIN_SIGMAS = 3.0
 
 
 @numba.njit(cache=True, no_cfunc_wrapper=True, nogil=True, error_model="numpy")
-def _box_mean(values, clip_factor, clip, half_rows, half_cols, row_sum, row_cnt, out):
-    """Mean of min(values, clip_factor·clip) over a (2·half_rows+1)×(2·half_cols+1) box.
+def _box_counts(values, half_cols, counts, row_cnt):
+    """Values present (not NaN) in every pixel's box of 3 rows × (2·half_cols+1) columns.
 
-    NaN = absent; clip_factor 0: no clipping. Written to ``out`` (NaN where the box holds
-    fewer than 3 values), which may be ``clip`` itself: the clipped row sums (work space
-    ``row_sum``, ``row_cnt``) are all taken before ``out`` is written.
+    Written to ``counts`` (work space ``row_cnt``): the same for every pass of `_box_mean`,
+    whose clipping changes the values summed but not which are present.
     """
     height, width = values.shape
     for r in range(height):
-        s = 0.0
         k = 0.0
-        # Running sums over columns [c - half_cols, c + half_cols].
-        for c in range(-half_cols, width):
+        for add in range(min(half_cols, width)):
+            k += 1.0 if values[r, add] == values[r, add] else 0.0
+        for c in range(width):
             add = c + half_cols
             if add < width:
-                v = values[r, add]
-                if v == v:
-                    s += min(v, clip_factor * clip[r, add]) if clip_factor > 0.0 else v
-                    k += 1.0
+                k += 1.0 if values[r, add] == values[r, add] else 0.0
             drop = c - half_cols - 1
             if drop >= 0:
-                v = values[r, drop]
-                if v == v:
-                    s -= min(v, clip_factor * clip[r, drop]) if clip_factor > 0.0 else v
-                    k -= 1.0
-            if c >= 0:
-                row_sum[r, c] = s
-                row_cnt[r, c] = k
+                k -= 1.0 if values[r, drop] == values[r, drop] else 0.0
+            row_cnt[r, c] = k
+    _sum_3_rows(row_cnt, counts)
+
+
+@numba.njit(cache=True, no_cfunc_wrapper=True, nogil=True, error_model="numpy")
+def _sum_3_rows(row_values, out):
+    """``out[r] = row_values[r − 1] + row_values[r] + row_values[r + 1]`` (rows in the image).
+
+    Added in that order, whole rows at a time (vectorised, no loop over the rows per pixel).
+    """
+    height, width = row_values.shape
+    for r in range(height):
+        lo = max(0, r - 1)
+        hi = min(height, r + 2)
+        for c in range(width):
+            out[r, c] = row_values[lo, c]
+        for rr in range(lo + 1, hi):
+            for c in range(width):
+                out[r, c] += row_values[rr, c]
+
+
+@numba.njit(cache=True, no_cfunc_wrapper=True, nogil=True, error_model="numpy")
+def _box_mean(values, clip_factor, clip, half_cols, counts, work, row_sum, out):
+    """Mean of min(values, clip_factor·clip) over a 3 × (2·half_cols+1) box.
+
+    NaN = absent; clip_factor 0: no clipping; ``counts``: the values present in each box
+    (`_box_counts`). Written to ``out`` (NaN where the box holds fewer than 3 values), which
+    may be ``clip`` itself: the clipped values (work space ``work``, 0 where absent: adding 0
+    leaves a running sum of non-negative values bit for bit as skipping it does) are all taken
+    before ``out`` is written.
+    """
+    height, width = values.shape
     for r in range(height):
         for c in range(width):
-            s = 0.0
-            k = 0.0
-            for rr in range(max(0, r - half_rows), min(height, r + half_rows + 1)):
-                s += row_sum[rr, c]
-                k += row_cnt[rr, c]
-            out[r, c] = s / k if k >= 3.0 else np.nan
+            v = values[r, c]
+            if v == v:
+                work[r, c] = min(v, clip_factor * clip[r, c]) if clip_factor > 0.0 else v
+            else:
+                work[r, c] = 0.0
+    for r in range(height):
+        # Running sums over columns [c - half_cols, c + half_cols].
+        s = 0.0
+        for add in range(min(half_cols, width)):
+            s += work[r, add]
+        for c in range(width):
+            add = c + half_cols
+            if add < width:
+                s += work[r, add]
+            drop = c - half_cols - 1
+            if drop >= 0:
+                s -= work[r, drop]
+            row_sum[r, c] = s
+    _sum_3_rows(row_sum, work)
+    for r in range(height):
+        for c in range(width):
+            k = counts[r, c]
+            out[r, c] = work[r, c] / k if k >= 3.0 else np.nan
 
 
 @numba.njit(cache=True, no_cfunc_wrapper=True, nogil=True, error_model="numpy")
@@ -129,11 +168,13 @@ def local_noise_depth_m(inv_depth, window, min_noise_m, cap_factor, model_inv_si
         for c in range(1, width - 1):
             second[r, c] = abs(inv_depth[r, c - 1] - 2.0 * inv_depth[r, c] + inv_depth[r, c + 1])
     row_sum = np.empty((height, width))
-    row_cnt = np.empty((height, width))
+    work = np.empty((height, width))
+    counts = np.empty((height, width))
     mean = np.empty((height, width))
-    _box_mean(second, 0.0, mean, 1, window, row_sum, row_cnt, mean)
+    _box_counts(second, window, counts, row_sum)
+    _box_mean(second, 0.0, mean, window, counts, work, row_sum, mean)
     for _ in range(2):  # clipped at 2.5× the previous mean
-        _box_mean(second, 2.5, mean, 1, window, row_sum, row_cnt, mean)
+        _box_mean(second, 2.5, mean, window, counts, work, row_sum, mean)
     # Pixels whose box had too few samples: the image-wide mean of the box means.
     fallback = 0.0
     n_finite = 0
@@ -311,8 +352,33 @@ def split_rows(
     pre = np.zeros((width + 1, 6))
     res_pre = np.zeros(width + 1)
     step_scales = _step_scales(edge_window, correlation)
+    # Per pixel of the row, whatever piece it is in: the weighted terms of the line fit, the
+    # outlier tolerance and the residual's scale (computed once a row, not at every piece a
+    # pixel is in as the row is split: the same values, a third of the divisions).
+    terms = np.empty((width, 6))
+    split_tol = np.empty(width)
+    res_scale = np.empty(width)
+    # Per piece, each pixel's outlier ratio and residual and each boundary's step statistic
+    # are computed in loops of their own (no branches: vectorised divisions) before the
+    # serial maxima and sums, which keep their order.
+    ratios = np.empty(width)
+    residuals = np.empty(width)
+    steps = np.empty(width + 1)
+    window_f = float(edge_window)
+    interior_scale = step_scales[edge_window, edge_window]
     for r in range(height):
         inv_row = inv_depth[r]
+        for k in range(width):
+            z = inv_row[k]
+            wk = 1.0 / (z * z * sigma[r, k]) ** 2
+            terms[k, 0] = wk
+            terms[k, 1] = wk * x[k]
+            terms[k, 2] = wk * x[k] * x[k]
+            terms[k, 3] = wk * z
+            terms[k, 4] = wk * x[k] * z
+            terms[k, 5] = wk * z * z
+            split_tol[k] = split_factor * sigma[r, k] + tolerance_floor_m
+            res_scale[k] = z * z * sigma[r, k] + tolerance_floor_m * z * z
         c = 0
         while c < width:
             if not inv_row[c] > 0.0:
@@ -332,29 +398,29 @@ def split_rows(
                     continue
                 # Prefix sums of the weighted line fit (weights 1/sigma² of inverse depth).
                 for k in range(a, b):
-                    z = inv_row[k]
-                    wk = 1.0 / (z * z * sigma[r, k]) ** 2
                     i = k - a + 1
-                    pre[i, 0] = pre[i - 1, 0] + wk
-                    pre[i, 1] = pre[i - 1, 1] + wk * x[k]
-                    pre[i, 2] = pre[i - 1, 2] + wk * x[k] * x[k]
-                    pre[i, 3] = pre[i - 1, 3] + wk * z
-                    pre[i, 4] = pre[i - 1, 4] + wk * x[k] * z
-                    pre[i, 5] = pre[i - 1, 5] + wk * z * z
+                    pre[i, 0] = pre[i - 1, 0] + terms[k, 0]
+                    pre[i, 1] = pre[i - 1, 1] + terms[k, 1]
+                    pre[i, 2] = pre[i - 1, 2] + terms[k, 2]
+                    pre[i, 3] = pre[i - 1, 3] + terms[k, 3]
+                    pre[i, 4] = pre[i - 1, 4] + terms[k, 4]
+                    pre[i, 5] = pre[i - 1, 5] + terms[k, 5]
                 n = b - a
                 p, q, rss = _line_from_sums(
                     pre[n, 0], pre[n, 1], pre[n, 2], pre[n, 3], pre[n, 4], pre[n, 5]
                 )
+                for k in range(a, b):
+                    z = inv_row[k]
+                    line = p + q * x[k]
+                    ratios[k] = abs(z - line) / (z * line) / split_tol[k]  # `_depth_gap`
+                    residuals[k] = (z - line) / res_scale[k]
                 worst = 0.0
                 worst_at = a
                 s_sum = 0.0
                 for k in range(a, b):
-                    ratio = _depth_gap(inv_row[k], p + q * x[k]) / (
-                        split_factor * sigma[r, k] + tolerance_floor_m
-                    )
                     s_sum += sigma[r, k]
-                    if ratio > worst:
-                        worst = ratio
+                    if ratios[k] > worst:
+                        worst = ratios[k]
                         worst_at = k
                 # Weighted RMS in sigma units, with the floor tolerance as extra allowance.
                 chi = math.sqrt(rss / max(n - 2, 1))
@@ -364,23 +430,28 @@ def split_rows(
                 # right of each pixel boundary (a depth step the line fit half absorbed).
                 res_pre[0] = 0.0
                 for k in range(a, b):
-                    z = inv_row[k]
-                    res_pre[k - a + 1] = res_pre[k - a] + (z - (p + q * x[k])) / (
-                        z * z * sigma[r, k] + tolerance_floor_m * z * z
-                    )
+                    res_pre[k - a + 1] = res_pre[k - a] + residuals[k]
                 edge = 0.0
                 edge_at = a
-                for m in range(2, n - 1):  # boundary between pixels a+m-1 and a+m
-                    kl = min(edge_window, m)
-                    kr = min(edge_window, n - m)
-                    if kl < 2 or kr < 2:
-                        continue
-                    mean_l = (res_pre[m] - res_pre[m - kl]) / kl
-                    mean_r = (res_pre[m + kr] - res_pre[m]) / kr
-                    t = abs(mean_r - mean_l) / step_scales[kl, kr]
-                    if t > edge:
-                        edge = t
-                        edge_at = a + m
+                if edge_window >= 2:  # else no window holds 2 pixels: no step statistic
+                    # Boundary m lies between pixels a+m-1 and a+m; m in [2, n-2] (windows of
+                    # at least 2 pixels), full windows from m = edge_window to n - edge_window.
+                    for m in range(2, n - 1):
+                        if edge_window <= m <= n - edge_window:
+                            continue
+                        kl = min(edge_window, m)
+                        kr = min(edge_window, n - m)
+                        mean_l = (res_pre[m] - res_pre[m - kl]) / kl
+                        mean_r = (res_pre[m + kr] - res_pre[m]) / kr
+                        steps[m] = abs(mean_r - mean_l) / step_scales[kl, kr]
+                    for m in range(edge_window, n - edge_window + 1):
+                        mean_l = (res_pre[m] - res_pre[m - edge_window]) / window_f
+                        mean_r = (res_pre[m + edge_window] - res_pre[m]) / window_f
+                        steps[m] = abs(mean_r - mean_l) / interior_scale
+                    for m in range(2, n - 1):
+                        if steps[m] > edge:
+                            edge = steps[m]
+                            edge_at = a + m
                 if worst <= 1.0 and edge <= edge_factor and (n <= 3 or chi <= chi_limit):
                     rows[count] = r
                     starts[count] = a
@@ -1253,11 +1324,17 @@ def reassign_segments(
 
 
 @numba.njit(cache=True, no_cfunc_wrapper=True, nogil=True, error_model="numpy")
-def plane_moments(points_camera, ids, normals_camera, n_planes, fx, fy):
+def plane_moments(rays_camera, depth, pixel_index, ids, normals_camera, n_planes, fx, fy):
     """Per-plane geometry of labelled points.
 
+    The points are the pixels' rays times their depths, taken here pixel by pixel (the same
+    products as ``rays_camera[pixel_index] * depth.flat[pixel_index][:, None]``, without the
+    (N, 3) array and its two gathers).
+
     Args:
-        points_camera: (N, 3) points in the camera frame [m].
+        rays_camera: (H·W, 3) camera-frame rays with unit z, row-major.
+        depth: (H, W) depths [m].
+        pixel_index: (N,) the points' pixels, indices into the flattened image.
         ids: (N,) plane id per point (-1: none).
         normals_camera: (P, 3) unit plane normals in the camera frame.
         n_planes: P.
@@ -1270,17 +1347,23 @@ def plane_moments(points_camera, ids, normals_camera, n_planes, fx, fy):
     """
     sums = np.zeros((n_planes, _N_SUMS + 3))
     areas = np.zeros(n_planes)
+    depth_flat = depth.ravel()
     for i in range(ids.shape[0]):
         p = ids[i]
         if p < 0:
             continue
+        pixel = pixel_index[i]
+        d = depth_flat[pixel]
+        cx = rays_camera[pixel, 0] * d
+        cy = rays_camera[pixel, 1] * d
+        cz = rays_camera[pixel, 2] * d
         if sums[p, 0] == 0.0:  # indexed, not a row view: a view per point costs more
-            sums[p, 10] = points_camera[i, 0]
-            sums[p, 11] = points_camera[i, 1]
-            sums[p, 12] = points_camera[i, 2]
-        px = points_camera[i, 0] - sums[p, 10]
-        py = points_camera[i, 1] - sums[p, 11]
-        pz = points_camera[i, 2] - sums[p, 12]
+            sums[p, 10] = cx
+            sums[p, 11] = cy
+            sums[p, 12] = cz
+        px = cx - sums[p, 10]
+        py = cy - sums[p, 11]
+        pz = cz - sums[p, 12]
         sums[p, 0] += 1.0
         sums[p, 1] += px
         sums[p, 2] += py
@@ -1291,9 +1374,6 @@ def plane_moments(points_camera, ids, normals_camera, n_planes, fx, fy):
         sums[p, 7] += py * py
         sums[p, 8] += py * pz
         sums[p, 9] += pz * pz
-        cx = points_camera[i, 0]
-        cy = points_camera[i, 1]
-        cz = points_camera[i, 2]
         rng = math.sqrt(cx * cx + cy * cy + cz * cz)
         cos_inc = (
             abs(cx * normals_camera[p, 0] + cy * normals_camera[p, 1] + cz * normals_camera[p, 2])
@@ -1732,26 +1812,58 @@ def region_interior(labels, margin_px):
     """
     height, width = labels.shape
     out = np.zeros((height, width), np.bool_)
+    if margin_px == 0:
+        for r in range(height):
+            for c in range(width):
+                out[r, c] = labels[r, c] >= 0
+        return out
+    # Pixels within margin_px of the image border are never interior; the others' tests are
+    # combined without branches (bitwise &), and margin 1 (the defaults) has no loop over the
+    # distances: 2× faster than short-circuit tests in a loop, which numba can't unroll.
+    for r in range(margin_px, height - margin_px):
+        for c in range(margin_px, width - margin_px):
+            f = labels[r, c]
+            inside = (
+                (f >= 0)
+                & (labels[r - 1, c] == f)
+                & (labels[r + 1, c] == f)
+                & (labels[r, c - 1] == f)
+                & (labels[r, c + 1] == f)
+            )
+            for k in range(2, margin_px + 1):
+                inside = (
+                    inside
+                    & (labels[r - k, c] == f)
+                    & (labels[r + k, c] == f)
+                    & (labels[r, c - k] == f)
+                    & (labels[r, c + k] == f)
+                )
+            out[r, c] = inside
+    return out
+
+
+@numba.njit(cache=True, no_cfunc_wrapper=True, nogil=True, error_model="numpy")
+def foreign_rim(labels, height_interior, z, sigma_z, level_heights, factor):
+    """(H, W) bool: the floor regions' rim pixels of a neighbouring surface.
+
+    Labelled pixels outside ``height_interior`` farther from their region's level than
+    ``factor`` times their noise along z (`segmentation._foreign_rim`, in one pass).
+
+    Args:
+        labels: (H, W) floor region of each pixel (-1 none, -2 no measurement).
+        height_interior: (H, W) bool, the pixels the regions' heights come from.
+        z: (H, W) the pixels' heights [m].
+        sigma_z: (H, W) their noise along z [m].
+        level_heights: (F,) each region's level [m].
+        factor: the tolerance in sigma.
+    """
+    height, width = labels.shape
+    out = np.zeros((height, width), np.bool_)
     for r in range(height):
         for c in range(width):
             f = labels[r, c]
-            if f < 0:
-                continue
-            inside = True
-            for k in range(1, margin_px + 1):
-                if (
-                    r - k < 0
-                    or r + k >= height
-                    or c - k < 0
-                    or c + k >= width
-                    or labels[r - k, c] != f
-                    or labels[r + k, c] != f
-                    or labels[r, c - k] != f
-                    or labels[r, c + k] != f
-                ):
-                    inside = False
-                    break
-            out[r, c] = inside
+            if f >= 0 and not height_interior[r, c]:
+                out[r, c] = abs(z[r, c] - level_heights[f]) > factor * sigma_z[r, c]
     return out
 
 
@@ -1823,10 +1935,16 @@ def floor_statistics(
                 d = depth[r, c]
                 # 1/σ² of the inverse depth: depth noise σ_z/|ray_z| along the ray, over d².
                 w = (d * d * ray_z / sigma_z[r, c]) ** 2
-                for k, member in ((0, True), (1, interior[r, c]), (2, height_interior[r, c])):
-                    if member:
-                        normal_sums[f, k, 0] += w * ray_z * ray_z
-                        normal_sums[f, k, 1] += w * ray_z / d
+                term_0 = w * ray_z * ray_z
+                term_1 = w * ray_z / d
+                normal_sums[f, 0, 0] += term_0  # all grown pixels
+                normal_sums[f, 0, 1] += term_1
+                if interior[r, c]:
+                    normal_sums[f, 1, 0] += term_0
+                    normal_sums[f, 1, 1] += term_1
+                if height_interior[r, c]:
+                    normal_sums[f, 2, 0] += term_0
+                    normal_sums[f, 2, 1] += term_1
     heights = np.zeros(n_floors)
     rms_heights = np.zeros(n_floors)  # the reference of the RMS: its own pixels' level
     for f in range(n_floors):

@@ -647,10 +647,16 @@ def segment_depth(
     counts = np.bincount(plane_ids + 1, minlength=len(counts) + 1)[1:]
     rotation = transform[:3, :3]
     rays_camera = intrinsics.ray_directions_camera().reshape(-1, 3)
-    points_camera = np.take(rays_camera, pixel_index, axis=0) * np.take(depth, pixel_index)[:, None]
     normals_camera, normals = _unit_normals(plane_table, rotation)
     centroids_camera, eigen, areas = scanline.plane_moments(
-        points_camera, grown_ids, normals_camera, len(counts), intrinsics.fx, intrinsics.fy
+        rays_camera,
+        depth,
+        pixel_index,
+        grown_ids,
+        normals_camera,
+        len(counts),
+        intrinsics.fx,
+        intrinsics.fy,
     )
     centroids = centroids_camera @ rotation.T + pivot
     # RMS depth residual of the plane fit (inverse-depth residual scaled at the centroid).
@@ -893,11 +899,9 @@ def _foreign_rim(labels, height_interior, z, sigma_z, level_heights, params):
         level_heights: (F,) each region's level [m] (its grown segments' weighted mean).
         params: segmentation parameters.
     """
-    labelled = labels >= 0
-    level = level_heights[np.where(labelled, labels, 0)]
-    with np.errstate(invalid="ignore"):
-        off = np.abs(z - level) > params.floor_snap_sigma_factor * sigma_z
-    return labelled & ~height_interior & off
+    return scanline.foreign_rim(
+        labels, height_interior, z, sigma_z, level_heights, params.floor_snap_sigma_factor
+    )
 
 
 def _unit_normals(
