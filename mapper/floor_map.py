@@ -74,7 +74,7 @@ def _layer_of(h: float, z_min: float, layer: float, nz: int) -> int:
     return k
 
 
-@numba.njit(cache=True, no_cfunc_wrapper=True, nogil=True)
+@numba.njit(cache=True, no_cfunc_wrapper=True, nogil=True, error_model="numpy")
 def verify_floor(
     floor: NDArray[np.float64],
     og: NDArray[np.uint8],
@@ -112,7 +112,7 @@ def _supported(og_flat, col: int, h: float, z_min: float, layer: float, nz: int,
     return k >= 0 and og_flat[col * nz + k] > occ_level
 
 
-@numba.njit(cache=True, no_cfunc_wrapper=True, nogil=True)
+@numba.njit(cache=True, no_cfunc_wrapper=True, nogil=True, error_model="numpy")
 def _point_shares(
     og_flat: NDArray[np.uint8],
     point_cell: NDArray[np.int64],
@@ -151,7 +151,7 @@ def _point_shares(
     return shares
 
 
-@numba.njit(cache=True, no_cfunc_wrapper=True, nogil=True)
+@numba.njit(cache=True, no_cfunc_wrapper=True, nogil=True, error_model="numpy")
 def update_floor(
     floor: NDArray[np.float64],
     weights: NDArray[np.float64],
@@ -270,7 +270,7 @@ def update_floor(
     return used, rejected
 
 
-@numba.njit(cache=True, no_cfunc_wrapper=True, nogil=True)
+@numba.njit(cache=True, no_cfunc_wrapper=True, nogil=True, error_model="numpy")
 def frame_verdicts(
     floor: NDArray[np.float64],
     frame_votes: NDArray[np.int32],
