@@ -28,7 +28,7 @@ from mapper.occupancy import NONFINITE, OUTSIDE, grid_point
 from mapper.params import MapperParams
 
 
-@numba.njit(cache=True, no_cfunc_wrapper=True, nogil=True)
+@numba.njit(cache=True, no_cfunc_wrapper=True, nogil=True, error_model="numpy")
 def _accumulate(
     points, heights, origin_x, origin_y, z_min, cell, layer, nz, sum_z, count, sum_h, floor_count
 ):

@@ -41,7 +41,7 @@ def frame_floor_heights(floor_heights: NDArray[np.float64], eps: float) -> NDArr
     return _kept_heights(np.ascontiguousarray(floor_heights, dtype=np.float64), float(eps))
 
 
-@numba.njit(cache=True, no_cfunc_wrapper=True, nogil=True)
+@numba.njit(cache=True, no_cfunc_wrapper=True, nogil=True, error_model="numpy")
 def _kept_heights(floor_heights: NDArray[np.float64], eps: float) -> NDArray[np.float64]:
     """`frame_floor_heights` compiled: one pass, then a sort of the few values left.
 
@@ -81,7 +81,7 @@ def _counts_for(f: float, ref: float, ends: int, passes: int, eps: float):
     return f, 0, 0
 
 
-@numba.njit(cache=True, no_cfunc_wrapper=True, nogil=True)
+@numba.njit(cache=True, no_cfunc_wrapper=True, nogil=True, error_model="numpy")
 def accumulate_cover(
     floor: NDArray[np.float64],
     cover_ref: NDArray[np.float64],

@@ -100,7 +100,7 @@ def _layer_of(h: float, z_min: float, layer: float, nz: int) -> int:
     return k
 
 
-@numba.njit(cache=True, no_cfunc_wrapper=True, nogil=True)
+@numba.njit(cache=True, no_cfunc_wrapper=True, nogil=True, error_model="numpy")
 def verify_floor(
     floor: NDArray[np.float64],
     og: NDArray[np.uint8],
@@ -167,7 +167,7 @@ def _covers(
     return k > _layer_of(f, z_min, layer, nz) and og_flat[col * nz + k] > occ_level
 
 
-@numba.njit(cache=True, no_cfunc_wrapper=True, nogil=True)
+@numba.njit(cache=True, no_cfunc_wrapper=True, nogil=True, error_model="numpy")
 def _drain_covered(
     og_flat: NDArray[np.uint8],
     votes_flat: NDArray[np.int32],
@@ -218,7 +218,7 @@ def _drain_covered(
             votes_flat[col] = max(votes_flat[col] - above[col], 0)
 
 
-@numba.njit(cache=True, no_cfunc_wrapper=True, nogil=True)
+@numba.njit(cache=True, no_cfunc_wrapper=True, nogil=True, error_model="numpy")
 def _point_shares(
     og_flat: NDArray[np.uint8],
     point_cell: NDArray[np.int64],
@@ -257,7 +257,7 @@ def _point_shares(
     return shares
 
 
-@numba.njit(cache=True, no_cfunc_wrapper=True, nogil=True)
+@numba.njit(cache=True, no_cfunc_wrapper=True, nogil=True, error_model="numpy")
 def update_floor(
     floor: NDArray[np.float64],
     weights: NDArray[np.float64],
@@ -397,7 +397,7 @@ def update_floor(
     return used, rejected
 
 
-@numba.njit(cache=True, no_cfunc_wrapper=True, nogil=True)
+@numba.njit(cache=True, no_cfunc_wrapper=True, nogil=True, error_model="numpy")
 def frame_verdicts(
     floor: NDArray[np.float64],
     frame_votes: NDArray[np.int32],

@@ -87,7 +87,7 @@ def _label(
     return _UNKNOWN, np.nan
 
 
-@numba.njit(cache=True, no_cfunc_wrapper=True, nogil=True, boundscheck=False)
+@numba.njit(cache=True, no_cfunc_wrapper=True, nogil=True, boundscheck=False, error_model="numpy")
 def update_fog_area(
     og: NDArray[np.uint8],
     floor: NDArray[np.float64],
@@ -199,7 +199,7 @@ def update_fog_area(
             fog_heights[ix, iy] = h
 
 
-@numba.njit(cache=True, no_cfunc_wrapper=True, nogil=True)
+@numba.njit(cache=True, no_cfunc_wrapper=True, nogil=True, error_model="numpy")
 def ceiling_map(
     og: NDArray[np.uint8],
     floor: NDArray[np.float64],

@@ -263,7 +263,7 @@ def validate_frame(
     return p, h, o
 
 
-@numba.njit(cache=True, no_cfunc_wrapper=True)
+@numba.njit(cache=True, no_cfunc_wrapper=True, nogil=True, error_model="numpy")
 def _off_limit(origin, points, heights, limit):
     """Whether the origin, a point coordinate or a floor height is off ``±limit``, one pass.
 

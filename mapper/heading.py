@@ -180,7 +180,7 @@ def yaw_about_pivot(angle_rad: float, pivot_m: NDArray[np.float64]) -> NDArray[n
     return out
 
 
-@numba.njit(cache=True, no_cfunc_wrapper=True, nogil=True)
+@numba.njit(cache=True, no_cfunc_wrapper=True, nogil=True, error_model="numpy")
 def _voxel_slot(x, y, z, cell, layer, mask):
     """Hash-table slot of the voxel holding (x, y, z) (numba)."""
     ix = np.int64(np.floor(x / cell))
@@ -191,7 +191,7 @@ def _voxel_slot(x, y, z, cell, layer, mask):
     return np.int64((key ^ (key >> np.uint64(29))) & np.uint64(mask))
 
 
-@numba.njit(cache=True, no_cfunc_wrapper=True, nogil=True)
+@numba.njit(cache=True, no_cfunc_wrapper=True, nogil=True, error_model="numpy")
 def heading_scores(offsets_xy, z_world, starts, camera_xy, yaw_rad, angles_rad, cell, layer):
     """Agreement of the keyframes' structure points for each candidate correction (numba).
 

@@ -982,7 +982,7 @@ def insert_frame_columns(
     )
 
 
-@numba.njit(cache=True, no_cfunc_wrapper=True, nogil=True, boundscheck=False)
+@numba.njit(cache=True, no_cfunc_wrapper=True, nogil=True, boundscheck=False, error_model="numpy")
 def _apply_columns(flat, nz, ny, hit_cols, miss_cols, table, ix0, ix1, iy0, iy1) -> int:
     """Table lookups for the marked layers in ``[ix0, ix1] × [iy0, iy1]``; clears the marks.
 

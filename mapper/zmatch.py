@@ -56,7 +56,7 @@ class ZDecision(IntEnum):
     WITHDRAW = 2
 
 
-@numba.njit(cache=True, no_cfunc_wrapper=True, nogil=True)
+@numba.njit(cache=True, no_cfunc_wrapper=True, nogil=True, error_model="numpy")
 def _residuals(points, heights, floor_map, origin_x, origin_y, cell):
     """``Floor − h`` of the matched pairs, in point order (numba).
 
@@ -108,7 +108,7 @@ def match_z(
     return shift_from_residuals(residual, params)
 
 
-@numba.njit(cache=True, no_cfunc_wrapper=True, nogil=True)
+@numba.njit(cache=True, no_cfunc_wrapper=True, nogil=True, error_model="numpy")
 def _block_sum(values, start, count):
     """Sum of at most 128 values as numpy adds them: one by one below 8, else eight at once."""
     if count < 8:
@@ -129,7 +129,7 @@ def _block_sum(values, start, count):
     return total
 
 
-@numba.njit(cache=True, no_cfunc_wrapper=True, nogil=True)
+@numba.njit(cache=True, no_cfunc_wrapper=True, nogil=True, error_model="numpy")
 def _pairwise_sum(values):
     """Sum of a contiguous float64 array by numpy's pairwise summation (numba), bit for bit.
 
@@ -167,7 +167,7 @@ def _pairwise_sum(values):
     return sums[0]
 
 
-@numba.njit(cache=True, no_cfunc_wrapper=True, nogil=True)
+@numba.njit(cache=True, no_cfunc_wrapper=True, nogil=True, error_model="numpy")
 def _median(values):
     """``np.median`` of a non-empty float64 array (NaN if one is NaN, as numpy's).
 
@@ -191,7 +191,7 @@ def _median(values):
     return (lower + upper) / 2
 
 
-@numba.njit(cache=True, no_cfunc_wrapper=True, nogil=True)
+@numba.njit(cache=True, no_cfunc_wrapper=True, nogil=True, error_model="numpy")
 def _select(work, k):
     """The k-th smallest of ``work`` (no NaN), moved to ``work[k]`` with the smaller before it.
 
@@ -223,7 +223,7 @@ def _select(work, k):
     return work[k]
 
 
-@numba.njit(cache=True, no_cfunc_wrapper=True, nogil=True)
+@numba.njit(cache=True, no_cfunc_wrapper=True, nogil=True, error_model="numpy")
 def _gated_shift(residual_m, eps_m):
     """(shift, pairs kept, rms) of the residuals ``Floor − h`` [m] (numba); see the module."""
     if residual_m.size == 0:

@@ -162,3 +162,24 @@ def test_median_is_numpys():
     for n in (1, 2, 3, 8, 9, 128, 1001):
         for values in (rng.normal(size=n), rng.integers(-2, 3, n).astype(float)):
             assert _median(values) == np.median(values)
+
+
+def test_every_run_kernel_is_compiled_with_the_same_flags():
+    """numba compiles its own overloads (``np.empty``, ``np.unique``, sorts) once per flag set
+    of their callers: a kernel with other flags (another error model, holding the GIL) compiles
+    them all again on a cold cache. Kernels inlined into others take their caller's flags."""
+    flags = {
+        f"{kernel.py_func.__module__}.{kernel.py_func.__name__}": tuple(
+            sorted((k, v) for k, v in kernel.targetoptions.items() if k != "boundscheck")
+        )
+        for group in GROUPS
+        for kernel in group.kernels
+    }
+    assert len(flags) > 50
+    expected = (
+        ("error_model", "numpy"),
+        ("no_cfunc_wrapper", True),
+        ("nogil", True),
+        ("nopython", True),
+    )
+    assert {name: f for name, f in flags.items() if f != expected} == {}

@@ -52,7 +52,7 @@ class SelfFilterParams:
             )
 
 
-@numba.njit(cache=True, no_cfunc_wrapper=True, nogil=True)
+@numba.njit(cache=True, no_cfunc_wrapper=True, nogil=True, error_model="numpy")
 def _mask_kernel(
     depth: np.ndarray,  # (H, W) depth along the optical axis [m], NaN/<=0 = none
     fx: float,
