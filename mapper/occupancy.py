@@ -783,8 +783,8 @@ def _walk_columns(miss_cols, range_masks, c, z_entry, axis_x, axis_y, z_line, z_
     floats, the same marks): the insert 18 to 22 % slower (Intel Xeon, load 12-16, host), the
     merge's chain (list position, load, compare) costing more than the mispredictions. Rays
     prepared in chunks of 64 (classification, clipping, first crossings) before they are
-    walked, so that their divisions overlap: no faster (the walk is 80 % of the insert, the
-    per-ray arithmetic 11 %, the table lookups 9 %).
+    walked, so that their divisions overlap: no faster (the walk is about 80 % of the insert,
+    the per-ray arithmetic 11 %, the table lookups 9 %: one run with parts left out, load 19).
     The rays' order does not matter to the marks (the OR commutes):
     sorted by azimuth the walk is 4 % faster, less than a sort costs; shuffled 10 % slower.
 
