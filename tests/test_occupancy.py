@@ -10,13 +10,16 @@ from mapper.errors import InvalidParameterError
 from mapper.occupancy import (
     NONFINITE,
     OUTSIDE,
+    _apply_columns,
     _clamped_cell,
+    _lowest_bit,
     _range_mask,
     bayes_update,
     grid_point,
     layer_range_masks,
     lookup_tables,
     traversed_cells,
+    update_table,
 )
 from mapper.synthetic import Box, camera_rays_world, cast_frame
 
@@ -52,6 +55,48 @@ def test_layer_range_masks_by_hand():
     tall = layer_range_masks(64)
     assert tall.dtype == np.uint64 and tall[0 * 64 + 63] == np.uint64(2**64 - 1)
     assert tall[63 * 64 + 62] == np.uint64(3 << 62)
+
+
+def test_lowest_bit_every_position():
+    """The De Bruijn lookup finds the lowest set bit of any word, whatever the bits above it."""
+    for k in range(64):
+        low = np.uint64(1) << np.uint64(k)
+        above = np.uint64(0xFFFF_FFFF_FFFF_FFFF) << np.uint64(k)  # k and every bit above it
+        for word in (low, above, low | (above & np.uint64(0xA5A5_A5A5_A5A5_A5A5))):
+            bit, index = _lowest_bit(word)
+            assert (int(bit), int(index)) == (1 << k, k)
+
+
+@pytest.mark.parametrize("nz", [4, 16, 64])
+def test_apply_columns_updates_exactly_the_marked_layers(nz):
+    """Hit where a hit bit is set (it wins over a miss), miss where only a miss bit is, else
+    the level is kept; only the box is read, and its marks are cleared."""
+    rng = np.random.default_rng(nz)
+    nx, ny = 5, 7
+    dtype = np.uint64 if nz == 64 else np.uint16 if nz == 16 else np.uint8
+    levels = rng.integers(0, 256, size=(nx, ny, nz)).astype(np.uint8)
+    bits = rng.random((2, nx * ny, nz)) < 0.3
+    hit_cols, miss_cols = (
+        np.array([sum(1 << k for k in np.flatnonzero(col)) for col in b], dtype=dtype) for b in bits
+    )
+    hit_table = ((np.arange(256) + 1) % 256).astype(np.uint8)
+    miss_table = ((np.arange(256) + 255) % 256).astype(np.uint8)
+    ix0, ix1, iy0, iy1 = 1, 3, 2, 6  # inclusive box
+    inside = np.zeros((nx, ny), dtype=bool)
+    inside[ix0 : ix1 + 1, iy0 : iy1 + 1] = True
+    hit = bits[0].reshape(nx, ny, nz) & inside[:, :, None]
+    miss = bits[1].reshape(nx, ny, nz) & inside[:, :, None] & ~hit
+    expected = np.where(hit, hit_table[levels], np.where(miss, miss_table[levels], levels))
+    outside = ~inside.reshape(-1)
+    hit_before, miss_before = hit_cols.copy(), miss_cols.copy()
+    flat = levels.reshape(-1)
+    table = update_table(hit_table, miss_table)
+    n = _apply_columns(flat, nz, ny, hit_cols, miss_cols, table, ix0, ix1, iy0, iy1)
+    assert n == hit.sum() + miss.sum()
+    np.testing.assert_array_equal(levels, expected)
+    assert not hit_cols[~outside].any() and not miss_cols[~outside].any()
+    np.testing.assert_array_equal(hit_cols[outside], hit_before[outside])
+    np.testing.assert_array_equal(miss_cols[outside], miss_before[outside])
 
 
 def test_tables_monotone_and_never_stall():
