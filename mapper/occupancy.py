@@ -1015,6 +1015,22 @@ def _lowest_bit(word):
     return bit, _BIT_POSITIONS[(bit * _DE_BRUIJN) >> np.uint64(58)]
 
 
+@numba.njit(cache=True, inline="always")
+def _apply_bits(flat, base, word, table, row: int) -> int:
+    """Apply table row ``row`` (1 = miss, 2 = hit) to the layers set in a column's ``word``.
+
+    The column starts at flat index ``base``. Returns how many cells were updated.
+    """
+    n = 0
+    while word != 0:
+        bit, k = _lowest_bit(word)
+        idx = base + np.uint64(k)
+        flat[idx] = table[row, flat[idx]]
+        word ^= bit
+        n += 1
+    return n
+
+
 @numba.njit(cache=True, no_cfunc_wrapper=True, nogil=True, boundscheck=False, error_model="numpy")
 def _apply_columns(flat, nz, ny, hit_cols, miss_cols, table, ix0, ix1, iy0, iy1) -> int:
     """Table lookups for the marked layers in ``[ix0, ix1] × [iy0, iy1]``; clears the marks.
@@ -1039,16 +1055,6 @@ def _apply_columns(flat, nz, ny, hit_cols, miss_cols, table, ix0, ix1, iy0, iy1)
             miss_cols[col] = 0
             miss = miss & ~hit
             base = col * np.uint64(nz)
-            while hit != 0:
-                bit, k = _lowest_bit(hit)
-                idx = base + np.uint64(k)
-                flat[idx] = table[2, flat[idx]]
-                hit ^= bit
-                n_touched += 1
-            while miss != 0:
-                bit, k = _lowest_bit(miss)
-                idx = base + np.uint64(k)
-                flat[idx] = table[1, flat[idx]]
-                miss ^= bit
-                n_touched += 1
+            n_touched += _apply_bits(flat, base, hit, table, 2)
+            n_touched += _apply_bits(flat, base, miss, table, 1)
     return n_touched
