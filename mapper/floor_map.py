@@ -213,9 +213,14 @@ def _drain_covered(
             level[col] += 1
         elif _covers(og_flat, col, points[i, 2], f, eps, delta, z_min, layer, nz, occ_level):
             above[col] += 1
-    for col in range(n_cols):
-        if above[col] > 0 and above[col] + higher[col] > ABOVE_RATIO * level[col]:
+    # Once per column the frame touched (``above`` zeroed once applied), not over the grid.
+    for i in range(point_cell.shape[0]):
+        col = point_cell[i]
+        if col < 0 or above[col] == 0:
+            continue
+        if above[col] + higher[col] > ABOVE_RATIO * level[col]:
             votes_flat[col] = max(votes_flat[col] - above[col], 0)
+        above[col] = 0
 
 
 @numba.njit(cache=True, no_cfunc_wrapper=True, nogil=True, error_model="numpy")
