@@ -37,8 +37,15 @@ frame. Code generation: numba compiles for the host CPU unless ``NUMBA_CPU_NAME=
 bench runs itself once per codegen in a child process (generic with its own numba cache) and
 prints both, with ``os.getloadavg()`` before and after each frame set.
 
+Per-stage breakdown (``--stages``): after the interleaved peers, ``FloorObstacleMapper.update``
+once more over the same frames with each stage it calls timed on its own (the frame checks, the
+insert, eq. 8's floor check, the floor votes, eq. 9, the floor cover, the FOG; thread CPU time
+around each call, the wrapping adding a few microseconds a call): rows ``update: STAGE`` and
+``update (stages summed)``, medians per frame, so that a speed-up of the update can be told
+apart by where it comes from.
+
 Run: ``.venv/bin/python bench/bench_mapper.py [--frames 200] [--sets stage edge centre]
-[--codegen both|host|generic] [--stage-files REC.npz ...]``.
+[--codegen both|host|generic] [--stage-files REC.npz ...] [--stages]``.
 """
 
 from __future__ import annotations
@@ -60,6 +67,7 @@ import octomap
 from numpy.typing import NDArray
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
+import mapper.mapper as mapper_module
 from fogsim.config.params import resolve_params
 from fogsim.data.recording import FORMAT_VERSION, load_recording
 from fogsim.mapping.pipeline import Pipeline
@@ -270,13 +278,85 @@ def time_interleaved(frame_set: FrameSet, block: int, codegen: str) -> list[Row]
     ]
 
 
+#: The stages of ``FloorObstacleMapper.update`` (names in `mapper.mapper`) timed by ``--stages``.
+STAGES = (
+    "validate_frame",
+    "insert_frame_columns",
+    "verify_floor",
+    "frame_verdicts",
+    "update_floor",
+    "frame_floor_heights",
+    "accumulate_cover",
+    "update_fog_area",
+)
+
+
+def stage_breakdown(frame_set: FrameSet, codegen: str) -> list[Row]:
+    """Per-stage CPU times of ``FloorObstacleMapper.update`` over the frames (``--stages``).
+
+    Each stage's function is replaced in `mapper.mapper` by a timing wrapper for the pass (and
+    put back after it); a frame's stage time is the sum over its calls (0 when it is not called,
+    e.g. an empty frame). A first pass on a throwaway mapper warms the kernels.
+    """
+    originals = {name: getattr(mapper_module, name) for name in STAGES}
+    spent = dict.fromkeys(STAGES, 0.0)
+
+    def timed(name: str) -> Callable:
+        function = originals[name]
+
+        def call(*args, **kwargs):
+            t0 = time.thread_time()
+            result = function(*args, **kwargs)
+            spent[name] += time.thread_time() - t0
+            return result
+
+        return call
+
+    make_peers(frame_set.params)["FloorObstacleMapper"](frame_set.frames[0])
+    mapper = FloorObstacleMapper(replace(frame_set.params, discretize_rays=False))
+    times = {name: np.empty(len(frame_set.frames)) for name in STAGES}
+    load_before = os.getloadavg()
+    try:
+        for name in STAGES:
+            setattr(mapper_module, name, timed(name))
+        for i, f in enumerate(frame_set.frames):
+            mapper.recenter(*f.center_xy_m)
+            for name in STAGES:
+                spent[name] = 0.0
+            mapper.update(f.points, f.floor_heights, f.sensor_origin)
+            for name in STAGES:
+                times[name][i] = spent[name]
+    finally:
+        for name, function in originals.items():
+            setattr(mapper_module, name, function)
+    load_after = os.getloadavg()
+    points = int(np.median([len(f.points) for f in frame_set.frames]))
+    times["(stages summed)"] = np.sum([times[name] for name in STAGES], axis=0)
+    return [
+        Row(
+            frame_set.name,
+            frame_set.resolution,
+            f"update: {name}",
+            codegen,
+            float(np.median(t) * 1e3),
+            float(np.percentile(t, 90) * 1e3),
+            points,
+            load_before,
+            load_after,
+        )
+        for name, t in times.items()
+    ]
+
+
 def measure(args: argparse.Namespace, codegen: str) -> list[Row]:
     """All requested frame sets in this process."""
     rows = []
     for name in args.sets:
         if name == "stage" and args.stage_files:
             for path in args.stage_files:
-                rows += time_interleaved(stage_frames(Path(path), args.frames), args.block, codegen)
+                frame_set = stage_frames(Path(path), args.frames)
+                rows += time_interleaved(frame_set, args.block, codegen)
+                rows += stage_breakdown(frame_set, codegen) if args.stages else []
             continue
         for width, height in RESOLUTIONS:
             if name == "stage":
@@ -285,6 +365,7 @@ def measure(args: argparse.Namespace, codegen: str) -> list[Row]:
             else:
                 frame_set = synthetic_frames(name, width, height, args.frames)
             rows += time_interleaved(frame_set, args.block, codegen)
+            rows += stage_breakdown(frame_set, codegen) if args.stages else []
     return rows
 
 
@@ -300,6 +381,8 @@ def run_child(args: argparse.Namespace, codegen: str, cache_dir: Path) -> list[R
     command += ["--block", str(args.block), "--recordings", args.recordings, "--sets", *args.sets]
     if args.stage_files:
         command += ["--stage-files", *args.stage_files]
+    if args.stages:
+        command += ["--stages"]
     out = subprocess.run(command, env=env, check=True, capture_output=True, text=True).stdout
     rows = []
     for line in out.splitlines():
@@ -361,6 +444,11 @@ def main() -> None:
         nargs="+",
         default=[],
         help="existing stage recordings to take the stage frames from (instead of recording)",
+    )
+    parser.add_argument(
+        "--stages",
+        action="store_true",
+        help="also time each stage of FloorObstacleMapper.update (module docstring)",
     )
     parser.add_argument("--child", choices=["host", "generic"], help=argparse.SUPPRESS)
     args = parser.parse_args()
