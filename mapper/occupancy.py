@@ -69,6 +69,17 @@ OUTSIDE = -1
 NONFINITE = -2
 BEYOND_RANGE = -3
 
+#: numba options of the small per-ray helpers that take only scalars (classification, slab
+#: tests, first crossings): compiled once each as functions of their own, not inlined into
+#: every kernel's numba IR (``inline="always"``), which compiled them again inside each caller
+#: and made `insert_frame_columns` the costliest compile of a cold start. LLVM still inlines
+#: them into the kernels (checked in the kernel's assembly: no call left; they take no arrays,
+#: so no reference counting at the call). `_clip_ray` and `_clip_ray_through` stay inlined in
+#: numba IR: compiled on their own LLVM kept them as calls (15 values returned through memory
+#: once a ray: the stage's insert 2.6 % slower). The kernels' flags (`fogsim.run.warmup` and
+#: its test: one flag set for every kernel, so that numba's overloads are compiled once).
+_SCALAR_HELPER = {"cache": True, "no_cfunc_wrapper": True, "nogil": True, "error_model": "numpy"}
+
 
 def mark_buffer_size(cell_count: int) -> int:
     """Bytes of the ``mark`` scratch of `insert_frame`: a hit and a miss bitset."""
@@ -129,7 +140,7 @@ def _clamped_cell(v: float, n: int) -> int:
     return int(min(max(v, 0.0), n - 1.0))
 
 
-@numba.njit(cache=True, inline="always")
+@numba.njit(**_SCALAR_HELPER)
 def grid_point(x, y, z, origin_x, origin_y, z_min, cell, layer, nx, ny, nz):
     """A world point [m] in grid units and its cell (numba, for kernels on the same grid).
 
@@ -167,7 +178,7 @@ def grid_point(x, y, z, origin_x, origin_y, z_min, cell, layer, nx, ny, nz):
     return (0 if inside else OUTSIDE), gx, gy, gz, ix, iy, iz
 
 
-@numba.njit(cache=True, inline="always")
+@numba.njit(**_SCALAR_HELPER)
 def _first_crossing(remaining: int, d: float, inv_d: float, s: float, c: int):
     """Ray parameter of the first cell-boundary crossing along one axis and its increment.
 
@@ -183,7 +194,7 @@ def _first_crossing(remaining: int, d: float, inv_d: float, s: float, c: int):
     return (c - s) * inv_d, -inv_d
 
 
-@numba.njit(cache=True, inline="always")
+@numba.njit(**_SCALAR_HELPER)
 def _slab_enter(t0: float, s: float, d: float, inv_d: float, upper: float) -> float:
     """Raise ``t0`` to where the segment ``s + t·d`` enters the slab ``[0, upper]`` (2: never)."""
     if d != 0.0:
@@ -238,7 +249,7 @@ def _clip_ray(ox, oy, oz, gx, gy, gz, ix, iy, iz, nx, ny, nz, free_margin, lengt
     return walk, sx, sy, sz, dx, dy, dz, inv_d, cx, cy, cz, ex, ey, ez, stop_cleared
 
 
-@numba.njit(cache=True, inline="always")
+@numba.njit(**_SCALAR_HELPER)
 def _slab_clip(t0: float, t1: float, s: float, d: float, inv_d: float, upper: float):
     """Narrow ``[t0, t1]`` to where the segment ``s + t·d`` lies in the slab ``[0, upper]``."""
     if d != 0.0:
@@ -288,7 +299,7 @@ def _clip_ray_through(ox, oy, oz, gx, gy, gz, nx, ny, nz, t_limit):
     return walk, sx, sy, sz, dx, dy, dz, inv_d, cx, cy, cz, ex, ey, ez, True
 
 
-@numba.njit(cache=True, inline="always")
+@numba.njit(**_SCALAR_HELPER)
 def _no_hit_limit(status: int, length: float, free_margin: float, max_range: float) -> float:
     """``t_limit`` of `_clip_ray_through`: the margin stop and, beyond range, the range."""
     t_limit = max_range / length if status == BEYOND_RANGE else 1.0
@@ -297,7 +308,7 @@ def _no_hit_limit(status: int, length: float, free_margin: float, max_range: flo
     return t_limit
 
 
-@numba.njit(cache=True, inline="always")
+@numba.njit(**_SCALAR_HELPER)
 def _classify(x, y, z, sensor_x, sensor_y, sensor_z, geometry, shape, need_length, max_range):
     """`grid_point` of a world point plus its range from the sensor [m].
 
