@@ -2279,3 +2279,37 @@ def floor_verdict(
             )
         )
     return is_floor
+
+
+@numba.njit(cache=True, no_cfunc_wrapper=True, nogil=True, error_model="numpy")
+def valid_depth(depth, min_depth_m, max_depth_m):
+    """The measured pixels of a depth image, in one pass.
+
+    Args:
+        depth: (H, W) depth [m] (NaN: none).
+        min_depth_m: depths below this are no measurement [m].
+        max_depth_m: depths above this are no measurement [m].
+
+    Returns:
+        (H, W) bool valid (within [min, max], NaN not), (H, W) depth with NaN where not valid,
+        (H, W) its inverse [1/m] (NaN there), (N,) the valid pixels' flat indices, ascending.
+    """
+    height, width = depth.shape
+    valid = np.empty((height, width), dtype=np.bool_)
+    masked = np.empty((height, width))
+    inverse = np.empty((height, width))
+    index = np.empty(height * width, dtype=np.int64)
+    n = 0
+    for r in range(height):
+        for c in range(width):
+            d = depth[r, c]
+            ok = d >= min_depth_m and d <= max_depth_m
+            valid[r, c] = ok
+            if ok:
+                masked[r, c] = d
+                index[n] = r * width + c
+                n += 1
+            else:
+                masked[r, c] = np.nan
+            inverse[r, c] = 1.0 / masked[r, c]
+    return valid, masked, inverse, index[:n].copy()

@@ -498,6 +498,8 @@ class SegmentationResult:
 
 
 _DEFAULT_PARAMS = SegmentationParams()
+_ORIGIN = np.zeros(3)
+"""(3,) zero: `tilt_kernels.rotate_points` about the origin."""
 
 
 def segment_depth(
@@ -533,15 +535,15 @@ def segment_depth(
     height, width = depth.shape
     pivot = transform[:3, 3].copy()
 
-    valid = (depth >= params.min_depth_m) & (depth <= params.max_depth_m)  # NaN → False
-    depth = np.where(valid, depth, np.nan)
-    pixel_index = np.flatnonzero(valid)
+    # NaN → invalid; depth NaN there, inv_depth its inverse.
+    valid, depth, inv_depth, pixel_index = scanline.valid_depth(
+        depth, params.min_depth_m, params.max_depth_m
+    )
     if pixel_index.size == 0:
         return _empty_result(pivot, transform, (height, width))
 
     x = (np.arange(width) - intrinsics.cx) / intrinsics.fx
     y = (np.arange(height) - intrinsics.cy) / intrinsics.fy
-    inv_depth = 1.0 / depth
     model_inv_sigma = (
         params.disparity_noise_px / (intrinsics.fx * params.stereo_baseline_m)
         if params.stereo_baseline_m > 0.0
@@ -639,7 +641,7 @@ def segment_depth(
         labels, grown_labels, pixel_index, keep
     )
     plane_table = plane_table[keep]
-    rotation = transform[:3, :3]
+    rotation = transform[:3, :3].copy()  # C order: one compiled version of the kernels
     rays_camera = intrinsics.ray_directions_camera().reshape(-1, 3)
     normals_camera, normals = _unit_normals(plane_table, rotation)
     centroids_camera, eigen, areas = scanline.plane_moments(
@@ -652,7 +654,7 @@ def segment_depth(
         intrinsics.fx,
         intrinsics.fy,
     )
-    centroids = centroids_camera @ rotation.T + pivot
+    centroids = tilt_kernels.rotate_points(centroids_camera, rotation, _ORIGIN, pivot, True)
     # RMS depth residual of the plane fit (inverse-depth residual scaled at the centroid).
     rms = np.sqrt(plane_table[:, 3]) * centroids_camera[:, 2] ** 2
     # The noise is never below min_noise_m (exact data: no plane is infinitely certain).
@@ -679,8 +681,8 @@ def segment_depth(
     correction = estimate_tilt(
         tilt_normals, 1.0 / normal_sigma_deg**2, eigen, counts, pivot, params
     )
-    centroids_c = (centroids - pivot) @ correction.rotation.T + pivot
-    normals_c = normals @ correction.rotation.T
+    centroids_c = tilt_kernels.rotate_points(centroids, correction.rotation, pivot, pivot, True)
+    normals_c = tilt_kernels.rotate_points(normals, correction.rotation, _ORIGIN, _ORIGIN, False)
     is_floor_shape = _floor_shape(normals_c, eigen, counts, params)
 
     # Floors: level regions grown with the horizontal model in the tilt-corrected frame.

@@ -331,3 +331,30 @@ def normal_sigma_deg(plane_table, correlation, min_inv_sigma):
         value = math.degrees(math.sqrt(across) / norm)
         sigma[p] = value if math.isfinite(value) else np.inf
     return sigma
+
+
+@numba.njit(cache=True, no_cfunc_wrapper=True, nogil=True, error_model="numpy")
+def rotate_points(points, rotation, before, after, shift):
+    """``(points − before)·rotationᵀ (+ after)``, the product as BLAS computes it (module doc).
+
+    Args:
+        points: (N, 3) points or directions.
+        rotation: (3, 3) the rotation.
+        before: (3,) subtracted first.
+        after: (3,) added last when ``shift`` (an added 0 would turn −0.0 into 0.0).
+        shift: add ``after``.
+
+    Returns:
+        (N, 3) the rotated points.
+    """
+    n = points.shape[0]
+    rotated = np.empty((n, 3))
+    single = n == 1
+    for i in range(n):
+        d0 = points[i, 0] - before[0]
+        d1 = points[i, 1] - before[1]
+        d2 = points[i, 2] - before[2]
+        for j in range(3):
+            value = _rotated(d0, d1, d2, rotation, j, single)
+            rotated[i, j] = value + after[j] if shift else value
+    return rotated
