@@ -26,6 +26,11 @@ from numba.extending import intrinsic
 __all__ = ["normal_sigma_deg", "tilt_variances", "turn_points", "unit_normals"]
 
 
+_START = np.int64(0)
+"""`_block_sum`'s start of a whole array: a numpy scalar, as the stack's starts (a literal 0 is
+a type of its own, and numba would compile `_block_sum` a second time for it)."""
+
+
 @intrinsic
 def _fma(typingctx, a, b, c):
     """``a·b + c`` rounded once (LLVM's ``llvm.fma.f64``: the FMA instruction, or libm's fma)."""
@@ -96,7 +101,7 @@ def _numpy_sum(values):
     """
     n = values.shape[0]
     if n <= 128:
-        return _block_sum(values, 0, n)
+        return _block_sum(values, _START, n)
     depth = 3 * 64  # three entries per level; the halving ends within 64 levels
     starts = np.empty(depth, dtype=np.int64)
     lengths = np.empty(depth, dtype=np.int64)
