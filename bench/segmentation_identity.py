@@ -3,7 +3,8 @@
 Replays each recording (``fogsim.run.runner.replay_report``, no pictures) once from every tree,
 in a child process with ``PYTHONPATH`` = the tree, and records for every ``segment_depth`` call
 (the pipeline's exact arguments) a SHA-256 digest of each field of its `SegmentationResult`
-(arrays: dtype, shape and bytes; nested tables field by field). Prints, per recording, the
+(arrays: dtype, shape and bytes; nested tables field by field), and of the tilt-filtered result
+the run maps. Prints, per recording, the
 frames compared and every frame and field that differ; exit 1 if any does.
 
 Run: ``.venv/bin/python bench/segmentation_identity.py --reference /work/wt-base
@@ -24,7 +25,7 @@ import tempfile
 from pathlib import Path
 
 ROOT = Path(__file__).resolve().parents[1]
-DEFAULT_RECORDINGS = ("/work/rec4/stage_depth_s1.npz", "/work/rec3/stage_stereo_s5.npz")
+DEFAULT_RECORDINGS = ("/work/rec/stage_depth_s1.npz", "/work/rec/stage_stereo_s5.npz")
 
 
 def field_digests(value: object, prefix: str = "") -> dict[str, str]:
@@ -47,12 +48,22 @@ def field_digests(value: object, prefix: str = "") -> dict[str, str]:
 
 
 def digest_recording(path: str) -> list[dict[str, str]]:
-    """Replay ``path`` and digest every segmentation result, in call order."""
+    """Replay ``path`` and digest every segmentation result, in call order, and the result the
+    run maps after the tilt filter (fields ``filtered.*``: `mapper.tilt_filter.apply_tilt`)."""
     from fogsim.data.recording import load_recording
+    from fogsim.mapping import segmenter
     from fogsim.run.runner import replay_report
     from mapper.segmentation import segment_depth
 
     digests: list[dict[str, str]] = []
+    unfiltered = segmenter.FrameSegmenter.__call__
+
+    def filtered(self, frame):
+        result = unfiltered(self, frame)
+        digests[-1].update(field_digests(result, "filtered."))
+        return result
+
+    segmenter.FrameSegmenter.__call__ = filtered
 
     def segment(depth_m, intrinsics, transform_camera_to_robot, params):
         result = segment_depth(depth_m, intrinsics, transform_camera_to_robot, params)

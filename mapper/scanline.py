@@ -2177,3 +2177,139 @@ def floor_points(
         for k in range(3):
             points[i, k] = origin[k] + d * rays[r, c, k]
     return points, heights
+
+
+@numba.njit(cache=True, no_cfunc_wrapper=True, nogil=True, error_model="numpy")
+def renumber_planes(labels, grown_labels, pixel_index, keep):
+    """Planes kept renumbered in creation order, in one pass over the image.
+
+    Args:
+        labels: (H, W) plane of each pixel after the fill (-1 none, -2 no measurement).
+        grown_labels: (H, W) the same before the fill (the grown segments only).
+        pixel_index: (N,) the valid pixels' indices into the flattened image.
+        keep: (P,) bool, the planes kept.
+
+    Returns:
+        (H, W) ``labels`` renumbered (a dissolved plane's pixels -1), (H, W) ``grown_labels``
+        renumbered, (N,) the valid pixels' renumbered labels and (N,) grown labels, and the
+        (K,) pixels of each kept plane (its valid pixels' labels).
+    """
+    n_planes = keep.shape[0]
+    new_id = np.full(n_planes, -1, dtype=np.int64)
+    n_kept = 0
+    for p in range(n_planes):
+        if keep[p]:
+            new_id[p] = n_kept
+            n_kept += 1
+    height, width = labels.shape
+    renumbered = np.empty((height, width), dtype=np.int64)
+    grown = np.empty((height, width), dtype=np.int64)
+    for r in range(height):
+        for c in range(width):
+            label = labels[r, c]
+            renumbered[r, c] = new_id[label] if label >= 0 else label
+            label = grown_labels[r, c]
+            grown[r, c] = new_id[label] if label >= 0 else label
+    n = pixel_index.shape[0]
+    plane_ids = np.empty(n, dtype=np.int64)
+    grown_ids = np.empty(n, dtype=np.int64)
+    counts = np.zeros(n_kept, dtype=np.int64)
+    for i in range(n):
+        r = pixel_index[i] // width
+        c = pixel_index[i] - r * width
+        plane_ids[i] = renumbered[r, c]
+        grown_ids[i] = grown[r, c]
+        if plane_ids[i] >= 0:
+            counts[plane_ids[i]] += 1
+    return renumbered, grown, plane_ids, grown_ids, counts
+
+
+@numba.njit(cache=True, no_cfunc_wrapper=True, nogil=True, error_model="numpy")
+def level_heights(floor_of_segment, seg_hsums, n_floors):
+    """(F,) each level region's height: its grown segments' weighted mean height [m].
+
+    ``Σ sums[:, 1] / Σ sums[:, 0]`` over the region's segments in segment order (as
+    ``np.bincount`` sums; `horizontal_sums` columns: weight, weighted height); NaN for a
+    region without segments.
+    """
+    weighted = np.zeros(n_floors)
+    weights = np.zeros(n_floors)
+    for i in range(floor_of_segment.shape[0]):
+        f = floor_of_segment[i]
+        if f >= 0:
+            weighted[f] += seg_hsums[i, 1]
+            weights[f] += seg_hsums[i, 0]
+    return weighted / weights
+
+
+@numba.njit(cache=True, no_cfunc_wrapper=True, nogil=True, error_model="numpy")
+def floor_verdict(
+    counts,
+    n_segments,
+    extents,
+    slope,
+    rms_ratio,
+    chi2,
+    min_pixels,
+    min_extent_m,
+    max_slope,
+    max_rms_ratio,
+    max_segment_chi2,
+):
+    """(F,) bool: the level regions that are floors (`mapper.segmentation.floor_regions`).
+
+    At least ``min_pixels`` pixels in 3 or more segments, a minor extent of ``min_extent_m``,
+    a slope of at most ``max_slope`` (tan), an RMS ratio of at most ``max_rms_ratio`` (0: no
+    test) and a segment χ² of at most ``max_segment_chi2·min(1 + 3·sqrt(2/dof), 2.5)``,
+    dof = max(segments − 3, 1) (0: no test).
+    """
+    n = counts.shape[0]
+    is_floor = np.empty(n, dtype=np.bool_)
+    for f in range(n):
+        dof = max(n_segments[f] - 3, 1)
+        is_floor[f] = (
+            counts[f] >= min_pixels
+            and n_segments[f] >= 3
+            and extents[f, 0] >= min_extent_m
+            and slope[f] <= max_slope
+            and (max_rms_ratio == 0.0 or rms_ratio[f] <= max_rms_ratio)
+            and (
+                max_segment_chi2 == 0.0
+                or chi2[f] <= max_segment_chi2 * min(1.0 + 3.0 * math.sqrt(2.0 / dof), 2.5)
+            )
+        )
+    return is_floor
+
+
+@numba.njit(cache=True, no_cfunc_wrapper=True, nogil=True, error_model="numpy")
+def valid_depth(depth, min_depth_m, max_depth_m):
+    """The measured pixels of a depth image, in one pass.
+
+    Args:
+        depth: (H, W) depth [m] (NaN: none).
+        min_depth_m: depths below this are no measurement [m].
+        max_depth_m: depths above this are no measurement [m].
+
+    Returns:
+        (H, W) bool valid (within [min, max], NaN not), (H, W) depth with NaN where not valid,
+        (H, W) its inverse [1/m] (NaN there), (N,) the valid pixels' flat indices, ascending.
+    """
+    height, width = depth.shape
+    valid = np.empty((height, width), dtype=np.bool_)
+    masked = np.empty((height, width))
+    inverse = np.empty((height, width))
+    index = np.empty(height * width, dtype=np.int64)
+    n = 0
+    for r in range(height):
+        for c in range(width):
+            d = depth[r, c]
+            ok = d >= min_depth_m and d <= max_depth_m
+            valid[r, c] = ok
+            if ok:
+                masked[r, c] = d
+                index[n] = r * width + c
+                n += 1
+            else:
+                masked[r, c] = np.nan
+            inverse[r, c] = 1.0 / masked[r, c]
+    return valid, masked, inverse, index[:n].copy()

@@ -58,7 +58,7 @@ from dataclasses import dataclass, fields, replace
 import numpy as np
 from numpy.typing import NDArray
 
-from mapper import scanline
+from mapper import scanline, tilt_kernels
 from mapper.errors import InvalidInputError, InvalidParameterError
 from mapper.intrinsics import PinholeIntrinsics
 from mapper.limits import MAX_COORDINATE_M, MAX_SEGMENTATION_PASSES, MAX_WINDOW_PX
@@ -498,6 +498,8 @@ class SegmentationResult:
 
 
 _DEFAULT_PARAMS = SegmentationParams()
+_ORIGIN = np.zeros(3)
+"""(3,) zero: `tilt_kernels.rotate_points` about the origin."""
 
 
 def segment_depth(
@@ -533,15 +535,15 @@ def segment_depth(
     height, width = depth.shape
     pivot = transform[:3, 3].copy()
 
-    valid = (depth >= params.min_depth_m) & (depth <= params.max_depth_m)  # NaN → False
-    depth = np.where(valid, depth, np.nan)
-    pixel_index = np.flatnonzero(valid)
+    # NaN → invalid; depth NaN there, inv_depth its inverse.
+    valid, depth, inv_depth, pixel_index = scanline.valid_depth(
+        depth, params.min_depth_m, params.max_depth_m
+    )
     if pixel_index.size == 0:
         return _empty_result(pivot, transform, (height, width))
 
     x = (np.arange(width) - intrinsics.cx) / intrinsics.fx
     y = (np.arange(height) - intrinsics.cy) / intrinsics.fy
-    inv_depth = 1.0 / depth
     model_inv_sigma = (
         params.disparity_noise_px / (intrinsics.fx * params.stereo_baseline_m)
         if params.stereo_baseline_m > 0.0
@@ -635,17 +637,11 @@ def segment_depth(
         )
     # Dissolve small or degenerate planes and renumber the rest in creation order.
     keep = (counts >= params.min_plane_pixels) & np.isfinite(plane_table[:, 0])
-    new_id = np.full(n_planes + 2, -1, dtype=np.int64)
-    new_id[:n_planes][keep] = np.arange(int(keep.sum()))
-    new_id[-2] = -2  # label -2: no measurement
-    # np.take, not fancy indexing: the same values in a fraction of the time.
-    labels = np.take(new_id, labels)
-    grown_ids = np.take(new_id, np.take(grown_labels, pixel_index))
-    plane_table, counts = plane_table[keep], counts[keep]
-
-    plane_ids = np.take(labels, pixel_index)
-    counts = np.bincount(plane_ids + 1, minlength=len(counts) + 1)[1:]
-    rotation = transform[:3, :3]
+    labels, refit_labels, plane_ids, grown_ids, counts = scanline.renumber_planes(
+        labels, grown_labels, pixel_index, keep
+    )
+    plane_table = plane_table[keep]
+    rotation = transform[:3, :3].copy()  # C order: one compiled version of the kernels
     rays_camera = intrinsics.ray_directions_camera().reshape(-1, 3)
     normals_camera, normals = _unit_normals(plane_table, rotation)
     centroids_camera, eigen, areas = scanline.plane_moments(
@@ -658,14 +654,13 @@ def segment_depth(
         intrinsics.fx,
         intrinsics.fy,
     )
-    centroids = centroids_camera @ rotation.T + pivot
+    centroids = tilt_kernels.rotate_points(centroids_camera, rotation, _ORIGIN, pivot, True)
     # RMS depth residual of the plane fit (inverse-depth residual scaled at the centroid).
     rms = np.sqrt(plane_table[:, 3]) * centroids_camera[:, 2] ** 2
     # The noise is never below min_noise_m (exact data: no plane is infinitely certain).
     min_inv_sigma = params.min_noise_m / centroids_camera[:, 2] ** 2
     # The tilt's normals come from the planes refitted on their interior pixels clear of the
     # range limit and (if on) without their outliers.
-    refit_labels = np.take(new_id, grown_labels)
     if params.plane_normal_margin_px > 0:
         interior = scanline.region_interior(refit_labels, params.plane_normal_margin_px)
         refit_labels = np.where(interior, refit_labels, -1)
@@ -686,8 +681,8 @@ def segment_depth(
     correction = estimate_tilt(
         tilt_normals, 1.0 / normal_sigma_deg**2, eigen, counts, pivot, params
     )
-    centroids_c = (centroids - pivot) @ correction.rotation.T + pivot
-    normals_c = normals @ correction.rotation.T
+    centroids_c = tilt_kernels.rotate_points(centroids, correction.rotation, pivot, pivot, True)
+    normals_c = tilt_kernels.rotate_points(normals, correction.rotation, _ORIGIN, _ORIGIN, False)
     is_floor_shape = _floor_shape(normals_c, eigen, counts, params)
 
     # Floors: level regions grown with the horizontal model in the tilt-corrected frame.
@@ -805,10 +800,7 @@ def floor_regions(origin, rays, points, sigma_z, depth, segments, intrinsics, pa
         np.isfinite(depth), seg_rows, seg_starts, seg_stops, floor_of_segment
     )
     labels = grown
-    member = floor_of_segment >= 0
-    grown_heights = np.bincount(
-        floor_of_segment[member], weights=sums[member, 1], minlength=n_floors
-    ) / np.bincount(floor_of_segment[member], weights=sums[member, 0], minlength=n_floors)
+    grown_heights = scanline.level_heights(floor_of_segment, sums, n_floors)
     if n_floors > 0 and params.fill_passes > 0:
         # Heights come from the grown segments only; the pixel fill adds labels.
         labels = grown.copy()
@@ -854,20 +846,18 @@ def floor_regions(origin, rays, points, sigma_z, depth, segments, intrinsics, pa
     chi2, n_segments = scanline.floor_segment_fit(
         sums, floor_of_segment, n_floors, params.floor_height_tolerance_m, params.min_plane_extent_m
     )
-    dof = np.maximum(n_segments - 3, 1)
-    is_floor = (
-        (counts >= params.min_plane_pixels)
-        & (n_segments >= 3)
-        & (extents[:, 0] >= params.min_plane_extent_m)
-        & (slope <= math.tan(math.radians(params.floor_max_normal_angle_deg)))
-        & ((params.floor_max_rms_ratio == 0.0) | (rms <= params.floor_max_rms_ratio))
-        & (
-            (params.floor_max_segment_chi2 == 0.0)
-            | (
-                chi2
-                <= params.floor_max_segment_chi2 * np.minimum(1.0 + 3.0 * np.sqrt(2.0 / dof), 2.5)
-            )
-        )
+    is_floor = scanline.floor_verdict(
+        counts,
+        n_segments,
+        extents,
+        slope,
+        rms,
+        chi2,
+        params.min_plane_pixels,
+        params.min_plane_extent_m,
+        math.tan(math.radians(params.floor_max_normal_angle_deg)),
+        params.floor_max_rms_ratio,
+        params.floor_max_segment_chi2,
     )
     floors = FloorTable(
         pixel_counts=counts,
@@ -913,9 +903,7 @@ def _unit_normals(
         (P, 3) in the camera frame; (P, 3) rotated by ``rotation`` (camera to robot) and
         turned to point up (z >= 0).
     """
-    normals_camera = plane_table[:, :3] / np.linalg.norm(plane_table[:, :3], axis=1)[:, None]
-    normals = normals_camera @ rotation.T
-    normals *= np.where(normals[:, 2] < 0.0, -1.0, 1.0)[:, None]
+    normals_camera, normals, _ = tilt_kernels.unit_normals(plane_table, rotation)
     return normals_camera, normals
 
 
@@ -934,19 +922,9 @@ def _normal_sigma_deg(plane_table, correlation, min_inv_sigma=None):
         correlation: the noise's variance inflation of means (≥ 1).
         min_inv_sigma: (P,) lower bound of each plane's inverse-depth noise [1/m] (None: 0).
     """
-    coefficients = plane_table[:, :3]
-    norm = np.linalg.norm(coefficients, axis=1)
-    unit = coefficients / norm[:, None]
-    variance = (
-        plane_table[:, 3]
-        if min_inv_sigma is None
-        else np.maximum(plane_table[:, 3], min_inv_sigma**2)
-    )
-    covariance = (correlation * variance)[:, None, None] * plane_table[:, 4:13].reshape(-1, 3, 3)
-    along = np.einsum("pi,pij,pj->p", unit, covariance, unit)
-    across = np.maximum(np.trace(covariance, axis1=1, axis2=2) - along, 0.0)
-    sigma = np.degrees(np.sqrt(across) / norm)
-    return np.where(np.isfinite(sigma), sigma, np.inf)
+    if min_inv_sigma is None:
+        min_inv_sigma = np.zeros(plane_table.shape[0])
+    return tilt_kernels.normal_sigma_deg(plane_table, float(correlation), min_inv_sigma)
 
 
 def _floor_shape(normals, eigen, counts, params: SegmentationParams) -> NDArray[np.bool_]:

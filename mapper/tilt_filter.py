@@ -37,14 +37,15 @@ two axes are filtered independently with the same gains.
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass, replace
+from dataclasses import dataclass
 
 import numpy as np
 from numpy.typing import NDArray
 
 from mapper.errors import InvalidParameterError
-from mapper.pose_correction import rotation_to_vertical, within_deg_of_vertical
-from mapper.segmentation import SegmentationParams, SegmentationResult
+from mapper.pose_correction import PoseCorrection, rotation_to_vertical
+from mapper.segmentation import FloorTable, SegmentationParams, SegmentationResult
+from mapper.tilt_kernels import tilt_variances, turn_points
 
 __all__ = [
     "TiltEstimate",
@@ -196,39 +197,24 @@ def measured_tilt(
     planes = result.planes
     if correction.tilt_planes == 0 or len(planes) == 0:
         return None, math.inf
-    counts = planes.pixel_counts
-    used = np.flatnonzero(result.plane_ids >= 0)
-    ids = result.plane_ids[used]
-    sums = np.stack(
-        [np.bincount(ids, weights=result.points[used, j], minlength=len(planes)) for j in range(3)],
-        axis=1,
-    )
-    rays = sums / np.maximum(counts, 1)[:, None] - correction.pivot_m
-    rays /= np.linalg.norm(rays, axis=1)[:, None]
-    normals = planes.normals
-    minor, major = planes.extents_m[:, 0], planes.extents_m[:, 1]
-    perpendicular_m = np.maximum(planes.rms_m, params.min_noise_m) * np.abs(
-        np.einsum("pi,pi->p", rays, normals)
-    )
-    with np.errstate(divide="ignore", invalid="ignore"):
-        variance = (
-            params.noise_correlation_factor
-            * perpendicular_m**2
-            * 12.0
-            / counts
-            * (1.0 / minor**2 + 1.0 / major**2)
-        )
-    consensus = (
-        within_deg_of_vertical(normals, params.tilt_consensus_deg)
-        & (counts >= params.min_plane_pixels)
-        & (minor >= params.min_plane_extent_m)
-        & np.isfinite(variance)
-        & (variance > 0.0)
+    _, consensus, information = tilt_variances(
+        result.points,
+        result.plane_ids,
+        planes.pixel_counts,
+        correction.pivot_m,
+        planes.normals,
+        planes.rms_m,
+        planes.extents_m,
+        params.min_noise_m,
+        params.noise_correlation_factor,
+        params.min_plane_pixels,
+        params.min_plane_extent_m,
+        math.cos(math.radians(params.tilt_consensus_deg)),
     )
     if not consensus.any():
         return None, math.inf
     up = correction.rotation.T @ np.array([0.0, 0.0, 1.0])
-    sigma = 1.0 / math.sqrt(float((1.0 / variance[consensus]).sum()) * 2.0)
+    sigma = 1.0 / math.sqrt(information * 2.0)
     return up[:2].copy(), sigma
 
 
@@ -249,26 +235,36 @@ def apply_tilt(result: SegmentationResult, tilt_rad: NDArray[np.float64]) -> Seg
     turn = rotation @ correction.rotation.T
     shift = np.array([0.0, 0.0, correction.z_shift_m])
     origin = correction.pivot_m + shift
-    points = (result.points - origin) @ turn.T + origin
-    dz = points[:, 2] - result.points[:, 2]
     floors = result.floors
-    in_floor = np.flatnonzero(result.floor_ids >= 0)
-    region = result.floor_ids[in_floor]
-    counts = np.bincount(region, minlength=len(floors))
-    region_dz = np.bincount(region, weights=dz[in_floor], minlength=len(floors)) / np.maximum(
-        counts, 1
+    points, floor_heights, region_dz = turn_points(
+        result.points, result.floor_ids, result.floor_heights, turn, origin, len(floors)
     )
-    new_correction = replace(correction, rotation=rotation)
     step = np.eye(4)
     step[:3, :3] = turn
     step[:3, 3] = origin - turn @ origin
-    floor_heights = result.floor_heights.copy()
-    floor_heights[in_floor] += region_dz[region]
-    return replace(
-        result,
+    # The dataclasses made directly: `dataclasses.replace` looks their fields up on every call.
+    return SegmentationResult(
         points=points,
         floor_heights=floor_heights,
-        correction=new_correction,
-        floors=replace(floors, heights_m=floors.heights_m + region_dz),
+        plane_ids=result.plane_ids,
+        floor_ids=result.floor_ids,
+        pixel_index=result.pixel_index,
+        correction=PoseCorrection(
+            rotation,
+            correction.pivot_m,
+            correction.z_shift_m,
+            correction.ground_plane_found,
+            correction.tilt_planes,
+        ),
+        planes=result.planes,
+        floors=FloorTable(
+            pixel_counts=floors.pixel_counts,
+            heights_m=floors.heights_m + region_dz,
+            extents_m=floors.extents_m,
+            areas_m2=floors.areas_m2,
+            rms_ratio=floors.rms_ratio,
+            is_floor=floors.is_floor,
+        ),
+        image_shape=result.image_shape,
         transform_camera_to_robot=step @ result.transform_camera_to_robot,
     )

@@ -67,6 +67,7 @@ import mapper.grid
 import mapper.heading
 import mapper.occupancy
 import mapper.scanline
+import mapper.tilt_kernels
 import mapper.zmatch
 from fogsim.config import RunParams
 from fogsim.data.frame import Frame
@@ -77,6 +78,7 @@ from mapper import AveragingMap, FloorObstacleMapper, SegmentationParams
 from mapper.heading import heading_scores
 from mapper.intrinsics import PinholeIntrinsics
 from mapper.segmentation import floor_regions, segment_depth
+from mapper.tilt_filter import apply_tilt, measured_tilt
 from mapper.transforms import apply_transform
 
 MESSAGE = "compiling kernels (first run only)"
@@ -129,6 +131,8 @@ _FLOOR_KERNELS = (
     mapper.scanline.region_interior,
     mapper.scanline.floor_statistics,
     mapper.scanline.floor_segment_fit,
+    mapper.scanline.level_heights,
+    mapper.scanline.floor_verdict,
     mapper.scanline.floor_points,
 )
 """The segmentation's last stage (level regions and the floor points) and what it calls."""
@@ -138,9 +142,11 @@ FLOOR_REGIONS = KernelGroup("floor regions", _FLOOR_KERNELS)
 points (the scan-line kernels it shares with the planes stage are the helper's)."""
 
 SEGMENTATION = KernelGroup(
-    "segmentation", tuple(k for k in _kernels(mapper.scanline) if k not in _FLOOR_KERNELS)
+    "segmentation",
+    tuple(k for k in _kernels(mapper.scanline, mapper.tilt_kernels) if k not in _FLOOR_KERNELS),
 )
-"""The rest of the depth-image segmentation's scan-line kernels: noise, row segments, planes."""
+"""The rest of the depth-image segmentation's scan-line kernels: noise, row segments, planes;
+and the tilt correction's (the planes' normals, the tilt filter's measurement and turn)."""
 
 MAPPER = KernelGroup(
     "mapper",
@@ -341,13 +347,19 @@ def _floor_depth_m(transform_camera_to_world: NDArray[np.float64]) -> NDArray[np
 
 
 def _segment(frame: Frame, params: RunParams) -> None:
-    """Segment ``frame`` with the parameters the run's pipeline segments with."""
-    segment_depth(
+    """Segment ``frame`` as the run's pipeline does, and measure and apply its tilt.
+
+    The tilt as the tilt filter measures and applies it (`mapper.tilt_filter`).
+    """
+    segmentation_params = Pipeline(params).segmentation_params
+    result = segment_depth(
         frame.depth_m,
         frame.intrinsics,
         frame.transform_camera_to_robot_believed,
-        Pipeline(params).segmentation_params,
+        segmentation_params,
     )
+    measured, _ = measured_tilt(result, segmentation_params)
+    apply_tilt(result, np.zeros(2) if measured is None else measured)
 
 
 def _floors(frame: Frame, params: SegmentationParams) -> None:

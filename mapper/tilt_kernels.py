@@ -1,0 +1,365 @@
+"""Numba kernels of the tilt correction: the per-point and per-plane numerics without the GIL.
+
+The segmentation runs on a second thread beside the mapping (``fogsim.mapping.prefetch``);
+numpy on small arrays holds the GIL between its calls, so these kernels (``nogil``) do the
+tilt filter's work on the points (`turn_points`, `tilt_variances`) and the planes' normals
+(`unit_normals`, `normal_sigma_deg`) in one pass each instead of a dozen numpy calls.
+
+Bit for bit the numpy versions they replace: the same operations in the same order, numpy's
+sums emulated where their order is not a plain loop (`_numpy_sum`: numpy's pairwise sum of a
+1-D array), and the one matrix product on every point ``(points − origin)·turnᵀ``, which numpy
+hands to BLAS, as OpenBLAS's double kernels compute it: each element a chain of fused
+multiply-adds over the three products (`_rotated`, `_fma`; checked equal to numpy's ``@`` by
+``tests/test_tilt_kernels.py``: a BLAS that sums otherwise would differ in the last bit).
+"""
+
+from __future__ import annotations
+
+import math
+
+import numba
+import numpy as np
+from llvmlite import ir
+from numba import types
+from numba.extending import intrinsic
+
+__all__ = ["normal_sigma_deg", "tilt_variances", "turn_points", "unit_normals"]
+
+
+_START = np.int64(0)
+"""`_block_sum`'s start of a whole array: a numpy scalar, as the stack's starts (a literal 0 is
+a type of its own, and numba would compile `_block_sum` a second time for it)."""
+
+
+@intrinsic
+def _fma(typingctx, a, b, c):
+    """``a·b + c`` rounded once (LLVM's ``llvm.fma.f64``: the FMA instruction, or libm's fma)."""
+    sig = types.float64(types.float64, types.float64, types.float64)
+
+    def codegen(context, builder, signature, args):
+        double = ir.DoubleType()
+        function = builder.module.declare_intrinsic(
+            "llvm.fma", [double], ir.FunctionType(double, [double, double, double])
+        )
+        return builder.call(function, args)
+
+    return sig, codegen
+
+
+@numba.njit(cache=True, no_cfunc_wrapper=True, nogil=True, error_model="numpy")
+def _rotated(v0, v1, v2, rotation, j, single):
+    """Element ``j`` of ``rotation·v`` as numpy's ``rows @ rotation.T`` gives it (OpenBLAS).
+
+    Several rows (dgemm): ``fma(v2, r2, fma(v1, r1, v0·r0))``; a single row (dgemv):
+    ``fma(v2, r2, fma(v0, r0, v1·r1))``, ``r = rotation[j]``.
+    """
+    if single:
+        return _fma(v2, rotation[j, 2], _fma(v0, rotation[j, 0], v1 * rotation[j, 1]))
+    return _fma(v2, rotation[j, 2], _fma(v1, rotation[j, 1], v0 * rotation[j, 0]))
+
+
+@numba.njit(cache=True, no_cfunc_wrapper=True, nogil=True, error_model="numpy")
+def _block_sum(values, start, n):
+    """The pairwise sum numpy takes of ``values[start:start + n]`` for n ≤ 128.
+
+    A plain loop below 8 values, else 8 accumulators, combined pairwise, and the rest added one
+    by one.
+    """
+    if n < 8:
+        total = 0.0
+        for i in range(start, start + n):
+            total += values[i]
+        return total
+    r0, r1, r2, r3 = values[start], values[start + 1], values[start + 2], values[start + 3]
+    r4, r5, r6, r7 = values[start + 4], values[start + 5], values[start + 6], values[start + 7]
+    i = 8
+    while i < n - n % 8:
+        k = start + i
+        r0 += values[k]
+        r1 += values[k + 1]
+        r2 += values[k + 2]
+        r3 += values[k + 3]
+        r4 += values[k + 4]
+        r5 += values[k + 5]
+        r6 += values[k + 6]
+        r7 += values[k + 7]
+        i += 8
+    total = ((r0 + r1) + (r2 + r3)) + ((r4 + r5) + (r6 + r7))
+    while i < n:
+        total += values[start + i]
+        i += 1
+    return total
+
+
+@numba.njit(cache=True, no_cfunc_wrapper=True, nogil=True, error_model="numpy")
+def _numpy_sum(values):
+    """``np.sum`` of a 1-D float64 array, bit for bit.
+
+    numpy's pairwise sum: above 128 values the halves (the first a multiple of 8 long) summed
+    and added. Done with a stack, not recursion (a recursive kernel crashed when loaded from
+    numba's cache).
+    """
+    n = values.shape[0]
+    if n <= 128:
+        return _block_sum(values, _START, n)
+    depth = 3 * 64  # three entries per level; the halving ends within 64 levels
+    starts = np.empty(depth, dtype=np.int64)
+    lengths = np.empty(depth, dtype=np.int64)
+    combine = np.empty(depth, dtype=np.bool_)
+    partial = np.empty(depth)
+    tasks = 0
+    results = 0
+    starts[0], lengths[0], combine[0] = 0, n, False
+    tasks = 1
+    while tasks > 0:
+        tasks -= 1
+        start, length = starts[tasks], lengths[tasks]
+        if combine[tasks]:
+            results -= 1
+            partial[results - 1] = partial[results - 1] + partial[results]
+        elif length <= 128:
+            partial[results] = _block_sum(values, start, length)
+            results += 1
+        else:
+            half = length // 2
+            half -= half % 8
+            # Done in reverse order: the first half, the second, then their sum.
+            starts[tasks], lengths[tasks], combine[tasks] = start, length, True
+            starts[tasks + 1], lengths[tasks + 1], combine[tasks + 1] = (
+                start + half,
+                length - half,
+                False,
+            )
+            starts[tasks + 2], lengths[tasks + 2], combine[tasks + 2] = start, half, False
+            tasks += 3
+    return partial[0]
+
+
+@numba.njit(cache=True, no_cfunc_wrapper=True, nogil=True, error_model="numpy")
+def turn_points(points, floor_ids, floor_heights, turn, origin, n_floors):
+    """Points turned about ``origin`` and their floor regions' heights moved with them.
+
+    ``(points − origin)·turnᵀ + origin`` (the product as BLAS computes it, module doc); each
+    floor region's height moves by the mean z change of its points (sums in point order, as
+    ``np.bincount``), and every floor point's floor height with it.
+
+    Args:
+        points: (N, 3) points [m] (robot frame).
+        floor_ids: (N,) floor region of each point (-1: none).
+        floor_heights: (N,) floor height of each point [m] (NaN: not floor).
+        turn: (3, 3) the rotation.
+        origin: (3,) the point turned about [m].
+        n_floors: number of floor regions.
+
+    Returns:
+        (N, 3) turned points [m], (N,) their floor heights [m], (n_floors,) each region's
+        height change [m] (0 for a region without points).
+    """
+    n = points.shape[0]
+    turned = np.empty((n, 3))
+    dz_sums = np.zeros(n_floors)
+    counts = np.zeros(n_floors, dtype=np.int64)
+    o0, o1, o2 = origin[0], origin[1], origin[2]
+    single = n == 1
+    for i in range(n):
+        d0 = points[i, 0] - o0
+        d1 = points[i, 1] - o1
+        d2 = points[i, 2] - o2
+        for j in range(3):
+            turned[i, j] = _rotated(d0, d1, d2, turn, j, single) + origin[j]
+        region = floor_ids[i]
+        if region >= 0:
+            dz_sums[region] += turned[i, 2] - points[i, 2]
+            counts[region] += 1
+    region_dz = np.empty(n_floors)
+    for region in range(n_floors):
+        region_dz[region] = dz_sums[region] / max(counts[region], 1)
+    heights = floor_heights.copy()
+    for i in range(n):
+        region = floor_ids[i]
+        if region >= 0:
+            heights[i] += region_dz[region]
+    return turned, heights, region_dz
+
+
+@numba.njit(cache=True, no_cfunc_wrapper=True, nogil=True, error_model="numpy")
+def tilt_variances(
+    points,
+    plane_ids,
+    counts,
+    pivot,
+    normals,
+    rms_m,
+    extents_m,
+    min_noise_m,
+    correlation,
+    min_plane_pixels,
+    min_extent_m,
+    min_normal_z,
+):
+    """Each plane's normal variance and whether it is in the tilt's consensus.
+
+    `mapper.tilt_filter.measured_tilt`'s per-plane part: the ray to each plane's centroid
+    (mean of its points, from ``pivot``), the RMS residual (at least ``min_noise_m``)
+    projected on the normal along it, ``σ_p² = c·σ⊥²·12/n·(1/a² + 1/b²)``; a plane is in the
+    consensus when its normal's |z| is at least ``min_normal_z``, it has ``min_plane_pixels``
+    pixels, a minor extent of ``min_extent_m`` and a finite positive variance.
+
+    Args:
+        points: (N, 3) the frame's corrected points [m].
+        plane_ids: (N,) plane of each point (-1: none).
+        counts: (P,) pixels of each plane.
+        pivot: (3,) the correction's pivot (camera centre) [m].
+        normals: (P, 3) unit normals (corrected frame).
+        rms_m: (P,) RMS depth residuals [m].
+        extents_m: (P, 2) in-plane extents, minor first [m].
+        min_noise_m: lower bound of the residual [m].
+        correlation: the noise's variance inflation of means (≥ 1).
+        min_plane_pixels: fewest pixels of a consensus plane.
+        min_extent_m: smallest minor extent of a consensus plane [m].
+        min_normal_z: cos of ``tilt_consensus_deg``.
+
+    Returns:
+        (P,) variances [rad²] (inf or NaN for a degenerate plane), (P,) bool consensus, and
+        the sum of the consensus planes' information ``Σ 1/σ_p²`` (numpy's summation order).
+    """
+    n_planes = counts.shape[0]
+    sums = np.zeros((n_planes, 3))
+    for i in range(plane_ids.shape[0]):
+        plane = plane_ids[i]
+        if plane >= 0:
+            sums[plane, 0] += points[i, 0]
+            sums[plane, 1] += points[i, 1]
+            sums[plane, 2] += points[i, 2]
+    variance = np.empty(n_planes)
+    consensus = np.zeros(n_planes, dtype=np.bool_)
+    information = np.empty(n_planes)
+    n_consensus = 0
+    for p in range(n_planes):
+        pixels = max(counts[p], 1)
+        r0 = sums[p, 0] / pixels - pivot[0]
+        r1 = sums[p, 1] / pixels - pivot[1]
+        r2 = sums[p, 2] / pixels - pivot[2]
+        norm = math.sqrt(r0 * r0 + r1 * r1 + r2 * r2)
+        r0 /= norm
+        r1 /= norm
+        r2 /= norm
+        residual = rms_m[p] if not rms_m[p] < min_noise_m else min_noise_m  # NaN stays NaN
+        # np.einsum("pi,pi->p") of 3-vectors sums in two lanes: (x0·y0 + x2·y2) + x1·y1.
+        along_ray = (r0 * normals[p, 0] + r2 * normals[p, 2]) + r1 * normals[p, 1]
+        perpendicular = residual * abs(along_ray)
+        minor = extents_m[p, 0]
+        major = extents_m[p, 1]
+        v = (
+            correlation
+            * (perpendicular * perpendicular)
+            * 12.0
+            / counts[p]
+            * (1.0 / (minor * minor) + 1.0 / (major * major))
+        )
+        variance[p] = v
+        if (
+            abs(normals[p, 2]) >= min_normal_z
+            and counts[p] >= min_plane_pixels
+            and minor >= min_extent_m
+            and math.isfinite(v)
+            and v > 0.0
+        ):
+            consensus[p] = True
+            information[n_consensus] = 1.0 / v
+            n_consensus += 1
+    return variance, consensus, _numpy_sum(information[:n_consensus])
+
+
+@numba.njit(cache=True, no_cfunc_wrapper=True, nogil=True, error_model="numpy")
+def unit_normals(coefficients, rotation):
+    """Unit normals of planes ``(A, B, C)`` in the camera frame and turned up in the robot's.
+
+    Args:
+        coefficients: (P, ≥3) plane table, the normal's direction in its first 3 columns.
+        rotation: (3, 3) camera to robot rotation.
+
+    Returns:
+        (P, 3) unit normals in the camera frame, (P, 3) rotated by ``rotation`` (the product as
+        BLAS computes it, module doc) and turned to point up (z ≥ 0), (P,) the norms of
+        ``(A, B, C)``.
+    """
+    n = coefficients.shape[0]
+    camera = np.empty((n, 3))
+    robot = np.empty((n, 3))
+    norms = np.empty(n)
+    single = n == 1
+    for p in range(n):
+        a, b, c = coefficients[p, 0], coefficients[p, 1], coefficients[p, 2]
+        norm = math.sqrt(a * a + b * b + c * c)
+        norms[p] = norm
+        u0, u1, u2 = a / norm, b / norm, c / norm
+        camera[p, 0], camera[p, 1], camera[p, 2] = u0, u1, u2
+        for j in range(3):
+            robot[p, j] = _rotated(u0, u1, u2, rotation, j, single)
+        sign = -1.0 if robot[p, 2] < 0.0 else 1.0
+        for j in range(3):
+            robot[p, j] *= sign
+    return camera, robot, norms
+
+
+@numba.njit(cache=True, no_cfunc_wrapper=True, nogil=True, error_model="numpy")
+def normal_sigma_deg(plane_table, correlation, min_inv_sigma):
+    """Standard deviation of each plane's normal direction [deg] from its inverse-depth fit.
+
+    `mapper.segmentation._normal_sigma_deg` (its doc) in one pass: the fit's covariance
+    ``c·max(s², min_inv_sigma²)·M⁻¹``, its part across the normal ``tr(C) − uᵀCu`` (clipped
+    at 0), ``sqrt(·)/|(A, B, C)|`` in degrees; inf where that is not finite.
+
+    Args:
+        plane_table: (P, 13) `mapper.scanline.plane_fits` table.
+        correlation: the noise's variance inflation of means (≥ 1).
+        min_inv_sigma: (P,) lower bound of each plane's inverse-depth noise [1/m].
+    """
+    n = plane_table.shape[0]
+    sigma = np.empty(n)
+    for p in range(n):
+        a, b, c = plane_table[p, 0], plane_table[p, 1], plane_table[p, 2]
+        norm = math.sqrt(a * a + b * b + c * c)
+        unit = (a / norm, b / norm, c / norm)
+        floor = min_inv_sigma[p] * min_inv_sigma[p]
+        s2 = plane_table[p, 3]
+        variance = s2 if s2 >= floor else (floor if floor > s2 else np.nan)  # as np.maximum
+        scale = correlation * variance
+        along = 0.0
+        for i in range(3):
+            for j in range(3):
+                along += unit[i] * (scale * plane_table[p, 4 + 3 * i + j]) * unit[j]
+        trace = (scale * plane_table[p, 4] + scale * plane_table[p, 8]) + scale * plane_table[p, 12]
+        across = trace - along
+        across = across if not across < 0.0 else 0.0
+        value = math.degrees(math.sqrt(across) / norm)
+        sigma[p] = value if math.isfinite(value) else np.inf
+    return sigma
+
+
+@numba.njit(cache=True, no_cfunc_wrapper=True, nogil=True, error_model="numpy")
+def rotate_points(points, rotation, before, after, shift):
+    """``(points − before)·rotationᵀ (+ after)``, the product as BLAS computes it (module doc).
+
+    Args:
+        points: (N, 3) points or directions.
+        rotation: (3, 3) the rotation.
+        before: (3,) subtracted first.
+        after: (3,) added last when ``shift`` (an added 0 would turn −0.0 into 0.0).
+        shift: add ``after``.
+
+    Returns:
+        (N, 3) the rotated points.
+    """
+    n = points.shape[0]
+    rotated = np.empty((n, 3))
+    single = n == 1
+    for i in range(n):
+        d0 = points[i, 0] - before[0]
+        d1 = points[i, 1] - before[1]
+        d2 = points[i, 2] - before[2]
+        for j in range(3):
+            value = _rotated(d0, d1, d2, rotation, j, single)
+            rotated[i, j] = value + after[j] if shift else value
+    return rotated
