@@ -72,9 +72,12 @@ def _at_narrow_rise(
     It does when, along x or y, its neighbour's stored floor ``t`` is more than ``band`` above
     ``h`` and, within ``cells`` cells beyond that neighbour, the stored floors (cells without
     one skipped) drop again more than ``band`` below ``t`` before any other height than
-    ``t ± band`` is met: a raised surface at most ``cells`` cells deep in that direction (a
-    sill, a low box), whose both edges — one of them possibly inside this cell — lie within
-    that distance. ``floor`` is the stored floor map (labels not used), read directly: the
+    ``t ± band`` is met, after at least two cells within ``t ± band``: a raised surface two to
+    ``cells`` cells deep in that direction (a sill, a low box), whose both edges — one of them
+    possibly inside this cell — lie within that distance. A single cell is no such surface:
+    it is a tread's points spilled a cell over the riser (stage depth seed 7: a 92 mm cell
+    in step_2's last row cost that tread's cells beside it), which the rim rule leaves
+    unknown. ``floor`` is the stored floor map (labels not used), read directly: the
     grid is small and the scan short (module note in `_label` on helpers taking the maps).
     """
     nx, ny = floor.shape
@@ -87,6 +90,7 @@ def _at_narrow_rise(
         top = floor[jx, jy]
         if not top > h + band:  # NaN: never
             continue
+        deep = 1  # cells of the raised surface met, its neighbour the first
         for k in range(2, cells + 2):
             cx, cy = ix + k * dx, iy + k * dy
             if cx < 0 or cx >= nx or cy < 0 or cy >= ny:
@@ -95,9 +99,12 @@ def _at_narrow_rise(
             if np.isnan(v):
                 continue
             if v < top - band:
-                return True
+                if deep >= 2:
+                    return True
+                break
             if v > top + band:
                 break
+            deep += 1
     return False
 
 

@@ -363,7 +363,7 @@ class MapperParams:
     @property
     def narrow_rise_cells(self) -> int:
         """`narrow_rise_m` in whole cells (floored; 0 = off), as the FOG reads it."""
-        return int(math.floor(self.narrow_rise_m / self.cell_m + 1e-9))
+        return math.floor(self.narrow_rise_m / self.cell_m + 1e-9)
 
     @property
     def cell_count(self) -> int:
