@@ -29,6 +29,13 @@ Conventions (heights in world metres, NaN = invalid):
   surface, so the cell an edge crosses takes the higher floor's height: the higher side's rim
   is the unsafe one, the lower side's cell at the riser's foot is floor or (by the layer rule)
   an obstacle.
+- Beyond the paper, with the band, a floor at the foot of a narrow rise is unknown too
+  (`MapperParams.narrow_rise_m`): its neighbour along x or y is a floor more than the band
+  above it on a surface two to n cells deep that drops again beyond (a sill, a low box). The
+  lower side's cell may hold the riser as well (a sill's far edge cell: 1 cm of sill, 3 cm of
+  ground), and its points do not tell (the higher surface spills a quarter of a cell's points
+  over a riser on the cell boundary too); a walker steps over such a rise, so only there are
+  both sides given up, never at the foot of a tread that leads to a higher one.
 - ``Ceiling(x, y)`` is the *bottom face* of the lowest occupied cell above the free space a
   robot could use: where the floor is valid, the lowest occupied cell whose top is above
   ``h_f + δ`` (the cells the FOG counts as obstacle); where it is not, the lowest occupied cell
