@@ -29,6 +29,13 @@ Conventions (heights in world metres, NaN = invalid):
   surface, so the cell an edge crosses takes the higher floor's height: the higher side's rim
   is the unsafe one, the lower side's cell at the riser's foot is floor or (by the layer rule)
   an obstacle.
+- Beyond the paper, with the band, a floor at the foot of a narrow rise is unknown too
+  (`MapperParams.narrow_rise_m`): its neighbour along x or y is a floor more than the band
+  above it on a surface two to n cells deep that drops again beyond (a sill, a low box). The
+  lower side's cell may hold the riser as well (a sill's far edge cell: 1 cm of sill, 3 cm of
+  ground), and its points do not tell (the higher surface spills a quarter of a cell's points
+  over a riser on the cell boundary too); a walker steps over such a rise, so only there are
+  both sides given up, never at the foot of a tread that leads to a higher one.
 - ``Ceiling(x, y)`` is the *bottom face* of the lowest occupied cell above the free space a
   robot could use: where the floor is valid, the lowest occupied cell whose top is above
   ``h_f + δ`` (the cells the FOG counts as obstacle); where it is not, the lowest occupied cell
@@ -61,6 +68,51 @@ def _highest_within(obstacle: NDArray[np.float64], ix: int, iy: int, margin: int
             if near > highest:  # NaN: never
                 highest = near
     return highest
+
+
+@numba.njit(cache=True, inline="always")
+def _at_narrow_rise(
+    floor: NDArray[np.float64], ix: int, iy: int, h: float, band: float, cells: int
+) -> bool:
+    """Whether the floor ``h`` at ``(ix, iy)`` lies at the foot of a narrow raised surface.
+
+    It does when, along x or y, its neighbour's stored floor ``t`` is more than ``band`` above
+    ``h`` and, within ``cells`` cells beyond that neighbour, the stored floors (cells without
+    one skipped) drop again more than ``band`` below ``t`` before any other height than
+    ``t ± band`` is met, after at least two cells within ``t ± band``: a raised surface two to
+    ``cells`` cells deep in that direction (a sill, a low box), whose both edges — one of them
+    possibly inside this cell — lie within that distance. A single cell is no such surface:
+    it is a tread's points spilled a cell over the riser (stage depth seed 7: a 92 mm cell
+    in step_2's last row cost that tread's cells beside it), which the rim rule leaves
+    unknown. ``floor`` is the stored floor map (labels not used), read directly: the
+    grid is small and the scan short (module note in `_label` on helpers taking the maps).
+    """
+    nx, ny = floor.shape
+    for d in range(4):
+        dx = 1 if d == 0 else (-1 if d == 1 else 0)
+        dy = 1 if d == 2 else (-1 if d == 3 else 0)
+        jx, jy = ix + dx, iy + dy
+        if jx < 0 or jx >= nx or jy < 0 or jy >= ny:
+            continue
+        top = floor[jx, jy]
+        if not top > h + band:  # NaN: never
+            continue
+        deep = 1  # cells of the raised surface met, its neighbour the first
+        for k in range(2, cells + 2):
+            cx, cy = ix + k * dx, iy + k * dy
+            if cx < 0 or cx >= nx or cy < 0 or cy >= ny:
+                break
+            v = floor[cx, cy]
+            if np.isnan(v):
+                continue
+            if v < top - band:
+                if deep >= 2:
+                    return True
+                break
+            if v > top + band:
+                break
+            deep += 1
+    return False
 
 
 @numba.njit(cache=True, inline="always")
@@ -109,6 +161,7 @@ def update_fog_area(
     margin: int = 0,
     band: float = 0.0,
     beside_obstacles: bool = False,
+    rise_cells: int = 0,
 ) -> None:
     """Recompute ``obstacle`` (eq. 10) and the FOG (eq. 11) in ``[ix0, ix1) × [iy0, iy1)``.
 
@@ -128,6 +181,10 @@ def update_fog_area(
     holds banded labels), so the result does not depend on the order of the cells; the FOG is
     recomputed ``m + 2`` cells beyond the area (whether a neighbour is a higher floor's edge,
     or a shadow, depends on the maps within a cell of it).
+
+    With ``band`` > 0 and ``rise_cells`` n > 0 (`MapperParams.narrow_rise_m`) a floor is
+    unknown at the foot of a narrow raised surface too (`_at_narrow_rise`): the FOG is then
+    recomputed at least ``n + 1`` cells beyond the area, as far as that test reads ``floor``.
     """
     nx, ny, nz = og.shape
     for ix in range(ix0, ix1):
@@ -140,6 +197,9 @@ def update_fog_area(
     # The cells recomputed, and around them (with the band) their neighbours' labels.
     banded = band > 0.0 or beside_obstacles
     ring = margin + (2 if banded else 0)
+    rise = rise_cells if band > 0.0 else 0
+    if rise > 0:
+        ring = max(ring, rise + 1)
     reach = ring + 2 if banded else ring
     wx0, wx1 = max(ix0 - reach, 0), min(ix1 + reach, nx)
     wy0, wy1 = max(iy0 - reach, 0), min(iy1 + reach, ny)
@@ -195,6 +255,8 @@ def update_fog_area(
                     for kj in range(max(j - 1, 0), min(j + 2, kinds.shape[1])):
                         if h > above[ki, kj] or h < below[ki, kj]:  # itself: never
                             kind, h = _UNKNOWN, np.nan
+                if kind == _FLOOR and rise > 0 and _at_narrow_rise(floor, ix, iy, h, band, rise):
+                    kind, h = _UNKNOWN, np.nan
             fog_types[ix, iy] = kind
             fog_heights[ix, iy] = h
 

@@ -251,6 +251,7 @@ class FloorObstacleMapper:
             p.obstacle_margin_cells,
             p.edge_band_m,
             p.unknown_beside_obstacles,
+            p.narrow_rise_cells,
         )
         return UpdateResult(
             AffectedArea(int(ix0), int(ix1), int(iy0), int(iy1)),

@@ -46,7 +46,10 @@ def surfaces_grid(heights_m, ny=3, tops_m=None):
     return og, floor
 
 
-def fog(og, floor, margin=0, area=None, types=None, band=0.0, beside=False, ends=None, passes=None):
+def fog(
+    og, floor, margin=0, area=None, types=None, band=0.0, beside=False, ends=None, passes=None,
+    rise=0,
+):  # fmt: skip
     """Types and heights after `update_fog_area` over ``area`` (default: the whole grid);
     ``types`` pre-fills the FOG (default −1: no label, to see which cells were written). The
     cover check has its default parameters and, unless given, no rays counted (off)."""
@@ -61,7 +64,7 @@ def fog(og, floor, margin=0, area=None, types=None, band=0.0, beside=False, ends
     update_fog_area(
         og, floor, obstacle, types, heights, P.occ_threshold_level, Z0, L, P.delta_m,
         ix0, ix1, iy0, iy1, ends, passes, P.floor_pass_min_rays, P.floor_pass_fraction,
-        margin, band, beside,
+        margin, band, beside, rise,
     )  # fmt: skip
     return types, heights
 
@@ -342,3 +345,116 @@ def test_band_defaults():
     assert P.edge_band_m == 0.02 and P.unknown_beside_obstacles is True
     paper = MapperParams(edge_band_m=0.0, unknown_beside_obstacles=False)
     assert paper.edge_band_m == 0.0 and not paper.unknown_beside_obstacles
+
+
+# ------------------------------------------------------------------ narrow rises
+RISE = P.narrow_rise_cells  # 4 cells (0.16 m)
+
+
+def test_both_feet_of_a_sill_are_unknown():
+    # The sill of `test_sill_whose_near_edge_cell_took_the_sill_height`, 3 cells deep: the band
+    # leaves its rims (cells 2 and 4) unknown; with narrow rises the ground cells at its feet
+    # are unknown too (cell 1: its neighbour 2 is 37 mm higher and the floors drop again at
+    # cell 5, 3 cells beyond that neighbour, within 4; cell 5 the same from the other side),
+    # the ground cells farther away (0, 6, 7) floor, the sill's middle (3) floor at its height.
+    floors = [0.0, 0.0, 0.037, 0.037, 0.037, 0.0, 0.0, 0.0]
+    og, floor = surfaces_grid(floors)
+    types, heights = fog(og, floor, band=BAND, beside=True, rise=RISE)
+    assert types[:, 1].tolist() == [F, U, U, F, U, U, F, F]
+    assert heights[3, 1] == 0.037 and heights[0, 1] == 0.0 and heights[6, 1] == 0.0
+    # Without the band the rule is off (it completes the rim rule).
+    types0, _ = fog(og, floor, beside=True, rise=RISE)
+    assert types0[:, 1].tolist() == [F] * 8
+
+
+def test_a_rise_deeper_than_the_limit_or_a_tread_keeps_the_cells_at_its_foot():
+    # A raised surface 5 cells deep (one more than the 4 scanned beyond the neighbour): from
+    # cell 1 the floors of cells 3..6 are the surface's, no drop within reach, so the ground
+    # cells at its feet stay floor; its rims are unknown.
+    floors = [0.0, 0.0, 0.037, 0.037, 0.037, 0.037, 0.037, 0.0, 0.0]
+    og, floor = surfaces_grid(floors)
+    types, _ = fog(og, floor, band=BAND, beside=True, rise=RISE)
+    assert types[:, 1].tolist() == [F, F, U, F, F, F, U, F, F]
+    # 4 cells deep: the drop at cell 6 lies 4 cells beyond cell 1's neighbour (cell 2).
+    floors = [0.0, 0.0, 0.037, 0.037, 0.037, 0.037, 0.0, 0.0]
+    og, floor = surfaces_grid(floors)
+    types, _ = fog(og, floor, band=BAND, beside=True, rise=RISE)
+    assert types[:, 1].tolist() == [F, U, U, F, F, U, U, F]
+    # A staircase, treads 2 cells deep: every tread leads to a higher one (no drop beyond the
+    # next riser), so the cell at each riser's foot stays floor; each rim is unknown.
+    floors = [0.0, 0.0, 0.031, 0.031, 0.061, 0.061, 0.092, 0.092]
+    og, floor = surfaces_grid(floors)
+    types, _ = fog(og, floor, band=BAND, beside=True, rise=RISE)
+    assert types[:, 1].tolist() == [F, F, U, F, U, F, U, F]
+
+
+def test_cells_without_a_floor_are_skipped_and_the_rule_runs_along_y_too():
+    # The drop behind the sill is seen past two cells with no stored floor (a shadow); and the
+    # same sill turned 90° (along y) gives the same labels.
+    nan = np.nan
+    floors = [0.0, 0.0, 0.037, nan, 0.037, nan, 0.0, 0.0]
+    og, floor = surfaces_grid(floors)
+    types, _ = fog(og, floor, band=BAND, beside=True, rise=RISE)
+    assert types[1, 1] == U and types[0, 1] == F
+    floors = [0.0, 0.0, 0.037, 0.037, 0.0, 0.0, 0.0]
+    og, floor = surfaces_grid(floors, ny=3)
+    along_x, _ = fog(og, floor, band=BAND, beside=True, rise=RISE)
+    along_y, _ = fog(
+        np.ascontiguousarray(og.transpose(1, 0, 2)),
+        np.ascontiguousarray(floor.T),
+        band=BAND,
+        beside=True,
+        rise=RISE,
+    )
+    assert along_x[:, 1].tolist() == [F, U, U, U, U, F, F]
+    assert np.array_equal(along_y.T, along_x)
+    # One cell deep (a tread's points spilled a cell over its riser): no narrow rise, the
+    # band leaves the cell itself unknown, its neighbours floor.
+    og, floor = surfaces_grid([0.0, 0.0, 0.037, 0.0, 0.0])
+    types, _ = fog(og, floor, band=BAND, beside=True, rise=RISE)
+    assert types[:, 1].tolist() == [F, F, U, F, F]
+
+
+def test_a_floor_change_relabels_the_foot_of_a_rise_beyond_the_band_ring():
+    # Updating only the cell where the ground behind a sill appears (cell 6) relabels the
+    # ground cell at the sill's near foot (cell 1), 5 cells away, as a whole-grid update does.
+    floors = [0.0, 0.0, 0.037, 0.037, 0.037, 0.037, np.nan, 0.0]
+    og, floor = surfaces_grid(floors)
+    types, _ = fog(og, floor, band=BAND, beside=True, rise=RISE)
+    assert types[1, 1] == F
+    floor[6, :] = 0.0
+    og[6, :, layer_of(0.0)] = OCC
+    part, _ = fog(
+        og, floor, area=(6, 7, 0, 3), types=types.copy(), band=BAND, beside=True, rise=RISE
+    )
+    whole, _ = fog(og, floor, band=BAND, beside=True, rise=RISE)
+    assert part[1, 1] == U and np.array_equal(part, whole)
+
+
+def test_narrow_rise_defaults_and_validation():
+    assert P.narrow_rise_m == 0.16 and P.narrow_rise_cells == 4
+    assert MapperParams(narrow_rise_m=0.0).narrow_rise_cells == 0
+    assert MapperParams(narrow_rise_m=0.12, cell_m=0.04).narrow_rise_cells == 3
+    for bad in (-0.01, float("nan"), float("inf")):
+        with pytest.raises(InvalidParameterError, match="narrow_rise_m"):
+            MapperParams(narrow_rise_m=bad)
+
+
+def test_the_mapper_passes_narrow_rise_to_the_fog():
+    # A sill 2 cells deep, seen straight down, flat: the ground cells at its feet are unknown
+    # with the default, floor with narrow_rise_m = 0.
+    labels = []
+    for rise_m in (0.16, 0.0):
+        m = FloorObstacleMapper(MapperParams(narrow_rise_m=rise_m), center_xy_m=(0.0, 0.0))
+        xs = np.arange(-0.4, 0.4, 0.01) + 0.005
+        gx, gy = np.meshgrid(xs, xs, indexing="ij")
+        gz = np.where((gx > 0.0) & (gx < 0.08), 0.037, 0.0)
+        pts = np.stack([gx.ravel(), gy.ravel(), gz.ravel()], axis=1)
+        for _ in range(3):
+            m.update(pts, pts[:, 2].copy(), np.array([0.0, 0.0, 1.5]))
+        labels.append(m.fog()[0])
+    with_rule, without = labels
+    ix_foot = m.cell_of(np.array([[-0.02, 0.0, 0.0], [0.10, 0.0, 0.0]]))[0][:, 0]
+    iy = m.cell_of(np.array([[0.0, 0.0, 0.0]]))[0][0, 1]
+    assert without[ix_foot, iy].tolist() == [F, F]
+    assert with_rule[ix_foot, iy].tolist() == [U, U]
