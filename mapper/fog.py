@@ -228,3 +228,63 @@ def ceiling_map(
                 elif level < LEVEL_UNKNOWN:
                     seen_free = True
     return out
+
+
+# ---------------------------------------------------------------------------------------------
+# Raised rims (`MapperParams.raised_rim_obstacle`), kept apart from `update_fog_area`'s rules.
+
+
+@numba.njit(cache=True, no_cfunc_wrapper=True, nogil=True, boundscheck=False, error_model="numpy")
+def mark_raised_rims(
+    floor: NDArray[np.float64],
+    obstacle: NDArray[np.float64],
+    fog_types: NDArray[np.int8],
+    fog_heights: NDArray[np.float64],
+    delta: float,
+    ix0: int,
+    ix1: int,
+    iy0: int,
+    iy1: int,
+) -> int:
+    """Beyond the paper: a raised floor's rim beside its own edge cell is an obstacle.
+
+    In ``[ix0, ix1) × [iy0, iy1)`` (clipped to the grid), a cell the FOG labels floor at ``h``
+    becomes an obstacle when one of its 8 neighbours is the edge cell of a rise of more than
+    δ up to it: by eq. 11 on its own column an obstacle (``obstacle > floor + δ``) whose
+    stored floor lies more than δ below ``h`` and whose top (eq. 10) at most δ above ``h``
+    (the raised surface's own layer, not something taller). Its height is that edge cell's
+    top. The camera pose's error (moving_box, a standing robot that sees nothing static but
+    the ground: 1–3 cm at the box, which nothing in the scene can correct) puts the map's
+    edge a cell either way of the true one, so the rim cell may hold the riser; with
+    `MapperParams.obstacle_margin_cells` ≥ 1 the cell at the rise's foot is an obstacle too,
+    and the two cover the true edge cell on either side. A rise of at most δ (a sill, a
+    tread) keeps its rim: eq. 11 calls such a rise floor on both sides.
+
+    The rule reads the maps, not the neighbours' labels, so the result does not depend on the
+    order of the cells. The caller passes exactly the window whose labels `update_fog_area`
+    has just written, for an area grown by a cell (`FloorObstacleMapper.update`): a cell
+    relabelled by an earlier frame is then either rewritten and judged again, or outside it,
+    where no neighbour's maps changed.
+
+    Returns:
+        How many cells were relabelled.
+    """
+    nx, ny = floor.shape
+    changed = 0
+    for ix in range(max(ix0, 0), min(ix1, nx)):
+        for iy in range(max(iy0, 0), min(iy1, ny)):
+            if fog_types[ix, iy] != _FLOOR:
+                continue
+            h = fog_heights[ix, iy]
+            edge_top = -np.inf  # the highest top of such an edge cell
+            for jx in range(max(ix - 1, 0), min(ix + 2, nx)):
+                for jy in range(max(iy - 1, 0), min(iy + 2, ny)):
+                    low, top = floor[jx, jy], obstacle[jx, jy]
+                    # NaN compares false: a neighbour without a floor or a top is no edge cell.
+                    if top > low + delta and low < h - delta and edge_top < top <= h + delta:
+                        edge_top = top
+            if edge_top > -np.inf:
+                fog_types[ix, iy] = _OBSTACLE
+                fog_heights[ix, iy] = edge_top
+                changed += 1
+    return changed
