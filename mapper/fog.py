@@ -246,19 +246,19 @@ def mark_raised_rims(
     iy0: int,
     iy1: int,
 ) -> int:
-    """Beyond the paper: a raised floor's rim beside its own edge cell is an obstacle.
+    """Beyond the paper: the rim of a floor raised more than δ above its neighbour is an obstacle.
 
     In ``[ix0, ix1) × [iy0, iy1)`` (clipped to the grid), a cell the FOG labels floor at ``h``
-    becomes an obstacle when one of its 8 neighbours is the edge cell of a rise of more than
-    δ up to it: by eq. 11 on its own column an obstacle (``obstacle > floor + δ``) whose
-    stored floor lies more than δ below ``h`` and whose top (eq. 10) at most δ above ``h``
-    (the raised surface's own layer, not something taller). Its height is that edge cell's
-    top. The camera pose's error (moving_box, a standing robot that sees nothing static but
-    the ground: 1–3 cm at the box, which nothing in the scene can correct) puts the map's
-    edge a cell either way of the true one, so the rim cell may hold the riser; with
-    `MapperParams.obstacle_margin_cells` ≥ 1 the cell at the rise's foot is an obstacle too,
-    and the two cover the true edge cell on either side. A rise of at most δ (a sill, a
-    tread) keeps its rim: eq. 11 calls such a rise floor on both sides.
+    becomes an obstacle when one of its 8 neighbours holds a stored floor more than δ below
+    ``h`` whose column reaches no higher than ``h + δ`` (eq. 10: the rise's foot or its edge
+    cell, whatever its label — eq. 11, the margin or the band may have made it anything —
+    and not something taller, which eq. 11 judges). Its height is its own column's top (eq.
+    10; ``h`` if none). The camera pose's error (moving_box, a standing robot that sees
+    nothing static but the ground: 1–3 cm at the box, which nothing in the scene can correct)
+    puts the map's edge a cell either way of the true one, so the rim cell may hold the
+    riser; with `MapperParams.obstacle_margin_cells` ≥ 1 the cell at the rise's foot is an
+    obstacle too, and the two cover the true edge cell on either side. A rise of at most δ
+    (a sill, a tread) keeps its rim: eq. 11 calls such a rise floor on both sides.
 
     The rule reads the maps, not the neighbours' labels, so the result does not depend on the
     order of the cells. The caller passes exactly the window whose labels `update_fog_area`
@@ -276,15 +276,14 @@ def mark_raised_rims(
             if fog_types[ix, iy] != _FLOOR:
                 continue
             h = fog_heights[ix, iy]
-            edge_top = -np.inf  # the highest top of such an edge cell
+            rim = False
             for jx in range(max(ix - 1, 0), min(ix + 2, nx)):
                 for jy in range(max(iy - 1, 0), min(iy + 2, ny)):
-                    low, top = floor[jx, jy], obstacle[jx, jy]
-                    # NaN compares false: a neighbour without a floor or a top is no edge cell.
-                    if top > low + delta and low < h - delta and edge_top < top <= h + delta:
-                        edge_top = top
-            if edge_top > -np.inf:
+                    # NaN floor: no foot; NaN top (nothing occupied): nothing taller.
+                    rim = rim or (floor[jx, jy] < h - delta and not obstacle[jx, jy] > h + delta)
+            if rim:
+                own_top = obstacle[ix, iy]
                 fog_types[ix, iy] = _OBSTACLE
-                fog_heights[ix, iy] = edge_top
+                fog_heights[ix, iy] = h if np.isnan(own_top) else own_top
                 changed += 1
     return changed

@@ -201,9 +201,9 @@ class MapperParams:
             31→61 mm but not 61→92 mm — and around every obstacle turns obstacle), and a
             tread's Table I row loses the cells beside the next riser: stage rows move
             ≤ 0.01 mm, stage_down's step_1 0.65 mm on seed 3, room's sill 0.55 mm on seed 8.
-        raised_rim_obstacle: Beyond the paper: a floor beside its own edge cell, where the
-            ground (or a lower surface) rises more than ``delta_m`` to it, is an obstacle
-            (`mapper.fog.mark_raised_rims`): the edge lies in one of the two cells and the
+        raised_rim_obstacle: Beyond the paper: a floor beside a stored floor more than
+            ``delta_m`` below it (the rim of a rise too high for eq. 11 to call floor) is an
+            obstacle (`mapper.fog.mark_raised_rims`): the edge lies in one of the two cells and the
             camera pose's error moves it a cell either way; with ``obstacle_margin_cells`` ≥ 1
             the cell at the rise's foot is an obstacle too. False (default: the paper); True
             with ``obstacle_margin_cells = 1`` is a safety margin of a cell on either side of

@@ -1,10 +1,10 @@
 """Raised rims (`MapperParams.raised_rim_obstacle`, `mapper.fog.mark_raised_rims`), by hand.
 
-A floor at ``h`` beside its own edge cell — an obstacle by eq. 11 on its own column (top
-``z_min + (k + 1)·layer`` of its highest occupied layer k, more than δ above its floor) whose
-floor lies more than δ below ``h`` and whose top at most δ above ``h`` — is an obstacle with
-that top. Default grid: z_min −0.06 m, layers of 0.04 m, δ 0.05 m; a 60 mm box top's points lie
-in layer 3 (top 0.10) once noise lifts them over 0.06.
+A floor at ``h`` beside a cell whose stored floor lies more than δ below ``h`` and whose column
+reaches at most ``h + δ`` (eq. 10's top ``z_min + (k + 1)·layer`` of its highest occupied layer
+k; none counts as low) is an obstacle with its own column's top. Default grid: z_min −0.06 m,
+layers of 0.04 m, δ 0.05 m; a 60 mm box top's points lie in layer 3 (top 0.10) once noise lifts
+them over 0.06.
 """
 
 import numpy as np
@@ -57,22 +57,25 @@ def fog(og, floor, rims):
 def test_box_rim_beside_its_edge_cell_is_obstacle():
     # ground | the box's edge cell (ground floor, box-top points in layer 3: top 0.10 > 0 + δ)
     # | box top 0.06 (its points in layer 3 too: 0.10 <= 0.06 + δ, a floor by eq. 11) | box
-    # top | ground. The first top cell (the rim) has the edge cell beside it: 0 < 0.06 − δ,
-    # 0.10 <= 0.06 + δ: obstacle at 0.10. The second top cell has no edge cell beside it.
-    og, floor = grid([0.0, 0.0, 0.06, 0.06, 0.0], [np.nan, 0.062, 0.062, 0.062, np.nan])
+    # top | box top | ground. The first top cell has the edge cell beside it (0 < 0.06 − δ,
+    # 0.10 <= 0.06 + δ), the last the ground (0 < 0.06 − δ, top 0.02): both rims, obstacles
+    # at their own top 0.10. The middle top cell has no lower floor beside it.
+    og, floor = grid(
+        [0.0, 0.0, 0.06, 0.06, 0.06, 0.0], [np.nan, 0.062, 0.062, 0.062, 0.062, np.nan]
+    )
     types, heights, changed = fog(og, floor, rims=True)
-    assert types[:, 1].tolist() == [F, OB, OB, F, F]
-    assert heights[:, 1] == pytest.approx([0.0, 0.10, 0.10, 0.06, 0.0])
-    assert changed == 3  # one rim cell per row
+    assert types[:, 1].tolist() == [F, OB, OB, F, OB, F]
+    assert heights[:, 1] == pytest.approx([0.0, 0.10, 0.10, 0.06, 0.10, 0.0])
+    assert changed == 6  # two rim cells per row
     # Off (the paper): the rim is the box top's floor.
     types0, heights0, _ = fog(og, floor, rims=False)
-    assert types0[:, 1].tolist() == [F, OB, F, F, F]
+    assert types0[:, 1].tolist() == [F, OB, F, F, F, F]
     assert heights0[2, 1] == 0.06
 
 
 def test_low_rise_and_tall_obstacle_leave_the_floor():
-    # A sill (38 mm, rise <= δ): its edge cell's floor 0 is not more than δ below 0.038, so
-    # its rim stays floor. A tall box (top 0.26) beside a 60 mm top: more than δ above it, no
+    # A sill (38 mm, rise <= δ): the ground's floor 0 is not more than δ below 0.038, so its
+    # rim stays floor. A tall box (top 0.26) beside a 60 mm top: more than δ above it, no
     # edge of this floor (eq. 11's own business, not the rim rule's).
     og, floor = grid([0.0, 0.038, 0.038], [0.04, 0.04, np.nan])
     types, _, changed = fog(og, floor, rims=True)
