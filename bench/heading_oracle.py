@@ -1,19 +1,24 @@
 """What a true heading or camera pose would give: replays with it beside the pipeline's.
 
-For each recording, three replays: ``pipeline`` (as ``fogsim run --replay``); ``true yaw`` —
-every frame's believed camera-to-robot transform turned about the vertical through the camera
-centre by the yaw between it and the true camera pose in the *believed* robot frame (so the
-odometry's yaw error is taken out too), with the heading estimator off (``head.correct_heading``
-False); and ``true pose`` — the believed camera-to-robot transform replaced by the true camera
-pose in the believed robot frame (so the camera lands where it truly was in the world: every
-encoder and odometry error taken out, position and tilt too), heading estimator off. Everything
-else (tilt, height reference, z-match, the maps) runs as usual. The gap between ``pipeline``
-and ``true yaw`` is the most any heading work can gain on those frames; between ``true yaw``
-and ``true pose``, what the camera's position and tilt errors still cost; a scenario whose
-``true pose`` row is still short has its errors in the sensing or the map, not the pose.
-(moving_box, depth seeds 1-8, where the standing robot sees nothing static but the ground, so
-its camera's x, y and yaw errors cannot be estimated from the scene: see the README's "Known
-limitations".)
+For each recording, up to four replays (``--modes``, default all):
+
+* ``pipeline``: as ``fogsim run --replay``;
+* ``true yaw``: every frame's believed camera-to-robot transform turned about the vertical
+  through the camera centre by the yaw between it and the true camera pose in the *believed*
+  robot frame (so the odometry's yaw error is taken out too);
+* ``true position``: the camera's position made the true one in the believed robot frame, its
+  believed rotation kept;
+* ``true pose``: the whole transform replaced by the true camera pose in the believed robot
+  frame (the camera lands where it truly was: every encoder and odometry error taken out).
+
+The heading estimator is off (``head.correct_heading`` False) in every mode but ``pipeline``;
+everything else (tilt, height reference, z-match, the maps) runs as usual. The gap between
+``pipeline`` and ``true yaw`` is the most any heading work can gain on those frames; between
+``true yaw`` and ``true pose``, what the camera's position and tilt errors still cost; a
+scenario whose ``true pose`` row is still short has its errors in the sensing or the map, not
+the pose (moving_box, depth seeds 1-8, where the standing robot sees nothing static but the
+ground, so its camera's x, y and yaw cannot be estimated from the scene: README "Known
+limitations").
 
 Prints one line per recording and mode, then mean (worst) per mode: obstacle recall, floor
 precision [%], unsafe cells, the worst Table I row [mm] and the residual heading [deg].
@@ -78,7 +83,19 @@ def true_pose_frame(frame: Frame) -> Frame:
     return dataclasses.replace(frame, transform_camera_to_robot_believed=true_in_believed_robot)
 
 
-MODES = {"pipeline": None, "true yaw": true_yaw_frame, "true pose": true_pose_frame}
+def true_position_frame(frame: Frame) -> Frame:
+    """The frame with its believed camera position replaced by the true one, rotation kept."""
+    believed = np.array(frame.transform_camera_to_robot_believed, dtype=np.float64)
+    believed[:3, 3] = true_pose_frame(frame).transform_camera_to_robot_believed[:3, 3]
+    return dataclasses.replace(frame, transform_camera_to_robot_believed=believed)
+
+
+MODES = {
+    "pipeline": None,
+    "true yaw": true_yaw_frame,
+    "true position": true_position_frame,
+    "true pose": true_pose_frame,
+}
 """Replay modes: how each frame's believed camera pose is changed (None: as recorded)."""
 
 
@@ -138,7 +155,7 @@ def main() -> None:
         for mode, rows_of_mode in rows.items():
             f = replay(path, mode)
             rows_of_mode.append(f)
-            print(f"{path.name:28s} {mode:9s} {f}", flush=True)
+            print(f"{path.name:28s} {mode:13s} {f}", flush=True)
     print(
         "mean (worst): obstacle recall %, floor precision %, unsafe cells, worst row mm, heading"
         " (a figure a run has none of, as recall with no obstacle cell labelled, is left out and"
@@ -146,7 +163,7 @@ def main() -> None:
     )
     for mode, found in rows.items():
         print(
-            f"{mode:9s} {_mean_worst([f.obstacle_recall_pct for f in found], min, 1)}  "
+            f"{mode:13s} {_mean_worst([f.obstacle_recall_pct for f in found], min, 1)}  "
             f"{_mean_worst([f.floor_precision_pct for f in found], min, 2)}  "
             f"{_mean_worst([float(f.unsafe_cells) for f in found], max, 1)}  "
             f"{_mean_worst([f.worst_row_mm for f in found], max, 2)}  "
