@@ -290,3 +290,62 @@ def ceiling_map(
                 elif level < LEVEL_UNKNOWN:
                     seen_free = True
     return out
+
+
+# ---------------------------------------------------------------------------------------------
+# Raised rims (`MapperParams.raised_rim_obstacle`), kept apart from `update_fog_area`'s rules.
+
+
+@numba.njit(cache=True, no_cfunc_wrapper=True, nogil=True, boundscheck=False, error_model="numpy")
+def mark_raised_rims(
+    floor: NDArray[np.float64],
+    obstacle: NDArray[np.float64],
+    fog_types: NDArray[np.int8],
+    fog_heights: NDArray[np.float64],
+    delta: float,
+    ix0: int,
+    ix1: int,
+    iy0: int,
+    iy1: int,
+) -> int:
+    """Beyond the paper: the rim of a floor raised more than δ above its neighbour is an obstacle.
+
+    In ``[ix0, ix1) × [iy0, iy1)`` (clipped to the grid), a cell the FOG labels floor at ``h``
+    becomes an obstacle when one of its 8 neighbours holds a stored floor more than δ below
+    ``h`` whose column reaches no higher than ``h + δ`` (eq. 10: the rise's foot or its edge
+    cell, whatever its label — eq. 11, the margin or the band may have made it anything —
+    and not something taller, which eq. 11 judges). Its height is its own column's top (eq.
+    10; ``h`` if none). The camera pose's error (moving_box, a standing robot that sees
+    nothing static but the ground: 1–3 cm at the box, which nothing in the scene can correct)
+    puts the map's edge a cell either way of the true one, so the rim cell may hold the
+    riser; with `MapperParams.obstacle_margin_cells` ≥ 1 the cell at the rise's foot is an
+    obstacle too, and the two cover the true edge cell on either side. A rise of at most δ
+    (a sill, a tread) keeps its rim: eq. 11 calls such a rise floor on both sides.
+
+    The rule reads the maps, not the neighbours' labels, so the result does not depend on the
+    order of the cells. The caller passes exactly the window whose labels `update_fog_area`
+    has just written, for an area grown by a cell (`FloorObstacleMapper.update`): a cell
+    relabelled by an earlier frame is then either rewritten and judged again, or outside it,
+    where no neighbour's maps changed.
+
+    Returns:
+        How many cells were relabelled.
+    """
+    nx, ny = floor.shape
+    changed = 0
+    for ix in range(max(ix0, 0), min(ix1, nx)):
+        for iy in range(max(iy0, 0), min(iy1, ny)):
+            if fog_types[ix, iy] != _FLOOR:
+                continue
+            h = fog_heights[ix, iy]
+            rim = False
+            for jx in range(max(ix - 1, 0), min(ix + 2, nx)):
+                for jy in range(max(iy - 1, 0), min(iy + 2, ny)):
+                    # NaN floor: no foot; NaN top (nothing occupied): nothing taller.
+                    rim = rim or (floor[jx, jy] < h - delta and not obstacle[jx, jy] > h + delta)
+            if rim:
+                own_top = obstacle[ix, iy]
+                fog_types[ix, iy] = _OBSTACLE
+                fog_heights[ix, iy] = h if np.isnan(own_top) else own_top
+                changed += 1
+    return changed

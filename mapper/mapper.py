@@ -15,7 +15,7 @@ from numpy.typing import ArrayLike, NDArray
 from mapper.errors import InvalidParameterError
 from mapper.floor_cover import accumulate_cover, frame_floor_heights
 from mapper.floor_map import frame_verdicts, update_floor, verify_floor
-from mapper.fog import ceiling_map, update_fog_area
+from mapper.fog import ceiling_map, mark_raised_rims, update_fog_area
 from mapper.grid import (
     AffectedArea,
     CellType,
@@ -230,6 +230,9 @@ class FloorObstacleMapper:
                 g.cell_m,
                 p.eps_m,
             )
+        # With raised rims the FOG is rewritten a cell farther, so that every cell whose
+        # neighbour's label may have changed gets its label afresh before the rim rule.
+        grow = 1 if p.raised_rim_obstacle else 0
         update_fog_area(
             self._og,
             self._floor,
@@ -240,10 +243,10 @@ class FloorObstacleMapper:
             g.z_min_m,
             g.layer_m,
             p.delta_m,
-            ix0,
-            ix1,
-            iy0,
-            iy1,
+            max(ix0 - grow, 0),
+            min(ix1 + grow, p.nx),
+            max(iy0 - grow, 0),
+            min(iy1 + grow, p.ny),
             self._cover_ends,
             self._cover_passes,
             p.floor_pass_min_rays,
@@ -253,6 +256,21 @@ class FloorObstacleMapper:
             p.unknown_beside_obstacles,
             p.narrow_rise_cells,
         )
+        if p.raised_rim_obstacle:  # `mapper.fog.mark_raised_rims`
+            # The window `update_fog_area` rewrote: the grown area and its ring of cells.
+            banded = p.edge_band_m > 0.0 or p.unknown_beside_obstacles
+            reach = grow + p.obstacle_margin_cells + (2 if banded else 0)
+            mark_raised_rims(
+                self._floor,
+                self._obstacle,
+                self._fog_types,
+                self._fog_heights,
+                p.delta_m,
+                ix0 - reach,
+                ix1 + reach,
+                iy0 - reach,
+                iy1 + reach,
+            )
         return UpdateResult(
             AffectedArea(int(ix0), int(ix1), int(iy0), int(iy1)),
             used,

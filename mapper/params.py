@@ -223,6 +223,14 @@ class MapperParams:
             31→61 mm but not 61→92 mm — and around every obstacle turns obstacle), and a
             tread's Table I row loses the cells beside the next riser: stage rows move
             ≤ 0.01 mm, stage_down's step_1 0.65 mm on seed 3, room's sill 0.55 mm on seed 8.
+        raised_rim_obstacle: Beyond the paper: a floor beside a stored floor more than
+            ``delta_m`` below it (the rim of a rise too high for eq. 11 to call floor) is an
+            obstacle (`mapper.fog.mark_raised_rims`): the edge lies in one of the two cells and the
+            camera pose's error moves it a cell either way; with ``obstacle_margin_cells`` ≥ 1
+            the cell at the rise's foot is an obstacle too. False (default: the paper); True
+            with ``obstacle_margin_cells = 1`` is a safety margin of a cell on either side of
+            an obstacle-sized rise (moving_box depth replays, seeds 1–8: see the README's
+            "Known limitations").
         floor_memory: Beyond the paper: a height within ``±eps_m`` of the stored floor is
             averaged in as one frame's measurement, the stored height being the weighted mean
             of the frames since it was stored, its weight capped at this many frames (at
@@ -270,6 +278,7 @@ class MapperParams:
     edge_band_m: float = 0.02
     narrow_rise_m: float = 0.16
     obstacle_margin_cells: int = 0
+    raised_rim_obstacle: bool = False
     floor_memory: float = 8.0
     floor_range_power: float = 4.0
 
@@ -325,7 +334,12 @@ class MapperParams:
         for name in ("eps_m", "delta_m", "free_margin_m", "edge_band_m", "narrow_rise_m"):
             check(name, float, "a finite float >= 0 [m]", lambda v: math.isfinite(v) and v >= 0)
         check("max_range_m", float, "a float > 0 [m] (inf: no limit)", lambda v: v > 0)
-        for name in ("clear_outside", "discretize_rays", "unknown_beside_obstacles"):
+        for name in (
+            "clear_outside",
+            "discretize_rays",
+            "unknown_beside_obstacles",
+            "raised_rim_obstacle",
+        ):
             check(name, bool, "a bool")
         for name in _CAP_FIELDS:
             check(name, int, "an int >= 0 (0: the paper's rule)", lambda v: v >= 0)
