@@ -258,8 +258,12 @@ class FloorObstacleMapper:
         )
         if p.raised_rim_obstacle:  # `mapper.fog.mark_raised_rims`
             # The window `update_fog_area` rewrote: the grown area and its ring of cells.
+            # (`update_fog_area`'s ring: the margin, the band's 2, the narrow rise's n + 1.)
             banded = p.edge_band_m > 0.0 or p.unknown_beside_obstacles
-            reach = grow + p.obstacle_margin_cells + (2 if banded else 0)
+            ring = p.obstacle_margin_cells + (2 if banded else 0)
+            if p.edge_band_m > 0.0 and p.narrow_rise_cells > 0:
+                ring = max(ring, p.narrow_rise_cells + 1)
+            reach = grow + ring
             mark_raised_rims(
                 self._floor,
                 self._obstacle,

@@ -132,3 +132,41 @@ def test_mapper_switch_and_check():
     assert np.allclose(heights1[newly], 0.10)
     with pytest.raises(InvalidParameterError, match="raised_rim_obstacle"):
         MapperParams(raised_rim_obstacle=1)
+
+
+def test_incremental_rims_match_a_whole_grid_recompute():
+    # With every FOG rule on (band, shadow, narrow rise: `update_fog_area` rewrites n + 1 = 5
+    # cells around the area) a frame that touches only ground a few cells from the box must
+    # leave the rims as a recompute of the whole grid gives them: the rim pass covers the
+    # whole window the FOG pass rewrote, not the band's 2 cells only.
+    params = MapperParams(raised_rim_obstacle=True)
+    mapper = FloorObstacleMapper(params)
+    points, heights = _box_points(0.0)
+    for _ in range(10):
+        mapper.update(points, heights, np.array([0.0, 0.0, 1.5]))
+    # Ground strips 3–5 cells beyond each of the box's sides, one frame each.
+    strips = [
+        (points[:, 0] > 0.88) & (points[:, 0] < 0.96),
+        (points[:, 0] > 0.24) & (points[:, 0] < 0.32),
+        (points[:, 1] > 0.38),
+        (points[:, 1] < 0.02) & (points[:, 1] > -0.06),
+    ]
+    for strip in strips:
+        for _ in range(3):
+            mapper.update(points[strip], heights[strip], np.array([0.0, 0.0, 1.5]))
+    types, fog_heights = mapper.fog()
+    nx, ny = types.shape
+    whole_types = np.full((nx, ny), -1, dtype=np.int8)
+    whole_heights = np.full((nx, ny), -1.0)
+    obstacle = np.full((nx, ny), np.nan)
+    update_fog_area(
+        mapper._og, mapper._floor, obstacle, whole_types, whole_heights, params.occ_threshold_level,
+        Z0, L, DELTA, 0, nx, 0, ny, mapper._cover_ends, mapper._cover_passes,
+        params.floor_pass_min_rays, params.floor_pass_fraction, params.obstacle_margin_cells,
+        params.edge_band_m, params.unknown_beside_obstacles, params.narrow_rise_cells,
+    )  # fmt: skip
+    mark_raised_rims(mapper._floor, obstacle, whole_types, whole_heights, DELTA, 0, nx, 0, ny)
+    assert (whole_types == OB).sum() > 0
+    assert np.array_equal(types, whole_types)
+    known = whole_types != U
+    assert np.array_equal(fog_heights[known], whole_heights[known])
