@@ -771,88 +771,29 @@ def floor_regions(origin, rays, points, sigma_z, depth, segments, intrinsics, pa
         (H, W) floor region of each pixel (-1: none, -2: no measurement) and the
         `FloorTable` (heights before the ground shift).
     """
-    z = np.ascontiguousarray(points[..., 2])
-    seg_rows, seg_starts, seg_stops = scanline.split_level(
-        z,
+    labels, counts, heights, rms, extents, areas, is_floor = scanline.level_regions(
+        np.ascontiguousarray(points[..., 2]),
         sigma_z,
+        points,
+        rays,
+        depth,
         *segments,
+        origin[2],
+        intrinsics.fx,
+        intrinsics.fy,
         params.edge_sigma_factor,
         params.min_segment_pixels,
         params.noise_correlation_factor,
-    )
-    sums = scanline.horizontal_sums(
-        points, sigma_z, seg_rows, seg_starts, seg_stops, params.noise_correlation_factor
-    )
-    floor_of_segment = scanline.grow_floors(
-        seg_rows,
-        seg_starts,
-        seg_stops,
-        sums,
-        depth.shape[0],
         params.grow_sigma_factor,
         params.rms_sigma_factor,
         params.floor_height_tolerance_m,
         params.seed_min_pixels,
-        params.noise_correlation_factor,
-    )
-    n_floors = int(floor_of_segment.max(initial=-1)) + 1
-    grown = scanline.segment_labels(
-        np.isfinite(depth), seg_rows, seg_starts, seg_stops, floor_of_segment
-    )
-    labels = grown
-    grown_heights = scanline.level_heights(floor_of_segment, sums, n_floors)
-    if n_floors > 0 and params.fill_passes > 0:
-        # Heights come from the grown segments only; the pixel fill adds labels.
-        labels = grown.copy()
-        level_model = np.zeros((n_floors, 3))
-        level_model[:, 2] = grown_heights
-        scanline.fill_pixels(
-            z,
-            np.zeros(z.shape[1]),
-            np.zeros(z.shape[0]),
-            labels,
-            sigma_z,
-            level_model,
-            params.fill_sigma_factor,
-            params.tolerance_floor_m,
-            params.fill_passes,
-            False,
-        )
-    interior = scanline.region_interior(labels, params.floor_edge_margin_px)
-    height_interior = (
-        interior
-        if params.floor_height_margin_px == params.floor_edge_margin_px
-        else scanline.region_interior(labels, params.floor_height_margin_px)
-    )
-    if n_floors > 0 and params.floor_snap_sigma_factor > 0.0:
-        interior = interior & ~_foreign_rim(
-            labels, height_interior, z, sigma_z, grown_heights, params
-        )
-    counts, heights, rms, extents, areas, slope = scanline.floor_statistics(
-        labels,
-        grown,
-        interior,
-        height_interior,
-        points,
-        sigma_z,
-        depth,
-        rays,
-        origin[2],
-        intrinsics.fx,
-        intrinsics.fy,
-        n_floors,
+        params.fill_sigma_factor,
         params.tolerance_floor_m,
-    )
-    chi2, n_segments = scanline.floor_segment_fit(
-        sums, floor_of_segment, n_floors, params.floor_height_tolerance_m, params.min_plane_extent_m
-    )
-    is_floor = scanline.floor_verdict(
-        counts,
-        n_segments,
-        extents,
-        slope,
-        rms,
-        chi2,
+        params.fill_passes,
+        params.floor_edge_margin_px,
+        params.floor_height_margin_px,
+        params.floor_snap_sigma_factor,
         params.min_plane_pixels,
         params.min_plane_extent_m,
         math.tan(math.radians(params.floor_max_normal_angle_deg)),
