@@ -635,52 +635,45 @@ def segment_depth(
             params.fill_passes,
             True,
         )
-    # Dissolve small or degenerate planes and renumber the rest in creation order.
-    keep = (counts >= params.min_plane_pixels) & np.isfinite(plane_table[:, 0])
-    labels, refit_labels, plane_ids, grown_ids, counts = scanline.renumber_planes(
-        labels, grown_labels, pixel_index, keep
-    )
-    plane_table = plane_table[keep]
+    # Dissolve small or degenerate planes and renumber the rest in creation order; their
+    # geometry, and their normals refitted on their interior pixels clear of the range limit
+    # and (if on) without their outliers for the tilt.
     rotation = transform[:3, :3].copy()  # C order: one compiled version of the kernels
-    rays_camera = intrinsics.ray_directions_camera().reshape(-1, 3)
-    normals_camera, normals = _unit_normals(plane_table, rotation)
-    centroids_camera, eigen, areas = scanline.plane_moments(
-        rays_camera,
-        depth,
+    (
+        plane_ids,
+        counts,
+        normals,
+        centroids,
+        eigen,
+        areas,
+        rms,
+        tilt_normals,
+        tilt_information,
+    ) = tilt_kernels.plane_geometry(
+        labels,
+        grown_labels,
         pixel_index,
-        grown_ids,
-        normals_camera,
-        len(counts),
-        intrinsics.fx,
-        intrinsics.fy,
-    )
-    centroids = tilt_kernels.rotate_points(centroids_camera, rotation, _ORIGIN, pivot, True)
-    # RMS depth residual of the plane fit (inverse-depth residual scaled at the centroid).
-    rms = np.sqrt(plane_table[:, 3]) * centroids_camera[:, 2] ** 2
-    # The noise is never below min_noise_m (exact data: no plane is infinitely certain).
-    min_inv_sigma = params.min_noise_m / centroids_camera[:, 2] ** 2
-    # The tilt's normals come from the planes refitted on their interior pixels clear of the
-    # range limit and (if on) without their outliers.
-    if params.plane_normal_margin_px > 0:
-        interior = scanline.region_interior(refit_labels, params.plane_normal_margin_px)
-        refit_labels = np.where(interior, refit_labels, -1)
-    tilt_table = scanline.plane_refits(
+        counts,
+        plane_table,
+        rotation,
+        pivot,
+        intrinsics.ray_directions_camera().reshape(-1, 3),
+        depth,
         inv_depth,
         x,
         y,
-        refit_labels,
-        plane_table,
-        params.plane_refit_sigma,
+        intrinsics.fx,
+        intrinsics.fy,
+        params.min_plane_pixels,
         params.min_noise_m,
+        params.plane_normal_margin_px,
+        params.plane_refit_sigma,
         1.0 / params.max_depth_m,
+        params.noise_correlation_factor,
     )
-    _, tilt_normals = _unit_normals(tilt_table, rotation)
-    normal_sigma_deg = _normal_sigma_deg(tilt_table, params.noise_correlation_factor, min_inv_sigma)
     # The tilt's planes are weighted by the information of their normals (1/σ²), not by area:
     # a far plane's footprint is large while its normal, under stereo noise, is poor.
-    correction = estimate_tilt(
-        tilt_normals, 1.0 / normal_sigma_deg**2, eigen, counts, pivot, params
-    )
+    correction = estimate_tilt(tilt_normals, tilt_information, eigen, counts, pivot, params)
     centroids_c = tilt_kernels.rotate_points(centroids, correction.rotation, pivot, pivot, True)
     normals_c = tilt_kernels.rotate_points(normals, correction.rotation, _ORIGIN, _ORIGIN, False)
     is_floor_shape = _floor_shape(normals_c, eigen, counts, params)

@@ -23,7 +23,15 @@ from llvmlite import ir
 from numba import types
 from numba.extending import intrinsic
 
-__all__ = ["normal_sigma_deg", "tilt_variances", "turn_points", "unit_normals"]
+from mapper.scanline import plane_moments, plane_refits, region_interior, renumber_planes
+
+__all__ = [
+    "normal_sigma_deg",
+    "plane_geometry",
+    "tilt_variances",
+    "turn_points",
+    "unit_normals",
+]
 
 
 _START = np.int64(0)
@@ -363,3 +371,112 @@ def rotate_points(points, rotation, before, after, shift):
             value = _rotated(d0, d1, d2, rotation, j, single)
             rotated[i, j] = value + after[j] if shift else value
     return rotated
+
+
+@numba.njit(cache=True, no_cfunc_wrapper=True, nogil=True, error_model="numpy")
+def plane_geometry(
+    labels,
+    grown_labels,
+    pixel_index,
+    counts,
+    plane_table,
+    rotation,
+    pivot,
+    rays_camera,
+    depth,
+    inv_depth,
+    x,
+    y,
+    fx,
+    fy,
+    min_plane_pixels,
+    min_noise_m,
+    normal_margin_px,
+    refit_sigma,
+    min_inv_depth,
+    correlation,
+):
+    """The planes' table and the tilt's inputs in one call (`mapper.segmentation.segment_depth`).
+
+    Keeps the planes of ``min_plane_pixels`` or more with a finite fit and renumbers them
+    (`mapper.scanline.renumber_planes`); their unit normals (`unit_normals`), centroids,
+    covariance eigenvalues and areas (`mapper.scanline.plane_moments`, on the grown pixels),
+    centroids in the robot frame (`rotate_points` about the origin, plus ``pivot``), RMS depth
+    residuals ``sqrt(s²)·z_c²`` and noise floors ``min_noise_m/z_c²`` at the centroids; the
+    refit on the interior pixels (`mapper.scanline.region_interior` with ``normal_margin_px``
+    > 0, `mapper.scanline.plane_refits`), its normals in the robot frame and their information
+    ``1/σ²`` (`normal_sigma_deg`, σ in degrees). The same operations in the same order as the
+    numpy code it replaced (bit for bit).
+
+    Args:
+        labels: (H, W) plane of each pixel after the fill (-1 none, -2 no measurement).
+        grown_labels: (H, W) the same before the fill.
+        pixel_index: (N,) the valid pixels' indices into the flattened image.
+        counts: (P,) pixels of each plane (`mapper.scanline.plane_fits`).
+        plane_table: (P, 13) the planes' fits (`mapper.scanline.plane_fits`).
+        rotation: (3, 3) C-order camera to robot rotation.
+        pivot: (3,) the camera centre in the robot frame [m].
+        rays_camera: (H·W, 3) camera-frame rays with unit z, row-major.
+        depth: (H, W) depths [m] (NaN: none).
+        inv_depth: (H, W) inverse depths [1/m].
+        x: (W,) normalised image x of the columns.
+        y: (H,) normalised image y of the rows.
+        fx: focal length along x [px].
+        fy: focal length along y [px].
+        min_plane_pixels: planes with fewer pixels are dissolved.
+        min_noise_m: lower bound of the depth noise [m].
+        normal_margin_px: ``plane_normal_margin_px`` (0: every pixel refits).
+        refit_sigma: ``plane_refit_sigma`` (`mapper.scanline.plane_refits`).
+        min_inv_depth: 1 / ``max_depth_m`` [1/m].
+        correlation: ``noise_correlation_factor``.
+
+    Returns:
+        (N,) the valid pixels' renumbered planes, and per kept plane (K,) pixel counts,
+        (K, 3) unit normals in the robot frame (up), (K, 3) centroids in the robot frame [m],
+        (K, 3) eigenvalues [m²], (K,) areas [m²], (K,) RMS residuals [m], (K, 3) the refit's
+        unit normals in the robot frame (up) and (K,) their information [1/deg²].
+    """
+    n_planes = counts.shape[0]
+    keep = np.empty(n_planes, np.bool_)
+    n_kept = 0
+    for p in range(n_planes):
+        keep[p] = counts[p] >= min_plane_pixels and np.isfinite(plane_table[p, 0])
+        if keep[p]:
+            n_kept += 1
+    _, refit_labels, plane_ids, grown_ids, kept_counts = renumber_planes(
+        labels, grown_labels, pixel_index, keep
+    )
+    table = np.empty((n_kept, plane_table.shape[1]))
+    k = 0
+    for p in range(n_planes):
+        if keep[p]:
+            for j in range(plane_table.shape[1]):
+                table[k, j] = plane_table[p, j]
+            k += 1
+    normals_camera, normals, _ = unit_normals(table, rotation)
+    centroids_camera, eigen, areas = plane_moments(
+        rays_camera, depth, pixel_index, grown_ids, normals_camera, n_kept, fx, fy
+    )
+    centroids = rotate_points(centroids_camera, rotation, np.zeros(3), pivot, True)
+    rms = np.empty(n_kept)
+    min_inv_sigma = np.empty(n_kept)
+    for p in range(n_kept):
+        z2 = centroids_camera[p, 2] * centroids_camera[p, 2]
+        rms[p] = math.sqrt(table[p, 3]) * z2
+        min_inv_sigma[p] = min_noise_m / z2
+    if normal_margin_px > 0:
+        interior = region_interior(refit_labels, normal_margin_px)
+        height, width = refit_labels.shape
+        for r in range(height):
+            for c in range(width):
+                if not interior[r, c]:
+                    refit_labels[r, c] = -1
+    tilt_table = plane_refits(
+        inv_depth, x, y, refit_labels, table, refit_sigma, min_noise_m, min_inv_depth
+    )
+    _, tilt_normals, _ = unit_normals(tilt_table, rotation)
+    sigma = normal_sigma_deg(tilt_table, correlation, min_inv_sigma)
+    information = np.empty(n_kept)
+    for p in range(n_kept):
+        information[p] = 1.0 / (sigma[p] * sigma[p])
+    return plane_ids, kept_counts, normals, centroids, eigen, areas, rms, tilt_normals, information
