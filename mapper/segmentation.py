@@ -53,7 +53,7 @@ from __future__ import annotations
 
 import math
 from collections.abc import Mapping
-from dataclasses import dataclass, fields, replace
+from dataclasses import dataclass, fields
 
 import numpy as np
 from numpy.typing import NDArray
@@ -66,7 +66,6 @@ from mapper.pose_correction import (
     PoseCorrection,
     estimate_tilt,
     ground_shift,
-    within_deg_of_vertical,
 )
 from mapper.validation import check_field, real_array, rigid_transform
 
@@ -498,8 +497,6 @@ class SegmentationResult:
 
 
 _DEFAULT_PARAMS = SegmentationParams()
-_ORIGIN = np.zeros(3)
-"""(3,) zero: `tilt_kernels.rotate_points` about the origin."""
 
 
 def segment_depth(
@@ -674,9 +671,17 @@ def segment_depth(
     # The tilt's planes are weighted by the information of their normals (1/σ²), not by area:
     # a far plane's footprint is large while its normal, under stereo noise, is poor.
     correction = estimate_tilt(tilt_normals, tilt_information, eigen, counts, pivot, params)
-    centroids_c = tilt_kernels.rotate_points(centroids, correction.rotation, pivot, pivot, True)
-    normals_c = tilt_kernels.rotate_points(normals, correction.rotation, _ORIGIN, _ORIGIN, False)
-    is_floor_shape = _floor_shape(normals_c, eigen, counts, params)
+    centroids_c, normals_c, extents, is_floor_shape = tilt_kernels.corrected_planes(
+        centroids,
+        normals,
+        correction.rotation,
+        pivot,
+        eigen,
+        counts,
+        math.cos(math.radians(params.floor_max_normal_angle_deg)),
+        params.min_plane_pixels,
+        params.min_plane_extent_m,
+    )
 
     # Floors: level regions grown with the horizontal model in the tilt-corrected frame.
     transform_tilted = correction.transform @ transform
@@ -702,16 +707,26 @@ def segment_depth(
     correction = ground_shift(
         correction, floors.heights_m, floors.areas_m2, floors.is_floor, params
     )
-    floors = replace(floors, heights_m=floors.heights_m + correction.z_shift_m)
+    shifted_m, floor_level_m, ground_m = tilt_kernels.shifted_floors(
+        floors.heights_m,
+        floors.is_floor,
+        correction.z_shift_m,
+        params.expected_ground_z_m,
+        correction.ground_plane_found and params.ground_relabel_sigma_factor > 0.0,
+    )
+    floors = FloorTable(
+        pixel_counts=floors.pixel_counts,
+        heights_m=shifted_m,
+        extents_m=floors.extents_m,
+        areas_m2=floors.areas_m2,
+        rms_ratio=floors.rms_ratio,
+        is_floor=floors.is_floor,
+    )
     origin[2] += correction.z_shift_m
-    ground_m = np.nan
-    if correction.ground_plane_found and params.ground_relabel_sigma_factor > 0.0:
-        offsets = np.abs(floors.heights_m - params.expected_ground_z_m)
-        ground_m = float(floors.heights_m[np.argmin(np.where(floors.is_floor, offsets, np.inf))])
     corrected, floor_heights = scanline.floor_points(
         pixel_index,
         floor_labels,
-        np.where(floors.is_floor, floors.heights_m, np.nan),
+        floor_level_m,
         ground_m,
         rays,
         depth,
@@ -726,7 +741,7 @@ def segment_depth(
         pixel_counts=counts,
         heights_m=centroids_c[:, 2] + correction.z_shift_m,
         normals=normals_c,
-        extents_m=np.sqrt(12.0 * np.maximum(eigen[:, 1:], 0.0)),
+        extents_m=extents,
         areas_m2=areas,
         rms_m=rms,
         is_floor=is_floor_shape,
@@ -859,16 +874,6 @@ def _normal_sigma_deg(plane_table, correlation, min_inv_sigma=None):
     if min_inv_sigma is None:
         min_inv_sigma = np.zeros(plane_table.shape[0])
     return tilt_kernels.normal_sigma_deg(plane_table, float(correlation), min_inv_sigma)
-
-
-def _floor_shape(normals, eigen, counts, params: SegmentationParams) -> NDArray[np.bool_]:
-    """Planes that are horizontal, large and wide enough to be floor."""
-    minor_extent = np.sqrt(12.0 * np.maximum(eigen[:, 1], 0.0))
-    return (
-        within_deg_of_vertical(normals, params.floor_max_normal_angle_deg)
-        & (counts >= params.min_plane_pixels)
-        & (minor_extent >= params.min_plane_extent_m)
-    )
 
 
 def _empty_result(pivot, transform, shape) -> SegmentationResult:
