@@ -2475,3 +2475,178 @@ def level_regions(
         max_segment_chi2,
     )
     return labels, counts, heights, rms, extents, areas, is_floor
+
+
+@numba.njit(cache=True, no_cfunc_wrapper=True, nogil=True, error_model="numpy")
+def plane_labels(
+    inv_depth,
+    valid,
+    cx,
+    cy,
+    fx,
+    fy,
+    noise_window,
+    min_noise_m,
+    noise_cap_factor,
+    model_inv_sigma,
+    split_factor,
+    split_rms_factor,
+    edge_window,
+    edge_factor,
+    tolerance_floor_m,
+    min_segment_pixels,
+    correlation,
+    break_passes,
+    break_factor,
+    break_reach,
+    grow_factor,
+    rms_factor,
+    seed_min_pixels,
+    reassign_passes,
+    fill_factor,
+    fill_passes,
+):
+    """The planes stage of `mapper.segmentation.segment_depth` in one call (its kernels in turn).
+
+    The columns' and rows' normalised image coordinates ``(i − c)/f``, `local_noise_depth_m`,
+    `split_rows`, up to ``break_passes`` rounds of `propagate_breaks` (until a round splits
+    nothing), `segment_sums`, `grow_planes`, `reassign_segments`, `segment_labels`,
+    `plane_fits` and `fill_pixels` (with planes and passes), with the same arguments: one
+    dispatch and no intermediate arrays handed to Python (the same results bit for bit).
+
+    Args:
+        inv_depth: (H, W) inverse depth [1/m] (NaN: none).
+        valid: (H, W) bool, the measured pixels.
+        cx: principal point column [px].
+        cy: principal point row [px].
+        fx: focal length along x [px].
+        fy: focal length along y [px].
+        noise_window: ``noise_window_px``.
+        min_noise_m: ``min_noise_m`` [m].
+        noise_cap_factor: ``noise_cap_factor``.
+        model_inv_sigma: the stereo model's inverse-depth std [1/m] (0: none).
+        split_factor: ``split_sigma_factor``.
+        split_rms_factor: ``split_rms_sigma_factor``.
+        edge_window: ``edge_window_px``.
+        edge_factor: ``edge_sigma_factor``.
+        tolerance_floor_m: ``tolerance_floor_m`` [m].
+        min_segment_pixels: ``min_segment_pixels``.
+        correlation: ``noise_correlation_factor``.
+        break_passes: ``break_passes``.
+        break_factor: ``break_sigma_factor``.
+        break_reach: ``break_reach_px``.
+        grow_factor: ``grow_sigma_factor``.
+        rms_factor: ``rms_sigma_factor``.
+        seed_min_pixels: ``seed_min_pixels``.
+        reassign_passes: ``reassign_passes``.
+        fill_factor: ``fill_sigma_factor``.
+        fill_passes: ``fill_passes``.
+
+    Returns:
+        (W,) x and (H,) y of the columns and rows, (H, W) typical noise [m] (the range
+        profile's), the (S,) rows, starts and stops of the row segments, (H, W) plane of each
+        pixel after the fill and (H, W) before it (-1 none, -2 no measurement), the (P, 13)
+        plane fits and (P,) their pixels (before the fill).
+    """
+    height, width = inv_depth.shape
+    x = np.empty(width)
+    for c in range(width):
+        x[c] = (c - cx) / fx
+    y = np.empty(height)
+    for r in range(height):
+        y[r] = (r - cy) / fy
+    sigma, typical_sigma = local_noise_depth_m(
+        inv_depth, noise_window, min_noise_m, noise_cap_factor, model_inv_sigma
+    )
+    seg_rows, seg_starts, seg_stops, seg_table = split_rows(
+        inv_depth,
+        x,
+        sigma,
+        split_factor,
+        split_rms_factor,
+        edge_window,
+        edge_factor,
+        tolerance_floor_m,
+        min_segment_pixels,
+        correlation,
+    )
+    for _ in range(break_passes):
+        n_before = seg_rows.shape[0]
+        seg_rows, seg_starts, seg_stops, seg_table = propagate_breaks(
+            inv_depth,
+            x,
+            sigma,
+            seg_rows,
+            seg_starts,
+            seg_stops,
+            seg_table,
+            edge_window,
+            break_factor,
+            tolerance_floor_m,
+            min_segment_pixels,
+            break_reach,
+            correlation,
+        )
+        if seg_rows.shape[0] == n_before:
+            break
+    seg_sums = segment_sums(inv_depth, x, y, seg_rows, seg_starts, seg_stops)
+    plane_of_segment = grow_planes(
+        inv_depth,
+        x,
+        y,
+        seg_rows,
+        seg_starts,
+        seg_stops,
+        seg_table,
+        seg_sums,
+        grow_factor,
+        rms_factor,
+        tolerance_floor_m,
+        seed_min_pixels,
+    )
+    reassign_segments(
+        inv_depth,
+        x,
+        y,
+        seg_rows,
+        seg_starts,
+        seg_stops,
+        seg_table,
+        seg_sums,
+        plane_of_segment,
+        grow_factor,
+        rms_factor,
+        tolerance_floor_m,
+        reassign_passes,
+    )
+    labels = segment_labels(valid, seg_rows, seg_starts, seg_stops, plane_of_segment)
+    n_planes = 0
+    for i in range(plane_of_segment.shape[0]):
+        n_planes = max(n_planes, plane_of_segment[i] + 1)
+    plane_table, counts = plane_fits(inv_depth, x, y, labels, n_planes)
+    grown_labels = labels.copy()
+    if n_planes > 0 and fill_passes > 0:
+        fill_pixels(
+            inv_depth,
+            x,
+            y,
+            labels,
+            sigma,
+            plane_table,
+            fill_factor,
+            tolerance_floor_m,
+            fill_passes,
+            True,
+        )
+    return (
+        x,
+        y,
+        typical_sigma,
+        seg_rows,
+        seg_starts,
+        seg_stops,
+        labels,
+        grown_labels,
+        plane_table,
+        counts,
+    )

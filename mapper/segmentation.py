@@ -539,24 +539,34 @@ def segment_depth(
     if pixel_index.size == 0:
         return _empty_result(pivot, transform, (height, width))
 
-    x = (np.arange(width) - intrinsics.cx) / intrinsics.fx
-    y = (np.arange(height) - intrinsics.cy) / intrinsics.fy
     model_inv_sigma = (
         params.disparity_noise_px / (intrinsics.fx * params.stereo_baseline_m)
         if params.stereo_baseline_m > 0.0
         else 0.0
     )  # std of the inverse depth [1/m]
-    sigma, typical_sigma = scanline.local_noise_depth_m(
+    # Noise, row segments, planes grown and refined, pixels filled (`scanline.plane_labels`).
+    (
+        x,
+        y,
+        typical_sigma,
+        seg_rows,
+        seg_starts,
+        seg_stops,
+        labels,
+        grown_labels,
+        plane_table,
+        counts,
+    ) = scanline.plane_labels(
         inv_depth,
+        valid,
+        intrinsics.cx,
+        intrinsics.cy,
+        intrinsics.fx,
+        intrinsics.fy,
         params.noise_window_px,
         params.min_noise_m,
         params.noise_cap_factor,
         model_inv_sigma,
-    )
-    seg_rows, seg_starts, seg_stops, seg_table = scanline.split_rows(
-        inv_depth,
-        x,
-        sigma,
         params.split_sigma_factor,
         params.split_rms_sigma_factor,
         params.edge_window_px,
@@ -564,74 +574,16 @@ def segment_depth(
         params.tolerance_floor_m,
         params.min_segment_pixels,
         params.noise_correlation_factor,
-    )
-    for _ in range(params.break_passes):
-        n_before = seg_rows.size
-        seg_rows, seg_starts, seg_stops, seg_table = scanline.propagate_breaks(
-            inv_depth,
-            x,
-            sigma,
-            seg_rows,
-            seg_starts,
-            seg_stops,
-            seg_table,
-            params.edge_window_px,
-            params.break_sigma_factor,
-            params.tolerance_floor_m,
-            params.min_segment_pixels,
-            params.break_reach_px,
-            params.noise_correlation_factor,
-        )
-        if seg_rows.size == n_before:
-            break
-    seg_sums = scanline.segment_sums(inv_depth, x, y, seg_rows, seg_starts, seg_stops)
-    plane_of_segment = scanline.grow_planes(
-        inv_depth,
-        x,
-        y,
-        seg_rows,
-        seg_starts,
-        seg_stops,
-        seg_table,
-        seg_sums,
+        params.break_passes,
+        params.break_sigma_factor,
+        params.break_reach_px,
         params.grow_sigma_factor,
         params.rms_sigma_factor,
-        params.tolerance_floor_m,
         params.seed_min_pixels,
-    )
-    scanline.reassign_segments(
-        inv_depth,
-        x,
-        y,
-        seg_rows,
-        seg_starts,
-        seg_stops,
-        seg_table,
-        seg_sums,
-        plane_of_segment,
-        params.grow_sigma_factor,
-        params.rms_sigma_factor,
-        params.tolerance_floor_m,
         params.reassign_passes,
+        params.fill_sigma_factor,
+        params.fill_passes,
     )
-    labels = scanline.segment_labels(valid, seg_rows, seg_starts, seg_stops, plane_of_segment)
-    n_planes = int(plane_of_segment.max(initial=-1)) + 1
-    plane_table, counts = scanline.plane_fits(inv_depth, x, y, labels, n_planes)
-    # Plane parameters come from the grown segments only; the pixel fill adds labels.
-    grown_labels = labels.copy()
-    if n_planes > 0 and params.fill_passes > 0:
-        scanline.fill_pixels(
-            inv_depth,
-            x,
-            y,
-            labels,
-            sigma,
-            plane_table,
-            params.fill_sigma_factor,
-            params.tolerance_floor_m,
-            params.fill_passes,
-            True,
-        )
     # Dissolve small or degenerate planes and renumber the rest in creation order; their
     # geometry, and their normals refitted on their interior pixels clear of the range limit
     # and (if on) without their outliers for the tilt.
