@@ -50,6 +50,8 @@ _N_SUMS = 10  # n, sx, sy, sxx, sxy, syy, sz, sxz, syz, szz (z = inverse depth)
 _NO_GAP = np.int64(0)  # `_overlap`'s gap between segments of adjacent rows (must overlap)
 _GROWING = np.bool_(True)  # `_segment_misfit` of a growing plane (its uncertainty counts)
 _SEED_TEST = np.bool_(False)  # `_segment_misfit` of a seed's own plane (segment noise only)
+_INVERSE_DEPTH_MODEL = np.bool_(True)  # `fill_pixels` of the planes (inverse depth)
+_LEVEL_MODEL = np.bool_(False)  # `fill_pixels` of the level regions (heights)
 
 #: How far [sigma] inside the sensor's range limit a pixel's predicted inverse depth must lie for
 #: `plane_refits` to count it: a pixel that far inside is lost to the cut with probability 0.13 %,
@@ -2407,7 +2409,7 @@ def level_regions(
         seed_min_pixels,
         correlation,
     )
-    n_floors = 0
+    n_floors = np.int64(0)  # not a literal 0: one signature of the callees
     for i in range(floor_of_segment.shape[0]):
         n_floors = max(n_floors, floor_of_segment[i] + 1)
     measured = np.empty((height, width), np.bool_)
@@ -2432,7 +2434,7 @@ def level_regions(
             fill_factor,
             tolerance_floor_m,
             fill_passes,
-            False,
+            _LEVEL_MODEL,
         )
     interior = region_interior(labels, edge_margin_px)
     height_interior = (
@@ -2620,7 +2622,7 @@ def plane_labels(
         reassign_passes,
     )
     labels = segment_labels(valid, seg_rows, seg_starts, seg_stops, plane_of_segment)
-    n_planes = 0
+    n_planes = np.int64(0)  # not a literal 0: one signature of the callees
     for i in range(plane_of_segment.shape[0]):
         n_planes = max(n_planes, plane_of_segment[i] + 1)
     plane_table, counts = plane_fits(inv_depth, x, y, labels, n_planes)
@@ -2636,7 +2638,7 @@ def plane_labels(
             fill_factor,
             tolerance_floor_m,
             fill_passes,
-            True,
+            _INVERSE_DEPTH_MODEL,
         )
     return (
         x,

@@ -42,6 +42,11 @@ __all__ = [
 _START = np.int64(0)
 """`_block_sum`'s start of a whole array: a numpy scalar, as the stack's starts (a literal 0 is
 a type of its own, and numba would compile `_block_sum` a second time for it)."""
+_SHIFT = np.bool_(True)
+_NO_SHIFT = np.bool_(False)
+"""`rotate_points`'s ``shift`` from the kernels: numpy booleans, not literals (each literal is a
+type of its own: `rotate_points` would be compiled once for each, and once more for Python's
+bool)."""
 
 
 @intrinsic
@@ -443,7 +448,7 @@ def plane_geometry(
     """
     n_planes = counts.shape[0]
     keep = np.empty(n_planes, np.bool_)
-    n_kept = 0
+    n_kept = np.int64(0)  # not a literal 0: one signature of plane_moments
     for p in range(n_planes):
         keep[p] = counts[p] >= min_plane_pixels and np.isfinite(plane_table[p, 0])
         if keep[p]:
@@ -462,7 +467,7 @@ def plane_geometry(
     centroids_camera, eigen, areas = plane_moments(
         rays_camera, depth, pixel_index, grown_ids, normals_camera, n_kept, fx, fy
     )
-    centroids = rotate_points(centroids_camera, rotation, np.zeros(3), pivot, True)
+    centroids = rotate_points(centroids_camera, rotation, np.zeros(3), pivot, _SHIFT)
     rms = np.empty(n_kept)
     min_inv_sigma = np.empty(n_kept)
     for p in range(n_kept):
@@ -602,8 +607,8 @@ def corrected_planes(
         (P, 3) corrected centroids [m], (P, 3) corrected normals, (P, 2) extents [m] (minor
         first) and (P,) bool floor shape.
     """
-    centroids_c = rotate_points(centroids, rotation, pivot, pivot, True)
-    normals_c = rotate_points(normals, rotation, np.zeros(3), np.zeros(3), False)
+    centroids_c = rotate_points(centroids, rotation, pivot, pivot, _SHIFT)
+    normals_c = rotate_points(normals, rotation, np.zeros(3), np.zeros(3), _NO_SHIFT)
     n = centroids.shape[0]
     extents = np.empty((n, 2))
     is_floor = np.empty(n, np.bool_)
