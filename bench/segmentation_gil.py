@@ -5,8 +5,9 @@ time inside the ``nogil`` numba kernels lets the mapping run meanwhile. This rep
 recording's frames through a `FrameSegmenter` (``segment_depth`` and the tilt filter, as a run
 calls them) on one thread and counts its CPU time (``time.thread_time``) in total and inside
 the kernels the Python code calls (every numba dispatcher of ``mapper.scanline`` and
-``mapper.tilt_kernels`` reached from ``mapper.segmentation`` and ``mapper.tilt_filter``,
-wrapped; the wrapper's own call costs a few µs per kernel, counted as inside).
+``mapper.tilt_kernels`` reached from ``mapper.segmentation``, ``mapper.pose_correction`` and
+``mapper.tilt_filter``, wrapped; the wrapper's own call costs a few µs per kernel, counted as
+inside).
 
 Run: ``PYTHONPATH=TREE .venv/bin/python bench/segmentation_gil.py REC.npz [REC.npz ...]``
 (any tree: kernels are found by type, so the base tree is measured alike).
@@ -23,6 +24,7 @@ os.environ.setdefault("NUMBA_NUM_THREADS", "1")
 
 from numba.core.dispatcher import Dispatcher
 
+import mapper.pose_correction as pose_correction
 import mapper.segmentation as segmentation
 import mapper.tilt_filter as tilt_filter
 from fogsim.config import resolve_params
@@ -57,9 +59,10 @@ def _wrapped_module(module: types.ModuleType) -> types.SimpleNamespace:
 
 
 def _wrap_kernels() -> None:
-    for name in ("scanline", "tilt_kernels"):
-        if hasattr(segmentation, name):
-            setattr(segmentation, name, _wrapped_module(getattr(segmentation, name)))
+    for module in (segmentation, pose_correction):
+        for name in ("scanline", "tilt_kernels"):
+            if hasattr(module, name):
+                setattr(module, name, _wrapped_module(getattr(module, name)))
     for module in (segmentation, tilt_filter):
         for name, value in list(vars(module).items()):
             if isinstance(value, Dispatcher):

@@ -16,6 +16,8 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import NDArray
 
+from mapper import tilt_kernels
+
 __all__ = [
     "PoseCorrection",
     "estimate_tilt",
@@ -81,32 +83,33 @@ def estimate_tilt(normals, areas, eigen, counts, pivot, params) -> PoseCorrectio
     each other; the consensus is averaged, weighted by footprint area (small, noisy or
     contaminated planes barely count).
     """
-    identity = PoseCorrection.identity(pivot)
     if not params.correct_tilt or normals.shape[0] == 0:
-        return identity
-    minor_extent = np.sqrt(12.0 * np.maximum(eigen[:, 1], 0.0))
-    candidates = (
-        within_deg_of_vertical(normals, params.max_tilt_correction_deg)
-        & (counts >= params.min_plane_pixels)
-        & (minor_extent >= params.min_plane_extent_m)
+        return PoseCorrection.identity(pivot)
+    max_tilt_cos = math.cos(math.radians(params.max_tilt_correction_deg))
+    candidates, agree, n_candidates = tilt_kernels.tilt_candidates(
+        normals,
+        normals @ normals.T,
+        eigen,
+        counts,
+        max_tilt_cos,
+        math.cos(math.radians(params.tilt_consensus_deg)),
+        params.min_plane_pixels,
+        params.min_plane_extent_m,
     )
-    if not candidates.any():
-        return identity
-    agree = (normals @ normals.T >= math.cos(math.radians(params.tilt_consensus_deg))) & (
-        candidates[:, None] & candidates[None, :]
+    if n_candidates == 0:
+        return PoseCorrection.identity(pivot)
+    # The two products stay numpy's (BLAS): their float order is the kernels' reference.
+    mean, n_planes, within = tilt_kernels.tilt_consensus(
+        normals, areas, candidates, agree, agree @ areas, max_tilt_cos
     )
-    support = agree.astype(np.float64) @ areas
-    candidates &= agree[int(np.argmax(np.where(candidates, support, -1.0)))]
-    mean = (normals[candidates] * areas[candidates, None]).sum(axis=0)
-    mean /= np.linalg.norm(mean)
-    if not within_deg_of_vertical(mean[None], params.max_tilt_correction_deg)[0]:
-        return identity
+    if not within:
+        return PoseCorrection.identity(pivot)
     return PoseCorrection(
         rotation=rotation_to_vertical(mean),
         pivot_m=pivot,
         z_shift_m=0.0,
         ground_plane_found=False,
-        tilt_planes=int(candidates.sum()),
+        tilt_planes=n_planes,
     )
 
 
@@ -117,13 +120,12 @@ def ground_shift(correction, heights, areas, is_floor, params) -> PoseCorrection
     least a quarter of the largest such plane's area compete (a sliver of ground next to a
     step must not outvote the ground itself).
     """
-    offsets = heights - params.expected_ground_z_m
-    near = is_floor & (np.abs(offsets) <= params.ground_search_window_m)
-    if not near.any():
+    found, offset = tilt_kernels.ground_level(
+        heights, areas, is_floor, params.expected_ground_z_m, params.ground_search_window_m
+    )
+    if not found:
         return correction
-    near &= areas >= 0.25 * areas[near].max()
-    nearest = int(np.argmin(np.where(near, np.abs(offsets), np.inf)))
-    shift = -float(offsets[nearest]) if params.correct_ground_shift else 0.0
+    shift = -offset if params.correct_ground_shift else 0.0
     return PoseCorrection(
         correction.rotation, correction.pivot_m, shift, True, correction.tilt_planes
     )

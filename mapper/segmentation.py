@@ -53,7 +53,7 @@ from __future__ import annotations
 
 import math
 from collections.abc import Mapping
-from dataclasses import dataclass, fields, replace
+from dataclasses import dataclass, fields
 
 import numpy as np
 from numpy.typing import NDArray
@@ -66,7 +66,6 @@ from mapper.pose_correction import (
     PoseCorrection,
     estimate_tilt,
     ground_shift,
-    within_deg_of_vertical,
 )
 from mapper.validation import check_field, real_array, rigid_transform
 
@@ -498,8 +497,6 @@ class SegmentationResult:
 
 
 _DEFAULT_PARAMS = SegmentationParams()
-_ORIGIN = np.zeros(3)
-"""(3,) zero: `tilt_kernels.rotate_points` about the origin."""
 
 
 def segment_depth(
@@ -542,24 +539,34 @@ def segment_depth(
     if pixel_index.size == 0:
         return _empty_result(pivot, transform, (height, width))
 
-    x = (np.arange(width) - intrinsics.cx) / intrinsics.fx
-    y = (np.arange(height) - intrinsics.cy) / intrinsics.fy
     model_inv_sigma = (
         params.disparity_noise_px / (intrinsics.fx * params.stereo_baseline_m)
         if params.stereo_baseline_m > 0.0
         else 0.0
     )  # std of the inverse depth [1/m]
-    sigma, typical_sigma = scanline.local_noise_depth_m(
+    # Noise, row segments, planes grown and refined, pixels filled (`scanline.plane_labels`).
+    (
+        x,
+        y,
+        typical_sigma,
+        seg_rows,
+        seg_starts,
+        seg_stops,
+        labels,
+        grown_labels,
+        plane_table,
+        counts,
+    ) = scanline.plane_labels(
         inv_depth,
+        valid,
+        intrinsics.cx,
+        intrinsics.cy,
+        intrinsics.fx,
+        intrinsics.fy,
         params.noise_window_px,
         params.min_noise_m,
         params.noise_cap_factor,
         model_inv_sigma,
-    )
-    seg_rows, seg_starts, seg_stops, seg_table = scanline.split_rows(
-        inv_depth,
-        x,
-        sigma,
         params.split_sigma_factor,
         params.split_rms_sigma_factor,
         params.edge_window_px,
@@ -567,123 +574,66 @@ def segment_depth(
         params.tolerance_floor_m,
         params.min_segment_pixels,
         params.noise_correlation_factor,
-    )
-    for _ in range(params.break_passes):
-        n_before = seg_rows.size
-        seg_rows, seg_starts, seg_stops, seg_table = scanline.propagate_breaks(
-            inv_depth,
-            x,
-            sigma,
-            seg_rows,
-            seg_starts,
-            seg_stops,
-            seg_table,
-            params.edge_window_px,
-            params.break_sigma_factor,
-            params.tolerance_floor_m,
-            params.min_segment_pixels,
-            params.break_reach_px,
-            params.noise_correlation_factor,
-        )
-        if seg_rows.size == n_before:
-            break
-    seg_sums = scanline.segment_sums(inv_depth, x, y, seg_rows, seg_starts, seg_stops)
-    plane_of_segment = scanline.grow_planes(
-        inv_depth,
-        x,
-        y,
-        seg_rows,
-        seg_starts,
-        seg_stops,
-        seg_table,
-        seg_sums,
+        params.break_passes,
+        params.break_sigma_factor,
+        params.break_reach_px,
         params.grow_sigma_factor,
         params.rms_sigma_factor,
-        params.tolerance_floor_m,
         params.seed_min_pixels,
+        params.reassign_passes,
+        params.fill_sigma_factor,
+        params.fill_passes,
     )
-    scanline.reassign_segments(
+    # Dissolve small or degenerate planes and renumber the rest in creation order; their
+    # geometry, and their normals refitted on their interior pixels clear of the range limit
+    # and (if on) without their outliers for the tilt.
+    rotation = transform[:3, :3].copy()  # C order: one compiled version of the kernels
+    (
+        plane_ids,
+        counts,
+        normals,
+        centroids,
+        eigen,
+        areas,
+        rms,
+        tilt_normals,
+        tilt_information,
+    ) = tilt_kernels.plane_geometry(
+        labels,
+        grown_labels,
+        pixel_index,
+        counts,
+        plane_table,
+        rotation,
+        pivot,
+        intrinsics.ray_directions_camera().reshape(-1, 3),
+        depth,
         inv_depth,
         x,
         y,
-        seg_rows,
-        seg_starts,
-        seg_stops,
-        seg_table,
-        seg_sums,
-        plane_of_segment,
-        params.grow_sigma_factor,
-        params.rms_sigma_factor,
-        params.tolerance_floor_m,
-        params.reassign_passes,
-    )
-    labels = scanline.segment_labels(valid, seg_rows, seg_starts, seg_stops, plane_of_segment)
-    n_planes = int(plane_of_segment.max(initial=-1)) + 1
-    plane_table, counts = scanline.plane_fits(inv_depth, x, y, labels, n_planes)
-    # Plane parameters come from the grown segments only; the pixel fill adds labels.
-    grown_labels = labels.copy()
-    if n_planes > 0 and params.fill_passes > 0:
-        scanline.fill_pixels(
-            inv_depth,
-            x,
-            y,
-            labels,
-            sigma,
-            plane_table,
-            params.fill_sigma_factor,
-            params.tolerance_floor_m,
-            params.fill_passes,
-            True,
-        )
-    # Dissolve small or degenerate planes and renumber the rest in creation order.
-    keep = (counts >= params.min_plane_pixels) & np.isfinite(plane_table[:, 0])
-    labels, refit_labels, plane_ids, grown_ids, counts = scanline.renumber_planes(
-        labels, grown_labels, pixel_index, keep
-    )
-    plane_table = plane_table[keep]
-    rotation = transform[:3, :3].copy()  # C order: one compiled version of the kernels
-    rays_camera = intrinsics.ray_directions_camera().reshape(-1, 3)
-    normals_camera, normals = _unit_normals(plane_table, rotation)
-    centroids_camera, eigen, areas = scanline.plane_moments(
-        rays_camera,
-        depth,
-        pixel_index,
-        grown_ids,
-        normals_camera,
-        len(counts),
         intrinsics.fx,
         intrinsics.fy,
-    )
-    centroids = tilt_kernels.rotate_points(centroids_camera, rotation, _ORIGIN, pivot, True)
-    # RMS depth residual of the plane fit (inverse-depth residual scaled at the centroid).
-    rms = np.sqrt(plane_table[:, 3]) * centroids_camera[:, 2] ** 2
-    # The noise is never below min_noise_m (exact data: no plane is infinitely certain).
-    min_inv_sigma = params.min_noise_m / centroids_camera[:, 2] ** 2
-    # The tilt's normals come from the planes refitted on their interior pixels clear of the
-    # range limit and (if on) without their outliers.
-    if params.plane_normal_margin_px > 0:
-        interior = scanline.region_interior(refit_labels, params.plane_normal_margin_px)
-        refit_labels = np.where(interior, refit_labels, -1)
-    tilt_table = scanline.plane_refits(
-        inv_depth,
-        x,
-        y,
-        refit_labels,
-        plane_table,
-        params.plane_refit_sigma,
+        params.min_plane_pixels,
         params.min_noise_m,
+        params.plane_normal_margin_px,
+        params.plane_refit_sigma,
         1.0 / params.max_depth_m,
+        params.noise_correlation_factor,
     )
-    _, tilt_normals = _unit_normals(tilt_table, rotation)
-    normal_sigma_deg = _normal_sigma_deg(tilt_table, params.noise_correlation_factor, min_inv_sigma)
     # The tilt's planes are weighted by the information of their normals (1/σ²), not by area:
     # a far plane's footprint is large while its normal, under stereo noise, is poor.
-    correction = estimate_tilt(
-        tilt_normals, 1.0 / normal_sigma_deg**2, eigen, counts, pivot, params
+    correction = estimate_tilt(tilt_normals, tilt_information, eigen, counts, pivot, params)
+    centroids_c, normals_c, extents, is_floor_shape = tilt_kernels.corrected_planes(
+        centroids,
+        normals,
+        correction.rotation,
+        pivot,
+        eigen,
+        counts,
+        math.cos(math.radians(params.floor_max_normal_angle_deg)),
+        params.min_plane_pixels,
+        params.min_plane_extent_m,
     )
-    centroids_c = tilt_kernels.rotate_points(centroids, correction.rotation, pivot, pivot, True)
-    normals_c = tilt_kernels.rotate_points(normals, correction.rotation, _ORIGIN, _ORIGIN, False)
-    is_floor_shape = _floor_shape(normals_c, eigen, counts, params)
 
     # Floors: level regions grown with the horizontal model in the tilt-corrected frame.
     transform_tilted = correction.transform @ transform
@@ -709,16 +659,26 @@ def segment_depth(
     correction = ground_shift(
         correction, floors.heights_m, floors.areas_m2, floors.is_floor, params
     )
-    floors = replace(floors, heights_m=floors.heights_m + correction.z_shift_m)
+    shifted_m, floor_level_m, ground_m = tilt_kernels.shifted_floors(
+        floors.heights_m,
+        floors.is_floor,
+        correction.z_shift_m,
+        params.expected_ground_z_m,
+        correction.ground_plane_found and params.ground_relabel_sigma_factor > 0.0,
+    )
+    floors = FloorTable(
+        pixel_counts=floors.pixel_counts,
+        heights_m=shifted_m,
+        extents_m=floors.extents_m,
+        areas_m2=floors.areas_m2,
+        rms_ratio=floors.rms_ratio,
+        is_floor=floors.is_floor,
+    )
     origin[2] += correction.z_shift_m
-    ground_m = np.nan
-    if correction.ground_plane_found and params.ground_relabel_sigma_factor > 0.0:
-        offsets = np.abs(floors.heights_m - params.expected_ground_z_m)
-        ground_m = float(floors.heights_m[np.argmin(np.where(floors.is_floor, offsets, np.inf))])
     corrected, floor_heights = scanline.floor_points(
         pixel_index,
         floor_labels,
-        np.where(floors.is_floor, floors.heights_m, np.nan),
+        floor_level_m,
         ground_m,
         rays,
         depth,
@@ -733,7 +693,7 @@ def segment_depth(
         pixel_counts=counts,
         heights_m=centroids_c[:, 2] + correction.z_shift_m,
         normals=normals_c,
-        extents_m=np.sqrt(12.0 * np.maximum(eigen[:, 1:], 0.0)),
+        extents_m=extents,
         areas_m2=areas,
         rms_m=rms,
         is_floor=is_floor_shape,
@@ -771,88 +731,29 @@ def floor_regions(origin, rays, points, sigma_z, depth, segments, intrinsics, pa
         (H, W) floor region of each pixel (-1: none, -2: no measurement) and the
         `FloorTable` (heights before the ground shift).
     """
-    z = np.ascontiguousarray(points[..., 2])
-    seg_rows, seg_starts, seg_stops = scanline.split_level(
-        z,
+    labels, counts, heights, rms, extents, areas, is_floor = scanline.level_regions(
+        np.ascontiguousarray(points[..., 2]),
         sigma_z,
+        points,
+        rays,
+        depth,
         *segments,
+        origin[2],
+        intrinsics.fx,
+        intrinsics.fy,
         params.edge_sigma_factor,
         params.min_segment_pixels,
         params.noise_correlation_factor,
-    )
-    sums = scanline.horizontal_sums(
-        points, sigma_z, seg_rows, seg_starts, seg_stops, params.noise_correlation_factor
-    )
-    floor_of_segment = scanline.grow_floors(
-        seg_rows,
-        seg_starts,
-        seg_stops,
-        sums,
-        depth.shape[0],
         params.grow_sigma_factor,
         params.rms_sigma_factor,
         params.floor_height_tolerance_m,
         params.seed_min_pixels,
-        params.noise_correlation_factor,
-    )
-    n_floors = int(floor_of_segment.max(initial=-1)) + 1
-    grown = scanline.segment_labels(
-        np.isfinite(depth), seg_rows, seg_starts, seg_stops, floor_of_segment
-    )
-    labels = grown
-    grown_heights = scanline.level_heights(floor_of_segment, sums, n_floors)
-    if n_floors > 0 and params.fill_passes > 0:
-        # Heights come from the grown segments only; the pixel fill adds labels.
-        labels = grown.copy()
-        level_model = np.zeros((n_floors, 3))
-        level_model[:, 2] = grown_heights
-        scanline.fill_pixels(
-            z,
-            np.zeros(z.shape[1]),
-            np.zeros(z.shape[0]),
-            labels,
-            sigma_z,
-            level_model,
-            params.fill_sigma_factor,
-            params.tolerance_floor_m,
-            params.fill_passes,
-            False,
-        )
-    interior = scanline.region_interior(labels, params.floor_edge_margin_px)
-    height_interior = (
-        interior
-        if params.floor_height_margin_px == params.floor_edge_margin_px
-        else scanline.region_interior(labels, params.floor_height_margin_px)
-    )
-    if n_floors > 0 and params.floor_snap_sigma_factor > 0.0:
-        interior = interior & ~_foreign_rim(
-            labels, height_interior, z, sigma_z, grown_heights, params
-        )
-    counts, heights, rms, extents, areas, slope = scanline.floor_statistics(
-        labels,
-        grown,
-        interior,
-        height_interior,
-        points,
-        sigma_z,
-        depth,
-        rays,
-        origin[2],
-        intrinsics.fx,
-        intrinsics.fy,
-        n_floors,
+        params.fill_sigma_factor,
         params.tolerance_floor_m,
-    )
-    chi2, n_segments = scanline.floor_segment_fit(
-        sums, floor_of_segment, n_floors, params.floor_height_tolerance_m, params.min_plane_extent_m
-    )
-    is_floor = scanline.floor_verdict(
-        counts,
-        n_segments,
-        extents,
-        slope,
-        rms,
-        chi2,
+        params.fill_passes,
+        params.floor_edge_margin_px,
+        params.floor_height_margin_px,
+        params.floor_snap_sigma_factor,
         params.min_plane_pixels,
         params.min_plane_extent_m,
         math.tan(math.radians(params.floor_max_normal_angle_deg)),
@@ -925,16 +826,6 @@ def _normal_sigma_deg(plane_table, correlation, min_inv_sigma=None):
     if min_inv_sigma is None:
         min_inv_sigma = np.zeros(plane_table.shape[0])
     return tilt_kernels.normal_sigma_deg(plane_table, float(correlation), min_inv_sigma)
-
-
-def _floor_shape(normals, eigen, counts, params: SegmentationParams) -> NDArray[np.bool_]:
-    """Planes that are horizontal, large and wide enough to be floor."""
-    minor_extent = np.sqrt(12.0 * np.maximum(eigen[:, 1], 0.0))
-    return (
-        within_deg_of_vertical(normals, params.floor_max_normal_angle_deg)
-        & (counts >= params.min_plane_pixels)
-        & (minor_extent >= params.min_plane_extent_m)
-    )
 
 
 def _empty_result(pivot, transform, shape) -> SegmentationResult:

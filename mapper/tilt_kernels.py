@@ -23,12 +23,30 @@ from llvmlite import ir
 from numba import types
 from numba.extending import intrinsic
 
-__all__ = ["normal_sigma_deg", "tilt_variances", "turn_points", "unit_normals"]
+from mapper.scanline import plane_moments, plane_refits, region_interior, renumber_planes
+
+__all__ = [
+    "corrected_planes",
+    "ground_level",
+    "normal_sigma_deg",
+    "plane_geometry",
+    "shifted_floors",
+    "tilt_candidates",
+    "tilt_consensus",
+    "tilt_variances",
+    "turn_points",
+    "unit_normals",
+]
 
 
 _START = np.int64(0)
 """`_block_sum`'s start of a whole array: a numpy scalar, as the stack's starts (a literal 0 is
 a type of its own, and numba would compile `_block_sum` a second time for it)."""
+_SHIFT = np.bool_(True)
+_NO_SHIFT = np.bool_(False)
+"""`rotate_points`'s ``shift`` from the kernels: numpy booleans, not literals (each literal is a
+type of its own: `rotate_points` would be compiled once for each, and once more for Python's
+bool)."""
 
 
 @intrinsic
@@ -363,3 +381,320 @@ def rotate_points(points, rotation, before, after, shift):
             value = _rotated(d0, d1, d2, rotation, j, single)
             rotated[i, j] = value + after[j] if shift else value
     return rotated
+
+
+@numba.njit(cache=True, no_cfunc_wrapper=True, nogil=True, error_model="numpy")
+def plane_geometry(
+    labels,
+    grown_labels,
+    pixel_index,
+    counts,
+    plane_table,
+    rotation,
+    pivot,
+    rays_camera,
+    depth,
+    inv_depth,
+    x,
+    y,
+    fx,
+    fy,
+    min_plane_pixels,
+    min_noise_m,
+    normal_margin_px,
+    refit_sigma,
+    min_inv_depth,
+    correlation,
+):
+    """The planes' table and the tilt's inputs in one call (`mapper.segmentation.segment_depth`).
+
+    Keeps the planes of ``min_plane_pixels`` or more with a finite fit and renumbers them
+    (`mapper.scanline.renumber_planes`); their unit normals (`unit_normals`), centroids,
+    covariance eigenvalues and areas (`mapper.scanline.plane_moments`, on the grown pixels),
+    centroids in the robot frame (`rotate_points` about the origin, plus ``pivot``), RMS depth
+    residuals ``sqrt(s²)·z_c²`` and noise floors ``min_noise_m/z_c²`` at the centroids; the
+    refit on the interior pixels (`mapper.scanline.region_interior` with ``normal_margin_px``
+    > 0, `mapper.scanline.plane_refits`), its normals in the robot frame and their information
+    ``1/σ²`` (`normal_sigma_deg`, σ in degrees). The same operations in the same order as the
+    numpy code it replaced (bit for bit).
+
+    Args:
+        labels: (H, W) plane of each pixel after the fill (-1 none, -2 no measurement).
+        grown_labels: (H, W) the same before the fill.
+        pixel_index: (N,) the valid pixels' indices into the flattened image.
+        counts: (P,) pixels of each plane (`mapper.scanline.plane_fits`).
+        plane_table: (P, 13) the planes' fits (`mapper.scanline.plane_fits`).
+        rotation: (3, 3) C-order camera to robot rotation.
+        pivot: (3,) the camera centre in the robot frame [m].
+        rays_camera: (H·W, 3) camera-frame rays with unit z, row-major.
+        depth: (H, W) depths [m] (NaN: none).
+        inv_depth: (H, W) inverse depths [1/m].
+        x: (W,) normalised image x of the columns.
+        y: (H,) normalised image y of the rows.
+        fx: focal length along x [px].
+        fy: focal length along y [px].
+        min_plane_pixels: planes with fewer pixels are dissolved.
+        min_noise_m: lower bound of the depth noise [m].
+        normal_margin_px: ``plane_normal_margin_px`` (0: every pixel refits).
+        refit_sigma: ``plane_refit_sigma`` (`mapper.scanline.plane_refits`).
+        min_inv_depth: 1 / ``max_depth_m`` [1/m].
+        correlation: ``noise_correlation_factor``.
+
+    Returns:
+        (N,) the valid pixels' renumbered planes, and per kept plane (K,) pixel counts,
+        (K, 3) unit normals in the robot frame (up), (K, 3) centroids in the robot frame [m],
+        (K, 3) eigenvalues [m²], (K,) areas [m²], (K,) RMS residuals [m], (K, 3) the refit's
+        unit normals in the robot frame (up) and (K,) their information [1/deg²].
+    """
+    n_planes = counts.shape[0]
+    keep = np.empty(n_planes, np.bool_)
+    n_kept = np.int64(0)  # not a literal 0: one signature of plane_moments
+    for p in range(n_planes):
+        keep[p] = counts[p] >= min_plane_pixels and np.isfinite(plane_table[p, 0])
+        if keep[p]:
+            n_kept += 1
+    _, refit_labels, plane_ids, grown_ids, kept_counts = renumber_planes(
+        labels, grown_labels, pixel_index, keep
+    )
+    table = np.empty((n_kept, plane_table.shape[1]))
+    k = 0
+    for p in range(n_planes):
+        if keep[p]:
+            for j in range(plane_table.shape[1]):
+                table[k, j] = plane_table[p, j]
+            k += 1
+    normals_camera, normals, _ = unit_normals(table, rotation)
+    centroids_camera, eigen, areas = plane_moments(
+        rays_camera, depth, pixel_index, grown_ids, normals_camera, n_kept, fx, fy
+    )
+    centroids = rotate_points(centroids_camera, rotation, np.zeros(3), pivot, _SHIFT)
+    rms = np.empty(n_kept)
+    min_inv_sigma = np.empty(n_kept)
+    for p in range(n_kept):
+        z2 = centroids_camera[p, 2] * centroids_camera[p, 2]
+        rms[p] = math.sqrt(table[p, 3]) * z2
+        min_inv_sigma[p] = min_noise_m / z2
+    if normal_margin_px > 0:
+        interior = region_interior(refit_labels, normal_margin_px)
+        height, width = refit_labels.shape
+        for r in range(height):
+            for c in range(width):
+                if not interior[r, c]:
+                    refit_labels[r, c] = -1
+    tilt_table = plane_refits(
+        inv_depth, x, y, refit_labels, table, refit_sigma, min_noise_m, min_inv_depth
+    )
+    _, tilt_normals, _ = unit_normals(tilt_table, rotation)
+    sigma = normal_sigma_deg(tilt_table, correlation, min_inv_sigma)
+    information = np.empty(n_kept)
+    for p in range(n_kept):
+        information[p] = 1.0 / (sigma[p] * sigma[p])
+    return plane_ids, kept_counts, normals, centroids, eigen, areas, rms, tilt_normals, information
+
+
+@numba.njit(cache=True, no_cfunc_wrapper=True, nogil=True, error_model="numpy")
+def _clipped_extent(variance):
+    """``sqrt(12·np.maximum(variance, 0))``: a footprint width from a variance [m] (NaN stays)."""
+    clipped = variance if variance >= 0.0 else (0.0 if variance < 0.0 else np.nan)
+    return math.sqrt(12.0 * clipped)
+
+
+@numba.njit(cache=True, no_cfunc_wrapper=True, nogil=True, error_model="numpy")
+def tilt_candidates(normals, gram, eigen, counts, min_abs_z, min_dot, min_pixels, min_extent_m):
+    """The planes that may steer the tilt and which of them agree (`estimate_tilt`).
+
+    Args:
+        normals: (P, 3) unit normals in the robot frame.
+        gram: (P, P) ``normals @ normals.T`` (numpy's, so its float order).
+        eigen: (P, 3) the planes' covariance eigenvalues [m²], ascending.
+        counts: (P,) their pixels.
+        min_abs_z: cos of ``max_tilt_correction_deg``.
+        min_dot: cos of ``tilt_consensus_deg``.
+        min_pixels: ``min_plane_pixels``.
+        min_extent_m: ``min_plane_extent_m`` [m].
+
+    Returns:
+        (P,) bool the candidates (normal within the angle of vertical, enough pixels, wide
+        enough), (P, P) float64 1 where two candidates agree (else 0), and how many there are.
+    """
+    n = normals.shape[0]
+    candidates = np.empty(n, np.bool_)
+    n_candidates = 0
+    for p in range(n):
+        candidates[p] = (
+            abs(normals[p, 2]) >= min_abs_z
+            and counts[p] >= min_pixels
+            and _clipped_extent(eigen[p, 1]) >= min_extent_m
+        )
+        if candidates[p]:
+            n_candidates += 1
+    agree = np.zeros((n, n))
+    for p in range(n):
+        for q in range(n):
+            if gram[p, q] >= min_dot and candidates[p] and candidates[q]:
+                agree[p, q] = 1.0
+    return candidates, agree, n_candidates
+
+
+@numba.njit(cache=True, no_cfunc_wrapper=True, nogil=True, error_model="numpy")
+def tilt_consensus(normals, weights, candidates, agree, support, min_abs_z):
+    """The consensus's weighted mean normal (`estimate_tilt`).
+
+    The reference is the candidate of the largest ``support`` (the first of equals, as
+    ``np.argmax``); the candidates agreeing with it are summed in plane order weighted by
+    ``weights`` (numpy's sum over the rows: a plain loop) and normalised by the norm as
+    ``np.linalg.norm`` takes it (OpenBLAS's ddot: ``fma(m2, m2, fma(m1, m1, m0·m0))``).
+
+    Args:
+        normals: (P, 3) unit normals in the robot frame.
+        weights: (P,) the planes' weights.
+        candidates: (P,) bool, `tilt_candidates`.
+        agree: (P, P) `tilt_candidates`'s agreement.
+        support: (P,) ``agree @ weights`` (numpy's, so its float order).
+        min_abs_z: cos of ``max_tilt_correction_deg``.
+
+    Returns:
+        (3,) the unit mean normal, the planes averaged, and whether it is within
+        ``max_tilt_correction_deg`` of vertical.
+    """
+    n = normals.shape[0]
+    best = -1
+    best_support = -1.0
+    for p in range(n):
+        value = support[p] if candidates[p] else -1.0
+        if best < 0 or value > best_support or (value != value and best_support == best_support):
+            best = p
+            best_support = value
+            if value != value:
+                break
+    mean = np.zeros(3)
+    used = 0
+    for p in range(n):
+        if candidates[p] and agree[best, p] != 0.0:
+            used += 1
+            for j in range(3):
+                term = normals[p, j] * weights[p]
+                mean[j] = term if used == 1 else mean[j] + term
+    norm = math.sqrt(_fma(mean[2], mean[2], _fma(mean[1], mean[1], mean[0] * mean[0])))
+    for j in range(3):
+        mean[j] /= norm
+    return mean, used, abs(mean[2]) >= min_abs_z
+
+
+@numba.njit(cache=True, no_cfunc_wrapper=True, nogil=True, error_model="numpy")
+def corrected_planes(
+    centroids, normals, rotation, pivot, eigen, counts, min_abs_z, min_pixels, min_extent_m
+):
+    """The planes' centroids and normals after the tilt correction, extents and floor shape.
+
+    `rotate_points` of the centroids about ``pivot`` and of the normals, ``sqrt(12·
+    max(eigen[:, 1:], 0))``, and the planes of floor shape (normal within
+    ``floor_max_normal_angle_deg`` of vertical: ``|n_z| ≥ min_abs_z``; enough pixels; minor
+    extent ≥ ``min_extent_m``).
+
+    Args:
+        centroids: (P, 3) centroids in the robot frame [m].
+        normals: (P, 3) unit normals in the robot frame.
+        rotation: (3, 3) the tilt correction.
+        pivot: (3,) its centre [m].
+        eigen: (P, 3) covariance eigenvalues [m²], ascending.
+        counts: (P,) pixels of each plane.
+        min_abs_z: cos of ``floor_max_normal_angle_deg``.
+        min_pixels: ``min_plane_pixels``.
+        min_extent_m: ``min_plane_extent_m`` [m].
+
+    Returns:
+        (P, 3) corrected centroids [m], (P, 3) corrected normals, (P, 2) extents [m] (minor
+        first) and (P,) bool floor shape.
+    """
+    centroids_c = rotate_points(centroids, rotation, pivot, pivot, _SHIFT)
+    normals_c = rotate_points(normals, rotation, np.zeros(3), np.zeros(3), _NO_SHIFT)
+    n = centroids.shape[0]
+    extents = np.empty((n, 2))
+    is_floor = np.empty(n, np.bool_)
+    for p in range(n):
+        extents[p, 0] = _clipped_extent(eigen[p, 1])
+        extents[p, 1] = _clipped_extent(eigen[p, 2])
+        is_floor[p] = (
+            abs(normals_c[p, 2]) >= min_abs_z
+            and counts[p] >= min_pixels
+            and extents[p, 0] >= min_extent_m
+        )
+    return centroids_c, normals_c, extents, is_floor
+
+
+@numba.njit(cache=True, no_cfunc_wrapper=True, nogil=True, error_model="numpy")
+def _first_min(values):
+    """``np.argmin`` of a 1-D float array: the first smallest, or the first NaN."""
+    best = 0
+    for i in range(values.shape[0]):
+        if values[i] != values[i]:
+            return i
+        if values[i] < values[best]:
+            best = i
+    return best
+
+
+@numba.njit(cache=True, no_cfunc_wrapper=True, nogil=True, error_model="numpy")
+def ground_level(heights, areas, is_floor, expected_z_m, window_m):
+    """The floor region nearest the expected ground plane (`mapper.pose_correction.ground_shift`).
+
+    Regions that are floors within ``window_m`` of ``expected_z_m`` and have at least a
+    quarter of the largest such region's area compete; the nearest wins (the first of equals).
+
+    Args:
+        heights: (F,) the regions' heights [m].
+        areas: (F,) their areas [m²].
+        is_floor: (F,) bool, the regions that are floors.
+        expected_z_m: z of the expected ground plane [m].
+        window_m: the search window [m].
+
+    Returns:
+        Whether one was found, and its height minus ``expected_z_m`` [m] (0 if none).
+    """
+    n = heights.shape[0]
+    near = np.empty(n, np.bool_)
+    largest = -np.inf
+    found = False
+    for f in range(n):
+        near[f] = is_floor[f] and abs(heights[f] - expected_z_m) <= window_m
+        if near[f]:
+            area = areas[f]
+            if not found or area != area or (largest == largest and area > largest):
+                largest = area  # NaN wins, as in np.max
+            found = True
+    if not found:
+        return False, 0.0
+    offsets = np.empty(n)
+    for f in range(n):
+        offset = heights[f] - expected_z_m
+        offsets[f] = abs(offset) if near[f] and areas[f] >= 0.25 * largest else np.inf
+    return True, heights[_first_min(offsets)] - expected_z_m
+
+
+@numba.njit(cache=True, no_cfunc_wrapper=True, nogil=True, error_model="numpy")
+def shifted_floors(heights, is_floor, z_shift_m, expected_z_m, find_ground):
+    """The floor regions' heights after the ground shift, and the ground's height.
+
+    Args:
+        heights: (F,) the regions' heights before the shift [m].
+        is_floor: (F,) bool, the regions that are floors.
+        z_shift_m: the ground shift [m].
+        expected_z_m: z of the expected ground plane [m].
+        find_ground: whether to look for the ground's height.
+
+    Returns:
+        (F,) shifted heights [m], (F,) the same for floors and NaN for the other regions, and
+        the shifted height of the floor nearest ``expected_z_m`` (the first of equals; NaN if
+        not ``find_ground``).
+    """
+    n = heights.shape[0]
+    shifted = np.empty(n)
+    floor_heights = np.empty(n)
+    offsets = np.empty(n)
+    for f in range(n):
+        shifted[f] = heights[f] + z_shift_m
+        floor_heights[f] = shifted[f] if is_floor[f] else np.nan
+        offsets[f] = abs(shifted[f] - expected_z_m) if is_floor[f] else np.inf
+    ground_m = shifted[_first_min(offsets)] if find_ground and n > 0 else np.nan
+    return shifted, floor_heights, ground_m

@@ -125,6 +125,7 @@ def _kernels(*modules: ModuleType) -> tuple[Dispatcher, ...]:
 
 _FLOOR_KERNELS = (
     mapper.scanline.level_geometry,
+    mapper.scanline.level_regions,
     mapper.scanline.split_level,
     mapper.scanline.horizontal_sums,
     mapper.scanline.grow_floors,
