@@ -119,6 +119,13 @@ class HeadingParams:
             than the view, walked straight at: its foot's edge) scores a few tens, noise with
             a contrast like a real peak's; the synthetic staircase's side edges score 10⁴, the
             `stairs` recordings' 10³ from their first estimate on.
+        flat_contrast: The edge score stands in for the structure points' score only where
+            that has never stood out and its latest contrast is below this (flat: the scene's
+            structure slides along itself), or there are no structure keyframes. Depth
+            recordings seeds 1–8, the structure score's contrasts before its first estimate:
+            `stairs` 0.022–0.045 (never estimates), stage, zig-zag stage and talos course
+            0.066–0.091 (then ≥ 0.1: building up, and the better estimate; the edge score
+            standing in there cost the stage seed 3 6 unsafe cells). Half `min_contrast`.
     """
 
     correct_heading: bool = True
@@ -143,6 +150,7 @@ class HeadingParams:
     edge_score: bool = True
     edge_margin_m: float = 0.06
     min_edge_evidence: float = 200.0
+    flat_contrast: float = 0.05
 
     def __post_init__(self) -> None:
         def check(name: str, kind: type, allowed: str, ok=lambda _: True) -> None:
@@ -187,6 +195,7 @@ class HeadingParams:
             lambda v: math.isfinite(v) and v > self.min_height_m,
         )
         check("min_contrast", float, "in [0, 1)", lambda v: 0.0 <= v < 1.0)
+        check("flat_contrast", float, "in [0, 1)", lambda v: 0.0 <= v < 1.0)
         check(
             "min_edge_evidence",
             float,
@@ -433,6 +442,7 @@ class HeadingEstimator:
         self._keyframes: list[_Keyframe] = []  # structure points
         self._edge_keyframes: list[_Keyframe] = []  # edge points (`edge_score`)
         self._added = [0, 0]  # keyframes ever added to each
+        self._structure_flat = False  # the structure points' latest score was flat
 
     @property
     def keyframes(self) -> int:
@@ -554,11 +564,14 @@ class HeadingEstimator:
         """Re-estimate the correction from the keyframes when they span the baseline.
 
         ``edges``: from the edge keyframes, only while the structure points' score has never
-        stood out (it is the better estimate where it does: module docstring).
+        stood out (it is the better estimate where it does: module docstring) and either its
+        latest score was flat (`flat_contrast`) or there are no structure keyframes to score.
         """
         p = self.params
         keyframes = self._edge_keyframes if edges else self._keyframes
-        if edges and self.estimates > self.edge_estimates:
+        if edges and (
+            self.estimates > self.edge_estimates or (self._keyframes and not self._structure_flat)
+        ):
             return
         cameras = np.array([k.camera_xy for k in keyframes])
         if len(keyframes) < 2 or np.ptp(cameras, axis=0).max() < p.min_baseline_m:
@@ -581,6 +594,10 @@ class HeadingEstimator:
         coarse = np.arange(-half, half + 1) * p.coarse_step_deg
         scores = score(*data, np.radians(coarse), p.cell_m, p.layer_m)
         best = float(scores.max())
+        if not edges:
+            self._structure_flat = best <= 0.0 or best - float(np.median(scores)) < (
+                p.flat_contrast * best
+            )
         if best <= 0.0 or best - float(np.median(scores)) < p.min_contrast * best:
             return
         if edges and best - float(np.median(scores)) < p.min_edge_evidence:

@@ -304,8 +304,9 @@ def test_a_staircase_walked_straight_at_shows_its_yaw_error_by_its_side_edges(ya
 def test_a_staircase_wider_than_the_view_is_unobservable():
     # No side edge in view (the treads run 3 m to either side; low risers as above): nothing
     # ties the frames' headings together, so no estimate is made (the prior stays), rather
-    # than a guess. Its foot's edge faces along the path: noise scores a contrast of 0.26 on
-    # it, but a few tens of weighted pairs (`min_edge_evidence`).
+    # than a guess. Its foot's edge faces along the path: it scores a contrast of 0.26 (its
+    # best where the edge lies along the voxel grid, not from the motion) but a few tens of
+    # weighted pairs (`min_edge_evidence`; without it: an estimate).
     points, heights = stair_points_world(np.random.default_rng(7), -2.5, 3.5, risers=False)
     estimator = HeadingEstimator(HeadingParams(prior_deg=0.5))
     for pose in STAIR_WALK:
@@ -343,3 +344,19 @@ def test_weighted_scores_with_unit_weights_are_the_plain_scores():
         weighted_heading_scores(offsets, z, np.ones(300), starts, cameras, yaw, angles, 0.03, 0.04),
         heading_scores(offsets, z, starts, cameras, yaw, angles, 0.03, 0.04),
     )
+
+
+def test_the_edge_score_does_not_stand_in_where_the_structure_score_is_building_up():
+    # Stage-like boxes: the structure points' score stands out from the third pose on; the
+    # edge score (which sees the boxes' sides too) is never used, so the correction is the
+    # structure score's, as with `edge_score` off.
+    rng = np.random.default_rng(11)
+    boxes = box_points_world(rng)
+    both = HeadingEstimator(HeadingParams(estimate_every=1))
+    structure_only = HeadingEstimator(HeadingParams(estimate_every=1, edge_score=False))
+    for x, y, yaw in WALK:
+        seen = frame(boxes, floor_points_world(x), (x, y, yaw), 3.0)
+        both.observe(*seen)
+        structure_only.observe(*seen)
+    assert both.edge_estimates == 0 and both.estimates == structure_only.estimates == 2
+    assert both.correction_rad == structure_only.correction_rad
