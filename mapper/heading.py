@@ -29,6 +29,24 @@ its prior `prior_deg`. Each frame is
 corrected by rotating its points and camera pose about the vertical axis through the camera
 centre by the correction.
 
+Edge score (`edge_score`): where the robot walks straight at structure that faces it (the
+`stairs` scenario's risers, wider than what tells them apart), a yaw error slides that
+structure along itself and the score above stays flat (contrast 0.02–0.05) however far the
+robot walks. What shows the error is the structure's *lateral ends* (a staircase's side edges,
+a box's sides): seen from ranges ``Δx`` apart they disagree by ``Δx·e`` across the path. A
+second keyframe set keeps, of every frame, the points above the ground (`min_height_m` ..
+`max_height_m`, a floor point at its floor's height: treads and box tops count) that lie on an
+edge of the frame's own horizontal occupancy (`edge_gradients`: ``cell_m`` squares, the
+occupancy's gradient across the point's square, a square the sampling left empty not counted)
+and more than `edge_margin_m` inside the image's border (the end of the view is no end of the
+scene), each with its gradient. At an estimate each point weighs how much of its gradient
+faces across the keyframes' baselines (`_edge_weights`): a riser faced head-on or a floor's
+inside weighs 0, a side edge 1; the score (`weighted_heading_scores`) sums the products of the
+weights of pairs sharing a voxel. It stands in only while the structure score has never stood
+out and was flat at its latest try (`flat_contrast`) or has no keyframes, and needs
+`min_edge_evidence` besides `min_contrast` (a staircase wider than the view shows no lateral
+end: no estimate, the correction stays, rather than a guess).
+
 Frames: robot frame R (z up, origin on the ground below the robot); the robot's pose in the
 world is (x, y, z, yaw); camera centre = translation of the corrected camera-to-robot transform.
 """
