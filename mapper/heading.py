@@ -29,6 +29,24 @@ its prior `prior_deg`. Each frame is
 corrected by rotating its points and camera pose about the vertical axis through the camera
 centre by the correction.
 
+Edge score (`edge_score`): where the robot walks straight at structure that faces it (the
+`stairs` scenario's risers, wider than what tells them apart), a yaw error slides that
+structure along itself and the score above stays flat (contrast 0.02–0.05) however far the
+robot walks. What shows the error is the structure's *lateral ends* (a staircase's side edges,
+a box's sides): seen from ranges ``Δx`` apart they disagree by ``Δx·e`` across the path. A
+second keyframe set keeps, of every frame, the points above the ground (`min_height_m` ..
+`max_height_m`, a floor point at its floor's height: treads and box tops count) that lie on an
+edge of the frame's own horizontal occupancy (`edge_gradients`: ``cell_m`` squares, the
+occupancy's gradient across the point's square, a square the sampling left empty not counted)
+and more than `edge_margin_m` inside the image's border (the end of the view is no end of the
+scene), each with its gradient. At an estimate each point weighs how much of its gradient
+faces across the keyframes' baselines (`_edge_weights`): a riser faced head-on or a floor's
+inside weighs 0, a side edge 1; the score (`weighted_heading_scores`) sums the products of the
+weights of pairs sharing a voxel. It stands in only while the structure score has never stood
+out and was flat at its latest try (`flat_contrast`) or has no keyframes, and needs
+`min_edge_evidence` besides `min_contrast` (a staircase wider than the view shows no lateral
+end: no estimate, the correction stays, rather than a guess).
+
 Frames: robot frame R (z up, origin on the ground below the robot); the robot's pose in the
 world is (x, y, z, yaw); camera centre = translation of the corrected camera-to-robot transform.
 """
@@ -44,7 +62,15 @@ from numpy.typing import NDArray
 
 from mapper.validation import check_field
 
-__all__ = ["HeadingEstimator", "HeadingParams", "heading_scores", "yaw_about_pivot"]
+__all__ = [
+    "HeadingEstimator",
+    "HeadingParams",
+    "edge_gradients",
+    "heading_scores",
+    "inside_image",
+    "weighted_heading_scores",
+    "yaw_about_pivot",
+]
 
 _HASH_BITS = 20
 """The voxel counts live in a hash table of 2**20 int64 entries (8 MiB): far more than the at most
@@ -96,6 +122,28 @@ class HeadingParams:
             median over frames, mean (worst) over seeds 1–8, stage / stage_zigzag: 0 gives
             0.49 (1.11) / 0.75 (1.04)°, 0.05 gives 0.38 (0.59) / 0.65 (0.88)°, 0.1 gives
             0.34 (0.51) / 0.66 (1.00)° but stage_zigzag seed 3's unsafe cells 97 → 125.
+        edge_score: Score the *lateral ends* of structure only (module docstring, "Edge
+            score"): a keyframe keeps the points above the ground (floors too: a tread, a box
+            top) on the edge of its horizontal occupancy, each weighted by how much of that
+            edge faces across the camera path, so structure that slides along itself under a
+            yaw error (a riser faced head-on, a floor's inside) weighs nothing. False: the
+            non-floor points, each weighing 1 (the estimator up to stop 27).
+        edge_margin_m: With `edge_score`, points within this of the image's border at their
+            depth [m] are no edge points (the end of the view is no end of the scene): two
+            `cell_m` voxels.
+        min_edge_evidence: With `edge_score`, the edge score's best must also exceed its
+            median by this much (weighted point pairs; a lateral edge point weighs 1) besides
+            `min_contrast`: a scene whose only edges face along the path (a staircase wider
+            than the view, walked straight at: its foot's edge) scores a few tens, noise with
+            a contrast like a real peak's; the synthetic staircase's side edges score 10⁴, the
+            `stairs` recordings' 10³ from their first estimate on.
+        flat_contrast: The edge score stands in for the structure points' score only where
+            that has never stood out and its latest contrast is below this (flat: the scene's
+            structure slides along itself), or there are no structure keyframes. Depth
+            recordings seeds 1–8, the structure score's contrasts before its first estimate:
+            `stairs` 0.022–0.045 (never estimates), stage, zig-zag stage and talos course
+            0.066–0.091 (then ≥ 0.1: building up, and the better estimate; the edge score
+            standing in there cost the stage seed 3 6 unsafe cells). Half `min_contrast`.
     """
 
     correct_heading: bool = True
@@ -117,12 +165,23 @@ class HeadingParams:
     min_baseline_m: float = 0.5
     min_contrast: float = 0.1
     peak_band: float = 0.05
+    edge_score: bool = True
+    edge_margin_m: float = 0.06
+    min_edge_evidence: float = 200.0
+    flat_contrast: float = 0.05
 
     def __post_init__(self) -> None:
         def check(name: str, kind: type, allowed: str, ok=lambda _: True) -> None:
             check_field("HeadingParams", name, getattr(self, name), kind, allowed, ok)
 
         check("correct_heading", bool, "a bool")
+        check("edge_score", bool, "a bool")
+        check(
+            "edge_margin_m",
+            float,
+            "a finite float >= 0 [m]",
+            lambda v: math.isfinite(v) and v >= 0.0,
+        )
         check("max_correction_deg", float, "in (0, 45] degrees", lambda v: 0.0 < v <= 45.0)
         check(
             "prior_deg",
@@ -154,6 +213,13 @@ class HeadingParams:
             lambda v: math.isfinite(v) and v > self.min_height_m,
         )
         check("min_contrast", float, "in [0, 1)", lambda v: 0.0 <= v < 1.0)
+        check("flat_contrast", float, "in [0, 1)", lambda v: 0.0 <= v < 1.0)
+        check(
+            "min_edge_evidence",
+            float,
+            "a finite float >= 0",
+            lambda v: math.isfinite(v) and v >= 0.0,
+        )
         check("peak_band", float, "in [0, 1)", lambda v: 0.0 <= v < 1.0)
         check("max_keyframes", int, "an integer in [2, 1000]", lambda v: 2 <= v <= 1000)
         check(
@@ -244,6 +310,125 @@ def heading_scores(offsets_xy, z_world, starts, camera_xy, yaw_rad, angles_rad, 
     return scores
 
 
+@numba.njit(cache=True, no_cfunc_wrapper=True, nogil=True, error_model="numpy")
+def weighted_heading_scores(
+    offsets_xy, z_world, weights, starts, camera_xy, yaw_rad, angles_rad, cell, layer
+):
+    """`heading_scores` with a weight per point: ``Σ_{j<k} Σ_voxels W_j·W_k`` (numba).
+
+    ``W_k`` is the sum of the weights of keyframe k's points in the voxel; with every weight 1
+    the scores are `heading_scores`'.
+
+    Args:
+        offsets_xy: (M, 2) points' horizontal offsets from their camera [m], keyframe by
+            keyframe.
+        z_world: (M,) points' world z [m].
+        weights: (M,) points' weights (>= 0).
+        starts: (K + 1,) first point of each keyframe, then M.
+        camera_xy: (K, 2) world camera positions [m].
+        yaw_rad: (K,) robot yaw of each keyframe [rad].
+        angles_rad: (A,) candidate corrections [rad].
+        cell: Horizontal voxel size [m].
+        layer: Vertical voxel size [m].
+
+    Returns:
+        (A,) float64 scores.
+    """
+    mask = (1 << _HASH_BITS) - 1
+    sums = np.zeros(1 << _HASH_BITS, dtype=np.float64)
+    slots = np.empty(offsets_xy.shape[0], dtype=np.int64)
+    scores = np.zeros(angles_rad.shape[0])
+    for a in range(angles_rad.shape[0]):
+        pairs = 0.0
+        for shift in (0.0, 0.5):  # two voxel grids, the second offset by half a voxel
+            for k in range(starts.shape[0] - 1):
+                c = math.cos(yaw_rad[k] + angles_rad[a])
+                s = math.sin(yaw_rad[k] + angles_rad[a])
+                for i in range(starts[k], starts[k + 1]):
+                    x = camera_xy[k, 0] + c * offsets_xy[i, 0] - s * offsets_xy[i, 1]
+                    y = camera_xy[k, 1] + s * offsets_xy[i, 0] + c * offsets_xy[i, 1]
+                    slots[i] = _voxel_slot(
+                        x + shift * cell,
+                        y + shift * cell,
+                        z_world[i] + shift * layer,
+                        cell,
+                        layer,
+                        mask,
+                    )
+                    pairs += weights[i] * sums[slots[i]]
+                for i in range(starts[k], starts[k + 1]):
+                    sums[slots[i]] += weights[i]
+            for i in range(offsets_xy.shape[0]):
+                sums[slots[i]] = 0.0
+        scores[a] = pairs
+    return scores
+
+
+def edge_gradients(
+    points_robot: NDArray[np.float64], cell_m: float, reach: int = 2
+) -> NDArray[np.float64]:
+    """Occupancy gradient of each point's cell in the points' horizontal occupancy grid.
+
+    The points are binned into `cell_m` squares (x, y); a point's gradient is
+    (occupied(x + 1) − occupied(x − 1), occupied(y + 1) − occupied(y − 1)) of its square's
+    neighbours: 0 inside a surface or along a line, ±1 across its ends and sides.
+
+    Args:
+        points_robot: (N, 3) points [m] (any frame with z up; the result is in its x, y).
+        cell_m: Square size [m].
+        reach: A side counts as occupied if one of its `reach` nearest squares is (2: a
+            square the sampling left empty is no edge).
+
+    Returns:
+        (N, 2) float64 gradients, entries in {−1, 0, 1}.
+    """
+    if points_robot.shape[0] == 0:
+        return np.zeros((0, 2))
+    ij = np.floor(points_robot[:, :2] / cell_m).astype(np.int64)
+    ij -= ij.min(axis=0) - reach  # every neighbour index >= 0
+    width = int(ij[:, 1].max()) + reach + 1
+    occupied = np.unique(ij[:, 0] * width + ij[:, 1])
+
+    def has(di: int, dj: int) -> NDArray[np.bool_]:
+        keys = (ij[:, 0] + di) * width + ij[:, 1] + dj
+        at = np.minimum(np.searchsorted(occupied, keys), occupied.size - 1)
+        return occupied[at] == keys
+
+    def side(di: int, dj: int) -> NDArray[np.float64]:
+        return (has(di, dj) | has(reach * di, reach * dj)).astype(np.float64)
+
+    return np.column_stack([side(1, 0) - side(-1, 0), side(0, 1) - side(0, -1)])
+
+
+def inside_image(
+    points_robot: NDArray[np.float64],
+    transform_camera_to_robot: NDArray[np.float64],
+    margin_m: float,
+) -> NDArray[np.bool_]:
+    """Whether each point lies more than ``margin_m`` inside the border of the frame's view.
+
+    The border is where the frame's points end in the image (the extremes of x/z and y/z in
+    the camera frame); the margin at a point is ``margin_m`` / its depth.
+
+    Args:
+        points_robot: (N, 3) the frame's points in the robot frame [m] (all of them: they
+            give the border).
+        transform_camera_to_robot: 4×4 camera pose in the robot frame.
+        margin_m: Margin [m] at the point's depth.
+
+    Returns:
+        (N,) bool.
+    """
+    camera = (points_robot - transform_camera_to_robot[:3, 3]) @ transform_camera_to_robot[:3, :3]
+    depth = np.maximum(camera[:, 2], 1e-6)
+    margin = margin_m / depth
+    inside = np.ones(points_robot.shape[0], dtype=bool)
+    for axis in (0, 1):
+        ratio = camera[:, axis] / depth
+        inside &= (ratio >= ratio.min() + margin) & (ratio <= ratio.max() - margin)
+    return inside
+
+
 @dataclass(frozen=True)
 class _Keyframe:
     """Structure points of one keyframe (see the module docstring)."""
@@ -253,6 +438,7 @@ class _Keyframe:
     z_world: NDArray[np.float64]
     camera_xy: NDArray[np.float64]
     yaw_rad: float
+    gradients_xy: NDArray[np.float64] | None = None  # robot frame, with `edge_score`
 
 
 class HeadingEstimator:
@@ -269,9 +455,12 @@ class HeadingEstimator:
         self.params = params if params is not None else HeadingParams()
         self.correction_rad = math.radians(self.params.prior_deg)
         self.estimates = 0
-        self._added = 0  # keyframes ever added
+        self.edge_estimates = 0
         self.transform_camera_to_robot: NDArray[np.float64] | None = None
-        self._keyframes: list[_Keyframe] = []
+        self._keyframes: list[_Keyframe] = []  # structure points
+        self._edge_keyframes: list[_Keyframe] = []  # edge points (`edge_score`)
+        self._added = [0, 0]  # keyframes ever added to each
+        self._structure_flat = False  # the structure points' latest score was flat
 
     @property
     def keyframes(self) -> int:
@@ -301,12 +490,15 @@ class HeadingEstimator:
                 needs x and y alone).
         """
         transform = np.asarray(transform_camera_to_robot, dtype=np.float64)
-        if (
-            self.params.correct_heading
-            and self._add_keyframe(points_robot, floor_heights_m, transform, robot_pose, z_shift_m)
-            and self._added % self.params.estimate_every == 0
-        ):
-            self._estimate()
+        if not self.params.correct_heading:
+            return
+        frame = (points_robot, floor_heights_m, transform, robot_pose, z_shift_m)
+        for edges in (False, True) if self.params.edge_score else (False,):
+            if (
+                self._add_keyframe(*frame, edges=edges)
+                and self._added[edges] % self.params.estimate_every == 0
+            ):
+                self._estimate(edges)
 
     def rotation(self, transform_camera_to_robot: NDArray[np.float64]) -> NDArray[np.float64]:
         """The 4×4 correction of a frame's robot-frame data by the current estimate.
@@ -325,8 +517,10 @@ class HeadingEstimator:
         self.transform_camera_to_robot = correction @ transform
         return correction
 
-    def _add_keyframe(self, points_robot, floor_heights_m, transform, pose, z_shift_m):
+    def _add_keyframe(self, points_robot, floor_heights_m, transform, pose, z_shift_m, edges):
         """Store the frame as a keyframe if its cell and sector are new; True if stored.
+
+        ``edges``: of the edge points, into the edge keyframes (else the structure points).
 
         ``z_shift_m`` is added to the points' z once the cell and sector are new (the floor
         heights' NaN and the camera's x, y are all the test needs of the rest).
@@ -339,52 +533,92 @@ class HeadingEstimator:
         sector = math.floor(math.degrees(math.atan2(axis[1], axis[0])) / p.keyframe_sector_deg)
         cell = np.floor(camera_xy / p.keyframe_spacing_m).astype(np.int64)
         key = (int(cell[0]), int(cell[1]), sector)
-        if any(k.key == key for k in self._keyframes):
+        keyframes = self._edge_keyframes if edges else self._keyframes
+        if any(k.key == key for k in keyframes):
             return False
         offsets = points_robot[:, :2] - transform[:2, 3]
         z_robot = points_robot[:, 2] + z_shift_m
-        structure = (
-            np.isnan(floor_heights_m)
-            & (z_robot >= p.min_height_m)
-            & (z_robot <= p.max_height_m)
-            & (np.hypot(offsets[:, 0], offsets[:, 1]) <= p.max_range_m)
-        )
-        index = np.flatnonzero(structure)
+        range_m = np.hypot(offsets[:, 0], offsets[:, 1])
+        # A floor point's height is its floor's (a plane's: depth noise leaves no ground
+        # point above `min_height_m` to draw an edge where the noise reaches it).
+        height_m = np.where(np.isnan(floor_heights_m), points_robot[:, 2], floor_heights_m)
+        height_m = height_m + z_shift_m
+        band = (height_m >= p.min_height_m) & (height_m <= p.max_height_m)
+        structure = band & (range_m <= p.max_range_m)
+        gradients = None
+        if edges:
+            # The occupancy reaches two cells beyond the range: the range's end is no edge.
+            candidates = np.flatnonzero(band & (range_m <= p.max_range_m + 2.0 * p.cell_m))
+            gradients = edge_gradients(points_robot[candidates], p.cell_m)
+            edge = (
+                np.any(gradients != 0.0, axis=1)
+                & structure[candidates]
+                & inside_image(points_robot, transform, p.edge_margin_m)[candidates]
+            )
+            index, gradients = candidates[edge], gradients[edge]
+        else:
+            index = np.flatnonzero(structure & np.isnan(floor_heights_m))
         if index.size < p.min_points:
             return False
-        index = index[:: -(-index.size // p.max_points_per_keyframe)]
-        self._keyframes.append(
+        step = -(-index.size // p.max_points_per_keyframe)
+        index = index[::step]
+        if gradients is not None:
+            gradients = np.ascontiguousarray(gradients[::step])
+        keyframes.append(
             _Keyframe(
                 key=key,
                 offsets_xy=np.ascontiguousarray(offsets[index]),
                 z_world=z_robot[index] + pose[2],
                 camera_xy=camera_xy,
                 yaw_rad=float(pose[3]),
+                gradients_xy=gradients,
             )
         )
-        del self._keyframes[: -p.max_keyframes]
-        self._added += 1
+        del keyframes[: -p.max_keyframes]
+        self._added[edges] += 1
         return True
 
-    def _estimate(self) -> None:
-        """Re-estimate the correction from all keyframes when they span the baseline."""
+    def _estimate(self, edges: bool) -> None:
+        """Re-estimate the correction from the keyframes when they span the baseline.
+
+        ``edges``: from the edge keyframes, only while the structure points' score has never
+        stood out (it is the better estimate where it does: module docstring) and either its
+        latest score was flat (`flat_contrast`) or there are no structure keyframes to score.
+        """
         p = self.params
-        cameras = np.array([k.camera_xy for k in self._keyframes])
-        if len(self._keyframes) < 2 or np.ptp(cameras, axis=0).max() < p.min_baseline_m:
+        keyframes = self._edge_keyframes if edges else self._keyframes
+        if edges and (
+            self.estimates > self.edge_estimates or (self._keyframes and not self._structure_flat)
+        ):
             return
-        sizes = [k.offsets_xy.shape[0] for k in self._keyframes]
+        cameras = np.array([k.camera_xy for k in keyframes])
+        if len(keyframes) < 2 or np.ptp(cameras, axis=0).max() < p.min_baseline_m:
+            return
+        sizes = [k.offsets_xy.shape[0] for k in keyframes]
         data = (
-            np.concatenate([k.offsets_xy for k in self._keyframes]),
-            np.concatenate([k.z_world for k in self._keyframes]),
+            np.concatenate([k.offsets_xy for k in keyframes]),
+            np.concatenate([k.z_world for k in keyframes]),
             np.concatenate([[0], np.cumsum(sizes)]).astype(np.int64),
             cameras,
-            np.array([k.yaw_rad for k in self._keyframes]),
+            np.array([k.yaw_rad for k in keyframes]),
         )
+        if edges:
+            weights = _edge_weights(keyframes, cameras)
+            data = (data[0], data[1], weights, *data[2:])
+            score = weighted_heading_scores
+        else:
+            score = heading_scores
         half = round(p.max_correction_deg / p.coarse_step_deg)
         coarse = np.arange(-half, half + 1) * p.coarse_step_deg
-        scores = heading_scores(*data, np.radians(coarse), p.cell_m, p.layer_m)
+        scores = score(*data, np.radians(coarse), p.cell_m, p.layer_m)
         best = float(scores.max())
+        if not edges:
+            self._structure_flat = best <= 0.0 or best - float(np.median(scores)) < (
+                p.flat_contrast * best
+            )
         if best <= 0.0 or best - float(np.median(scores)) < p.min_contrast * best:
+            return
+        if edges and best - float(np.median(scores)) < p.min_edge_evidence:
             return
         if p.peak_band > 0.0:
             drop = p.peak_band * (best - float(np.median(scores)))
@@ -392,9 +626,39 @@ class HeadingEstimator:
         else:
             steps = round(p.coarse_step_deg / p.fine_step_deg)
             fine = coarse[int(np.argmax(scores))] + np.arange(-steps, steps + 1) * p.fine_step_deg
-            fine_scores = heading_scores(*data, np.radians(fine), p.cell_m, p.layer_m)
+            fine_scores = score(*data, np.radians(fine), p.cell_m, p.layer_m)
             self.correction_rad = math.radians(float(fine[int(np.argmax(fine_scores))]))
         self.estimates += 1
+        self.edge_estimates += edges
+
+
+def _edge_weights(
+    keyframes: list[_Keyframe], cameras_xy: NDArray[np.float64]
+) -> NDArray[np.float64]:
+    """Weight of each keyframe point: how much of its edge faces across the camera path.
+
+    Frames at cameras ``C_j``, ``C_k`` disagree by a yaw error sideways to ``C_j − C_k``: an
+    edge with gradient ``g`` (world frame) shows that disagreement by ``g`` across the
+    baselines, ``√(gᵀ·P·g)`` with ``P = (tr Σ·I − Σ) / tr Σ`` and ``Σ`` the covariance of the
+    cameras' positions (a straight walk along ``d``: ``P = d⊥·d⊥ᵀ``; cameras spread evenly:
+    ``I / 2``).
+
+    Args:
+        keyframes: The keyframes, with their gradients (robot frame).
+        cameras_xy: (K, 2) their world camera positions [m].
+
+    Returns:
+        (M,) float64 weights, keyframe by keyframe.
+    """
+    spread = np.cov(cameras_xy.T, bias=True)
+    across = (np.trace(spread) * np.eye(2) - spread) / max(float(np.trace(spread)), 1e-12)
+    out = []
+    for k in keyframes:
+        c, s = math.cos(k.yaw_rad), math.sin(k.yaw_rad)
+        assert k.gradients_xy is not None  # kept with `edge_score`
+        g = k.gradients_xy @ np.array([[c, s], [-s, c]])  # rows: R(yaw)·g
+        out.append(np.sqrt(np.maximum(np.einsum("ni,ij,nj->n", g, across, g), 0.0)))
+    return np.concatenate(out)
 
 
 def _band_centre_deg(
