@@ -75,7 +75,7 @@ from fogsim.mapping.pipeline import Pipeline
 from fogsim.robot import self_filter
 from fogsim.run.process_exit import exit_process
 from mapper import AveragingMap, FloorObstacleMapper, SegmentationParams
-from mapper.heading import heading_scores
+from mapper.heading import heading_scores, weighted_heading_scores
 from mapper.intrinsics import PinholeIntrinsics
 from mapper.segmentation import floor_regions, segment_depth
 from mapper.tilt_filter import apply_tilt, measured_tilt
@@ -424,7 +424,7 @@ def _map(frames: tuple[Frame, ...], params: RunParams) -> None:
 
 
 def _match(frames: tuple[Frame, ...], params: RunParams) -> None:
-    """z-matching, the averaging map's update and the heading scores on the frames' points.
+    """z-matching, the averaging map's update and both heading scores on the frames' points.
 
     z-matching is against an empty FOG map: its update is :data:`MAPPER`'s (this process's).
     """
@@ -439,6 +439,17 @@ def _match(frames: tuple[Frame, ...], params: RunParams) -> None:
     heading_scores(
         offsets_xy,
         points_world[:4, 2].copy(),
+        np.array([0, 2, 4], dtype=np.int64),
+        offsets_xy[:2].copy(),
+        np.zeros(2),
+        np.zeros(3),
+        params.heading.cell_m,
+        params.heading.layer_m,
+    )
+    weighted_heading_scores(  # the edge score (`mapper.heading`, on scenes like a staircase)
+        offsets_xy,
+        points_world[:4, 2].copy(),
+        np.ones(4),
         np.array([0, 2, 4], dtype=np.int64),
         offsets_xy[:2].copy(),
         np.zeros(2),
