@@ -232,7 +232,7 @@ class KernelWarmUp:
         self._groups = GROUPS if simulated else tuple(g for g in GROUPS if g is not SELF_FILTER)
         self._cold = [group for group in self._groups if is_cold(group)]
         away = [group for group in HELPER_GROUPS if group in self._cold]
-        fork = bool(away) and len(away) < len(self._cold) and _CAN_FORK
+        fork = bool(away) and len(away) < len(self._cold) and _can_fork()
         if self._cold:
             processes = " in 2 processes" if fork else ""
             self._say(f"fogsim: {MESSAGE}, {len(self._cold)} groups{processes}", flush=True)
@@ -292,9 +292,16 @@ class KernelWarmUp:
             print(text, end=end, file=self._stream, flush=flush)
 
 
-_CAN_FORK = "fork" in multiprocessing.get_all_start_methods()
-"""The helper process is forked; without ``fork`` (Windows) every group is compiled in the run's
-process."""
+def _can_fork() -> bool:
+    """Whether this process can fork the helper; if not, every group is compiled here.
+
+    It can when ``fork`` exists (not on Windows) and it is no ``multiprocessing`` daemon (a
+    daemon may have no children).
+    """
+    return (
+        "fork" in multiprocessing.get_all_start_methods()
+        and not multiprocessing.current_process().daemon
+    )
 
 
 def _steps(params: RunParams) -> dict[KernelGroup, Callable[[], None]]:
