@@ -16,7 +16,9 @@ forked, and forking a process whose threads hold locks is unsafe) and finishes i
 simulation's thread is setting the scene up. Forked, the helper has this process's modules and
 numba's registries (loaded once, before the fork: numba imports its numpy, linear-algebra and
 typed-container implementations, and scipy's BLAS with them, on a process's first compile);
-started as ``python -m`` it imported all of them again (``bench/bench_cold.py run``). Each
+started as ``python -m`` it spent 2.4 s of CPU time on its interpreter, imports and registries
+before its first compile (Intel Xeon, 3 repeats, load 12; 0.05 s of it the bare interpreter),
+on the path of a cold run that both processes' groups bound. Each
 group's step calls only its own kernels (the mapper's are driven through the ``mapper`` API, not
 through a :class:`Pipeline`, which would segment and so compile the segmentation a second time
 beside the helper); a last step runs a :class:`Pipeline` on the synthetic frames, which loads
