@@ -5,8 +5,10 @@ The kernels that replace numba's slow-to-compile functions give numpy's answers.
 
 import dataclasses
 import os
+import signal
 import subprocess
 import sys
+import time
 from pathlib import Path
 
 import numpy as np
@@ -138,7 +140,30 @@ def test_a_failing_helper_process_is_reported_with_its_last_error_line():
     helper = warmup._Helper(RunParams(), [KernelGroup("no such group", ())])
     failure = helper.wait()
     helper.stop()
-    assert failure.startswith("ValueError: not enough values to unpack")
+    assert failure.startswith("KeyError: KernelGroup(name='no such group'")
+
+
+def test_a_helper_process_stopped_before_its_end_is_killed(monkeypatch):
+    # A run that fails before the warm-up's end stops its helper at once (not after compiling).
+    group = KernelGroup("endless", ())
+    monkeypatch.setattr(warmup, "_steps", lambda params: {group: lambda: time.sleep(60)})
+    helper = warmup._Helper(RunParams(), [group])  # forked: the endless step is its work
+    start = time.perf_counter()
+    helper.stop()
+    assert helper._process.exitcode == -signal.SIGKILL
+    assert time.perf_counter() - start < 30
+
+
+def test_the_helper_process_is_forked_with_numbas_registries_loaded(monkeypatch):
+    # What a process's first compile imports is loaded once, before the fork, not in both.
+    group = KernelGroup("registries", ())
+    loaded = "numba.np.linalg" in sys.modules
+    monkeypatch.setattr(warmup, "_steps", lambda params: {group: lambda: None})
+    helper = warmup._Helper(RunParams(), [group])
+    assert helper.wait() == ""
+    helper.stop()
+    assert helper._process.exitcode == 0
+    assert loaded or "numba.np.linalg" in sys.modules
 
 
 def test_stable_order_is_numpys_stable_argsort():

@@ -38,7 +38,7 @@ from fogsim.mapping.prefetch import SegmentAhead
 from fogsim.mapping.segmenter import FrameSegmenter, SegmentFunction
 from fogsim.robot.description import load_description
 from fogsim.run.run_folder import RunFolder
-from fogsim.run.warmup import warm_up_kernels
+from fogsim.run.warmup import KernelWarmUp
 from fogsim.sim.background import BackgroundSimulation
 from fogsim.sim.camera.noise_model import segmentation_noise_fields
 from fogsim.viz.forked import ForkedCall
@@ -467,7 +467,7 @@ def run_scenario(
         pictures: Write the PNGs.
         video: Write ``run.mp4`` (camera image beside the growing map).
         progress: Show a tqdm progress bar. Either way the kernels are compiled before the
-            first frame (:func:`~fogsim.run.warmup.warm_up_kernels`; with ``progress`` a
+            first frame (:class:`~fogsim.run.warmup.KernelWarmUp`; with ``progress`` a
             message on standard error when numba's cache is cold).
         max_frames: Stop after this many frames (the suite's quick mode).
         depth_backend: Simulation depth backend (``renderer`` or ``raycast``).
@@ -577,15 +577,19 @@ def _run_frames_into(
     callbacks: list[FrameCallback] = []
     writer = None
     with ExitStack() as cleanup:
+        # Compiled (or loaded) now, while the simulation sets up, not in frame 1 (in two
+        # processes when numba's cache is cold, saying so with the bar): the bar's rate then
+        # measures frames only. Begun before the simulation's thread starts: a cold cache's
+        # helper process is forked then.
+        warm_up = cleanup.enter_context(
+            KernelWarmUp(
+                params, sys.stderr if options.progress else None, simulated=options.replay is None
+            )
+        )
         source = _frame_source(
             scenario, options.replay, options.depth_backend, options.max_frames, cleanup, video
         )
-        # Compiled (or loaded) now, while the simulation sets up, not in frame 1 (in two
-        # processes when numba's cache is cold, saying so with the bar): the bar's rate then
-        # measures frames only.
-        warm_up_kernels(
-            params, sys.stderr if options.progress else None, simulated=options.replay is None
-        )
+        warm_up.finish()
         if options.progress:
             from tqdm import tqdm  # only for the progress bar
 

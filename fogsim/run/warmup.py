@@ -6,17 +6,25 @@ makes a progress bar's first estimate absurd; :func:`warm_up_kernels` compiles t
 three tiny synthetic frames of a flat floor, group by group, printing which group and how long
 it took on standard error when the cache holds no compiled version of a group's kernels.
 
-On a cold cache the groups are compiled in two processes at once: a helper process
-(``python -m fogsim.run.warmup GROUP ...``, the run's parameters pickled on its standard input)
-compiles :data:`HELPER_GROUPS` into the cache while this process compiles the others, then this
-process loads the helper's kernels from the cache. Compiling holds numba's compiler lock (and
-mostly the GIL), so a second thread would not help; a second process halves the wait on two
-cores. Each group's step calls only its own kernels (the mapper's are driven through the
-``mapper`` API, not through a :class:`Pipeline`, which would segment and so compile the
-segmentation a second time beside the helper); a last step runs a :class:`Pipeline` on the
-synthetic frames, which loads every kernel from the cache and compiles whatever a group missed.
-A helper that fails is reported on the stream (its last line of standard error) and its groups
-compiled here instead.
+On a cold cache the groups are compiled in two processes at once: a helper process, forked
+from this one (``multiprocessing``'s ``fork``), compiles :data:`HELPER_GROUPS` into the
+cache while this process compiles the others, then this process loads the helper's kernels from
+the cache. Compiling holds numba's compiler lock (and mostly the GIL), so a second thread would
+not help; a second process halves the wait on two cores. The run begins the warm-up
+(:class:`KernelWarmUp`) before it starts its threads (a forked child has only the thread that
+forked, and forking a process whose threads hold locks is unsafe) and finishes it once the
+simulation's thread is setting the scene up. Forked, the helper has this process's modules and
+numba's registries (loaded once, before the fork: numba imports its numpy, linear-algebra and
+typed-container implementations, and scipy's BLAS with them, on a process's first compile);
+started as ``python -m`` it spent 2.4 s of CPU time on its interpreter, imports and registries
+before its first compile (Intel Xeon, 3 repeats, load 12; 0.05 s of it the bare interpreter),
+on the path of a cold run that both processes' groups bound. Each
+group's step calls only its own kernels (the mapper's are driven through the ``mapper`` API, not
+through a :class:`Pipeline`, which would segment and so compile the segmentation a second time
+beside the helper); a last step runs a :class:`Pipeline` on the synthetic frames, which loads
+every kernel from the cache and compiles whatever a group missed. A helper that fails is
+reported on the stream (the last line of its exception) and its groups compiled here instead.
+Where there is no ``fork`` (Windows) every group is compiled here.
 
 The segmentation's kernels took two thirds of the compile time, so they are split: this
 process first compiles its last stage (:data:`FLOOR_REGIONS`, called on a synthetic image
@@ -45,18 +53,20 @@ each kernel's index file is, so it follows the same choice.
 from __future__ import annotations
 
 import math
-import pickle
-import subprocess
+import multiprocessing
 import sys
 import time
+import traceback
 from collections.abc import Callable
 from dataclasses import dataclass
+from multiprocessing.connection import Connection
 from pathlib import Path
-from types import ModuleType
+from types import ModuleType, TracebackType
 from typing import TextIO
 
 import numpy as np
 from numba.core.dispatcher import Dispatcher
+from numba.core.registry import cpu_target
 from numpy.typing import NDArray
 
 import mapper.averaging
@@ -73,7 +83,6 @@ from fogsim.config import RunParams
 from fogsim.data.frame import Frame
 from fogsim.mapping.pipeline import Pipeline
 from fogsim.robot import self_filter
-from fogsim.run.process_exit import exit_process
 from mapper import AveragingMap, FloorObstacleMapper, SegmentationParams
 from mapper.heading import heading_scores, weighted_heading_scores
 from mapper.intrinsics import PinholeIntrinsics
@@ -183,11 +192,8 @@ def warm_up_kernels(
 ) -> float:
     """Compile (or load from numba's cache) the kernels a run of ``params`` uses.
 
-    Runs each group of :data:`GROUPS` on synthetic data (throwaway maps, a 2 × 2 image for
-    :data:`SELF_FILTER`); with more than one group's cache cold, :data:`HELPER_GROUPS` are
-    compiled by a helper process meanwhile (module doc). Then a throwaway :class:`Pipeline`
-    maps the synthetic frames (every kernel loaded from the cache).
-    Nothing of the run's own state is touched.
+    :class:`KernelWarmUp` begun and finished at once (for callers without threads of their own
+    to start in between).
 
     Args:
         params: The run's parameters (the kernels are compiled for their types).
@@ -198,47 +204,107 @@ def warm_up_kernels(
     Returns:
         The warm-up's wall time [s].
     """
-    start = time.perf_counter()
-    steps = _steps(params)
-    groups = GROUPS if simulated else tuple(g for g in GROUPS if g is not SELF_FILTER)
-    cold = [group for group in groups if is_cold(group)]
-    say = print if stream is not None else _silent
-    away = [group for group in HELPER_GROUPS if group in cold]
-    helper = _Helper(params, away) if away and len(away) < len(cold) else None
-    if cold:
-        processes = " in 2 processes" if helper is not None else ""
-        say(f"fogsim: {MESSAGE}, {len(cold)} groups{processes}", file=stream, flush=True)
-    try:
-        for group in groups:
-            if helper is not None and group in away:
+    with KernelWarmUp(params, stream, simulated=simulated) as warm_up:
+        return warm_up.finish()
+
+
+class KernelWarmUp:
+    """The warm-up of a run's kernels, begun before the run starts its threads.
+
+    Begun (made): finds the groups whose cache is cold, says so on ``stream`` and, with more
+    than one group cold, forks the helper process compiling :data:`HELPER_GROUPS` (module doc).
+    :meth:`finish`: runs each group of :data:`GROUPS` on synthetic data (throwaway maps, a
+    2 × 2 image for :data:`SELF_FILTER`) but the helper's, waits for the helper and loads its
+    kernels from the cache, then maps the synthetic frames with a throwaway :class:`Pipeline`
+    (every kernel loaded from the cache). Nothing of the run's own state is touched. Close it
+    (``with``): a helper still running (the run failed before :meth:`finish`) is stopped.
+
+    Args:
+        params: The run's parameters (the kernels are compiled for their types).
+        stream: Where to report progress when a group's cache is cold; None = say nothing.
+        simulated: The run simulates its frames; False (a replay, real data): the
+            :data:`SELF_FILTER` group, which only a simulation calls, is left out.
+    """
+
+    def __init__(
+        self, params: RunParams, stream: TextIO | None = sys.stderr, *, simulated: bool = True
+    ) -> None:
+        self._start = time.perf_counter()
+        self._params = params
+        self._stream = stream
+        self._groups = GROUPS if simulated else tuple(g for g in GROUPS if g is not SELF_FILTER)
+        self._cold = [group for group in self._groups if is_cold(group)]
+        away = [group for group in HELPER_GROUPS if group in self._cold]
+        fork = bool(away) and len(away) < len(self._cold) and _can_fork()
+        if self._cold:
+            processes = " in 2 processes" if fork else ""
+            self._say(f"fogsim: {MESSAGE}, {len(self._cold)} groups{processes}", flush=True)
+        self._helper = _Helper(params, away) if fork else None
+
+    def finish(self) -> float:
+        """Compile or load every group, wait for the helper; the warm-up's wall time [s].
+
+        The time counts from the warm-up's beginning (the helper's compile included).
+        """
+        steps = _steps(self._params)
+        helper = self._helper
+        away = helper.groups if helper is not None else []
+        for group in self._groups:
+            if group in away:
                 continue
-            if group in cold:
-                say(f"  {group.name} kernels ...", end="", file=stream, flush=True)
+            if group in self._cold:
+                self._say(f"  {group.name} kernels ...", end="", flush=True)
             group_start = time.perf_counter()
             steps[group]()
-            if group in cold:
-                say(f" {time.perf_counter() - group_start:.1f} s", file=stream, flush=True)
+            if group in self._cold:
+                self._say(f" {time.perf_counter() - group_start:.1f} s", flush=True)
         if helper is not None:
             names = ", ".join(group.name for group in away)
-            say(f"  {names} kernels ...", end="", file=stream, flush=True)
+            self._say(f"  {names} kernels ...", end="", flush=True)
             failure = helper.wait()
             for group in away:
-                steps[group]()  # loaded from the cache the helper filled
-            say(f" {helper.seconds():.1f} s (second process)", file=stream, flush=True)
+                steps[group]()  # loaded from the cache the helper filled (compiled if it failed)
+            self._say(f" {helper.seconds():.1f} s (second process)", flush=True)
             if failure:
-                say(f"  (the second process failed, compiled here: {failure})", file=stream)
-        _pipeline(_floor_frames(), params)
-    finally:
-        if helper is not None:
-            helper.stop()
-    elapsed_s = time.perf_counter() - start
-    if cold:
-        say(f"  compiled in {elapsed_s:.1f} s", file=stream, flush=True)
-    return elapsed_s
+                self._say(f"  (the second process failed, compiled here: {failure})")
+        _pipeline(_floor_frames(), self._params)
+        elapsed_s = time.perf_counter() - self._start
+        if self._cold:
+            self._say(f"  compiled in {elapsed_s:.1f} s", flush=True)
+        return elapsed_s
+
+    def close(self) -> None:
+        """Stop the helper if it still runs; idempotent."""
+        if self._helper is not None:
+            self._helper.stop()
+
+    def __enter__(self) -> KernelWarmUp:
+        return self
+
+    def __exit__(
+        self,
+        kind: type[BaseException] | None,
+        error: BaseException | None,
+        trace: TracebackType | None,
+    ) -> None:
+        self.close()
+
+    def _say(self, text: str, *, end: str = "\n", flush: bool = False) -> None:
+        """Print ``text`` on the stream (nothing without one)."""
+        if self._stream is not None:
+            print(text, end=end, file=self._stream, flush=flush)
 
 
-def _silent(*args: object, **kwargs: object) -> None:
-    """``print`` that prints nothing (no stream)."""
+def _can_fork() -> bool:
+    """Whether this process can fork the helper; if not, every group is compiled here.
+
+    It can when ``fork`` exists (not on Windows) and it is no ``multiprocessing`` daemon (a
+    daemon may have no children).
+    """
+    return (
+        "fork" in multiprocessing.get_all_start_methods()
+        and not multiprocessing.current_process().daemon
+    )
 
 
 def _steps(params: RunParams) -> dict[KernelGroup, Callable[[], None]]:
@@ -254,35 +320,41 @@ def _steps(params: RunParams) -> dict[KernelGroup, Callable[[], None]]:
 
 
 class _Helper:
-    """A helper process compiling ``groups`` into numba's cache, in their order."""
+    """A helper process, forked now, compiling ``groups`` into numba's cache in their order.
+
+    numba's registries are loaded here before the fork, so that the helper has them (module
+    doc). Output of this process waiting in its buffers is written out first: the child would
+    write it a second time when it ends.
+    """
 
     def __init__(self, params: RunParams, groups: list[KernelGroup]) -> None:
+        self.groups = groups
+        cpu_target.target_context.refresh()  # what a process's first compile loads
+        for stream in (sys.stdout, sys.stderr):
+            if stream is not None:
+                stream.flush()
         self._start = time.perf_counter()
         self._end: float | None = None
-        self._process = subprocess.Popen(
-            [sys.executable, "-m", "fogsim.run.warmup", *(group.name for group in groups)],
-            stdin=subprocess.PIPE,
-            stdout=subprocess.PIPE,
-            stderr=subprocess.PIPE,
+        context = multiprocessing.get_context("fork")
+        self._connection, child_end = context.Pipe(duplex=False)
+        self._process = context.Process(
+            target=_helper_main, args=(params, groups, child_end), name="fogsim-kernels"
         )
-        assert self._process.stdin is not None
-        with self._process.stdin as stdin:
-            stdin.write(pickle.dumps(params))
+        self._process.start()
+        child_end.close()
 
     def wait(self) -> str:
-        """Wait for the helper; its last line of standard error if it failed, else ''."""
-        assert self._process.stdout is not None and self._process.stderr is not None
-        with self._process.stderr as stderr, self._process.stdout as stdout:
-            err = stderr.read()  # to its end: the helper has ended or closed it
-            out = stdout.read()  # one line
-        self._process.wait()
+        """Wait for the helper; the last line of its error if it failed, else ''."""
+        try:
+            answer = self._connection.recv()  # when it was done (time.time), or its error
+        except EOFError:
+            answer = None
+        self._process.join()
         self._end = time.perf_counter()
-        if self._process.returncode == 0:
-            # It printed the clock (time.time) when done: it may have ended long before.
-            self._end -= max(time.time() - float(out.split()[-1]), 0.0)
+        if isinstance(answer, float):
+            self._end -= max(time.time() - answer, 0.0)  # it may have ended long before
             return ""
-        lines = err.decode(errors="replace").strip().splitlines()
-        return lines[-1] if lines else f"exit status {self._process.returncode}"
+        return answer or f"exit status {self._process.exitcode}"
 
     def seconds(self) -> float:
         """The helper's wall time [s], start to end (after :meth:`wait`)."""
@@ -290,9 +362,32 @@ class _Helper:
 
     def stop(self) -> None:
         """Kill the helper if it still runs (the warm-up was interrupted), and reap it."""
-        if self._process.poll() is None:
+        if self._process.is_alive():
             self._process.kill()
-        self._process.wait()
+        self._process.join()
+        self._connection.close()
+
+
+def _helper_main(params: RunParams, groups: list[KernelGroup], connection: Connection) -> None:
+    """The helper process: compile ``groups``; send the clock when done, or its error's line.
+
+    With the error the parent compiles the groups itself.
+    """
+    try:
+        _compile(params, groups)
+    except Exception as error:  # any: told to the parent, which compiles them itself
+        lines = "".join(traceback.format_exception_only(error)).strip().splitlines()
+        connection.send(lines[-1] if lines else type(error).__name__)
+    else:
+        connection.send(time.time())
+    connection.close()
+
+
+def _compile(params: RunParams, groups: list[KernelGroup]) -> None:
+    """The helper's work: run the steps of ``groups`` in their order (into numba's cache)."""
+    steps = _steps(params)
+    for group in groups:
+        steps[group]()
 
 
 def is_cold(group: KernelGroup) -> bool:
@@ -466,18 +561,3 @@ def _pipeline(frames: tuple[Frame, ...], params: RunParams) -> None:
         pipeline.process(frame)
     pipeline.finish()  # frames waiting for the height reference are mapped now
     pipeline.maps()
-
-
-def _helper_main(group_names: list[str]) -> None:
-    """The helper process: compile the named groups, in order, for the parameters on stdin."""
-    params = pickle.load(sys.stdin.buffer)
-    steps = _steps(params)
-    for name in group_names:
-        (group,) = (g for g in GROUPS if g.name == name)
-        steps[group]()
-    print(repr(time.time()), flush=True)  # when it was done (its exit takes a moment more)
-    exit_process(0)
-
-
-if __name__ == "__main__":
-    _helper_main(sys.argv[1:])
