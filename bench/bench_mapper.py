@@ -260,8 +260,18 @@ def time_interleaved(frame_set: FrameSet, block: int, codegen: str) -> list[Row]
         for name, insert in peers.items():
             for i in range(start, min(start + block, len(frames))):
                 times[name][i] = insert(frames[i])
-    load_after = os.getloadavg()
-    points = int(np.median([len(f.points) for f in frames]))
+    return _rows(frame_set, codegen, times, load_before, os.getloadavg())
+
+
+def _rows(
+    frame_set: FrameSet,
+    codegen: str,
+    times_s: dict[str, np.ndarray],
+    load_before: tuple[float, float, float],
+    load_after: tuple[float, float, float],
+) -> list[Row]:
+    """One row per timed name: median and 90th percentile of its per-frame times [ms]."""
+    points = int(np.median([len(f.points) for f in frame_set.frames]))
     return [
         Row(
             frame_set.name,
@@ -274,7 +284,7 @@ def time_interleaved(frame_set: FrameSet, block: int, codegen: str) -> list[Row]
             load_before,
             load_after,
         )
-        for name, t in times.items()
+        for name, t in times_s.items()
     ]
 
 
@@ -330,22 +340,9 @@ def stage_breakdown(frame_set: FrameSet, codegen: str) -> list[Row]:
         for name, function in originals.items():
             setattr(mapper_module, name, function)
     load_after = os.getloadavg()
-    points = int(np.median([len(f.points) for f in frame_set.frames]))
     times["(stages summed)"] = np.sum([times[name] for name in STAGES], axis=0)
-    return [
-        Row(
-            frame_set.name,
-            frame_set.resolution,
-            f"update: {name}",
-            codegen,
-            float(np.median(t) * 1e3),
-            float(np.percentile(t, 90) * 1e3),
-            points,
-            load_before,
-            load_after,
-        )
-        for name, t in times.items()
-    ]
+    named = {f"update: {name}": t for name, t in times.items()}
+    return _rows(frame_set, codegen, named, load_before, load_after)
 
 
 def measure(args: argparse.Namespace, codegen: str) -> list[Row]:

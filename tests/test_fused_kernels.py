@@ -328,6 +328,34 @@ def _numpy_plane_geometry(labels, grown, pixel_index, counts, plane_table, camer
     return plane_ids, counts, normals, centroids, eigen, areas, rms, tilt_normals, 1.0 / sigma**2
 
 
+def _plane_geometry(
+    labels, grown, pixel_index, counts, table, camera, depth, inv_depth, x, y, margin, min_pixels
+):
+    """`tilt_kernels.plane_geometry` on `_plane_inputs`' arrays with PARAMS' other fields."""
+    return tilt_kernels.plane_geometry(
+        labels,
+        grown,
+        pixel_index,
+        counts,
+        table,
+        camera[:3, :3].copy(),
+        camera[:3, 3].copy(),
+        INTRINSICS.ray_directions_camera().reshape(-1, 3),
+        depth,
+        inv_depth,
+        x,
+        y,
+        INTRINSICS.fx,
+        INTRINSICS.fy,
+        min_pixels,
+        PARAMS.min_noise_m,
+        margin,
+        PARAMS.plane_refit_sigma,
+        1.0 / PARAMS.max_depth_m,
+        PARAMS.noise_correlation_factor,
+    )
+
+
 @pytest.mark.parametrize("margin,min_pixels", [(1, 30), (0, 30), (2, 200), (1, 10**6)])
 @pytest.mark.parametrize("noise,seed", [(0.0, 0), (0.01, 3)])
 def test_plane_geometry_is_segment_depths_numpy(margin, min_pixels, noise, seed):
@@ -348,27 +376,19 @@ def test_plane_geometry_is_segment_depths_numpy(margin, min_pixels, noise, seed)
         margin,
         min_pixels,
     )
-    got = tilt_kernels.plane_geometry(
+    got = _plane_geometry(
         labels,
         grown,
         pixel_index,
         counts,
         table,
-        camera[:3, :3].copy(),
-        camera[:3, 3].copy(),
-        INTRINSICS.ray_directions_camera().reshape(-1, 3),
+        camera,
         depth,
         inv_depth,
         x,
         y,
-        INTRINSICS.fx,
-        INTRINSICS.fy,
-        min_pixels,
-        PARAMS.min_noise_m,
         margin,
-        PARAMS.plane_refit_sigma,
-        1.0 / PARAMS.max_depth_m,
-        PARAMS.noise_correlation_factor,
+        min_pixels,
     )
     for a, b in zip(expected, got, strict=True):
         assert _same(a, b)
@@ -382,27 +402,19 @@ def test_plane_geometry_known_answer():
     labels, grown, pixel_index, counts, table, camera, depth, inv_depth, x, y = _plane_inputs(
         0.0, 0
     )
-    plane_ids, kept, normals, centroids, *_ = tilt_kernels.plane_geometry(
+    plane_ids, kept, normals, centroids, *_ = _plane_geometry(
         labels,
         grown,
         pixel_index,
         counts,
         table,
-        camera[:3, :3].copy(),
-        camera[:3, 3].copy(),
-        INTRINSICS.ray_directions_camera().reshape(-1, 3),
+        camera,
         depth,
         inv_depth,
         x,
         y,
-        INTRINSICS.fx,
-        INTRINSICS.fy,
-        PARAMS.min_plane_pixels,
-        PARAMS.min_noise_m,
         1,
-        PARAMS.plane_refit_sigma,
-        1.0 / PARAMS.max_depth_m,
-        PARAMS.noise_correlation_factor,
+        PARAMS.min_plane_pixels,
     )
     lowest = int(np.argmin(np.abs(centroids[:, 2])))
     # The fit's normal is vertical within 1e-5 (2.3e-6 across: the inverse-depth fit of exact
