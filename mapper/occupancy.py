@@ -38,7 +38,10 @@ median over seed 1's 832 frames), 0.75 instead of 1.98 ms at 176 × 144. After t
 1.1 % of the cells hold another level, 26 of 9 884 occupied cells differ
 (``tests/test_insert_discretize.py``; the OctoMap comparison in
 ``tests/test_occupancy_octomap.py`` agrees with OctoMap's ``discretize`` exactly, as the exact
-mode does with its exact insertion).
+mode does with its exact insertion). The kernels take the hash set as their ``cells`` argument
+(`cell_set`), None when not discretizing: numba then prunes that path before typing the kernel,
+so the default run does not compile it (`insert_frame_columns` 6.7 → 5.2 s of compile CPU,
+Intel Xeon, load 7-8, `bench/bench_cold.py kernels --group mapper`).
 
 Two kernels keep the once-per-frame marks: `insert_frame_columns` (the mapper's default when
 ``nz <= 64``) keeps one bit per layer in one word per column and steps the traversal only at
