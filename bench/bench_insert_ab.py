@@ -66,7 +66,7 @@ class Kernel:
     def __init__(self, module: ModuleType, frame_set: FrameSet, discretize: bool) -> None:
         p = frame_set.params
         self.module = module
-        self.extra = (True,) if discretize else ()  # older kernels lack the argument
+        self.discretize = discretize
         self.params = p
         dtype = module.column_mask_dtype(p.nz)
         hit, miss = module.lookup_tables(p)
@@ -82,6 +82,10 @@ class Kernel:
             scroll_xy(self.og, *shift, 128)
         p = self.params
         point_cell = np.empty(len(frame.points), dtype=np.int64)
+        if hasattr(self.module, "cell_set"):  # the discretized insertion's scratch, or None
+            extra = (self.module.cell_set(len(frame.points)) if self.discretize else None,)
+        else:  # a bool before cell_set; older kernels lack the argument
+            extra = (True,) if self.discretize else ()
         t0 = time.thread_time()
         result = self.module.insert_frame_columns(
             frame.points,
@@ -96,7 +100,7 @@ class Kernel:
             p.free_margin_m,
             float(p.max_range_m),
             bool(p.clear_outside),
-            *self.extra,
+            *extra,
         )
         return time.thread_time() - t0, result, point_cell
 

@@ -26,6 +26,7 @@ from mapper.grid import (
 )
 from mapper.occupancy import (
     MAX_COLUMN_LAYERS,
+    cell_set,
     column_mask_dtype,
     insert_frame,
     insert_frame_columns,
@@ -147,6 +148,7 @@ class FloorObstacleMapper:
         ox, oy = g.origin_xy_m
         point_cell = np.empty(pts.shape[0], dtype=np.int64)
         geometry_args = (ox, oy, g.z_min_m, g.cell_m, g.layer_m)
+        cells = cell_set(len(pts)) if p.discretize_rays else None  # None: not compiled for it
         if self._columns:
             inserted = insert_frame_columns(
                 pts,
@@ -161,7 +163,7 @@ class FloorObstacleMapper:
                 p.free_margin_m,
                 float(p.max_range_m),
                 bool(p.clear_outside),
-                bool(p.discretize_rays),
+                cells,
             )
         else:
             inserted = insert_frame(
@@ -177,7 +179,7 @@ class FloorObstacleMapper:
                 p.free_margin_m,
                 float(p.max_range_m),
                 bool(p.clear_outside),
-                bool(p.discretize_rays),
+                cells,
             )
         used, nonfinite, outside, beyond, cells, ix0, ix1, iy0, iy1 = inserted
         if cells == 0:

@@ -38,7 +38,10 @@ median over seed 1's 832 frames), 0.75 instead of 1.98 ms at 176 × 144. After t
 1.1 % of the cells hold another level, 26 of 9 884 occupied cells differ
 (``tests/test_insert_discretize.py``; the OctoMap comparison in
 ``tests/test_occupancy_octomap.py`` agrees with OctoMap's ``discretize`` exactly, as the exact
-mode does with its exact insertion).
+mode does with its exact insertion). The kernels take the hash set as their ``cells`` argument
+(`cell_set`), None when not discretizing: numba then prunes that path before typing the kernel,
+so the default run does not compile it (`insert_frame_columns` 6.7 → 5.2 s of compile CPU,
+Intel Xeon, load 7-8, `bench/bench_cold.py kernels --group mapper`).
 
 Two kernels keep the once-per-frame marks: `insert_frame_columns` (the mapper's default when
 ``nz <= 64``) keeps one bit per layer in one word per column and steps the traversal only at
@@ -337,18 +340,22 @@ def _classify(x, y, z, sensor_x, sensor_y, sensor_z, geometry, shape, need_lengt
 _EMPTY_SLOT = 1
 
 
-@numba.njit(cache=True, inline="always")
-def _cell_set(n_points: int, discretize: bool):
-    """Scratch of `_discretized`: an open-addressing set of lattice cells with their status.
+def cell_set(n_points: int) -> tuple[NDArray[np.int64], NDArray[np.int8]]:
+    """Scratch of the discretized insertion (`_discretized`) of ``n_points`` points.
 
-    (keys (capacity, 3) int64 uninitialised, codes (capacity,) int8 all `_EMPTY_SLOT`: one
-    byte a slot, so that filling them costs little); the capacity is a power of two at least
-    twice the points (probes stay short), one slot when not discretizing.
+    The kernels' ``cells`` argument: an open-addressing set of lattice cells with their
+    status, made afresh for each frame. A kernel passed None instead is compiled without the
+    discretized path (numba prunes the branches on ``cells is None`` before it types the
+    kernel): a run that does not discretize does not compile that path.
+
+    Returns:
+        (keys (capacity, 3) int64 uninitialised, codes (capacity,) int8 all `_EMPTY_SLOT`: one
+        byte a slot, so that filling them costs little); the capacity is the smallest power of
+        two at least twice the points (probes stay short), and at least 1.
     """
     capacity = 1
-    if discretize:
-        while capacity < 2 * n_points:
-            capacity *= 2
+    while capacity < 2 * n_points:
+        capacity *= 2
     return np.empty((capacity, 3), dtype=np.int64), np.full(capacity, _EMPTY_SLOT, np.int8)
 
 
@@ -362,7 +369,7 @@ def _discretized(cells, end, sensor_grid, scale, shape, need_length, max_range):
     centre's; a later point in the same cell gets the same status and no ray.
 
     Args:
-        cells: `_cell_set` scratch, updated.
+        cells: `cell_set` scratch, updated.
         end: (status, gx, gy, gz, ix, iy, iz, length) of the point.
         sensor_grid: (ox, oy, oz) the sensor in grid units.
         scale: (cell, layer) [m].
@@ -423,7 +430,7 @@ def insert_frame(
     free_margin: float = 0.0,
     max_range: float = np.inf,
     clear_outside: bool = False,
-    discretize: bool = False,
+    cells: tuple[NDArray[np.int64], NDArray[np.int8]] | None = None,
 ):
     """Insert one frame of points into the 3D grid ``og`` (nx, ny, nz) in place.
 
@@ -455,9 +462,11 @@ def insert_frame(
         max_range: Points farther than this from the sensor [m] are no hit (inf: none).
         clear_outside: Rays of points outside the grid or beyond ``max_range`` clear the
             cells they cross (False: such points are ignored entirely).
-        discretize: One ray per lattice cell holding points, to the cell's centre, whose
-            status (hit, outside, beyond range) all its points get (`_discretized`; OctoMap's
-            ``discretize``). False: one ray per point, to the point.
+        cells: `cell_set` scratch for ``len(points)`` points: one ray per lattice cell
+            holding points, to the cell's centre, whose status (hit, outside, beyond range) all
+            its points get (`_discretized`; OctoMap's ``discretize``). None: one ray per point,
+            to the point, and the discretized path is not compiled (`cell_set`). Always pass
+            it (None included): numba compiles an omitted argument as another signature.
 
     Returns:
         (used, dropped_nonfinite, dropped_outside, beyond_range, cells_updated, ix0, ix1, iy0,
@@ -492,7 +501,6 @@ def insert_frame(
     end_i = np.empty((n_points, 3), dtype=np.int64)
     end_length = np.empty(n_points)
     cast_ray = np.empty(n_points, dtype=np.bool_)
-    cells = _cell_set(n_points, discretize)
     # Pass 1: end cells get the hit mark first, so they win over any miss this frame.
     for i in range(n_points):
         status, gx, gy, gz, ix, iy, iz, length = _classify(
@@ -504,11 +512,11 @@ def insert_frame(
             sensor_origin[2],
             geometry,
             shape,
-            need_length and not discretize,
+            need_length and cells is None,
             max_range,
         )
         cast = True
-        if discretize:
+        if cells is not None:  # pruned by numba when None: compiled only for discretizing
             end = (status, gx, gy, gz, ix, iy, iz, length)
             cast, status, gx, gy, gz, ix, iy, iz, length = _discretized(
                 cells, end, (ox, oy, oz), (cell, layer), shape, need_length, max_range
@@ -696,6 +704,9 @@ def insert_with_scratch(
     pts = np.ascontiguousarray(points, dtype=np.float64)
     origin = np.ascontiguousarray(sensor_origin, dtype=np.float64)
     point_cell = np.empty(pts.shape[0], dtype=np.int64)
+    free_margin_m, max_range_m, clear_outside, discretize = options
+    cells = cell_set(len(pts)) if discretize else None
+    kernel_options = (free_margin_m, max_range_m, clear_outside, cells)
     if columns is None:
         columns = nz <= MAX_COLUMN_LAYERS
     if columns:
@@ -710,13 +721,13 @@ def insert_with_scratch(
             layer_range_masks(nz),
             update_table(hit, miss),
             point_cell,
-            *options,
+            *kernel_options,
         )
     else:
         size = nx * ny * nz
         scratch = (np.zeros(mark_buffer_size(size), dtype=np.uint8), np.zeros(size, np.int64))
         result = insert_frame(
-            pts, origin, *geometry_args, og, *scratch, hit, miss, point_cell, *options
+            pts, origin, *geometry_args, og, *scratch, hit, miss, point_cell, *kernel_options
         )
     return result, point_cell
 
@@ -864,7 +875,7 @@ def insert_frame_columns(
     free_margin: float = 0.0,
     max_range: float = np.inf,
     clear_outside: bool = False,
-    discretize: bool = False,
+    cells: tuple[NDArray[np.int64], NDArray[np.int8]] | None = None,
 ):
     """`insert_frame` with the marks kept as one bit per layer in one word per column.
 
@@ -897,7 +908,7 @@ def insert_frame_columns(
         free_margin: Rays stop clearing this far [m] before their end point.
         max_range: As in `insert_frame` [m].
         clear_outside: As in `insert_frame`.
-        discretize: As in `insert_frame`.
+        cells: As in `insert_frame`.
 
     Returns:
         As `insert_frame`.
@@ -918,7 +929,6 @@ def insert_frame_columns(
     ix1 = np.int64(-1)  # not the literal -1: _apply_columns would compile for both
     iy0 = ny
     iy1 = np.int64(-1)
-    cells = _cell_set(points.shape[0], discretize)
     for i in range(points.shape[0]):
         status, gx, gy, gz, ix, iy, iz, length = _classify(
             points[i, 0],
@@ -929,11 +939,11 @@ def insert_frame_columns(
             sensor_origin[2],
             geometry,
             shape,
-            need_length and not discretize,
+            need_length and cells is None,
             max_range,
         )
         cast = True
-        if discretize:
+        if cells is not None:  # pruned by numba when None: compiled only for discretizing
             end = (status, gx, gy, gz, ix, iy, iz, length)
             cast, status, gx, gy, gz, ix, iy, iz, length = _discretized(
                 cells, end, (ox, oy, oz), (cell, layer), shape, need_length, max_range

@@ -4,17 +4,22 @@ Checked against the exact per-point traversal of the cells' centres (which has i
 brute-force test in ``test_occupancy.py``), by hand, and for the per-point counts.
 """
 
+import hashlib
 from dataclasses import replace
 
+import numba
 import numpy as np
 import pytest
 
 from mapper import FloorObstacleMapper, MapperParams
 from mapper.errors import InvalidParameterError
 from mapper.occupancy import (
+    _EMPTY_SLOT,
     BEYOND_RANGE,
     NONFINITE,
     OUTSIDE,
+    cell_set,
+    insert_frame_columns,
     insert_with_scratch,
     lookup_tables,
     traversed_cells,
@@ -161,3 +166,82 @@ def test_the_mapper_passes_discretize_rays_to_its_kernel(column_marks):
     per_point = FloorObstacleMapper(params, column_marks=column_marks)
     per_point.update(points, no_floor, sensor)
     assert not np.array_equal(on.occupancy_levels(), per_point.occupancy_levels())
+
+
+# The discretized path is compiled only for a `cell_set` scratch (None: numba prunes it), so the
+# default run does not compile it; these pin that the change kept every result of before.
+_BEFORE = {  # sha256[:16] of the updates' results, levels and floor map, made with c2da7ee
+    (False, True): "f7e9c1351cb062ac",
+    (False, False): "f7e9c1351cb062ac",
+    (True, True): "5d72aab94ae66f6a",
+    (True, False): "5cc48bcddf7023ed",
+}
+
+
+def _mapper_digest(discretize: bool, columns: bool) -> str:
+    """Six synthetic frames (a noisy floor, a box, points beyond the grid) through a mapper."""
+    rng = np.random.default_rng(2029)
+    params = replace(MapperParams(), discretize_rays=discretize)
+    fog = FloorObstacleMapper(params, column_marks=columns)
+    digest = hashlib.sha256()
+    for k in range(6):
+        sensor = np.array([0.1 * k, -0.05 * k, 0.9])
+        floor = rng.uniform(-2.2, 2.2, (400, 2))
+        floor_points = np.column_stack([floor, rng.normal(0.0, 0.004, 400)])
+        box = rng.uniform([0.3, -0.4, 0.0], [0.7, 0.1, 0.35], (150, 3))
+        far = rng.uniform(-4.0, 4.0, (50, 3))
+        points = np.concatenate([floor_points, box, far])
+        heights = np.concatenate([np.zeros(400), np.full(200, np.nan)])
+        fog.recenter(float(sensor[0]), float(sensor[1]))
+        digest.update(repr(fog.update(points, heights, sensor)).encode())
+    digest.update(fog.occupancy_levels().tobytes())
+    digest.update(np.asarray(fog.floor(), dtype=np.float64).tobytes())
+    return digest.hexdigest()[:16]
+
+
+@pytest.mark.parametrize("columns", [True, False], ids=["column-marks", "cell-marks"])
+@pytest.mark.parametrize("discretize", [False, True], ids=["per-point", "discretized"])
+def test_the_mapper_maps_as_before_the_discretized_path_was_split_off(discretize, columns):
+    assert _mapper_digest(discretize, columns) == _BEFORE[discretize, columns]
+
+
+def test_the_cell_set_holds_twice_the_points_in_a_power_of_two():
+    for n, capacity in ((0, 1), (1, 2), (3, 8), (4, 8), (5, 16), (5950, 16384)):
+        keys, codes = cell_set(n)
+        assert keys.shape == (capacity, 3) and keys.dtype == np.int64
+        assert codes.shape == (capacity,) and codes.dtype == np.int8
+        assert np.all(codes == _EMPTY_SLOT)
+
+
+@pytest.mark.slow  # compiles the column kernel twice (about 10 s of CPU)
+def test_the_column_kernel_without_a_cell_set_has_no_discretized_path():
+    """Compiled afresh (no cache) for ``cells=None``: the lattice hash of `_discretized` is not
+    in its code; with a cell set it is (so the test would see it)."""
+    options = {k: v for k, v in insert_frame_columns.targetoptions.items() if k != "nopython"}
+    kernel = numba.njit(**{**options, "cache": False})(insert_frame_columns.py_func)
+    params = MapperParams()
+    fog = FloorObstacleMapper(params)
+    g = fog.geometry
+    points = np.array([[0.3, 0.2, 0.1], [0.5, -0.1, 0.2]])
+    for cells, hashed in ((None, False), (cell_set(len(points)), True)):
+        args = (
+            points,
+            np.array([0.0, 0.0, 0.9]),
+            *g.origin_xy_m,
+            g.z_min_m,
+            g.cell_m,
+            g.layer_m,
+            fog.occupancy_levels().copy(),
+            fog._hit_cols,
+            fog._miss_cols,
+            fog._range_masks,
+            fog._update_table,
+            np.empty(len(points), dtype=np.int64),
+            params.free_margin_m,
+            float(params.max_range_m),
+            True,
+            cells,
+        )
+        kernel(*args)
+        llvm = kernel.inspect_llvm(kernel.signatures[-1])
+        assert ("73856093" in llvm) == hashed

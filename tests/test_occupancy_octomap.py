@@ -16,7 +16,7 @@ import octomap
 import pytest
 
 from mapper import FloorObstacleMapper, MapperParams, PinholeIntrinsics
-from mapper.occupancy import insert_frame_columns
+from mapper.occupancy import cell_set, insert_frame_columns
 from mapper.synthetic import Box, camera_rays_world, cast_frame
 
 PARAMS = MapperParams(free_margin_m=0.0, clear_outside=True)
@@ -114,7 +114,7 @@ def _discretized_levels(params: MapperParams, frames) -> np.ndarray:
             params.free_margin_m,
             params.max_range_m,
             params.clear_outside,
-            True,
+            cell_set(len(points)),
         )
     return og
 

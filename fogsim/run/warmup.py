@@ -29,9 +29,9 @@ Where there is no ``fork`` (Windows) every group is compiled here.
 The segmentation's kernels took two thirds of the compile time, so they are split: this
 process first compiles its last stage (:data:`FLOOR_REGIONS`, called on a synthetic image
 whose every row is one segment, with the argument types ``segment_depth`` passes), then the
-FOG map's update; the helper runs the whole segmentation, loading that stage from the cache
-when it gets there (it compiles it itself, once more, only if it gets there first), then
-z-matching, the baseline map and the heading scores. The split is measured by
+FOG map's update, then z-matching, the baseline map and the heading scores; the helper runs
+the whole segmentation, loading that stage from the cache when it gets there (it compiles it
+itself, once more, only if it gets there first). The split is measured by
 ``bench/bench_cold.py``: both processes then take about as long (:data:`HELPER_GROUPS`).
 
 Every kernel a run compiles carries the same flags (``nogil=True, error_model="numpy",
@@ -173,14 +173,19 @@ SELF_FILTER = KernelGroup("self-filter", _kernels(self_filter))
 """The kernel removing the robot's body from simulated depth images."""
 
 
-GROUPS = (FLOOR_REGIONS, MAPPER, SEGMENTATION, MATCHING, SELF_FILTER)
+GROUPS = (FLOOR_REGIONS, MAPPER, MATCHING, SEGMENTATION, SELF_FILTER)
 """Every group, in the order this process compiles them (without a helper)."""
 
-HELPER_GROUPS = (SELF_FILTER, SEGMENTATION, MATCHING)
-"""The groups a helper process compiles on a cold cache, in this order. Measured with
-``bench/bench_cold.py run`` (cold ``fogsim run stage``, Intel Xeon 2 cores, load 0.4-1.5):
-this process's floor regions 8.0 s + mapper 4.8 s, the helper's groups 12.8 s, so both end
-together (with the segmentation whole in the helper it took 16.6 s, this process 10 s).
+HELPER_GROUPS = (SELF_FILTER, SEGMENTATION)
+"""The groups a helper process compiles on a cold cache, in this order; this process compiles
+the others. Measured with ``bench/bench_cold.py kernels --group ...`` (each process's groups
+alone on an empty cache, CPU time, Intel Xeon 2 cores, load 7-10, stop 29): this process's
+floor regions 24.7 s + mapper 17.7 s; the helper's self-filter 1.2 s + segmentation 62.9 s, of
+which 14.2 s its floor stage, loaded from the cache this process filled by then (the
+segmentation reaches it about 45 s in) + z-matching, baseline and heading 6.7 s: the helper
+ended last, by about 14 s, so z-matching, baseline and heading moved here (both about 50 s).
+Stop 26 had the segmentation whole in the helper: 16.6 s, this process 10 s; split, 12.8 s and
+12.8 s (before the segmentation's fused kernels grew it).
 
 The self-filter comes first: a simulation's thread calls its kernel on its first frame, once
 the scene is set up (seconds into the warm-up); compiled last, the kernel was not in the cache
@@ -509,7 +514,8 @@ def _floor_points_world(
 def _map(frames: tuple[Frame, ...], params: RunParams) -> None:
     """The FOG map's update and layers on the frames' floor points.
 
-    No segmentation and no z-matching: those are other groups' (the helper's).
+    No segmentation and no z-matching: those are other groups' (:data:`SEGMENTATION`, the
+    helper's; :data:`MATCHING`).
     """
     fog = FloorObstacleMapper(params.mapper)
     for points_world, floor_world, origin in map(_floor_points_world, frames):
