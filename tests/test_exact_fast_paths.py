@@ -1,0 +1,211 @@
+"""Fast roads of the main thread's per-frame geometry give the old numbers bit for bit."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from fogsim.data.frame import Frame
+from fogsim.eval.archive import cells_in_view
+from mapper.grid import GridGeometry
+from mapper.intrinsics import PinholeIntrinsics
+from mapper.transforms import apply_transform
+
+
+def _rigid(rng: np.random.Generator) -> np.ndarray:
+    q, _ = np.linalg.qr(rng.normal(size=(3, 3)))
+    if np.linalg.det(q) < 0:
+        q[:, 0] = -q[:, 0]
+    transform = np.eye(4)
+    transform[:3, :3] = q
+    transform[:3, 3] = rng.normal(scale=3.0, size=3)
+    return transform
+
+
+@pytest.mark.parametrize("count", [*range(0, 40), 63, 64, 65, 127, 128, 129, 999, 6336, 25344])
+def test_apply_transform_is_the_broadcast_product_bit_for_bit(count: int) -> None:
+    rng = np.random.default_rng(count)
+    for _ in range(5):
+        transform = _rigid(rng)
+        points = rng.normal(scale=2.0, size=(count, 3))
+        points[rng.random(count) < 0.1] = np.nan
+        expected = points @ transform[:3, :3].T + transform[:3, 3]
+        got = apply_transform(transform, points)
+        assert got.shape == (count, 3) and got.dtype == np.float64
+        np.testing.assert_array_equal(got, expected)
+        assert got.tobytes() == expected.tobytes()  # NaN rows too, bit for bit
+
+
+def test_apply_transform_other_shapes_and_inputs_unchanged() -> None:
+    rng = np.random.default_rng(1)
+    transform = _rigid(rng)
+    image = rng.normal(size=(4, 5, 3))
+    np.testing.assert_array_equal(
+        apply_transform(transform, image), image @ transform[:3, :3].T + transform[:3, 3]
+    )
+    vector = rng.normal(size=3)
+    np.testing.assert_array_equal(
+        apply_transform(transform, vector), vector @ transform[:3, :3].T + transform[:3, 3]
+    )
+    points = rng.normal(size=(10, 3))
+    before = points.copy()
+    apply_transform(transform, points)
+    np.testing.assert_array_equal(points, before)  # the caller's points are never changed
+    as_int = np.arange(12).reshape(4, 3)
+    np.testing.assert_array_equal(
+        apply_transform(transform, as_int), as_int @ transform[:3, :3].T + transform[:3, 3]
+    )
+
+
+@pytest.mark.parametrize("layout", ["every_other_row", "fortran", "column_slice"])
+def test_apply_transform_strided_points_bit_for_bit(layout: str) -> None:
+    rng = np.random.default_rng(7)
+    for count in (2, 3, 17, 6336):
+        transform = _rigid(rng)
+        base = rng.normal(size=(2 * count, 5))
+        points = {
+            "every_other_row": base[::2, :3],
+            "fortran": np.asfortranarray(base[:count, :3]),
+            "column_slice": base[:count, 1:4],
+        }[layout]
+        expected = points @ transform[:3, :3].T + transform[:3, 3]
+        assert apply_transform(transform, points).tobytes() == expected.tobytes()
+
+
+# The functions as they were before their fast roads (c2da7ee): the known answers.
+
+
+def _old_cell_of(geometry: GridGeometry, points_world: np.ndarray):
+    p = np.asarray(points_world, dtype=np.float64)
+    ox, oy = geometry.origin_xy_m
+    lowest = (ox, oy, geometry.z_min_m)
+    size = (geometry.cell_m, geometry.cell_m, geometry.layer_m)
+    upper = (geometry.nx, geometry.ny, geometry.nz)
+    valid = np.ones(p.shape[0], dtype=bool)
+    axes = []
+    with np.errstate(invalid="ignore"):
+        for k in range(p.shape[1]):
+            g = np.floor((p[:, k] - lowest[k]) / size[k])
+            valid &= (g >= 0) & (g < upper[k])
+            axes.append(g)
+    idx = np.where(valid[:, None], np.stack(axes, axis=1), -1.0).astype(np.int64)
+    return idx, valid
+
+
+def _old_depth_to_points_camera(intrinsics: PinholeIntrinsics, depth_m: np.ndarray):
+    depth = np.asarray(depth_m, dtype=np.float64)
+    depth = np.where(depth > 0.0, depth, np.nan)
+    return intrinsics.ray_directions_camera() * depth[..., None]
+
+
+def _old_cells_in_view(frame: Frame, geometry: GridGeometry) -> np.ndarray:
+    points_camera = _old_depth_to_points_camera(frame.intrinsics, frame.depth_m).reshape(-1, 3)
+    t = np.asarray(frame.transform_camera_to_world_true, dtype=np.float64)
+    points_world = points_camera @ t[:3, :3].T + t[:3, 3]
+    index, inside = _old_cell_of(geometry, points_world)
+    seen = np.zeros((geometry.nx, geometry.ny), dtype=bool)
+    seen[index[inside, 0], index[inside, 1]] = True
+    return seen
+
+
+def _geometry(rng: np.random.Generator) -> GridGeometry:
+    return GridGeometry(
+        nx=int(rng.integers(5, 60)),
+        ny=int(rng.integers(5, 60)),
+        nz=int(rng.integers(2, 20)),
+        cell_m=float(rng.choice([0.02, 0.04, 0.05])),
+        layer_m=float(rng.choice([0.01, 0.04])),
+        z_min_m=float(rng.uniform(-0.3, 0.1)),
+        origin_ix=int(rng.integers(-40, 10)),
+        origin_iy=int(rng.integers(-40, 10)),
+    )
+
+
+def _awkward_points(rng: np.random.Generator, geometry: GridGeometry, count: int) -> np.ndarray:
+    """Points in and around the grid, some on cell faces, NaN, inf and far off."""
+    ox, oy = geometry.origin_xy_m
+    span = np.array(
+        [
+            geometry.nx * geometry.cell_m,
+            geometry.ny * geometry.cell_m,
+            geometry.nz * geometry.layer_m,
+        ]
+    )
+    low = np.array([ox, oy, geometry.z_min_m])
+    points = low + rng.uniform(-0.2, 1.2, (count, 3)) * span
+    faces = rng.random(count) < 0.1  # exactly on a cell's lower face
+    points[faces, 0] = ox + rng.integers(-2, geometry.nx + 2, faces.sum()) * geometry.cell_m
+    points[rng.random(count) < 0.05, 1] = np.nan
+    points[rng.random(count) < 0.02, 2] = np.inf
+    points[rng.random(count) < 0.02, 0] = -1e300
+    return points
+
+
+def test_cell_of_gives_the_old_indices_bit_for_bit() -> None:
+    rng = np.random.default_rng(11)
+    for _ in range(40):
+        geometry = _geometry(rng)
+        points = _awkward_points(rng, geometry, int(rng.integers(0, 3000)))
+        for columns in (3, 2):
+            index, valid = geometry.cell_of(points[:, :columns])
+            old_index, old_valid = _old_cell_of(geometry, points[:, :columns])
+            assert index.dtype == np.int64 and valid.dtype == np.bool_
+            np.testing.assert_array_equal(index, old_index)
+            np.testing.assert_array_equal(valid, old_valid)
+
+
+def test_columns_seen_are_the_columns_of_cell_of() -> None:
+    rng = np.random.default_rng(12)
+    for _ in range(40):
+        geometry = _geometry(rng)
+        points = _awkward_points(rng, geometry, int(rng.integers(0, 3000)))
+        index, valid = _old_cell_of(geometry, points)
+        expected = np.zeros((geometry.nx, geometry.ny), dtype=bool)
+        expected[index[valid, 0], index[valid, 1]] = True
+        np.testing.assert_array_equal(geometry.columns_seen(points), expected)
+
+
+def test_depth_to_points_camera_is_the_old_broadcast_bit_for_bit() -> None:
+    rng = np.random.default_rng(13)
+    for width, height in ((88, 72), (176, 144), (1, 1), (5, 3)):
+        intrinsics = PinholeIntrinsics.from_fov(width, height, 47.0, 39.0)
+        depth = rng.uniform(0.05, 6.0, (height, width)).astype(np.float32)
+        depth[rng.random(depth.shape) < 0.1] = np.nan
+        depth[rng.random(depth.shape) < 0.05] = 0.0
+        depth[rng.random(depth.shape) < 0.02] = -1.0
+        for image in (depth, depth.astype(np.float64)):
+            got = intrinsics.depth_to_points_camera(image)
+            expected = _old_depth_to_points_camera(intrinsics, image)
+            assert got.shape == (height, width, 3) and got.flags.c_contiguous
+            assert got.tobytes() == expected.tobytes()
+
+
+def test_cells_in_view_are_the_old_cells_on_random_poses() -> None:
+    from scipy.spatial.transform import Rotation
+
+    rng = np.random.default_rng(14)
+    intrinsics = PinholeIntrinsics.from_fov(88, 72, 47.0, 39.0)
+    geometry = GridGeometry(
+        nx=100, ny=100, nz=40, cell_m=0.04, layer_m=0.04, z_min_m=-0.2, origin_ix=-50, origin_iy=-50
+    )
+    seeing = 0
+    for trial in range(30):
+        pose = np.eye(4)
+        pose[:3, :3] = Rotation.random(random_state=trial).as_matrix()
+        pose[:3, 3] = rng.uniform([-2.0, -2.0, 0.2], [2.0, 2.0, 1.2])
+        depth = rng.uniform(0.1, 5.0, intrinsics.shape).astype(np.float32)
+        depth[rng.random(depth.shape) < 0.1] = np.nan
+        frame = Frame(
+            index=trial,
+            time_s=0.08 * trial,
+            depth_m=depth,
+            intrinsics=intrinsics,
+            transform_camera_to_robot_believed=pose,
+            robot_pose_believed=np.zeros(4),
+            transform_camera_to_world_true=pose,
+            robot_pose_true=np.zeros(4),
+        )
+        expected = _old_cells_in_view(frame, geometry)
+        seeing += bool(expected.any())
+        np.testing.assert_array_equal(cells_in_view(frame, geometry), expected)
+    assert seeing >= 15  # most random poses see part of the grid
