@@ -209,3 +209,88 @@ def test_cells_in_view_are_the_old_cells_on_random_poses() -> None:
         seeing += bool(expected.any())
         np.testing.assert_array_equal(cells_in_view(frame, geometry), expected)
     assert seeing >= 15  # most random poses see part of the grid
+
+
+def _old_frame_errors(frame: Frame, corrected: np.ndarray | None):
+    """The accumulator's per-frame computation before it was batched (c2da7ee)."""
+    from fogsim.eval.pose_error import heading_error_deg
+    from fogsim.geometry import pose_error
+    from mapper.transforms import planar_pose_to_matrix
+
+    world_true = np.asarray(frame.transform_camera_to_world_true, dtype=np.float64)
+    robot_true = np.asarray(frame.robot_pose_true, dtype=np.float64)
+    if not (np.all(np.isfinite(world_true)) and np.all(np.isfinite(robot_true))):
+        return None, None
+    camera_true = np.linalg.inv(planar_pose_to_matrix(robot_true)) @ world_true
+    in_robot = pose_error(frame.transform_camera_to_robot_believed, camera_true)
+    in_world = pose_error(frame.transform_camera_to_world_believed, world_true)
+    residual = None
+    if corrected is not None:
+        residual = abs(heading_error_deg(np.asarray(corrected)[:3, :3], camera_true[:3, :3]))
+    row = (in_robot.rotation_deg, in_robot.translation_mm)
+    return (*row, in_world.rotation_deg, in_world.translation_mm), residual
+
+
+def _random_pose_frame(rng: np.random.Generator, index: int) -> Frame:
+    from scipy.spatial.transform import Rotation
+
+    def rigid(scale: float) -> np.ndarray:
+        transform = np.eye(4)
+        transform[:3, :3] = Rotation.from_rotvec(rng.normal(scale=scale, size=3)).as_matrix()
+        transform[:3, 3] = rng.normal(scale=0.5, size=3)
+        return transform
+
+    robot_true = np.array([*rng.uniform(-5, 5, 2), rng.uniform(0, 0.3), rng.uniform(-7, 7)])
+    robot_believed = robot_true + rng.normal(scale=[0.02, 0.02, 0.005, 0.03])
+    camera_true = rigid(0.5)
+    world_true = np.eye(4)
+    c, s = np.cos(robot_true[3]), np.sin(robot_true[3])
+    world_true[:2, :2] = [[c, -s], [s, c]]
+    world_true[:3, 3] = robot_true[:3]
+    world_true = world_true @ camera_true
+    if rng.random() < 0.1:  # no true pose (real data): skipped
+        world_true = np.full((4, 4), np.nan)
+    elif rng.random() < 0.05:
+        robot_true = robot_true.copy()
+        robot_true[1] = np.inf
+    return Frame(
+        index=index,
+        time_s=index / 12.5,
+        depth_m=np.ones((2, 2), np.float32),
+        intrinsics=PinholeIntrinsics.from_fov(2, 2, 47.0, 39.0),
+        transform_camera_to_robot_believed=camera_true @ rigid(0.05),
+        robot_pose_believed=robot_believed,
+        transform_camera_to_world_true=world_true,
+        robot_pose_true=robot_true,
+    )
+
+
+@pytest.mark.parametrize("count", [0, 1, 2, 5, 300])
+def test_pose_error_accumulator_gives_the_per_frame_errors_bit_for_bit(count: int) -> None:
+    from fogsim.eval.pose_error import PoseErrorAccumulator
+
+    rng = np.random.default_rng(100 + count)
+    accumulator = PoseErrorAccumulator()
+    rows, residuals = [], []
+    for index in range(count):
+        frame = _random_pose_frame(rng, index)
+        corrected = None
+        if rng.random() < 0.7:
+            corrected = frame.transform_camera_to_robot_believed @ _yaw(rng.normal(scale=0.05))
+        accumulator.add(frame, corrected)
+        row, residual = _old_frame_errors(frame, corrected)
+        if row is not None:
+            rows.append(row)
+            if residual is not None:
+                residuals.append(residual)
+    got_rows, got_residuals = accumulator._errors_per_frame()
+    expected_rows = np.array(rows).reshape(-1, 4)
+    assert got_rows.tobytes() == expected_rows.tobytes()
+    assert got_residuals.tobytes() == np.array(residuals, dtype=np.float64).tobytes()
+
+
+def _yaw(angle_rad: float) -> np.ndarray:
+    transform = np.eye(4)
+    c, s = np.cos(angle_rad), np.sin(angle_rad)
+    transform[:2, :2] = [[c, -s], [s, c]]
+    return transform
