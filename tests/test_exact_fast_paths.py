@@ -2,11 +2,15 @@
 
 from __future__ import annotations
 
+import math
+
 import numpy as np
 import pytest
 
+import mapper.heading as _heading
 from fogsim.data.frame import Frame
 from fogsim.eval.archive import cells_in_view
+from mapper import HeadingEstimator, HeadingParams
 from mapper.grid import GridGeometry
 from mapper.intrinsics import PinholeIntrinsics
 from mapper.transforms import apply_transform
@@ -294,3 +298,106 @@ def _yaw(angle_rad: float) -> np.ndarray:
     c, s = np.cos(angle_rad), np.sin(angle_rad)
     transform[:2, :2] = [[c, -s], [s, c]]
     return transform
+
+
+class _OldKeyframes(HeadingEstimator):
+    """The estimator with ``_add_keyframe`` as it was at c2da7ee."""
+
+    def _add_keyframe(self, points_robot, floor_heights_m, transform, pose, z_shift_m, edges):
+        """The method at c2da7ee (before its fast road): the known answer."""
+        p = self.params
+        c, s = math.cos(pose[3]), math.sin(pose[3])
+        rotation = np.array([[c, -s], [s, c]])
+        camera_xy = rotation @ transform[:2, 3] + pose[:2]
+        axis = rotation @ transform[:2, 2]  # optical axis, horizontal part
+        sector = math.floor(math.degrees(math.atan2(axis[1], axis[0])) / p.keyframe_sector_deg)
+        cell = np.floor(camera_xy / p.keyframe_spacing_m).astype(np.int64)
+        key = (int(cell[0]), int(cell[1]), sector)
+        keyframes = self._edge_keyframes if edges else self._keyframes
+        if any(k.key == key for k in keyframes):
+            return False
+        offsets = points_robot[:, :2] - transform[:2, 3]
+        z_robot = points_robot[:, 2] + z_shift_m
+        range_m = np.hypot(offsets[:, 0], offsets[:, 1])
+        # A floor point's height is its floor's (a plane's: depth noise leaves no ground
+        # point above `min_height_m` to draw an edge where the noise reaches it).
+        height_m = np.where(np.isnan(floor_heights_m), points_robot[:, 2], floor_heights_m)
+        height_m = height_m + z_shift_m
+        band = (height_m >= p.min_height_m) & (height_m <= p.max_height_m)
+        structure = band & (range_m <= p.max_range_m)
+        gradients = None
+        if edges:
+            # The occupancy reaches two cells beyond the range: the range's end is no edge.
+            candidates = np.flatnonzero(band & (range_m <= p.max_range_m + 2.0 * p.cell_m))
+            gradients = _heading.edge_gradients(points_robot[candidates], p.cell_m)
+            edge = (
+                np.any(gradients != 0.0, axis=1)
+                & structure[candidates]
+                & _heading.inside_image(points_robot, transform, p.edge_margin_m)[candidates]
+            )
+            index, gradients = candidates[edge], gradients[edge]
+        else:
+            index = np.flatnonzero(structure & np.isnan(floor_heights_m))
+        if index.size < p.min_points:
+            return False
+        step = -(-index.size // p.max_points_per_keyframe)
+        index = index[::step]
+        if gradients is not None:
+            gradients = np.ascontiguousarray(gradients[::step])
+        keyframes.append(
+            _heading._Keyframe(
+                key=key,
+                offsets_xy=np.ascontiguousarray(offsets[index]),
+                z_world=z_robot[index] + pose[2],
+                camera_xy=camera_xy,
+                yaw_rad=float(pose[3]),
+                gradients_xy=gradients,
+            )
+        )
+        del keyframes[: -p.max_keyframes]
+        self._added[edges] += 1
+        return True
+
+
+@pytest.mark.parametrize("seed", [1, 2, 3])
+def test_keyframes_are_the_old_keyframes_bit_for_bit(seed: int) -> None:
+    from test_heading import WALK, box_points_world, floor_points_world
+    from test_heading import frame as heading_frame
+
+    rng = np.random.default_rng(seed)
+    boxes = box_points_world(rng)
+    for params in (
+        HeadingParams(estimate_every=1),
+        HeadingParams(estimate_every=2, min_points=300, max_points_per_keyframe=300),
+        HeadingParams(edge_score=False, max_keyframes=2, keyframe_sector_deg=10.0),
+    ):
+        new, old = HeadingEstimator(params), _OldKeyframes(params)
+        for step in range(12):
+            x, y, yaw = WALK[step % len(WALK)]
+            yaw += rng.normal(scale=0.4)  # new sectors, and back to old ones
+            points, heights, camera, pose = heading_frame(
+                boxes, floor_points_world(x), (x, y + rng.normal(scale=0.1), yaw), 3.0
+            )
+            points = points + rng.normal(scale=0.004, size=points.shape)
+            if step % 4 == 3:  # NaN points (none inside the view's border then: no edges)
+                points[rng.random(len(points)) < 0.02] = np.nan
+            shift = float(rng.normal(scale=0.03)) if step % 3 else 0.0
+            for estimator in (new, old):
+                estimator.observe(points, heights, camera, pose, z_shift_m=shift)
+        assert new.keyframes > 0 and (new._added[1] > 0 or not params.edge_score)
+        assert new._added == old._added
+        assert (new.estimates, new.edge_estimates) == (old.estimates, old.edge_estimates)
+        assert new.correction_rad == old.correction_rad
+        pairs = zip(
+            new._keyframes + new._edge_keyframes, old._keyframes + old._edge_keyframes, strict=True
+        )
+        for a, b in pairs:
+            assert a.key == b.key and a.yaw_rad == b.yaw_rad
+            for name in ("offsets_xy", "z_world", "camera_xy", "gradients_xy"):
+                got, expected = getattr(a, name), getattr(b, name)
+                if expected is None:
+                    assert got is None
+                    continue
+                assert got.shape == expected.shape and got.dtype == expected.dtype
+                assert got.flags.c_contiguous == expected.flags.c_contiguous
+                assert got.tobytes() == expected.tobytes(), name
