@@ -401,3 +401,57 @@ def test_keyframes_are_the_old_keyframes_bit_for_bit(seed: int) -> None:
                 assert got.shape == expected.shape and got.dtype == expected.dtype
                 assert got.flags.c_contiguous == expected.flags.c_contiguous
                 assert got.tobytes() == expected.tobytes(), name
+
+
+def _checks_find_nothing(pose, camera, previous) -> bool:
+    from fogsim.data.checks import pose_problem, step_problem, transform_problem
+    from fogsim.data.limits import MAX_CAMERA_OFFSET_M
+
+    poses = pose[None] if previous is None else np.stack([previous, pose])
+    return (
+        pose_problem(pose[None]) is None
+        and transform_problem(camera[None], max_translation_m=MAX_CAMERA_OFFSET_M) is None
+        and step_problem(poses) is None
+    )
+
+
+def test_surely_plausible_frames_pass_every_check_and_real_ones_are_sure() -> None:
+    from scipy.spatial.transform import Rotation
+
+    from fogsim.data.checks import surely_plausible
+    from fogsim.data.limits import MAX_CAMERA_OFFSET_M
+
+    rng = np.random.default_rng(21)
+    sure = 0
+    for trial in range(3000):
+        pose = np.array([*rng.normal(scale=3.0, size=3), rng.normal(scale=3.0)])
+        camera = np.eye(4)
+        camera[:3, :3] = Rotation.random(random_state=trial).as_matrix()
+        camera[:3, 3] = rng.normal(scale=0.5, size=3)
+        previous = None if trial % 5 == 0 else pose + np.append(rng.normal(scale=0.03, size=3), 0)
+        kind = trial % 12
+        scale = 10.0 ** rng.uniform(-2, 1)
+        if kind == 1:  # far off, around each limit
+            pose[rng.integers(0, 4)] = rng.choice([1, -1]) * 1e4 * (1 + rng.normal(scale=0.1))
+        elif kind == 2:  # a long step
+            previous = pose - np.append(rng.normal(size=3) * 5.0 * scale, 0.0)
+        elif kind == 3:  # a rotation block off orthonormality
+            camera[:3, :3] += rng.normal(scale=1e-6 * scale, size=(3, 3))
+        elif kind == 4:  # a reflection
+            camera[:3, 0] = -camera[:3, 0]
+        elif kind == 5:  # a far camera
+            camera[:3, 3] = rng.normal(size=3) * MAX_CAMERA_OFFSET_M * scale / 2
+        elif kind == 6:  # a last row off
+            camera[3, rng.integers(0, 4)] += rng.choice([1e-13, 1e-11, 1e-3])
+        elif kind == 7:  # not finite
+            where = rng.integers(0, 4)
+            (pose if trial % 2 else camera[where])[where] = rng.choice([np.nan, np.inf, -np.inf])
+        elif kind == 8 and previous is not None:
+            previous[rng.integers(0, 3)] = np.nan
+        fast = surely_plausible(pose, camera, previous, max_translation_m=MAX_CAMERA_OFFSET_M)
+        if fast:
+            assert _checks_find_nothing(pose, camera, previous), trial
+        sure += fast
+        if kind in (0, 9, 10, 11):  # an ordinary frame is always sure
+            assert fast, trial
+    assert 1000 < sure < 2800

@@ -70,7 +70,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from fogsim.config import RunParams
-from fogsim.data.checks import pose_problem, step_problem, transform_problem
+from fogsim.data.checks import pose_problem, step_problem, surely_plausible, transform_problem
 from fogsim.data.frame import Frame
 from fogsim.data.limits import MAX_CAMERA_OFFSET_M
 from fogsim.errors import FrameError
@@ -281,6 +281,8 @@ class Pipeline:
                 f"transform_camera_to_robot_believed (4, 4), got {pose.shape} and {camera.shape}"
             )
         previous = self._last_pose_believed
+        if surely_plausible(pose, camera, previous, max_translation_m=MAX_CAMERA_OFFSET_M):
+            return
         poses = pose[None] if previous is None else np.stack([previous, pose])
         problems = (
             ("robot_pose_believed", pose_problem(pose[None])),
