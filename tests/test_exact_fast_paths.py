@@ -455,3 +455,17 @@ def test_surely_plausible_frames_pass_every_check_and_real_ones_are_sure() -> No
         if kind in (0, 9, 10, 11):  # an ordinary frame is always sure
             assert fast, trial
     assert 1000 < sure < 2800
+
+
+def test_raised_points_are_the_broadcast_sum_bit_for_bit() -> None:
+    from fogsim.mapping.pipeline import _raised
+
+    rng = np.random.default_rng(31)
+    for count in (0, 1, 2, 3, 6336):
+        points = rng.normal(size=(count, 3))
+        points[rng.random(count) < 0.1] = np.nan
+        if count:
+            points[0] = [-0.0, -0.0, -0.0]
+        for shift in (0.0, -0.0, 0.0123, -1e-3):
+            expected = points + np.array([0.0, 0.0, shift])
+            assert _raised(points, shift).tobytes() == expected.tobytes()
