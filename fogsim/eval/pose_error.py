@@ -136,7 +136,8 @@ class PoseErrorAccumulator:
         rotation = np.stack([c[:3, :3] for c in corrected if c is not None])
         error = rotation @ camera_true[with_corrected, :3, :3].transpose(0, 2, 1)
         residual = [
-            abs(math.degrees(math.atan2(e[1, 0] - e[0, 1], e[0, 0] + e[1, 1]))) for e in error
+            abs(math.degrees(math.atan2(e10 - e01, e00 + e11)))
+            for (e00, e01, _), (e10, e11, _), _ in error.tolist()
         ]
         return rows, np.array(residual)
 
@@ -165,5 +166,5 @@ def _errors(
     cosines = ((np.trace(relative, axis1=1, axis2=2) - 1.0) / 2.0).tolist()
     rotation_deg = [math.degrees(math.acos(min(1.0, max(-1.0, c)))) for c in cosines]
     offsets = believed[:, :3, 3] - true[:, :3, 3]
-    translation_mm = [1000.0 * float(np.sqrt(d.dot(d))) for d in offsets]  # np.linalg.norm's
+    translation_mm = [1000.0 * math.sqrt(d.dot(d)) for d in offsets]  # as np.linalg.norm
     return np.array(rotation_deg), np.array(translation_mm)
