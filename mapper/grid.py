@@ -154,12 +154,17 @@ class GridGeometry:
         p = real_array(points_world, "points_world")
         if p.ndim != 2 or p.shape[1] != 3:
             raise InvalidInputError(f"points_world must have shape (N, 3), got {p.shape}")
+        ox, oy = self.origin_xy_m
+        # A cell index g = floor(v) lies in [0, n) exactly when v does (n whole; NaN in
+        # neither): the tests need no floor, and inside it is the truncation ``astype`` makes.
+        vx = (p[:, 0] - ox) / self.cell_m
+        vy = (p[:, 1] - oy) / self.cell_m
+        vz = (p[:, 2] - self.z_min_m) / self.layer_m
         with np.errstate(invalid="ignore"):
-            gx, inside = self._axis_cells(p, 0)
-            gy, inside_y = self._axis_cells(p, 1)
-            inside &= inside_y & self._axis_cells(p, 2)[1]
+            inside = (vx >= 0.0) & (vx < self.nx) & (vy >= 0.0) & (vy < self.ny)
+            inside &= (vz >= 0.0) & (vz < self.nz)
         seen = np.zeros(self.nx * self.ny, dtype=bool)
-        seen[(gx[inside] * self.ny + gy[inside]).astype(np.int64)] = True
+        seen[vx[inside].astype(np.int64) * self.ny + vy[inside].astype(np.int64)] = True
         return seen.reshape(self.nx, self.ny)
 
     def _axis_cells(
