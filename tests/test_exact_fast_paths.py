@@ -469,3 +469,37 @@ def test_raised_points_are_the_broadcast_sum_bit_for_bit() -> None:
         for shift in (0.0, -0.0, 0.0123, -1e-3):
             expected = points + np.array([0.0, 0.0, shift])
             assert _raised(points, shift).tobytes() == expected.tobytes()
+
+
+def test_floor_at_reads_the_cell_of_cell_of() -> None:
+    from mapper import FloorObstacleMapper, MapperParams
+
+    rng = np.random.default_rng(41)
+    mapper = FloorObstacleMapper(MapperParams())
+    mapper.recenter(1.37, -0.52)
+    mapper._floor[...] = rng.normal(size=mapper._floor.shape)
+    mapper._floor[rng.random(mapper._floor.shape) < 0.2] = np.nan
+    g = mapper.geometry
+    ox, oy = g.origin_xy_m
+    xs = ox + rng.uniform(-0.2, 1.2, 3000) * g.nx * g.cell_m
+    ys = oy + rng.uniform(-0.2, 1.2, 3000) * g.ny * g.cell_m
+    xs[::7] = ox + rng.integers(-2, g.nx + 2, xs[::7].size) * g.cell_m  # on cell faces
+    ys[::11] = oy + g.ny * g.cell_m  # the far face: off the grid
+    xs[::13], ys[::17], xs[::19] = np.nan, np.inf, -1e300
+    for x, y in zip(xs.tolist(), ys.tolist(), strict=True):
+        index, valid = _old_cell_of(g, np.array([[x, y]]))
+        expected = float(mapper._floor[index[0, 0], index[0, 1]]) if valid[0] else np.nan
+        got = mapper.floor_at(x, y)
+        assert np.array_equal(got, expected, equal_nan=True), (x, y)
+        assert mapper.floor_at(np.float64(x), np.float64(y)) is not None
+
+
+def test_floor_at_refuses_what_is_not_a_real_number() -> None:
+    from mapper import FloorObstacleMapper, MapperParams
+    from mapper.errors import InvalidInputError
+
+    mapper = FloorObstacleMapper(MapperParams())
+    with pytest.raises(InvalidInputError, match="x_m must hold real numbers"):
+        mapper.floor_at(1j, 0.0)
+    with pytest.raises(InvalidInputError, match="y_m must hold real numbers"):
+        mapper.floor_at(0.0, "0.5")
