@@ -129,7 +129,19 @@ class PinholeIntrinsics:
                 f"depth image must have shape (height, width) = {self.shape}, got {depth.shape}"
             )
         depth = np.where(depth > 0.0, depth, np.nan)
-        return self.ray_directions_camera() * depth[..., None]
+        # ``rays * depth[..., None]`` bit for bit, multiplied per coordinate plane: a broadcast
+        # over the last axis of 3 loops 3 elements at a time (twice as slow on 88×72 frames).
+        points = np.empty((*self.shape, 3))
+        np.multiply(_ray_planes_camera(self), depth, out=points.transpose(2, 0, 1))
+        return points
+
+
+@functools.lru_cache(maxsize=8)
+def _ray_planes_camera(intrinsics: PinholeIntrinsics) -> NDArray[np.float64]:
+    """(3, height, width) ray directions with unit z, one plane per coordinate (read-only)."""
+    planes = np.ascontiguousarray(_ray_directions_camera(intrinsics).transpose(2, 0, 1))
+    planes.flags.writeable = False
+    return planes
 
 
 @functools.lru_cache(maxsize=8)

@@ -36,6 +36,7 @@ from mapper.occupancy import (
     update_table,
 )
 from mapper.params import LEVEL_UNKNOWN, LEVELS, MapperParams
+from mapper.validation import real_scalar
 from mapper.zmatch import ZMatch, match_z
 
 
@@ -320,9 +321,18 @@ class FloorObstacleMapper:
         return self._fog_types.copy(), self._fog_heights.copy()
 
     def floor_at(self, x_m: float, y_m: float) -> float:
-        """Floor height [m] of the cell holding world (x, y); NaN if invalid or off the grid."""
-        idx, valid = self._geometry.cell_of(np.array([[x_m, y_m]]))
-        return float(self._floor[idx[0, 0], idx[0, 1]]) if valid[0] else float("nan")
+        """Floor height [m] of the cell holding world (x, y); NaN if invalid or off the grid.
+
+        The cell of :meth:`GridGeometry.cell_of` (the same arithmetic on one point, without
+        its arrays: a cell index floor(v) lies in [0, n) exactly when v does, NaN nowhere).
+        """
+        g = self._geometry
+        ox, oy = g.origin_xy_m
+        vx = (real_scalar(x_m, "x_m") - ox) / g.cell_m
+        vy = (real_scalar(y_m, "y_m") - oy) / g.cell_m
+        if not (0.0 <= vx < g.nx and 0.0 <= vy < g.ny):
+            return float("nan")
+        return float(self._floor[int(vx), int(vy)])
 
     # ------------------------------------------------------------------ z matching
     def match_z(self, points: ArrayLike, floor_heights: ArrayLike) -> ZMatch:

@@ -18,10 +18,24 @@ def planar_pose_to_matrix(pose: ArrayLike) -> NDArray[np.float64]:
 
 
 def apply_transform(transform: ArrayLike, points: ArrayLike) -> NDArray[np.float64]:
-    """Apply a 4×4 transform to points of shape (..., 3)."""
+    """Apply a 4×4 transform to points of shape (..., 3).
+
+    The result is ``points @ R.T + t`` bit for bit (R, t: the transform's rotation and
+    translation). Points of shape (N, 3), a frame's, take a faster road to the same numbers:
+    ``np.dot`` with the transposed rotation (the same BLAS product, a third of ``@``'s time on
+    a transposed operand) and the translation added per column (a broadcast over rows of 3
+    loops 3 elements at a time: 5 times slower). A single row stays on ``@`` (numpy multiplies
+    a one-row matrix as a vector, in another order). ``tests/test_exact_fast_paths.py`` checks
+    the two agree bit for bit.
+    """
     t = real_array(transform, "transform")
     p = real_array(points, "points")
-    return p @ t[:3, :3].T + t[:3, 3]
+    if p.ndim != 2 or p.shape[0] < 2 or p.shape[1] != 3 or t.shape != (4, 4):
+        return p @ t[:3, :3].T + t[:3, 3]
+    out = np.dot(p, t[:3, :3].T)
+    for axis in range(3):
+        out[:, axis] += t[axis, 3]
+    return out
 
 
 def rotation_angle_deg(rotation: ArrayLike) -> float:

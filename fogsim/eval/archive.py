@@ -56,10 +56,7 @@ def cells_in_view(frame: Frame, geometry: GridGeometry) -> NDArray[np.bool_]:
     """
     points_camera = frame.intrinsics.depth_to_points_camera(frame.depth_m).reshape(-1, 3)
     points_world = apply_transform(frame.transform_camera_to_world_true, points_camera)
-    index, inside = geometry.cell_of(points_world)
-    seen = np.zeros((geometry.nx, geometry.ny), dtype=bool)
-    seen[index[inside, 0], index[inside, 1]] = True
-    return seen
+    return geometry.columns_seen(points_world)
 
 
 class _Layer:

@@ -18,8 +18,6 @@ from numpy.typing import NDArray
 from fogsim.data.frame import Frame
 from fogsim.eval.report.schema import MedianMax, PoseErrorPair, PoseErrorStats
 from fogsim.eval.rounding import rounded
-from fogsim.geometry import pose_error
-from mapper.transforms import planar_pose_to_matrix
 
 _DIGITS = 4
 """Decimals kept in the report (0.0001° and 0.0001 mm, far below any error that matters)."""
@@ -44,77 +42,129 @@ def heading_error_deg(rotation: NDArray[np.float64], rotation_true: NDArray[np.f
 
 
 class PoseErrorAccumulator:
-    """Collects each frame's pose errors; :meth:`stats` gives their median and maximum."""
+    """Collects each frame's poses; :meth:`stats` gives the errors' median and maximum.
+
+    A frame costs a few list appends; the errors are computed in :meth:`stats`, for all frames
+    at once, with the arithmetic of :func:`fogsim.geometry.pose_error` and
+    :func:`heading_error_deg` on each frame (the same BLAS products and LAPACK inverse on
+    stacks of matrices, the same scalar ``math`` functions per frame): the same numbers bit
+    for bit as comparing each frame when added (``tests/test_exact_fast_paths.py``), without
+    some forty small numpy calls on the run's main thread per frame.
+    """
 
     def __init__(self) -> None:
-        # Per frame: robot-frame rotation [deg], translation [mm], world rotation, translation.
-        self._rows: list[tuple[float, float, float, float]] = []
-        self._residual_heading_deg: list[float] = []
+        # Per frame added: true camera pose in the world, true robot pose, believed camera
+        # pose in the robot frame, believed robot pose, corrected camera pose in the robot
+        # frame (or None). Copies: the frames' arrays may be reused by their producer.
+        self._world_true: list[NDArray[np.float64]] = []
+        self._robot_true: list[NDArray[np.float64]] = []
+        self._camera_believed: list[NDArray[np.float64]] = []
+        self._robot_believed: list[NDArray[np.float64]] = []
+        self._corrected: list[NDArray[np.float64] | None] = []
 
     def add(
         self,
         frame: Frame,
         transform_camera_to_robot_corrected: NDArray[np.float64] | None = None,
     ) -> None:
-        """Compare the frame's believed camera pose with the true one (skipped without one).
+        """Keep the frame's believed and true poses (a frame without a true pose counts none).
 
         Args:
             frame: The frame, with its believed and true poses.
             transform_camera_to_robot_corrected: 4×4 camera pose in the robot frame after the
                 pipeline's corrections, or None (no residual heading recorded for the frame).
         """
-        transform_camera_to_world_true = np.asarray(
-            frame.transform_camera_to_world_true, dtype=np.float64
+        self._world_true.append(np.array(frame.transform_camera_to_world_true, dtype=np.float64))
+        self._robot_true.append(np.array(frame.robot_pose_true, dtype=np.float64))
+        self._camera_believed.append(
+            np.array(frame.transform_camera_to_robot_believed, dtype=np.float64)
         )
-        robot_pose_true = np.asarray(frame.robot_pose_true, dtype=np.float64)
-        if not (
-            np.all(np.isfinite(transform_camera_to_world_true))
-            and np.all(np.isfinite(robot_pose_true))
-        ):
-            return
-        transform_camera_to_robot_true = (
-            np.linalg.inv(planar_pose_to_matrix(robot_pose_true)) @ transform_camera_to_world_true
-        )
-        in_robot = pose_error(
-            frame.transform_camera_to_robot_believed, transform_camera_to_robot_true
-        )
-        in_world = pose_error(
-            frame.transform_camera_to_world_believed, transform_camera_to_world_true
-        )
-        if transform_camera_to_robot_corrected is not None:
-            self._residual_heading_deg.append(
-                abs(
-                    heading_error_deg(
-                        np.asarray(transform_camera_to_robot_corrected)[:3, :3],
-                        transform_camera_to_robot_true[:3, :3],
-                    )
-                )
-            )
-        self._rows.append(
-            (
-                in_robot.rotation_deg,
-                in_robot.translation_mm,
-                in_world.rotation_deg,
-                in_world.translation_mm,
-            )
+        self._robot_believed.append(np.array(frame.robot_pose_believed, dtype=np.float64))
+        self._corrected.append(
+            None
+            if transform_camera_to_robot_corrected is None
+            else np.array(transform_camera_to_robot_corrected, dtype=np.float64)
         )
 
     def stats(self) -> PoseErrorStats:
         """Median and max of the errors; only ``frames=0`` when no frame had a true pose.
 
-        ``residual_heading_deg`` (of |yaw|) is set when some frame was added with its corrected
-        camera pose.
+        Per frame with a finite true pose: the rotation [deg] and translation [mm] between
+        the believed and the true camera pose in the robot frame (the true one is the true
+        camera pose brought into the true robot frame) and in the world (the believed one
+        through the believed robot pose). ``residual_heading_deg`` (of |yaw|, the yaw between
+        the corrected and the true camera pose in the robot frame) is set when some such frame
+        was added with its corrected camera pose.
         """
-        if not self._rows:
+        rows, residual = self._errors_per_frame()
+        if rows.shape[0] == 0:
             return PoseErrorStats(frames=0)
-        a = np.array(self._rows)
         stats = PoseErrorStats(
-            frames=int(a.shape[0]),
-            camera_in_robot=PoseErrorPair(_median_max(a[:, 0]), _median_max(a[:, 1])),
-            camera_in_world=PoseErrorPair(_median_max(a[:, 2]), _median_max(a[:, 3])),
+            frames=int(rows.shape[0]),
+            camera_in_robot=PoseErrorPair(_median_max(rows[:, 0]), _median_max(rows[:, 1])),
+            camera_in_world=PoseErrorPair(_median_max(rows[:, 2]), _median_max(rows[:, 3])),
         )
-        if not self._residual_heading_deg:
+        if residual.size == 0:
             return stats
-        return dataclasses.replace(
-            stats, residual_heading_deg=_median_max(np.array(self._residual_heading_deg))
+        return dataclasses.replace(stats, residual_heading_deg=_median_max(residual))
+
+    def _errors_per_frame(self) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+        """The errors of the frames with a finite true pose, in the order added.
+
+        Returns:
+            (N, 4) rotation [deg] and translation [mm] in the robot frame, then in the world;
+            (M,) |residual heading| [deg] of those of them added with a corrected pose.
+        """
+        if not self._world_true:
+            return np.empty((0, 4)), np.empty(0)
+        world_true = np.stack(self._world_true)
+        robot_true = np.stack(self._robot_true)
+        known = np.isfinite(world_true).all(axis=(1, 2)) & np.isfinite(robot_true).all(axis=1)
+        if not known.any():
+            return np.empty((0, 4)), np.empty(0)
+        world_true = world_true[known]
+        camera_true = np.linalg.inv(_planar_matrices(robot_true[known])) @ world_true
+        camera_believed = np.stack(self._camera_believed)[known]
+        world_believed = _planar_matrices(np.stack(self._robot_believed)[known]) @ camera_believed
+        rows = np.column_stack(
+            [*_errors(camera_believed, camera_true), *_errors(world_believed, world_true)]
         )
+        corrected = [c for c, k in zip(self._corrected, known, strict=True) if k]
+        with_corrected = np.array([c is not None for c in corrected], dtype=bool)
+        if not with_corrected.any():
+            return rows, np.empty(0)
+        rotation = np.stack([c[:3, :3] for c in corrected if c is not None])
+        error = rotation @ camera_true[with_corrected, :3, :3].transpose(0, 2, 1)
+        residual = [
+            abs(math.degrees(math.atan2(e10 - e01, e00 + e11)))
+            for (e00, e01, _), (e10, e11, _), _ in error.tolist()
+        ]
+        return rows, np.array(residual)
+
+
+def _planar_matrices(poses: NDArray[np.float64]) -> NDArray[np.float64]:
+    """(N, 4, 4) :func:`~mapper.transforms.planar_pose_to_matrix` of (N, 4) poses, exactly.
+
+    The cosines and sines by :mod:`math`, as that function takes them (numpy's vectorised
+    ones may differ in the last bit).
+    """
+    matrices = np.zeros((poses.shape[0], 4, 4))
+    yaw = poses[:, 3].tolist()
+    c = np.array([math.cos(a) for a in yaw])
+    s = np.array([math.sin(a) for a in yaw])
+    matrices[:, 0, 0], matrices[:, 0, 1], matrices[:, 1, 0], matrices[:, 1, 1] = c, -s, s, c
+    matrices[:, :3, 3] = poses[:, :3]
+    matrices[:, 2, 2] = matrices[:, 3, 3] = 1.0
+    return matrices
+
+
+def _errors(
+    believed: NDArray[np.float64], true: NDArray[np.float64]
+) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+    """Rotation [deg] and translation [mm] between (N, 4, 4) poses, as ``pose_error`` each."""
+    relative = believed[:, :3, :3].transpose(0, 2, 1) @ true[:, :3, :3]
+    cosines = ((np.trace(relative, axis1=1, axis2=2) - 1.0) / 2.0).tolist()
+    rotation_deg = [math.degrees(math.acos(min(1.0, max(-1.0, c)))) for c in cosines]
+    offsets = believed[:, :3, 3] - true[:, :3, 3]
+    translation_mm = [1000.0 * math.sqrt(d.dot(d)) for d in offsets]  # as np.linalg.norm
+    return np.array(rotation_deg), np.array(translation_mm)

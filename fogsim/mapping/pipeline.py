@@ -70,7 +70,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from fogsim.config import RunParams
-from fogsim.data.checks import pose_problem, step_problem, transform_problem
+from fogsim.data.checks import pose_problem, step_problem, surely_plausible, transform_problem
 from fogsim.data.frame import Frame
 from fogsim.data.limits import MAX_CAMERA_OFFSET_M
 from fogsim.errors import FrameError
@@ -281,6 +281,8 @@ class Pipeline:
                 f"transform_camera_to_robot_believed (4, 4), got {pose.shape} and {camera.shape}"
             )
         previous = self._last_pose_believed
+        if surely_plausible(pose, camera, previous, max_translation_m=MAX_CAMERA_OFFSET_M):
+            return
         poses = pose[None] if previous is None else np.stack([previous, pose])
         problems = (
             ("robot_pose_believed", pose_problem(pose[None])),
@@ -566,7 +568,7 @@ class Pipeline:
         if job.elevation_offset_m is not None:
             self.elevation.offset_m = job.elevation_offset_m
         frame = data.frame
-        points_robot = data.points_robot + np.array([0.0, 0.0, shift_m])
+        points_robot = _raised(data.points_robot, shift_m)
         floor_robot = data.floor_heights_m + shift_m
         transform_camera_to_robot = data.transform_camera_to_robot.copy()
         transform_camera_to_robot[2, 3] += shift_m
@@ -665,3 +667,15 @@ class Pipeline:
     def cell_centers_xy(self) -> NDArray[np.float64]:
         """(nx, ny, 2) world centres of the current grid cells [m]."""
         return np.asarray(self.mapper.geometry.cell_centers_xy(), dtype=np.float64)
+
+
+def _raised(points: NDArray[np.float64], shift_m: float) -> NDArray[np.float64]:
+    """``points + [0, 0, shift_m]`` of (N, 3) points bit for bit, added per column.
+
+    A broadcast over rows of 3 loops 3 elements at a time (about ten times slower on a
+    frame's points); x and y get their + 0.0 too (it turns -0.0 into 0.0, as the broadcast).
+    """
+    raised = np.empty(points.shape)
+    for axis, offset in enumerate((0.0, 0.0, shift_m)):
+        np.add(points[:, axis], offset, out=raised[:, axis])
+    return raised
