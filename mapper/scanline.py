@@ -880,6 +880,7 @@ def _best_seed(
     sums,
     plane,
     chosen,
+    tried,
 ):
     """Best seed triple containing segment s among free segments.
 
@@ -887,7 +888,14 @@ def _best_seed(
     from s the longest free segment overlapping the previous one. Writes the best triple to
     ``members`` and returns its misfit (≤ 1: valid seed; inf: none).
 
+    Every segment picked beside s is written to ``tried[s]`` ((S, 9) int64, -1 for none;
+    entry ``3·i + k`` for row k of the i-th triple tried): while s and these stay free the
+    result cannot change (a pick is the longest free overlapping segment, and taking others
+    only removes candidates that lost to it, or that a broken triple never had), so
+    `grow_planes` can reuse it instead of scoring again.
     """
+    for k in range(9):
+        tried[s, k] = -1
     height = row_first.shape[0] - 1
     lengths_s = seg_stops[s] - seg_starts[s]
     best_score = np.inf
@@ -921,6 +929,7 @@ def _best_seed(
                     ok = False
                     break
                 chosen[k] = pick
+                tried[s, -3 * offset + k] = pick
                 k += direction
             if not ok:
                 break
@@ -1014,6 +1023,8 @@ def grow_planes(
     plane = np.zeros(13)
     members = np.full(3, -1, np.int64)
     chosen = np.full(3, -1, np.int64)  # `_best_seed`'s work space
+    tried = np.full((n_seg, 9), -1, np.int64)
+    seed_members = np.full((n_seg, 3), -1, np.int64)
     scores = np.full(n_seg, np.inf)
     for s in range(n_seg):
         scores[s] = _best_seed(
@@ -1035,7 +1046,10 @@ def grow_planes(
             sums,
             plane,
             chosen,
+            tried,
         )
+        for k in range(3):
+            seed_members[s, k] = members[k]
     order = _stable_order(scores)
     queue = np.empty(n_seg, np.int64)
     n_planes = 0
@@ -1044,26 +1058,39 @@ def grow_planes(
             break
         if plane_of[s] >= 0:
             continue
-        score = _best_seed(
-            s,
-            seg_sums,
-            x,
-            y,
-            seg_rows,
-            seg_starts,
-            seg_stops,
-            seg_table,
-            row_first,
-            plane_of,
-            grow_factor,
-            rms_factor,
-            tolerance_floor_m,
-            seed_min_pixels,
-            members,
-            sums,
-            plane,
-            chosen,
-        )
+        # Scored again only if a plane took one of the segments its triples picked.
+        stale = False
+        for k in range(9):
+            t = tried[s, k]
+            if t >= 0 and plane_of[t] >= 0:
+                stale = True
+                break
+        if not stale:
+            score = scores[s]
+            for k in range(3):
+                members[k] = seed_members[s, k]
+        else:
+            score = _best_seed(
+                s,
+                seg_sums,
+                x,
+                y,
+                seg_rows,
+                seg_starts,
+                seg_stops,
+                seg_table,
+                row_first,
+                plane_of,
+                grow_factor,
+                rms_factor,
+                tolerance_floor_m,
+                seed_min_pixels,
+                members,
+                sums,
+                plane,
+                chosen,
+                tried,
+            )
         if score > 1.0:
             continue
         label = n_planes
