@@ -116,6 +116,43 @@ def _at_narrow_rise(
 
 
 @numba.njit(cache=True, inline="always")
+def _behind_wide_shadow(
+    floor: NDArray[np.float64],
+    obstacle: NDArray[np.float64],
+    ix: int,
+    iy: int,
+    h: float,
+    band: float,
+    cells: int,
+) -> bool:
+    """Whether the floor ``h`` at ``(ix, iy)`` is the rim of a raised surface behind a shadow.
+
+    It is when, along one of the 8 directions, a run of one to ``cells`` cells where nothing
+    is stored (no floor, no obstacle) starts at its neighbour and ends at a cell whose stored
+    floor is more than ``band`` below ``h``: the lower surface hidden behind the raised
+    surface's edge, seen from on top of it or beside it, over a shadow that many cells wide
+    (the band's shadow rule reaches one cell). ``floor`` and ``obstacle`` are the stored maps
+    (labels not used), read directly (module note in `_label` on helpers taking the maps).
+    """
+    nx, ny = floor.shape
+    for dx in range(-1, 2):
+        for dy in range(-1, 2):
+            if dx == 0 and dy == 0:
+                continue
+            for k in range(1, cells + 2):
+                cx, cy = ix + k * dx, iy + k * dy
+                if cx < 0 or cx >= nx or cy < 0 or cy >= ny:
+                    break
+                v = floor[cx, cy]
+                if np.isnan(v) and np.isnan(obstacle[cx, cy]):
+                    continue  # nothing stored: the shadow goes on
+                if k >= 2 and v < h - band:  # NaN: never
+                    return True
+                break
+    return False
+
+
+@numba.njit(cache=True, inline="always")
 def _label(
     top: float,
     hf: float,
@@ -162,6 +199,7 @@ def update_fog_area(
     band: float = 0.0,
     beside_obstacles: bool = False,
     rise_cells: int = 0,
+    shadow_cells: int = 0,
 ) -> None:
     """Recompute ``obstacle`` (eq. 10) and the FOG (eq. 11) in ``[ix0, ix1) × [iy0, iy1)``.
 
@@ -185,6 +223,10 @@ def update_fog_area(
     With ``band`` > 0 and ``rise_cells`` n > 0 (`MapperParams.narrow_rise_m`) a floor is
     unknown at the foot of a narrow raised surface too (`_at_narrow_rise`): the FOG is then
     recomputed at least ``n + 1`` cells beyond the area, as far as that test reads ``floor``.
+
+    With ``band`` > 0 and ``shadow_cells`` s > 1 (`MapperParams.shadow_reach_m`) a floor is
+    unknown beside a shadow up to s cells wide too (`_behind_wide_shadow`): the FOG is then
+    recomputed at least ``s + 1`` cells beyond the area.
     """
     nx, ny, nz = og.shape
     for ix in range(ix0, ix1):
@@ -200,6 +242,9 @@ def update_fog_area(
     rise = rise_cells if band > 0.0 else 0
     if rise > 0:
         ring = max(ring, rise + 1)
+    shadow = shadow_cells if band > 0.0 else 0
+    if shadow > 1:
+        ring = max(ring, shadow + 1)
     reach = ring + 2 if banded else ring
     wx0, wx1 = max(ix0 - reach, 0), min(ix1 + reach, nx)
     wy0, wy1 = max(iy0 - reach, 0), min(iy1 + reach, ny)
@@ -256,6 +301,12 @@ def update_fog_area(
                         if h > above[ki, kj] or h < below[ki, kj]:  # itself: never
                             kind, h = _UNKNOWN, np.nan
                 if kind == _FLOOR and rise > 0 and _at_narrow_rise(floor, ix, iy, h, band, rise):
+                    kind, h = _UNKNOWN, np.nan
+                if (
+                    kind == _FLOOR
+                    and shadow > 1
+                    and _behind_wide_shadow(floor, obstacle, ix, iy, h, band, shadow)
+                ):
                     kind, h = _UNKNOWN, np.nan
             fog_types[ix, iy] = kind
             fog_heights[ix, iy] = h

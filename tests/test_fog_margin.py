@@ -48,7 +48,7 @@ def surfaces_grid(heights_m, ny=3, tops_m=None):
 
 def fog(
     og, floor, margin=0, area=None, types=None, band=0.0, beside=False, ends=None, passes=None,
-    rise=0,
+    rise=0, shadow=0,
 ):  # fmt: skip
     """Types and heights after `update_fog_area` over ``area`` (default: the whole grid);
     ``types`` pre-fills the FOG (default −1: no label, to see which cells were written). The
@@ -64,7 +64,7 @@ def fog(
     update_fog_area(
         og, floor, obstacle, types, heights, P.occ_threshold_level, Z0, L, P.delta_m,
         ix0, ix1, iy0, iy1, ends, passes, P.floor_pass_min_rays, P.floor_pass_fraction,
-        margin, band, beside, rise,
+        margin, band, beside, rise, shadow,
     )  # fmt: skip
     return types, heights
 
@@ -458,3 +458,55 @@ def test_the_mapper_passes_narrow_rise_to_the_fog():
     iy = m.cell_of(np.array([[0.0, 0.0, 0.0]]))[0][0, 1]
     assert without[ix_foot, iy].tolist() == [F, F]
     assert with_rule[ix_foot, iy].tolist() == [U, U]
+
+
+def test_the_rim_before_a_wide_shadow_is_unknown():
+    # Platform (125 mm) | its points spilled a cell over its side edge (the zig-zag stage's
+    # drift) | two cells of ground hidden behind the edge: nothing stored | the ground seen
+    # beyond. The band's shadow rule sees one empty cell only: the spilled cell stays a floor
+    # 125 mm above the truth. With a reach of 2 cells or more it is unknown; the platform's
+    # cells behind it are not (their run of empty cells starts no neighbour away).
+    nan = np.nan
+    og, floor = surfaces_grid([0.125, 0.125, 0.125, nan, nan, 0.0, 0.0])
+    assert fog(og, floor, band=BAND)[0][:, 1].tolist() == [F, F, F, U, U, F, F]
+    for shadow in (2, 4):
+        types, _ = fog(og, floor, band=BAND, shadow=shadow)
+        assert types[:, 1].tolist() == [F, F, U, U, U, F, F]
+    # A shadow wider than the reach, a floor or obstacle in the run, or no lower floor at its
+    # end: left to the band's rule. A reach of 1 cell is that rule alone.
+    og_wide, floor_wide = surfaces_grid([0.125, 0.125, 0.125, nan, nan, nan, 0.0])
+    assert fog(og_wide, floor_wide, band=BAND, shadow=2)[0][2, 1] == F
+    assert fog(og_wide, floor_wide, band=BAND, shadow=3)[0][2, 1] == U
+    og_obst, floor_obst = surfaces_grid(
+        [0.125, 0.125, 0.125, nan, nan, 0.0], tops_m=[nan, nan, nan, 0.3, nan, nan]
+    )
+    assert fog(og_obst, floor_obst, band=BAND, shadow=4)[0][2, 1] == F
+    og_high, floor_high = surfaces_grid([0.125, 0.125, 0.125, nan, nan, 0.11])
+    assert fog(og_high, floor_high, band=BAND, shadow=4)[0][2, 1] == F
+    assert fog(og, floor, band=BAND, shadow=1)[0][2, 1] == F
+    assert fog(og, floor, shadow=4)[0][:, 1].tolist() == [F, F, F, U, U, F, F]  # no band: off
+
+
+def test_a_wide_shadow_along_a_diagonal_and_relabelled_from_afar():
+    # The lower floor at the end of a diagonal run of empty cells; and an update of only the
+    # cell where that floor appears relabels the rim 3 cells away as a whole-grid update does.
+    n = 6
+    og = np.full((n, n, P.nz), 128, dtype=np.uint8)
+    floor = np.full((n, n), np.nan)
+    og[0, 0, layer_of(0.125)] = OCC
+    floor[0, 0] = 0.125
+    types, _ = fog(og, floor, band=BAND, shadow=4)
+    assert types[0, 0] == F
+    og[3, 3, layer_of(0.0)] = OCC
+    floor[3, 3] = 0.0
+    part, _ = fog(og, floor, area=(3, 4, 3, 4), types=types.copy(), band=BAND, shadow=4)
+    whole, _ = fog(og, floor, band=BAND, shadow=4)
+    assert part[0, 0] == U and np.array_equal(part, whole)
+
+
+def test_shadow_reach_defaults_and_validation():
+    assert P.shadow_reach_m == 0.16 and P.shadow_reach_cells == 4
+    assert MapperParams(shadow_reach_m=0.0).shadow_reach_cells == 0
+    for bad in (-0.01, float("nan"), float("inf")):
+        with pytest.raises(InvalidParameterError, match="shadow_reach_m"):
+            MapperParams(shadow_reach_m=bad)
