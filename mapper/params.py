@@ -342,7 +342,14 @@ class MapperParams:
             "a finite float >= 0",
             lambda v: math.isfinite(v) and v >= 0,
         )
-        for name in ("eps_m", "delta_m", "free_margin_m", "edge_band_m", "narrow_rise_m", "shadow_reach_m"):
+        for name in (
+            "eps_m",
+            "delta_m",
+            "free_margin_m",
+            "edge_band_m",
+            "narrow_rise_m",
+            "shadow_reach_m",
+        ):
             check(name, float, "a finite float >= 0 [m]", lambda v: math.isfinite(v) and v >= 0)
         check("max_range_m", float, "a float > 0 [m] (inf: no limit)", lambda v: v > 0)
         for name in (
