@@ -200,6 +200,7 @@ def update_fog_area(
     beside_obstacles: bool = False,
     rise_cells: int = 0,
     shadow_cells: int = 0,
+    min_floor_neighbours: int = 0,
 ) -> None:
     """Recompute ``obstacle`` (eq. 10) and the FOG (eq. 11) in ``[ix0, ix1) × [iy0, iy1)``.
 
@@ -227,6 +228,13 @@ def update_fog_area(
     With ``band`` > 0 and ``shadow_cells`` s > 1 (`MapperParams.shadow_reach_m`) a floor is
     unknown beside a shadow up to s cells wide too (`_behind_wide_shadow`): the FOG is then
     recomputed at least ``s + 1`` cells beyond the area.
+
+    With ``band`` > 0 and ``min_floor_neighbours`` k > 0 (`MapperParams.min_floor_neighbours`)
+    a floor that the rules above leave a floor is unknown when fewer than k of its 8
+    neighbours are left floors within ``band`` of its height and one of them is an obstacle
+    higher than it: a patch of floor too small to stand on, inside something taller (a plane
+    fitted to a rough top's low part). The neighbours' labels are the rules' (computed here
+    a cell farther), so the FOG is recomputed a cell farther too.
     """
     nx, ny, nz = og.shape
     for ix in range(ix0, ix1):
@@ -245,7 +253,12 @@ def update_fog_area(
     shadow = shadow_cells if band > 0.0 else 0
     if shadow > 1:
         ring = max(ring, shadow + 1)
-    reach = ring + 2 if banded else ring
+    island = min_floor_neighbours if band > 0.0 else 0
+    if island > 0:
+        ring += 1  # a label reads its neighbours' banded labels
+    # The banded labels are computed ``extra`` cells beyond the cells written.
+    extra = 1 if island > 0 else 0
+    reach = ring + 2 + extra if banded else ring
     wx0, wx1 = max(ix0 - reach, 0), min(ix1 + reach, nx)
     wy0, wy1 = max(iy0 - reach, 0), min(iy1 + reach, ny)
     kinds = np.empty((wx1 - wx0, wy1 - wy0), dtype=np.int8)
@@ -269,8 +282,8 @@ def update_fog_area(
     above = np.full(kinds.shape, np.inf)
     below = np.full(kinds.shape, -np.inf)
     if banded:
-        for ix in range(max(ix0 - ring - 1, 0), min(ix1 + ring + 1, nx)):
-            for iy in range(max(iy0 - ring - 1, 0), min(iy1 + ring + 1, ny)):
+        for ix in range(max(ix0 - ring - 1 - extra, 0), min(ix1 + ring + 1 + extra, nx)):
+            for iy in range(max(iy0 - ring - 1 - extra, 0), min(iy1 + ring + 1 + extra, ny)):
                 i, j = ix - wx0, iy - wy0
                 kind, h = kinds[i, j], heights[i, j]
                 if kind == _FLOOR:
@@ -291,8 +304,10 @@ def update_fog_area(
                             if kinds[ki, kj] == _FLOOR and heights[ki, kj] < lowest:
                                 lowest = heights[ki, kj]
                     above[i, j] = lowest + band
-    for ix in range(max(ix0 - ring, 0), min(ix1 + ring, nx)):
-        for iy in range(max(iy0 - ring, 0), min(iy1 + ring, ny)):
+    labels = np.empty_like(kinds) if island > 0 else kinds
+    label_heights = np.empty_like(heights) if island > 0 else heights
+    for ix in range(max(ix0 - ring - extra, 0), min(ix1 + ring + extra, nx)):
+        for iy in range(max(iy0 - ring - extra, 0), min(iy1 + ring + extra, ny)):
             i, j = ix - wx0, iy - wy0
             kind, h = kinds[i, j], heights[i, j]
             if banded and kind == _FLOOR:
@@ -308,8 +323,31 @@ def update_fog_area(
                     and _behind_wide_shadow(floor, obstacle, ix, iy, h, band, shadow)
                 ):
                     kind, h = _UNKNOWN, np.nan
-            fog_types[ix, iy] = kind
-            fog_heights[ix, iy] = h
+            if island > 0:
+                labels[i, j], label_heights[i, j] = kind, h
+            else:
+                fog_types[ix, iy] = kind
+                fog_heights[ix, iy] = h
+    if island > 0:
+        for ix in range(max(ix0 - ring, 0), min(ix1 + ring, nx)):
+            for iy in range(max(iy0 - ring, 0), min(iy1 + ring, ny)):
+                i, j = ix - wx0, iy - wy0
+                kind, h = labels[i, j], label_heights[i, j]
+                if kind == _FLOOR:
+                    level = 0
+                    taller = False
+                    for ki in range(max(i - 1, 0), min(i + 2, labels.shape[0])):
+                        for kj in range(max(j - 1, 0), min(j + 2, labels.shape[1])):
+                            if ki == i and kj == j:
+                                continue
+                            near, hn = labels[ki, kj], label_heights[ki, kj]
+                            if near == _FLOOR and abs(hn - h) <= band:
+                                level += 1
+                            taller = taller or (near == _OBSTACLE and hn > h)
+                    if level < island and taller:
+                        kind, h = _UNKNOWN, np.nan
+                fog_types[ix, iy] = kind
+                fog_heights[ix, iy] = h
 
 
 @numba.njit(cache=True, no_cfunc_wrapper=True, nogil=True, error_model="numpy")

@@ -25,7 +25,12 @@ LEVEL_UNKNOWN = 128
 _COUNT_FIELDS = ("nx", "ny", "nz", "zmatch_min_pairs", "floor_pass_min_rays")
 #: The integer fields that may be 0: the vote caps of the floor map and the FOG's obstacle
 #: margin (0 = the paper's rule).
-_CAP_FIELDS = ("floor_vote_cap", "floor_frame_cap", "obstacle_margin_cells")
+_CAP_FIELDS = (
+    "floor_vote_cap",
+    "floor_frame_cap",
+    "obstacle_margin_cells",
+    "min_floor_neighbours",
+)
 
 
 def _require(ok: bool, name: str, value: object, allowed: str) -> None:
@@ -218,6 +223,12 @@ class MapperParams:
             surface's points one or two cells over its side edge into that shadow, where the
             band's shadow rule (one empty cell) does not reach. TODO figures.
             Floored to whole cells; 1 cell or less = off (the band's own rule).
+        min_floor_neighbours: Beyond the paper, with ``edge_band_m`` > 0: a floor that the
+            other rules leave a floor is unknown when fewer than this many of its 8 neighbours
+            are floors within ``edge_band_m`` of it and one of them is an obstacle higher than
+            it (`mapper.fog`): a patch of one or two cells inside something taller — depth
+            noise fits a plane to a rough top's lower part — on which no foot fits. TODO.
+            0 = off.
         obstacle_margin_cells: Beyond the paper: eq. 11 compares a cell's floor with the
             highest obstacle top (eq. 10) within this many cells of it (`mapper.fog`), so a
             floor beside something more than ``delta_m`` above it is an obstacle. The truth
@@ -288,6 +299,7 @@ class MapperParams:
     edge_band_m: float = 0.02
     narrow_rise_m: float = 0.16
     shadow_reach_m: float = 0.16
+    min_floor_neighbours: int = 0
     obstacle_margin_cells: int = 0
     raised_rim_obstacle: bool = False
     floor_memory: float = 8.0

@@ -48,7 +48,7 @@ def surfaces_grid(heights_m, ny=3, tops_m=None):
 
 def fog(
     og, floor, margin=0, area=None, types=None, band=0.0, beside=False, ends=None, passes=None,
-    rise=0, shadow=0,
+    rise=0, shadow=0, island=0,
 ):  # fmt: skip
     """Types and heights after `update_fog_area` over ``area`` (default: the whole grid);
     ``types`` pre-fills the FOG (default −1: no label, to see which cells were written). The
@@ -64,7 +64,7 @@ def fog(
     update_fog_area(
         og, floor, obstacle, types, heights, P.occ_threshold_level, Z0, L, P.delta_m,
         ix0, ix1, iy0, iy1, ends, passes, P.floor_pass_min_rays, P.floor_pass_fraction,
-        margin, band, beside, rise, shadow,
+        margin, band, beside, rise, shadow, island,
     )  # fmt: skip
     return types, heights
 
@@ -510,3 +510,80 @@ def test_shadow_reach_defaults_and_validation():
     for bad in (-0.01, float("nan"), float("inf")):
         with pytest.raises(InvalidParameterError, match="shadow_reach_m"):
             MapperParams(shadow_reach_m=bad)
+
+
+def _rough_top(patch_cells):
+    """A 7 × 7 box whose rough top left an obstacle (top 0.22) in every cell but
+    ``patch_cells``, where a floor at 0.20 was fitted (its own layer occupied), in a 9 × 9 grid
+    of ground."""
+    og = np.full((9, 9, P.nz), 128, dtype=np.uint8)
+    floor = np.full((9, 9), 0.0)
+    og[:, :, layer_of(0.0)] = OCC
+    floor[1:8, 1:8] = np.nan
+    og[1:8, 1:8, layer_of(0.0) : layer_of(0.21) + 1] = OCC
+    for ix, iy in patch_cells:
+        og[ix, iy, :] = 128
+        og[ix, iy, layer_of(0.0)] = OCC
+        og[ix, iy, layer_of(0.20)] = OCC
+        floor[ix, iy] = 0.20
+    return og, floor
+
+
+def test_a_floor_patch_inside_a_taller_obstacle_is_unknown():
+    # One or two cells of floor at 0.20 inside a box whose other cells are obstacles (eq. 10's
+    # top 0.22, the floor's own layer): floors to the band's rules (nothing lower beside them,
+    # the obstacles less than δ above), unknown with 2 floor neighbours wanted; a patch of
+    # three in a row keeps its middle cell (2 floor neighbours), and 1 wanted keeps the pair.
+    for patch in ([(4, 4)], [(4, 4), (4, 5)]):
+        og, floor = _rough_top(patch)
+        types, _ = fog(og, floor, band=BAND, beside=True)
+        assert all(types[c] == F for c in patch)
+        types, heights = fog(og, floor, band=BAND, beside=True, island=2)
+        assert all(types[c] == U for c in patch) and all(np.isnan(heights[c]) for c in patch)
+        assert types[2, 2] == OB  # the box
+    og, floor = _rough_top([(4, 3), (4, 4), (4, 5)])
+    types, _ = fog(og, floor, band=BAND, beside=True, island=2)
+    assert [types[4, k] for k in (3, 4, 5)] == [U, F, U]
+    og, floor = _rough_top([(4, 4), (4, 5)])
+    types, _ = fog(og, floor, band=BAND, beside=True, island=1)
+    assert types[4, 4] == F and types[4, 5] == F
+
+
+def test_a_floor_with_few_floor_neighbours_but_nothing_taller_stays_floor():
+    # A single ground cell seen among unknown cells (far, sparse ground): no taller obstacle
+    # beside it, a floor; without the band the rule is off.
+    og = np.full((3, 3, P.nz), 128, dtype=np.uint8)
+    floor = np.full((3, 3), np.nan)
+    og[1, 1, layer_of(0.0)] = OCC
+    floor[1, 1] = 0.0
+    assert fog(og, floor, band=BAND, island=2)[0][1, 1] == F
+    og, floor = _rough_top([(4, 4)])
+    assert fog(og, floor, island=2)[0][4, 4] == F
+
+
+def test_the_patch_rule_relabels_as_a_whole_grid_update_would():
+    # A row of three floor cells keeps its middle one; when the last turns obstacle, updating
+    # only that cell (the obstacle map kept from the whole-grid update: eq. 10 outside the area
+    # is current) relabels the middle one exactly as a whole-grid update does.
+    og, floor = _rough_top([(4, 3), (4, 4), (4, 5)])
+    nx, ny = floor.shape
+    obstacle = np.full((nx, ny), np.nan)
+    zeros = np.zeros((nx, ny), dtype=np.int32)
+
+    def update(area, types):
+        heights = np.full((nx, ny), -1.0)
+        update_fog_area(
+            og, floor, obstacle, types, heights, P.occ_threshold_level, Z0, L, P.delta_m,
+            *area, zeros, zeros, P.floor_pass_min_rays, P.floor_pass_fraction,
+            0, BAND, True, 0, 0, 2,
+        )  # fmt: skip
+        return types
+
+    types = update((0, nx, 0, ny), np.full((nx, ny), -1, dtype=np.int8))
+    assert types[4, 4] == F
+    og[4, 5, :] = 128
+    og[4, 5, layer_of(0.0) : layer_of(0.21) + 1] = OCC
+    floor[4, 5] = np.nan
+    part = update((4, 5, 5, 6), types.copy())
+    whole = update((0, nx, 0, ny), np.full((nx, ny), -1, dtype=np.int8))
+    assert part[4, 4] == U and np.array_equal(part, whole)
