@@ -36,6 +36,16 @@ Conventions (heights in world metres, NaN = invalid):
   ground), and its points do not tell (the higher surface spills a quarter of a cell's points
   over a riser on the cell boundary too); a walker steps over such a rise, so only there are
   both sides given up, never at the foot of a tread that leads to a higher one.
+- Beyond the paper, with the band, a floor before a wider shadow is unknown too
+  (`MapperParams.shadow_reach_m`): a run of up to n cells with nothing stored leads from it,
+  along x, y or a diagonal, to a floor more than the band below it. Pose drift (the zig-zag
+  stage: odometry 4 cm and 1° off by the staircase, the heading 1° off) spills a raised
+  surface one or two cells over its side edge, into the shadow behind that edge, which is
+  several cells wide (``D·H/(Z − H)`` for a surface H high seen from Z at range D).
+- Beyond the paper, with the band and `MapperParams.min_floor_neighbours` k > 0, a floor the
+  rules above leave a floor is unknown when fewer than k of its 8 neighbours are such floors
+  within the band of it and one is an obstacle taller than it: a one- or two-cell plane
+  fitted to a rough top's lower part (off by default).
 - ``Ceiling(x, y)`` is the *bottom face* of the lowest occupied cell above the free space a
   robot could use: where the floor is valid, the lowest occupied cell whose top is above
   ``h_f + δ`` (the cells the FOG counts as obstacle); where it is not, the lowest occupied cell
