@@ -45,7 +45,7 @@ Conventions (heights in world metres, NaN = invalid):
 - Beyond the paper, with the band and `MapperParams.min_floor_neighbours` k > 0, a floor the
   rules above leave a floor is unknown when fewer than k of its 8 neighbours are such floors
   within the band of it and one is an obstacle taller than it: a one- or two-cell plane
-  fitted to a rough top's lower part.
+  fitted to a rough top's lower part (off by default).
 - ``Ceiling(x, y)`` is the *bottom face* of the lowest occupied cell above the free space a
   robot could use: where the floor is valid, the lowest occupied cell whose top is above
   ``h_f + δ`` (the cells the FOG counts as obstacle); where it is not, the lowest occupied cell

@@ -235,7 +235,7 @@ class MapperParams:
             other rules leave a floor is unknown when fewer than this many of its 8 neighbours
             are floors within ``edge_band_m`` of it and one of them is an obstacle higher than
             it (`mapper.fog`): a patch of one or two cells inside something taller — depth
-            noise fits a plane to a rough top's lower part — on which no foot fits. 2: a
+            noise fits a plane to a rough top's lower part — on which no foot fits. 2 takes a
             patch of one or two cells (the stage's rough box tops: 3 unsafe cells on seeds 3
             and 8); a strip of three keeps its middle cell. With ``shadow_reach_m`` 0.16,
             replays seeds 1–8, mean (worst), 0 → 2: unsafe cells, depth: stage 0.75 (2) →
@@ -244,7 +244,10 @@ class MapperParams:
             7.75 (14), zig-zag stage 42.25 (75) → 39.75 (74); obstacle recall up to +0.8
             points, floor recall within 0.01 point, Table I worst rows unchanged (the stereo
             zig-zag sill's mean 0.84 → 0.94 mm, its worst 1.76 as before); the other sets
-            unchanged. 0 = off.
+            unchanged — but on the room's stereo replays the sill, 3 cells deep and patchy
+            under stereo noise, loses cells (seed 4: 29 → 17, its row −1.55 → −2.00 mm; the
+            worst row over seeds 1.82 → 2.00 mm), more than the +0.1 mm allowed, so it is off:
+            0 (the default) = off; 2 where rough tops matter more than thin sills.
         obstacle_margin_cells: Beyond the paper: eq. 11 compares a cell's floor with the
             highest obstacle top (eq. 10) within this many cells of it (`mapper.fog`), so a
             floor beside something more than ``delta_m`` above it is an obstacle. The truth
@@ -315,7 +318,7 @@ class MapperParams:
     edge_band_m: float = 0.02
     narrow_rise_m: float = 0.16
     shadow_reach_m: float = 0.16
-    min_floor_neighbours: int = 2
+    min_floor_neighbours: int = 0
     obstacle_margin_cells: int = 0
     raised_rim_obstacle: bool = False
     floor_memory: float = 8.0

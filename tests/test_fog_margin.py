@@ -507,7 +507,7 @@ def test_a_wide_shadow_along_a_diagonal_and_relabelled_from_afar():
 def test_shadow_reach_defaults_and_validation():
     assert P.shadow_reach_m == 0.16 and P.shadow_reach_cells == 4
     assert MapperParams(shadow_reach_m=0.0).shadow_reach_cells == 0
-    assert P.min_floor_neighbours == 2
+    assert P.min_floor_neighbours == 0
     with pytest.raises(InvalidParameterError, match="min_floor_neighbours"):
         MapperParams(min_floor_neighbours=-1)
     for bad in (-0.01, float("nan"), float("inf")):
