@@ -36,6 +36,16 @@ Conventions (heights in world metres, NaN = invalid):
   ground), and its points do not tell (the higher surface spills a quarter of a cell's points
   over a riser on the cell boundary too); a walker steps over such a rise, so only there are
   both sides given up, never at the foot of a tread that leads to a higher one.
+- Beyond the paper, with the band, a floor before a wider shadow is unknown too
+  (`MapperParams.shadow_reach_m`): a run of up to n cells with nothing stored leads from it,
+  along x, y or a diagonal, to a floor more than the band below it. Pose drift (the zig-zag
+  stage: odometry 4 cm and 1° off by the staircase, the heading 1° off) spills a raised
+  surface one or two cells over its side edge, into the shadow behind that edge, which is
+  several cells wide (``D·H/(Z − H)`` for a surface H high seen from Z at range D).
+- Beyond the paper, with the band and `MapperParams.min_floor_neighbours` k > 0, a floor the
+  rules above leave a floor is unknown when fewer than k of its 8 neighbours are such floors
+  within the band of it and one is an obstacle taller than it: a one- or two-cell plane
+  fitted to a rough top's lower part (off by default).
 - ``Ceiling(x, y)`` is the *bottom face* of the lowest occupied cell above the free space a
   robot could use: where the floor is valid, the lowest occupied cell whose top is above
   ``h_f + δ`` (the cells the FOG counts as obstacle); where it is not, the lowest occupied cell
@@ -116,6 +126,43 @@ def _at_narrow_rise(
 
 
 @numba.njit(cache=True, inline="always")
+def _behind_wide_shadow(
+    floor: NDArray[np.float64],
+    obstacle: NDArray[np.float64],
+    ix: int,
+    iy: int,
+    h: float,
+    band: float,
+    cells: int,
+) -> bool:
+    """Whether the floor ``h`` at ``(ix, iy)`` is the rim of a raised surface behind a shadow.
+
+    It is when, along one of the 8 directions, a run of one to ``cells`` cells where nothing
+    is stored (no floor, no obstacle) starts at its neighbour and ends at a cell whose stored
+    floor is more than ``band`` below ``h``: the lower surface hidden behind the raised
+    surface's edge, seen from on top of it or beside it, over a shadow that many cells wide
+    (the band's shadow rule reaches one cell). ``floor`` and ``obstacle`` are the stored maps
+    (labels not used), read directly (module note in `_label` on helpers taking the maps).
+    """
+    nx, ny = floor.shape
+    for dx in range(-1, 2):
+        for dy in range(-1, 2):
+            if dx == 0 and dy == 0:
+                continue
+            for k in range(1, cells + 2):
+                cx, cy = ix + k * dx, iy + k * dy
+                if cx < 0 or cx >= nx or cy < 0 or cy >= ny:
+                    break
+                v = floor[cx, cy]
+                if np.isnan(v) and np.isnan(obstacle[cx, cy]):
+                    continue  # nothing stored: the shadow goes on
+                if k >= 2 and v < h - band:  # NaN: never
+                    return True
+                break
+    return False
+
+
+@numba.njit(cache=True, inline="always")
 def _label(
     top: float,
     hf: float,
@@ -162,6 +209,8 @@ def update_fog_area(
     band: float = 0.0,
     beside_obstacles: bool = False,
     rise_cells: int = 0,
+    shadow_cells: int = 0,
+    min_floor_neighbours: int = 0,
 ) -> None:
     """Recompute ``obstacle`` (eq. 10) and the FOG (eq. 11) in ``[ix0, ix1) × [iy0, iy1)``.
 
@@ -185,6 +234,17 @@ def update_fog_area(
     With ``band`` > 0 and ``rise_cells`` n > 0 (`MapperParams.narrow_rise_m`) a floor is
     unknown at the foot of a narrow raised surface too (`_at_narrow_rise`): the FOG is then
     recomputed at least ``n + 1`` cells beyond the area, as far as that test reads ``floor``.
+
+    With ``band`` > 0 and ``shadow_cells`` s > 1 (`MapperParams.shadow_reach_m`) a floor is
+    unknown beside a shadow up to s cells wide too (`_behind_wide_shadow`): the FOG is then
+    recomputed at least ``s + 1`` cells beyond the area.
+
+    With ``band`` > 0 and ``min_floor_neighbours`` k > 0 (`MapperParams.min_floor_neighbours`)
+    a floor that the rules above leave a floor is unknown when fewer than k of its 8
+    neighbours are left floors within ``band`` of its height and one of them is an obstacle
+    higher than it: a patch of floor too small to stand on, inside something taller (a plane
+    fitted to a rough top's low part). The neighbours' labels are the rules' (computed here
+    a cell farther), so the FOG is recomputed a cell farther too.
     """
     nx, ny, nz = og.shape
     for ix in range(ix0, ix1):
@@ -200,7 +260,15 @@ def update_fog_area(
     rise = rise_cells if band > 0.0 else 0
     if rise > 0:
         ring = max(ring, rise + 1)
-    reach = ring + 2 if banded else ring
+    shadow = shadow_cells if band > 0.0 else 0
+    if shadow > 1:
+        ring = max(ring, shadow + 1)
+    island = min_floor_neighbours if band > 0.0 else 0
+    if island > 0:
+        ring += 1  # a label reads its neighbours' banded labels
+    # The banded labels are computed ``extra`` cells beyond the cells written.
+    extra = 1 if island > 0 else 0
+    reach = ring + 2 + extra if banded else ring
     wx0, wx1 = max(ix0 - reach, 0), min(ix1 + reach, nx)
     wy0, wy1 = max(iy0 - reach, 0), min(iy1 + reach, ny)
     kinds = np.empty((wx1 - wx0, wy1 - wy0), dtype=np.int8)
@@ -224,8 +292,8 @@ def update_fog_area(
     above = np.full(kinds.shape, np.inf)
     below = np.full(kinds.shape, -np.inf)
     if banded:
-        for ix in range(max(ix0 - ring - 1, 0), min(ix1 + ring + 1, nx)):
-            for iy in range(max(iy0 - ring - 1, 0), min(iy1 + ring + 1, ny)):
+        for ix in range(max(ix0 - ring - 1 - extra, 0), min(ix1 + ring + 1 + extra, nx)):
+            for iy in range(max(iy0 - ring - 1 - extra, 0), min(iy1 + ring + 1 + extra, ny)):
                 i, j = ix - wx0, iy - wy0
                 kind, h = kinds[i, j], heights[i, j]
                 if kind == _FLOOR:
@@ -246,8 +314,10 @@ def update_fog_area(
                             if kinds[ki, kj] == _FLOOR and heights[ki, kj] < lowest:
                                 lowest = heights[ki, kj]
                     above[i, j] = lowest + band
-    for ix in range(max(ix0 - ring, 0), min(ix1 + ring, nx)):
-        for iy in range(max(iy0 - ring, 0), min(iy1 + ring, ny)):
+    labels = np.empty_like(kinds) if island > 0 else kinds
+    label_heights = np.empty_like(heights) if island > 0 else heights
+    for ix in range(max(ix0 - ring - extra, 0), min(ix1 + ring + extra, nx)):
+        for iy in range(max(iy0 - ring - extra, 0), min(iy1 + ring + extra, ny)):
             i, j = ix - wx0, iy - wy0
             kind, h = kinds[i, j], heights[i, j]
             if banded and kind == _FLOOR:
@@ -257,8 +327,37 @@ def update_fog_area(
                             kind, h = _UNKNOWN, np.nan
                 if kind == _FLOOR and rise > 0 and _at_narrow_rise(floor, ix, iy, h, band, rise):
                     kind, h = _UNKNOWN, np.nan
-            fog_types[ix, iy] = kind
-            fog_heights[ix, iy] = h
+                if (
+                    kind == _FLOOR
+                    and shadow > 1
+                    and _behind_wide_shadow(floor, obstacle, ix, iy, h, band, shadow)
+                ):
+                    kind, h = _UNKNOWN, np.nan
+            if island > 0:
+                labels[i, j], label_heights[i, j] = kind, h
+            else:
+                fog_types[ix, iy] = kind
+                fog_heights[ix, iy] = h
+    if island > 0:
+        for ix in range(max(ix0 - ring, 0), min(ix1 + ring, nx)):
+            for iy in range(max(iy0 - ring, 0), min(iy1 + ring, ny)):
+                i, j = ix - wx0, iy - wy0
+                kind, h = labels[i, j], label_heights[i, j]
+                if kind == _FLOOR:
+                    level = 0
+                    taller = False
+                    for ki in range(max(i - 1, 0), min(i + 2, labels.shape[0])):
+                        for kj in range(max(j - 1, 0), min(j + 2, labels.shape[1])):
+                            if ki == i and kj == j:
+                                continue
+                            near, hn = labels[ki, kj], label_heights[ki, kj]
+                            if near == _FLOOR and abs(hn - h) <= band:
+                                level += 1
+                            taller = taller or (near == _OBSTACLE and hn > h)
+                    if level < island and taller:
+                        kind, h = _UNKNOWN, np.nan
+                fog_types[ix, iy] = kind
+                fog_heights[ix, iy] = h
 
 
 @numba.njit(cache=True, no_cfunc_wrapper=True, nogil=True, error_model="numpy")

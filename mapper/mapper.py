@@ -258,6 +258,8 @@ class FloorObstacleMapper:
             p.edge_band_m,
             p.unknown_beside_obstacles,
             p.narrow_rise_cells,
+            p.shadow_reach_cells,
+            p.min_floor_neighbours,
         )
         if p.raised_rim_obstacle:  # `mapper.fog.mark_raised_rims`
             # The window `update_fog_area` rewrote: the grown area and its ring of cells.
@@ -266,6 +268,10 @@ class FloorObstacleMapper:
             ring = p.obstacle_margin_cells + (2 if banded else 0)
             if p.edge_band_m > 0.0 and p.narrow_rise_cells > 0:
                 ring = max(ring, p.narrow_rise_cells + 1)
+            if p.edge_band_m > 0.0 and p.shadow_reach_cells > 1:
+                ring = max(ring, p.shadow_reach_cells + 1)
+            if p.edge_band_m > 0.0 and p.min_floor_neighbours > 0:
+                ring += 1
             reach = grow + ring
             mark_raised_rims(
                 self._floor,

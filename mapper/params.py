@@ -25,7 +25,12 @@ LEVEL_UNKNOWN = 128
 _COUNT_FIELDS = ("nx", "ny", "nz", "zmatch_min_pairs", "floor_pass_min_rays")
 #: The integer fields that may be 0: the vote caps of the floor map and the FOG's obstacle
 #: margin (0 = the paper's rule).
-_CAP_FIELDS = ("floor_vote_cap", "floor_frame_cap", "obstacle_margin_cells")
+_CAP_FIELDS = (
+    "floor_vote_cap",
+    "floor_frame_cap",
+    "obstacle_margin_cells",
+    "min_floor_neighbours",
+)
 
 
 def _require(ok: bool, name: str, value: object, allowed: str) -> None:
@@ -208,6 +213,41 @@ class MapperParams:
             ground row's and a tread's lose a cell or two on some seeds (stage step_2 worst
             0.73 → 0.72) and the sill's measured edge moves (step-edge error 10 → 25 mm mean,
             30 worst, within a cell). README "Results" has every scenario.
+        shadow_reach_m: Beyond the paper, with ``edge_band_m`` > 0: a floor is unknown when
+            a run of cells where nothing is stored (no floor, no obstacle), at most this long,
+            leads from it along x, y or a diagonal to a stored floor more than
+            ``edge_band_m`` below it (`mapper.fog`): the rim of a raised surface beyond its
+            shadow. A surface ``H`` high seen from a camera ``Z`` high at range ``D`` hides
+            ``D·H/(Z − H)`` of the ground behind its edge (the zig-zag stage's 125 mm platform
+            from 2 m at 0.85 m: 0.34 m; its 45 mm sill: 0.11 m), and pose drift spills the
+            surface's points one or two cells over its side edge into that shadow, where the
+            band's shadow rule (one empty cell) does not reach. 0.16 m (4 cells, as
+            ``narrow_rise_m``: the shadow of the sill from 2 m, of the platform from 1 m; a
+            longer run is more often a stretch never looked at than a shadow), floored to
+            whole cells; 1 cell or less = off (the band's rule alone). Depth replays, seeds
+            1–8, mean (worst): unsafe cells zig-zag stage 20.0 (58) → 15.0 (45), talos_course
+            7.25 (23) → 0.25 (1), stage 1.12 (3) → 0.75 (2) (obstacle recall 99.45 → 99.63 %);
+            floor recall −0.01 to −0.03 points (a raised surface's rim before a wide shadow is
+            given up as the band gives up one beside a lower floor: the platforms' Table I
+            coverage 0.90–0.92 → 0.86–0.87, the room's sill 0.43 → 0.38); Table I rows
+            within 0.01 mm; stage_down, table, moving_box and box_removal unchanged.
+        min_floor_neighbours: Beyond the paper, with ``edge_band_m`` > 0: a floor that the
+            other rules leave a floor is unknown when fewer than this many of its 8 neighbours
+            are floors within ``edge_band_m`` of it and one of them is an obstacle higher than
+            it (`mapper.fog`): a patch of one or two cells inside something taller — depth
+            noise fits a plane to a rough top's lower part — on which no foot fits. 2 takes a
+            patch of one or two cells (the stage's rough box tops: 3 unsafe cells on seeds 3
+            and 8); a strip of three keeps its middle cell. With ``shadow_reach_m`` 0.16,
+            replays seeds 1–8, mean (worst), 0 → 2: unsafe cells, depth: stage 0.75 (2) →
+            0.38 (2), room 2.50 (6) → 1.50 (6), moving_box 8.88 (12) → 6.62 (10),
+            talos_course 0.25 → 0.12, zig-zag stage 15.00 → 14.75; stereo: stage 8.25 (15) →
+            7.75 (14), zig-zag stage 42.25 (75) → 39.75 (74); obstacle recall up to +0.8
+            points, floor recall within 0.01 point, Table I worst rows unchanged (the stereo
+            zig-zag sill's mean 0.84 → 0.94 mm, its worst 1.76 as before); the other sets
+            unchanged — but on the room's stereo replays the sill, 3 cells deep and patchy
+            under stereo noise, loses cells (seed 4: 29 → 17, its row −1.55 → −2.00 mm; the
+            worst row over seeds 1.82 → 2.00 mm), more than the +0.1 mm allowed, so it is off:
+            0 (the default) = off; 2 where rough tops matter more than thin sills.
         obstacle_margin_cells: Beyond the paper: eq. 11 compares a cell's floor with the
             highest obstacle top (eq. 10) within this many cells of it (`mapper.fog`), so a
             floor beside something more than ``delta_m`` above it is an obstacle. The truth
@@ -277,6 +317,8 @@ class MapperParams:
     unknown_beside_obstacles: bool = True
     edge_band_m: float = 0.02
     narrow_rise_m: float = 0.16
+    shadow_reach_m: float = 0.16
+    min_floor_neighbours: int = 0
     obstacle_margin_cells: int = 0
     raised_rim_obstacle: bool = False
     floor_memory: float = 8.0
@@ -331,7 +373,14 @@ class MapperParams:
             "a finite float >= 0",
             lambda v: math.isfinite(v) and v >= 0,
         )
-        for name in ("eps_m", "delta_m", "free_margin_m", "edge_band_m", "narrow_rise_m"):
+        for name in (
+            "eps_m",
+            "delta_m",
+            "free_margin_m",
+            "edge_band_m",
+            "narrow_rise_m",
+            "shadow_reach_m",
+        ):
             check(name, float, "a finite float >= 0 [m]", lambda v: math.isfinite(v) and v >= 0)
         check("max_range_m", float, "a float > 0 [m] (inf: no limit)", lambda v: v > 0)
         for name in (
@@ -381,6 +430,11 @@ class MapperParams:
     def narrow_rise_cells(self) -> int:
         """`narrow_rise_m` in whole cells (floored; 0 = off), as the FOG reads it."""
         return math.floor(self.narrow_rise_m / self.cell_m + 1e-9)
+
+    @property
+    def shadow_reach_cells(self) -> int:
+        """`shadow_reach_m` in whole cells (floored; 0 or 1 = off), as the FOG reads it."""
+        return math.floor(self.shadow_reach_m / self.cell_m + 1e-9)
 
     @property
     def cell_count(self) -> int:

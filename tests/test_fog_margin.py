@@ -48,7 +48,7 @@ def surfaces_grid(heights_m, ny=3, tops_m=None):
 
 def fog(
     og, floor, margin=0, area=None, types=None, band=0.0, beside=False, ends=None, passes=None,
-    rise=0,
+    rise=0, shadow=0, island=0,
 ):  # fmt: skip
     """Types and heights after `update_fog_area` over ``area`` (default: the whole grid);
     ``types`` pre-fills the FOG (default −1: no label, to see which cells were written). The
@@ -64,7 +64,7 @@ def fog(
     update_fog_area(
         og, floor, obstacle, types, heights, P.occ_threshold_level, Z0, L, P.delta_m,
         ix0, ix1, iy0, iy1, ends, passes, P.floor_pass_min_rays, P.floor_pass_fraction,
-        margin, band, beside, rise,
+        margin, band, beside, rise, shadow, island,
     )  # fmt: skip
     return types, heights
 
@@ -458,3 +458,135 @@ def test_the_mapper_passes_narrow_rise_to_the_fog():
     iy = m.cell_of(np.array([[0.0, 0.0, 0.0]]))[0][0, 1]
     assert without[ix_foot, iy].tolist() == [F, F]
     assert with_rule[ix_foot, iy].tolist() == [U, U]
+
+
+def test_the_rim_before_a_wide_shadow_is_unknown():
+    # Platform (125 mm) | its points spilled a cell over its side edge (the zig-zag stage's
+    # drift) | two cells of ground hidden behind the edge: nothing stored | the ground seen
+    # beyond. The band's shadow rule sees one empty cell only: the spilled cell stays a floor
+    # 125 mm above the truth. With a reach of 2 cells or more it is unknown; the platform's
+    # cells behind it are not (their run of empty cells starts no neighbour away).
+    nan = np.nan
+    og, floor = surfaces_grid([0.125, 0.125, 0.125, nan, nan, 0.0, 0.0])
+    assert fog(og, floor, band=BAND)[0][:, 1].tolist() == [F, F, F, U, U, F, F]
+    for shadow in (2, 4):
+        types, _ = fog(og, floor, band=BAND, shadow=shadow)
+        assert types[:, 1].tolist() == [F, F, U, U, U, F, F]
+    # A shadow wider than the reach, a floor or obstacle in the run, or no lower floor at its
+    # end: left to the band's rule. A reach of 1 cell is that rule alone.
+    og_wide, floor_wide = surfaces_grid([0.125, 0.125, 0.125, nan, nan, nan, 0.0])
+    assert fog(og_wide, floor_wide, band=BAND, shadow=2)[0][2, 1] == F
+    assert fog(og_wide, floor_wide, band=BAND, shadow=3)[0][2, 1] == U
+    og_obst, floor_obst = surfaces_grid(
+        [0.125, 0.125, 0.125, nan, nan, 0.0], tops_m=[nan, nan, nan, 0.3, nan, nan]
+    )
+    assert fog(og_obst, floor_obst, band=BAND, shadow=4)[0][2, 1] == F
+    og_high, floor_high = surfaces_grid([0.125, 0.125, 0.125, nan, nan, 0.11])
+    assert fog(og_high, floor_high, band=BAND, shadow=4)[0][2, 1] == F
+    assert fog(og, floor, band=BAND, shadow=1)[0][2, 1] == F
+    assert fog(og, floor, shadow=4)[0][:, 1].tolist() == [F, F, F, U, U, F, F]  # no band: off
+
+
+def test_a_wide_shadow_along_a_diagonal_and_relabelled_from_afar():
+    # The lower floor at the end of a diagonal run of empty cells; and an update of only the
+    # cell where that floor appears relabels the rim 3 cells away as a whole-grid update does.
+    n = 6
+    og = np.full((n, n, P.nz), 128, dtype=np.uint8)
+    floor = np.full((n, n), np.nan)
+    og[0, 0, layer_of(0.125)] = OCC
+    floor[0, 0] = 0.125
+    types, _ = fog(og, floor, band=BAND, shadow=4)
+    assert types[0, 0] == F
+    og[3, 3, layer_of(0.0)] = OCC
+    floor[3, 3] = 0.0
+    part, _ = fog(og, floor, area=(3, 4, 3, 4), types=types.copy(), band=BAND, shadow=4)
+    whole, _ = fog(og, floor, band=BAND, shadow=4)
+    assert part[0, 0] == U and np.array_equal(part, whole)
+
+
+def test_shadow_reach_defaults_and_validation():
+    assert P.shadow_reach_m == 0.16 and P.shadow_reach_cells == 4
+    assert MapperParams(shadow_reach_m=0.0).shadow_reach_cells == 0
+    assert P.min_floor_neighbours == 0
+    with pytest.raises(InvalidParameterError, match="min_floor_neighbours"):
+        MapperParams(min_floor_neighbours=-1)
+    for bad in (-0.01, float("nan"), float("inf")):
+        with pytest.raises(InvalidParameterError, match="shadow_reach_m"):
+            MapperParams(shadow_reach_m=bad)
+
+
+def _rough_top(patch_cells):
+    """A 7 × 7 box whose rough top left an obstacle (top 0.22) in every cell but
+    ``patch_cells``, where a floor at 0.20 was fitted (its own layer occupied), in a 9 × 9 grid
+    of ground."""
+    og = np.full((9, 9, P.nz), 128, dtype=np.uint8)
+    floor = np.full((9, 9), 0.0)
+    og[:, :, layer_of(0.0)] = OCC
+    floor[1:8, 1:8] = np.nan
+    og[1:8, 1:8, layer_of(0.0) : layer_of(0.21) + 1] = OCC
+    for ix, iy in patch_cells:
+        og[ix, iy, :] = 128
+        og[ix, iy, layer_of(0.0)] = OCC
+        og[ix, iy, layer_of(0.20)] = OCC
+        floor[ix, iy] = 0.20
+    return og, floor
+
+
+def test_a_floor_patch_inside_a_taller_obstacle_is_unknown():
+    # One or two cells of floor at 0.20 inside a box whose other cells are obstacles (eq. 10's
+    # top 0.22, the floor's own layer): floors to the band's rules (nothing lower beside them,
+    # the obstacles less than δ above), unknown with 2 floor neighbours wanted; a patch of
+    # three in a row keeps its middle cell (2 floor neighbours), and 1 wanted keeps the pair.
+    for patch in ([(4, 4)], [(4, 4), (4, 5)]):
+        og, floor = _rough_top(patch)
+        types, _ = fog(og, floor, band=BAND, beside=True)
+        assert all(types[c] == F for c in patch)
+        types, heights = fog(og, floor, band=BAND, beside=True, island=2)
+        assert all(types[c] == U for c in patch) and all(np.isnan(heights[c]) for c in patch)
+        assert types[2, 2] == OB  # the box
+    og, floor = _rough_top([(4, 3), (4, 4), (4, 5)])
+    types, _ = fog(og, floor, band=BAND, beside=True, island=2)
+    assert [types[4, k] for k in (3, 4, 5)] == [U, F, U]
+    og, floor = _rough_top([(4, 4), (4, 5)])
+    types, _ = fog(og, floor, band=BAND, beside=True, island=1)
+    assert types[4, 4] == F and types[4, 5] == F
+
+
+def test_a_floor_with_few_floor_neighbours_but_nothing_taller_stays_floor():
+    # A single ground cell seen among unknown cells (far, sparse ground): no taller obstacle
+    # beside it, a floor; without the band the rule is off.
+    og = np.full((3, 3, P.nz), 128, dtype=np.uint8)
+    floor = np.full((3, 3), np.nan)
+    og[1, 1, layer_of(0.0)] = OCC
+    floor[1, 1] = 0.0
+    assert fog(og, floor, band=BAND, island=2)[0][1, 1] == F
+    og, floor = _rough_top([(4, 4)])
+    assert fog(og, floor, island=2)[0][4, 4] == F
+
+
+def test_the_patch_rule_relabels_as_a_whole_grid_update_would():
+    # A row of three floor cells keeps its middle one; when the last turns obstacle, updating
+    # only that cell (the obstacle map kept from the whole-grid update: eq. 10 outside the area
+    # is current) relabels the middle one exactly as a whole-grid update does.
+    og, floor = _rough_top([(4, 3), (4, 4), (4, 5)])
+    nx, ny = floor.shape
+    obstacle = np.full((nx, ny), np.nan)
+    zeros = np.zeros((nx, ny), dtype=np.int32)
+
+    def update(area, types):
+        heights = np.full((nx, ny), -1.0)
+        update_fog_area(
+            og, floor, obstacle, types, heights, P.occ_threshold_level, Z0, L, P.delta_m,
+            *area, zeros, zeros, P.floor_pass_min_rays, P.floor_pass_fraction,
+            0, BAND, True, 0, 0, 2,
+        )  # fmt: skip
+        return types
+
+    types = update((0, nx, 0, ny), np.full((nx, ny), -1, dtype=np.int8))
+    assert types[4, 4] == F
+    og[4, 5, :] = 128
+    og[4, 5, layer_of(0.0) : layer_of(0.21) + 1] = OCC
+    floor[4, 5] = np.nan
+    part = update((4, 5, 5, 6), types.copy())
+    whole = update((0, nx, 0, ny), np.full((nx, ny), -1, dtype=np.int8))
+    assert part[4, 4] == U and np.array_equal(part, whole)
