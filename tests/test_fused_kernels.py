@@ -13,6 +13,7 @@ import math
 
 import numpy as np
 import pytest
+from scanline_inputs import row_segments
 from synthetic_depth import add_depth_noise, look_down_camera, render_scene, staircase
 
 from mapper import scanline, tilt_kernels
@@ -239,49 +240,17 @@ def _plane_inputs(noise, seed):
     scene = render_scene(INTRINSICS, camera, staircase())
     depth_m = add_depth_noise(scene.depth_m, noise, np.random.default_rng(seed))
     p = PARAMS
-    valid, depth, inv_depth, pixel_index = scanline.valid_depth(
-        depth_m, p.min_depth_m, p.max_depth_m
-    )
-    x = (np.arange(INTRINSICS.width) - INTRINSICS.cx) / INTRINSICS.fx
-    y = (np.arange(INTRINSICS.height) - INTRINSICS.cy) / INTRINSICS.fy
-    sigma, _ = scanline.local_noise_depth_m(
-        inv_depth, p.noise_window_px, p.min_noise_m, p.noise_cap_factor, 0.0
-    )
-    rows, starts, stops, table = scanline.split_rows(
-        inv_depth,
-        x,
-        sigma,
-        p.split_sigma_factor,
-        p.split_rms_sigma_factor,
-        p.edge_window_px,
-        p.edge_sigma_factor,
-        p.tolerance_floor_m,
-        p.min_segment_pixels,
-        p.noise_correlation_factor,
-    )
-    sums = scanline.segment_sums(inv_depth, x, y, rows, starts, stops)
-    plane_of = scanline.grow_planes(
-        inv_depth,
-        x,
-        y,
-        rows,
-        starts,
-        stops,
-        table,
-        sums,
-        p.grow_sigma_factor,
-        p.rms_sigma_factor,
-        p.tolerance_floor_m,
-        p.seed_min_pixels,
-    )
-    labels = scanline.segment_labels(valid, rows, starts, stops, plane_of)
+    seg = row_segments(depth_m, INTRINSICS, p)
+    plane_of = scanline.grow_planes(*seg.grow_planes_args(p))
+    labels = scanline.segment_labels(seg.valid, seg.rows, seg.starts, seg.stops, plane_of)
     n_planes = int(plane_of.max(initial=-1)) + 1
+    inv_depth, x, y = seg.inv_depth, seg.x, seg.y
     plane_table, counts = scanline.plane_fits(inv_depth, x, y, labels, n_planes)
     grown = labels.copy()
     scanline.fill_pixels(
-        inv_depth, x, y, labels, sigma, plane_table, p.fill_sigma_factor, 0.0, 2, True
+        inv_depth, x, y, labels, seg.sigma, plane_table, p.fill_sigma_factor, 0.0, 2, True
     )
-    return labels, grown, pixel_index, counts, plane_table, camera, depth, inv_depth, x, y
+    return labels, grown, seg.pixel_index, counts, plane_table, camera, seg.depth, inv_depth, x, y
 
 
 def _numpy_plane_geometry(labels, grown, pixel_index, counts, plane_table, camera, depth, *rest):

@@ -12,6 +12,7 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
+from scanline_inputs import row_segments
 from synthetic_depth import add_depth_noise, look_down_camera, render_scene, staircase
 
 from mapper import scanline
@@ -27,40 +28,7 @@ def _segments(noise: float, seed: int, yaw_deg: float):
     camera = look_down_camera((0.1, 0.2, 0.9), 35.0, yaw_deg=yaw_deg, roll_deg=3.0)
     scene = render_scene(INTRINSICS, camera, staircase())
     depth_m = add_depth_noise(scene.depth_m, noise, np.random.default_rng(seed))
-    p = PARAMS
-    _, _, inv_depth, _ = scanline.valid_depth(depth_m, p.min_depth_m, p.max_depth_m)
-    x = (np.arange(INTRINSICS.width) - INTRINSICS.cx) / INTRINSICS.fx
-    y = (np.arange(INTRINSICS.height) - INTRINSICS.cy) / INTRINSICS.fy
-    sigma, _ = scanline.local_noise_depth_m(
-        inv_depth, p.noise_window_px, p.min_noise_m, p.noise_cap_factor, 0.0
-    )
-    rows, starts, stops, table = scanline.split_rows(
-        inv_depth,
-        x,
-        sigma,
-        p.split_sigma_factor,
-        p.split_rms_sigma_factor,
-        p.edge_window_px,
-        p.edge_sigma_factor,
-        p.tolerance_floor_m,
-        p.min_segment_pixels,
-        p.noise_correlation_factor,
-    )
-    sums = scanline.segment_sums(inv_depth, x, y, rows, starts, stops)
-    return (
-        inv_depth,
-        x,
-        y,
-        rows,
-        starts,
-        stops,
-        table,
-        sums,
-        p.grow_sigma_factor,
-        p.rms_sigma_factor,
-        p.tolerance_floor_m,
-        p.seed_min_pixels,
-    )
+    return row_segments(depth_m, INTRINSICS, PARAMS).grow_planes_args(PARAMS)
 
 
 def _rescoring_grow_planes(inv_depth, x, y, rows, starts, stops, table, sums, *factors):

@@ -537,27 +537,13 @@ def _match(frames: tuple[Frame, ...], params: RunParams) -> None:
         fog.match_z(points_world, floor_world)
     baseline.heights()
     offsets_xy = np.ascontiguousarray(points_world[:4, :2])
-    heading_scores(
-        offsets_xy,
-        points_world[:4, 2].copy(),
-        np.array([0, 2, 4], dtype=np.int64),
-        offsets_xy[:2].copy(),
-        np.zeros(2),
-        np.zeros(3),
-        params.heading.cell_m,
-        params.heading.layer_m,
-    )
-    weighted_heading_scores(  # the edge score (`mapper.heading`, on scenes like a staircase)
-        offsets_xy,
-        points_world[:4, 2].copy(),
-        np.ones(4),
-        np.array([0, 2, 4], dtype=np.int64),
-        offsets_xy[:2].copy(),
-        np.zeros(2),
-        np.zeros(3),
-        params.heading.cell_m,
-        params.heading.layer_m,
-    )
+    heights = points_world[:4, 2].copy()
+    keys = np.array([0, 2, 4], dtype=np.int64)
+    poses = (offsets_xy[:2].copy(), np.zeros(2), np.zeros(3))  # camera xy, yaw, angles
+    voxel = (params.heading.cell_m, params.heading.layer_m)
+    heading_scores(offsets_xy, heights, keys, *poses, *voxel)
+    # the edge score (`mapper.heading`, on scenes like a staircase)
+    weighted_heading_scores(offsets_xy, heights, np.ones(4), keys, *poses, *voxel)
 
 
 def _pipeline(frames: tuple[Frame, ...], params: RunParams) -> None:
