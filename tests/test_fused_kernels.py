@@ -328,37 +328,10 @@ def _plane_geometry(
 @pytest.mark.parametrize("margin,min_pixels", [(1, 30), (0, 30), (2, 200), (1, 10**6)])
 @pytest.mark.parametrize("noise,seed", [(0.0, 0), (0.01, 3)])
 def test_plane_geometry_is_segment_depths_numpy(margin, min_pixels, noise, seed):
-    labels, grown, pixel_index, counts, table, camera, depth, inv_depth, x, y = _plane_inputs(
-        noise, seed
-    )
-    expected = _numpy_plane_geometry(
-        labels.copy(),
-        grown,
-        pixel_index,
-        counts,
-        table,
-        camera,
-        depth,
-        inv_depth,
-        x,
-        y,
-        margin,
-        min_pixels,
-    )
-    got = _plane_geometry(
-        labels,
-        grown,
-        pixel_index,
-        counts,
-        table,
-        camera,
-        depth,
-        inv_depth,
-        x,
-        y,
-        margin,
-        min_pixels,
-    )
+    inputs = _plane_inputs(noise, seed)
+    labels, *rest = inputs
+    expected = _numpy_plane_geometry(labels.copy(), *rest, margin, min_pixels)
+    got = _plane_geometry(*inputs, margin, min_pixels)
     for a, b in zip(expected, got, strict=True):
         assert _same(a, b)
     if min_pixels == 10**6:
