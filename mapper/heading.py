@@ -76,6 +76,11 @@ _HASH_BITS = 20
 """The voxel counts live in a hash table of 2**20 int64 entries (8 MiB): far more than the at most
 `max_keyframes` · `max_points_per_keyframe` points it holds at once, so collisions are rare."""
 
+_DENSE_SQUARES = 1 << 22
+"""`edge_gradients` reads the occupancy from a dense table of at most this many squares (4 MiB
+of bools; a keyframe's points within `max_range_m` of 2 m in 3 cm squares span about 20 000),
+else by a sorted search (points spread wider, or not finite)."""
+
 
 @dataclass(frozen=True)
 class HeadingParams:
@@ -350,6 +355,12 @@ def edge_gradients(
     (occupied(x + 1) − occupied(x − 1), occupied(y + 1) − occupied(y − 1)) of its square's
     neighbours: 0 inside a surface or along a line, ±1 across its ends and sides.
 
+    The squares' occupancy is read from a dense table of the points' bounding box when that
+    holds at most :data:`_DENSE_SQUARES` squares (a keyframe's points within a few metres of
+    the camera: about 20 000), else by a search among the occupied squares' sorted keys: the
+    same answer either way (``tests/test_exact_fast_paths.py``), the table in a fifth of the
+    time.
+
     Args:
         points_robot: (N, 3) points [m] (any frame with z up; the result is in its x, y).
         cell_m: Square size [m].
@@ -363,13 +374,23 @@ def edge_gradients(
         return np.zeros((0, 2))
     ij = np.floor(points_robot[:, :2] / cell_m).astype(np.int64)
     ij -= ij.min(axis=0) - reach  # every neighbour index >= 0
+    rows = int(ij[:, 0].max()) + reach + 1
     width = int(ij[:, 1].max()) + reach + 1
-    occupied = np.unique(ij[:, 0] * width + ij[:, 1])
+    keys = ij[:, 0] * width + ij[:, 1]  # a square's key
+    # The table holds every neighbour's key unless an index wrapped around (points not finite).
+    if rows * width <= _DENSE_SQUARES and int(ij.min()) >= reach:
+        table = np.zeros(rows * width, dtype=bool)
+        table[keys] = True
 
-    def has(di: int, dj: int) -> NDArray[np.bool_]:
-        keys = (ij[:, 0] + di) * width + ij[:, 1] + dj
-        at = np.minimum(np.searchsorted(occupied, keys), occupied.size - 1)
-        return occupied[at] == keys
+        def has(di: int, dj: int) -> NDArray[np.bool_]:
+            return table[keys + (di * width + dj)]
+    else:
+        occupied = np.unique(keys)
+
+        def has(di: int, dj: int) -> NDArray[np.bool_]:
+            shifted = keys + (di * width + dj)
+            at = np.minimum(np.searchsorted(occupied, shifted), occupied.size - 1)
+            return occupied[at] == shifted
 
     def side(di: int, dj: int) -> NDArray[np.float64]:
         return (has(di, dj) | has(reach * di, reach * dj)).astype(np.float64)
@@ -407,6 +428,21 @@ def inside_image(
 
 
 @dataclass(frozen=True)
+class _Band:
+    """A frame's points in the height band (`HeadingEstimator._band`).
+
+    Attributes:
+        in_band: (B,) indices of the points whose height lies in `min_height_m`..`max_height_m`.
+        range_m: (B,) their horizontal distances from the camera [m].
+        structure: (B,) which of them lie within `max_range_m`.
+    """
+
+    in_band: NDArray[np.int64]
+    range_m: NDArray[np.float64]
+    structure: NDArray[np.bool_]
+
+
+@dataclass(frozen=True)
 class _Keyframe:
     """Structure points of one keyframe (see the module docstring)."""
 
@@ -437,6 +473,7 @@ class HeadingEstimator:
         self._keyframes: list[_Keyframe] = []  # structure points
         self._edge_keyframes: list[_Keyframe] = []  # edge points (`edge_score`)
         self._added = [0, 0]  # keyframes ever added to each
+        self._keys: tuple[set, set] = (set(), set())  # the keys held by each
         self._structure_flat = False  # the structure points' latest score was flat
 
     @property
@@ -469,10 +506,27 @@ class HeadingEstimator:
         transform = np.asarray(transform_camera_to_robot, dtype=np.float64)
         if not self.params.correct_heading:
             return
-        frame = (points_robot, floor_heights_m, transform, robot_pose, z_shift_m)
+        # The keyframe test and the points in the height band are the same for both sets: made
+        # once a frame, the band only when a set has no keyframe in the frame's cell and sector.
+        key, camera_xy = self._frame_key(transform, robot_pose)
+        band: _Band | None = None
         for edges in (False, True) if self.params.edge_score else (False,):
+            if key in self._keys[edges]:
+                continue
+            if band is None:
+                band = self._band(points_robot, floor_heights_m, transform, z_shift_m)
             if (
-                self._add_keyframe(*frame, edges=edges)
+                self._add_keyframe(
+                    points_robot,
+                    floor_heights_m,
+                    transform,
+                    robot_pose,
+                    z_shift_m,
+                    band,
+                    key,
+                    camera_xy,
+                    edges,
+                )
                 and self._added[edges] % self.params.estimate_every == 0
             ):
                 self._estimate(edges)
@@ -494,14 +548,10 @@ class HeadingEstimator:
         self.transform_camera_to_robot = correction @ transform
         return correction
 
-    def _add_keyframe(self, points_robot, floor_heights_m, transform, pose, z_shift_m, edges):
-        """Store the frame as a keyframe if its cell and sector are new; True if stored.
-
-        ``edges``: of the edge points, into the edge keyframes (else the structure points).
-
-        ``z_shift_m`` is added to the points' z once the cell and sector are new (the floor
-        heights' NaN and the camera's x, y are all the test needs of the rest).
-        """
+    def _frame_key(
+        self, transform: NDArray[np.float64], pose: NDArray[np.float64]
+    ) -> tuple[tuple[int, int, int], NDArray[np.float64]]:
+        """A frame's keyframe key (camera cell x, y and heading sector); its camera's world x, y."""
         p = self.params
         c, s = math.cos(pose[3]), math.sin(pose[3])
         rotation = np.array([[c, -s], [s, c]])
@@ -509,10 +559,15 @@ class HeadingEstimator:
         axis = rotation @ transform[:2, 2]  # optical axis, horizontal part
         sector = math.floor(math.degrees(math.atan2(axis[1], axis[0])) / p.keyframe_sector_deg)
         cell = np.floor(camera_xy / p.keyframe_spacing_m).astype(np.int64)
-        key = (int(cell[0]), int(cell[1]), sector)
-        keyframes = self._edge_keyframes if edges else self._keyframes
-        if key in {k.key for k in keyframes}:
-            return False
+        return (int(cell[0]), int(cell[1]), sector), camera_xy
+
+    def _band(self, points_robot, floor_heights_m, transform, z_shift_m) -> _Band | None:
+        """The frame's points in the height band and their ranges; None: too few structure points.
+
+        ``z_shift_m`` is added to the heights (the floor heights' NaN and the camera's x, y are
+        all the rest needs).
+        """
+        p = self.params
         # A floor point's height is its floor's (a plane's: depth noise leaves no ground
         # point above `min_height_m` to draw an edge where the noise reaches it).
         height_m = np.where(np.isnan(floor_heights_m), points_robot[:, 2], floor_heights_m)
@@ -525,7 +580,31 @@ class HeadingEstimator:
         )
         structure = range_m <= p.max_range_m  # of `in_band`
         if np.count_nonzero(structure) < p.min_points:  # both kinds are structure points
+            return None
+        return _Band(in_band, range_m, structure)
+
+    def _add_keyframe(
+        self,
+        points_robot,
+        floor_heights_m,
+        transform,
+        pose,
+        z_shift_m,
+        band: _Band | None,
+        key: tuple[int, int, int],
+        camera_xy: NDArray[np.float64],
+        edges: bool,
+    ) -> bool:
+        """Store the frame as a keyframe (its cell and sector are new); True if stored.
+
+        ``edges``: of the edge points, into the edge keyframes (else the structure points).
+        ``band``, ``key``, ``camera_xy``: the frame's `_band`, and `_frame_key`.
+        """
+        p = self.params
+        keyframes = self._edge_keyframes if edges else self._keyframes
+        if band is None:
             return False
+        in_band, range_m, structure = band.in_band, band.range_m, band.structure
         gradients = None
         if edges:
             # The occupancy reaches two cells beyond the range: the range's end is no edge.
@@ -560,6 +639,10 @@ class HeadingEstimator:
                 gradients_xy=gradients,
             )
         )
+        keys = self._keys[edges]
+        keys.add(key)
+        for dropped in keyframes[: -p.max_keyframes]:
+            keys.discard(dropped.key)
         del keyframes[: -p.max_keyframes]
         self._added[edges] += 1
         return True

@@ -301,7 +301,22 @@ def _yaw(angle_rad: float) -> np.ndarray:
 
 
 class _OldKeyframes(HeadingEstimator):
-    """The estimator with ``_add_keyframe`` as it was at c2da7ee."""
+    """The estimator with ``_add_keyframe`` as it was at c2da7ee (``observe`` as at 30a3fc2)."""
+
+    def observe(
+        self, points_robot, floor_heights_m, transform_camera_to_robot, robot_pose, z_shift_m=0.0
+    ):
+        """The method at 30a3fc2 (each keyframe set tested and its band made on its own)."""
+        transform = np.asarray(transform_camera_to_robot, dtype=np.float64)
+        if not self.params.correct_heading:
+            return
+        frame = (points_robot, floor_heights_m, transform, robot_pose, z_shift_m)
+        for edges in (False, True) if self.params.edge_score else (False,):
+            if (
+                self._add_keyframe(*frame, edges=edges)
+                and self._added[edges] % self.params.estimate_every == 0
+            ):
+                self._estimate(edges)
 
     def _add_keyframe(self, points_robot, floor_heights_m, transform, pose, z_shift_m, edges):
         """The method at c2da7ee (before its fast road): the known answer."""
@@ -329,7 +344,7 @@ class _OldKeyframes(HeadingEstimator):
         if edges:
             # The occupancy reaches two cells beyond the range: the range's end is no edge.
             candidates = np.flatnonzero(band & (range_m <= p.max_range_m + 2.0 * p.cell_m))
-            gradients = _heading.edge_gradients(points_robot[candidates], p.cell_m)
+            gradients = _old_edge_gradients(points_robot[candidates], p.cell_m)
             edge = (
                 np.any(gradients != 0.0, axis=1)
                 & structure[candidates]
@@ -357,6 +372,59 @@ class _OldKeyframes(HeadingEstimator):
         del keyframes[: -p.max_keyframes]
         self._added[edges] += 1
         return True
+
+
+def _old_edge_gradients(points_robot: np.ndarray, cell_m: float, reach: int = 2) -> np.ndarray:
+    """``edge_gradients`` at 30a3fc2 (every side looked up among the sorted occupied keys)."""
+    if points_robot.shape[0] == 0:
+        return np.zeros((0, 2))
+    ij = np.floor(points_robot[:, :2] / cell_m).astype(np.int64)
+    ij -= ij.min(axis=0) - reach  # every neighbour index >= 0
+    width = int(ij[:, 1].max()) + reach + 1
+    occupied = np.unique(ij[:, 0] * width + ij[:, 1])
+
+    def has(di: int, dj: int) -> np.ndarray:
+        keys = (ij[:, 0] + di) * width + ij[:, 1] + dj
+        at = np.minimum(np.searchsorted(occupied, keys), occupied.size - 1)
+        return occupied[at] == keys
+
+    def side(di: int, dj: int) -> np.ndarray:
+        return (has(di, dj) | has(reach * di, reach * dj)).astype(np.float64)
+
+    return np.column_stack([side(1, 0) - side(-1, 0), side(0, 1) - side(0, -1)])
+
+
+@pytest.mark.parametrize("spread_m", [0.05, 1.0, 4.0, 200.0])
+@pytest.mark.parametrize("reach", [1, 2, 3])
+def test_edge_gradients_are_the_old_sorted_search_bit_for_bit(spread_m: float, reach: int) -> None:
+    # 200 m in 3 cm squares spans more than the dense table holds: the sorted search's road.
+    rng = np.random.default_rng(round(spread_m * 10) + reach)
+    for count in (1, 2, 50, 3000):
+        points = rng.uniform(-spread_m, spread_m, (count, 3)) + rng.uniform(-50, 50, 3)
+        points[: count // 3, 1] = points[0, 1]  # a line: ends and sides
+        for cell_m in (0.03, 0.1):
+            got = _heading.edge_gradients(points, cell_m, reach)
+            expected = _old_edge_gradients(points, cell_m, reach)
+            assert got.shape == expected.shape and got.dtype == expected.dtype
+            assert got.tobytes() == expected.tobytes()
+    empty = np.zeros((0, 3))
+    assert (
+        _heading.edge_gradients(empty, 0.03).tobytes() == _old_edge_gradients(empty, 0.03).tobytes()
+    )
+
+
+def test_edge_gradients_of_points_not_finite_are_the_old_answer() -> None:
+    # NaN and infinite points wrap the square indices around: the sorted search's road, as old.
+    rng = np.random.default_rng(5)
+    points = rng.uniform(-1.0, 1.0, (200, 3))
+    for bad in (np.nan, np.inf, -np.inf):
+        with np.errstate(invalid="ignore"):
+            for rows in (slice(0, 1), slice(0, 200, 7), slice(None)):
+                spoiled = points.copy()
+                spoiled[rows, 0] = bad
+                got = _heading.edge_gradients(spoiled, 0.03)
+                expected = _old_edge_gradients(spoiled, 0.03)
+                assert got.tobytes() == expected.tobytes()
 
 
 @pytest.mark.parametrize("seed", [1, 2, 3])
