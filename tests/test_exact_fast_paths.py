@@ -9,7 +9,7 @@ import pytest
 
 import mapper.heading as _heading
 from fogsim.data.frame import Frame
-from fogsim.eval.archive import cells_in_view
+from fogsim.eval.archive import cells_in_view, view_points_world
 from mapper import HeadingEstimator, HeadingParams
 from mapper.grid import GridGeometry
 from mapper.intrinsics import PinholeIntrinsics
@@ -571,3 +571,27 @@ def test_floor_at_refuses_what_is_not_a_real_number() -> None:
         mapper.floor_at(1j, 0.0)
     with pytest.raises(InvalidInputError, match="y_m must hold real numbers"):
         mapper.floor_at(0.0, "0.5")
+
+
+def test_cells_in_view_of_points_made_ahead_are_the_cells_made_in_line() -> None:
+    # A run makes a frame's world points on its segmentation thread (`view_points_world`).
+    from scipy.spatial.transform import Rotation
+
+    rng = np.random.default_rng(11)
+    intrinsics = PinholeIntrinsics.from_fov(88, 72, 47.0, 39.0)
+    geometry = GridGeometry(
+        nx=100, ny=100, nz=40, cell_m=0.04, layer_m=0.04, z_min_m=-0.2, origin_ix=-50, origin_iy=-50
+    )
+    seeing = 0
+    for trial in range(10):
+        pose = np.eye(4)
+        pose[:3, :3] = Rotation.random(random_state=100 + trial).as_matrix()
+        pose[:3, 3] = rng.uniform([-2.0, -2.0, 0.2], [2.0, 2.0, 1.2])
+        depth = rng.uniform(0.1, 5.0, intrinsics.shape).astype(np.float32)
+        depth[rng.random(depth.shape) < 0.1] = np.nan
+        frame = Frame(trial, 0.0, depth, intrinsics, pose, np.zeros(4), pose, np.zeros(4))
+        got = cells_in_view(frame, geometry, view_points_world(frame))
+        assert got.tobytes() == cells_in_view(frame, geometry).tobytes()
+        assert got.tobytes() == _old_cells_in_view(frame, geometry).tobytes()
+        seeing += bool(got.any())
+    assert seeing >= 5

@@ -15,6 +15,7 @@ from synthetic_depth import Box, add_depth_noise, look_down_camera, render_boxes
 from fogsim.config import RunParams
 from fogsim.data.frame import Frame
 from fogsim.errors import FogsimError, FrameError
+from fogsim.eval.archive import view_points_world
 from fogsim.eval.maps import write_maps
 from fogsim.mapping.prefetch import SegmentAhead
 from fogsim.mapping.segmenter import FrameSegmenter
@@ -238,3 +239,34 @@ def test_refuses_no_look_ahead_and_iterating_before_start(frames):
         SegmentAhead(frames, FrameSegmenter(RunParams()), ahead=0)
     with pytest.raises(FogsimError, match="start"):
         next(iter(SegmentAhead(frames, FrameSegmenter(RunParams()))))
+
+
+def test_also_hands_out_what_the_thread_made_of_the_frame_just_iterated(frames):
+    """``also``: made on the thread for each frame, handed out for that frame only."""
+    made_on = []
+
+    def points(frame):
+        made_on.append(threading.current_thread().name)
+        if frame.index == 2:
+            raise ValueError("made again by the consumer")
+        return view_points_world(frame)
+
+    with SegmentAhead(frames[:4], FrameSegmenter(RunParams()), also=points) as ahead:
+        ahead.start()
+        previous = None
+        for frame in ahead:
+            got = ahead.also(frame)
+            if frame.index == 2:
+                assert got is None  # it raised on the thread
+            else:
+                assert got.tobytes() == view_points_world(frame).tobytes()
+            assert ahead.also(dataclasses.replace(frame)) is None  # an equal copy is not it
+            if previous is not None:
+                assert ahead.also(previous) is None
+            ahead.segmented(frame)
+            assert ahead.also(frame) is got  # still this frame's after its segmentation
+            previous = frame
+    assert made_on == ["fogsim-segment-ahead"] * 4
+    with SegmentAhead(frames[:1], FrameSegmenter(RunParams())) as ahead:  # no `also`
+        ahead.start()
+        assert all(ahead.also(frame) is None for frame in ahead)

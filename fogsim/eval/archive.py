@@ -45,7 +45,9 @@ _LAYERS = (
 """The archive's layers: name, element type and the value of a cell never stored."""
 
 
-def cells_in_view(frame: Frame, geometry: GridGeometry) -> NDArray[np.bool_]:
+def cells_in_view(
+    frame: Frame, geometry: GridGeometry, points_world: NDArray[np.float64] | None = None
+) -> NDArray[np.bool_]:
     """(nx, ny) cells of a grid that the frame's camera saw.
 
     A cell is in view when a depth measurement of the frame, placed in the world with the
@@ -53,10 +55,26 @@ def cells_in_view(frame: Frame, geometry: GridGeometry) -> NDArray[np.bool_]:
     lies above or below it cannot be mapped). Pixels without a measurement (NaN: dropouts, out
     of range, the robot's own body) see nothing; a frame without a true pose (real data, NaN)
     sees no cell.
+
+    Args:
+        frame: The frame.
+        geometry: The grid.
+        points_world: The frame's :func:`view_points_world` if made already (a run makes them
+            on its segmentation thread, ahead of the mapping); None: made here.
+    """
+    if points_world is None:
+        points_world = view_points_world(frame)
+    return geometry.columns_seen(points_world)
+
+
+def view_points_world(frame: Frame) -> NDArray[np.float64]:
+    """(N, 3) the frame's depth measurements in the world by its *true* camera pose [m].
+
+    One row per pixel, NaN where there is no measurement (or no true pose): what
+    :func:`cells_in_view` places in a grid. Depends on the frame only.
     """
     points_camera = frame.intrinsics.depth_to_points_camera(frame.depth_m).reshape(-1, 3)
-    points_world = apply_transform(frame.transform_camera_to_world_true, points_camera)
-    return geometry.columns_seen(points_world)
+    return apply_transform(frame.transform_camera_to_world_true, points_camera)
 
 
 class _Layer:

@@ -23,7 +23,7 @@ from __future__ import annotations
 
 import threading
 import time
-from collections.abc import Iterable, Iterator
+from collections.abc import Callable, Iterable, Iterator
 from dataclasses import dataclass
 
 from fogsim.data.frame import Frame
@@ -46,6 +46,7 @@ class _Segmented:
     result: SegmentationResult | None
     error: BaseException | None
     segmentation_ms: float
+    also: object = None
 
 
 class SegmentAhead:
@@ -61,6 +62,9 @@ class SegmentAhead:
         segmenter: Called with each frame in order, on the thread
             (:class:`~fogsim.mapping.segmenter.FrameSegmenter`).
         ahead: Segmented frames that may wait for the pipeline, >= 1.
+        also: Called with each frame on the thread too, after its segmentation: what else the
+            consumer needs of a frame alone, made off its thread (a run: the frame's world
+            points for the cells in view); :meth:`also` hands it out. None: nothing.
 
     Raises:
         FogsimError: ``ahead`` < 1.
@@ -76,6 +80,7 @@ class SegmentAhead:
         segmenter: Segmented,
         *,
         ahead: int = AHEAD_FRAMES,
+        also: Callable[[Frame], object] | None = None,
     ) -> None:
         if ahead < 1:
             raise FogsimError(f"SegmentAhead: ahead must be >= 1 frame, got {ahead!r}")
@@ -84,6 +89,8 @@ class SegmentAhead:
         self._handoff = HandOff(ahead)
         self._thread: threading.Thread | None = None
         self._current: _Segmented | None = None
+        self._also = also
+        self._last: _Segmented | None = None  # the frame just iterated, for `also`
         self.segmentation_ms = float("nan")
 
     def start(self) -> None:
@@ -99,7 +106,7 @@ class SegmentAhead:
             raise FogsimError("SegmentAhead: start() it before iterating")
         for item in self._handoff.items():
             assert isinstance(item, _Segmented)
-            self._current = item
+            self._current = self._last = item
             yield item.frame
 
     def segmented(self, frame: Frame) -> SegmentationResult:
@@ -120,6 +127,15 @@ class SegmentAhead:
             raise current.error
         assert current.result is not None
         return current.result
+
+    def also(self, frame: Frame) -> object:
+        """What the ``also`` callable gave for the frame just iterated (the same object).
+
+        None for any other frame, without an ``also`` callable, or when it raised (the consumer
+        then makes it itself, and meets the error where it would have without the thread).
+        """
+        last = self._last
+        return last.also if last is not None and frame is last.frame else None
 
     def close(self) -> None:
         """Stop the thread and wait for it; idempotent."""
@@ -153,4 +169,11 @@ class SegmentAhead:
             result = self._segmenter(frame)
         except Exception as error:  # raised again by `segment` for this frame
             return _Segmented(frame, None, error, 1000.0 * (time.perf_counter() - start))
-        return _Segmented(frame, result, None, 1000.0 * (time.perf_counter() - start))
+        segmentation_ms = 1000.0 * (time.perf_counter() - start)
+        also = None
+        if self._also is not None:
+            try:
+                also = self._also(frame)
+            except Exception:  # made again, and raised, by the consumer (`also`)
+                also = None
+        return _Segmented(frame, result, None, segmentation_ms, also)

@@ -25,7 +25,7 @@ from fogsim.config import RunParams, Scenario, resolve_params
 from fogsim.data.frame import Frame
 from fogsim.data.recording import Recording
 from fogsim.errors import FogsimError
-from fogsim.eval.archive import WorldArchive, cells_in_view
+from fogsim.eval.archive import WorldArchive, cells_in_view, view_points_world
 from fogsim.eval.events import EventTracker, TruthProvider
 from fogsim.eval.maps import write_maps
 from fogsim.eval.metrics import score_archive
@@ -156,7 +156,9 @@ def run_frames(
         return _run_pipeline(
             frames, None, pipeline, truth_provider, scenario, run_params, on_frame, start
         )
-    with SegmentAhead(frames, FrameSegmenter(run_params, segment)) as ahead:
+    segmenter = FrameSegmenter(run_params, segment)
+    # The frames' world points for the cells in view are made on the thread too.
+    with SegmentAhead(frames, segmenter, also=view_points_world) as ahead:
         pipeline = Pipeline(run_params, segmented=ahead.segmented)
         ahead.start()
         return _run_pipeline(
@@ -198,7 +200,9 @@ def _run_pipeline(
         timings.append(timing)
         pose_errors.add(frame, pipeline.heading.transform_camera_to_robot)
         geometry = pipeline.mapper.geometry
-        in_view = cells_in_view(frame, geometry)
+        made = ahead.also(frame) if ahead is not None else None  # on the segmentation thread
+        points_world = made if isinstance(made, np.ndarray) else None
+        in_view = cells_in_view(frame, geometry, points_world)
         for late_frame in pipeline.mapped_now:  # frames mapped (again) with this one
             in_view |= cells_in_view(late_frame, geometry)
         archiver.add(geometry, in_view)
