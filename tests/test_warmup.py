@@ -67,22 +67,22 @@ def _warm_up(cache_dir: Path) -> tuple[str, set[str]]:
 @pytest.mark.slow
 def test_message_with_a_cold_cache_only(tmp_path):
     cold, compiled_here = _warm_up(tmp_path)
-    # The helper compiled the segmentation but its floor stage; this process the floor stage,
-    # the FOG map's update, z-matching, the baseline and the heading scores, and no other
+    # The helper compiled the segmentation but its floor stage, and the heading scores; this
+    # process the floor stage, the FOG map's update, z-matching and the baseline, and no other
     # scan-line kernel (a Pipeline in the mapper step segments: it compiled every scan-line
-    # kernel twice) nor the tilt's.
+    # kernel twice) nor the tilt's nor the heading's.
     modules = {name.rsplit(".", 1)[0] for name in compiled_here}
     assert {"mapper.occupancy", "mapper.floor_map", "mapper.fog"} <= modules
-    assert {"mapper.zmatch", "mapper.averaging", "mapper.heading"} <= modules
-    assert "mapper.tilt_kernels" not in modules
+    assert {"mapper.zmatch", "mapper.averaging"} <= modules
+    assert "mapper.tilt_kernels" not in modules and "mapper.heading" not in modules
     scanline = {name.split(".")[-1] for name in compiled_here if name.startswith("mapper.scanl")}
     assert scanline >= FLOOR_STAGE
     assert not scanline & {"local_noise_depth_m", "split_rows", "grow_planes", "plane_moments"}
     assert MESSAGE in cold and f"{len(GROUPS)} groups in 2 processes" in cold
     assert "floor regions kernels ..." in cold
     assert "mapper kernels ..." in cold
-    assert "z-match, baseline, heading kernels ..." in cold
-    assert "self-filter, segmentation kernels ..." in cold
+    assert "z-match, baseline kernels ..." in cold
+    assert "self-filter, segmentation, heading kernels ..." in cold
     assert "(second process)" in cold and "failed" not in cold  # compiled beside the others
     assert "compiled in" in cold
     assert list(tmp_path.rglob("*.nbi")), "the warm-up filled the cache"

@@ -164,22 +164,27 @@ MAPPER = KernelGroup(
 )
 """The FOG map's update kernels: frame checks, occupancy, floor map, floor cover, FOG types."""
 
-MATCHING = KernelGroup(
-    "z-match, baseline, heading", _kernels(mapper.zmatch, mapper.averaging, mapper.heading)
-)
-"""z-matching, the averaging baseline map and the heading scores (no FOG map update)."""
+MATCHING = KernelGroup("z-match, baseline", _kernels(mapper.zmatch, mapper.averaging))
+"""z-matching and the averaging baseline map (no FOG map update)."""
+
+HEADING = KernelGroup("heading", _kernels(mapper.heading))
+"""The heading scores (structure points and edge points)."""
 
 SELF_FILTER = KernelGroup("self-filter", _kernels(self_filter))
 """The kernel removing the robot's body from simulated depth images."""
 
 
-GROUPS = (FLOOR_REGIONS, MAPPER, MATCHING, SEGMENTATION, SELF_FILTER)
+GROUPS = (FLOOR_REGIONS, MAPPER, MATCHING, HEADING, SEGMENTATION, SELF_FILTER)
 """Every group, in the order this process compiles them (without a helper)."""
 
-HELPER_GROUPS = (SELF_FILTER, SEGMENTATION)
+HELPER_GROUPS = (SELF_FILTER, SEGMENTATION, HEADING)
 """The groups a helper process compiles on a cold cache, in this order; this process compiles
-the others. Measured with ``bench/bench_cold.py kernels --group ...`` (each process's groups
-alone on an empty cache, CPU time, Intel Xeon 2 cores, load 7-10, stop 29): this process's
+the others. Stop 30: this process ended last, by about 8 s (``bench/bench_cold.py run``, the
+stage: its floor regions 28.2 s + mapper 18.3 s + z-matching, baseline and heading 6.1 s, wall,
+beside the scene's set-up; the helper's groups 45.2 s), so the heading scores (2-3 s CPU of
+those 6) went back to the helper, after the segmentation. Measured with ``bench/bench_cold.py
+kernels --group ...`` (each process's groups alone on an empty cache, CPU time, Intel Xeon 2
+cores, load 7-10, stop 29): this process's
 floor regions 24.7 s + mapper 17.7 s; the helper's self-filter 1.2 s + segmentation 62.9 s, of
 which 14.2 s its floor stage, loaded from the cache this process filled by then (the
 segmentation reaches it about 45 s in) + z-matching, baseline and heading 6.7 s: the helper
@@ -320,6 +325,7 @@ def _steps(params: RunParams) -> dict[KernelGroup, Callable[[], None]]:
         SEGMENTATION: lambda: _segment(frames[0], params),
         MAPPER: lambda: _map(frames, params),
         MATCHING: lambda: _match(frames, params),
+        HEADING: lambda: _heading(frames[0], params),
         SELF_FILTER: self_filter.compile_mask_kernel,
     }
 
@@ -525,7 +531,7 @@ def _map(frames: tuple[Frame, ...], params: RunParams) -> None:
 
 
 def _match(frames: tuple[Frame, ...], params: RunParams) -> None:
-    """z-matching, the averaging map's update and both heading scores on the frames' points.
+    """z-matching and the averaging map's update on the frames' points.
 
     z-matching is against an empty FOG map: its update is :data:`MAPPER`'s (this process's).
     """
@@ -536,6 +542,11 @@ def _match(frames: tuple[Frame, ...], params: RunParams) -> None:
         baseline.update(points_world, floor_world, origin)
         fog.match_z(points_world, floor_world)
     baseline.heights()
+
+
+def _heading(frame: Frame, params: RunParams) -> None:
+    """Both heading scores on four of the frame's floor points."""
+    points_world = _floor_points_world(frame)[0]
     offsets_xy = np.ascontiguousarray(points_world[:4, :2])
     heights = points_world[:4, 2].copy()
     keys = np.array([0, 2, 4], dtype=np.int64)
