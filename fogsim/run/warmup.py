@@ -29,9 +29,9 @@ Where there is no ``fork`` (Windows) every group is compiled here.
 The segmentation's kernels took two thirds of the compile time, so they are split: this
 process first compiles its last stage (:data:`FLOOR_REGIONS`, called on a synthetic image
 whose every row is one segment, with the argument types ``segment_depth`` passes), then the
-FOG map's update, then z-matching, the baseline map and the heading scores; the helper runs
-the whole segmentation, loading that stage from the cache when it gets there (it compiles it
-itself, once more, only if it gets there first). The split is measured by
+FOG map's update, then z-matching and the baseline map; the helper runs the whole
+segmentation, loading that stage from the cache when it gets there (it compiles it itself, once
+more, only if it gets there first), then the heading scores. The split is measured by
 ``bench/bench_cold.py``: both processes then take about as long (:data:`HELPER_GROUPS`).
 
 Every kernel a run compiles carries the same flags (``nogil=True, error_model="numpy",
