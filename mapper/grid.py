@@ -146,8 +146,9 @@ class GridGeometry:
         """(nx, ny) columns holding at least one of the points inside the grid volume.
 
         The columns of the valid cells of :meth:`cell_of` (a point in a column but above or
-        below the grid's layers marks nothing), without its index arrays: the same cells bit
-        for bit (``tests/test_exact_fast_paths.py``), in a third of its time.
+        below the grid's layers marks nothing), in one compiled pass without its index arrays:
+        the same cells bit for bit (``tests/test_exact_fast_paths.py``), in a tenth of its
+        time.
 
         Args:
             points_world: (N, 3) world points [m]; NaN rows mark nothing.
@@ -156,16 +157,19 @@ class GridGeometry:
         if p.ndim != 2 or p.shape[1] != 3:
             raise InvalidInputError(f"points_world must have shape (N, 3), got {p.shape}")
         ox, oy = self.origin_xy_m
-        # A cell index g = floor(v) lies in [0, n) exactly when v does (n whole; NaN in
-        # neither): the tests need no floor, and inside it is the truncation ``astype`` makes.
-        vx = (p[:, 0] - ox) / self.cell_m
-        vy = (p[:, 1] - oy) / self.cell_m
-        vz = (p[:, 2] - self.z_min_m) / self.layer_m
-        with np.errstate(invalid="ignore"):
-            inside = (vx >= 0.0) & (vx < self.nx) & (vy >= 0.0) & (vy < self.ny)
-            inside &= (vz >= 0.0) & (vz < self.nz)
         seen = np.zeros(self.nx * self.ny, dtype=bool)
-        seen[vx[inside].astype(np.int64) * self.ny + vy[inside].astype(np.int64)] = True
+        _mark_columns(
+            np.ascontiguousarray(p, dtype=np.float64),
+            float(ox),
+            float(oy),
+            float(self.z_min_m),
+            float(self.cell_m),
+            float(self.layer_m),
+            self.nx,
+            self.ny,
+            self.nz,
+            seen,
+        )
         return seen.reshape(self.nx, self.ny)
 
     def _axis_cells(
@@ -296,6 +300,22 @@ def validate_frame(
         h = h.copy()
         h[np.abs(h) > MAX_COORDINATE_M] = np.nan
     return p, h, o
+
+
+@numba.njit(cache=True, no_cfunc_wrapper=True, nogil=True, error_model="numpy")
+def _mark_columns(points, ox, oy, z_min, cell, layer, nx, ny, nz, seen):
+    """Set ``seen[ix * ny + iy]`` for each (N, 3) point inside the grid volume (numba).
+
+    A cell index g = floor(v) lies in [0, n) exactly when v does (n whole; NaN in neither):
+    the tests need no floor, and inside it is the truncation to an integer. ``v`` is
+    ``(coordinate - grid start) / cell size``, as numpy computes it for `GridGeometry.cell_of`.
+    """
+    for i in range(points.shape[0]):
+        vx = (points[i, 0] - ox) / cell
+        vy = (points[i, 1] - oy) / cell
+        vz = (points[i, 2] - z_min) / layer
+        if vx >= 0.0 and vx < nx and vy >= 0.0 and vy < ny and vz >= 0.0 and vz < nz:
+            seen[np.int64(vx) * ny + np.int64(vy)] = True
 
 
 @numba.njit(cache=True, no_cfunc_wrapper=True, nogil=True, error_model="numpy")

@@ -527,6 +527,7 @@ def _map(frames: tuple[Frame, ...], params: RunParams) -> None:
     for points_world, floor_world, origin in map(_floor_points_world, frames):
         fog.recenter(float(origin[0]), float(origin[1]))
         fog.update(points_world, floor_world, origin)
+        fog.geometry.columns_seen(points_world)  # a run's cells in view
     fog.fog(), fog.floor(), fog.obstacle(), fog.ceiling(), fog.floor_at(0.0, 0.0)
 
 
