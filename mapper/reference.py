@@ -190,6 +190,7 @@ class HeightReference:
         self.frames = 0
         self._lowest_m: NDArray[np.float64] = np.empty(0)
         self._shift_m = 0.0  # median of _lowest_m, kept by `update` (read 2-3 times a frame)
+        self._lowest_rise_m = math.inf  # min(rises_m) (NaN once one is NaN), kept by `update`
 
     @property
     def converged(self) -> bool:
@@ -275,9 +276,15 @@ class HeightReference:
         measured = -float(heights_m[largest])
         self.measurements_m.append(measured)
         self.rises_m.append(rise_m)
+        if rise_m > self._lowest_rise_m + params.start_level_m:
+            # Above the lowest level (the lowest rise stays): the measurements at that level,
+            # and so their median, are those of the frame before. O(1), where the whole
+            # history below costs O(frames) a frame.
+            return measured
         rises = np.asarray(self.rises_m)
+        self._lowest_rise_m = float(rises.min())
         self._lowest_m = np.asarray(self.measurements_m)[
-            rises <= rises.min() + params.start_level_m
+            rises <= self._lowest_rise_m + params.start_level_m
         ]
         self._shift_m = float(np.median(self._lowest_m))
         return measured

@@ -13,6 +13,7 @@ from fogsim.eval.archive import cells_in_view, view_points_world
 from mapper import HeadingEstimator, HeadingParams
 from mapper.grid import GridGeometry
 from mapper.intrinsics import PinholeIntrinsics
+from mapper.reference import HeightReference, HeightReferenceParams
 from mapper.transforms import apply_transform
 
 
@@ -625,3 +626,58 @@ def test_cells_in_view_of_points_made_ahead_are_the_cells_made_in_line() -> None
         assert got.tobytes() == _old_cells_in_view(frame, geometry).tobytes()
         seeing += bool(got.any())
     assert seeing >= 5
+
+
+class _OldReference(HeightReference):
+    """``HeightReference.update`` as it was at 30a3fc2 (the lowest level re-made every frame)."""
+
+    def update(self, heights_m, areas_m2, is_floor, rise_m):
+        self.frames += 1
+        params = self.params
+        expected = self.shift_m if self.converged else 0.0
+        offset = np.abs(-heights_m - expected)
+        candidate = is_floor & (areas_m2 >= params.min_area_m2) & (offset <= params.gate_m)
+        if not self.converged and abs(rise_m) <= params.start_level_m:
+            candidate |= (
+                is_floor & (areas_m2 >= params.start_min_area_m2) & (offset <= params.start_gate_m)
+            )
+        if not candidate.any():
+            return None
+        largest = int(np.argmax(np.where(candidate, areas_m2, -np.inf)))
+        measured = -float(heights_m[largest])
+        self.measurements_m.append(measured)
+        self.rises_m.append(rise_m)
+        rises = np.asarray(self.rises_m)
+        self._lowest_m = np.asarray(self.measurements_m)[
+            rises <= rises.min() + params.start_level_m
+        ]
+        self._shift_m = float(np.median(self._lowest_m))
+        return measured
+
+
+@pytest.mark.filterwarnings("ignore:Mean of empty slice", "ignore:invalid value encountered")
+@pytest.mark.parametrize("seed", [1, 2, 3, 4])
+def test_height_reference_is_the_old_one_frame_by_frame(seed: int) -> None:
+    # Walks up, down (new lowest levels), level; odd rises (NaN, inf) in the last seed (a NaN
+    # rise leaves no lowest level: the median of nothing, NaN, with numpy's warnings, as old).
+    rng = np.random.default_rng(seed)
+    params = HeightReferenceParams()
+    new, old = HeightReference(params), _OldReference(params)
+    rise = 0.0
+    for frame in range(400):
+        rise += float(rng.choice([0.0, 0.0, 0.004, -0.004, 0.03, -0.03]))
+        if seed == 4 and frame in (150, 250):
+            rise_m = [np.inf, np.nan][frame == 250]
+        else:
+            rise_m = rise + float(rng.normal(scale=0.002))
+        count = int(rng.integers(0, 5))
+        heights = rng.normal(scale=0.01, size=count) - rng.choice([0.0, 0.03], size=count)
+        areas = rng.uniform(0.0, 3.0, count)
+        floor = rng.random(count) < 0.8
+        got = new.update(heights, areas, floor, rise_m)
+        expected = old.update(heights, areas, floor, rise_m)
+        assert got == expected or (got != got and expected != expected)
+        assert np.float64(new.shift_m).tobytes() == np.float64(old.shift_m).tobytes()
+        assert new._lowest_m.tobytes() == old._lowest_m.tobytes()
+        assert (new.converged, new.known) == (old.converged, old.known)
+    assert len(new.measurements_m) > 100
