@@ -73,6 +73,7 @@ per-frame shift put it.
 
 from __future__ import annotations
 
+import bisect
 import math
 from dataclasses import dataclass
 
@@ -188,14 +189,19 @@ class HeightReference:
         self.measurements_m: list[float] = []
         self.rises_m: list[float] = []
         self.frames = 0
-        self._lowest_m: NDArray[np.float64] = np.empty(0)
-        self._shift_m = 0.0  # median of _lowest_m, kept by `update` (read 2-3 times a frame)
-        self._lowest_rise_m = math.inf  # min(rises_m) (NaN once one is NaN), kept by `update`
+        # Kept by `update`: the lowest rise (min(rises_m), NaN once one is NaN), the
+        # measurements at the lowest level in increasing order and their median (read 2-3
+        # times a frame); a measurement of zero (either sign) at that level makes every median
+        # numpy's (which of 0.0 and -0.0 is the middle one is the sort's choice).
+        self._lowest_rise_m = math.inf
+        self._lowest_sorted_m: list[float] = []
+        self._shift_m = 0.0
+        self._zero_at_lowest = False
 
     @property
     def converged(self) -> bool:
         """`min_frames` measurements at the lowest level: the estimate is trusted."""
-        return self._lowest_m.size >= self.params.min_frames
+        return len(self._lowest_sorted_m) >= self.params.min_frames
 
     @property
     def known(self) -> bool:
@@ -276,18 +282,35 @@ class HeightReference:
         measured = -float(heights_m[largest])
         self.measurements_m.append(measured)
         self.rises_m.append(rise_m)
-        if rise_m > self._lowest_rise_m + params.start_level_m:
-            # Above the lowest level (the lowest rise stays): the measurements at that level,
-            # and so their median, are those of the frame before. O(1), where the whole
-            # history below costs O(frames) a frame.
+        # The median of the measurements at the lowest level (odometry's rise within
+        # `start_level_m` of its lowest): kept in order as they come, it costs O(log frames) a
+        # frame; the whole history is gone through again only for a new lowest level. The same
+        # numbers as `np.median` over the history every frame (tests/test_exact_fast_paths.py):
+        # a measurement is finite (within `gate_m` of the estimate).
+        lowest_m = self._lowest_rise_m
+        if rise_m > lowest_m + params.start_level_m:  # above that level: nothing changes
             return measured
-        rises = np.asarray(self.rises_m)
+        if lowest_m <= rise_m and not (self._zero_at_lowest or measured == 0.0):
+            bisect.insort(self._lowest_sorted_m, measured)  # at that level, which stays
+            self._shift_m = _sorted_median(self._lowest_sorted_m)
+            return measured
+        rises = np.asarray(self.rises_m)  # a new lowest level (or a NaN rise): all over
         self._lowest_rise_m = float(rises.min())
-        self._lowest_m = np.asarray(self.measurements_m)[
+        lowest = np.asarray(self.measurements_m)[
             rises <= self._lowest_rise_m + params.start_level_m
         ]
-        self._shift_m = float(np.median(self._lowest_m))
+        self._lowest_sorted_m = sorted(lowest.tolist())
+        self._zero_at_lowest = bool(np.any(lowest == 0.0))
+        self._shift_m = float(np.median(lowest))
         return measured
+
+
+def _sorted_median(values: list[float]) -> float:
+    """`np.median` of finite values in increasing order: the middle one, or the mean of two."""
+    half = len(values) // 2
+    if len(values) % 2:
+        return values[half]
+    return (values[half - 1] + values[half]) / 2.0
 
 
 def _largest_per_frame(
