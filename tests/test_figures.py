@@ -21,6 +21,7 @@ from fogsim.eval.metrics import (
 )
 from fogsim.eval.report.quality import assess_quality
 from fogsim.eval.report.schema import CeilingScores, ClassScores, Percentiles, StepEdge
+from fogsim.eval.rounding import mm, rounded
 from fogsim.world.truth import ObjectState, SceneTruth
 
 # ----------------------------------------------------------------------------- classes
@@ -297,3 +298,10 @@ def test_each_crossed_limit_is_a_reason():
         "the map is empty: the FOG labelled no cell floor or obstacle",
         "only 40.0 % of the seen floor is floor within 20 mm of the truth (limit 50 %)",
     )
+
+
+def test_report_numbers_are_rounded_and_never_a_negative_zero():
+    assert mm(0.0123456) == 12.35 and mm(float("nan")) is None
+    assert math.copysign(1.0, mm(-1e-9)) == 1.0  # -0.000001 mm rounds to 0.0, not -0.0
+    assert math.copysign(1.0, rounded(-1e-9, 5)) == 1.0
+    assert rounded(float("inf"), 2) is None
