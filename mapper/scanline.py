@@ -861,27 +861,7 @@ def _before(a, b):
 
 
 @numba.njit(cache=True, no_cfunc_wrapper=True, nogil=True, error_model="numpy")
-def _best_seed(
-    s,
-    seg_sums,
-    x,
-    y,
-    seg_rows,
-    seg_starts,
-    seg_stops,
-    seg_table,
-    row_first,
-    plane_of,
-    grow_factor,
-    rms_factor,
-    tol0,
-    seed_min_pixels,
-    members,
-    sums,
-    plane,
-    chosen,
-    tried,
-):
+def _best_seed(s, segments, plane_of, limits, work):
     """Best seed triple containing segment s among free segments.
 
     Tries rows (r, r+1, r+2), (r-1, r, r+1), (r-2, r-1, r), in each picking row by row away
@@ -893,7 +873,20 @@ def _best_seed(
     result cannot change (a pick is the longest free overlapping segment, and taking others
     only removes candidates that lost to it, or that a broken triple never had), so
     `grow_planes` can reuse it instead of scoring again.
+
+    Args:
+        s: The segment.
+        segments: ``(seg_sums, x, y, seg_rows, seg_starts, seg_stops, seg_table, row_first)``,
+            as `grow_planes` has them (``row_first``: `_row_index`).
+        plane_of: (S,) plane of every segment so far (-1: free).
+        limits: ``(grow_factor, rms_factor, tol0, seed_min_pixels)`` of `grow_planes`.
+        work: ``(members, sums, plane, chosen, tried)``: (3,) the best triple (written),
+            (`_N_SUMS`,) and (13,) scratch for the fit, (3,) scratch for a triple, (S, 9)
+            the segments picked beside each seed (row s written).
     """
+    seg_sums, x, y, seg_rows, seg_starts, seg_stops, seg_table, row_first = segments
+    grow_factor, rms_factor, tol0, seed_min_pixels = limits
+    members, sums, plane, chosen, tried = work
     for k in range(9):
         tried[s, k] = -1
     height = row_first.shape[0] - 1
@@ -1026,28 +1019,11 @@ def grow_planes(
     tried = np.full((n_seg, 9), -1, np.int64)
     seed_members = np.full((n_seg, 3), -1, np.int64)
     scores = np.full(n_seg, np.inf)
+    segments = (seg_sums, x, y, seg_rows, seg_starts, seg_stops, seg_table, row_first)
+    limits = (grow_factor, rms_factor, tolerance_floor_m, seed_min_pixels)
+    work = (members, sums, plane, chosen, tried)
     for s in range(n_seg):
-        scores[s] = _best_seed(
-            s,
-            seg_sums,
-            x,
-            y,
-            seg_rows,
-            seg_starts,
-            seg_stops,
-            seg_table,
-            row_first,
-            plane_of,
-            grow_factor,
-            rms_factor,
-            tolerance_floor_m,
-            seed_min_pixels,
-            members,
-            sums,
-            plane,
-            chosen,
-            tried,
-        )
+        scores[s] = _best_seed(s, segments, plane_of, limits, work)
         for k in range(3):
             seed_members[s, k] = members[k]
     order = _stable_order(scores)
@@ -1070,27 +1046,7 @@ def grow_planes(
             for k in range(3):
                 members[k] = seed_members[s, k]
         else:
-            score = _best_seed(
-                s,
-                seg_sums,
-                x,
-                y,
-                seg_rows,
-                seg_starts,
-                seg_stops,
-                seg_table,
-                row_first,
-                plane_of,
-                grow_factor,
-                rms_factor,
-                tolerance_floor_m,
-                seed_min_pixels,
-                members,
-                sums,
-                plane,
-                chosen,
-                tried,
-            )
+            score = _best_seed(s, segments, plane_of, limits, work)
         if score > 1.0:
             continue
         label = n_planes

@@ -4,7 +4,7 @@ from __future__ import annotations
 
 from collections.abc import Sequence
 
-from msgspec import UNSET
+from msgspec import UNSET, UnsetType
 
 from fogsim.config import RunParams
 from fogsim.eval.report.build import param_tables
@@ -72,9 +72,18 @@ def safety_with(unsafe: int, on_obstacle: int = 0) -> Safety:
     )
 
 
-def step_edge(surface: str, edge: str, median_mm: float | None, max_mm: float | None):
-    """A step-edge row over 10 cells (0 when the map never shows the step)."""
-    return StepEdge(surface, edge, 0 if median_mm is None else 10, median_mm, max_mm)
+def step_edge(
+    surface: str,
+    edge: str,
+    median_mm: float | None,
+    max_mm: float | None,
+    nearest_mm: float | UnsetType | None = UNSET,
+    gap_mm: float | UnsetType | None = UNSET,
+):
+    """A step-edge row over 10 cells (0 when the map never shows the step); without the
+    nearest edge and the gap, as a report from before those figures."""
+    cells = 0 if median_mm is None else 10
+    return StepEdge(surface, edge, cells, median_mm, max_mm, nearest_mm, gap_mm)
 
 
 def row(name: str, error_mm: float | None, surface_cells: int = 100) -> Table1Row:

@@ -21,6 +21,7 @@ from fogsim.eval.metrics import (
 )
 from fogsim.eval.report.quality import assess_quality
 from fogsim.eval.report.schema import CeilingScores, ClassScores, Percentiles, StepEdge
+from fogsim.eval.rounding import mm, rounded
 from fogsim.world.truth import ObjectState, SceneTruth
 
 # ----------------------------------------------------------------------------- classes
@@ -125,7 +126,7 @@ def test_a_perfect_map_puts_every_step_edge_in_place():
     assert len(rows) == 8
     for (surface, edge), row in rows.items():
         along = 20 if edge.startswith("x") else 10  # cells along the edge: 0.8 m or 0.4 m
-        assert row == StepEdge(surface, edge, along - 2, 0.0, 0.0)  # end cells left out
+        assert row == StepEdge(surface, edge, along - 2, 0.0, 0.0, 0.0, 0.0)  # ends left out
 
 
 def test_a_riser_mapped_two_cells_toward_the_robot_is_minus_80_mm():
@@ -134,8 +135,9 @@ def test_a_riser_mapped_two_cells_toward_the_robot_is_minus_80_mm():
     # The map's step begins 2 cells (80 mm) early, toward a robot coming from x = 0.
     heights[across(c, 0.52, 0.6)] = 0.05
     rows = edges_of(truth, types, heights)
-    assert rows["step", "x_min"] == StepEdge("step", "x_min", 18, -80.0, 80.0)
-    assert rows["step", "y_min"] == StepEdge("step", "y_min", 8, 0.0, 0.0)  # end cells only
+    # A floor carried over the edge counts in full: the nearest edge the map allows is as far.
+    assert rows["step", "x_min"] == StepEdge("step", "x_min", 18, -80.0, 80.0, -80.0, 0.0)
+    assert rows["step", "y_min"] == StepEdge("step", "y_min", 8, 0.0, 0.0, 0.0, 0.0)  # ends
     assert rows["platform", "x_min"].median_error_mm == 0.0
 
 
@@ -145,7 +147,30 @@ def test_an_obstacle_band_in_front_of_a_riser_puts_the_edge_in_its_middle():
     band = across(c, 0.52, 0.6)
     types[band] = OBSTACLE  # the riser, seen 2 cells toward the robot; the tread in place
     heights[band] = 0.06
-    assert edges_of(truth, types, heights)["step", "x_min"].median_error_mm == -40.0
+    row = edges_of(truth, types, heights)["step", "x_min"]
+    assert row.median_error_mm == -40.0
+    # The band may hold the edge anywhere: the true edge (its far side) fits, 2 cells wide.
+    assert (row.median_nearest_error_mm, row.median_gap_mm) == (0.0, 80.0)
+
+
+def test_a_shadow_behind_a_platform_edge_is_a_gap_not_a_misplaced_edge():
+    truth = stairs(STEP, PLATFORM)
+    c, types, heights = perfect_map(truth)
+    # Nothing seen within 3 cells beyond the platform's far side (x = 1.4): the ground there is
+    # unknown, the platform's floor reaches its edge.
+    types[(c[..., 0] > 1.4) & (c[..., 0] < 1.52)] = UNKNOWN
+    row = edges_of(truth, types, heights)["platform", "x_max"]
+    assert row == StepEdge("platform", "x_max", 18, -60.0, 60.0, 0.0, 120.0)
+    # The platform's floor carried one cell past it, then 2 cells unknown: the map's floor
+    # contradicts the edge by a cell, whatever the band holds.
+    types[(c[..., 0] > 1.4) & (c[..., 0] < 1.44) & (c[..., 1] > 0.2) & (c[..., 1] < 1.0)] = FLOOR
+    heights[(c[..., 0] > 1.4) & (c[..., 0] < 1.44)] = 0.1
+    row = edges_of(truth, types, heights)["platform", "x_max"]
+    assert (row.median_error_mm, row.median_nearest_error_mm, row.median_gap_mm) == (
+        -80.0,
+        -40.0,
+        80.0,
+    )
 
 
 def test_sign_is_toward_the_higher_side_from_either_surface():
@@ -156,6 +181,8 @@ def test_sign_is_toward_the_higher_side_from_either_surface():
     rows = edges_of(truth, types, heights)
     assert rows["step", "x_max"].median_error_mm == 40.0
     assert rows["platform", "x_min"].median_error_mm == 40.0
+    assert rows["step", "x_max"].median_nearest_error_mm == 40.0
+    assert rows["platform", "x_min"].median_gap_mm == 0.0
 
 
 def test_edges_without_a_seen_cell_or_without_a_step_are_not_listed():
@@ -165,7 +192,7 @@ def test_edges_without_a_seen_cell_or_without_a_step_are_not_listed():
     rows = edges_of(truth, types, heights)
     assert ("platform", "x_max") not in rows  # nothing seen within 0.2 m of x = 1.4
     # Along the platform's y edges, only the slots at x < 1.2 (4 of 8) are seen.
-    assert rows["platform", "y_min"] == StepEdge("platform", "y_min", 4, 0.0, 0.0)
+    assert rows["platform", "y_min"] == StepEdge("platform", "y_min", 4, 0.0, 0.0, 0.0, 0.0)
     # Two surfaces of one height side by side: their shared edge is no step.
     twin = ObjectState("twin", (1.2, 0.6), (0.4, 0.8, 0.05), 0.0, 0.0, True)
     flat = stairs(STEP, twin)
@@ -180,7 +207,7 @@ def test_an_edge_in_view_whose_step_the_map_misses_has_no_error():
     _, types, heights = perfect_map(truth)
     heights[:] = 0.0  # the map never shows the step
     assert edges_of(truth, types, heights)["step", "x_min"] == StepEdge(
-        "step", "x_min", 0, None, None
+        "step", "x_min", 0, None, None, None, None
     )
 
 
@@ -191,7 +218,7 @@ def test_edges_are_named_in_the_objects_own_frame():
     c, types, heights = perfect_map(truth)
     heights[across(c, 0.52, 0.6)] = 0.05
     rows = edges_of(truth, types, heights)
-    assert rows["step", "y_max"] == StepEdge("step", "y_max", 18, -80.0, 80.0)
+    assert rows["step", "y_max"] == StepEdge("step", "y_max", 18, -80.0, 80.0, -80.0, 0.0)
     assert rows["step", "x_min"].median_error_mm == 0.0
 
 
@@ -271,3 +298,10 @@ def test_each_crossed_limit_is_a_reason():
         "the map is empty: the FOG labelled no cell floor or obstacle",
         "only 40.0 % of the seen floor is floor within 20 mm of the truth (limit 50 %)",
     )
+
+
+def test_report_numbers_are_rounded_and_never_a_negative_zero():
+    assert mm(0.0123456) == 12.35 and mm(float("nan")) is None
+    assert math.copysign(1.0, mm(-1e-9)) == 1.0  # -0.000001 mm rounds to 0.0, not -0.0
+    assert math.copysign(1.0, rounded(-1e-9, 5)) == 1.0
+    assert rounded(float("inf"), 2) is None

@@ -44,10 +44,12 @@ def _rescoring_grow_planes(inv_depth, x, y, rows, starts, stops, table, sums, *f
     def best_seed(s: int) -> float:
         segment_sums, plane, members, chosen = work
         return scanline._best_seed(
-            s, sums, x, y, rows, starts, stops, table, row_first, plane_of,
-            grow_factor, rms_factor, tol0, seed_min_pixels,
-            members, segment_sums, plane, chosen, tried,
-        )  # fmt: skip
+            s,
+            (sums, x, y, rows, starts, stops, table, row_first),
+            plane_of,
+            (grow_factor, rms_factor, tol0, seed_min_pixels),
+            (members, segment_sums, plane, chosen, tried),
+        )
 
     scores = np.array([best_seed(s) for s in range(n_seg)])
     n_planes = 0
@@ -114,18 +116,15 @@ def test_tried_lists_the_picked_segments_beside_the_seed():
     plane_of = np.full(height, -1, np.int64)
     members = np.full(3, -1, np.int64)
     tried = np.full((height, 9), -7, np.int64)
-    score = scanline._best_seed(
-        2, sums, x, y, rows, starts, stops, table, row_first, plane_of, 3.0, 3.0, 0.002, 4,
-        members, np.zeros(20), np.zeros(13), np.full(3, -1, np.int64), tried,
-    )  # fmt: skip
+    segments = (sums, x, y, rows, starts, stops, table, row_first)
+    limits = (3.0, 3.0, 0.002, 4)
+    work = (members, np.zeros(20), np.zeros(13), np.full(3, -1, np.int64), tried)
+    score = scanline._best_seed(2, segments, plane_of, limits, work)
     assert score <= 1.0
     # Triples (2, 3, 4), (1, 2, 3), (0, 1, 2): s itself is not listed (it is free by the caller).
     np.testing.assert_array_equal(tried[2], [-1, 3, 4, 1, -1, 3, 0, 1, -1])
     np.testing.assert_array_equal(tried[[0, 1, 3, 4]], -7)  # only s's row is written
     # Once a picked segment is taken, the triples through it are gone: a different answer.
     plane_of[4] = 0
-    scanline._best_seed(
-        2, sums, x, y, rows, starts, stops, table, row_first, plane_of, 3.0, 3.0, 0.002, 4,
-        members, np.zeros(20), np.zeros(13), np.full(3, -1, np.int64), tried,
-    )  # fmt: skip
+    scanline._best_seed(2, segments, plane_of, limits, work)
     np.testing.assert_array_equal(tried[2], [-1, 3, -1, 1, -1, 3, 0, 1, -1])

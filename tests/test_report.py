@@ -272,9 +272,9 @@ def test_format_table1_shows_the_new_figures_compactly():
         obstacle=class_scores(20, 10, 8),
         safety=safety_with(7, on_obstacle=2),
         step_edges=[
-            step_edge("sill", "x_min", -80.0, 120.0),
-            step_edge("sill", "x_max", 4.0, 40.0),
-            step_edge("step_1", "x_min", None, None),
+            step_edge("sill", "x_min", -80.0, 120.0, 0.0, 160.0),
+            step_edge("sill", "x_max", 4.0, 40.0),  # a report from before the band figures
+            step_edge("step_1", "x_min", None, None, None, None),
         ],
         unseen_objects=["box_left_2", "box_right_2"],
         ceiling=CeilingScores(12, 20.0, 60.0),
@@ -284,9 +284,10 @@ def test_format_table1_shows_the_new_figures_compactly():
         "floor: recall 97.4 %, precision 94.9 %; obstacle: recall 40.0 %, precision 80.0 %",
         "unsafe cells: 7 (2 floor on obstacle, 5 floor off > 20 mm); "
         "floor height error p50 1.0 / p95 3.0 / max 40.0 mm",
-        "step edges, median / max |error| mm (+ = toward the higher side):",
-        "  sill: x_min -80.0 / 120.0  x_max 4.0 / 40.0",
-        "  step_1: x_min - / -",
+        "step edges, median / max |error| mm (+ = toward the higher side),"
+        " [nearest edge the map allows, undecided band] mm:",
+        "  sill: x_min -80.0 / 120.0 [0.0, 160.0]  x_max 4.0 / 40.0",
+        "  step_1: x_min - / - [-, -]",
         "never seen: box_left_2, box_right_2",
         "ceiling: 12 cells, |error| median 20.0 / max 60.0 mm",
     ]

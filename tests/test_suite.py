@@ -88,6 +88,27 @@ def test_report_metrics_take_the_residual_heading_median_when_the_run_has_one():
     assert heading.worse_by(0.64, 0.4) < 0 and heading.worse_by(0.66, 0.4) > 0
 
 
+def test_report_metrics_take_an_edges_band_figures_when_the_report_has_them():
+    banded = dataclasses.replace(
+        REPORT,
+        step_edges=(
+            StepEdge("sill", "near", 20, -60.0, 80.0, -20.0, 80.0),
+            StepEdge("sill", "far", 0, None, None, None, None),
+        ),
+    )
+    metrics = report_metrics(banded)
+    assert metrics.keys() - report_metrics(REPORT).keys() == {
+        "step_edges.sill.near.nearest_abs_error_mm",
+        "step_edges.sill.near.gap_mm",
+    }
+    assert metrics["step_edges.sill.near.abs_error_mm"] == 60.0
+    assert metrics["step_edges.sill.near.nearest_abs_error_mm"] == 20.0
+    assert metrics["step_edges.sill.near.gap_mm"] == 80.0
+    gap = rule_for("step_edges.sill.near.gap_mm")
+    assert gap.direction == "lower" and gap.worse_by(100.0, 80.0) == 0.0
+    assert gap.worse_by(120.0, 80.0) == 20.0  # a cell more left undecided: flagged
+
+
 def test_rules_allow_the_tolerance_and_flag_beyond_it():
     table = rule_for("table1.sill.abs_error_mm")
     assert table.worse_by(3.4, 2.5) < 0  # 0.9 mm worse: within 1 mm

@@ -11,6 +11,7 @@ FOG labels it floor or obstacle.
 from __future__ import annotations
 
 from dataclasses import dataclass
+from typing import NamedTuple
 
 import numpy as np
 from numpy.typing import NDArray
@@ -355,16 +356,38 @@ def _object_edges(obj: ObjectState) -> tuple[_Edge, ...]:
     )
 
 
-def _boundary_m(offsets_m: NDArray[np.float64], inner: NDArray[np.bool_]) -> float | None:
-    """Where along a profile the map changes from the inner surface to the outer one [m].
+class _Boundary(NamedTuple):
+    """Where a profile's map changes from the inner surface to the outer one.
+
+    Attributes:
+        middle_m: The middle of the boundaries that leave the fewest cells on the wrong side
+            (the mean of equally good ones) [m], along the profile from the true edge.
+        nearest_m: Of those boundaries, the position nearest the true edge [m]: a boundary may
+            lie anywhere in the band between its two cells (from the nearer side of one to the
+            nearer side of the other), so 0 when the true edge lies in a band the map leaves
+            undecided (unknown or obstacle cells), the band's near side otherwise.
+        gap_m: Width of that band: the cells between the two sides that the map puts on
+            neither [m] (0 when the two sides' floors touch).
+    """
+
+    middle_m: float
+    nearest_m: float
+    gap_m: float
+
+
+def _boundary_m(
+    offsets_m: NDArray[np.float64], inner: NDArray[np.bool_], cell_m: float
+) -> _Boundary | None:
+    """Where along a profile the map changes from the inner surface to the outer one.
 
     Args:
         offsets_m: (n,) signed offsets of the profile's cells from the true edge [m].
         inner: (n,) the map puts the cell on the inner surface (else on the outer one).
+        cell_m: Cell side [m]: a cell reaches half of it to either side of its centre.
 
     Returns:
-        The boundary between two neighbouring cells (by offset) that leaves the fewest cells on
-        the wrong side (the mean of equally good ones), or None unless both sides have a cell.
+        The `_Boundary` between two neighbouring cells (by offset) that leaves the fewest cells
+        on the wrong side, or None unless both sides have a cell.
     """
     order = np.argsort(offsets_m, kind="stable")
     t, on_inner = offsets_m[order], inner[order]
@@ -374,7 +397,19 @@ def _boundary_m(offsets_m: NDArray[np.float64], inner: NDArray[np.bool_]) -> flo
     outer_upto = np.cumsum(~on_inner)  # outer cells at or before each index
     wrong = outer_upto[:-1] + inner_from[1:]
     best = np.flatnonzero(wrong == wrong.min())
-    return float(np.mean(0.5 * (t[best] + t[best + 1])))
+    middles = 0.5 * (t[best] + t[best + 1])
+    # Each tied boundary's band: from the far side of its lower cell to the near side of its
+    # upper one (cells closer than a cell apart, off the lattice, leave no band: the middle).
+    low = np.minimum(t[best] + 0.5 * cell_m, middles)
+    high = np.maximum(t[best + 1] - 0.5 * cell_m, middles)
+    nearest = np.clip(0.0, low, high)
+    nearest[np.abs(nearest) < 1e-9] = 0.0  # an edge on a cell side, up to rounding
+    k = int(np.argmin(np.abs(nearest)))
+    return _Boundary(
+        middle_m=float(np.mean(middles)),
+        nearest_m=float(nearest[k]) + 0.0,  # + 0.0: no negative zero
+        gap_m=float(high[k] - low[k]),
+    )
 
 
 @dataclass(frozen=True)
@@ -402,7 +437,7 @@ def _edge_errors(
     edge: _Edge,
     cells: _FlatCells,
     cell_m: float,
-) -> tuple[bool, list[float]]:
+) -> tuple[bool, list[_Boundary]]:
     """Signed edge errors [m] (+ toward the higher side) along one edge of a walkable surface.
 
     One profile per cell-wide slot along the edge (end slots left out): the cells on the
@@ -414,8 +449,8 @@ def _edge_errors(
     to neither), and :func:`_boundary_m` puts the map's edge between the two sides.
 
     Returns:
-        Whether the FOG labelled any cell of the edge's step profiles, and one error per slot
-        where the map shows the step.
+        Whether the FOG labelled any cell of the edge's step profiles, and one `_Boundary` per
+        slot where the map shows the step, its positions signed + toward the higher side.
     """
     midpoint, normal, length = edge.midpoint_xy, edge.normal_xy, edge.length_m
     tangent = np.array([-normal[1], normal[0]])
@@ -445,9 +480,12 @@ def _edge_errors(
         in_view |= bool(profile.any())
         to_top, to_beyond = np.abs(heights - top), np.abs(heights - beyond_m)
         decided = profile & np.isfinite(heights) & (to_top != to_beyond)
-        boundary = _boundary_m(offset[decided], (to_top < to_beyond)[decided])
+        boundary = _boundary_m(offset[decided], (to_top < to_beyond)[decided], cell_m)
         if boundary is not None:
-            errors.append(boundary if beyond_m > top else -boundary)
+            sign = 1.0 if beyond_m > top else -1.0
+            errors.append(
+                _Boundary(sign * boundary.middle_m, sign * boundary.nearest_m + 0.0, boundary.gap_m)
+            )
     return in_view, errors
 
 
@@ -488,14 +526,16 @@ def step_edges(
             in_view, errors = _edge_errors(truth, obj, edge, cells, grid.cell_m)
             if not in_view:
                 continue
-            e = np.asarray(errors)
+            e = np.asarray(errors, dtype=np.float64).reshape(-1, 3)  # middle, nearest, gap
             rows.append(
                 StepEdge(
                     surface=obj.name,
                     edge=edge.name,
-                    cells=int(e.size),
-                    median_error_mm=mm(np.median(e)) if e.size else None,
-                    max_abs_error_mm=mm(np.abs(e).max()) if e.size else None,
+                    cells=len(e),
+                    median_error_mm=mm(np.median(e[:, 0])) if len(e) else None,
+                    max_abs_error_mm=mm(np.abs(e[:, 0]).max()) if len(e) else None,
+                    median_nearest_error_mm=mm(np.median(e[:, 1])) if len(e) else None,
+                    median_gap_mm=mm(np.median(e[:, 2])) if len(e) else None,
                 )
             )
     return tuple(rows)

@@ -21,6 +21,11 @@ figure                                        direction  tolerance    meaning
                                               + 10 %                  or > 20 mm off
 ``step_edges.<surface>.<edge>.abs_error_mm``  lower      20 mm        |median position error|
                                                                       of a walkable edge
+``step_edges.<surface>.<edge>.nearest_abs_``  lower      20 mm        |median error| of the
+``error_mm``                                                          edge nearest the truth
+                                                                      that the map allows
+``step_edges.<surface>.<edge>.gap_mm``        lower      20 mm        median width of the band
+                                                                      left undecided at it
 ``events.<object>.cleared_frames``            lower      3 frames     until no footprint cell
                                                                       shows the object
 ``events.<object>.floor_again_frames``        lower      3 frames     until ≥ 90 % of it is
@@ -171,9 +176,13 @@ def report_metrics(report: Report) -> dict[str, float]:
     if report.safety is not None:
         metrics["safety.unsafe_cells"] = float(report.safety.unsafe_cells)
     for edge in report.step_edges:
+        name = f"step_edges.{edge.surface}.{edge.edge}"
         if edge.median_error_mm is not None:
-            name = f"step_edges.{edge.surface}.{edge.edge}.abs_error_mm"
-            metrics[name] = abs(float(edge.median_error_mm))
+            metrics[f"{name}.abs_error_mm"] = abs(float(edge.median_error_mm))
+        if isinstance(edge.median_nearest_error_mm, float):
+            metrics[f"{name}.nearest_abs_error_mm"] = abs(edge.median_nearest_error_mm)
+        if isinstance(edge.median_gap_mm, float):
+            metrics[f"{name}.gap_mm"] = edge.median_gap_mm
     for event in report.events:
         if event.seen.fog:
             metrics[f"events.{event.object}.cleared_frames"] = _frames(event.cleared_frames.fog)

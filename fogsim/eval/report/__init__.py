@@ -45,8 +45,11 @@ the robot-centred grid (a world-fixed archive keeps each cell's last value):
 * ``step_edges``: per edge (``x_min``, ``x_max``, ``y_min``, ``y_max`` in the object's frame) of
   each walkable surface in view: ``cells`` (positions one cell apart along the edge where the map
   shows the step), ``median_error_mm`` (signed, along the edge normal, + = the map puts the edge
-  toward the higher side; a riser mapped toward a robot walking up is negative) and
-  ``max_abs_error_mm``. Table I leaves border cells out; this is about exactly those.
+  toward the higher side; a riser mapped toward a robot walking up is negative),
+  ``max_abs_error_mm``, ``median_nearest_error_mm`` (the edge nearest the true one that agrees
+  with the map as well: 0 where the true edge lies in a band the map leaves unknown or obstacle)
+  and ``median_gap_mm`` (that band's width: 0 where the two floors touch). Table I leaves border
+  cells out; this is about exactly those.
 * ``unseen_objects``: objects present at the end none of whose cells the FOG ever labelled.
 * ``ceiling``: where the truth has a ceiling (something hanging) in the region: ``cells`` with a
   mapped ceiling, ``median_abs_error_mm``, ``max_abs_error_mm``; null where nothing hangs.

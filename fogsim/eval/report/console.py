@@ -4,6 +4,8 @@ from __future__ import annotations
 
 from itertools import groupby
 
+from msgspec import UnsetType
+
 from fogsim.eval.report.schema import Report, Safety, StepEdge
 
 NO_TRUTH = "Table I: no ground truth (nothing to score)."
@@ -28,16 +30,28 @@ def _safety_line(safety: Safety) -> str:
 
 
 def _step_edge_lines(edges: tuple[StepEdge, ...]) -> list[str]:
-    lines = ["step edges, median / max |error| mm (+ = toward the higher side):"]
+    lines = [
+        "step edges, median / max |error| mm (+ = toward the higher side),"
+        " [nearest edge the map allows, undecided band] mm:"
+    ]
     for surface, rows in groupby(edges, key=lambda edge: edge.surface):
         lines.append(
             f"  {surface}: "
             + "  ".join(
                 f"{row.edge} {_num(row.median_error_mm)} / {_num(row.max_abs_error_mm)}"
+                + _edge_band(row)
                 for row in rows
             )
         )
     return lines
+
+
+def _edge_band(row: StepEdge) -> str:
+    """`` [nearest, gap]`` of an edge, or nothing for a report from before those figures."""
+    nearest, gap = row.median_nearest_error_mm, row.median_gap_mm
+    if isinstance(nearest, UnsetType) or isinstance(gap, UnsetType):
+        return ""
+    return f" [{_num(nearest)}, {_num(gap)}]"
 
 
 def format_warnings(report: Report) -> list[str]:

@@ -271,6 +271,15 @@ class StepEdge:
             higher side** (a riser the map puts toward a robot walking up is negative); None
             when the map shows the step nowhere along the edge.
         max_abs_error_mm: Largest absolute error [mm]; None likewise.
+        median_nearest_error_mm: Median over the positions of the error of the edge nearest
+            the true one that agrees with the map as well as the middle does [mm], signed as
+            ``median_error_mm``: a band the map leaves unknown or obstacle between the two
+            surfaces' floors may hold the edge anywhere, so this is 0 where the true edge lies
+            in it and the map's floors reach past it nowhere; a surface's floor carried over
+            the edge counts in full. None likewise; missing in reports before it.
+        median_gap_mm: Median width of that band [mm] (0 where the two floors touch): what
+            the map leaves undecided at the edge (a shadow behind a rise, a riser's face, a
+            rim left unknown). None likewise; missing in reports before it.
     """
 
     surface: str
@@ -278,6 +287,8 @@ class StepEdge:
     cells: int
     median_error_mm: float | None
     max_abs_error_mm: float | None
+    median_nearest_error_mm: float | UnsetType | None = UNSET
+    median_gap_mm: float | UnsetType | None = UNSET
 
 
 @dataclass(frozen=True)
