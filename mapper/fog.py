@@ -82,7 +82,13 @@ def _highest_within(obstacle: NDArray[np.float64], ix: int, iy: int, margin: int
 
 @numba.njit(cache=True, inline="always")
 def _at_narrow_rise(
-    floor: NDArray[np.float64], ix: int, iy: int, h: float, band: float, cells: int
+    floor: NDArray[np.float64],
+    obstacle: NDArray[np.float64],
+    ix: int,
+    iy: int,
+    h: float,
+    band: float,
+    cells: int,
 ) -> bool:
     """Whether the floor ``h`` at ``(ix, iy)`` lies at the foot of a narrow raised surface.
 
@@ -91,7 +97,14 @@ def _at_narrow_rise(
     one skipped) drop again more than ``band`` below ``t`` before any other height than
     ``t ± band`` is met, after at least two cells within ``t ± band``: a raised surface two to
     ``cells`` cells deep in that direction (a sill, a low box), whose both edges — one of them
-    possibly inside this cell — lie within that distance. A single cell is no such surface:
+    possibly inside this cell — lie within that distance. A cell where nothing is stored (no
+    floor, no obstacle: never seen) met after those two cells ends the surface as a drop does:
+    the surface is no deeper than seen, and an unseen cell is no evidence that it goes on
+    (stage depth seed 5: the robot's standing place before the sill, hidden by its feet, 8
+    cells without anything stored between the ground and the sill, left the sill's far edge
+    cell a floor at the ground's height; stereo seed 7 the same with the box's shadow). A
+    cell with an obstacle but no floor (a riser, a box's side) is skipped, as one whose floor
+    a frame has not verified yet. A single cell is no such surface:
     it is a tread's points spilled a cell over the riser (stage depth seed 7: a 92 mm cell
     in step_2's last row cost that tread's cells beside it), which the rim rule leaves
     unknown. ``floor`` is the stored floor map (labels not used), read directly: the
@@ -114,12 +127,63 @@ def _at_narrow_rise(
                 break
             v = floor[cx, cy]
             if np.isnan(v):
+                if deep >= 2 and np.isnan(obstacle[cx, cy]):
+                    return True  # never seen: the surface ends as far as known
                 continue
             if v < top - band:
                 if deep >= 2:
                     return True
                 break
             if v > top + band:
+                break
+            deep += 1
+    return False
+
+
+@numba.njit(cache=True, inline="always")
+def _rim_before_unseen_foot(
+    floor: NDArray[np.float64],
+    obstacle: NDArray[np.float64],
+    ix: int,
+    iy: int,
+    h: float,
+    band: float,
+    cells: int,
+) -> bool:
+    """Whether the floor ``h`` at ``(ix, iy)`` is a narrow rise's rim before an unseen foot.
+
+    It is when, along x or y, its neighbour on one side holds nothing (no floor, no obstacle)
+    and on the other side the stored floors (cells without one skipped) stay within ``h ±
+    band`` for at least one more cell and drop more than ``band`` below ``h`` within ``cells``
+    cells: the cell is the near edge of a raised surface at most ``cells`` deep (a sill, a
+    low box) whose lower side there — where the rim rule would find the lower floor — lies in
+    a shadow or under the robot's feet. Its edge may cross this cell as likely as the
+    next (stage depth seed 7, stereo seeds 2–4, 7, 8: the sill's near edge cell, 1 cm of sill,
+    took the sill's height, the ground before it hidden behind a box). ``floor`` and
+    ``obstacle`` are the stored maps, read directly (module note in `_label`).
+    """
+    nx, ny = floor.shape
+    for d in range(4):
+        dx = 1 if d == 0 else (-1 if d == 1 else 0)
+        dy = 1 if d == 2 else (-1 if d == 3 else 0)
+        bx, by = ix - dx, iy - dy
+        if bx < 0 or bx >= nx or by < 0 or by >= ny:
+            continue
+        if not (np.isnan(floor[bx, by]) and np.isnan(obstacle[bx, by])):
+            continue
+        deep = 1  # cells of the raised surface met, this one the first
+        for k in range(1, cells + 1):
+            cx, cy = ix + k * dx, iy + k * dy
+            if cx < 0 or cx >= nx or cy < 0 or cy >= ny:
+                break
+            v = floor[cx, cy]
+            if np.isnan(v):
+                continue
+            if v < h - band:
+                if deep >= 2:
+                    return True
+                break
+            if v > h + band:
                 break
             deep += 1
     return False
@@ -325,7 +389,14 @@ def update_fog_area(
                     for kj in range(max(j - 1, 0), min(j + 2, kinds.shape[1])):
                         if h > above[ki, kj] or h < below[ki, kj]:  # itself: never
                             kind, h = _UNKNOWN, np.nan
-                if kind == _FLOOR and rise > 0 and _at_narrow_rise(floor, ix, iy, h, band, rise):
+                if (
+                    kind == _FLOOR
+                    and rise > 0
+                    and (
+                        _at_narrow_rise(floor, obstacle, ix, iy, h, band, rise)
+                        or _rim_before_unseen_foot(floor, obstacle, ix, iy, h, band, rise)
+                    )
+                ):
                     kind, h = _UNKNOWN, np.nan
                 if (
                     kind == _FLOOR

@@ -416,19 +416,86 @@ def test_cells_without_a_floor_are_skipped_and_the_rule_runs_along_y_too():
 
 
 def test_a_floor_change_relabels_the_foot_of_a_rise_beyond_the_band_ring():
-    # Updating only the cell where the ground behind a sill appears (cell 6) relabels the
-    # ground cell at the sill's near foot (cell 1), 5 cells away, as a whole-grid update does.
-    floors = [0.0, 0.0, 0.037, 0.037, 0.037, 0.037, np.nan, 0.0]
+    # Updating only the cell where the ground behind a sill appears (cell 6, where the sill
+    # seemed to go on: 5 cells deep, too deep for the rule) relabels the ground cell at the
+    # sill's near foot (cell 1), 5 cells away, as a whole-grid update does.
+    floors = [0.0, 0.0, 0.037, 0.037, 0.037, 0.037, 0.037, 0.0]
     og, floor = surfaces_grid(floors)
     types, _ = fog(og, floor, band=BAND, beside=True, rise=RISE)
     assert types[1, 1] == F
     floor[6, :] = 0.0
+    og[6, :, :] = 128
     og[6, :, layer_of(0.0)] = OCC
     part, _ = fog(
         og, floor, area=(6, 7, 0, 3), types=types.copy(), band=BAND, beside=True, rise=RISE
     )
     whole, _ = fog(og, floor, band=BAND, beside=True, rise=RISE)
     assert part[1, 1] == U and np.array_equal(part, whole)
+
+
+def test_a_rise_ending_in_cells_never_seen_is_narrow():
+    # The stage's sill seen from beyond (depth seed 5): 3 cells deep, the ground before it never
+    # seen (the robot's standing place, hidden by its feet: nothing stored, no floor, no
+    # obstacle), the ground beyond it a floor. The old scan went on through the unseen cells,
+    # found no drop within 4 and left the far foot (cell 8) a floor at the ground's height — on
+    # the far edge cell, which may hold the riser. An unseen cell ends the surface as far as
+    # known: the far foot is unknown; the ground farther (9, 10) stays floor.
+    nan = np.nan
+    floors = [0.0, nan, nan, nan, nan, 0.037, 0.037, 0.037, 0.0, 0.0, 0.0]
+    og, floor = surfaces_grid(floors)
+    types, _ = fog(og, floor, band=BAND, beside=True, rise=RISE)
+    assert types[8, 1] == U and types[9:, 1].tolist() == [F, F]
+    assert types[0, 1] == F and types[6, 1] == F  # the ground before, the sill's middle
+    # A cell with an obstacle but no floor (a riser's cell, a box's side) is no end: a surface
+    # 5 cells deep with such a cell in it keeps the cells at its feet.
+    floors = [0.0, 0.0, 0.037, 0.037, nan, 0.037, 0.037, 0.037, 0.0]
+    tops = [nan, nan, nan, nan, 0.05, nan, nan, nan, nan]
+    og, floor = surfaces_grid(floors, tops_m=tops)
+    types, _ = fog(og, floor, band=BAND, beside=True, rise=RISE)
+    assert types[1, 1] == F and types[8, 1] == F
+    # A single raised cell before the unseen one (a spill) is no surface: the foot stays floor.
+    floors = [0.0, 0.0, 0.037, nan, nan, nan, 0.0]
+    og, floor = surfaces_grid(floors)
+    types, _ = fog(og, floor, band=BAND, beside=True, rise=RISE)
+    assert types[1, 1] == F
+
+
+def test_the_near_rim_of_a_narrow_rise_before_an_unseen_foot_is_unknown():
+    # The stage's sill (depth seed 7), 4 cells deep: the ground before it hidden behind a box
+    # (cells 1-2: nothing stored), the ground beyond it a floor. The rim rule finds no lower
+    # floor beside the near edge cell (3), which kept the sill's height — on a cell the edge
+    # may cross. Its foot unseen and the surface dropping within 4 cells, it is unknown; the
+    # far rim (6) by the rim rule, the far foot (7) by the narrow rise, the middle (4, 5) floor.
+    nan = np.nan
+    floors = [0.0, nan, nan, 0.037, 0.037, 0.037, 0.037, 0.0, 0.0, 0.0]
+    og, floor = surfaces_grid(floors)
+    types, heights = fog(og, floor, band=BAND, beside=True, rise=RISE)
+    assert types[3:, 1].tolist() == [U, F, F, U, U, F, F]
+    assert heights[4, 1] == 0.037
+    # Along y the same.
+    along_y, _ = fog(
+        np.ascontiguousarray(og.transpose(1, 0, 2)),
+        np.ascontiguousarray(floor.T),
+        band=BAND,
+        beside=True,
+        rise=RISE,
+    )
+    assert np.array_equal(along_y.T, types)
+    # A surface 5 cells deep (a platform, a tread leading on) keeps its rim before the unseen
+    # cells; so does a surface that leads to a higher one (a staircase seen from its foot).
+    floors = [0.0, nan, nan, 0.037, 0.037, 0.037, 0.037, 0.037, 0.0, 0.0]
+    og, floor = surfaces_grid(floors)
+    types, _ = fog(og, floor, band=BAND, beside=True, rise=RISE)
+    assert types[3, 1] == F
+    floors = [0.0, nan, nan, 0.031, 0.031, 0.061, 0.061, 0.092, 0.092]
+    og, floor = surfaces_grid(floors)
+    types, _ = fog(og, floor, band=BAND, beside=True, rise=RISE)
+    assert types[3, 1] == F
+    # Without the narrow rise (0 cells) the rim stays a floor.
+    floors = [0.0, nan, nan, 0.037, 0.037, 0.037, 0.037, 0.0, 0.0, 0.0]
+    og, floor = surfaces_grid(floors)
+    types, _ = fog(og, floor, band=BAND, beside=True, rise=0)
+    assert types[3, 1] == F
 
 
 def test_narrow_rise_defaults_and_validation():
