@@ -48,7 +48,7 @@ def surfaces_grid(heights_m, ny=3, tops_m=None):
 
 def fog(
     og, floor, margin=0, area=None, types=None, band=0.0, beside=False, ends=None, passes=None,
-    rise=0, shadow=0, island=0,
+    rise=0, shadow=0, island=0, spill=False,
 ):  # fmt: skip
     """Types and heights after `update_fog_area` over ``area`` (default: the whole grid);
     ``types`` pre-fills the FOG (default −1: no label, to see which cells were written). The
@@ -64,7 +64,7 @@ def fog(
     update_fog_area(
         og, floor, obstacle, types, heights, P.occ_threshold_level, Z0, L, P.delta_m,
         ix0, ix1, iy0, iy1, ends, passes, P.floor_pass_min_rays, P.floor_pass_fraction,
-        margin, band, beside, rise, shadow, island,
+        margin, band, beside, rise, shadow, island, spill,
     )  # fmt: skip
     return types, heights
 
@@ -495,6 +495,35 @@ def test_the_near_rim_of_a_narrow_rise_before_an_unseen_foot_is_unknown():
     floors = [0.0, nan, nan, 0.037, 0.037, 0.037, 0.037, 0.0, 0.0, 0.0]
     og, floor = surfaces_grid(floors)
     types, _ = fog(og, floor, band=BAND, beside=True, rise=0)
+    assert types[3, 1] == F
+
+
+def test_a_rim_over_a_lower_floor_under_its_own_spill_is_unknown():
+    # The stereo stage's sill seen at its side end (seeds 1, 4, 5, 7, 8) and step_1 before its
+    # riser (every seed): the ground cell beside the raised surface holds the ground's floor
+    # and the raised surface's spilled points one layer up (top 0.06 > 0 + δ: an obstacle by
+    # eq. 11), so the rim rule, which looks for a neighbour labelled floor, left the raised
+    # cell beside it (3) a floor — on a ground cell that took the sill's height. With
+    # `rim_over_spill` a neighbour's stored floor more than the band below counts when its
+    # top reaches no higher than this floor + δ: cell 3 is unknown, the surface beyond floor.
+    floors = [0.0, 0.0, 0.0, 0.037, 0.037, 0.037, 0.037, 0.037, 0.037]
+    tops = [np.nan, np.nan, 0.05] + [np.nan] * 6
+    og, floor = surfaces_grid(floors, tops_m=tops)
+    types, heights = fog(og, floor, band=BAND, beside=True, rise=RISE, spill=True)
+    assert types[:, 1].tolist() == [F, F, OB, U, F, F, F, F, F]
+    assert heights[4, 1] == 0.037
+    without, _ = fog(og, floor, band=BAND, beside=True, rise=RISE)
+    assert without[:, 1].tolist() == [F, F, OB, F, F, F, F, F, F]
+    # Something taller than this floor + δ there (top 0.10 > 0.037 + 0.05) is no spill of it:
+    # the rule leaves the floor beside it alone (the obstacle rule judges it).
+    tops = [np.nan, np.nan, 0.09] + [np.nan] * 6
+    og, floor = surfaces_grid(floors, tops_m=tops)
+    types, _ = fog(og, floor, band=BAND, beside=False, rise=RISE, spill=True)
+    assert types[3, 1] == F
+    # Without the band the rule is off.
+    tops = [np.nan, np.nan, 0.05] + [np.nan] * 6
+    og, floor = surfaces_grid(floors, tops_m=tops)
+    types, _ = fog(og, floor, beside=True, rise=RISE, spill=True)
     assert types[3, 1] == F
 
 
