@@ -527,6 +527,21 @@ def test_a_rim_over_a_lower_floor_under_its_own_spill_is_unknown():
     assert types[3, 1] == F
 
 
+def test_a_narrow_surface_between_two_spilled_edge_cells_keeps_its_cells():
+    # The room's sill in stereo: 2 cells deep (3, 4), its edge cells (2, 5) hold the ground's
+    # floor under the sill's spill. Across the sill (the other side of each cell) the floors
+    # drop within 4 cells: a narrow rise, whose rims the narrow-rise rules judge; the spill
+    # rule leaves it alone (on: the sill's Table I row lost every cell on some seeds). Middle
+    # row of 5 (the diagonals reach the ground past the sill's corners).
+    nan = np.nan
+    floors = [0.0, 0.0, 0.0, 0.037, 0.037, 0.0, 0.0, 0.0]
+    tops = [nan, nan, 0.05, nan, nan, 0.05, nan, nan]
+    og, floor = surfaces_grid(floors, ny=5, tops_m=tops)
+    types, heights = fog(og, floor, band=BAND, beside=True, rise=RISE, spill=True)
+    assert types[:, 2].tolist() == [F, F, OB, F, F, OB, F, F]
+    assert heights[3, 2] == 0.037 and heights[4, 2] == 0.037
+
+
 def test_narrow_rise_defaults_and_validation():
     assert P.narrow_rise_m == 0.16 and P.narrow_rise_cells == 4
     assert MapperParams(narrow_rise_m=0.0).narrow_rise_cells == 0
