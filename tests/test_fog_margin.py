@@ -701,3 +701,27 @@ def test_the_patch_rule_relabels_as_a_whole_grid_update_would():
     part = update((4, 5, 5, 6), types.copy())
     whole = update((0, nx, 0, ny), np.full((nx, ny), -1, dtype=np.int8))
     assert part[4, 4] == U and np.array_equal(part, whole)
+
+
+def test_rim_over_spill_is_off_by_default_and_the_mapper_passes_it():
+    # A 60 mm box top 0.40 × 0.20 m (10 × 5 cells) on the ground, seen straight down: its
+    # edge cells hold the ground's floor under the box's layer (an obstacle by eq. 11, its top
+    # 0.10 within 0.0615 + δ). Off (the default), the box top is a floor up to them; on, its
+    # cells beside them are unknown (the box is wider than the narrow-rise limit both ways).
+    assert P.rim_over_spill is False
+    with pytest.raises(InvalidParameterError, match="rim_over_spill"):
+        MapperParams(rim_over_spill=1)
+    xs, ys = np.meshgrid(np.arange(0.205, 1.0, 0.01), np.arange(-0.395, 0.4, 0.01), indexing="ij")
+    xs, ys = xs.ravel(), ys.ravel()
+    on_box = (xs > 0.40) & (xs < 0.80) & (ys > 0.10) & (ys < 0.30)
+    z = np.where(on_box, 0.0615, 0.0)
+    points = np.column_stack([xs, ys, z])
+    floors = {}
+    for on in (False, True):
+        m = FloorObstacleMapper(MapperParams(rim_over_spill=on))
+        for _ in range(10):
+            m.update(points, z.copy(), np.array([0.0, 0.0, 1.5]))
+        types, heights = m.fog()
+        floors[on] = (types == F) & (np.abs(heights - 0.0615) < 0.01)
+    assert floors[True].sum() < floors[False].sum()
+    assert not (floors[True] & ~floors[False]).any()  # only taken away
