@@ -35,7 +35,14 @@ Conventions (heights in world metres, NaN = invalid):
   lower side's cell may hold the riser as well (a sill's far edge cell: 1 cm of sill, 3 cm of
   ground), and its points do not tell (the higher surface spills a quarter of a cell's points
   over a riser on the cell boundary too); a walker steps over such a rise, so only there are
-  both sides given up, never at the foot of a tread that leads to a higher one.
+  both sides given up, never at the foot of a tread that leads to a higher one. A cell never
+  seen (nothing stored) ends the raised surface as a drop does (it is no deeper than seen),
+  and the near rim of a narrow rise whose foot holds no floor (never seen, or only its edge)
+  is unknown too: the rim rule finds no lower floor there.
+- Beyond the paper, with the band and `MapperParams.rim_over_spill`, the rim rule also counts
+  a neighbour labelled obstacle whose stored floor lies more than the band below and whose
+  top reaches no higher than the floor + δ: a lower surface under the raised surface's own
+  spill (the edge cell, or the ground beside a side edge spilled a cell over).
 - Beyond the paper, with the band, a floor before a wider shadow is unknown too
   (`MapperParams.shadow_reach_m`): a run of up to n cells with nothing stored leads from it,
   along x, y or a diagonal, to a floor more than the band below it. Pose drift (the zig-zag
@@ -82,7 +89,13 @@ def _highest_within(obstacle: NDArray[np.float64], ix: int, iy: int, margin: int
 
 @numba.njit(cache=True, inline="always")
 def _at_narrow_rise(
-    floor: NDArray[np.float64], ix: int, iy: int, h: float, band: float, cells: int
+    floor: NDArray[np.float64],
+    obstacle: NDArray[np.float64],
+    ix: int,
+    iy: int,
+    h: float,
+    band: float,
+    cells: int,
 ) -> bool:
     """Whether the floor ``h`` at ``(ix, iy)`` lies at the foot of a narrow raised surface.
 
@@ -91,7 +104,14 @@ def _at_narrow_rise(
     one skipped) drop again more than ``band`` below ``t`` before any other height than
     ``t ± band`` is met, after at least two cells within ``t ± band``: a raised surface two to
     ``cells`` cells deep in that direction (a sill, a low box), whose both edges — one of them
-    possibly inside this cell — lie within that distance. A single cell is no such surface:
+    possibly inside this cell — lie within that distance. A cell where nothing is stored (no
+    floor, no obstacle: never seen) met after those two cells ends the surface as a drop does:
+    the surface is no deeper than seen, and an unseen cell is no evidence that it goes on
+    (stage depth seed 5: the robot's standing place before the sill, hidden by its feet, 8
+    cells without anything stored between the ground and the sill, left the sill's far edge
+    cell a floor at the ground's height; stereo seed 7 the same with the box's shadow). A
+    cell with an obstacle but no floor (a riser, a box's side) is skipped, as one whose floor
+    a frame has not verified yet. A single cell is no such surface:
     it is a tread's points spilled a cell over the riser (stage depth seed 7: a 92 mm cell
     in step_2's last row cost that tread's cells beside it), which the rim rule leaves
     unknown. ``floor`` is the stored floor map (labels not used), read directly: the
@@ -114,6 +134,8 @@ def _at_narrow_rise(
                 break
             v = floor[cx, cy]
             if np.isnan(v):
+                if deep >= 2 and np.isnan(obstacle[cx, cy]):
+                    return True  # never seen: the surface ends as far as known
                 continue
             if v < top - band:
                 if deep >= 2:
@@ -122,6 +144,97 @@ def _at_narrow_rise(
             if v > top + band:
                 break
             deep += 1
+    return False
+
+
+@numba.njit(cache=True, inline="always")
+def _rim_before_unseen_foot(
+    floor: NDArray[np.float64],
+    obstacle: NDArray[np.float64],
+    ix: int,
+    iy: int,
+    h: float,
+    band: float,
+    delta: float,
+    cells: int,
+) -> bool:
+    """Whether the floor ``h`` at ``(ix, iy)`` is a narrow rise's rim before an unseen foot.
+
+    It is when, along x or y, its neighbour on one side holds nothing (no floor, no obstacle)
+    and on the other side the stored floors (cells without one skipped) stay within ``h ±
+    band`` for at least one more cell and drop more than ``band`` below ``h`` within ``cells``
+    cells: the cell is the near edge of a raised surface at most ``cells`` deep (a sill, a
+    low box) whose lower side there — where the rim rule would find the lower floor — lies in
+    a shadow or under the robot's feet. Its edge may cross this cell as likely as the
+    next (stage depth seed 7, stereo seeds 2–4, 7, 8: the sill's near edge cell, 1 cm of sill,
+    took the sill's height, the ground before it hidden behind a box). ``floor`` and
+    ``obstacle`` are the stored maps, read directly (module note in `_label`).
+    """
+    nx, ny = floor.shape
+    for d in range(4):
+        dx = 1 if d == 0 else (-1 if d == 1 else 0)
+        dy = 1 if d == 2 else (-1 if d == 3 else 0)
+        bx, by = ix - dx, iy - dy
+        if bx < 0 or bx >= nx or by < 0 or by >= ny:
+            continue
+        if not np.isnan(floor[bx, by]) or obstacle[bx, by] > h + delta:  # NaN top: nothing
+            continue
+        deep = 1  # cells of the raised surface met, this one the first
+        for k in range(1, cells + 1):
+            cx, cy = ix + k * dx, iy + k * dy
+            if cx < 0 or cx >= nx or cy < 0 or cy >= ny:
+                break
+            v = floor[cx, cy]
+            if np.isnan(v):
+                continue
+            if v < h - band:
+                if deep >= 2:
+                    return True
+                break
+            if v > h + band:
+                break
+            deep += 1
+    return False
+
+
+@numba.njit(cache=True, inline="always")
+def _on_narrow_surface(
+    floor: NDArray[np.float64],
+    obstacle: NDArray[np.float64],
+    ix: int,
+    iy: int,
+    dx: int,
+    dy: int,
+    h: float,
+    band: float,
+    cells: int,
+) -> bool:
+    """Whether the floor ``h`` at ``(ix, iy)`` lies on a narrow surface along ``(dx, dy)``.
+
+    It does when, from it along ``(dx, dy)``, the stored floors (cells without one skipped)
+    stay within ``h ± band`` for at least one more cell and then drop more than ``band``
+    below ``h``, or reach a cell where nothing is stored (never seen), within ``cells``
+    cells: a narrow rise (a sill, a low box), whose rims and feet the narrow-rise rules
+    judge, and whose middle must not be given up for an edge's spill on the other side
+    (the room's stereo sill, 2–3 cells deep between two spill cells). A single cell is no
+    surface. ``floor`` and ``obstacle`` are the stored maps, read directly.
+    """
+    nx, ny = floor.shape
+    deep = 1  # cells of the surface met, this one the first
+    for k in range(1, cells + 1):
+        cx, cy = ix + k * dx, iy + k * dy
+        if cx < 0 or cx >= nx or cy < 0 or cy >= ny:
+            return False
+        v = floor[cx, cy]
+        if np.isnan(v):
+            if deep >= 2 and np.isnan(obstacle[cx, cy]):
+                return True
+            continue
+        if v < h - band:
+            return deep >= 2
+        if v > h + band:
+            return False
+        deep += 1
     return False
 
 
@@ -211,6 +324,7 @@ def update_fog_area(
     rise_cells: int = 0,
     shadow_cells: int = 0,
     min_floor_neighbours: int = 0,
+    rim_over_spill: bool = False,
 ) -> None:
     """Recompute ``obstacle`` (eq. 10) and the FOG (eq. 11) in ``[ix0, ix1) × [iy0, iy1)``.
 
@@ -238,6 +352,11 @@ def update_fog_area(
     With ``band`` > 0 and ``shadow_cells`` s > 1 (`MapperParams.shadow_reach_m`) a floor is
     unknown beside a shadow up to s cells wide too (`_behind_wide_shadow`): the FOG is then
     recomputed at least ``s + 1`` cells beyond the area.
+
+    With ``band`` > 0 and ``rim_over_spill`` (`MapperParams.rim_over_spill`) a floor at ``h``
+    is unknown beside an obstacle too whose stored floor lies more than ``band`` below ``h``
+    and whose top reaches no higher than ``h`` + δ (a lower floor under the raised surface's
+    spill); its reach is the rim rule's.
 
     With ``band`` > 0 and ``min_floor_neighbours`` k > 0 (`MapperParams.min_floor_neighbours`)
     a floor that the rules above leave a floor is unknown when fewer than k of its 8
@@ -291,6 +410,8 @@ def update_fog_area(
     # the maps: a helper call costs reference counting (module note in `_label`).
     above = np.full(kinds.shape, np.inf)
     below = np.full(kinds.shape, -np.inf)
+    spill_rims = rim_over_spill and band > 0.0
+    spill = np.full(kinds.shape, np.inf)
     if banded:
         for ix in range(max(ix0 - ring - 1 - extra, 0), min(ix1 + ring + 1 + extra, nx)):
             for iy in range(max(iy0 - ring - 1 - extra, 0), min(iy1 + ring + 1 + extra, ny)):
@@ -300,6 +421,11 @@ def update_fog_area(
                     if band > 0.0:
                         above[i, j] = h + band
                 elif kind == _OBSTACLE:
+                    hf = floor[ix, iy]
+                    if spill_rims and not np.isnan(hf):
+                        # A lower floor under this surface's spill: a floor h beside it is a
+                        # rim when h > hf + band and the top reaches no higher than h + δ.
+                        spill[i, j] = max(hf + band, h - delta)
                     if beside_obstacles:
                         step = False
                         for jx in range(max(ix - 1, 0), min(ix + 2, nx)):
@@ -325,7 +451,14 @@ def update_fog_area(
                     for kj in range(max(j - 1, 0), min(j + 2, kinds.shape[1])):
                         if h > above[ki, kj] or h < below[ki, kj]:  # itself: never
                             kind, h = _UNKNOWN, np.nan
-                if kind == _FLOOR and rise > 0 and _at_narrow_rise(floor, ix, iy, h, band, rise):
+                if (
+                    kind == _FLOOR
+                    and rise > 0
+                    and (
+                        _at_narrow_rise(floor, obstacle, ix, iy, h, band, rise)
+                        or _rim_before_unseen_foot(floor, obstacle, ix, iy, h, band, delta, rise)
+                    )
+                ):
                     kind, h = _UNKNOWN, np.nan
                 if (
                     kind == _FLOOR
@@ -333,6 +466,17 @@ def update_fog_area(
                     and _behind_wide_shadow(floor, obstacle, ix, iy, h, band, shadow)
                 ):
                     kind, h = _UNKNOWN, np.nan
+                if kind == _FLOOR and spill_rims:
+                    for ki in range(max(i - 1, 0), min(i + 2, kinds.shape[0])):
+                        for kj in range(max(j - 1, 0), min(j + 2, kinds.shape[1])):
+                            if (
+                                kind == _FLOOR
+                                and h > spill[ki, kj]  # itself: never (inf)
+                                and not _on_narrow_surface(
+                                    floor, obstacle, ix, iy, i - ki, j - kj, h, band, rise
+                                )
+                            ):
+                                kind, h = _UNKNOWN, np.nan
             if island > 0:
                 labels[i, j], label_heights[i, j] = kind, h
             else:

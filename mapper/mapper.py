@@ -260,6 +260,7 @@ class FloorObstacleMapper:
             p.narrow_rise_cells,
             p.shadow_reach_cells,
             p.min_floor_neighbours,
+            p.rim_over_spill,
         )
         if p.raised_rim_obstacle:  # `mapper.fog.mark_raised_rims`
             # The window `update_fog_area` rewrote: the grown area and its ring of cells.

@@ -207,7 +207,11 @@ class MapperParams:
             partly on the sill anyway), so a staircase's treads, each leading to a higher
             one, keep the cells at their risers' feet. 0.16 m (4 cells: iCub's foot is
             0.156 m long), floored to whole cells; 0 = off. The raised surface must be at
-            least two cells deep (`mapper.fog`). Depth replays, seeds 1–8, mean (worst): stage
+            least two cells deep (`mapper.fog`); a cell never seen (nothing stored) after
+            two of its cells ends it as a drop does — the robot's standing place before a
+            sill, hidden by its feet, or a box's shadow is no evidence that it goes on — and
+            the near rim of such a surface whose foot holds no floor (never seen, or only
+            this surface's edge) is unknown too. Depth replays, seeds 1–8, mean (worst): stage
             unsafe cells 2.12 (9) → 1.12 (3), obstacle recall 98.96 (95.48) → 99.45
             (98.58) %; stage_down 4.75 (14) → 0.12 (1); Table I rows unchanged; coverage: the
             ground row's and a tread's lose a cell or two on some seeds (stage step_2 worst
@@ -248,6 +252,30 @@ class MapperParams:
             under stereo noise, loses cells (seed 4: 29 → 17, its row −1.55 → −2.00 mm; the
             worst row over seeds 1.82 → 2.00 mm), more than the +0.1 mm allowed, so it is off:
             0 (the default) = off; 2 where rough tops matter more than thin sills.
+        rim_over_spill: Beyond the paper, with ``edge_band_m`` > 0: the rim rule counts a
+            neighbour that eq. 11 labels obstacle when its stored floor lies more than
+            ``edge_band_m`` below the floor beside it and its top reaches no higher than that
+            floor + ``delta_m`` (`mapper.fog`): a lower surface under the raised surface's
+            own spilled points, one layer up — the cell an edge crosses, or the ground beside
+            a side edge that pose error spilled a cell over. The rim rule looked only at
+            neighbours labelled floor, so the raised cell beside such a cell stayed a floor,
+            though it may be the ground at the raised surface's height (stereo stage: the
+            sill's side end and step_1's riser spilled a cell toward the robot, 4–5 cells a
+            run) or a rough top's low patch beside the box's edge (stage depth seeds 3 and 8).
+            Something taller than the floor + ``delta_m`` is no spill of it and is left to
+            ``unknown_beside_obstacles``; across a surface at most ``narrow_rise_m`` deep (a
+            sill between two such cells) the rule is off: the narrow-rise rules judge it (on
+            there, the room's stereo sill lost every right cell on some seeds, its row 0.99 →
+            12.9 mm). Replays seeds 1–8 (session 30, with the narrow-rise rules), False →
+            True, mean (worst): unsafe cells, depth: stage 0.38 (2) → 0 on every seed, room
+            → 1.50 (5), moving_box → 5.62 (12), zig-zag stage → 14.0 (43); stereo: stage →
+            2.75 (5), room → 8.38 (13), stage_down → 9.38 (30), zig-zag stage → 34.6 (63);
+            Table I worst rows within +0.02 mm — but in depth mode a riser's edge cell holds
+            the lower tread's floor under the upper tread's layer too, so the upper tread's
+            first row is given up: talos_course floor recall 96.50 → 96.42 %, 63 threshold
+            and 30–34 cells of every tread and the platform on seed 1; stereo zig-zag −0.03
+            point. False (the default, so that no floor recall is lost); True where the map
+            is walked on stereo or rough tops matter more than a tread's first row.
         obstacle_margin_cells: Beyond the paper: eq. 11 compares a cell's floor with the
             highest obstacle top (eq. 10) within this many cells of it (`mapper.fog`), so a
             floor beside something more than ``delta_m`` above it is an obstacle. The truth
@@ -319,6 +347,7 @@ class MapperParams:
     narrow_rise_m: float = 0.16
     shadow_reach_m: float = 0.16
     min_floor_neighbours: int = 0
+    rim_over_spill: bool = False
     obstacle_margin_cells: int = 0
     raised_rim_obstacle: bool = False
     floor_memory: float = 8.0
@@ -388,6 +417,7 @@ class MapperParams:
             "discretize_rays",
             "unknown_beside_obstacles",
             "raised_rim_obstacle",
+            "rim_over_spill",
         ):
             check(name, bool, "a bool")
         for name in _CAP_FIELDS:

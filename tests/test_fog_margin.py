@@ -48,7 +48,7 @@ def surfaces_grid(heights_m, ny=3, tops_m=None):
 
 def fog(
     og, floor, margin=0, area=None, types=None, band=0.0, beside=False, ends=None, passes=None,
-    rise=0, shadow=0, island=0,
+    rise=0, shadow=0, island=0, spill=False,
 ):  # fmt: skip
     """Types and heights after `update_fog_area` over ``area`` (default: the whole grid);
     ``types`` pre-fills the FOG (default −1: no label, to see which cells were written). The
@@ -64,7 +64,7 @@ def fog(
     update_fog_area(
         og, floor, obstacle, types, heights, P.occ_threshold_level, Z0, L, P.delta_m,
         ix0, ix1, iy0, iy1, ends, passes, P.floor_pass_min_rays, P.floor_pass_fraction,
-        margin, band, beside, rise, shadow, island,
+        margin, band, beside, rise, shadow, island, spill,
     )  # fmt: skip
     return types, heights
 
@@ -416,19 +416,130 @@ def test_cells_without_a_floor_are_skipped_and_the_rule_runs_along_y_too():
 
 
 def test_a_floor_change_relabels_the_foot_of_a_rise_beyond_the_band_ring():
-    # Updating only the cell where the ground behind a sill appears (cell 6) relabels the
-    # ground cell at the sill's near foot (cell 1), 5 cells away, as a whole-grid update does.
-    floors = [0.0, 0.0, 0.037, 0.037, 0.037, 0.037, np.nan, 0.0]
+    # Updating only the cell where the ground behind a sill appears (cell 6, where the sill
+    # seemed to go on: 5 cells deep, too deep for the rule) relabels the ground cell at the
+    # sill's near foot (cell 1), 5 cells away, as a whole-grid update does.
+    floors = [0.0, 0.0, 0.037, 0.037, 0.037, 0.037, 0.037, 0.0]
     og, floor = surfaces_grid(floors)
     types, _ = fog(og, floor, band=BAND, beside=True, rise=RISE)
     assert types[1, 1] == F
     floor[6, :] = 0.0
+    og[6, :, :] = 128
     og[6, :, layer_of(0.0)] = OCC
     part, _ = fog(
         og, floor, area=(6, 7, 0, 3), types=types.copy(), band=BAND, beside=True, rise=RISE
     )
     whole, _ = fog(og, floor, band=BAND, beside=True, rise=RISE)
     assert part[1, 1] == U and np.array_equal(part, whole)
+
+
+def test_a_rise_ending_in_cells_never_seen_is_narrow():
+    # The stage's sill seen from beyond (depth seed 5): 3 cells deep, the ground before it never
+    # seen (the robot's standing place, hidden by its feet: nothing stored, no floor, no
+    # obstacle), the ground beyond it a floor. The old scan went on through the unseen cells,
+    # found no drop within 4 and left the far foot (cell 8) a floor at the ground's height — on
+    # the far edge cell, which may hold the riser. An unseen cell ends the surface as far as
+    # known: the far foot is unknown; the ground farther (9, 10) stays floor.
+    nan = np.nan
+    floors = [0.0, nan, nan, nan, nan, 0.037, 0.037, 0.037, 0.0, 0.0, 0.0]
+    og, floor = surfaces_grid(floors)
+    types, _ = fog(og, floor, band=BAND, beside=True, rise=RISE)
+    assert types[8, 1] == U and types[9:, 1].tolist() == [F, F]
+    assert types[0, 1] == F and types[6, 1] == F  # the ground before, the sill's middle
+    # A cell with an obstacle but no floor (a riser's cell, a box's side) is no end: a surface
+    # 5 cells deep with such a cell in it keeps the cells at its feet.
+    floors = [0.0, 0.0, 0.037, 0.037, nan, 0.037, 0.037, 0.037, 0.0]
+    tops = [nan, nan, nan, nan, 0.05, nan, nan, nan, nan]
+    og, floor = surfaces_grid(floors, tops_m=tops)
+    types, _ = fog(og, floor, band=BAND, beside=True, rise=RISE)
+    assert types[1, 1] == F and types[8, 1] == F
+    # A single raised cell before the unseen one (a spill) is no surface: the foot stays floor.
+    floors = [0.0, 0.0, 0.037, nan, nan, nan, 0.0]
+    og, floor = surfaces_grid(floors)
+    types, _ = fog(og, floor, band=BAND, beside=True, rise=RISE)
+    assert types[1, 1] == F
+
+
+def test_the_near_rim_of_a_narrow_rise_before_an_unseen_foot_is_unknown():
+    # The stage's sill (depth seed 7), 4 cells deep: the ground before it hidden behind a box
+    # (cells 1-2: nothing stored), the ground beyond it a floor. The rim rule finds no lower
+    # floor beside the near edge cell (3), which kept the sill's height — on a cell the edge
+    # may cross. Its foot unseen and the surface dropping within 4 cells, it is unknown; the
+    # far rim (6) by the rim rule, the far foot (7) by the narrow rise, the middle (4, 5) floor.
+    nan = np.nan
+    floors = [0.0, nan, nan, 0.037, 0.037, 0.037, 0.037, 0.0, 0.0, 0.0]
+    og, floor = surfaces_grid(floors)
+    types, heights = fog(og, floor, band=BAND, beside=True, rise=RISE)
+    assert types[3:, 1].tolist() == [U, F, F, U, U, F, F]
+    assert heights[4, 1] == 0.037
+    # Along y the same.
+    along_y, _ = fog(
+        np.ascontiguousarray(og.transpose(1, 0, 2)),
+        np.ascontiguousarray(floor.T),
+        band=BAND,
+        beside=True,
+        rise=RISE,
+    )
+    assert np.array_equal(along_y.T, types)
+    # A surface 5 cells deep (a platform, a tread leading on) keeps its rim before the unseen
+    # cells; so does a surface that leads to a higher one (a staircase seen from its foot).
+    floors = [0.0, nan, nan, 0.037, 0.037, 0.037, 0.037, 0.037, 0.0, 0.0]
+    og, floor = surfaces_grid(floors)
+    types, _ = fog(og, floor, band=BAND, beside=True, rise=RISE)
+    assert types[3, 1] == F
+    floors = [0.0, nan, nan, 0.031, 0.031, 0.061, 0.061, 0.092, 0.092]
+    og, floor = surfaces_grid(floors)
+    types, _ = fog(og, floor, band=BAND, beside=True, rise=RISE)
+    assert types[3, 1] == F
+    # Without the narrow rise (0 cells) the rim stays a floor.
+    floors = [0.0, nan, nan, 0.037, 0.037, 0.037, 0.037, 0.0, 0.0, 0.0]
+    og, floor = surfaces_grid(floors)
+    types, _ = fog(og, floor, band=BAND, beside=True, rise=0)
+    assert types[3, 1] == F
+
+
+def test_a_rim_over_a_lower_floor_under_its_own_spill_is_unknown():
+    # The stereo stage's sill seen at its side end (seeds 1, 4, 5, 7, 8) and step_1 before its
+    # riser (every seed): the ground cell beside the raised surface holds the ground's floor
+    # and the raised surface's spilled points one layer up (top 0.06 > 0 + δ: an obstacle by
+    # eq. 11), so the rim rule, which looks for a neighbour labelled floor, left the raised
+    # cell beside it (3) a floor — on a ground cell that took the sill's height. With
+    # `rim_over_spill` a neighbour's stored floor more than the band below counts when its
+    # top reaches no higher than this floor + δ: cell 3 is unknown, the surface beyond floor.
+    floors = [0.0, 0.0, 0.0, 0.037, 0.037, 0.037, 0.037, 0.037, 0.037]
+    tops = [np.nan, np.nan, 0.05] + [np.nan] * 6
+    og, floor = surfaces_grid(floors, tops_m=tops)
+    types, heights = fog(og, floor, band=BAND, beside=True, rise=RISE, spill=True)
+    assert types[:, 1].tolist() == [F, F, OB, U, F, F, F, F, F]
+    assert heights[4, 1] == 0.037
+    without, _ = fog(og, floor, band=BAND, beside=True, rise=RISE)
+    assert without[:, 1].tolist() == [F, F, OB, F, F, F, F, F, F]
+    # Something taller than this floor + δ there (top 0.10 > 0.037 + 0.05) is no spill of it:
+    # the rule leaves the floor beside it alone (the obstacle rule judges it).
+    tops = [np.nan, np.nan, 0.09] + [np.nan] * 6
+    og, floor = surfaces_grid(floors, tops_m=tops)
+    types, _ = fog(og, floor, band=BAND, beside=False, rise=RISE, spill=True)
+    assert types[3, 1] == F
+    # Without the band the rule is off.
+    tops = [np.nan, np.nan, 0.05] + [np.nan] * 6
+    og, floor = surfaces_grid(floors, tops_m=tops)
+    types, _ = fog(og, floor, beside=True, rise=RISE, spill=True)
+    assert types[3, 1] == F
+
+
+def test_a_narrow_surface_between_two_spilled_edge_cells_keeps_its_cells():
+    # The room's sill in stereo: 2 cells deep (3, 4), its edge cells (2, 5) hold the ground's
+    # floor under the sill's spill. Across the sill (the other side of each cell) the floors
+    # drop within 4 cells: a narrow rise, whose rims the narrow-rise rules judge; the spill
+    # rule leaves it alone (on: the sill's Table I row lost every cell on some seeds). Middle
+    # row of 5 (the diagonals reach the ground past the sill's corners).
+    nan = np.nan
+    floors = [0.0, 0.0, 0.0, 0.037, 0.037, 0.0, 0.0, 0.0]
+    tops = [nan, nan, 0.05, nan, nan, 0.05, nan, nan]
+    og, floor = surfaces_grid(floors, ny=5, tops_m=tops)
+    types, heights = fog(og, floor, band=BAND, beside=True, rise=RISE, spill=True)
+    assert types[:, 2].tolist() == [F, F, OB, F, F, OB, F, F]
+    assert heights[3, 2] == 0.037 and heights[4, 2] == 0.037
 
 
 def test_narrow_rise_defaults_and_validation():
@@ -590,3 +701,27 @@ def test_the_patch_rule_relabels_as_a_whole_grid_update_would():
     part = update((4, 5, 5, 6), types.copy())
     whole = update((0, nx, 0, ny), np.full((nx, ny), -1, dtype=np.int8))
     assert part[4, 4] == U and np.array_equal(part, whole)
+
+
+def test_rim_over_spill_is_off_by_default_and_the_mapper_passes_it():
+    # A 60 mm box top 0.40 × 0.20 m (10 × 5 cells) on the ground, seen straight down: its
+    # edge cells hold the ground's floor under the box's layer (an obstacle by eq. 11, its top
+    # 0.10 within 0.0615 + δ). Off (the default), the box top is a floor up to them; on, its
+    # cells beside them are unknown (the box is wider than the narrow-rise limit both ways).
+    assert P.rim_over_spill is False
+    with pytest.raises(InvalidParameterError, match="rim_over_spill"):
+        MapperParams(rim_over_spill=1)
+    xs, ys = np.meshgrid(np.arange(0.205, 1.0, 0.01), np.arange(-0.395, 0.4, 0.01), indexing="ij")
+    xs, ys = xs.ravel(), ys.ravel()
+    on_box = (xs > 0.40) & (xs < 0.80) & (ys > 0.10) & (ys < 0.30)
+    z = np.where(on_box, 0.0615, 0.0)
+    points = np.column_stack([xs, ys, z])
+    floors = {}
+    for on in (False, True):
+        m = FloorObstacleMapper(MapperParams(rim_over_spill=on))
+        for _ in range(10):
+            m.update(points, z.copy(), np.array([0.0, 0.0, 1.5]))
+        types, heights = m.fog()
+        floors[on] = (types == F) & (np.abs(heights - 0.0615) < 0.01)
+    assert floors[True].sum() < floors[False].sum()
+    assert not (floors[True] & ~floors[False]).any()  # only taken away
