@@ -127,23 +127,9 @@ def _at_narrow_rise(
         top = floor[jx, jy]
         if not top > h + band:  # NaN: never
             continue
-        deep = 1  # cells of the raised surface met, its neighbour the first
-        for k in range(2, cells + 2):
-            cx, cy = ix + k * dx, iy + k * dy
-            if cx < 0 or cx >= nx or cy < 0 or cy >= ny:
-                break
-            v = floor[cx, cy]
-            if np.isnan(v):
-                if deep >= 2 and np.isnan(obstacle[cx, cy]):
-                    return True  # never seen: the surface ends as far as known
-                continue
-            if v < top - band:
-                if deep >= 2:
-                    return True
-                break
-            if v > top + band:
-                break
-            deep += 1
+        # The raised surface from the neighbour on; a cell never seen ends it.
+        if _surface_ends_within(floor, obstacle, ix, iy, dx, dy, 2, top, band, cells, True):
+            return True
     return False
 
 
@@ -179,60 +165,63 @@ def _rim_before_unseen_foot(
             continue
         if not np.isnan(floor[bx, by]) or obstacle[bx, by] > h + delta:  # NaN top: nothing
             continue
-        deep = 1  # cells of the raised surface met, this one the first
-        for k in range(1, cells + 1):
-            cx, cy = ix + k * dx, iy + k * dy
-            if cx < 0 or cx >= nx or cy < 0 or cy >= ny:
-                break
-            v = floor[cx, cy]
-            if np.isnan(v):
-                continue
-            if v < h - band:
-                if deep >= 2:
-                    return True
-                break
-            if v > h + band:
-                break
-            deep += 1
+        # The raised surface from this cell on; cells never seen skipped.
+        if _surface_ends_within(floor, obstacle, ix, iy, dx, dy, 1, h, band, cells, False):
+            return True
     return False
 
 
 @numba.njit(cache=True, inline="always")
-def _on_narrow_surface(
+def _surface_ends_within(
     floor: NDArray[np.float64],
     obstacle: NDArray[np.float64],
     ix: int,
     iy: int,
     dx: int,
     dy: int,
-    h: float,
+    first: int,
+    top: float,
     band: float,
     cells: int,
+    unseen_ends: bool,
 ) -> bool:
-    """Whether the floor ``h`` at ``(ix, iy)`` lies on a narrow surface along ``(dx, dy)``.
+    """Whether a surface at height ``top`` ends within ``cells`` cells along ``(dx, dy)``.
 
-    It does when, from it along ``(dx, dy)``, the stored floors (cells without one skipped)
-    stay within ``h ± band`` for at least one more cell and then drop more than ``band``
-    below ``h``, or reach a cell where nothing is stored (never seen), within ``cells``
-    cells: a narrow rise (a sill, a low box), whose rims and feet the narrow-rise rules
-    judge, and whose middle must not be given up for an edge's spill on the other side
-    (the room's stereo sill, 2–3 cells deep between two spill cells). A single cell is no
-    surface. ``floor`` and ``obstacle`` are the stored maps, read directly.
+    The scan of the narrow-rise rules: from ``(ix, iy) + first·(dx, dy)`` on, for ``cells``
+    cells, the stored floors (cells without one skipped) stay within ``top ± band`` and then
+    drop more than ``band`` below ``top`` — or, with ``unseen_ends``, reach a cell where
+    nothing is stored (no floor, no obstacle: never seen) — after at least two cells of the
+    surface, the ``first − 1`` cells before the scan's start counted as one (the surface's
+    first cell, on which the caller stands or which it looked at). A height above ``top +
+    band`` or the grid's border ends the scan: no such surface. A single cell is no surface.
+
+    Args:
+        floor: The stored floor map [m] (NaN: none), read directly (module note in `_label`).
+        obstacle: The stored obstacle tops [m] (NaN: none).
+        ix: x index of the cell the scan is about.
+        iy: y index of it.
+        dx: x step of the scan (-1, 0 or 1).
+        dy: y step of it.
+        first: The first cell scanned, in steps from ``(ix, iy)`` (1 or 2).
+        top: The surface's height [m].
+        band: ``edge_band_m`` [m].
+        cells: How many cells are scanned (``narrow_rise_m`` in cells).
+        unseen_ends: A cell never seen ends the surface (else it is skipped).
     """
     nx, ny = floor.shape
-    deep = 1  # cells of the surface met, this one the first
-    for k in range(1, cells + 1):
+    deep = 1  # cells of the surface met, the one before the scan's start the first
+    for k in range(first, cells + first):
         cx, cy = ix + k * dx, iy + k * dy
         if cx < 0 or cx >= nx or cy < 0 or cy >= ny:
             return False
         v = floor[cx, cy]
         if np.isnan(v):
-            if deep >= 2 and np.isnan(obstacle[cx, cy]):
-                return True
+            if unseen_ends and deep >= 2 and np.isnan(obstacle[cx, cy]):
+                return True  # never seen: the surface ends as far as known
             continue
-        if v < h - band:
+        if v < top - band:
             return deep >= 2
-        if v > h + band:
+        if v > top + band:
             return False
         deep += 1
     return False
@@ -472,8 +461,10 @@ def update_fog_area(
                             if (
                                 kind == _FLOOR
                                 and h > spill[ki, kj]  # itself: never (inf)
-                                and not _on_narrow_surface(
-                                    floor, obstacle, ix, iy, i - ki, j - kj, h, band, rise
+                                # A narrow rise (the room's stereo sill, 2–3 cells deep
+                                # between two spill cells): the narrow-rise rules judge it.
+                                and not _surface_ends_within(
+                                    floor, obstacle, ix, iy, i - ki, j - kj, 1, h, band, rise, True
                                 )
                             ):
                                 kind, h = _UNKNOWN, np.nan
