@@ -265,6 +265,40 @@ def _behind_wide_shadow(
 
 
 @numba.njit(cache=True, inline="always")
+def _rim_over_seen_drop(
+    og: NDArray[np.uint8],
+    floor: NDArray[np.float64],
+    obstacle: NDArray[np.float64],
+    ix: int,
+    iy: int,
+    h: float,
+    z_min: float,
+    layer: float,
+) -> bool:
+    """Whether a neighbour of the floor ``h`` at ``(ix, iy)`` was seen free below ``h``.
+
+    It was when one of its 8 neighbours holds nothing (no floor, no obstacle) and its column
+    has a layer observed free (level below 0.5) that lies wholly below ``h`` (its top at or
+    below ``h``): rays passed there under the surface's height, so the surface does not go
+    on into that cell. The cell is a raised surface's rim before a drop whose bottom no
+    camera position saw — the shadow behind a side edge seen at a grazing angle, wider than
+    ``shadow_reach_m`` or never ending in a seen lower floor — where the rim rule finds no
+    lower floor. ``og``, ``floor`` and ``obstacle`` are the stored maps, read directly
+    (module note in `_label`).
+    """
+    nx, ny, nz = og.shape
+    below = min(int(np.floor((h - z_min) / layer)), nz)  # layers 0 .. below - 1 lie under h
+    for jx in range(max(ix - 1, 0), min(ix + 2, nx)):
+        for jy in range(max(iy - 1, 0), min(iy + 2, ny)):
+            if not np.isnan(floor[jx, jy]) or not np.isnan(obstacle[jx, jy]):
+                continue
+            for k in range(below):
+                if og[jx, jy, k] < LEVEL_UNKNOWN:
+                    return True
+    return False
+
+
+@numba.njit(cache=True, inline="always")
 def _label(
     top: float,
     hf: float,
@@ -314,6 +348,7 @@ def update_fog_area(
     shadow_cells: int = 0,
     min_floor_neighbours: int = 0,
     rim_over_spill: bool = False,
+    seen_drop: bool = False,
 ) -> None:
     """Recompute ``obstacle`` (eq. 10) and the FOG (eq. 11) in ``[ix0, ix1) × [iy0, iy1)``.
 
@@ -453,6 +488,12 @@ def update_fog_area(
                     kind == _FLOOR
                     and shadow > 1
                     and _behind_wide_shadow(floor, obstacle, ix, iy, h, band, shadow)
+                ):
+                    kind, h = _UNKNOWN, np.nan
+                if (
+                    kind == _FLOOR
+                    and seen_drop
+                    and _rim_over_seen_drop(og, floor, obstacle, ix, iy, h, z_min, layer)
                 ):
                     kind, h = _UNKNOWN, np.nan
                 if kind == _FLOOR and spill_rims:

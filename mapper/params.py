@@ -348,6 +348,7 @@ class MapperParams:
     shadow_reach_m: float = 0.16
     min_floor_neighbours: int = 0
     rim_over_spill: bool = False
+    rim_over_seen_drop: bool = True
     obstacle_margin_cells: int = 0
     raised_rim_obstacle: bool = False
     floor_memory: float = 8.0
@@ -418,6 +419,7 @@ class MapperParams:
             "unknown_beside_obstacles",
             "raised_rim_obstacle",
             "rim_over_spill",
+            "rim_over_seen_drop",
         ):
             check(name, bool, "a bool")
         for name in _CAP_FIELDS:
