@@ -49,6 +49,11 @@ Conventions (heights in world metres, NaN = invalid):
   stage: odometry 4 cm and 1° off by the staircase, the heading 1° off) spills a raised
   surface one or two cells over its side edge, into the shadow behind that edge, which is
   several cells wide (``D·H/(Z − H)`` for a surface H high seen from Z at range D).
+- Beyond the paper, with the band and `MapperParams.rim_over_seen_drop`, a floor at ``h`` is
+  unknown beside a cell where nothing is stored whose column was observed free in a layer
+  wholly below ``h``: rays passed there under the surface, so it does not go on — the rim
+  before a drop whose bottom was never seen (a shadow wider than ``shadow_reach_m``, or one
+  no seen lower floor ends), which the rules above, all looking for a lower floor, miss.
 - Beyond the paper, with the band and `MapperParams.min_floor_neighbours` k > 0, a floor the
   rules above leave a floor is unknown when fewer than k of its 8 neighbours are such floors
   within the band of it and one is an obstacle taller than it: a one- or two-cell plane
@@ -274,20 +279,24 @@ def _rim_over_seen_drop(
     h: float,
     z_min: float,
     layer: float,
+    band: float,
 ) -> bool:
     """Whether a neighbour of the floor ``h`` at ``(ix, iy)`` was seen free below ``h``.
 
     It was when one of its 8 neighbours holds nothing (no floor, no obstacle) and its column
-    has a layer observed free (level below 0.5) that lies wholly below ``h`` (its top at or
-    below ``h``): rays passed there under the surface's height, so the surface does not go
-    on into that cell. The cell is a raised surface's rim before a drop whose bottom no
+    has a layer observed free (level below 0.5) that lies more than ``band`` below ``h`` (its
+    top below ``h − band``): rays passed there under the surface's height, so the surface
+    does not go on into that cell. The band keeps the ground's cells: the layer under the
+    ground's (top −0.02 m with the default grid) is cleared by rays to noisy points below
+    the ground, and the ground goes on there all the same. The cell is a raised surface's rim before a drop whose bottom no
     camera position saw — the shadow behind a side edge seen at a grazing angle, wider than
     ``shadow_reach_m`` or never ending in a seen lower floor — where the rim rule finds no
     lower floor. ``og``, ``floor`` and ``obstacle`` are the stored maps, read directly
     (module note in `_label`).
     """
     nx, ny, nz = og.shape
-    below = min(int(np.floor((h - z_min) / layer)), nz)  # layers 0 .. below - 1 lie under h
+    # Layers 0 .. below - 1 have their tops below h - band.
+    below = min(int(np.ceil((h - band - z_min) / layer)) - 1, nz)
     for jx in range(max(ix - 1, 0), min(ix + 2, nx)):
         for jy in range(max(iy - 1, 0), min(iy + 2, ny)):
             if not np.isnan(floor[jx, jy]) or not np.isnan(obstacle[jx, jy]):
@@ -381,6 +390,10 @@ def update_fog_area(
     is unknown beside an obstacle too whose stored floor lies more than ``band`` below ``h``
     and whose top reaches no higher than ``h`` + δ (a lower floor under the raised surface's
     spill); its reach is the rim rule's.
+
+    With ``band`` > 0 and ``seen_drop`` (`MapperParams.rim_over_seen_drop`) a floor is
+    unknown beside a cell holding nothing whose column was observed free below the floor's
+    height (`_rim_over_seen_drop`); its reach is the rim rule's.
 
     With ``band`` > 0 and ``min_floor_neighbours`` k > 0 (`MapperParams.min_floor_neighbours`)
     a floor that the rules above leave a floor is unknown when fewer than k of its 8
@@ -493,7 +506,7 @@ def update_fog_area(
                 if (
                     kind == _FLOOR
                     and seen_drop
-                    and _rim_over_seen_drop(og, floor, obstacle, ix, iy, h, z_min, layer)
+                    and _rim_over_seen_drop(og, floor, obstacle, ix, iy, h, z_min, layer, band)
                 ):
                     kind, h = _UNKNOWN, np.nan
                 if kind == _FLOOR and spill_rims:

@@ -276,6 +276,17 @@ class MapperParams:
             and 30–34 cells of every tread and the platform on seed 1; stereo zig-zag −0.03
             point. False (the default, so that no floor recall is lost); True where the map
             is walked on stereo or rough tops matter more than a tread's first row.
+        rim_over_seen_drop: Beyond the paper, with ``edge_band_m`` > 0: a floor is unknown
+            beside a cell where nothing is stored (no floor, no obstacle) whose column holds a
+            layer observed free more than ``edge_band_m`` below the floor (`mapper.fog`):
+            rays passed under the surface's height there, so the surface ends — the rim
+            before a drop whose bottom was never seen. Every other rim rule looks for a lower
+            floor (beside it, or past a shadow up to ``shadow_reach_m``); behind a raised
+            surface's side edge the ground may never be seen at all (the zig-zag stage's
+            platform: the robot never looks past its sides), and pose drift spills the
+            surface's points a cell over that edge, where they make a floor at its height
+            over the ground. The band keeps the ground's cells: the layer under the ground's
+            is cleared by rays to noisy points below the ground. FIGURES
         obstacle_margin_cells: Beyond the paper: eq. 11 compares a cell's floor with the
             highest obstacle top (eq. 10) within this many cells of it (`mapper.fog`), so a
             floor beside something more than ``delta_m`` above it is an obstacle. The truth
