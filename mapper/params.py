@@ -121,6 +121,16 @@ class MapperParams:
             the stage's figures are as good with it (obstacle precision 76.7 → 81.7 %, Table I
             worst row 1.30 → 1.32 mm, unsafe cells 84.6 → 84.4, both mean), box_removal's the
             same, but moving_box's ground row goes from 0.28 to 0.62 mm (worst 0.47 → 1.01).
+        repeat_ray_columns: 0 (the default): every point's ray is walked whole, the exact
+            insertion. ``k > 0``: a ray whose end cell an earlier point's ray of the same frame
+            already hit clears only its last columns, from ``k`` columns (grid units along its
+            major horizontal axis) before its stop; the first ray to each end cell is walked
+            whole. Rays to one 4 cm cell differ by less than a cell far from it, and most of
+            the cells a ray adds lie near its end. The stage's 88 × 72 frames (seed 1, 832
+            frames, `mapper.occupancy`): with 2 the insert takes 19 % less CPU, and after the
+            832 frames 166 of 160 000 cells hold another level, no cell another occupied
+            state, 1 floor height differs and no FOG type. Needs the column marks
+            (`FloorObstacleMapper` ``column_marks``); no effect with ``discretize_rays``.
         zmatch_min_pairs: Matched floor points needed before a z shift is trusted (Sec. IV).
         zmatch_max_shift_m: Largest z shift [m] accepted; larger ones are reported but not
             accepted (they would mean the frame matched the wrong floor level).
@@ -340,6 +350,7 @@ class MapperParams:
     floor_vote_cap: int = 64
     floor_frame_cap: int = 40
     discretize_rays: bool = False
+    repeat_ray_columns: int = 0
     floor_pass_fraction: float = 0.2
     floor_pass_min_rays: int = 20
     unknown_beside_obstacles: bool = True
@@ -422,6 +433,12 @@ class MapperParams:
             check(name, bool, "a bool")
         for name in _CAP_FIELDS:
             check(name, int, "an int >= 0 (0: the paper's rule)", lambda v: v >= 0)
+        check(
+            "repeat_ray_columns",
+            int,
+            "an int >= 0 (0: every ray walked whole, the exact insertion)",
+            lambda v: v >= 0,
+        )
         _require(
             self.obstacle_margin_cells < min(self.nx, self.ny),
             "obstacle_margin_cells",
