@@ -228,6 +228,40 @@ def _surface_ends_within(
 
 
 @numba.njit(cache=True, inline="always")
+def _patch_across(
+    floor: NDArray[np.float64],
+    obstacle: NDArray[np.float64],
+    ix: int,
+    iy: int,
+    dx: int,
+    dy: int,
+    h: float,
+    band: float,
+    delta: float,
+) -> bool:
+    """Whether the floor ``h`` at ``(ix, iy)`` ends across from a spilled neighbour.
+
+    The neighbour at ``(ix, iy) − (dx, dy)`` holds a lower floor under this surface's spill
+    (`MapperParams.rim_over_spill`). The raised floor ends at the cell across, ``(ix, iy) +
+    (dx, dy)``, when that cell holds no floor but nothing taller than ``h + delta`` (the
+    surface's layer, never verified as a floor: a rough top's column, a box's edge) or, along x
+    or y, a floor more than ``band`` below ``h`` (a single raised cell between two lower
+    floors: no surface). A tread's first row has the tread's floor across from its riser's edge
+    cell (which holds the lower tread's floor under the upper tread's layer as a side spill
+    does): it stays a floor (talos_course, stairs: every tread's first row). The grid's border
+    ends nothing. ``floor`` and ``obstacle`` are the stored maps (module note in `_label`).
+    """
+    nx, ny = floor.shape
+    cx, cy = ix + dx, iy + dy
+    if cx < 0 or cx >= nx or cy < 0 or cy >= ny:
+        return False
+    across = floor[cx, cy]
+    if np.isnan(across):
+        return obstacle[cx, cy] <= h + delta  # NaN (nothing stored): no
+    return (dx == 0 or dy == 0) and across < h - band
+
+
+@numba.njit(cache=True, inline="always")
 def _behind_wide_shadow(
     floor: NDArray[np.float64],
     obstacle: NDArray[np.float64],
@@ -461,6 +495,10 @@ def update_fog_area(
                             if (
                                 kind == _FLOOR
                                 and h > spill[ki, kj]  # itself: never (inf)
+                                # A riser's edge cell: the upper tread goes on across.
+                                and _patch_across(
+                                    floor, obstacle, ix, iy, i - ki, j - kj, h, band, delta
+                                )
                                 # A narrow rise (the room's stereo sill, 2–3 cells deep
                                 # between two spill cells): the narrow-rise rules judge it.
                                 and not _surface_ends_within(

@@ -347,7 +347,7 @@ class MapperParams:
     narrow_rise_m: float = 0.16
     shadow_reach_m: float = 0.16
     min_floor_neighbours: int = 0
-    rim_over_spill: bool = False
+    rim_over_spill: bool = True
     obstacle_margin_cells: int = 0
     raised_rim_obstacle: bool = False
     floor_memory: float = 8.0
