@@ -95,11 +95,12 @@ def _at_narrow_rise(
     iy: int,
     h: float,
     band: float,
+    delta: float,
     cells: int,
 ) -> bool:
-    """Whether the floor ``h`` at ``(ix, iy)`` lies at the foot of a narrow raised surface.
+    """Whether the floor ``h`` at ``(ix, iy)`` lies at the foot or the near rim of a narrow rise.
 
-    It does when, along x or y, its neighbour's stored floor ``t`` is more than ``band`` above
+    At the foot: along x or y, its neighbour's stored floor ``t`` is more than ``band`` above
     ``h`` and, within ``cells`` cells beyond that neighbour, the stored floors (cells without
     one skipped) drop again more than ``band`` below ``t`` before any other height than
     ``t ± band`` is met, after at least two cells within ``t ± band``: a raised surface two to
@@ -114,59 +115,43 @@ def _at_narrow_rise(
     a frame has not verified yet. A single cell is no such surface:
     it is a tread's points spilled a cell over the riser (stage depth seed 7: a 92 mm cell
     in step_2's last row cost that tread's cells beside it), which the rim rule leaves
-    unknown. ``floor`` is the stored floor map (labels not used), read directly: the
-    grid is small and the scan short (module note in `_label` on helpers taking the maps).
+    unknown.
+
+    At the near rim before an unseen foot: along x or y, its neighbour on one side holds
+    nothing (no floor, no obstacle taller than ``h + delta``) and on the other side the stored
+    floors (cells without one skipped) stay within ``h ± band`` for at least one more cell
+    and drop more than ``band`` below ``h`` within ``cells`` cells: the cell is the near edge
+    of a raised surface at most ``cells`` deep (a sill, a low box) whose lower side there —
+    where the rim rule would find the lower floor — lies in a shadow or under the robot's
+    feet. Its edge may cross this cell as likely as the next (stage depth seed 7, stereo
+    seeds 2–4, 7, 8: the sill's near edge cell, 1 cm of sill, took the sill's height, the
+    ground before it hidden behind a box).
+
+    Both tests scan the same 4 directions in one loop. ``floor`` and ``obstacle`` are the
+    stored maps (labels not used), read directly: the grid is small and the scan short
+    (module note in `_label` on helpers taking the maps).
     """
     nx, ny = floor.shape
     for d in range(4):
         dx = 1 if d == 0 else (-1 if d == 1 else 0)
         dy = 1 if d == 2 else (-1 if d == 3 else 0)
+        # The foot: a raised surface from the neighbour on; a cell never seen ends it.
         jx, jy = ix + dx, iy + dy
-        if jx < 0 or jx >= nx or jy < 0 or jy >= ny:
-            continue
-        top = floor[jx, jy]
-        if not top > h + band:  # NaN: never
-            continue
-        # The raised surface from the neighbour on; a cell never seen ends it.
-        if _surface_ends_within(floor, obstacle, ix, iy, dx, dy, 2, top, band, cells, True):
-            return True
-    return False
-
-
-@numba.njit(cache=True, inline="always")
-def _rim_before_unseen_foot(
-    floor: NDArray[np.float64],
-    obstacle: NDArray[np.float64],
-    ix: int,
-    iy: int,
-    h: float,
-    band: float,
-    delta: float,
-    cells: int,
-) -> bool:
-    """Whether the floor ``h`` at ``(ix, iy)`` is a narrow rise's rim before an unseen foot.
-
-    It is when, along x or y, its neighbour on one side holds nothing (no floor, no obstacle)
-    and on the other side the stored floors (cells without one skipped) stay within ``h ±
-    band`` for at least one more cell and drop more than ``band`` below ``h`` within ``cells``
-    cells: the cell is the near edge of a raised surface at most ``cells`` deep (a sill, a
-    low box) whose lower side there — where the rim rule would find the lower floor — lies in
-    a shadow or under the robot's feet. Its edge may cross this cell as likely as the
-    next (stage depth seed 7, stereo seeds 2–4, 7, 8: the sill's near edge cell, 1 cm of sill,
-    took the sill's height, the ground before it hidden behind a box). ``floor`` and
-    ``obstacle`` are the stored maps, read directly (module note in `_label`).
-    """
-    nx, ny = floor.shape
-    for d in range(4):
-        dx = 1 if d == 0 else (-1 if d == 1 else 0)
-        dy = 1 if d == 2 else (-1 if d == 3 else 0)
+        if 0 <= jx < nx and 0 <= jy < ny:
+            top = floor[jx, jy]
+            if top > h + band and _surface_ends_within(  # NaN: never
+                floor, obstacle, ix, iy, dx, dy, 2, top, band, cells, True
+            ):
+                return True
+        # The near rim: nothing behind, the surface from this cell on (unseen cells skipped).
         bx, by = ix - dx, iy - dy
-        if bx < 0 or bx >= nx or by < 0 or by >= ny:
-            continue
-        if not np.isnan(floor[bx, by]) or obstacle[bx, by] > h + delta:  # NaN top: nothing
-            continue
-        # The raised surface from this cell on; cells never seen skipped.
-        if _surface_ends_within(floor, obstacle, ix, iy, dx, dy, 1, h, band, cells, False):
+        if (
+            0 <= bx < nx
+            and 0 <= by < ny
+            and np.isnan(floor[bx, by])
+            and not obstacle[bx, by] > h + delta  # NaN top: nothing
+            and _surface_ends_within(floor, obstacle, ix, iy, dx, dy, 1, h, band, cells, False)
+        ):
             return True
     return False
 
@@ -477,10 +462,7 @@ def update_fog_area(
                 if (
                     kind == _FLOOR
                     and rise > 0
-                    and (
-                        _at_narrow_rise(floor, obstacle, ix, iy, h, band, rise)
-                        or _rim_before_unseen_foot(floor, obstacle, ix, iy, h, band, delta, rise)
-                    )
+                    and _at_narrow_rise(floor, obstacle, ix, iy, h, band, delta, rise)
                 ):
                     kind, h = _UNKNOWN, np.nan
                 if (
