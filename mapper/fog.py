@@ -41,8 +41,14 @@ Conventions (heights in world metres, NaN = invalid):
   is unknown too: the rim rule finds no lower floor there.
 - Beyond the paper, with the band and `MapperParams.rim_over_spill`, the rim rule also counts
   a neighbour labelled obstacle whose stored floor lies more than the band below and whose
-  top reaches no higher than the floor + δ: a lower surface under the raised surface's own
-  spill (the edge cell, or the ground beside a side edge spilled a cell over).
+  top reaches no higher than the floor + δ (a lower surface under the raised surface's own
+  spill: the edge cell, or the ground beside a side edge spilled a cell over) — when the
+  raised floor ends across from it (`_patch_across`): the cell on the other side holds no
+  floor and its top lies within δ above the floor (the surface's layer: a rough top's column,
+  a box's edge), or, along
+  x or y, a lower floor (a single raised cell). A riser's edge cell holds the lower tread's
+  floor under the upper tread's layer just as a side spill's does; what tells them apart is
+  the upper tread going on across from it, so a tread's first row stays a floor.
 - Beyond the paper, with the band, a floor before a wider shadow is unknown too
   (`MapperParams.shadow_reach_m`): a run of up to n cells with nothing stored leads from it,
   along x, y or a diagonal, to a floor more than the band below it. Pose drift (the zig-zag
@@ -228,13 +234,16 @@ def _patch_across(
 
     The neighbour at ``(ix, iy) − (dx, dy)`` holds a lower floor under this surface's spill
     (`MapperParams.rim_over_spill`). The raised floor ends at the cell across, ``(ix, iy) +
-    (dx, dy)``, when that cell holds no floor but nothing taller than ``h + delta`` (the
-    surface's layer, never verified as a floor: a rough top's column, a box's edge) or, along x
-    or y, a floor more than ``band`` below ``h`` (a single raised cell between two lower
-    floors: no surface). A tread's first row has the tread's floor across from its riser's edge
-    cell (which holds the lower tread's floor under the upper tread's layer as a side spill
-    does): it stays a floor (talos_course, stairs: every tread's first row). The grid's border
-    ends nothing. ``floor`` and ``obstacle`` are the stored maps (module note in `_label`).
+    (dx, dy)``, when that cell holds no floor and its top lies above ``h`` but no higher than
+    ``h + delta`` (the surface's own layer, never verified as a floor: a rough top's column, a
+    box's edge), or, along x or y, a floor more than ``band`` below ``h`` (a single raised
+    cell between two lower floors: no surface). A cell across holding no floor and only
+    layers below ``h`` (the ground's layer beside a stereo sill whose floor no frame has
+    verified) ends nothing: the room's stereo sill keeps those cells. A tread's first row has
+    the tread's floor across from its riser's edge cell (which holds the lower tread's floor
+    under the upper tread's layer, as a side spill's cell does): it stays a floor
+    (talos_course, stairs: every tread's first row). The grid's border ends nothing.
+    ``floor`` and ``obstacle`` are the stored maps (module note in `_label`).
     """
     nx, ny = floor.shape
     cx, cy = ix + dx, iy + dy
@@ -242,7 +251,8 @@ def _patch_across(
         return False
     across = floor[cx, cy]
     if np.isnan(across):
-        return obstacle[cx, cy] <= h + delta  # NaN (nothing stored): no
+        top = obstacle[cx, cy]
+        return h < top <= h + delta  # NaN (nothing stored): no
     return (dx == 0 or dy == 0) and across < h - band
 
 
@@ -364,7 +374,8 @@ def update_fog_area(
     With ``band`` > 0 and ``rim_over_spill`` (`MapperParams.rim_over_spill`) a floor at ``h``
     is unknown beside an obstacle too whose stored floor lies more than ``band`` below ``h``
     and whose top reaches no higher than ``h`` + δ (a lower floor under the raised surface's
-    spill); its reach is the rim rule's.
+    spill), when the raised floor ends across from it (`_patch_across`; not a tread's first
+    row); its reach is the rim rule's and the cell across, within the ring.
 
     With ``band`` > 0 and ``min_floor_neighbours`` k > 0 (`MapperParams.min_floor_neighbours`)
     a floor that the rules above leave a floor is unknown when fewer than k of its 8

@@ -522,6 +522,12 @@ def test_a_rim_over_a_lower_floor_under_its_own_spill_is_unknown():
     og, floor = surfaces_grid(floors, tops_m=tops)
     assert fog(og, floor, band=BAND, beside=True, rise=RISE, spill=True)[0][3, 1] == U
     assert fog(og, floor, band=BAND, beside=True, rise=RISE)[0][3, 1] == F
+    # A cell across with no floor and only the ground's layer (a stereo sill's neighbour
+    # whose floor no frame verified) is no end of the raised floor: a floor.
+    og, floor = surfaces_grid(
+        [0.0, 0.0, 0.0, 0.163, nan, 0.0, 0.0], tops_m=[nan, nan, 0.17, nan, 0.0, nan, nan]
+    )
+    assert fog(og, floor, band=BAND, beside=True, rise=RISE, spill=True)[0][3, 1] == F
     # Something taller than this floor + δ there (top 0.25 > 0.163 + 0.05) is no spill of
     # it: the rule leaves the floor beside it alone (the obstacle rule judges it).
     floors = [0.0, 0.0, 0.0, 0.163, nan, 0.0, 0.0]
