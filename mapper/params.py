@@ -270,8 +270,16 @@ class MapperParams:
             ``delta_m`` is no spill of it and is left to ``unknown_beside_obstacles``; across
             a surface at most ``narrow_rise_m`` deep (a sill between two such cells) the rule
             is off: the narrow-rise rules judge it. Replays seeds 1–8 (session 31), False →
-            True, mean (worst): unsafe cells, depth: stage 0.12 (1) → 0 on every seed,
-            REPLACE_FIGURES. True (the default); False for the session-29 rim rule.
+            True, mean (worst): unsafe cells, depth: stage 0.12 (1) → 0 on every seed, room
+            1.88 (5) → 1.50 (5), the other depth sets unchanged (talos_course and stairs
+            bit-identical); stereo: stage 5.75 (10) → 5.12 (8), stage_down 11.25 (34) → 10.50
+            (32), zig-zag stage 40.38 (75) → 39.75 (75), room 11.88 (20) → 9.75 (16); floor
+            recall within 0.01 point, obstacle recall up to +0.8 point, floor precision
+            better or equal, Table I worst rows unchanged. Coverage given up: the room's
+            stereo sill 32.0 → 26.2 cells a run (its row 1.02 mm as before), the zig-zag
+            stage's sill 37.0 → 33.9 (depth) and 17.4 → 15.6 (stereo, its mean 0.64 → 0.80
+            mm, worst 1.37 as before), treads within a cell. True (the default); False: the
+            rim rule looks at floor-labelled neighbours only.
         obstacle_margin_cells: Beyond the paper: eq. 11 compares a cell's floor with the
             highest obstacle top (eq. 10) within this many cells of it (`mapper.fog`), so a
             floor beside something more than ``delta_m`` above it is an obstacle. The truth
