@@ -271,8 +271,8 @@ class MapperParams:
             a surface at most ``narrow_rise_m`` deep (a sill between two such cells) the rule
             is off: the narrow-rise rules judge it. Replays seeds 1–8 (session 31), False →
             True, mean (worst): unsafe cells, depth: stage 0.12 (1) → 0 on every seed, room
-            1.88 (5) → 1.50 (5), the other depth sets unchanged (talos_course and stairs
-            bit-identical); stereo: stage 5.75 (10) → 5.12 (8), stage_down 11.25 (34) → 10.50
+            1.88 (5) → 1.50 (5), the other depth sets unchanged (talos_course, stairs: maps
+            bit-identical to off); stereo: stage 5.75 (10) → 5.12 (8), stage_down 11.25 (34) → 10.50
             (32), zig-zag stage 40.38 (75) → 39.75 (75), room 11.88 (20) → 9.75 (16); floor
             recall within 0.01 point, obstacle recall up to +0.8 point, floor precision
             better or equal, Table I worst rows unchanged. Coverage given up: the room's
