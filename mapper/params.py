@@ -274,28 +274,32 @@ class MapperParams:
             0 (the default) = off; 2 where rough tops matter more than thin sills.
         rim_over_spill: Beyond the paper, with ``edge_band_m`` > 0: the rim rule counts a
             neighbour that eq. 11 labels obstacle when its stored floor lies more than
-            ``edge_band_m`` below the floor beside it and its top reaches no higher than that
-            floor + ``delta_m`` (`mapper.fog`): a lower surface under the raised surface's
-            own spilled points, one layer up — the cell an edge crosses, or the ground beside
-            a side edge that pose error spilled a cell over. The rim rule looked only at
-            neighbours labelled floor, so the raised cell beside such a cell stayed a floor,
-            though it may be the ground at the raised surface's height (stereo stage: the
-            sill's side end and step_1's riser spilled a cell toward the robot, 4–5 cells a
-            run) or a rough top's low patch beside the box's edge (stage depth seeds 3 and 8).
-            Something taller than the floor + ``delta_m`` is no spill of it and is left to
-            ``unknown_beside_obstacles``; across a surface at most ``narrow_rise_m`` deep (a
-            sill between two such cells) the rule is off: the narrow-rise rules judge it (on
-            there, the room's stereo sill lost every right cell on some seeds, its row 0.99 →
-            12.9 mm). Replays seeds 1–8 (session 30, with the narrow-rise rules), False →
-            True, mean (worst): unsafe cells, depth: stage 0.38 (2) → 0 on every seed, room
-            → 1.50 (5), moving_box → 5.62 (12), zig-zag stage → 14.0 (43); stereo: stage →
-            2.75 (5), room → 8.38 (13), stage_down → 9.38 (30), zig-zag stage → 34.6 (63);
-            Table I worst rows within +0.02 mm — but in depth mode a riser's edge cell holds
-            the lower tread's floor under the upper tread's layer too, so the upper tread's
-            first row is given up: talos_course floor recall 96.50 → 96.42 %, 63 threshold
-            and 30–34 cells of every tread and the platform on seed 1; stereo zig-zag −0.03
-            point. False (the default, so that no floor recall is lost); True where the map
-            is walked on stereo or rough tops matter more than a tread's first row.
+            ``edge_band_m`` below the floor beside it, its top reaches no higher than that
+            floor + ``delta_m`` (`mapper.fog`: a lower surface under the raised surface's own
+            spilled points, one layer up), and the raised floor ends across from it: the cell
+            on the other side holds no floor and its top lies within ``delta_m`` above the
+            floor (the surface's own layer: a rough top's column), or, along x or y, a lower
+            floor (a single raised cell). The rim rule looked only at neighbours labelled
+            floor, so a raised cell beside such a cell stayed a floor, though it may be a rough
+            top's low patch beside a box's edge (stage depth seed 3: 163 mm on box_right_2,
+            whose true top is 220 mm) or ground that took a spilled surface's height (stereo).
+            A riser's edge cell holds the lower tread's floor under the upper tread's layer
+            just as a spill does; the upper tread goes on across from it, so its first row
+            stays a floor (without that condition, session 30: talos_course floor recall 96.50
+            → 96.42 %, every tread's first row lost). Something taller than the floor +
+            ``delta_m`` is no spill of it and is left to ``unknown_beside_obstacles``; across
+            a surface at most ``narrow_rise_m`` deep (a sill between two such cells) the rule
+            is off: the narrow-rise rules judge it. Replays seeds 1–8 (session 31), False →
+            True, mean (worst): unsafe cells, depth: stage 0.12 (1) → 0 on every seed, room
+            1.88 (5) → 1.50 (5), the other depth sets unchanged (talos_course, stairs: maps
+            bit-identical to off); stereo: stage 5.75 (10) → 5.12 (8), stage_down 11.25 (34) → 10.50
+            (32), zig-zag stage 40.38 (75) → 39.75 (75), room 11.88 (20) → 9.75 (16); floor
+            recall within 0.01 point, obstacle recall up to +0.8 point, floor precision
+            better or equal, Table I worst rows unchanged. Coverage given up: the room's
+            stereo sill 32.0 → 26.2 cells a run (its row 1.02 mm as before), the zig-zag
+            stage's sill 37.0 → 33.9 (depth) and 17.4 → 15.6 (stereo, its mean 0.64 → 0.80
+            mm, worst 1.37 as before), treads within a cell. True (the default); False: the
+            rim rule looks at floor-labelled neighbours only.
         obstacle_margin_cells: Beyond the paper: eq. 11 compares a cell's floor with the
             highest obstacle top (eq. 10) within this many cells of it (`mapper.fog`), so a
             floor beside something more than ``delta_m`` above it is an obstacle. The truth
@@ -368,7 +372,7 @@ class MapperParams:
     narrow_rise_m: float = 0.16
     shadow_reach_m: float = 0.16
     min_floor_neighbours: int = 0
-    rim_over_spill: bool = False
+    rim_over_spill: bool = True
     obstacle_margin_cells: int = 0
     raised_rim_obstacle: bool = False
     floor_memory: float = 8.0
