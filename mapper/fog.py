@@ -41,8 +41,14 @@ Conventions (heights in world metres, NaN = invalid):
   is unknown too: the rim rule finds no lower floor there.
 - Beyond the paper, with the band and `MapperParams.rim_over_spill`, the rim rule also counts
   a neighbour labelled obstacle whose stored floor lies more than the band below and whose
-  top reaches no higher than the floor + δ: a lower surface under the raised surface's own
-  spill (the edge cell, or the ground beside a side edge spilled a cell over).
+  top reaches no higher than the floor + δ (a lower surface under the raised surface's own
+  spill: the edge cell, or the ground beside a side edge spilled a cell over) — when the
+  raised floor ends across from it (`_patch_across`): the cell on the other side holds no
+  floor and its top lies within δ above the floor (the surface's layer: a rough top's column,
+  a box's edge), or, along
+  x or y, a lower floor (a single raised cell). A riser's edge cell holds the lower tread's
+  floor under the upper tread's layer just as a side spill's does; what tells them apart is
+  the upper tread going on across from it, so a tread's first row stays a floor.
 - Beyond the paper, with the band, a floor before a wider shadow is unknown too
   (`MapperParams.shadow_reach_m`): a run of up to n cells with nothing stored leads from it,
   along x, y or a diagonal, to a floor more than the band below it. Pose drift (the zig-zag
@@ -51,9 +57,10 @@ Conventions (heights in world metres, NaN = invalid):
   several cells wide (``D·H/(Z − H)`` for a surface H high seen from Z at range D).
 - Beyond the paper, with the band and `MapperParams.rim_over_seen_drop`, a floor at ``h`` is
   unknown beside a cell where nothing is stored whose column was observed free in a layer
-  wholly below ``h``: rays passed there under the surface, so it does not go on — the rim
-  before a drop whose bottom was never seen (a shadow wider than ``shadow_reach_m``, or one
-  no seen lower floor ends), which the rules above, all looking for a lower floor, miss.
+  more than the band below ``h``: rays passed there under the surface, so it does not go
+  on — the rim before a drop whose bottom was never seen (a shadow wider than
+  ``shadow_reach_m``, or one no seen lower floor ends), which the rules above, all looking
+  for a lower floor, miss.
 - Beyond the paper, with the band and `MapperParams.min_floor_neighbours` k > 0, a floor the
   rules above leave a floor is unknown when fewer than k of its 8 neighbours are such floors
   within the band of it and one is an obstacle taller than it: a one- or two-cell plane
@@ -100,11 +107,12 @@ def _at_narrow_rise(
     iy: int,
     h: float,
     band: float,
+    delta: float,
     cells: int,
 ) -> bool:
-    """Whether the floor ``h`` at ``(ix, iy)`` lies at the foot of a narrow raised surface.
+    """Whether the floor ``h`` at ``(ix, iy)`` lies at the foot or the near rim of a narrow rise.
 
-    It does when, along x or y, its neighbour's stored floor ``t`` is more than ``band`` above
+    At the foot: along x or y, its neighbour's stored floor ``t`` is more than ``band`` above
     ``h`` and, within ``cells`` cells beyond that neighbour, the stored floors (cells without
     one skipped) drop again more than ``band`` below ``t`` before any other height than
     ``t ± band`` is met, after at least two cells within ``t ± band``: a raised surface two to
@@ -119,59 +127,43 @@ def _at_narrow_rise(
     a frame has not verified yet. A single cell is no such surface:
     it is a tread's points spilled a cell over the riser (stage depth seed 7: a 92 mm cell
     in step_2's last row cost that tread's cells beside it), which the rim rule leaves
-    unknown. ``floor`` is the stored floor map (labels not used), read directly: the
-    grid is small and the scan short (module note in `_label` on helpers taking the maps).
+    unknown.
+
+    At the near rim before an unseen foot: along x or y, its neighbour on one side holds
+    nothing (no floor, no obstacle taller than ``h + delta``) and on the other side the stored
+    floors (cells without one skipped) stay within ``h ± band`` for at least one more cell
+    and drop more than ``band`` below ``h`` within ``cells`` cells: the cell is the near edge
+    of a raised surface at most ``cells`` deep (a sill, a low box) whose lower side there —
+    where the rim rule would find the lower floor — lies in a shadow or under the robot's
+    feet. Its edge may cross this cell as likely as the next (stage depth seed 7, stereo
+    seeds 2–4, 7, 8: the sill's near edge cell, 1 cm of sill, took the sill's height, the
+    ground before it hidden behind a box).
+
+    Both tests scan the same 4 directions in one loop. ``floor`` and ``obstacle`` are the
+    stored maps (labels not used), read directly: the grid is small and the scan short
+    (module note in `_label` on helpers taking the maps).
     """
     nx, ny = floor.shape
     for d in range(4):
         dx = 1 if d == 0 else (-1 if d == 1 else 0)
         dy = 1 if d == 2 else (-1 if d == 3 else 0)
+        # The foot: a raised surface from the neighbour on; a cell never seen ends it.
         jx, jy = ix + dx, iy + dy
-        if jx < 0 or jx >= nx or jy < 0 or jy >= ny:
-            continue
-        top = floor[jx, jy]
-        if not top > h + band:  # NaN: never
-            continue
-        # The raised surface from the neighbour on; a cell never seen ends it.
-        if _surface_ends_within(floor, obstacle, ix, iy, dx, dy, 2, top, band, cells, True):
-            return True
-    return False
-
-
-@numba.njit(cache=True, inline="always")
-def _rim_before_unseen_foot(
-    floor: NDArray[np.float64],
-    obstacle: NDArray[np.float64],
-    ix: int,
-    iy: int,
-    h: float,
-    band: float,
-    delta: float,
-    cells: int,
-) -> bool:
-    """Whether the floor ``h`` at ``(ix, iy)`` is a narrow rise's rim before an unseen foot.
-
-    It is when, along x or y, its neighbour on one side holds nothing (no floor, no obstacle)
-    and on the other side the stored floors (cells without one skipped) stay within ``h ±
-    band`` for at least one more cell and drop more than ``band`` below ``h`` within ``cells``
-    cells: the cell is the near edge of a raised surface at most ``cells`` deep (a sill, a
-    low box) whose lower side there — where the rim rule would find the lower floor — lies in
-    a shadow or under the robot's feet. Its edge may cross this cell as likely as the
-    next (stage depth seed 7, stereo seeds 2–4, 7, 8: the sill's near edge cell, 1 cm of sill,
-    took the sill's height, the ground before it hidden behind a box). ``floor`` and
-    ``obstacle`` are the stored maps, read directly (module note in `_label`).
-    """
-    nx, ny = floor.shape
-    for d in range(4):
-        dx = 1 if d == 0 else (-1 if d == 1 else 0)
-        dy = 1 if d == 2 else (-1 if d == 3 else 0)
+        if 0 <= jx < nx and 0 <= jy < ny:
+            top = floor[jx, jy]
+            if top > h + band and _surface_ends_within(  # NaN: never
+                floor, obstacle, ix, iy, dx, dy, 2, top, band, cells, True
+            ):
+                return True
+        # The near rim: nothing behind, the surface from this cell on (unseen cells skipped).
         bx, by = ix - dx, iy - dy
-        if bx < 0 or bx >= nx or by < 0 or by >= ny:
-            continue
-        if not np.isnan(floor[bx, by]) or obstacle[bx, by] > h + delta:  # NaN top: nothing
-            continue
-        # The raised surface from this cell on; cells never seen skipped.
-        if _surface_ends_within(floor, obstacle, ix, iy, dx, dy, 1, h, band, cells, False):
+        if (
+            0 <= bx < nx
+            and 0 <= by < ny
+            and np.isnan(floor[bx, by])
+            and not obstacle[bx, by] > h + delta  # NaN top: nothing
+            and _surface_ends_within(floor, obstacle, ix, iy, dx, dy, 1, h, band, cells, False)
+        ):
             return True
     return False
 
@@ -233,6 +225,44 @@ def _surface_ends_within(
 
 
 @numba.njit(cache=True, inline="always")
+def _patch_across(
+    floor: NDArray[np.float64],
+    obstacle: NDArray[np.float64],
+    ix: int,
+    iy: int,
+    dx: int,
+    dy: int,
+    h: float,
+    band: float,
+    delta: float,
+) -> bool:
+    """Whether the floor ``h`` at ``(ix, iy)`` ends across from a spilled neighbour.
+
+    The neighbour at ``(ix, iy) − (dx, dy)`` holds a lower floor under this surface's spill
+    (`MapperParams.rim_over_spill`). The raised floor ends at the cell across, ``(ix, iy) +
+    (dx, dy)``, when that cell holds no floor and its top lies above ``h`` but no higher than
+    ``h + delta`` (the surface's own layer, never verified as a floor: a rough top's column, a
+    box's edge), or, along x or y, a floor more than ``band`` below ``h`` (a single raised
+    cell between two lower floors: no surface). A cell across holding no floor and only
+    layers below ``h`` (the ground's layer beside a stereo sill whose floor no frame has
+    verified) ends nothing: the room's stereo sill keeps those cells. A tread's first row has
+    the tread's floor across from its riser's edge cell (which holds the lower tread's floor
+    under the upper tread's layer, as a side spill's cell does): it stays a floor
+    (talos_course, stairs: every tread's first row). The grid's border ends nothing.
+    ``floor`` and ``obstacle`` are the stored maps (module note in `_label`).
+    """
+    nx, ny = floor.shape
+    cx, cy = ix + dx, iy + dy
+    if cx < 0 or cx >= nx or cy < 0 or cy >= ny:
+        return False
+    across = floor[cx, cy]
+    if np.isnan(across):
+        top = obstacle[cx, cy]
+        return h < top <= h + delta  # NaN (nothing stored): no
+    return (dx == 0 or dy == 0) and across < h - band
+
+
+@numba.njit(cache=True, inline="always")
 def _behind_wide_shadow(
     floor: NDArray[np.float64],
     obstacle: NDArray[np.float64],
@@ -284,15 +314,16 @@ def _rim_over_seen_drop(
     """Whether a neighbour of the floor ``h`` at ``(ix, iy)`` was seen free below ``h``.
 
     It was when one of its 8 neighbours holds nothing (no floor, no obstacle) and its column
-    has a layer observed free (level below 0.5) that lies more than ``band`` below ``h`` (its
-    top below ``h − band``): rays passed there under the surface's height, so the surface
-    does not go on into that cell. The band keeps the ground's cells: the layer under the
-    ground's (top −0.02 m with the default grid) is cleared by rays to noisy points below
-    the ground, and the ground goes on there all the same. The cell is a raised surface's rim before a drop whose bottom no
-    camera position saw — the shadow behind a side edge seen at a grazing angle, wider than
+    has a layer observed free (level below 0.5) whose top lies more than ``band`` below
+    ``h``: rays passed there under the surface's height, so the surface does not go on into
+    that cell. The cell is a raised surface's rim before a drop whose bottom no camera
+    position saw — the shadow behind a side edge seen at a grazing angle, wider than
     ``shadow_reach_m`` or never ending in a seen lower floor — where the rim rule finds no
-    lower floor. ``og``, ``floor`` and ``obstacle`` are the stored maps, read directly
-    (module note in `_label`).
+    lower floor. The band spares most of the ground's cells: the layer under the ground's
+    (top −0.02 m with the default grid) is cleared by rays to noisy points below the ground,
+    though the ground goes on (a ground cell measured above 0 still counts it: the cost in
+    the parameter's figures). ``og``, ``floor`` and ``obstacle`` are the stored maps, read
+    directly (module note in `_label`).
     """
     nx, ny, nz = og.shape
     # Layers 0 .. below - 1 have their tops below h - band.
@@ -389,7 +420,8 @@ def update_fog_area(
     With ``band`` > 0 and ``rim_over_spill`` (`MapperParams.rim_over_spill`) a floor at ``h``
     is unknown beside an obstacle too whose stored floor lies more than ``band`` below ``h``
     and whose top reaches no higher than ``h`` + δ (a lower floor under the raised surface's
-    spill); its reach is the rim rule's.
+    spill), when the raised floor ends across from it (`_patch_across`; not a tread's first
+    row); its reach is the rim rule's and the cell across, within the ring.
 
     With ``band`` > 0 and ``seen_drop`` (`MapperParams.rim_over_seen_drop`) a floor is
     unknown beside a cell holding nothing whose column was observed free below the floor's
@@ -491,10 +523,7 @@ def update_fog_area(
                 if (
                     kind == _FLOOR
                     and rise > 0
-                    and (
-                        _at_narrow_rise(floor, obstacle, ix, iy, h, band, rise)
-                        or _rim_before_unseen_foot(floor, obstacle, ix, iy, h, band, delta, rise)
-                    )
+                    and _at_narrow_rise(floor, obstacle, ix, iy, h, band, delta, rise)
                 ):
                     kind, h = _UNKNOWN, np.nan
                 if (
@@ -515,6 +544,10 @@ def update_fog_area(
                             if (
                                 kind == _FLOOR
                                 and h > spill[ki, kj]  # itself: never (inf)
+                                # A riser's edge cell: the upper tread goes on across.
+                                and _patch_across(
+                                    floor, obstacle, ix, iy, i - ki, j - kj, h, band, delta
+                                )
                                 # A narrow rise (the room's stereo sill, 2–3 cells deep
                                 # between two spill cells): the narrow-rise rules judge it.
                                 and not _surface_ends_within(

@@ -90,6 +90,12 @@ class FloorObstacleMapper:
                 f"column_marks=True needs MapperParams.nz <= {MAX_COLUMN_LAYERS}, got {p.nz}"
             )
         self._columns = p.nz <= MAX_COLUMN_LAYERS if column_marks is None else column_marks
+        if p.repeat_ray_columns > 0 and not self._columns:
+            raise InvalidParameterError(
+                "MapperParams.repeat_ray_columns > 0 needs the column marks (column_marks=True "
+                f"or None, nz <= {MAX_COLUMN_LAYERS}), got repeat_ray_columns="
+                f"{p.repeat_ray_columns} with column_marks={column_marks}, nz={p.nz}"
+            )
         if self._columns:
             dtype = column_mask_dtype(p.nz)
             self._hit_cols = np.zeros(p.nx * p.ny, dtype=dtype)
@@ -165,6 +171,7 @@ class FloorObstacleMapper:
                 float(p.max_range_m),
                 bool(p.clear_outside),
                 cells,
+                p.repeat_ray_columns,
             )
         else:
             inserted = insert_frame(

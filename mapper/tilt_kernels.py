@@ -6,10 +6,11 @@ tilt filter's work on the points (`turn_points`, `tilt_variances`) and the plane
 (`unit_normals`, `normal_sigma_deg`) in one pass each instead of a dozen numpy calls.
 
 Bit for bit the numpy versions they replace: the same operations in the same order, numpy's
-sums emulated where their order is not a plain loop (`_numpy_sum`: numpy's pairwise sum of a
-1-D array), and the one matrix product on every point ``(points − origin)·turnᵀ``, which numpy
-hands to BLAS, as OpenBLAS's double kernels compute it: each element a chain of fused
-multiply-adds over the three products (`_rotated`, `_fma`; checked equal to numpy's ``@`` by
+sums emulated where their order is not a plain loop (`mapper.pairwise.pairwise_sum`: numpy's
+pairwise sum of a 1-D array), and the one matrix product on every point
+``(points − origin)·turnᵀ``, which numpy hands to BLAS, as OpenBLAS's double kernels compute
+it: each element a chain of fused multiply-adds over the three products (`_rotated`, `_fma`;
+checked equal to numpy's ``@`` by
 ``tests/test_tilt_kernels.py``: a BLAS that sums otherwise would differ in the last bit).
 """
 
@@ -23,6 +24,7 @@ from llvmlite import ir
 from numba import types
 from numba.extending import intrinsic
 
+from mapper.pairwise import pairwise_sum
 from mapper.scanline import plane_moments, plane_refits, region_interior, renumber_planes
 
 __all__ = [
@@ -39,9 +41,6 @@ __all__ = [
 ]
 
 
-_START = np.int64(0)
-"""`_block_sum`'s start of a whole array: a numpy scalar, as the stack's starts (a literal 0 is
-a type of its own, and numba would compile `_block_sum` a second time for it)."""
 _SHIFT = np.bool_(True)
 _NO_SHIFT = np.bool_(False)
 """`rotate_points`'s ``shift`` from the kernels: numpy booleans, not literals (each literal is a
@@ -74,83 +73,6 @@ def _rotated(v0, v1, v2, rotation, j, single):
     if single:
         return _fma(v2, rotation[j, 2], _fma(v0, rotation[j, 0], v1 * rotation[j, 1]))
     return _fma(v2, rotation[j, 2], _fma(v1, rotation[j, 1], v0 * rotation[j, 0]))
-
-
-@numba.njit(cache=True, no_cfunc_wrapper=True, nogil=True, error_model="numpy")
-def _block_sum(values, start, n):
-    """The pairwise sum numpy takes of ``values[start:start + n]`` for n ≤ 128.
-
-    A plain loop below 8 values, else 8 accumulators, combined pairwise, and the rest added one
-    by one.
-    """
-    if n < 8:
-        total = 0.0
-        for i in range(start, start + n):
-            total += values[i]
-        return total
-    r0, r1, r2, r3 = values[start], values[start + 1], values[start + 2], values[start + 3]
-    r4, r5, r6, r7 = values[start + 4], values[start + 5], values[start + 6], values[start + 7]
-    i = 8
-    while i < n - n % 8:
-        k = start + i
-        r0 += values[k]
-        r1 += values[k + 1]
-        r2 += values[k + 2]
-        r3 += values[k + 3]
-        r4 += values[k + 4]
-        r5 += values[k + 5]
-        r6 += values[k + 6]
-        r7 += values[k + 7]
-        i += 8
-    total = ((r0 + r1) + (r2 + r3)) + ((r4 + r5) + (r6 + r7))
-    while i < n:
-        total += values[start + i]
-        i += 1
-    return total
-
-
-@numba.njit(cache=True, no_cfunc_wrapper=True, nogil=True, error_model="numpy")
-def _numpy_sum(values):
-    """``np.sum`` of a 1-D float64 array, bit for bit.
-
-    numpy's pairwise sum: above 128 values the halves (the first a multiple of 8 long) summed
-    and added. Done with a stack, not recursion (a recursive kernel crashed when loaded from
-    numba's cache).
-    """
-    n = values.shape[0]
-    if n <= 128:
-        return _block_sum(values, _START, n)
-    depth = 3 * 64  # three entries per level; the halving ends within 64 levels
-    starts = np.empty(depth, dtype=np.int64)
-    lengths = np.empty(depth, dtype=np.int64)
-    combine = np.empty(depth, dtype=np.bool_)
-    partial = np.empty(depth)
-    tasks = 0
-    results = 0
-    starts[0], lengths[0], combine[0] = 0, n, False
-    tasks = 1
-    while tasks > 0:
-        tasks -= 1
-        start, length = starts[tasks], lengths[tasks]
-        if combine[tasks]:
-            results -= 1
-            partial[results - 1] = partial[results - 1] + partial[results]
-        elif length <= 128:
-            partial[results] = _block_sum(values, start, length)
-            results += 1
-        else:
-            half = length // 2
-            half -= half % 8
-            # Done in reverse order: the first half, the second, then their sum.
-            starts[tasks], lengths[tasks], combine[tasks] = start, length, True
-            starts[tasks + 1], lengths[tasks + 1], combine[tasks + 1] = (
-                start + half,
-                length - half,
-                False,
-            )
-            starts[tasks + 2], lengths[tasks + 2], combine[tasks + 2] = start, half, False
-            tasks += 3
-    return partial[0]
 
 
 @numba.njit(cache=True, no_cfunc_wrapper=True, nogil=True, error_model="numpy")
@@ -286,7 +208,7 @@ def tilt_variances(
             consensus[p] = True
             information[n_consensus] = 1.0 / v
             n_consensus += 1
-    return variance, consensus, _numpy_sum(information[:n_consensus])
+    return variance, consensus, pairwise_sum(information[:n_consensus])
 
 
 @numba.njit(cache=True, no_cfunc_wrapper=True, nogil=True, error_model="numpy")

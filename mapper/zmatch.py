@@ -27,6 +27,7 @@ from numpy.typing import ArrayLike, NDArray
 
 from mapper.errors import InvalidInputError
 from mapper.grid import GridGeometry
+from mapper.pairwise import pairwise_sum
 from mapper.params import MapperParams
 from mapper.validation import real_array, real_scalar
 
@@ -109,65 +110,6 @@ def match_z(
 
 
 @numba.njit(cache=True, no_cfunc_wrapper=True, nogil=True, error_model="numpy")
-def _block_sum(values, start, count):
-    """Sum of at most 128 values as numpy adds them: one by one below 8, else eight at once."""
-    if count < 8:
-        total = 0.0
-        for i in range(start, start + count):
-            total += values[i]
-        return total
-    r = values[start : start + 8].copy()
-    i = 8
-    end = count - count % 8
-    while i < end:
-        for j in range(8):
-            r[j] += values[start + i + j]
-        i += 8
-    total = ((r[0] + r[1]) + (r[2] + r[3])) + ((r[4] + r[5]) + (r[6] + r[7]))
-    for k in range(start + i, start + count):
-        total += values[k]
-    return total
-
-
-@numba.njit(cache=True, no_cfunc_wrapper=True, nogil=True, error_model="numpy")
-def _pairwise_sum(values):
-    """Sum of a contiguous float64 array by numpy's pairwise summation (numba), bit for bit.
-
-    The order of `np.add.reduce` (numpy's ``pairwise_sum``): blocks of at most 128 values by
-    `_block_sum`; a longer run split in two halves (the first a multiple of 8 long) summed
-    the same way. Walked with an explicit stack: numba's cache does not keep recursive
-    functions safely.
-    """
-    starts = np.empty(64, dtype=np.int64)
-    counts = np.empty(64, dtype=np.int64)
-    stages = np.empty(64, dtype=np.int64)
-    sums = np.empty(64)
-    starts[0], counts[0], stages[0] = 0, values.size, 0
-    top, done = 1, 0
-    while top > 0:
-        start, count = starts[top - 1], counts[top - 1]
-        if count <= 128:
-            sums[done] = _block_sum(values, start, count)
-            done += 1
-            top -= 1
-            continue
-        half = count // 2
-        half -= half % 8
-        stage = stages[top - 1]
-        stages[top - 1] = stage + 1
-        if stage < 2:  # push the first half, then the second
-            starts[top] = start if stage == 0 else start + half
-            counts[top] = half if stage == 0 else count - half
-            stages[top] = 0
-            top += 1
-        else:  # both halves summed: combine them
-            sums[done - 2] = sums[done - 2] + sums[done - 1]
-            done -= 1
-            top -= 1
-    return sums[0]
-
-
-@numba.njit(cache=True, no_cfunc_wrapper=True, nogil=True, error_model="numpy")
 def _median(values):
     """``np.median`` of a non-empty float64 array (NaN if one is NaN, as numpy's).
 
@@ -232,9 +174,9 @@ def _gated_shift(residual_m, eps_m):
     kept = residual_m[np.abs(residual_m - centre) <= eps_m]
     if kept.size == 0:  # an even count whose two middle residuals are more than 2·eps apart
         return 0.0, 0, np.nan
-    shift = _pairwise_sum(kept) / kept.size
+    shift = pairwise_sum(kept) / kept.size
     squares = (kept - shift) ** 2
-    return shift, kept.size, np.sqrt(_pairwise_sum(squares) / kept.size)
+    return shift, kept.size, np.sqrt(pairwise_sum(squares) / kept.size)
 
 
 def shift_from_residuals(residual_m: NDArray[np.float64], params: MapperParams) -> ZMatch:

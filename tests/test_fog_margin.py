@@ -499,32 +499,95 @@ def test_the_near_rim_of_a_narrow_rise_before_an_unseen_foot_is_unknown():
 
 
 def test_a_rim_over_a_lower_floor_under_its_own_spill_is_unknown():
-    # The stereo stage's sill seen at its side end (seeds 1, 4, 5, 7, 8) and step_1 before its
-    # riser (every seed): the ground cell beside the raised surface holds the ground's floor
-    # and the raised surface's spilled points one layer up (top 0.06 > 0 + δ: an obstacle by
-    # eq. 11), so the rim rule, which looks for a neighbour labelled floor, left the raised
-    # cell beside it (3) a floor — on a ground cell that took the sill's height. With
-    # `rim_over_spill` a neighbour's stored floor more than the band below counts when its
-    # top reaches no higher than this floor + δ: cell 3 is unknown, the surface beyond floor.
-    floors = [0.0, 0.0, 0.0, 0.037, 0.037, 0.037, 0.037, 0.037, 0.037]
+    # The stage's box_right_2 in depth mode (seed 3): a rough top's low patch, a floor at
+    # 0.163 (its own layer occupied), beside box-edge cells that hold the ground's floor under
+    # the box's layers (top 0.18 > 0 + δ: an obstacle by eq. 11), and across from them box
+    # cells holding the box's layer but no floor. The rim rule, which looks for a neighbour
+    # labelled floor, left the patch a floor 57 mm below the box's true top. With
+    # `rim_over_spill` a neighbour's stored floor more than the band below counts when its top
+    # reaches no higher than this floor + δ and the raised floor ends across from it: unknown.
+    nan = np.nan
+    floors = [0.0, 0.0, 0.0, 0.163, nan, 0.0, 0.0]
+    tops = [nan, nan, 0.17, nan, 0.17, nan, nan]
+    og, floor = surfaces_grid(floors, tops_m=tops)
+    types, heights = fog(og, floor, band=BAND, beside=True, rise=RISE, spill=True)
+    assert types[:, 1].tolist() == [F, F, OB, U, OB, F, F]
+    assert np.isnan(heights[3, 1])
+    without, _ = fog(og, floor, band=BAND, beside=True, rise=RISE)
+    assert without[:, 1].tolist() == [F, F, OB, F, OB, F, F]
+    # A single raised cell between two such edge cells (a spill two cells wide, stereo):
+    # along x the floor across is lower too, so the raised cell is no surface: unknown.
+    floors = [0.0, 0.0, 0.0, 0.037, 0.0, 0.0, 0.0]
+    tops = [nan, nan, 0.05, nan, 0.05, nan, nan]
+    og, floor = surfaces_grid(floors, tops_m=tops)
+    assert fog(og, floor, band=BAND, beside=True, rise=RISE, spill=True)[0][3, 1] == U
+    assert fog(og, floor, band=BAND, beside=True, rise=RISE)[0][3, 1] == F
+    # A cell across with no floor and only the ground's layer (a stereo sill's neighbour
+    # whose floor no frame verified) is no end of the raised floor: a floor.
+    og, floor = surfaces_grid(
+        [0.0, 0.0, 0.0, 0.163, nan, 0.0, 0.0], tops_m=[nan, nan, 0.17, nan, 0.0, nan, nan]
+    )
+    assert fog(og, floor, band=BAND, beside=True, rise=RISE, spill=True)[0][3, 1] == F
+    # Something taller than this floor + δ there (top 0.25 > 0.163 + 0.05) is no spill of
+    # it: the rule leaves the floor beside it alone (the obstacle rule judges it).
+    floors = [0.0, 0.0, 0.0, 0.163, nan, 0.0, 0.0]
+    og, floor = surfaces_grid(floors, tops_m=[nan, nan, 0.25, nan, 0.17, nan, nan])
+    assert fog(og, floor, band=BAND, beside=False, rise=RISE, spill=True)[0][3, 1] == F
+    # Without the band the rule is off.
+    og, floor = surfaces_grid(floors, tops_m=[nan, nan, 0.17, nan, 0.17, nan, nan])
+    assert fog(og, floor, beside=True, rise=RISE, spill=True)[0][3, 1] == F
+
+
+def test_a_riser_keeps_the_upper_treads_first_row_over_its_edge_cell():
+    # A tread's riser in depth mode (talos_course: threshold, steps, platform; stairs): the
+    # edge cell at the riser's foot holds the lower tread's floor under the upper tread's
+    # layer (the riser's face, top 0.06 within 0.04 + δ), as a side spill's cell does. Across
+    # from it the upper tread goes on (its floor within the band): its first row is a floor.
+    # (Counting it gave up every tread's first row: talos_course floor recall −0.08 point.)
+    floors = [0.0, 0.0, 0.0, 0.04, 0.04, 0.04, 0.04, 0.04, 0.04]
     tops = [np.nan, np.nan, 0.05] + [np.nan] * 6
     og, floor = surfaces_grid(floors, tops_m=tops)
     types, heights = fog(og, floor, band=BAND, beside=True, rise=RISE, spill=True)
-    assert types[:, 1].tolist() == [F, F, OB, U, F, F, F, F, F]
-    assert heights[4, 1] == 0.037
-    without, _ = fog(og, floor, band=BAND, beside=True, rise=RISE)
-    assert without[:, 1].tolist() == [F, F, OB, F, F, F, F, F, F]
-    # Something taller than this floor + δ there (top 0.10 > 0.037 + 0.05) is no spill of it:
-    # the rule leaves the floor beside it alone (the obstacle rule judges it).
-    tops = [np.nan, np.nan, 0.09] + [np.nan] * 6
+    assert types[:, 1].tolist() == [F, F, OB, F, F, F, F, F, F]
+    assert heights[3, 1] == 0.04
+    # A staircase: treads 4 cells deep, each riser's edge cell spilled; every first row stays.
+    floors = [0.0] * 3 + [0.08] * 4 + [0.16] * 4 + [0.24] * 4
+    tops = [np.nan] * 15
+    tops[2], tops[6], tops[10] = 0.09, 0.17, 0.25
     og, floor = surfaces_grid(floors, tops_m=tops)
-    types, _ = fog(og, floor, band=BAND, beside=False, rise=RISE, spill=True)
-    assert types[3, 1] == F
-    # Without the band the rule is off.
-    tops = [np.nan, np.nan, 0.05] + [np.nan] * 6
-    og, floor = surfaces_grid(floors, tops_m=tops)
-    types, _ = fog(og, floor, beside=True, rise=RISE, spill=True)
-    assert types[3, 1] == F
+    for ix in (2, 6, 10):  # the edge cells keep their lower floor
+        floor[ix, :] = floors[ix - 1]
+    types, _ = fog(og, floor, band=BAND, beside=True, rise=RISE, spill=True)
+    assert [types[ix, 1] for ix in (3, 7, 11)] == [F, F, F]
+    assert np.array_equal(types, fog(og, floor, band=BAND, beside=True, rise=RISE)[0])
+
+
+def test_a_spill_rim_across_a_diagonal_or_the_border():
+    # Only the cell across from the spilled neighbour decides, along a diagonal too. A box
+    # whose rough top left its layer (top 0.18) but no floor in every cell, but a patch at
+    # 0.163 (the stage's box_right_2, seed 3), its corner cell (2, 2) holding the ground's
+    # floor under the box's layers: the patch cell (3, 3) beside it diagonally is unknown when
+    # the cell across, (4, 4), holds the layer but no floor; a floor when the patch goes on
+    # there (a tread); at the grid's border nothing is across: a floor.
+    def box(patch):
+        og = np.full((7, 7, P.nz), 128, dtype=np.uint8)
+        og[:, :, layer_of(0.0) : layer_of(0.17) + 1] = OCC
+        floor = np.full((7, 7), np.nan)
+        floor[2, 2] = 0.0
+        for c in patch:
+            og[c][: layer_of(0.163)] = 128
+            floor[c] = 0.163
+        return og, floor
+
+    og, floor = box([(3, 3)])
+    types, _ = fog(og, floor, band=BAND, beside=True, rise=RISE, spill=True)
+    assert types[2, 2] == OB and types[3, 3] == U
+    assert fog(og, floor, band=BAND, beside=True, rise=RISE)[0][3, 3] == F
+    og, floor = box([(3, 3), (4, 4)])
+    assert fog(og, floor, band=BAND, beside=True, rise=RISE, spill=True)[0][3, 3] == F
+    nan = np.nan
+    og, floor = surfaces_grid([0.0, 0.0, 0.0, 0.163], tops_m=[nan, nan, 0.17, nan])
+    assert fog(og, floor, band=BAND, beside=True, rise=RISE, spill=True)[0][3, 1] == F
 
 
 def test_a_narrow_surface_between_two_spilled_edge_cells_keeps_its_cells():
@@ -703,12 +766,12 @@ def test_the_patch_rule_relabels_as_a_whole_grid_update_would():
     assert part[4, 4] == U and np.array_equal(part, whole)
 
 
-def test_rim_over_spill_is_off_by_default_and_the_mapper_passes_it():
+def test_rim_over_spill_is_on_by_default_and_the_mapper_passes_it(monkeypatch):
     # A 60 mm box top 0.40 × 0.20 m (10 × 5 cells) on the ground, seen straight down: its
     # edge cells hold the ground's floor under the box's layer (an obstacle by eq. 11, its top
-    # 0.10 within 0.0615 + δ). Off (the default), the box top is a floor up to them; on, its
-    # cells beside them are unknown (the box is wider than the narrow-rise limit both ways).
-    assert P.rim_over_spill is False
+    # 0.10 within 0.0615 + δ), and across from them the box top goes on: its rim cells stay
+    # floors either way (as a tread's first row does). The mapper hands the switch to the FOG.
+    assert P.rim_over_spill is True
     with pytest.raises(InvalidParameterError, match="rim_over_spill"):
         MapperParams(rim_over_spill=1)
     xs, ys = np.meshgrid(np.arange(0.205, 1.0, 0.01), np.arange(-0.395, 0.4, 0.01), indexing="ij")
@@ -716,6 +779,13 @@ def test_rim_over_spill_is_off_by_default_and_the_mapper_passes_it():
     on_box = (xs > 0.40) & (xs < 0.80) & (ys > 0.10) & (ys < 0.30)
     z = np.where(on_box, 0.0615, 0.0)
     points = np.column_stack([xs, ys, z])
+    passed = []
+
+    def spy(*args):
+        passed.append(args[-2])  # rim_over_spill, before rim_over_seen_drop
+        return update_fog_area(*args)
+
+    monkeypatch.setattr("mapper.mapper.update_fog_area", spy)
     floors = {}
     for on in (False, True):
         m = FloorObstacleMapper(MapperParams(rim_over_spill=on))
@@ -723,5 +793,5 @@ def test_rim_over_spill_is_off_by_default_and_the_mapper_passes_it():
             m.update(points, z.copy(), np.array([0.0, 0.0, 1.5]))
         types, heights = m.fog()
         floors[on] = (types == F) & (np.abs(heights - 0.0615) < 0.01)
-    assert floors[True].sum() < floors[False].sum()
-    assert not (floors[True] & ~floors[False]).any()  # only taken away
+    assert passed == [False] * 10 + [True] * 10
+    assert floors[True].sum() > 0 and np.array_equal(floors[True], floors[False])

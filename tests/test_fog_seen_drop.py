@@ -1,11 +1,12 @@
 """The rim before a drop seen as free space (`MapperParams.rim_over_seen_drop`, `mapper.fog`).
 
 A floor at ``h`` is unknown when one of its 8 neighbours holds nothing (no floor, no obstacle)
-and a layer of that neighbour's column wholly below ``h`` was observed free (level < 128).
+and a layer of that neighbour's column whose top lies more than the band (0.02 m) below ``h``
+was observed free (level < 128).
 With the default grid (z_min −0.06 m, layers of 0.04 m) layer k spans
 ``[−0.06 + 0.04·k, −0.02 + 0.04·k]``: under the 125 mm platform (layer 4, 0.10–0.14) lie layers
-0–3 (top 0.10 ≤ 0.125); under the ground at 0 none (layer 0's top is −0.02, but the ground
-sits in layer 1, −0.02–0.02, and only layer 0 lies below: top −0.02 ≤ 0).
+0–3 (top 0.10 < 0.105); under the ground at 0 none (layer 0's top is −0.02, and the ground
+sits in layer 1, −0.02–0.02: layer 0's top is not more than the band, 0.02, below 0).
 """
 
 import numpy as np
@@ -78,10 +79,11 @@ def test_a_neighbour_with_an_obstacle_or_a_floor_is_no_drop():
 
 
 def test_the_ground_beside_unseen_cells_stays_floor():
-    # Nothing lies below the ground's layer but layer 0 (top −0.02), never free in practice;
-    # free space above the ground (layers 1 and up) says nothing.
+    # Only layer 0 (top −0.02) lies under the ground's layer, not more than the band (0.02)
+    # below a ground at 0: rays to noisy points under the ground clear it; free space above
+    # the ground (layers 1 and up) says nothing either.
     og, floor = surfaces_grid([0.0] * 5 + [np.nan] * 6)
-    og[5:, :, 1:] = FREE
+    og[5:, :, :] = FREE
     assert fog_row(og, floor) == [F] * 5 + [U] * 6
 
 

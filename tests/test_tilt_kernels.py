@@ -125,13 +125,6 @@ def test_tilt_variances_are_numpys(n_planes):
         assert information == (1.0 / expected[want]).sum()
 
 
-@pytest.mark.parametrize("n", [0, 1, 5, 8, 9, 127, 128, 129, 300, 1001, 5000])
-def test_numpy_sum_is_numpys(n):
-    rng = np.random.default_rng(n)
-    values = rng.normal(size=n) * 10.0 ** rng.integers(-6, 6, n)
-    assert tilt_kernels._numpy_sum(values) == values.sum()
-
-
 def _numpy_unit_normals(plane_table, rotation):
     normals_camera = plane_table[:, :3] / np.linalg.norm(plane_table[:, :3], axis=1)[:, None]
     normals = normals_camera @ rotation.T
