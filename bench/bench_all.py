@@ -35,6 +35,8 @@ from pathlib import Path
 ROOT = Path(__file__).resolve().parent.parent
 sys.path.insert(0, str(ROOT))
 
+from machine import cpu_model  # noqa: E402  (bench/machine.py, beside this script)
+
 from fogsim.atomic import write_text_atomic  # noqa: E402
 
 #: Packages whose versions set the figures (compilers, renderers, peers).
@@ -69,6 +71,10 @@ class Step:
     argv: tuple[str, ...]
     quick_argv: tuple[str, ...]
     one_core: bool = False
+
+    def arguments(self, quick: bool) -> tuple[str, ...]:
+        """The script and its arguments: `quick_argv` with ``quick``, else `argv`."""
+        return self.quick_argv if quick else self.argv
 
 
 STEPS = (
@@ -153,11 +159,6 @@ class StepResult:
 
 def machine_lines() -> list[str]:
     """The machine: CPU model and cores, memory, OS, Python and package versions."""
-    model = platform.processor() or platform.machine()
-    cpuinfo = Path("/proc/cpuinfo")
-    if cpuinfo.is_file():
-        names = [line for line in cpuinfo.read_text().splitlines() if line.startswith("model name")]
-        model = names[0].split(":", 1)[1].strip() if names else model
     memory = ""
     meminfo = Path("/proc/meminfo")
     if meminfo.is_file():
@@ -170,7 +171,7 @@ def machine_lines() -> list[str]:
         except PackageNotFoundError:
             versions.append(f"{package} (not installed)")
     return [
-        f"- CPU: {model}, {os.cpu_count()} cores{memory}",
+        f"- CPU: {cpu_model()}, {os.cpu_count()} cores{memory}",
         f"- OS: {platform.platform()}",
         f"- Python {platform.python_version()}; {', '.join(versions)}",
     ]
@@ -190,15 +191,13 @@ def commit() -> str:
 
 def run_step(step: Step, recording: Path, quick: bool, env: dict[str, str]) -> StepResult:
     """Run one benchmark in a child process; its output, wall time and the load around it."""
-    argv = [
-        str(recording) if a == RECORDING else a for a in (step.quick_argv if quick else step.argv)
-    ]
-    command = [sys.executable, str(ROOT / "bench" / argv[0]), *argv[1:]]
-    if step.one_core:
-        command = ["taskset", "-c", "0", *command]
-    shown = " ".join(["python", f"bench/{argv[0]}", *argv[1:]]).replace(str(recording), "REC")
-    if step.one_core:
-        shown = "taskset -c 0 " + shown
+    script, *rest = step.arguments(quick)
+    prefix = ["taskset", "-c", "0"] if step.one_core else []
+    command = [*prefix, sys.executable, str(ROOT / "bench" / script)]
+    shown = [*prefix, "python", f"bench/{script}"]
+    for a in rest:
+        command.append(str(recording) if a == RECORDING else a)
+        shown.append("REC" if a == RECORDING else a)
     load_before = os.getloadavg()
     start = time.perf_counter()
     done = subprocess.run(command, cwd=ROOT, env=env, capture_output=True, text=True, check=False)
@@ -206,7 +205,9 @@ def run_step(step: Step, recording: Path, quick: bool, env: dict[str, str]) -> S
     output = done.stdout.rstrip()
     if done.returncode != 0:
         output += "\n--- stderr (tail) ---\n" + "\n".join(done.stderr.splitlines()[-20:])
-    return StepResult(step, shown, wall_s, load_before, os.getloadavg(), done.returncode, output)
+    return StepResult(
+        step, " ".join(shown), wall_s, load_before, os.getloadavg(), done.returncode, output
+    )
 
 
 def render(results: list[StepResult], header: list[str], quick: bool) -> str:
@@ -260,7 +261,7 @@ def main(argv: list[str] | None = None) -> int:
     results: list[StepResult] = []
     with tempfile.TemporaryDirectory(prefix="fogsim-bench-") as folder:
         recording = Path(folder) / "stage_s1.npz"
-        if any(RECORDING in (s.quick_argv if args.quick else s.argv) for s in steps):
+        if any(RECORDING in s.arguments(args.quick) for s in steps):
             subprocess.run(
                 [
                     sys.executable,

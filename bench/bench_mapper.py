@@ -67,6 +67,8 @@ import octomap
 from numpy.typing import NDArray
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
+from machine import cpu_model  # bench/machine.py, beside this script
+
 import mapper.mapper as mapper_module
 from fogsim.config.params import resolve_params
 from fogsim.data.recording import FORMAT_VERSION, load_recording
@@ -391,13 +393,8 @@ def run_child(args: argparse.Namespace, codegen: str, cache_dir: Path) -> list[R
 
 
 def machine() -> str:
-    """CPU model (from /proc/cpuinfo where there is one), core count and OS."""
-    cpuinfo = Path("/proc/cpuinfo")
-    model = platform.processor()
-    if cpuinfo.is_file():
-        names = [line for line in cpuinfo.read_text().splitlines() if line.startswith("model name")]
-        model = names[0].split(":", 1)[1].strip() if names else model
-    return f"{model}, {os.cpu_count()} cores, {platform.platform()}"
+    """CPU model (`machine.cpu_model`), core count and OS."""
+    return f"{cpu_model()}, {os.cpu_count()} cores, {platform.platform()}"
 
 
 def print_table(rows: list[Row]) -> None:

@@ -1012,9 +1012,10 @@ def insert_frame_columns(
             ix1 = max(ix1, ix)
             iy0 = min(iy0, iy)
             iy1 = max(iy1, iy)
+            column = np.uint64(ix * ny + iy)
             end_bit = _range_mask(range_masks, iz, iz)
-            repeat = (hit_cols[np.uint64(ix * ny + iy)] & end_bit) != 0
-            hit_cols[np.uint64(ix * ny + iy)] |= end_bit
+            repeat = (hit_cols[column] & end_bit) != 0
+            hit_cols[column] |= end_bit
             if not cast:
                 continue
             clip = _clip_ray(ox, oy, oz, gx, gy, gz, ix, iy, iz, nx, ny, nz, free_margin, length)
