@@ -346,6 +346,29 @@ def test_weighted_scores_with_unit_weights_are_the_plain_scores():
     )
 
 
+def test_integer_counts_give_the_float_scores_bit_for_bit_with_collisions_and_many_keyframes():
+    # `heading_scores` counts in an int32 table, `weighted_heading_scores` sums float64
+    # weights: the same numbers, also with thousands of points per voxel (dense keyframes),
+    # hash collisions (points spread over a wide area) and 96 keyframes of 600 points.
+    rng = np.random.default_rng(7)
+    sizes = rng.integers(100, 601, 96)
+    starts = np.concatenate([[0], np.cumsum(sizes)]).astype(np.int64)
+    m = int(starts[-1])
+    dense = rng.uniform(0.5, 0.56, (m, 2))  # a few voxels: large counts
+    wide = rng.uniform(-400.0, 400.0, (m, 2))  # ~10⁹ voxels over 2²⁰ slots: collisions
+    offsets = np.where(rng.random((m, 1)) < 0.3, dense, wide)
+    z = rng.uniform(0.0, 0.5, m)
+    cameras = rng.uniform(-0.002, 0.002, (96, 2))  # keyframes from about one place
+    yaw = rng.uniform(-0.001, 0.001, 96)
+    angles = np.radians(np.arange(-12.0, 12.1, 0.5))
+    plain = heading_scores(offsets, z, starts, cameras, yaw, angles, 0.03, 0.04)
+    np.testing.assert_array_equal(
+        plain,
+        weighted_heading_scores(offsets, z, np.ones(m), starts, cameras, yaw, angles, 0.03, 0.04),
+    )
+    assert plain.max() > 1e6  # the dense points' pairs: counts far beyond a few per voxel
+
+
 def test_the_edge_score_does_not_stand_in_where_the_structure_score_is_building_up():
     # Stage-like boxes: the structure points' score stands out from the third pose on; the
     # edge score (which sees the boxes' sides too) is never used, so the correction is the

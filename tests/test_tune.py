@@ -1084,3 +1084,95 @@ def test_the_cache_keeps_results_up_to_its_byte_cap_read_only():
         first[0].points[0, 0] = 1.0  # shared between trials: nobody may write into it
     with pytest.raises(FogsimError, match="max_bytes must be >= 0, got -1"):
         SegmentationCache(max_bytes=-1)
+
+
+# ----------------------------------------------------------------------------- cells in view cache
+
+
+def test_trials_with_cached_cells_in_view_give_the_reports_of_making_them_afresh():
+    import numpy as np
+
+    from fogsim.eval.archive import cells_in_view
+    from fogsim.run.runner import replay_report
+    from fogsim.tune.segment_cache import ViewCache
+
+    (entry,) = synthetic_box_removal_suite(frames=30)
+    views = ViewCache()
+    for overrides in ({"p_occ": 0.7}, {"p_occ": 0.6, "eps_m": 0.02}):
+        afresh = replay_report(entry.recording, overrides)
+        cached = replay_report(entry.recording, overrides, in_view=views.cells_in_view)
+        assert _without_times(cached) == _without_times(afresh)
+    # The second trial asks for the cells of the same frames on the same grids: all kept.
+    assert views.misses > 0 and views.hits == views.misses
+    frame = entry.recording.frames[3]
+    from mapper import FloorObstacleMapper
+
+    geometry = FloorObstacleMapper().geometry
+    mask = views.cells_in_view(frame, geometry)
+    np.testing.assert_array_equal(mask, cells_in_view(frame, geometry))
+    with pytest.raises(ValueError, match="read-only"):
+        mask[0, 0] = True  # shared between trials: nobody may write into it
+    moved = geometry.shifted(5, 0)  # another place of the grid is another key
+    np.testing.assert_array_equal(views.cells_in_view(frame, moved), cells_in_view(frame, moved))
+
+
+def test_the_view_cache_keeps_masks_up_to_its_byte_cap():
+    from fogsim.tune.segment_cache import ViewCache
+    from mapper import FloorObstacleMapper
+
+    (entry,) = synthetic_box_removal_suite(frames=2)
+    geometry = FloorObstacleMapper().geometry
+    first, second = entry.recording.frames
+    one = geometry.nx * geometry.ny + first.depth_m.nbytes + 16 * 8  # mask, depth, pose
+    views = ViewCache(max_bytes=one + one // 2)
+    kept = views.cells_in_view(first, geometry)
+    views.cells_in_view(second, geometry)
+    assert views.stored_bytes == one and views.misses == 2
+    assert views.cells_in_view(first, geometry) is kept
+    assert views.cells_in_view(second, geometry) is not kept
+    assert (views.misses, views.hits) == (3, 1)
+    with pytest.raises(FogsimError, match="max_bytes must be >= 0, got -1"):
+        ViewCache(max_bytes=-1)
+
+
+def test_a_suite_holds_its_recordings_depth_in_memory_read_only(tmp_path, monkeypatch):
+    import numpy as np
+
+    import fogsim.tune.suite as suite_module
+    from fogsim.data.frames import DepthArray, DepthMember
+    from fogsim.data.recording import load_recording, save_recording
+    from fogsim.tune.suite import load_suite
+
+    (entry,) = synthetic_box_removal_suite(frames=6)
+    recording = entry.recording
+    path = save_recording(
+        tmp_path / "boxes.npz",
+        recording.frames,
+        scenario=recording.scenario,
+        truths=recording.truths,
+    )
+    from_file = load_recording(path)
+    (loaded,) = load_suite(path, tmp_path / "recordings")
+    assert isinstance(from_file.frames.depth, DepthMember)
+    assert isinstance(loaded.recording.frames.depth, DepthArray)
+    assert len(loaded.recording.frames) == 6
+    for a, b in zip(from_file.frames, loaded.recording.frames, strict=True):
+        assert not a.depth_m.flags.writeable and not b.depth_m.flags.writeable
+        assert a.depth_m.dtype == b.depth_m.dtype == np.float32
+        np.testing.assert_array_equal(a.depth_m, b.depth_m)
+        np.testing.assert_array_equal(a.robot_pose_believed, b.robot_pose_believed)
+    # A slice keeps its own frames; more depth than the bound is left in the file.
+    assert [f.index for f in from_file.frames[2:5].in_memory()] == [2, 3, 4]
+    monkeypatch.setattr(suite_module, "IN_MEMORY_DEPTH_BYTES", 6 * 88 * 72 * 4 - 1)
+    (kept_in_file,) = load_suite(path, tmp_path / "recordings")
+    assert isinstance(kept_in_file.recording.frames.depth, DepthMember)
+
+
+def test_package_versions_are_read_once_and_handed_out_as_fresh_dicts():
+    from fogsim.eval.report import package_versions
+
+    first = package_versions()
+    first["numpy"] = "changed"
+    second = package_versions()
+    assert second["numpy"] != "changed" and second is not first
+    assert list(second)[:2] == ["python", "fogsim"]

@@ -16,6 +16,7 @@ allocated. The pipeline refuses implausible pose jumps first
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from typing import Any
 
 import numpy as np
@@ -43,6 +44,12 @@ _LAYERS = (
     ("in_view", np.bool_, False),
 )
 """The archive's layers: name, element type and the value of a cell never stored."""
+
+
+InView = Callable[..., NDArray[np.bool_]]
+"""``(frame, geometry, points_world=None) -> (nx, ny) bool``: :func:`cells_in_view`, or a cache
+in front of it (``fogsim tune``: :class:`~fogsim.tune.segment_cache.ViewCache`). Its result is
+only read."""
 
 
 def cells_in_view(

@@ -25,7 +25,7 @@ from fogsim.config import RunParams, Scenario, resolve_params
 from fogsim.data.frame import Frame
 from fogsim.data.recording import Recording
 from fogsim.errors import FogsimError
-from fogsim.eval.archive import WorldArchive, cells_in_view, view_points_world
+from fogsim.eval.archive import InView, WorldArchive, cells_in_view, view_points_world
 from fogsim.eval.events import EventTracker, TruthProvider
 from fogsim.eval.maps import write_maps
 from fogsim.eval.metrics import score_archive
@@ -123,6 +123,7 @@ def run_frames(
     on_frame: FrameCallback | None = None,
     segment: SegmentFunction = segment_depth,
     segment_ahead: bool = True,
+    in_view: InView = cells_in_view,
 ) -> RunResult:
     """Feed frames through the pipeline and score the run.
 
@@ -141,6 +142,8 @@ def run_frames(
         segment_ahead: Segment the frames and filter their tilt on a second thread ahead of
             the mapping (:class:`~fogsim.mapping.prefetch.SegmentAhead`: the same results, the
             two overlapped); False: in line.
+        in_view: The cells of a grid a frame saw (:func:`~fogsim.eval.archive.cells_in_view`,
+            or a cache in front of it: ``fogsim tune``).
 
     Raises:
         FogsimError: No frames.
@@ -154,7 +157,7 @@ def run_frames(
     if not segment_ahead:
         pipeline = Pipeline(run_params, segment)
         return _run_pipeline(
-            frames, None, pipeline, truth_provider, scenario, run_params, on_frame, start
+            frames, None, pipeline, truth_provider, scenario, run_params, on_frame, start, in_view
         )
     segmenter = FrameSegmenter(run_params, segment)
     # The frames' world points for the cells in view are made on the thread too.
@@ -162,7 +165,7 @@ def run_frames(
         pipeline = Pipeline(run_params, segmented=ahead.segmented)
         ahead.start()
         return _run_pipeline(
-            ahead, ahead, pipeline, truth_provider, scenario, run_params, on_frame, start
+            ahead, ahead, pipeline, truth_provider, scenario, run_params, on_frame, start, in_view
         )
 
 
@@ -175,6 +178,7 @@ def _run_pipeline(
     run_params: RunParams,
     on_frame: FrameCallback | None,
     start: float,
+    in_view: InView = cells_in_view,
 ) -> RunResult:
     """The frame loop and scoring of :func:`run_frames` (``ahead``: ``frames`` segmented ahead)."""
     cell_m = pipeline.mapper_params.cell_m
@@ -202,10 +206,10 @@ def _run_pipeline(
         geometry = pipeline.mapper.geometry
         made = ahead.also(frame) if ahead is not None else None  # on the segmentation thread
         points_world = made if isinstance(made, np.ndarray) else None
-        in_view = cells_in_view(frame, geometry, points_world)
+        seen = in_view(frame, geometry, points_world)
         for late_frame in pipeline.mapped_now:  # frames mapped (again) with this one
-            in_view |= cells_in_view(late_frame, geometry)
-        archiver.add(geometry, in_view)
+            seen = seen | in_view(late_frame, geometry)
+        archiver.add(geometry, seen)
         if tracker is not None or fig5 is not None:  # the maps, every cell's centre: for these
             types, fog_heights, base_heights = pipeline.maps()
             centers = pipeline.cell_centers_xy()
@@ -224,8 +228,8 @@ def _run_pipeline(
     flushed = pipeline.finish()  # frames still waiting for the height reference
     if flushed:
         geometry = pipeline.mapper.geometry
-        in_view = np.logical_or.reduce([cells_in_view(f, geometry) for f in flushed])
-        archiver.add(geometry, in_view)
+        seen = np.logical_or.reduce([in_view(f, geometry) for f in flushed])
+        archiver.add(geometry, seen)
     archiver.flush(pipeline)
 
     for late in pipeline.mapped_late:  # deferred frames: withdrawn when seen, mapped later
@@ -347,6 +351,7 @@ def replay_report(
     segment: SegmentFunction = segment_depth,
     *,
     segment_ahead: bool = True,
+    in_view: InView = cells_in_view,
 ) -> Report:
     """Replay a recording with parameter overrides and return its report (no pictures).
 
@@ -357,6 +362,7 @@ def replay_report(
         segment: The pipeline's segmentation (``fogsim tune`` passes a cache in front of it).
         segment_ahead: Segment on a second thread ahead of the mapping (:func:`run_frames`);
             ``fogsim tune`` turns it off: its worker processes already keep every core busy.
+        in_view: The cells of a grid a frame saw (:func:`run_frames`).
     """
     result = run_frames(
         recording.frames,
@@ -365,6 +371,7 @@ def replay_report(
         params=resolve_params(recording.scenario, overrides, sensor_fields(recording.scenario)),
         segment=segment,
         segment_ahead=segment_ahead,
+        in_view=in_view,
     )
     return build_report(result, recording.scenario, source="replay")
 
