@@ -23,6 +23,7 @@ from fogsim.robot.body_boxes import body_boxes
 from fogsim.robot.description import CAMERA_NAMES, CameraMount, RobotDescription, load_description
 from fogsim.robot.disk_cache import content_key, library_versions, load_or_build, source_digest
 from fogsim.robot.kinematics import Robot
+from fogsim.robot.mj_xml import model_from_xml_path
 from fogsim.robot.mjcf import cache_root, cached_mjcf
 
 MAX_CACHED_ROBOTS = 8
@@ -82,7 +83,7 @@ def _load(description: RobotDescription) -> dict[str, Any]:
         else wrapper.visual_model
     )
     mjcf_path = cached_mjcf(description, model, geometry_model, wrapper.urdf)
-    mj_model = mujoco.MjModel.from_xml_path(str(mjcf_path))
+    mj_model = model_from_xml_path(mjcf_path)
     joint_names = tuple(model.names[j] for j in range(2, model.njoints))
     mujoco_joint_names = tuple(
         mujoco.mj_id2name(mj_model, mujoco.mjtObj.mjOBJ_JOINT, j) for j in range(mj_model.njnt)

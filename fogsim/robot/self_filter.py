@@ -153,9 +153,11 @@ class SelfFilter:
     ) -> None:
         import mujoco  # only where a filter is made (module doc)
 
+        from fogsim.robot.mj_xml import model_from_xml_path
+
         self.robot = robot
         self.params = params or SelfFilterParams()
-        self.mj_model = mujoco.MjModel.from_xml_path(str(robot.mjcf_path))
+        self.mj_model = model_from_xml_path(robot.mjcf_path)
         self.mj_data = mujoco.MjData(self.mj_model)
         self.camera_site = mujoco.mj_name2id(self.mj_model, mujoco.mjtObj.mjOBJ_SITE, camera)
         if self.camera_site < 0:

@@ -36,6 +36,7 @@ from fogsim.config import CameraConfig, Scenario, SceneObject
 from fogsim.errors import FogsimError, RobotModelError
 from fogsim.geometry import MJ_FROM_CV
 from fogsim.robot import CAMERA_NAMES, Robot
+from fogsim.robot.mj_xml import model_from_xml_string
 from fogsim.sim import assets
 from fogsim.sim.assets import MJCF_DIR, load_mjcf_piece, scene_textures
 from fogsim.sim.camera.depth import VISIBLE_GEOMGROUPS
@@ -326,7 +327,7 @@ def build_scene_mjcf(scenario: Scenario, robot: Robot | None) -> mjcf.RootElemen
 def compile_scene(scenario: Scenario, robot: Robot | None) -> mujoco.MjModel:
     """Compile the scene's MJCF as ``dm_control.mjcf.Physics.from_mjcf_model`` does."""
     root = build_scene_mjcf(scenario, robot)
-    return mujoco.MjModel.from_xml_string(root.to_xml_string(), root.get_assets())
+    return model_from_xml_string(root.to_xml_string(), root.get_assets())
 
 
 def _scene_inputs(scenario: Scenario) -> tuple[object, ...]:
