@@ -513,6 +513,7 @@ def propagate_breaks(
     starts,
     stops,
     table,
+    check_rows,
     edge_window,
     edge_factor,
     tolerance_floor_m,
@@ -526,10 +527,19 @@ def propagate_breaks(
     row its step statistic may stay under the threshold of `split_rows`. Knowing where the
     neighbouring rows break, a step statistic above ``edge_factor`` within ``reach`` columns
     of one of those breaks (edges run diagonally in the image) is enough to split
-    (``correlation`` as in `split_rows`). Returns new arrays in the format of `split_rows`.
+    (``correlation`` as in `split_rows`).
+
+    Only the segments of the rows in ``check_rows`` ((H,) bool) are tested; the others are
+    kept as they are. A segment's test depends only on itself and the breaks of the rows
+    next to it, so after a round, a row needs testing again only if it or a row next to it
+    split (`plane_labels` passes these rows: the same segments as testing every row).
+
+    Returns:
+        New arrays in the format of `split_rows`, and (H,) bool: the rows that split.
     """
     height, width = inv_depth.shape
     n = rows.shape[0]
+    split_rows_out = np.zeros(height, np.bool_)
     # near_break[r, c]: row r breaks within `reach` columns of boundary c.
     near_break = np.zeros((height, width + 1), np.bool_)
     for i in range(n):
@@ -551,7 +561,7 @@ def propagate_breaks(
         length = b - a
         best = 0.0
         split = -1
-        if length >= 2 * min_pixels:
+        if length >= 2 * min_pixels and check_rows[r]:
             p = table[i, 0]
             q = table[i, 1]
             inv_row = inv_depth[r]
@@ -575,6 +585,7 @@ def propagate_breaks(
                     best = t
                     split = c
         if split > 0 and best > edge_factor:
+            split_rows_out[r] = True
             for lo, hi in ((a, split), (split, b)):
                 pp, qq, ss = _weighted_line(inv_depth[r], x, sigma[r], lo, hi)
                 out_rows[count] = r
@@ -597,6 +608,7 @@ def propagate_breaks(
         out_starts[:count].copy(),
         out_stops[:count].copy(),
         out_table[:count].copy(),
+        split_rows_out,
     )
 
 
@@ -2555,9 +2567,12 @@ def plane_labels(
         min_segment_pixels,
         correlation,
     )
+    # Rows to test in the next round of `propagate_breaks`: every row first, then those
+    # next to (or in) a row that split (the others would split nothing again).
+    check_rows = np.ones(height, np.bool_)
     for _ in range(break_passes):
         n_before = seg_rows.shape[0]
-        seg_rows, seg_starts, seg_stops, seg_table = propagate_breaks(
+        seg_rows, seg_starts, seg_stops, seg_table, split_in = propagate_breaks(
             inv_depth,
             x,
             sigma,
@@ -2565,6 +2580,7 @@ def plane_labels(
             seg_starts,
             seg_stops,
             seg_table,
+            check_rows,
             edge_window,
             break_factor,
             tolerance_floor_m,
@@ -2574,6 +2590,12 @@ def plane_labels(
         )
         if seg_rows.shape[0] == n_before:
             break
+        for r in range(height):
+            check_rows[r] = (
+                split_in[r]
+                or (r > 0 and split_in[r - 1])
+                or (r + 1 < height and split_in[r + 1])
+            )
     seg_sums = segment_sums(inv_depth, x, y, seg_rows, seg_starts, seg_stops)
     plane_of_segment = grow_planes(
         inv_depth,
