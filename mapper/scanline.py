@@ -2596,9 +2596,7 @@ def plane_labels(
             break
         for r in range(height):
             check_rows[r] = (
-                split_in[r]
-                or (r > 0 and split_in[r - 1])
-                or (r + 1 < height and split_in[r + 1])
+                split_in[r] or (r > 0 and split_in[r - 1]) or (r + 1 < height and split_in[r + 1])
             )
     seg_sums = segment_sums(inv_depth, x, y, seg_rows, seg_starts, seg_stops)
     plane_of_segment = grow_planes(
