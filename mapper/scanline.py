@@ -797,26 +797,62 @@ def segment_sums(inv_depth, x, y, seg_rows, seg_starts, seg_stops):
     residuals to first order.
     """
     n_seg = seg_rows.shape[0]
-    out = np.zeros((n_seg, 2 * _N_SUMS))
+    out = np.empty((n_seg, 2 * _N_SUMS))
     for i in range(n_seg):
         r = seg_rows[i]
         yv = y[r]
-        row = out[i]
+        # Summed in registers from 0 in pixel order (the same sums as adding into the row).
+        n = sx = sy = sxx = sxy = syy = sz = sxz = syz = szz = 0.0
+        w0 = wx = wy = wxx = wxy = wyy = wz = wxz = wyz = wzz = 0.0
         for c in range(seg_starts[i], seg_stops[i]):
             z = inv_depth[r, c]
             xv = x[c]
-            _accumulate(out, i, xv, yv, z)
+            n += 1.0
+            sx += xv
+            sy += yv
+            sxx += xv * xv
+            sxy += xv * yv
+            syy += yv * yv
+            sz += z
+            sxz += xv * z
+            syz += yv * z
+            szz += z * z
             w = 1.0 / (z * z * z * z)
-            row[10] += w
-            row[11] += w * xv
-            row[12] += w * yv
-            row[13] += w * xv * xv
-            row[14] += w * xv * yv
-            row[15] += w * yv * yv
-            row[16] += w * z
-            row[17] += w * xv * z
-            row[18] += w * yv * z
-            row[19] += w * z * z
+            w0 += w
+            wx += w * xv
+            wy += w * yv
+            wxx += w * xv * xv
+            wxy += w * xv * yv
+            wyy += w * yv * yv
+            wz += w * z
+            wxz += w * xv * z
+            wyz += w * yv * z
+            wzz += w * z * z
+        for k, value in enumerate(
+            (
+                n,
+                sx,
+                sy,
+                sxx,
+                sxy,
+                syy,
+                sz,
+                sxz,
+                syz,
+                szz,
+                w0,
+                wx,
+                wy,
+                wxx,
+                wxy,
+                wyy,
+                wz,
+                wxz,
+                wyz,
+                wzz,
+            )
+        ):
+            out[i, k] = value
     return out
 
 
@@ -1436,18 +1472,26 @@ def horizontal_sums(points, sigma_z, seg_rows, seg_starts, seg_stops, correlatio
     standard error of the segment's mean height, and a pixel-level χ² is τ·(Σw·z² − (Σw·z)²/Σw).
     """
     n_seg = seg_rows.shape[0]
-    out = np.zeros((n_seg, 6))
+    out = np.empty((n_seg, 6))
     for i in range(n_seg):
         r = seg_rows[i]
+        # Summed in registers from 0 in pixel order (the same sums as adding into the row).
+        sw = swz = swzz = n = swx = swy = 0.0
         for c in range(seg_starts[i], seg_stops[i]):
             w = 1.0 / (correlation * sigma_z[r, c] * sigma_z[r, c])
             z = points[r, c, 2]
-            out[i, 0] += w
-            out[i, 1] += w * z
-            out[i, 2] += w * z * z
-            out[i, 3] += 1.0
-            out[i, 4] += w * points[r, c, 0]
-            out[i, 5] += w * points[r, c, 1]
+            sw += w
+            swz += w * z
+            swzz += w * z * z
+            n += 1.0
+            swx += w * points[r, c, 0]
+            swy += w * points[r, c, 1]
+        out[i, 0] = sw
+        out[i, 1] = swz
+        out[i, 2] = swzz
+        out[i, 3] = n
+        out[i, 4] = swx
+        out[i, 5] = swy
     return out
 
 
@@ -1959,46 +2003,82 @@ def floor_statistics(
     moments = np.zeros((n_floors, 5))  # x, y, xx, xy, yy of the points on the height
     fit = np.zeros((n_floors, 9))  # weighted sums for the slope: 1 x y xx xy yy z xz yz
     areas = np.zeros(n_floors)
+    # A run of pixels of one region along a row is summed in registers, starting from and
+    # going back to the region's sums: the same additions in the same order as summing each
+    # pixel into the arrays, without a store and a reload per sum and pixel.
     for r in range(height):
-        for c in range(width):
+        c = 0
+        while c < width:
             f = labels[r, c]
             if f < 0:
+                c += 1
                 continue
-            counts[f] += 1
-            sigma = sigma_z[r, c]
-            residual = points[r, c, 2] - rms_heights[f]
-            counted = interior[r, c] or not has_interior[f]
-            if counted:
-                used[f] += 1
-                # Clipped at 3 sigma: a row of riser pixels joined to a tread is no roughness.
-                square[f] += min(residual * residual / (sigma * sigma + tolerance_m**2), 9.0)
-            ray_z = rays[r, c, 2]
-            d = depth[r, c]
-            d_on = (heights[f] - origin_z) / ray_z if ray_z != 0.0 else -1.0
-            if not d_on > 0.0:
-                d_on = d
-            x = points[r, c, 0] + (d_on - d) * rays[r, c, 0]
-            y = points[r, c, 1] + (d_on - d) * rays[r, c, 1]
-            moments[f, 0] += x
-            moments[f, 1] += y
-            moments[f, 2] += x * x
-            moments[f, 3] += x * y
-            moments[f, 4] += y * y
-            # Weighted fit z = h + a·x + b·y over (x, y) on the height: free of the depth
-            # noise, which moves a point along its ray in z and x, y together.
-            w = 1.0 / (sigma * sigma) if counted else 0.0
-            dz = residual
-            fit[f, 0] += w
-            fit[f, 1] += w * x
-            fit[f, 2] += w * y
-            fit[f, 3] += w * x * x
-            fit[f, 4] += w * x * y
-            fit[f, 5] += w * y * y
-            fit[f, 6] += w * dz
-            fit[f, 7] += w * x * dz
-            fit[f, 8] += w * y * dz
-            norm = math.sqrt(rays[r, c, 0] ** 2 + rays[r, c, 1] ** 2 + ray_z * ray_z)
-            areas[f] += d * d / (fx * fy * max(abs(ray_z), 0.1 * norm))
+            n_f = counts[f]
+            used_f = used[f]
+            square_f = square[f]
+            m0, m1, m2, m3, m4 = (
+                moments[f, 0],
+                moments[f, 1],
+                moments[f, 2],
+                moments[f, 3],
+                moments[f, 4],
+            )
+            f0, f1, f2, f3, f4 = fit[f, 0], fit[f, 1], fit[f, 2], fit[f, 3], fit[f, 4]
+            f5, f6, f7, f8 = fit[f, 5], fit[f, 6], fit[f, 7], fit[f, 8]
+            area_f = areas[f]
+            no_interior = not has_interior[f]
+            height_f = heights[f]
+            rms_height_f = rms_heights[f]
+            while c < width and labels[r, c] == f:
+                n_f += 1
+                sigma = sigma_z[r, c]
+                residual = points[r, c, 2] - rms_height_f
+                counted = interior[r, c] or no_interior
+                if counted:
+                    used_f += 1
+                    # Clipped at 3 sigma: a row of riser pixels joined to a tread is no roughness.
+                    square_f += min(residual * residual / (sigma * sigma + tolerance_m**2), 9.0)
+                ray_z = rays[r, c, 2]
+                d = depth[r, c]
+                d_on = (height_f - origin_z) / ray_z if ray_z != 0.0 else -1.0
+                if not d_on > 0.0:
+                    d_on = d
+                x = points[r, c, 0] + (d_on - d) * rays[r, c, 0]
+                y = points[r, c, 1] + (d_on - d) * rays[r, c, 1]
+                m0 += x
+                m1 += y
+                m2 += x * x
+                m3 += x * y
+                m4 += y * y
+                # Weighted fit z = h + a·x + b·y over (x, y) on the height: free of the depth
+                # noise, which moves a point along its ray in z and x, y together.
+                w = 1.0 / (sigma * sigma) if counted else 0.0
+                dz = residual
+                f0 += w
+                f1 += w * x
+                f2 += w * y
+                f3 += w * x * x
+                f4 += w * x * y
+                f5 += w * y * y
+                f6 += w * dz
+                f7 += w * x * dz
+                f8 += w * y * dz
+                norm = math.sqrt(rays[r, c, 0] ** 2 + rays[r, c, 1] ** 2 + ray_z * ray_z)
+                area_f += d * d / (fx * fy * max(abs(ray_z), 0.1 * norm))
+                c += 1
+            counts[f] = n_f
+            used[f] = used_f
+            square[f] = square_f
+            moments[f, 0], moments[f, 1], moments[f, 2], moments[f, 3], moments[f, 4] = (
+                m0,
+                m1,
+                m2,
+                m3,
+                m4,
+            )
+            fit[f, 0], fit[f, 1], fit[f, 2], fit[f, 3], fit[f, 4] = f0, f1, f2, f3, f4
+            fit[f, 5], fit[f, 6], fit[f, 7], fit[f, 8] = f5, f6, f7, f8
+            areas[f] = area_f
     rms = np.zeros(n_floors)
     extents = np.zeros((n_floors, 2))
     slope = np.zeros(n_floors)
