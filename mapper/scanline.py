@@ -612,19 +612,36 @@ def propagate_breaks(
     )
 
 
-@numba.njit(cache=True, no_cfunc_wrapper=True, nogil=True, error_model="numpy")
-def _accumulate(sums, p, x, yv, z):
-    """Add a pixel's moments to ``sums[p, :10]`` (row and index: a view per pixel costs more)."""
-    sums[p, 0] += 1.0
-    sums[p, 1] += x
-    sums[p, 2] += yv
-    sums[p, 3] += x * x
-    sums[p, 4] += x * yv
-    sums[p, 5] += yv * yv
-    sums[p, 6] += z
-    sums[p, 7] += x * z
-    sums[p, 8] += yv * z
-    sums[p, 9] += z * z
+@numba.njit(cache=True, no_cfunc_wrapper=True, nogil=True, error_model="numpy", inline="always")
+def _accumulate_run(sums, p, inv_depth, x, yv, r, c, labels, keep, width):
+    """Add a run's pixel moments to ``sums[p, :10]``; returns the column after the run.
+
+    The run: the pixels labelled ``p`` from column c of row r on, those with ``keep[r, c]``
+    counted. Summed in registers, starting from and going back to the plane's sums: the same
+    additions in the same order as pixel by pixel into the array, without a store and a reload
+    per sum and pixel. Inlined in numba IR: a call per run would take and drop a reference to
+    each array argument (atomic NRT operations).
+    """
+    s0, s1, s2, s3, s4 = sums[p, 0], sums[p, 1], sums[p, 2], sums[p, 3], sums[p, 4]
+    s5, s6, s7, s8, s9 = sums[p, 5], sums[p, 6], sums[p, 7], sums[p, 8], sums[p, 9]
+    while c < width and labels[r, c] == p:
+        if keep[r, c]:
+            xv = x[c]
+            z = inv_depth[r, c]
+            s0 += 1.0
+            s1 += xv
+            s2 += yv
+            s3 += xv * xv
+            s4 += xv * yv
+            s5 += yv * yv
+            s6 += z
+            s7 += xv * z
+            s8 += yv * z
+            s9 += z * z
+        c += 1
+    sums[p, 0], sums[p, 1], sums[p, 2], sums[p, 3], sums[p, 4] = s0, s1, s2, s3, s4
+    sums[p, 5], sums[p, 6], sums[p, 7], sums[p, 8], sums[p, 9] = s5, s6, s7, s8, s9
+    return c
 
 
 @numba.njit(cache=True, no_cfunc_wrapper=True, nogil=True, error_model="numpy")
@@ -1158,11 +1175,15 @@ def plane_fits(inv_depth, x, y, labels, n_planes):
     """
     height, width = labels.shape
     sums = np.zeros((n_planes, _N_SUMS))
+    keep = labels >= 0
     for r in range(height):
-        for c in range(width):
+        c = 0
+        while c < width:
             p = labels[r, c]
             if p >= 0:
-                _accumulate(sums, p, x[c], y[r], inv_depth[r, c])
+                c = _accumulate_run(sums, p, inv_depth, x, y[r], r, c, labels, keep, width)
+            else:
+                c += 1
     planes = np.full((n_planes, 13), np.nan)
     counts = np.zeros(n_planes, np.int64)
     for p in range(n_planes):
@@ -1199,6 +1220,8 @@ def plane_refits(inv_depth, x, y, labels, planes, factor, min_noise_m, min_inv_d
     height, width = labels.shape
     n_planes = planes.shape[0]
     sums = np.zeros((n_planes, _N_SUMS))
+    # The pixels counted, then their sums run by run (`_accumulate_run`).
+    counted = np.zeros((height, width), np.bool_)
     for r in range(height):
         for c in range(width):
             p = labels[r, c]
@@ -1212,7 +1235,15 @@ def plane_refits(inv_depth, x, y, labels, planes, factor, min_noise_m, min_inv_d
                 continue
             if factor > 0.0 and abs(z - predicted) > factor * max(s_p, min_noise_m * z * z):
                 continue
-            _accumulate(sums, p, x[c], y[r], z)
+            counted[r, c] = True
+    for r in range(height):
+        c = 0
+        while c < width:
+            p = labels[r, c]
+            if p >= 0:
+                c = _accumulate_run(sums, p, inv_depth, x, y[r], r, c, labels, counted, width)
+            else:
+                c += 1
     refits = planes.copy()
     for p in range(n_planes):
         if not _solve_plane(sums[p], refits[p]):
@@ -1385,39 +1416,66 @@ def plane_moments(rays_camera, depth, pixel_index, ids, normals_camera, n_planes
     sums = np.zeros((n_planes, _N_SUMS + 3))
     areas = np.zeros(n_planes)
     depth_flat = depth.ravel()
-    for i in range(ids.shape[0]):
+    n_points = ids.shape[0]
+    i = 0
+    while i < n_points:
         p = ids[i]
         if p < 0:
+            i += 1
             continue
-        pixel = pixel_index[i]
-        d = depth_flat[pixel]
-        cx = rays_camera[pixel, 0] * d
-        cy = rays_camera[pixel, 1] * d
-        cz = rays_camera[pixel, 2] * d
-        if sums[p, 0] == 0.0:  # indexed, not a row view: a view per point costs more
-            sums[p, 10] = cx
-            sums[p, 11] = cy
-            sums[p, 12] = cz
-        px = cx - sums[p, 10]
-        py = cy - sums[p, 11]
-        pz = cz - sums[p, 12]
-        sums[p, 0] += 1.0
-        sums[p, 1] += px
-        sums[p, 2] += py
-        sums[p, 3] += pz
-        sums[p, 4] += px * px
-        sums[p, 5] += px * py
-        sums[p, 6] += px * pz
-        sums[p, 7] += py * py
-        sums[p, 8] += py * pz
-        sums[p, 9] += pz * pz
-        rng = math.sqrt(cx * cx + cy * cy + cz * cz)
-        cos_inc = (
-            abs(cx * normals_camera[p, 0] + cy * normals_camera[p, 1] + cz * normals_camera[p, 2])
-            / rng
+        # A run of points of one plane is summed in registers, starting from and going back
+        # to its sums: the same additions in the same order as point by point into the array.
+        n, s1, s2, s3 = sums[p, 0], sums[p, 1], sums[p, 2], sums[p, 3]
+        s4, s5, s6, s7, s8, s9 = (
+            sums[p, 4],
+            sums[p, 5],
+            sums[p, 6],
+            sums[p, 7],
+            sums[p, 8],
+            sums[p, 9],
         )
-        # Solid angle of a pixel (depth²/(fx·fy)·cos³ of the off-axis angle) times range² …
-        areas[p] += cz * cz * cz / (rng * fx * fy * max(cos_inc, 0.1))
+        ref_x, ref_y, ref_z = sums[p, 10], sums[p, 11], sums[p, 12]
+        area = areas[p]
+        n0, n1, n2 = normals_camera[p, 0], normals_camera[p, 1], normals_camera[p, 2]
+        while i < n_points and ids[i] == p:
+            pixel = pixel_index[i]
+            i += 1
+            d = depth_flat[pixel]
+            cx = rays_camera[pixel, 0] * d
+            cy = rays_camera[pixel, 1] * d
+            cz = rays_camera[pixel, 2] * d
+            if n == 0.0:  # the plane's first point: the reference the moments are taken about
+                ref_x = cx
+                ref_y = cy
+                ref_z = cz
+            px = cx - ref_x
+            py = cy - ref_y
+            pz = cz - ref_z
+            n += 1.0
+            s1 += px
+            s2 += py
+            s3 += pz
+            s4 += px * px
+            s5 += px * py
+            s6 += px * pz
+            s7 += py * py
+            s8 += py * pz
+            s9 += pz * pz
+            rng = math.sqrt(cx * cx + cy * cy + cz * cz)
+            cos_inc = abs(cx * n0 + cy * n1 + cz * n2) / rng
+            # Solid angle of a pixel (depth²/(fx·fy)·cos³ of the off-axis angle) times range² …
+            area += cz * cz * cz / (rng * fx * fy * max(cos_inc, 0.1))
+        sums[p, 0], sums[p, 1], sums[p, 2], sums[p, 3] = n, s1, s2, s3
+        sums[p, 4], sums[p, 5], sums[p, 6], sums[p, 7], sums[p, 8], sums[p, 9] = (
+            s4,
+            s5,
+            s6,
+            s7,
+            s8,
+            s9,
+        )
+        sums[p, 10], sums[p, 11], sums[p, 12] = ref_x, ref_y, ref_z
+        areas[p] = area
     centroids = np.zeros((n_planes, 3))
     eigen = np.zeros((n_planes, 3))
     cov = np.empty((3, 3))
