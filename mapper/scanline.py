@@ -513,6 +513,7 @@ def propagate_breaks(
     starts,
     stops,
     table,
+    check_rows,
     edge_window,
     edge_factor,
     tolerance_floor_m,
@@ -526,10 +527,19 @@ def propagate_breaks(
     row its step statistic may stay under the threshold of `split_rows`. Knowing where the
     neighbouring rows break, a step statistic above ``edge_factor`` within ``reach`` columns
     of one of those breaks (edges run diagonally in the image) is enough to split
-    (``correlation`` as in `split_rows`). Returns new arrays in the format of `split_rows`.
+    (``correlation`` as in `split_rows`).
+
+    Only the segments of the rows in ``check_rows`` ((H,) bool) are tested; the others are
+    kept as they are. A segment's test depends only on itself and the breaks of the rows
+    next to it, so after a round, a row needs testing again only if it or a row next to it
+    split (`plane_labels` passes these rows: the same segments as testing every row).
+
+    Returns:
+        New arrays in the format of `split_rows`, and (H,) bool: the rows that split.
     """
     height, width = inv_depth.shape
     n = rows.shape[0]
+    split_rows_out = np.zeros(height, np.bool_)
     # near_break[r, c]: row r breaks within `reach` columns of boundary c.
     near_break = np.zeros((height, width + 1), np.bool_)
     for i in range(n):
@@ -551,7 +561,7 @@ def propagate_breaks(
         length = b - a
         best = 0.0
         split = -1
-        if length >= 2 * min_pixels:
+        if length >= 2 * min_pixels and check_rows[r]:
             p = table[i, 0]
             q = table[i, 1]
             inv_row = inv_depth[r]
@@ -575,6 +585,7 @@ def propagate_breaks(
                     best = t
                     split = c
         if split > 0 and best > edge_factor:
+            split_rows_out[r] = True
             for lo, hi in ((a, split), (split, b)):
                 pp, qq, ss = _weighted_line(inv_depth[r], x, sigma[r], lo, hi)
                 out_rows[count] = r
@@ -597,22 +608,40 @@ def propagate_breaks(
         out_starts[:count].copy(),
         out_stops[:count].copy(),
         out_table[:count].copy(),
+        split_rows_out,
     )
 
 
-@numba.njit(cache=True, no_cfunc_wrapper=True, nogil=True, error_model="numpy")
-def _accumulate(sums, p, x, yv, z):
-    """Add a pixel's moments to ``sums[p, :10]`` (row and index: a view per pixel costs more)."""
-    sums[p, 0] += 1.0
-    sums[p, 1] += x
-    sums[p, 2] += yv
-    sums[p, 3] += x * x
-    sums[p, 4] += x * yv
-    sums[p, 5] += yv * yv
-    sums[p, 6] += z
-    sums[p, 7] += x * z
-    sums[p, 8] += yv * z
-    sums[p, 9] += z * z
+@numba.njit(cache=True, no_cfunc_wrapper=True, nogil=True, error_model="numpy", inline="always")
+def _accumulate_run(sums, p, inv_depth, x, yv, r, c, labels, keep, width):
+    """Add a run's pixel moments to ``sums[p, :10]``; returns the column after the run.
+
+    The run: the pixels labelled ``p`` from column c of row r on, those with ``keep[r, c]``
+    counted. Summed in registers, starting from and going back to the plane's sums: the same
+    additions in the same order as pixel by pixel into the array, without a store and a reload
+    per sum and pixel. Inlined in numba IR: a call per run would take and drop a reference to
+    each array argument (atomic NRT operations).
+    """
+    s0, s1, s2, s3, s4 = sums[p, 0], sums[p, 1], sums[p, 2], sums[p, 3], sums[p, 4]
+    s5, s6, s7, s8, s9 = sums[p, 5], sums[p, 6], sums[p, 7], sums[p, 8], sums[p, 9]
+    while c < width and labels[r, c] == p:
+        if keep[r, c]:
+            xv = x[c]
+            z = inv_depth[r, c]
+            s0 += 1.0
+            s1 += xv
+            s2 += yv
+            s3 += xv * xv
+            s4 += xv * yv
+            s5 += yv * yv
+            s6 += z
+            s7 += xv * z
+            s8 += yv * z
+            s9 += z * z
+        c += 1
+    sums[p, 0], sums[p, 1], sums[p, 2], sums[p, 3], sums[p, 4] = s0, s1, s2, s3, s4
+    sums[p, 5], sums[p, 6], sums[p, 7], sums[p, 8], sums[p, 9] = s5, s6, s7, s8, s9
+    return c
 
 
 @numba.njit(cache=True, no_cfunc_wrapper=True, nogil=True, error_model="numpy")
@@ -709,7 +738,7 @@ def _segment_rms(plane, seg_sums, i):
     return math.sqrt(_residual_square_sum(plane, seg_sums, i, _N_SUMS) / seg_sums[i, 0])
 
 
-@numba.njit(cache=True, no_cfunc_wrapper=True, nogil=True, error_model="numpy")
+@numba.njit(cache=True, no_cfunc_wrapper=True, nogil=True, error_model="numpy", inline="always")
 def _segment_misfit(
     plane, seg_sums, seg_table, i, x, yv, a, b, grow_factor, rms_factor, tol0, use_pred, limit
 ):
@@ -721,6 +750,10 @@ def _segment_misfit(
     without, only the segment's noise counts (testing a seed against the plane fit to it).
     As soon as a part's ratio exceeds ``limit`` that ratio is returned without the rest (the
     answer is then only known to exceed ``limit``; inf: every part).
+
+    Inlined into its callers in numba IR (``inline="always"``, as `_segment_fits`): called for
+    every segment tested, a call of its own took and dropped a reference to each array
+    argument (atomic NRT increments and decrements, 5 % of a frame's segmentation).
     """
     n = b - a
     sigma_seg = seg_table[i, 2]
@@ -742,9 +775,9 @@ def _segment_misfit(
     return max(worst, _segment_rms(plane, seg_sums, i) / rms_limit)
 
 
-@numba.njit(cache=True, no_cfunc_wrapper=True, nogil=True, error_model="numpy")
+@numba.njit(cache=True, no_cfunc_wrapper=True, nogil=True, error_model="numpy", inline="always")
 def _segment_fits(plane, seg_sums, seg_table, i, x, yv, a, b, grow_factor, rms_factor, tol0):
-    """Whether segment i lies on a growing plane (see `_segment_misfit`)."""
+    """Whether segment i lies on a growing plane (see `_segment_misfit`; inlined likewise)."""
     return (
         _segment_misfit(
             plane,
@@ -781,26 +814,62 @@ def segment_sums(inv_depth, x, y, seg_rows, seg_starts, seg_stops):
     residuals to first order.
     """
     n_seg = seg_rows.shape[0]
-    out = np.zeros((n_seg, 2 * _N_SUMS))
+    out = np.empty((n_seg, 2 * _N_SUMS))
     for i in range(n_seg):
         r = seg_rows[i]
         yv = y[r]
-        row = out[i]
+        # Summed in registers from 0 in pixel order (the same sums as adding into the row).
+        n = sx = sy = sxx = sxy = syy = sz = sxz = syz = szz = 0.0
+        w0 = wx = wy = wxx = wxy = wyy = wz = wxz = wyz = wzz = 0.0
         for c in range(seg_starts[i], seg_stops[i]):
             z = inv_depth[r, c]
             xv = x[c]
-            _accumulate(out, i, xv, yv, z)
+            n += 1.0
+            sx += xv
+            sy += yv
+            sxx += xv * xv
+            sxy += xv * yv
+            syy += yv * yv
+            sz += z
+            sxz += xv * z
+            syz += yv * z
+            szz += z * z
             w = 1.0 / (z * z * z * z)
-            row[10] += w
-            row[11] += w * xv
-            row[12] += w * yv
-            row[13] += w * xv * xv
-            row[14] += w * xv * yv
-            row[15] += w * yv * yv
-            row[16] += w * z
-            row[17] += w * xv * z
-            row[18] += w * yv * z
-            row[19] += w * z * z
+            w0 += w
+            wx += w * xv
+            wy += w * yv
+            wxx += w * xv * xv
+            wxy += w * xv * yv
+            wyy += w * yv * yv
+            wz += w * z
+            wxz += w * xv * z
+            wyz += w * yv * z
+            wzz += w * z * z
+        for k, value in enumerate(
+            (
+                n,
+                sx,
+                sy,
+                sxx,
+                sxy,
+                syy,
+                sz,
+                sxz,
+                syz,
+                szz,
+                w0,
+                wx,
+                wy,
+                wxx,
+                wxy,
+                wyy,
+                wz,
+                wxz,
+                wyz,
+                wzz,
+            )
+        ):
+            out[i, k] = value
     return out
 
 
@@ -1106,11 +1175,15 @@ def plane_fits(inv_depth, x, y, labels, n_planes):
     """
     height, width = labels.shape
     sums = np.zeros((n_planes, _N_SUMS))
+    keep = labels >= 0
     for r in range(height):
-        for c in range(width):
+        c = 0
+        while c < width:
             p = labels[r, c]
             if p >= 0:
-                _accumulate(sums, p, x[c], y[r], inv_depth[r, c])
+                c = _accumulate_run(sums, p, inv_depth, x, y[r], r, c, labels, keep, width)
+            else:
+                c += 1
     planes = np.full((n_planes, 13), np.nan)
     counts = np.zeros(n_planes, np.int64)
     for p in range(n_planes):
@@ -1147,6 +1220,8 @@ def plane_refits(inv_depth, x, y, labels, planes, factor, min_noise_m, min_inv_d
     height, width = labels.shape
     n_planes = planes.shape[0]
     sums = np.zeros((n_planes, _N_SUMS))
+    # The pixels counted, then their sums run by run (`_accumulate_run`).
+    counted = np.zeros((height, width), np.bool_)
     for r in range(height):
         for c in range(width):
             p = labels[r, c]
@@ -1160,7 +1235,15 @@ def plane_refits(inv_depth, x, y, labels, planes, factor, min_noise_m, min_inv_d
                 continue
             if factor > 0.0 and abs(z - predicted) > factor * max(s_p, min_noise_m * z * z):
                 continue
-            _accumulate(sums, p, x[c], y[r], z)
+            counted[r, c] = True
+    for r in range(height):
+        c = 0
+        while c < width:
+            p = labels[r, c]
+            if p >= 0:
+                c = _accumulate_run(sums, p, inv_depth, x, y[r], r, c, labels, counted, width)
+            else:
+                c += 1
     refits = planes.copy()
     for p in range(n_planes):
         if not _solve_plane(sums[p], refits[p]):
@@ -1333,39 +1416,66 @@ def plane_moments(rays_camera, depth, pixel_index, ids, normals_camera, n_planes
     sums = np.zeros((n_planes, _N_SUMS + 3))
     areas = np.zeros(n_planes)
     depth_flat = depth.ravel()
-    for i in range(ids.shape[0]):
+    n_points = ids.shape[0]
+    i = 0
+    while i < n_points:
         p = ids[i]
         if p < 0:
+            i += 1
             continue
-        pixel = pixel_index[i]
-        d = depth_flat[pixel]
-        cx = rays_camera[pixel, 0] * d
-        cy = rays_camera[pixel, 1] * d
-        cz = rays_camera[pixel, 2] * d
-        if sums[p, 0] == 0.0:  # indexed, not a row view: a view per point costs more
-            sums[p, 10] = cx
-            sums[p, 11] = cy
-            sums[p, 12] = cz
-        px = cx - sums[p, 10]
-        py = cy - sums[p, 11]
-        pz = cz - sums[p, 12]
-        sums[p, 0] += 1.0
-        sums[p, 1] += px
-        sums[p, 2] += py
-        sums[p, 3] += pz
-        sums[p, 4] += px * px
-        sums[p, 5] += px * py
-        sums[p, 6] += px * pz
-        sums[p, 7] += py * py
-        sums[p, 8] += py * pz
-        sums[p, 9] += pz * pz
-        rng = math.sqrt(cx * cx + cy * cy + cz * cz)
-        cos_inc = (
-            abs(cx * normals_camera[p, 0] + cy * normals_camera[p, 1] + cz * normals_camera[p, 2])
-            / rng
+        # A run of points of one plane is summed in registers, starting from and going back
+        # to its sums: the same additions in the same order as point by point into the array.
+        n, s1, s2, s3 = sums[p, 0], sums[p, 1], sums[p, 2], sums[p, 3]
+        s4, s5, s6, s7, s8, s9 = (
+            sums[p, 4],
+            sums[p, 5],
+            sums[p, 6],
+            sums[p, 7],
+            sums[p, 8],
+            sums[p, 9],
         )
-        # Solid angle of a pixel (depth²/(fx·fy)·cos³ of the off-axis angle) times range² …
-        areas[p] += cz * cz * cz / (rng * fx * fy * max(cos_inc, 0.1))
+        ref_x, ref_y, ref_z = sums[p, 10], sums[p, 11], sums[p, 12]
+        area = areas[p]
+        n0, n1, n2 = normals_camera[p, 0], normals_camera[p, 1], normals_camera[p, 2]
+        while i < n_points and ids[i] == p:
+            pixel = pixel_index[i]
+            i += 1
+            d = depth_flat[pixel]
+            cx = rays_camera[pixel, 0] * d
+            cy = rays_camera[pixel, 1] * d
+            cz = rays_camera[pixel, 2] * d
+            if n == 0.0:  # the plane's first point: the reference the moments are taken about
+                ref_x = cx
+                ref_y = cy
+                ref_z = cz
+            px = cx - ref_x
+            py = cy - ref_y
+            pz = cz - ref_z
+            n += 1.0
+            s1 += px
+            s2 += py
+            s3 += pz
+            s4 += px * px
+            s5 += px * py
+            s6 += px * pz
+            s7 += py * py
+            s8 += py * pz
+            s9 += pz * pz
+            rng = math.sqrt(cx * cx + cy * cy + cz * cz)
+            cos_inc = abs(cx * n0 + cy * n1 + cz * n2) / rng
+            # Solid angle of a pixel (depth²/(fx·fy)·cos³ of the off-axis angle) times range² …
+            area += cz * cz * cz / (rng * fx * fy * max(cos_inc, 0.1))
+        sums[p, 0], sums[p, 1], sums[p, 2], sums[p, 3] = n, s1, s2, s3
+        sums[p, 4], sums[p, 5], sums[p, 6], sums[p, 7], sums[p, 8], sums[p, 9] = (
+            s4,
+            s5,
+            s6,
+            s7,
+            s8,
+            s9,
+        )
+        sums[p, 10], sums[p, 11], sums[p, 12] = ref_x, ref_y, ref_z
+        areas[p] = area
     centroids = np.zeros((n_planes, 3))
     eigen = np.zeros((n_planes, 3))
     cov = np.empty((3, 3))
@@ -1420,18 +1530,26 @@ def horizontal_sums(points, sigma_z, seg_rows, seg_starts, seg_stops, correlatio
     standard error of the segment's mean height, and a pixel-level χ² is τ·(Σw·z² − (Σw·z)²/Σw).
     """
     n_seg = seg_rows.shape[0]
-    out = np.zeros((n_seg, 6))
+    out = np.empty((n_seg, 6))
     for i in range(n_seg):
         r = seg_rows[i]
+        # Summed in registers from 0 in pixel order (the same sums as adding into the row).
+        sw = swz = swzz = n = swx = swy = 0.0
         for c in range(seg_starts[i], seg_stops[i]):
             w = 1.0 / (correlation * sigma_z[r, c] * sigma_z[r, c])
             z = points[r, c, 2]
-            out[i, 0] += w
-            out[i, 1] += w * z
-            out[i, 2] += w * z * z
-            out[i, 3] += 1.0
-            out[i, 4] += w * points[r, c, 0]
-            out[i, 5] += w * points[r, c, 1]
+            sw += w
+            swz += w * z
+            swzz += w * z * z
+            n += 1.0
+            swx += w * points[r, c, 0]
+            swy += w * points[r, c, 1]
+        out[i, 0] = sw
+        out[i, 1] = swz
+        out[i, 2] = swzz
+        out[i, 3] = n
+        out[i, 4] = swx
+        out[i, 5] = swy
     return out
 
 
@@ -1943,46 +2061,82 @@ def floor_statistics(
     moments = np.zeros((n_floors, 5))  # x, y, xx, xy, yy of the points on the height
     fit = np.zeros((n_floors, 9))  # weighted sums for the slope: 1 x y xx xy yy z xz yz
     areas = np.zeros(n_floors)
+    # A run of pixels of one region along a row is summed in registers, starting from and
+    # going back to the region's sums: the same additions in the same order as summing each
+    # pixel into the arrays, without a store and a reload per sum and pixel.
     for r in range(height):
-        for c in range(width):
+        c = 0
+        while c < width:
             f = labels[r, c]
             if f < 0:
+                c += 1
                 continue
-            counts[f] += 1
-            sigma = sigma_z[r, c]
-            residual = points[r, c, 2] - rms_heights[f]
-            counted = interior[r, c] or not has_interior[f]
-            if counted:
-                used[f] += 1
-                # Clipped at 3 sigma: a row of riser pixels joined to a tread is no roughness.
-                square[f] += min(residual * residual / (sigma * sigma + tolerance_m**2), 9.0)
-            ray_z = rays[r, c, 2]
-            d = depth[r, c]
-            d_on = (heights[f] - origin_z) / ray_z if ray_z != 0.0 else -1.0
-            if not d_on > 0.0:
-                d_on = d
-            x = points[r, c, 0] + (d_on - d) * rays[r, c, 0]
-            y = points[r, c, 1] + (d_on - d) * rays[r, c, 1]
-            moments[f, 0] += x
-            moments[f, 1] += y
-            moments[f, 2] += x * x
-            moments[f, 3] += x * y
-            moments[f, 4] += y * y
-            # Weighted fit z = h + a·x + b·y over (x, y) on the height: free of the depth
-            # noise, which moves a point along its ray in z and x, y together.
-            w = 1.0 / (sigma * sigma) if counted else 0.0
-            dz = residual
-            fit[f, 0] += w
-            fit[f, 1] += w * x
-            fit[f, 2] += w * y
-            fit[f, 3] += w * x * x
-            fit[f, 4] += w * x * y
-            fit[f, 5] += w * y * y
-            fit[f, 6] += w * dz
-            fit[f, 7] += w * x * dz
-            fit[f, 8] += w * y * dz
-            norm = math.sqrt(rays[r, c, 0] ** 2 + rays[r, c, 1] ** 2 + ray_z * ray_z)
-            areas[f] += d * d / (fx * fy * max(abs(ray_z), 0.1 * norm))
+            n_f = counts[f]
+            used_f = used[f]
+            square_f = square[f]
+            m0, m1, m2, m3, m4 = (
+                moments[f, 0],
+                moments[f, 1],
+                moments[f, 2],
+                moments[f, 3],
+                moments[f, 4],
+            )
+            f0, f1, f2, f3, f4 = fit[f, 0], fit[f, 1], fit[f, 2], fit[f, 3], fit[f, 4]
+            f5, f6, f7, f8 = fit[f, 5], fit[f, 6], fit[f, 7], fit[f, 8]
+            area_f = areas[f]
+            no_interior = not has_interior[f]
+            height_f = heights[f]
+            rms_height_f = rms_heights[f]
+            while c < width and labels[r, c] == f:
+                n_f += 1
+                sigma = sigma_z[r, c]
+                residual = points[r, c, 2] - rms_height_f
+                counted = interior[r, c] or no_interior
+                if counted:
+                    used_f += 1
+                    # Clipped at 3 sigma: a row of riser pixels joined to a tread is no roughness.
+                    square_f += min(residual * residual / (sigma * sigma + tolerance_m**2), 9.0)
+                ray_z = rays[r, c, 2]
+                d = depth[r, c]
+                d_on = (height_f - origin_z) / ray_z if ray_z != 0.0 else -1.0
+                if not d_on > 0.0:
+                    d_on = d
+                x = points[r, c, 0] + (d_on - d) * rays[r, c, 0]
+                y = points[r, c, 1] + (d_on - d) * rays[r, c, 1]
+                m0 += x
+                m1 += y
+                m2 += x * x
+                m3 += x * y
+                m4 += y * y
+                # Weighted fit z = h + a·x + b·y over (x, y) on the height: free of the depth
+                # noise, which moves a point along its ray in z and x, y together.
+                w = 1.0 / (sigma * sigma) if counted else 0.0
+                dz = residual
+                f0 += w
+                f1 += w * x
+                f2 += w * y
+                f3 += w * x * x
+                f4 += w * x * y
+                f5 += w * y * y
+                f6 += w * dz
+                f7 += w * x * dz
+                f8 += w * y * dz
+                norm = math.sqrt(rays[r, c, 0] ** 2 + rays[r, c, 1] ** 2 + ray_z * ray_z)
+                area_f += d * d / (fx * fy * max(abs(ray_z), 0.1 * norm))
+                c += 1
+            counts[f] = n_f
+            used[f] = used_f
+            square[f] = square_f
+            moments[f, 0], moments[f, 1], moments[f, 2], moments[f, 3], moments[f, 4] = (
+                m0,
+                m1,
+                m2,
+                m3,
+                m4,
+            )
+            fit[f, 0], fit[f, 1], fit[f, 2], fit[f, 3], fit[f, 4] = f0, f1, f2, f3, f4
+            fit[f, 5], fit[f, 6], fit[f, 7], fit[f, 8] = f5, f6, f7, f8
+            areas[f] = area_f
     rms = np.zeros(n_floors)
     extents = np.zeros((n_floors, 2))
     slope = np.zeros(n_floors)
@@ -2555,9 +2709,12 @@ def plane_labels(
         min_segment_pixels,
         correlation,
     )
+    # Rows to test in the next round of `propagate_breaks`: every row first, then those
+    # next to (or in) a row that split (the others would split nothing again).
+    check_rows = np.ones(height, np.bool_)
     for _ in range(break_passes):
         n_before = seg_rows.shape[0]
-        seg_rows, seg_starts, seg_stops, seg_table = propagate_breaks(
+        seg_rows, seg_starts, seg_stops, seg_table, split_in = propagate_breaks(
             inv_depth,
             x,
             sigma,
@@ -2565,6 +2722,7 @@ def plane_labels(
             seg_starts,
             seg_stops,
             seg_table,
+            check_rows,
             edge_window,
             break_factor,
             tolerance_floor_m,
@@ -2574,6 +2732,10 @@ def plane_labels(
         )
         if seg_rows.shape[0] == n_before:
             break
+        for r in range(height):
+            check_rows[r] = (
+                split_in[r] or (r > 0 and split_in[r - 1]) or (r + 1 < height and split_in[r + 1])
+            )
     seg_sums = segment_sums(inv_depth, x, y, seg_rows, seg_starts, seg_stops)
     plane_of_segment = grow_planes(
         inv_depth,

@@ -88,3 +88,142 @@ def test_foreign_rim_is_the_ring_off_its_level():
     rim = scanline.foreign_rim(labels, height_interior, z, sigma_z, np.array([0.0, 0.5]), 3.0)
     expected = np.array([[False, True, False], [True, False, False], [False, False, False]])
     np.testing.assert_array_equal(rim, expected)
+
+
+def _noisy_staircase_segments(seed: int, noise: float):
+    """A noisy 88×72 view of the staircase and its row segments (`scanline_inputs`)."""
+    from scanline_inputs import row_segments
+    from synthetic_depth import add_depth_noise, look_down_camera, render_scene, staircase
+
+    from mapper.intrinsics import PinholeIntrinsics
+    from mapper.segmentation import SegmentationParams
+
+    intrinsics = PinholeIntrinsics.from_fov(88, 72, 47.0, 39.0)
+    camera = look_down_camera((0.0, 0.0, 0.9), pitch_down_deg=30.0)
+    scene = render_scene(intrinsics, camera, staircase())
+    depth = add_depth_noise(scene.depth_m, noise, np.random.default_rng(seed))
+    params = SegmentationParams()
+    return row_segments(depth, intrinsics, params), params
+
+
+def _break_rounds(seg, params, incremental: bool):
+    rows, starts, stops, table = seg.rows, seg.starts, seg.stops, seg.table
+    height = seg.inv_depth.shape[0]
+    check = np.ones(height, np.bool_)
+    splits = []
+    for _ in range(params.break_passes):
+        rows, starts, stops, table, split_in = scanline.propagate_breaks(
+            seg.inv_depth,
+            seg.x,
+            seg.sigma,
+            rows,
+            starts,
+            stops,
+            table,
+            check,
+            params.edge_window_px,
+            params.break_sigma_factor,
+            params.tolerance_floor_m,
+            params.min_segment_pixels,
+            params.break_reach_px,
+            params.noise_correlation_factor,
+        )
+        splits.append(int(split_in.sum()))
+        if incremental:
+            check = split_in.copy()
+            check[1:] |= split_in[:-1]
+            check[:-1] |= split_in[1:]
+    return (rows, starts, stops, table), splits
+
+
+@pytest.mark.parametrize("seed", [0, 1, 2])
+@pytest.mark.parametrize("noise", [0.01, 0.02])
+def test_break_rounds_testing_only_rows_next_to_a_split_change_nothing(seed, noise):
+    """`plane_labels` tests again only the rows in or next to a row that split: a segment's
+    test depends on itself and its neighbour rows' breaks, so the rounds give what testing
+    every row in every round gives, bit for bit."""
+    seg, params = _noisy_staircase_segments(seed, noise)
+    every, splits = _break_rounds(seg, params, incremental=False)
+    fewer, _ = _break_rounds(seg, params, incremental=True)
+    assert splits[0] > 0  # the case is not trivial: the first round splits rows
+    for a, b in zip(every, fewer, strict=True):
+        np.testing.assert_array_equal(a, b)
+
+
+def test_propagate_breaks_leaves_unchecked_rows_alone():
+    seg, params = _noisy_staircase_segments(0, 0.02)
+    height = seg.inv_depth.shape[0]
+    args = (params.edge_window_px, params.break_sigma_factor, params.tolerance_floor_m)
+    rest = (params.min_segment_pixels, params.break_reach_px, params.noise_correlation_factor)
+    out = scanline.propagate_breaks(
+        seg.inv_depth, seg.x, seg.sigma, seg.rows, seg.starts, seg.stops, seg.table,
+        np.zeros(height, np.bool_), *args, *rest,
+    )  # fmt: skip
+    for a, b in zip(out[:4], (seg.rows, seg.starts, seg.stops, seg.table), strict=True):
+        np.testing.assert_array_equal(a, b)
+    assert not out[4].any()
+
+
+def _pixel_order_moments(inv_depth, x, y, labels, n_planes):
+    """`plane_fits`' sums added pixel by pixel in row-major order (Python floats: IEEE doubles)."""
+    sums = [[0.0] * 10 for _ in range(n_planes)]
+    for r in range(labels.shape[0]):
+        for c in range(labels.shape[1]):
+            p = labels[r, c]
+            if p < 0:
+                continue
+            xv, yv, z = float(x[c]), float(y[r]), float(inv_depth[r, c])
+            terms = (1.0, xv, yv, xv * xv, xv * yv, yv * yv, z, xv * z, yv * z, z * z)
+            for k in range(10):
+                sums[p][k] += terms[k]
+    return np.array(sums).reshape(n_planes, 10)
+
+
+def test_plane_fits_run_sums_are_the_pixel_order_sums():
+    """Runs of one label summed in registers: the same sums as pixel by pixel, bit for bit."""
+    rng = np.random.default_rng(3)
+    labels = _blocky_labels(rng)
+    height, width = labels.shape
+    inv_depth = rng.uniform(0.2, 2.0, size=(height, width))
+    x = rng.normal(size=width)
+    y = rng.normal(size=height)
+    n_planes = np.int64(3)
+    planes, counts = scanline.plane_fits(inv_depth, x, y, labels, n_planes)
+    sums = _pixel_order_moments(inv_depth, x, y, labels, 3)
+    np.testing.assert_array_equal(counts, sums[:, 0].astype(np.int64))
+    for p in range(3):
+        expected = np.full(13, np.nan)
+        if scanline._solve_plane(sums[p], expected):
+            np.testing.assert_array_equal(planes[p], expected)
+
+
+def test_segment_and_horizontal_sums_are_the_pixel_order_sums():
+    seg, _ = _noisy_staircase_segments(1, 0.01)
+    out = scanline.segment_sums(seg.inv_depth, seg.x, seg.y, seg.rows, seg.starts, seg.stops)
+    rng = np.random.default_rng(0)
+    height, width = seg.inv_depth.shape
+    points = rng.normal(size=(height, width, 3))
+    sigma_z = rng.uniform(0.001, 0.01, size=(height, width))
+    hsums = scanline.horizontal_sums(points, sigma_z, seg.rows, seg.starts, seg.stops, 1.5)
+    for i in range(0, seg.rows.shape[0], 7):
+        r = int(seg.rows[i])
+        yv = float(seg.y[r])
+        expected = [0.0] * 20
+        expected_h = [0.0] * 6
+        for c in range(seg.starts[i], seg.stops[i]):
+            z, xv = float(seg.inv_depth[r, c]), float(seg.x[c])
+            w = 1.0 / (z * z * z * z)
+            terms = (1.0, xv, yv, xv * xv, xv * yv, yv * yv, z, xv * z, yv * z, z * z)
+            for k in range(10):
+                expected[k] += terms[k]
+            weighted = (w, w * xv, w * yv, w * xv * xv, w * xv * yv, w * yv * yv, w * z)
+            weighted += (w * xv * z, w * yv * z, w * z * z)
+            for k in range(10):
+                expected[10 + k] += weighted[k]
+            wh = 1.0 / (1.5 * float(sigma_z[r, c]) * float(sigma_z[r, c]))
+            zh = float(points[r, c, 2])
+            h_terms = (wh, wh * zh, wh * zh * zh, 1.0, wh * points[r, c, 0], wh * points[r, c, 1])
+            for k in range(6):
+                expected_h[k] += float(h_terms[k])
+        np.testing.assert_array_equal(out[i], expected)
+        np.testing.assert_array_equal(hsums[i], expected_h)
