@@ -86,7 +86,7 @@ _FLOOR = np.int8(CellType.FLOOR)
 _OBSTACLE = np.int8(CellType.OBSTACLE)
 
 
-@numba.njit(cache=True, inline="always")
+@numba.njit(cache=True, nogil=True, boundscheck=False, error_model="numpy")
 def _highest_within(obstacle: NDArray[np.float64], ix: int, iy: int, margin: int) -> float:
     """Highest ``obstacle`` within ``margin`` cells of ``(ix, iy)`` (clipped), -inf if none."""
     nx, ny = obstacle.shape
@@ -99,7 +99,7 @@ def _highest_within(obstacle: NDArray[np.float64], ix: int, iy: int, margin: int
     return highest
 
 
-@numba.njit(cache=True, inline="always")
+@numba.njit(cache=True, nogil=True, boundscheck=False, error_model="numpy")
 def _at_narrow_rise(
     floor: NDArray[np.float64],
     obstacle: NDArray[np.float64],
@@ -168,7 +168,7 @@ def _at_narrow_rise(
     return False
 
 
-@numba.njit(cache=True, inline="always")
+@numba.njit(cache=True, nogil=True, boundscheck=False, error_model="numpy")
 def _surface_ends_within(
     floor: NDArray[np.float64],
     obstacle: NDArray[np.float64],
@@ -224,7 +224,7 @@ def _surface_ends_within(
     return False
 
 
-@numba.njit(cache=True, inline="always")
+@numba.njit(cache=True, nogil=True, boundscheck=False, error_model="numpy")
 def _patch_across(
     floor: NDArray[np.float64],
     obstacle: NDArray[np.float64],
@@ -262,7 +262,7 @@ def _patch_across(
     return (dx == 0 or dy == 0) and across < h - band
 
 
-@numba.njit(cache=True, inline="always")
+@numba.njit(cache=True, nogil=True, boundscheck=False, error_model="numpy")
 def _behind_wide_shadow(
     floor: NDArray[np.float64],
     obstacle: NDArray[np.float64],
@@ -299,7 +299,7 @@ def _behind_wide_shadow(
     return False
 
 
-@numba.njit(cache=True, inline="always")
+@numba.njit(cache=True, nogil=True, boundscheck=False, error_model="numpy")
 def _rim_over_seen_drop(
     og: NDArray[np.uint8],
     floor: NDArray[np.float64],
@@ -360,6 +360,74 @@ def _label(
     if not np.isnan(hf) and covered:
         return _FLOOR, hf
     return _UNKNOWN, np.nan
+
+
+@numba.njit(cache=True, nogil=True, boundscheck=False, error_model="numpy")
+def _quiet_floors(
+    floor: NDArray[np.float64],
+    above: NDArray[np.float64],
+    below: NDArray[np.float64],
+    spill: NDArray[np.float64],
+    band: float,
+    wx0: int,
+    wy0: int,
+) -> NDArray[np.bool_]:
+    """Window cells where no banded rule can make a floor unknown: the rules' gate.
+
+    A floor at ``h`` in window cell ``(i, j)`` (grid cell ``(wx0 + i, wy0 + j)``) is quiet
+    when, over its 3 × 3 neighbourhood (itself included, clipped to the window), ``h`` is no
+    higher than any ``above`` or ``spill`` (the rim and spill rules' thresholds), no lower
+    than any ``below`` (beside an obstacle), no lower than any stored floor less ``band``
+    (a higher floor beside it: the narrow rise's foot) and no neighbour lacks a stored floor
+    (the near rim, the shadows and the seen drop all start at such a neighbour). Each is a
+    necessary condition of one rule in `update_fog_area`, so a quiet floor stays a floor and
+    the rules need not be evaluated; the others are evaluated as before (same labels). The
+    higher floor's test keeps a margin of 1e-9 m over the rule's ``floor > h + band`` so that
+    rounding cannot let a cell the rule would catch pass as quiet. Both neighbourhood
+    extremes are taken as separable 3-cell passes (rows, then columns).
+
+    Args:
+        floor: The stored floor map [m] (NaN: none).
+        above: Per window cell, the height [m] above which a floor beside it is a rim.
+        below: Per window cell, the height [m] below which a floor beside it is unknown.
+        spill: Per window cell, the spill rule's threshold [m] (inf: none).
+        band: ``edge_band_m`` [m].
+        wx0: Grid x index of the window's first cell.
+        wy0: Grid y index of it.
+
+    Returns:
+        (wnx, wny) bool, True where a floor is quiet.
+    """
+    wnx, wny = above.shape
+    lo = np.empty((wnx, wny))
+    hi = np.empty((wnx, wny))
+    for i in range(wnx):
+        for j in range(wny):
+            f = floor[wx0 + i, wy0 + j]
+            # NaN floor: no floor beside (inf: never quiet); else the foot's margin.
+            lo[i, j] = np.inf if np.isnan(f) else max(below[i, j], f - band + 1e-9)
+            hi[i, j] = min(above[i, j], spill[i, j])
+    lo_rows = np.empty((wnx, wny))
+    hi_rows = np.empty((wnx, wny))
+    for i in range(wnx):
+        i0, i1 = max(i - 1, 0), min(i + 2, wnx)
+        for j in range(wny):
+            a, b = lo[i0, j], hi[i0, j]
+            for k in range(i0 + 1, i1):
+                a = max(a, lo[k, j])
+                b = min(b, hi[k, j])
+            lo_rows[i, j], hi_rows[i, j] = a, b
+    quiet = np.empty((wnx, wny), dtype=np.bool_)
+    for i in range(wnx):
+        for j in range(wny):
+            j0, j1 = max(j - 1, 0), min(j + 2, wny)
+            a, b = lo_rows[i, j0], hi_rows[i, j0]
+            for k in range(j0 + 1, j1):
+                a = max(a, lo_rows[i, k])
+                b = min(b, hi_rows[i, k])
+            f = floor[wx0 + i, wy0 + j]
+            quiet[i, j] = f >= a and f <= b  # NaN: never
+    return quiet
 
 
 @numba.njit(cache=True, no_cfunc_wrapper=True, nogil=True, boundscheck=False, error_model="numpy")
@@ -509,13 +577,16 @@ def update_fog_area(
                             if kinds[ki, kj] == _FLOOR and heights[ki, kj] < lowest:
                                 lowest = heights[ki, kj]
                     above[i, j] = lowest + band
+        quiet = _quiet_floors(floor, above, below, spill, band, wx0, wy0)
+    else:
+        quiet = np.zeros((0, 0), dtype=np.bool_)
     labels = np.empty_like(kinds) if island > 0 else kinds
     label_heights = np.empty_like(heights) if island > 0 else heights
     for ix in range(max(ix0 - ring - extra, 0), min(ix1 + ring + extra, nx)):
         for iy in range(max(iy0 - ring - extra, 0), min(iy1 + ring + extra, ny)):
             i, j = ix - wx0, iy - wy0
             kind, h = kinds[i, j], heights[i, j]
-            if banded and kind == _FLOOR:
+            if banded and kind == _FLOOR and not quiet[i, j]:
                 for ki in range(max(i - 1, 0), min(i + 2, kinds.shape[0])):
                     for kj in range(max(j - 1, 0), min(j + 2, kinds.shape[1])):
                         if h > above[ki, kj] or h < below[ki, kj]:  # itself: never
