@@ -84,6 +84,10 @@ from mapper.params import LEVEL_UNKNOWN
 _UNKNOWN = np.int8(CellType.UNKNOWN)
 _FLOOR = np.int8(CellType.FLOOR)
 _OBSTACLE = np.int8(CellType.OBSTACLE)
+# `_surface_ends_within`'s constant arguments as numpy scalars: numba types a Python literal
+# argument as its own type (``Literal[int](1)``) and compiles the callee once per value.
+_ONE, _TWO = np.int64(1), np.int64(2)
+_YES, _NO = np.bool_(True), np.bool_(False)
 
 
 @numba.njit(cache=True, nogil=True, boundscheck=False, error_model="numpy")
@@ -152,7 +156,7 @@ def _at_narrow_rise(
         if 0 <= jx < nx and 0 <= jy < ny:
             top = floor[jx, jy]
             if top > h + band and _surface_ends_within(  # NaN: never
-                floor, obstacle, ix, iy, dx, dy, 2, top, band, cells, True
+                floor, obstacle, ix, iy, dx, dy, _TWO, top, band, cells, _YES
             ):
                 return True
         # The near rim: nothing behind, the surface from this cell on (unseen cells skipped).
@@ -162,7 +166,7 @@ def _at_narrow_rise(
             and 0 <= by < ny
             and np.isnan(floor[bx, by])
             and not obstacle[bx, by] > h + delta  # NaN top: nothing
-            and _surface_ends_within(floor, obstacle, ix, iy, dx, dy, 1, h, band, cells, False)
+            and _surface_ends_within(floor, obstacle, ix, iy, dx, dy, _ONE, h, band, cells, _NO)
         ):
             return True
     return False
@@ -362,74 +366,6 @@ def _label(
     return _UNKNOWN, np.nan
 
 
-@numba.njit(cache=True, nogil=True, boundscheck=False, error_model="numpy")
-def _quiet_floors(
-    floor: NDArray[np.float64],
-    above: NDArray[np.float64],
-    below: NDArray[np.float64],
-    spill: NDArray[np.float64],
-    band: float,
-    wx0: int,
-    wy0: int,
-) -> NDArray[np.bool_]:
-    """Window cells where no banded rule can make a floor unknown: the rules' gate.
-
-    A floor at ``h`` in window cell ``(i, j)`` (grid cell ``(wx0 + i, wy0 + j)``) is quiet
-    when, over its 3 × 3 neighbourhood (itself included, clipped to the window), ``h`` is no
-    higher than any ``above`` or ``spill`` (the rim and spill rules' thresholds), no lower
-    than any ``below`` (beside an obstacle), no lower than any stored floor less ``band``
-    (a higher floor beside it: the narrow rise's foot) and no neighbour lacks a stored floor
-    (the near rim, the shadows and the seen drop all start at such a neighbour). Each is a
-    necessary condition of one rule in `update_fog_area`, so a quiet floor stays a floor and
-    the rules need not be evaluated; the others are evaluated as before (same labels). The
-    higher floor's test keeps a margin of 1e-9 m over the rule's ``floor > h + band`` so that
-    rounding cannot let a cell the rule would catch pass as quiet. Both neighbourhood
-    extremes are taken as separable 3-cell passes (rows, then columns).
-
-    Args:
-        floor: The stored floor map [m] (NaN: none).
-        above: Per window cell, the height [m] above which a floor beside it is a rim.
-        below: Per window cell, the height [m] below which a floor beside it is unknown.
-        spill: Per window cell, the spill rule's threshold [m] (inf: none).
-        band: ``edge_band_m`` [m].
-        wx0: Grid x index of the window's first cell.
-        wy0: Grid y index of it.
-
-    Returns:
-        (wnx, wny) bool, True where a floor is quiet.
-    """
-    wnx, wny = above.shape
-    lo = np.empty((wnx, wny))
-    hi = np.empty((wnx, wny))
-    for i in range(wnx):
-        for j in range(wny):
-            f = floor[wx0 + i, wy0 + j]
-            # NaN floor: no floor beside (inf: never quiet); else the foot's margin.
-            lo[i, j] = np.inf if np.isnan(f) else max(below[i, j], f - band + 1e-9)
-            hi[i, j] = min(above[i, j], spill[i, j])
-    lo_rows = np.empty((wnx, wny))
-    hi_rows = np.empty((wnx, wny))
-    for i in range(wnx):
-        i0, i1 = max(i - 1, 0), min(i + 2, wnx)
-        for j in range(wny):
-            a, b = lo[i0, j], hi[i0, j]
-            for k in range(i0 + 1, i1):
-                a = max(a, lo[k, j])
-                b = min(b, hi[k, j])
-            lo_rows[i, j], hi_rows[i, j] = a, b
-    quiet = np.empty((wnx, wny), dtype=np.bool_)
-    for i in range(wnx):
-        for j in range(wny):
-            j0, j1 = max(j - 1, 0), min(j + 2, wny)
-            a, b = lo_rows[i, j0], hi_rows[i, j0]
-            for k in range(j0 + 1, j1):
-                a = max(a, lo_rows[i, k])
-                b = min(b, hi_rows[i, k])
-            f = floor[wx0 + i, wy0 + j]
-            quiet[i, j] = f >= a and f <= b  # NaN: never
-    return quiet
-
-
 @numba.njit(cache=True, no_cfunc_wrapper=True, nogil=True, boundscheck=False, error_model="numpy")
 def update_fog_area(
     og: NDArray[np.uint8],
@@ -545,48 +481,63 @@ def update_fog_area(
     # a floor (a shadow), an obstacle more than δ above that is no higher floor's edge (a stored
     # floor within a cell of it lies within δ below its top). Inline loops, not helpers taking
     # the maps: a helper call costs reference counting (module note in `_label`).
-    above = np.full(kinds.shape, np.inf)
-    below = np.full(kinds.shape, -np.inf)
+    # Per banded cell also its gate: a floor at h none of whose 8 neighbours has ``h < lo`` or
+    # ``h > hi`` is left a floor by every banded rule (each rule needs one such neighbour:
+    # ``lo`` is +inf without a stored floor — the near rim, the shadows and the seen drop
+    # start there —, else the highest of ``below`` and the stored floor less the band with
+    # 1e-9 m to spare — the narrow rise's foot, so that rounding cannot let it pass —; ``hi``
+    # the lowest of ``above`` and ``spill``), so they need not be evaluated. Only cells of
+    # the banded range are written: the labelled cells' neighbours lie within it.
+    above = np.empty(kinds.shape)
+    below = np.empty(kinds.shape)
+    spill = np.empty(kinds.shape)
+    lo = np.empty(kinds.shape)
+    hi = np.empty(kinds.shape)
     spill_rims = rim_over_spill and band > 0.0
-    spill = np.full(kinds.shape, np.inf)
     if banded:
         for ix in range(max(ix0 - ring - 1 - extra, 0), min(ix1 + ring + 1 + extra, nx)):
             for iy in range(max(iy0 - ring - 1 - extra, 0), min(iy1 + ring + 1 + extra, ny)):
                 i, j = ix - wx0, iy - wy0
                 kind, h = kinds[i, j], heights[i, j]
+                hf = floor[ix, iy]
+                rim, lower, spilled = np.inf, -np.inf, np.inf
                 if kind == _FLOOR:
                     if band > 0.0:
-                        above[i, j] = h + band
+                        rim = h + band
                 elif kind == _OBSTACLE:
-                    hf = floor[ix, iy]
                     if spill_rims and not np.isnan(hf):
                         # A lower floor under this surface's spill: a floor h beside it is a
                         # rim when h > hf + band and the top reaches no higher than h + δ.
-                        spill[i, j] = max(hf + band, h - delta)
+                        spilled = max(hf + band, h - delta)
                     if beside_obstacles:
                         step = False
                         for jx in range(max(ix - 1, 0), min(ix + 2, nx)):
                             for jy in range(max(iy - 1, 0), min(iy + 2, ny)):
                                 step = step or h <= floor[jx, jy] + delta  # NaN: never
                         if not step:
-                            below[i, j] = h - delta
-                elif band > 0.0 and np.isnan(floor[ix, iy]) and np.isnan(obstacle[ix, iy]):
+                            lower = h - delta
+                elif band > 0.0 and np.isnan(hf) and np.isnan(obstacle[ix, iy]):
                     lowest = np.inf
                     for ki in range(max(i - 1, 0), min(i + 2, kinds.shape[0])):
                         for kj in range(max(j - 1, 0), min(j + 2, kinds.shape[1])):
                             if kinds[ki, kj] == _FLOOR and heights[ki, kj] < lowest:
                                 lowest = heights[ki, kj]
-                    above[i, j] = lowest + band
-        quiet = _quiet_floors(floor, above, below, spill, band, wx0, wy0)
-    else:
-        quiet = np.zeros((0, 0), dtype=np.bool_)
+                    rim = lowest + band
+                above[i, j], below[i, j], spill[i, j] = rim, lower, spilled
+                lo[i, j] = np.inf if np.isnan(hf) else max(lower, hf - band + 1e-9)
+                hi[i, j] = min(rim, spilled)
     labels = np.empty_like(kinds) if island > 0 else kinds
     label_heights = np.empty_like(heights) if island > 0 else heights
     for ix in range(max(ix0 - ring - extra, 0), min(ix1 + ring + extra, nx)):
         for iy in range(max(iy0 - ring - extra, 0), min(iy1 + ring + extra, ny)):
             i, j = ix - wx0, iy - wy0
             kind, h = kinds[i, j], heights[i, j]
-            if banded and kind == _FLOOR and not quiet[i, j]:
+            calm = True
+            if banded and kind == _FLOOR:
+                for ki in range(max(i - 1, 0), min(i + 2, kinds.shape[0])):
+                    for kj in range(max(j - 1, 0), min(j + 2, kinds.shape[1])):
+                        calm = calm and lo[ki, kj] <= h <= hi[ki, kj]
+            if banded and kind == _FLOOR and not calm:
                 for ki in range(max(i - 1, 0), min(i + 2, kinds.shape[0])):
                     for kj in range(max(j - 1, 0), min(j + 2, kinds.shape[1])):
                         if h > above[ki, kj] or h < below[ki, kj]:  # itself: never
@@ -622,7 +573,7 @@ def update_fog_area(
                                 # A narrow rise (the room's stereo sill, 2–3 cells deep
                                 # between two spill cells): the narrow-rise rules judge it.
                                 and not _surface_ends_within(
-                                    floor, obstacle, ix, iy, i - ki, j - kj, 1, h, band, rise, True
+                                    floor, obstacle, ix, iy, i - ki, j - kj, _ONE, h, band, rise, _YES
                                 )
                             ):
                                 kind, h = _UNKNOWN, np.nan
