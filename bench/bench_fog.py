@@ -99,7 +99,9 @@ def run(kernel, args: tuple) -> tuple[float, tuple]:
 
 def same(x: tuple, y: tuple) -> bool:
     """Byte-identical outputs (NaN payloads included)."""
-    return all(np.array_equal(a.view(np.uint8), b.view(np.uint8)) for a, b in zip(x, y))
+    return all(
+        np.array_equal(a.view(np.uint8), b.view(np.uint8)) for a, b in zip(x, y, strict=True)
+    )
 
 
 def variant_args(args: tuple, rng: np.random.Generator) -> tuple:
@@ -148,7 +150,9 @@ def main() -> None:
                         spent, out = run(kernel, c.args)
                         times[name].append(spent)
                         outs.setdefault(name, []).append(out)
-                differ += sum(not same(x, y) for x, y in zip(outs["base"], outs["this"]))
+                differ += sum(
+                    not same(x, y) for x, y in zip(outs["base"], outs["this"], strict=True)
+                )
         load_after = os.getloadavg()
         areas = np.array([[c.args[10] - c.args[9], c.args[12] - c.args[11]] for c in calls])
         med = {name: 1e3 * float(np.median(t)) for name, t in times.items()}
