@@ -355,7 +355,8 @@ def _label(
     """Eq. 11 with the cover check for one cell: (type, height), before the edge band.
 
     Scalars in and out: an inlined helper taking the maps costs reference counting per call
-    (measured: 18 → 96 µs for a 50 × 50 area).
+    (measured: 18 → 96 µs for a 50 × 50 area). The rules' helpers take the maps: they run
+    only for the few floors the gate does not pass, inlined into `_banded_unknown`.
     """
     reached = ends + passes
     covered = not (pass_fraction > 0.0 and reached >= min_rays and passes > pass_fraction * reached)
@@ -512,9 +513,21 @@ def _band_thresholds(
 ) -> None:
     """The banded rules' thresholds and the gate's bounds [m] per window cell.
 
-    For the cells ``[bx0, bx1) × [by0, by1)`` (grid indices): ``above``, ``below``,
-    ``spill`` and the gate's ``lo``, ``hi`` (comment in `update_fog_area`), at window
-    indices (``wx0``, ``wy0`` the window's first cell).
+    For the cells ``[bx0, bx1) × [by0, by1)`` (grid indices), at window indices (``wx0``,
+    ``wy0`` the window's first cell). A floor at h beside a cell is in a band when h >
+    ``above`` or h < ``below``: beside a floor more than the band below (a rim), an empty
+    cell next to such a floor (a shadow), an obstacle more than δ above that is no higher
+    floor's edge (a stored floor within a cell of it lies within δ below its top). It is a
+    spill rim candidate when h > ``spill`` (a lower floor under the raised surface's spill).
+
+    The gate (`_fog_rules`): a floor at h none of whose 8 neighbours has h < ``lo`` or
+    h > ``hi`` is left a floor by every banded rule, so they need not be evaluated — each
+    rule needs such a neighbour: ``lo`` is +inf where no floor is stored (the near rim, the
+    shadows and the seen drop all start at such a cell), else the highest of ``below`` and
+    the stored floor less the band, with 1e-9 m to spare so that rounding cannot let the
+    narrow rise's foot (a neighbour's floor > h + band) pass; ``hi`` is the lowest of
+    ``above`` and ``spill``. Only the banded range is written: the labelled cells'
+    neighbours lie within it.
     """
     nx, ny = floor.shape
     for ix in range(bx0, bx1):
@@ -668,8 +681,8 @@ def _fog_rules(
     The cells are ``[ix0, ix1) × [iy0, iy1)`` grown by ``labelled_ring`` cells (clipped).
 
     Each cell's eq. 11 label (``kinds``, ``heights``: window arrays from ``(wx0, wy0)``),
-    with ``banded`` made unknown where a floor is not calm (the gate, comment in
-    `update_fog_area`) and `_banded_unknown` says so, goes to ``out_types``,
+    with ``banded`` made unknown where a floor is not calm (the gate, `_band_thresholds`:
+    most floors are, away from edges) and `_banded_unknown` says so, goes to ``out_types``,
     ``out_heights`` at the grid cell less ``(ox, oy)``: the FOG itself (0, 0), or the
     window's labels for the island rule (``(wx0, wy0)``). ``window`` as in `_fog_prepare`.
     """
