@@ -172,7 +172,7 @@ def _at_narrow_rise(
     return False
 
 
-@numba.njit(cache=True, nogil=True, boundscheck=False, error_model="numpy")
+@numba.njit(cache=True, no_cfunc_wrapper=True, nogil=True, boundscheck=False, error_model="numpy")
 def _surface_ends_within(
     floor: NDArray[np.float64],
     obstacle: NDArray[np.float64],
@@ -367,7 +367,7 @@ def _label(
     return _UNKNOWN, np.nan
 
 
-@numba.njit(cache=True, nogil=True, boundscheck=False, error_model="numpy")
+@numba.njit(cache=True, no_cfunc_wrapper=True, nogil=True, boundscheck=False, error_model="numpy")
 def _banded_unknown(
     og: NDArray[np.uint8],
     floor: NDArray[np.float64],
