@@ -84,6 +84,10 @@ from mapper.params import LEVEL_UNKNOWN
 _UNKNOWN = np.int8(CellType.UNKNOWN)
 _FLOOR = np.int8(CellType.FLOOR)
 _OBSTACLE = np.int8(CellType.OBSTACLE)
+# `_surface_ends_within`'s constant arguments as numpy scalars: numba types a Python literal
+# argument as its own type (``Literal[int](1)``) and compiles the callee once per value.
+_ONE, _TWO = np.int64(1), np.int64(2)
+_YES, _NO = np.bool_(True), np.bool_(False)
 
 
 @numba.njit(cache=True, inline="always")
@@ -152,7 +156,7 @@ def _at_narrow_rise(
         if 0 <= jx < nx and 0 <= jy < ny:
             top = floor[jx, jy]
             if top > h + band and _surface_ends_within(  # NaN: never
-                floor, obstacle, ix, iy, dx, dy, 2, top, band, cells, True
+                floor, obstacle, ix, iy, dx, dy, _TWO, top, band, cells, _YES
             ):
                 return True
         # The near rim: nothing behind, the surface from this cell on (unseen cells skipped).
@@ -162,13 +166,13 @@ def _at_narrow_rise(
             and 0 <= by < ny
             and np.isnan(floor[bx, by])
             and not obstacle[bx, by] > h + delta  # NaN top: nothing
-            and _surface_ends_within(floor, obstacle, ix, iy, dx, dy, 1, h, band, cells, False)
+            and _surface_ends_within(floor, obstacle, ix, iy, dx, dy, _ONE, h, band, cells, _NO)
         ):
             return True
     return False
 
 
-@numba.njit(cache=True, inline="always")
+@numba.njit(cache=True, no_cfunc_wrapper=True, nogil=True, boundscheck=False, error_model="numpy")
 def _surface_ends_within(
     floor: NDArray[np.float64],
     obstacle: NDArray[np.float64],
@@ -351,7 +355,8 @@ def _label(
     """Eq. 11 with the cover check for one cell: (type, height), before the edge band.
 
     Scalars in and out: an inlined helper taking the maps costs reference counting per call
-    (measured: 18 → 96 µs for a 50 × 50 area).
+    (measured: 18 → 96 µs for a 50 × 50 area). The rules' helpers take the maps: they run
+    only for the few floors the gate does not pass, inlined into `_banded_unknown`.
     """
     reached = ends + passes
     covered = not (pass_fraction > 0.0 and reached >= min_rays and passes > pass_fraction * reached)
@@ -363,6 +368,408 @@ def _label(
 
 
 @numba.njit(cache=True, no_cfunc_wrapper=True, nogil=True, boundscheck=False, error_model="numpy")
+def _banded_unknown(
+    og: NDArray[np.uint8],
+    floor: NDArray[np.float64],
+    obstacle: NDArray[np.float64],
+    above: NDArray[np.float64],
+    below: NDArray[np.float64],
+    spill: NDArray[np.float64],
+    ix: int,
+    iy: int,
+    i: int,
+    j: int,
+    h: float,
+    z_min: float,
+    layer: float,
+    band: float,
+    delta: float,
+    rise: int,
+    shadow: int,
+    seen_drop: bool,
+    spill_rims: bool,
+) -> bool:
+    """Whether the banded rules make the floor ``h`` at grid cell ``(ix, iy)`` unknown.
+
+    The rules of `update_fog_area` in its order, the first that fires deciding: the rim and
+    beside-obstacle rule (a neighbour's ``above`` below ``h`` or ``below`` above it), the
+    narrow rise (``rise`` > 0, `_at_narrow_rise`), the wide shadow (``shadow`` > 1,
+    `_behind_wide_shadow`), the seen drop (`_rim_over_seen_drop`) and the spill rule
+    (``spill_rims``: a neighbour's ``spill`` below ``h``, `_patch_across`, not across a
+    narrow rise). ``above``, ``below`` and ``spill`` are `update_fog_area`'s window arrays,
+    ``(i, j)`` the cell's index in them; ``og``, ``floor`` and ``obstacle`` the stored maps.
+    One compiled function, called only for the floors the gate does not pass (few: a
+    surface's edges), with the rules' helpers inlined into it once.
+    """
+    wnx, wny = above.shape
+    for ki in range(max(i - 1, 0), min(i + 2, wnx)):
+        for kj in range(max(j - 1, 0), min(j + 2, wny)):
+            if h > above[ki, kj] or h < below[ki, kj]:  # itself: never
+                return True
+    if rise > 0 and _at_narrow_rise(floor, obstacle, ix, iy, h, band, delta, rise):
+        return True
+    if shadow > 1 and _behind_wide_shadow(floor, obstacle, ix, iy, h, band, shadow):
+        return True
+    if seen_drop and _rim_over_seen_drop(og, floor, obstacle, ix, iy, h, z_min, layer, band):
+        return True
+    if spill_rims:
+        for ki in range(max(i - 1, 0), min(i + 2, wnx)):
+            for kj in range(max(j - 1, 0), min(j + 2, wny)):
+                if (
+                    h > spill[ki, kj]  # itself: never (inf)
+                    # A riser's edge cell: the upper tread goes on across.
+                    and _patch_across(floor, obstacle, ix, iy, i - ki, j - kj, h, band, delta)
+                    # A narrow rise (the room's stereo sill, 2–3 cells deep between two
+                    # spill cells): the narrow-rise rules judge it.
+                    and not _surface_ends_within(
+                        floor, obstacle, ix, iy, i - ki, j - kj, _ONE, h, band, rise, _YES
+                    )
+                ):
+                    return True
+    return False
+
+
+@numba.njit(cache=True, inline="always")
+def _obstacle_tops(
+    og: NDArray[np.uint8],
+    obstacle: NDArray[np.float64],
+    occ_level: int,
+    z_min: float,
+    layer: float,
+    ix0: int,
+    ix1: int,
+    iy0: int,
+    iy1: int,
+) -> None:
+    """Eq. 10 in ``[ix0, ix1) × [iy0, iy1)``: ``obstacle`` [m], the highest occupied top.
+
+    NaN where no layer is occupied.
+    """
+    nz = og.shape[2]
+    for ix in range(ix0, ix1):
+        for iy in range(iy0, iy1):
+            # Highest occupied layer, as a branch-free scan the compiler vectorises.
+            k_top = -1
+            for k in range(nz):
+                k_top = k if og[ix, iy, k] > occ_level else k_top
+            obstacle[ix, iy] = z_min + (k_top + 1) * layer if k_top >= 0 else np.nan
+
+
+@numba.njit(cache=True, inline="always")
+def _window_labels(
+    floor: NDArray[np.float64],
+    obstacle: NDArray[np.float64],
+    cover_ends: NDArray[np.int32],
+    cover_passes: NDArray[np.int32],
+    kinds: NDArray[np.int8],
+    heights: NDArray[np.float64],
+    wx0: int,
+    wx1: int,
+    wy0: int,
+    wy1: int,
+    delta: float,
+    min_rays: int,
+    pass_fraction: float,
+    margin: int,
+) -> None:
+    """Eq. 11 with the margin and the cover check (`_label`) in a window of the grid.
+
+    Of ``[wx0, wx1) × [wy0, wy1)`` into ``kinds`` and ``heights`` [m] (window indices).
+    """
+    for ix in range(wx0, wx1):
+        for iy in range(wy0, wy1):
+            top = obstacle[ix, iy]
+            hf = floor[ix, iy]
+            if margin > 0 and not np.isnan(hf) and not top > hf + delta:
+                beside = _highest_within(obstacle, ix, iy, margin)
+                if beside > hf + delta:
+                    top = beside
+            kinds[ix - wx0, iy - wy0], heights[ix - wx0, iy - wy0] = _label(
+                top, hf, cover_ends[ix, iy], cover_passes[ix, iy], delta, min_rays, pass_fraction
+            )
+
+
+@numba.njit(cache=True, inline="always")
+def _band_thresholds(
+    floor: NDArray[np.float64],
+    obstacle: NDArray[np.float64],
+    kinds: NDArray[np.int8],
+    heights: NDArray[np.float64],
+    above: NDArray[np.float64],
+    below: NDArray[np.float64],
+    spill: NDArray[np.float64],
+    lo: NDArray[np.float64],
+    hi: NDArray[np.float64],
+    bx0: int,
+    bx1: int,
+    by0: int,
+    by1: int,
+    wx0: int,
+    wy0: int,
+    band: float,
+    delta: float,
+    beside_obstacles: bool,
+    spill_rims: bool,
+) -> None:
+    """The banded rules' thresholds and the gate's bounds [m] per window cell.
+
+    For the cells ``[bx0, bx1) × [by0, by1)`` (grid indices), at window indices (``wx0``,
+    ``wy0`` the window's first cell). A floor at h beside a cell is in a band when h >
+    ``above`` or h < ``below``: beside a floor more than the band below (a rim), an empty
+    cell next to such a floor (a shadow), an obstacle more than δ above that is no higher
+    floor's edge (a stored floor within a cell of it lies within δ below its top). It is a
+    spill rim candidate when h > ``spill`` (a lower floor under the raised surface's spill).
+
+    The gate (`_fog_rules`): a floor at h none of whose 8 neighbours has h < ``lo`` or
+    h > ``hi`` is left a floor by every banded rule, so they need not be evaluated — each
+    rule needs such a neighbour: ``lo`` is +inf where no floor is stored (the near rim, the
+    shadows and the seen drop all start at such a cell), else the highest of ``below`` and
+    the stored floor less the band, with 1e-9 m to spare so that rounding cannot let the
+    narrow rise's foot (a neighbour's floor > h + band) pass; ``hi`` is the lowest of
+    ``above`` and ``spill``. Only the banded range is written: the labelled cells'
+    neighbours lie within it.
+    """
+    nx, ny = floor.shape
+    for ix in range(bx0, bx1):
+        for iy in range(by0, by1):
+            i, j = ix - wx0, iy - wy0
+            kind, h = kinds[i, j], heights[i, j]
+            hf = floor[ix, iy]
+            rim, lower, spilled = np.inf, -np.inf, np.inf
+            if kind == _FLOOR:
+                if band > 0.0:
+                    rim = h + band
+            elif kind == _OBSTACLE:
+                if spill_rims and not np.isnan(hf):
+                    # A lower floor under this surface's spill: a floor h beside it is a
+                    # rim when h > hf + band and the top reaches no higher than h + δ.
+                    spilled = max(hf + band, h - delta)
+                if beside_obstacles:
+                    step = False
+                    for jx in range(max(ix - 1, 0), min(ix + 2, nx)):
+                        for jy in range(max(iy - 1, 0), min(iy + 2, ny)):
+                            step = step or h <= floor[jx, jy] + delta  # NaN: never
+                    if not step:
+                        lower = h - delta
+            elif band > 0.0 and np.isnan(hf) and np.isnan(obstacle[ix, iy]):
+                lowest = np.inf
+                for ki in range(max(i - 1, 0), min(i + 2, kinds.shape[0])):
+                    for kj in range(max(j - 1, 0), min(j + 2, kinds.shape[1])):
+                        if kinds[ki, kj] == _FLOOR and heights[ki, kj] < lowest:
+                            lowest = heights[ki, kj]
+                rim = lowest + band
+            above[i, j], below[i, j], spill[i, j] = rim, lower, spilled
+            lo[i, j] = np.inf if np.isnan(hf) else max(lower, hf - band + 1e-9)
+            hi[i, j] = min(rim, spilled)
+
+
+@numba.njit(cache=True, no_cfunc_wrapper=True, nogil=True, boundscheck=False, error_model="numpy")
+def _fog_prepare(
+    og: NDArray[np.uint8],
+    floor: NDArray[np.float64],
+    obstacle: NDArray[np.float64],
+    cover_ends: NDArray[np.int32],
+    cover_passes: NDArray[np.int32],
+    kinds: NDArray[np.int8],
+    window: NDArray[np.float64],
+    occ_level: int,
+    z_min: float,
+    layer: float,
+    delta: float,
+    ix0: int,
+    ix1: int,
+    iy0: int,
+    iy1: int,
+    wx0: int,
+    wx1: int,
+    wy0: int,
+    wy1: int,
+    banded_ring: int,
+    min_rays: int,
+    pass_fraction: float,
+    margin: int,
+    band: float,
+    beside_obstacles: bool,
+    spill_rims: bool,
+    banded: bool,
+) -> None:
+    """`update_fog_area`'s first kernel: eq. 10 in the area, eq. 11 in the window, thresholds.
+
+    ``obstacle`` in ``[ix0, ix1) × [iy0, iy1)`` (`_obstacle_tops`); ``kinds``, ``heights``
+    of the window ``[wx0, wx1) × [wy0, wy1)`` (`_window_labels`); with ``banded`` the
+    thresholds and gate bounds of the area grown by ``banded_ring`` cells
+    (`_band_thresholds`, clipped to the grid). The
+    window arrays are indexed from the window's first cell: ``kinds`` and ``window``, the
+    (6, wnx, wny) stack of ``heights``, ``above``, ``below``, ``spill``, ``lo`` and ``hi``
+    [m] (one allocation, one argument: `update_fog_area` is a Python function calling two
+    kernels, so that each is compiled and optimised once — numba links a kernel's callees
+    into it and optimises them again —, and each array argument costs it a little).
+    """
+    heights, above, below, spill, lo, hi = window
+    _obstacle_tops(og, obstacle, occ_level, z_min, layer, ix0, ix1, iy0, iy1)
+    _window_labels(
+        floor,
+        obstacle,
+        cover_ends,
+        cover_passes,
+        kinds,
+        heights,
+        wx0,
+        wx1,
+        wy0,
+        wy1,
+        delta,
+        min_rays,
+        pass_fraction,
+        margin,
+    )
+    if banded:
+        nx, ny = floor.shape
+        _band_thresholds(
+            floor,
+            obstacle,
+            kinds,
+            heights,
+            above,
+            below,
+            spill,
+            lo,
+            hi,
+            max(ix0 - banded_ring, 0),
+            min(ix1 + banded_ring, nx),
+            max(iy0 - banded_ring, 0),
+            min(iy1 + banded_ring, ny),
+            wx0,
+            wy0,
+            band,
+            delta,
+            beside_obstacles,
+            spill_rims,
+        )
+
+
+@numba.njit(cache=True, no_cfunc_wrapper=True, nogil=True, boundscheck=False, error_model="numpy")
+def _fog_rules(
+    og: NDArray[np.uint8],
+    floor: NDArray[np.float64],
+    obstacle: NDArray[np.float64],
+    kinds: NDArray[np.int8],
+    window: NDArray[np.float64],
+    out_types: NDArray[np.int8],
+    out_heights: NDArray[np.float64],
+    ox: int,
+    oy: int,
+    ix0: int,
+    ix1: int,
+    iy0: int,
+    iy1: int,
+    labelled_ring: int,
+    wx0: int,
+    wy0: int,
+    z_min: float,
+    layer: float,
+    band: float,
+    delta: float,
+    rise: int,
+    shadow: int,
+    seen_drop: bool,
+    spill_rims: bool,
+    banded: bool,
+) -> None:
+    """`update_fog_area`'s second kernel: the banded labels of the area and its ring.
+
+    The cells are ``[ix0, ix1) × [iy0, iy1)`` grown by ``labelled_ring`` cells (clipped).
+
+    Each cell's eq. 11 label (``kinds``, ``heights``: window arrays from ``(wx0, wy0)``),
+    with ``banded`` made unknown where a floor is not calm (the gate, `_band_thresholds`:
+    most floors are, away from edges) and `_banded_unknown` says so, goes to ``out_types``,
+    ``out_heights`` at the grid cell less ``(ox, oy)``: the FOG itself (0, 0), or the
+    window's labels for the island rule (``(wx0, wy0)``). ``window`` as in `_fog_prepare`.
+    """
+    heights, above, below, spill, lo, hi = window
+    nx, ny = floor.shape
+    for ix in range(max(ix0 - labelled_ring, 0), min(ix1 + labelled_ring, nx)):
+        for iy in range(max(iy0 - labelled_ring, 0), min(iy1 + labelled_ring, ny)):
+            i, j = ix - wx0, iy - wy0
+            kind, h = kinds[i, j], heights[i, j]
+            calm = True
+            if banded and kind == _FLOOR:
+                for ki in range(max(i - 1, 0), min(i + 2, kinds.shape[0])):
+                    for kj in range(max(j - 1, 0), min(j + 2, kinds.shape[1])):
+                        calm = calm and lo[ki, kj] <= h <= hi[ki, kj]
+            if (
+                banded
+                and kind == _FLOOR
+                and not calm
+                and _banded_unknown(
+                    og,
+                    floor,
+                    obstacle,
+                    above,
+                    below,
+                    spill,
+                    ix,
+                    iy,
+                    i,
+                    j,
+                    h,
+                    z_min,
+                    layer,
+                    band,
+                    delta,
+                    rise,
+                    shadow,
+                    seen_drop,
+                    spill_rims,
+                )
+            ):
+                kind, h = _UNKNOWN, np.nan
+            out_types[ix - ox, iy - oy] = kind
+            out_heights[ix - ox, iy - oy] = h
+
+
+@numba.njit(cache=True, no_cfunc_wrapper=True, nogil=True, boundscheck=False, error_model="numpy")
+def _fog_islands(
+    labels: NDArray[np.int8],
+    label_heights: NDArray[np.float64],
+    fog_types: NDArray[np.int8],
+    fog_heights: NDArray[np.float64],
+    gx0: int,
+    gx1: int,
+    gy0: int,
+    gy1: int,
+    wx0: int,
+    wy0: int,
+    band: float,
+    island: int,
+) -> None:
+    """`update_fog_area`'s island rule (``min_floor_neighbours`` k > 0) into the FOG.
+
+    For ``[gx0, gx1) × [gy0, gy1)``: a floor among the banded ``labels`` (window arrays
+    from ``(wx0, wy0)``) with fewer than ``island`` of its 8 neighbours floors within
+    ``band`` of it and one of them an obstacle higher than it is unknown.
+    """
+    for ix in range(gx0, gx1):
+        for iy in range(gy0, gy1):
+            i, j = ix - wx0, iy - wy0
+            kind, h = labels[i, j], label_heights[i, j]
+            if kind == _FLOOR:
+                level = 0
+                taller = False
+                for ki in range(max(i - 1, 0), min(i + 2, labels.shape[0])):
+                    for kj in range(max(j - 1, 0), min(j + 2, labels.shape[1])):
+                        if ki == i and kj == j:
+                            continue
+                        near, hn = labels[ki, kj], label_heights[ki, kj]
+                        if near == _FLOOR and abs(hn - h) <= band:
+                            level += 1
+                        taller = taller or (near == _OBSTACLE and hn > h)
+                if level < island and taller:
+                    kind, h = _UNKNOWN, np.nan
+            fog_types[ix, iy] = kind
+            fog_heights[ix, iy] = h
+
+
 def update_fog_area(
     og: NDArray[np.uint8],
     floor: NDArray[np.float64],
@@ -434,14 +841,9 @@ def update_fog_area(
     fitted to a rough top's low part). The neighbours' labels are the rules' (computed here
     a cell farther), so the FOG is recomputed a cell farther too.
     """
-    nx, ny, nz = og.shape
-    for ix in range(ix0, ix1):
-        for iy in range(iy0, iy1):
-            # Highest occupied layer, as a branch-free scan the compiler vectorises.
-            k_top = -1
-            for k in range(nz):
-                k_top = k if og[ix, iy, k] > occ_level else k_top
-            obstacle[ix, iy] = z_min + (k_top + 1) * layer if k_top >= 0 else np.nan
+    nx, ny = floor.shape
+    # Python ints: numpy scalars' arithmetic costs this Python function more than its work.
+    ix0, ix1, iy0, iy1 = int(ix0), int(ix1), int(iy0), int(iy1)
     # The cells recomputed, and around them (with the band) their neighbours' labels.
     banded = band > 0.0 or beside_obstacles
     ring = margin + (2 if banded else 0)
@@ -459,127 +861,86 @@ def update_fog_area(
     reach = ring + 2 + extra if banded else ring
     wx0, wx1 = max(ix0 - reach, 0), min(ix1 + reach, nx)
     wy0, wy1 = max(iy0 - reach, 0), min(iy1 + reach, ny)
-    kinds = np.empty((wx1 - wx0, wy1 - wy0), dtype=np.int8)
-    heights = np.empty((wx1 - wx0, wy1 - wy0))
-    for ix in range(wx0, wx1):
-        for iy in range(wy0, wy1):
-            top = obstacle[ix, iy]
-            hf = floor[ix, iy]
-            if margin > 0 and not np.isnan(hf) and not top > hf + delta:
-                beside = _highest_within(obstacle, ix, iy, margin)
-                if beside > hf + delta:
-                    top = beside
-            kinds[ix - wx0, iy - wy0], heights[ix - wx0, iy - wy0] = _label(
-                top, hf, cover_ends[ix, iy], cover_passes[ix, iy], delta, min_rays, pass_fraction
-            )
-    # Per cell beside the relabelled ones: a floor at h beside it is in a band when h > above or
-    # h < below — beside a floor more than the band below (a rim), an empty cell next to such
-    # a floor (a shadow), an obstacle more than δ above that is no higher floor's edge (a stored
-    # floor within a cell of it lies within δ below its top). Inline loops, not helpers taking
-    # the maps: a helper call costs reference counting (module note in `_label`).
-    above = np.full(kinds.shape, np.inf)
-    below = np.full(kinds.shape, -np.inf)
+    shape = (wx1 - wx0, wy1 - wy0)
+    kinds = np.empty(shape, dtype=np.int8)
+    # heights, above, below, spill, lo, hi: one allocation (module note in `_fog_prepare`).
+    window = np.empty((6, *shape))
     spill_rims = rim_over_spill and band > 0.0
-    spill = np.full(kinds.shape, np.inf)
-    if banded:
-        for ix in range(max(ix0 - ring - 1 - extra, 0), min(ix1 + ring + 1 + extra, nx)):
-            for iy in range(max(iy0 - ring - 1 - extra, 0), min(iy1 + ring + 1 + extra, ny)):
-                i, j = ix - wx0, iy - wy0
-                kind, h = kinds[i, j], heights[i, j]
-                if kind == _FLOOR:
-                    if band > 0.0:
-                        above[i, j] = h + band
-                elif kind == _OBSTACLE:
-                    hf = floor[ix, iy]
-                    if spill_rims and not np.isnan(hf):
-                        # A lower floor under this surface's spill: a floor h beside it is a
-                        # rim when h > hf + band and the top reaches no higher than h + δ.
-                        spill[i, j] = max(hf + band, h - delta)
-                    if beside_obstacles:
-                        step = False
-                        for jx in range(max(ix - 1, 0), min(ix + 2, nx)):
-                            for jy in range(max(iy - 1, 0), min(iy + 2, ny)):
-                                step = step or h <= floor[jx, jy] + delta  # NaN: never
-                        if not step:
-                            below[i, j] = h - delta
-                elif band > 0.0 and np.isnan(floor[ix, iy]) and np.isnan(obstacle[ix, iy]):
-                    lowest = np.inf
-                    for ki in range(max(i - 1, 0), min(i + 2, kinds.shape[0])):
-                        for kj in range(max(j - 1, 0), min(j + 2, kinds.shape[1])):
-                            if kinds[ki, kj] == _FLOOR and heights[ki, kj] < lowest:
-                                lowest = heights[ki, kj]
-                    above[i, j] = lowest + band
-    labels = np.empty_like(kinds) if island > 0 else kinds
-    label_heights = np.empty_like(heights) if island > 0 else heights
-    for ix in range(max(ix0 - ring - extra, 0), min(ix1 + ring + extra, nx)):
-        for iy in range(max(iy0 - ring - extra, 0), min(iy1 + ring + extra, ny)):
-            i, j = ix - wx0, iy - wy0
-            kind, h = kinds[i, j], heights[i, j]
-            if banded and kind == _FLOOR:
-                for ki in range(max(i - 1, 0), min(i + 2, kinds.shape[0])):
-                    for kj in range(max(j - 1, 0), min(j + 2, kinds.shape[1])):
-                        if h > above[ki, kj] or h < below[ki, kj]:  # itself: never
-                            kind, h = _UNKNOWN, np.nan
-                if (
-                    kind == _FLOOR
-                    and rise > 0
-                    and _at_narrow_rise(floor, obstacle, ix, iy, h, band, delta, rise)
-                ):
-                    kind, h = _UNKNOWN, np.nan
-                if (
-                    kind == _FLOOR
-                    and shadow > 1
-                    and _behind_wide_shadow(floor, obstacle, ix, iy, h, band, shadow)
-                ):
-                    kind, h = _UNKNOWN, np.nan
-                if (
-                    kind == _FLOOR
-                    and seen_drop
-                    and _rim_over_seen_drop(og, floor, obstacle, ix, iy, h, z_min, layer, band)
-                ):
-                    kind, h = _UNKNOWN, np.nan
-                if kind == _FLOOR and spill_rims:
-                    for ki in range(max(i - 1, 0), min(i + 2, kinds.shape[0])):
-                        for kj in range(max(j - 1, 0), min(j + 2, kinds.shape[1])):
-                            if (
-                                kind == _FLOOR
-                                and h > spill[ki, kj]  # itself: never (inf)
-                                # A riser's edge cell: the upper tread goes on across.
-                                and _patch_across(
-                                    floor, obstacle, ix, iy, i - ki, j - kj, h, band, delta
-                                )
-                                # A narrow rise (the room's stereo sill, 2–3 cells deep
-                                # between two spill cells): the narrow-rise rules judge it.
-                                and not _surface_ends_within(
-                                    floor, obstacle, ix, iy, i - ki, j - kj, 1, h, band, rise, True
-                                )
-                            ):
-                                kind, h = _UNKNOWN, np.nan
-            if island > 0:
-                labels[i, j], label_heights[i, j] = kind, h
-            else:
-                fog_types[ix, iy] = kind
-                fog_heights[ix, iy] = h
+    _fog_prepare(
+        og,
+        floor,
+        obstacle,
+        cover_ends,
+        cover_passes,
+        kinds,
+        window,
+        occ_level,
+        z_min,
+        layer,
+        delta,
+        ix0,
+        ix1,
+        iy0,
+        iy1,
+        wx0,
+        wx1,
+        wy0,
+        wy1,
+        ring + 1 + extra,
+        min_rays,
+        pass_fraction,
+        margin,
+        band,
+        beside_obstacles,
+        spill_rims,
+        banded,
+    )
+    # Without the island rule the labels go to the FOG, else to the window for that rule.
+    labels, label_heights, ox, oy = fog_types, fog_heights, 0, 0
     if island > 0:
-        for ix in range(max(ix0 - ring, 0), min(ix1 + ring, nx)):
-            for iy in range(max(iy0 - ring, 0), min(iy1 + ring, ny)):
-                i, j = ix - wx0, iy - wy0
-                kind, h = labels[i, j], label_heights[i, j]
-                if kind == _FLOOR:
-                    level = 0
-                    taller = False
-                    for ki in range(max(i - 1, 0), min(i + 2, labels.shape[0])):
-                        for kj in range(max(j - 1, 0), min(j + 2, labels.shape[1])):
-                            if ki == i and kj == j:
-                                continue
-                            near, hn = labels[ki, kj], label_heights[ki, kj]
-                            if near == _FLOOR and abs(hn - h) <= band:
-                                level += 1
-                            taller = taller or (near == _OBSTACLE and hn > h)
-                    if level < island and taller:
-                        kind, h = _UNKNOWN, np.nan
-                fog_types[ix, iy] = kind
-                fog_heights[ix, iy] = h
+        labels, label_heights, ox, oy = np.empty_like(kinds), np.empty(shape), wx0, wy0
+    _fog_rules(
+        og,
+        floor,
+        obstacle,
+        kinds,
+        window,
+        labels,
+        label_heights,
+        ox,
+        oy,
+        ix0,
+        ix1,
+        iy0,
+        iy1,
+        ring + extra,
+        wx0,
+        wy0,
+        z_min,
+        layer,
+        band,
+        delta,
+        rise,
+        shadow,
+        seen_drop,
+        spill_rims,
+        banded,
+    )
+    if island > 0:
+        _fog_islands(
+            labels,
+            label_heights,
+            fog_types,
+            fog_heights,
+            max(ix0 - ring, 0),
+            min(ix1 + ring, nx),
+            max(iy0 - ring, 0),
+            min(iy1 + ring, ny),
+            wx0,
+            wy0,
+            band,
+            island,
+        )
 
 
 @numba.njit(cache=True, no_cfunc_wrapper=True, nogil=True, error_model="numpy")
