@@ -65,6 +65,12 @@ Conventions (heights in world metres, NaN = invalid):
   rules above leave a floor is unknown when fewer than k of its 8 neighbours are such floors
   within the band of it and one is an obstacle taller than it: a one- or two-cell plane
   fitted to a rough top's lower part (off by default).
+- Beyond the paper, with `MapperParams.ground_noise_unknown`, a cell eq. 11 makes an obstacle is
+  unknown when its top lies within δ above the lowest floor around it (of its 8 neighbours, at
+  least 3 that eq. 11 leaves floors): its own floor is missing (far ground the segmentation
+  left unlabelled fills the ground's layer with hits) or lower than every neighbour's (a
+  stereo outlier), nothing in it stands on the floor. Only the output is relabelled: the rules
+  above see eq. 11's obstacle, so a rim beside it stays unknown and no floor is added.
 - ``Ceiling(x, y)`` is the *bottom face* of the lowest occupied cell above the free space a
   robot could use: where the floor is valid, the lowest occupied cell whose top is above
   ``h_f + δ`` (the cells the FOG counts as obstacle); where it is not, the lowest occupied cell
@@ -101,6 +107,44 @@ def _highest_within(obstacle: NDArray[np.float64], ix: int, iy: int, margin: int
             if near > highest:  # NaN: never
                 highest = near
     return highest
+
+
+_FLOORS_AROUND_NOISE = 3
+"""`MapperParams.ground_noise_unknown` needs at least this many of a cell's 8 neighbours to be
+floors eq. 11 leaves a floor: a cell amid a floor, not a rough top's cell beside one or two
+small planes fitted to that top (replays seeds 1–8, session 32, room stereo: of the rocks' cells
+the rule took from obstacle to unknown, 99 of 123 had one or two such neighbours; of the ground
+cells 278 of 384 had three or more)."""
+
+
+@numba.njit(cache=True, inline="always")
+def _ground_noise(
+    floor: NDArray[np.float64],
+    obstacle: NDArray[np.float64],
+    ix: int,
+    iy: int,
+    top: float,
+    delta: float,
+) -> bool:
+    """Whether ``top`` lies within ``delta`` above the lowest floor around ``(ix, iy)``.
+
+    The floors around are those of its 8 neighbours (clipped) eq. 11 leaves a floor: a floor
+    stored and nothing more than ``delta`` above it; at least `_FLOORS_AROUND_NOISE` of them.
+    """
+    nx, ny = floor.shape
+    lowest = np.inf
+    count = 0
+    for jx in range(max(ix - 1, 0), min(ix + 2, nx)):
+        for jy in range(max(iy - 1, 0), min(iy + 2, ny)):
+            near = floor[jx, jy]
+            if (
+                (jx != ix or jy != iy)
+                and not np.isnan(near)
+                and not obstacle[jx, jy] > near + delta
+            ):
+                count += 1
+                lowest = min(lowest, near)
+    return count >= _FLOORS_AROUND_NOISE and top <= lowest + delta
 
 
 @numba.njit(cache=True, inline="always")
@@ -675,6 +719,7 @@ def _fog_rules(
     seen_drop: bool,
     spill_rims: bool,
     banded: bool,
+    ground_noise: bool,
 ) -> None:
     """`update_fog_area`'s second kernel: the banded labels of the area and its ring.
 
@@ -724,12 +769,20 @@ def _fog_rules(
                 )
             ):
                 kind, h = _UNKNOWN, np.nan
+            if (
+                ground_noise
+                and kind == _OBSTACLE
+                and _ground_noise(floor, obstacle, ix, iy, h, delta)
+            ):
+                kind, h = _UNKNOWN, np.nan
             out_types[ix - ox, iy - oy] = kind
             out_heights[ix - ox, iy - oy] = h
 
 
 @numba.njit(cache=True, no_cfunc_wrapper=True, nogil=True, boundscheck=False, error_model="numpy")
 def _fog_islands(
+    floor: NDArray[np.float64],
+    obstacle: NDArray[np.float64],
     labels: NDArray[np.int8],
     label_heights: NDArray[np.float64],
     fog_types: NDArray[np.int8],
@@ -742,6 +795,8 @@ def _fog_islands(
     wy0: int,
     band: float,
     island: int,
+    delta: float,
+    ground_noise: bool,
 ) -> None:
     """`update_fog_area`'s island rule (``min_floor_neighbours`` k > 0) into the FOG.
 
@@ -766,6 +821,12 @@ def _fog_islands(
                         taller = taller or (near == _OBSTACLE and hn > h)
                 if level < island and taller:
                     kind, h = _UNKNOWN, np.nan
+            if (
+                ground_noise
+                and kind == _OBSTACLE
+                and _ground_noise(floor, obstacle, ix, iy, h, delta)
+            ):
+                kind, h = _UNKNOWN, np.nan
             fog_types[ix, iy] = kind
             fog_heights[ix, iy] = h
 
@@ -796,6 +857,7 @@ def update_fog_area(
     min_floor_neighbours: int = 0,
     rim_over_spill: bool = False,
     seen_drop: bool = False,
+    ground_noise: bool = False,
 ) -> None:
     """Recompute ``obstacle`` (eq. 10) and the FOG (eq. 11) in ``[ix0, ix1) × [iy0, iy1)``.
 
@@ -833,6 +895,10 @@ def update_fog_area(
     With ``band`` > 0 and ``seen_drop`` (`MapperParams.rim_over_seen_drop`) a floor is
     unknown beside a cell holding nothing whose column was observed free below the floor's
     height (`_rim_over_seen_drop`); its reach is the rim rule's.
+
+    With ``ground_noise`` (`MapperParams.ground_noise_unknown`) an obstacle of eq. 11 whose top
+    lies within δ above the lowest of at least 3 neighbouring floors eq. 11 leaves floors is
+    written unknown (`_ground_noise`), after every other rule.
 
     With ``band`` > 0 and ``min_floor_neighbours`` k > 0 (`MapperParams.min_floor_neighbours`)
     a floor that the rules above leave a floor is unknown when fewer than k of its 8
@@ -925,9 +991,12 @@ def update_fog_area(
         seen_drop,
         spill_rims,
         banded,
+        ground_noise and island == 0,  # with the island rule: after it (`_fog_islands`)
     )
     if island > 0:
         _fog_islands(
+            floor,
+            obstacle,
             labels,
             label_heights,
             fog_types,
@@ -940,6 +1009,8 @@ def update_fog_area(
             wy0,
             band,
             island,
+            delta,
+            ground_noise,
         )
 
 

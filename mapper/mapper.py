@@ -269,6 +269,7 @@ class FloorObstacleMapper:
             p.min_floor_neighbours,
             p.rim_over_spill,
             p.rim_over_seen_drop,
+            p.ground_noise_unknown,
         )
         if p.raised_rim_obstacle:  # `mapper.fog.mark_raised_rims`
             # The window `update_fog_area` rewrote: the grown area and its ring of cells.

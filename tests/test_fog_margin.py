@@ -782,7 +782,7 @@ def test_rim_over_spill_is_on_by_default_and_the_mapper_passes_it(monkeypatch):
     passed = []
 
     def spy(*args):
-        passed.append(args[-2])  # rim_over_spill, before rim_over_seen_drop
+        passed.append(args[-3])  # rim_over_spill, before rim_over_seen_drop and ground_noise
         return update_fog_area(*args)
 
     monkeypatch.setattr("mapper.mapper.update_fog_area", spy)
