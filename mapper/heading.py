@@ -262,6 +262,25 @@ def _voxel_slot(x, y, z, cell, layer, mask):
     return np.int64((key ^ (key >> np.uint64(29))) & np.uint64(mask))
 
 
+@numba.njit(cache=True, inline="always")
+def _keyframe_slots(
+    slots, offsets_xy, z_world, starts, camera_xy, yaw_rad, k, angle_rad, shift, cell, layer, mask
+):
+    """Hash slots of keyframe ``k``'s points under the correction ``angle_rad`` (numba).
+
+    Each point goes to ``camera_xy[k] + Rz(yaw_rad[k] + angle_rad)·offset``, its voxel on the
+    grid offset by ``shift`` voxels; the slots of ``starts[k]`` .. ``starts[k + 1]`` are written.
+    """
+    c = math.cos(yaw_rad[k] + angle_rad)
+    s = math.sin(yaw_rad[k] + angle_rad)
+    for i in range(starts[k], starts[k + 1]):
+        x = camera_xy[k, 0] + c * offsets_xy[i, 0] - s * offsets_xy[i, 1]
+        y = camera_xy[k, 1] + s * offsets_xy[i, 0] + c * offsets_xy[i, 1]
+        slots[i] = _voxel_slot(
+            x + shift * cell, y + shift * cell, z_world[i] + shift * layer, cell, layer, mask
+        )
+
+
 @numba.njit(cache=True, no_cfunc_wrapper=True, nogil=True, error_model="numpy")
 def heading_scores(offsets_xy, z_world, starts, camera_xy, yaw_rad, angles_rad, cell, layer):
     """Agreement of the keyframes' structure points for each candidate correction (numba).
@@ -298,19 +317,11 @@ def heading_scores(offsets_xy, z_world, starts, camera_xy, yaw_rad, angles_rad, 
         pairs = 0
         for shift in (0.0, 0.5):  # two voxel grids, the second offset by half a voxel
             for k in range(starts.shape[0] - 1):
-                c = math.cos(yaw_rad[k] + angles_rad[a])
-                s = math.sin(yaw_rad[k] + angles_rad[a])
+                _keyframe_slots(
+                    slots, offsets_xy, z_world, starts, camera_xy, yaw_rad, k, angles_rad[a],
+                    shift, cell, layer, mask,
+                )  # fmt: skip
                 for i in range(starts[k], starts[k + 1]):
-                    x = camera_xy[k, 0] + c * offsets_xy[i, 0] - s * offsets_xy[i, 1]
-                    y = camera_xy[k, 1] + s * offsets_xy[i, 0] + c * offsets_xy[i, 1]
-                    slots[i] = _voxel_slot(
-                        x + shift * cell,
-                        y + shift * cell,
-                        z_world[i] + shift * layer,
-                        cell,
-                        layer,
-                        mask,
-                    )
                     pairs += counts[slots[i]]
                 for i in range(starts[k], starts[k + 1]):
                     counts[slots[i]] += 1
@@ -352,19 +363,11 @@ def weighted_heading_scores(
         pairs = 0.0
         for shift in (0.0, 0.5):  # two voxel grids, the second offset by half a voxel
             for k in range(starts.shape[0] - 1):
-                c = math.cos(yaw_rad[k] + angles_rad[a])
-                s = math.sin(yaw_rad[k] + angles_rad[a])
+                _keyframe_slots(
+                    slots, offsets_xy, z_world, starts, camera_xy, yaw_rad, k, angles_rad[a],
+                    shift, cell, layer, mask,
+                )  # fmt: skip
                 for i in range(starts[k], starts[k + 1]):
-                    x = camera_xy[k, 0] + c * offsets_xy[i, 0] - s * offsets_xy[i, 1]
-                    y = camera_xy[k, 1] + s * offsets_xy[i, 0] + c * offsets_xy[i, 1]
-                    slots[i] = _voxel_slot(
-                        x + shift * cell,
-                        y + shift * cell,
-                        z_world[i] + shift * layer,
-                        cell,
-                        layer,
-                        mask,
-                    )
                     pairs += weights[i] * sums[slots[i]]
                 for i in range(starts[k], starts[k + 1]):
                     sums[slots[i]] += weights[i]

@@ -12,8 +12,7 @@ import numpy as np
 import pytest
 
 from mapper import CellType, FloorObstacleMapper, InvalidParameterError, MapperParams
-from mapper.fog import update_fog_area
-from tests.test_fog_margin import OCC, layer_of, surfaces_grid
+from tests.test_fog_margin import OCC, fog, layer_of, surfaces_grid
 
 P = MapperParams()
 F, OB, U = CellType.FLOOR, CellType.OBSTACLE, CellType.UNKNOWN
@@ -21,19 +20,18 @@ F, OB, U = CellType.FLOOR, CellType.OBSTACLE, CellType.UNKNOWN
 
 def fog_row(og, floor, ground_noise=True):
     """Labels and heights of row y = 1 after `update_fog_area` with the default rules."""
-    nx, ny = floor.shape
-    types = np.full((nx, ny), -1, dtype=np.int8)
-    heights = np.full((nx, ny), -1.0)
-    obstacle = np.full((nx, ny), np.nan)
-    zeros = np.zeros((nx, ny), dtype=np.int32)
-    update_fog_area(
-        og, floor, obstacle, types, heights, P.occ_threshold_level, P.z_min_m, P.layer_m,
-        P.delta_m, 0, nx, 0, ny, zeros, zeros, P.floor_pass_min_rays,
-        P.floor_pass_fraction, P.obstacle_margin_cells, P.edge_band_m,
-        P.unknown_beside_obstacles, P.narrow_rise_cells, P.shadow_reach_cells,
-        P.min_floor_neighbours, P.rim_over_spill, P.rim_over_seen_drop, ground_noise,
-    )  # fmt: skip
+    types, heights = fog_defaults(og, floor, ground_noise)
     return types[:, 1].tolist(), heights[:, 1]
+
+
+def fog_defaults(og, floor, ground_noise):
+    """Types and heights of the whole grid with the default rules and ``ground_noise``."""
+    return fog(
+        og, floor, margin=P.obstacle_margin_cells, band=P.edge_band_m,
+        beside=P.unknown_beside_obstacles, rise=P.narrow_rise_cells, shadow=P.shadow_reach_cells,
+        island=P.min_floor_neighbours, spill=P.rim_over_spill, seen_drop=P.rim_over_seen_drop,
+        ground_noise=ground_noise,
+    )  # fmt: skip
 
 
 def ground_with(cell_floor_m=np.nan, occupied_layers=(1,)):
@@ -154,20 +152,7 @@ def test_the_rule_only_takes_obstacles_to_unknown_on_random_grids():
             top = rng.choice([-1, -1, 1, 2, 4, 5])
             if top >= 0:
                 og[ix, iy, 1 : top + 1] = OCC
-        types = {}
-        for on in (False, True):
-            t = np.full((nx, ny), -1, dtype=np.int8)
-            hgt = np.full((nx, ny), -1.0)
-            zeros = np.zeros((nx, ny), dtype=np.int32)
-            update_fog_area(
-                og, floor.copy(), np.full((nx, ny), np.nan), t, hgt, P.occ_threshold_level,
-                P.z_min_m, P.layer_m, P.delta_m, 0, nx, 0, ny, zeros, zeros,
-                P.floor_pass_min_rays, P.floor_pass_fraction, P.obstacle_margin_cells,
-                P.edge_band_m, P.unknown_beside_obstacles, P.narrow_rise_cells,
-                P.shadow_reach_cells, P.min_floor_neighbours, P.rim_over_spill,
-                P.rim_over_seen_drop, on,
-            )  # fmt: skip
-            types[on] = t
+        types = {on: fog_defaults(og, floor, on)[0] for on in (False, True)}
         diff = types[False] != types[True]
         assert np.all(types[False][diff] == OB) and np.all(types[True][diff] == U)
         changed += int(diff.sum())

@@ -48,7 +48,7 @@ def surfaces_grid(heights_m, ny=3, tops_m=None):
 
 def fog(
     og, floor, margin=0, area=None, types=None, band=0.0, beside=False, ends=None, passes=None,
-    rise=0, shadow=0, island=0, spill=False,
+    rise=0, shadow=0, island=0, spill=False, seen_drop=False, ground_noise=False,
 ):  # fmt: skip
     """Types and heights after `update_fog_area` over ``area`` (default: the whole grid);
     ``types`` pre-fills the FOG (default −1: no label, to see which cells were written). The
@@ -64,7 +64,7 @@ def fog(
     update_fog_area(
         og, floor, obstacle, types, heights, P.occ_threshold_level, Z0, L, P.delta_m,
         ix0, ix1, iy0, iy1, ends, passes, P.floor_pass_min_rays, P.floor_pass_fraction,
-        margin, band, beside, rise, shadow, island, spill,
+        margin, band, beside, rise, shadow, island, spill, seen_drop, ground_noise,
     )  # fmt: skip
     return types, heights
 

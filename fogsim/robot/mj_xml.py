@@ -52,13 +52,13 @@ def retry_spurious_parse_error(load: Callable[[], mujoco.MjModel]) -> mujoco.MjM
         ValueError: MuJoCo's error: at once for any other error, after `PARSE_ATTEMPTS`
             attempts for the spurious one.
     """
-    for attempt in range(1, PARSE_ATTEMPTS + 1):
+    for _ in range(PARSE_ATTEMPTS - 1):
         try:
             return load()
         except ValueError as exc:
-            if SPURIOUS_PARSE_ERROR not in str(exc) or attempt == PARSE_ATTEMPTS:
+            if SPURIOUS_PARSE_ERROR not in str(exc):
                 raise
-    raise AssertionError("unreachable")  # the loop returns or raises
+    return load()  # the last attempt: any error is raised
 
 
 def model_from_xml_string(xml: str, assets: Mapping[str, bytes] | None = None) -> mujoco.MjModel:

@@ -22,8 +22,8 @@ of a 4.4 s stage trial (Intel Xeon).
 from __future__ import annotations
 
 import dataclasses
-from collections.abc import Mapping
-from typing import Any
+from collections.abc import Callable, Mapping
+from typing import Any, Generic, TypeVar
 
 import numpy as np
 from numpy.typing import NDArray
@@ -37,6 +37,8 @@ from fogsim.run.runner import replay_report
 from mapper.grid import GridGeometry
 from mapper.intrinsics import PinholeIntrinsics
 from mapper.segmentation import SegmentationParams, SegmentationResult, segment_depth
+
+_Value = TypeVar("_Value")
 
 CACHE_BYTES = 512 * 2**20
 """Bytes of segmentation results one process keeps (512 MiB). A stage recording's results take
@@ -64,13 +66,74 @@ def _freeze(value: Any) -> None:
             _freeze(getattr(value, f.name))
 
 
-class SegmentationCache:
-    """Segmentation results by every argument of ``segment_depth``, up to a byte cap.
+def _arrays_key(*arrays: NDArray[Any]) -> tuple[tuple[Any, ...], int]:
+    """A cache key of the arrays' bytes, shapes and dtypes, and the bytes the key holds."""
+    parts: list[Any] = []
+    nbytes = 0
+    for array in arrays:
+        contiguous = np.ascontiguousarray(array)
+        parts += [contiguous.tobytes(), contiguous.shape, contiguous.dtype.str]
+        nbytes += contiguous.nbytes
+    return tuple(parts), nbytes
 
-    When the cap is reached new results are computed but not kept; the ones kept stay. Every
+
+class _KeepFirstCache(Generic[_Value]):
+    """Values by key, the first ones kept up to a byte cap (the caches below).
+
+    When the cap is reached new values are computed but not kept; the ones kept stay. Every
     trial replays the suite in the same order, so a least-recently-used cache smaller than the
     suite would evict exactly the frame the next trial asks for first and never hit; keeping
-    the first results makes as much of the suite hit as fits.
+    the first values makes as much of the suite hit as fits.
+
+    Args:
+        max_bytes: The cap [bytes] on the kept values and their keys' array bytes, >= 0.
+
+    Raises:
+        TuneError: ``max_bytes`` < 0.
+
+    Attributes:
+        hits: Values handed out again.
+        misses: Values computed.
+        stored_bytes: Bytes kept.
+    """
+
+    what = "cache"
+    """What error messages call the cache."""
+
+    def __init__(self, max_bytes: int) -> None:
+        if max_bytes < 0:
+            raise TuneError(f"{self.what} max_bytes must be >= 0, got {max_bytes!r}")
+        self.max_bytes = max_bytes
+        self.hits = self.misses = self.stored_bytes = 0
+        self._kept: dict[tuple[Any, ...], _Value] = {}
+
+    def _cached(
+        self,
+        key: tuple[Any, ...],
+        key_bytes: int,
+        make: Callable[[], _Value],
+        value_bytes: Callable[[_Value], int],
+        freeze: Callable[[_Value], None],
+    ) -> _Value:
+        """The value kept under ``key``, else ``make()``, kept (frozen) if it fits the cap."""
+        found = self._kept.get(key)
+        if found is not None:
+            self.hits += 1
+            return found
+        self.misses += 1
+        value = make()
+        size = value_bytes(value) + key_bytes
+        if self.stored_bytes + size <= self.max_bytes:
+            freeze(value)
+            self._kept[key] = value
+            self.stored_bytes += size
+        return value
+
+
+class SegmentationCache(_KeepFirstCache[SegmentationResult]):
+    """Segmentation results by every argument of ``segment_depth``, up to a byte cap.
+
+    The first results are kept (:class:`_KeepFirstCache`); results are read-only.
 
     Args:
         max_bytes: The cap [bytes] on the kept results' arrays (:func:`result_bytes`) and
@@ -78,19 +141,12 @@ class SegmentationCache:
 
     Raises:
         TuneError: ``max_bytes`` < 0.
-
-    Attributes:
-        hits: Results handed out again.
-        misses: Results computed.
-        stored_bytes: Bytes kept.
     """
 
+    what = "segmentation cache"
+
     def __init__(self, max_bytes: int = CACHE_BYTES) -> None:
-        if max_bytes < 0:
-            raise TuneError(f"segmentation cache max_bytes must be >= 0, got {max_bytes!r}")
-        self.max_bytes = max_bytes
-        self.hits = self.misses = self.stored_bytes = 0
-        self._results: dict[tuple[Any, ...], SegmentationResult] = {}
+        super().__init__(max_bytes)
 
     def segment(
         self,
@@ -100,30 +156,14 @@ class SegmentationCache:
         params: SegmentationParams,
     ) -> SegmentationResult:
         """``segment_depth(depth_m, intrinsics, transform_camera_to_robot, params)``, cached."""
-        depth = np.ascontiguousarray(depth_m)
-        transform = np.ascontiguousarray(transform_camera_to_robot)
-        key = (
-            depth.tobytes(),
-            depth.shape,
-            depth.dtype.str,
-            transform.tobytes(),
-            transform.shape,
-            transform.dtype.str,
-            intrinsics,
-            params,
+        arrays, key_bytes = _arrays_key(depth_m, transform_camera_to_robot)
+        return self._cached(
+            (*arrays, intrinsics, params),
+            key_bytes,
+            lambda: segment_depth(depth_m, intrinsics, transform_camera_to_robot, params),
+            result_bytes,
+            _freeze,
         )
-        found = self._results.get(key)
-        if found is not None:
-            self.hits += 1
-            return found
-        self.misses += 1
-        result = segment_depth(depth_m, intrinsics, transform_camera_to_robot, params)
-        size = result_bytes(result) + depth.nbytes + transform.nbytes  # the key's bytes too
-        if self.stored_bytes + size <= self.max_bytes:
-            _freeze(result)
-            self._results[key] = result
-            self.stored_bytes += size
-        return result
 
 
 VIEW_CACHE_BYTES = 128 * 2**20
@@ -131,15 +171,14 @@ VIEW_CACHE_BYTES = 128 * 2**20
 per frame and per frame mapped again, of 10 kB each on the default 100 × 100 grid."""
 
 
-class ViewCache:
+class ViewCache(_KeepFirstCache[NDArray[np.bool_]]):
     """The cells of a grid a frame saw (:func:`~fogsim.eval.archive.cells_in_view`), cached.
 
     The cells a frame saw depend on its depth image, intrinsics and true camera pose, and on
     the grid's place, never on the parameters a trial changes (the grid follows the believed
     poses of the recording): every trial asks for the same ones. The key is all of that, so a
     cached mask is exactly what ``cells_in_view`` returns (it is deterministic). Masks are
-    read-only. Beyond ``max_bytes`` new masks are made but not kept (as
-    :class:`SegmentationCache`).
+    read-only; the first are kept up to ``max_bytes`` (:class:`_KeepFirstCache`).
 
     Args:
         max_bytes: The cap [bytes] on the kept masks and their keys' depth and pose bytes,
@@ -147,19 +186,12 @@ class ViewCache:
 
     Raises:
         TuneError: ``max_bytes`` < 0.
-
-    Attributes:
-        hits: Masks handed out again.
-        misses: Masks made.
-        stored_bytes: Bytes kept.
     """
 
+    what = "view cache"
+
     def __init__(self, max_bytes: int = VIEW_CACHE_BYTES) -> None:
-        if max_bytes < 0:
-            raise TuneError(f"view cache max_bytes must be >= 0, got {max_bytes!r}")
-        self.max_bytes = max_bytes
-        self.hits = self.misses = self.stored_bytes = 0
-        self._masks: dict[tuple[Any, ...], NDArray[np.bool_]] = {}
+        super().__init__(max_bytes)
 
     def cells_in_view(
         self,
@@ -168,30 +200,14 @@ class ViewCache:
         points_world: NDArray[np.float64] | None = None,
     ) -> NDArray[np.bool_]:
         """``cells_in_view(frame, geometry, points_world)``, cached (read-only)."""
-        depth = np.ascontiguousarray(frame.depth_m)
-        pose = np.ascontiguousarray(frame.transform_camera_to_world_true)
-        key = (
-            depth.tobytes(),
-            depth.shape,
-            depth.dtype.str,
-            pose.tobytes(),
-            pose.shape,
-            pose.dtype.str,
-            frame.intrinsics,
-            geometry,
+        arrays, key_bytes = _arrays_key(frame.depth_m, frame.transform_camera_to_world_true)
+        return self._cached(
+            (*arrays, frame.intrinsics, geometry),
+            key_bytes,
+            lambda: cells_in_view(frame, geometry, points_world),
+            lambda mask: int(mask.nbytes),
+            _freeze,
         )
-        found = self._masks.get(key)
-        if found is not None:
-            self.hits += 1
-            return found
-        self.misses += 1
-        mask = cells_in_view(frame, geometry, points_world)
-        size = mask.nbytes + depth.nbytes + pose.nbytes
-        if self.stored_bytes + size <= self.max_bytes:
-            mask.flags.writeable = False
-            self._masks[key] = mask
-            self.stored_bytes += size
-        return mask
 
 
 _PROCESS_CACHE = SegmentationCache()
