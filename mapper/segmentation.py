@@ -61,7 +61,12 @@ from numpy.typing import NDArray
 from mapper import scanline, tilt_kernels
 from mapper.errors import InvalidInputError, InvalidParameterError
 from mapper.intrinsics import PinholeIntrinsics
-from mapper.limits import MAX_COORDINATE_M, MAX_SEGMENTATION_PASSES, MAX_WINDOW_PX
+from mapper.limits import (
+    MAX_COORDINATE_M,
+    MAX_SEGMENTATION_PASSES,
+    MAX_WINDOW_PX,
+    RIGID_TOLERANCE,
+)
 from mapper.pose_correction import (
     PoseCorrection,
     estimate_tilt,
@@ -523,14 +528,19 @@ def segment_depth(
             shear is refused).
     """
     params = _DEFAULT_PARAMS if params is None else params
-    depth = real_array(depth_m, "depth_m")
+    # A float64 image is taken as it is (what `real_array` returns for it, without its calls).
+    if type(depth_m) is np.ndarray and depth_m.dtype == np.float64:
+        depth = depth_m
+    else:
+        depth = real_array(depth_m, "depth_m")
     if depth.shape != intrinsics.shape:
         raise InvalidInputError(
             f"depth_m must have shape (height, width) = {intrinsics.shape}, got {depth.shape}"
         )
-    transform = rigid_transform(transform_camera_to_robot, "transform_camera_to_robot")
+    transform = _rigid_transform(transform_camera_to_robot)
     height, width = depth.shape
     pivot = transform[:3, 3].copy()
+    rays_camera = intrinsics.ray_directions_camera().reshape(-1, 3)
 
     # NaN → invalid; depth NaN there, inv_depth its inverse.
     valid, depth, inv_depth, pixel_index = scanline.valid_depth(
@@ -606,7 +616,7 @@ def segment_depth(
         plane_table,
         rotation,
         pivot,
-        intrinsics.ray_directions_camera().reshape(-1, 3),
+        rays_camera,
         depth,
         inv_depth,
         x,
@@ -640,7 +650,7 @@ def segment_depth(
     origin = transform_tilted[:3, 3].copy()
     rays, points_tilted, sigma_z = scanline.level_geometry(
         depth,
-        intrinsics.ray_directions_camera().reshape(-1, 3),
+        rays_camera,
         transform_tilted[:3, :3].copy(),
         origin,
         typical_sigma,
@@ -710,6 +720,24 @@ def segment_depth(
         image_shape=(height, width),
         transform_camera_to_robot=correction.transform @ transform,
     )
+
+
+def _rigid_transform(value) -> NDArray[np.float64]:
+    """`rigid_transform` of ``transform_camera_to_robot``, in one kernel call when it is plain.
+
+    A C-contiguous float64 4×4 that `tilt_kernels.clearly_rigid` accepts is returned as it is
+    (what `rigid_transform` returns for it); anything else goes to `rigid_transform` (its
+    verdict and its message).
+    """
+    if (
+        type(value) is np.ndarray
+        and value.dtype == np.float64
+        and value.shape == (4, 4)
+        and value.flags.c_contiguous
+        and tilt_kernels.clearly_rigid(value, RIGID_TOLERANCE)
+    ):
+        return value
+    return rigid_transform(value, "transform_camera_to_robot")
 
 
 def floor_regions(origin, rays, points, sigma_z, depth, segments, intrinsics, params):
