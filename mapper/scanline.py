@@ -2281,12 +2281,14 @@ def floor_points(
     order (``np.flatnonzero``).
 
     Returns:
-        (N, 3) points [m] and (N,) floor heights [m] (NaN: not floor).
+        (N, 3) points [m], (N,) floor heights [m] (NaN: not floor) and (N,) the pixels' floor
+        regions (``np.take(floor_labels, pixel_index)``, read on the way).
     """
     n = pixel_index.shape[0]
     width = depth.shape[1]
     points = np.empty((n, 3))
     heights = np.full(n, np.nan)
+    regions = np.empty(n, floor_labels.dtype)
     r = 0
     for i in range(n):
         # pixel_index ascends (row-major order): the row follows by steps, no division.
@@ -2297,6 +2299,7 @@ def floor_points(
         ray_z = rays[r, c, 2]
         tol = typical[r, c]
         f = floor_labels[r, c]
+        regions[i] = f
         h = floor_of_region[f] if f >= 0 else np.nan
         if (
             f == -1
@@ -2315,7 +2318,7 @@ def floor_points(
         heights[i] = h
         for k in range(3):
             points[i, k] = origin[k] + d * rays[r, c, k]
-    return points, heights
+    return points, heights, regions
 
 
 @numba.njit(cache=True, no_cfunc_wrapper=True, nogil=True, error_model="numpy")

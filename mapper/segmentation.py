@@ -685,7 +685,7 @@ def segment_depth(
         is_floor=floors.is_floor,
     )
     origin[2] += correction.z_shift_m
-    corrected, floor_heights = scanline.floor_points(
+    corrected, floor_heights, floor_ids = scanline.floor_points(
         pixel_index,
         floor_labels,
         floor_level_m,
@@ -697,7 +697,6 @@ def segment_depth(
         params.ground_relabel_sigma_factor,
         params.floor_snap_sigma_factor,
     )
-    floor_ids = np.take(floor_labels, pixel_index)
 
     planes = PlaneTable(
         pixel_counts=counts,

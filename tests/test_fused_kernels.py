@@ -2,9 +2,10 @@
 
 `scanline.level_regions` (the floor stage's kernels in one call), `tilt_kernels.plane_geometry`
 (the planes' bookkeeping), and the pose correction's kernels (`tilt_candidates`,
-`tilt_consensus`, `corrected_planes`, `ground_level`, `shifted_floors`). Each reference below
-is the code the kernel replaced (mapper/segmentation.py, mapper/pose_correction.py at e15ff06);
-the kernels must give the same bits.
+`tilt_consensus`, `corrected_planes`, `ground_level`, `shifted_floors`), and `segment_depth`'s
+per-frame check of its transform (`clearly_rigid`) and floor ids (`floor_points`). Each
+reference below is the code the kernel replaced (mapper/segmentation.py,
+mapper/pose_correction.py at e15ff06); the kernels must give the same bits.
 """
 
 from __future__ import annotations
@@ -17,7 +18,9 @@ from scanline_inputs import row_segments
 from synthetic_depth import add_depth_noise, look_down_camera, render_scene, staircase
 
 from mapper import scanline, tilt_kernels
+from mapper.errors import InvalidInputError
 from mapper.intrinsics import PinholeIntrinsics
+from mapper.limits import RIGID_TOLERANCE
 from mapper.pose_correction import (
     PoseCorrection,
     estimate_tilt,
@@ -26,6 +29,7 @@ from mapper.pose_correction import (
     within_deg_of_vertical,
 )
 from mapper.segmentation import SegmentationParams, segment_depth
+from mapper.validation import rigid_transform
 
 INTRINSICS = PinholeIntrinsics.from_fov(88, 72, 47.0, 39.0)
 PARAMS = SegmentationParams()
@@ -604,3 +608,106 @@ def test_segment_depth_on_the_staircase_is_unchanged_by_the_fusion():
     assert floors[0] == pytest.approx(0.0, abs=1e-6)
     assert result.correction.ground_plane_found
     assert result.correction.rotation_deg == pytest.approx(0.0, abs=1e-6)
+
+
+# ---- segment_depth's per-frame glue: the rigidity check and the floor ids ----------------------
+
+
+def _rotation(rng):
+    """A random proper rotation (QR of a Gaussian matrix, det +1)."""
+    q, r = np.linalg.qr(rng.normal(size=(3, 3)))
+    q = q * np.sign(np.diag(r))
+    if np.linalg.det(q) < 0.0:
+        q[:, 0] = -q[:, 0]
+    return q
+
+
+def _transform(rotation, translation=(0.1, -0.2, 0.9)):
+    out = np.eye(4)
+    out[:3, :3] = rotation
+    out[:3, 3] = translation
+    return out
+
+
+def _rigid_verdict(transform):
+    """`rigid_transform`'s verdict: True if it accepts ``transform``."""
+    try:
+        rigid_transform(transform, "t")
+    except InvalidInputError:
+        return False
+    return True
+
+
+@pytest.mark.parametrize("seed", range(5))
+def test_clearly_rigid_accepts_only_what_rigid_transform_accepts(seed):
+    rng = np.random.default_rng(seed)
+    rotation = _rotation(rng)
+    transform = _transform(rotation)
+    assert tilt_kernels.clearly_rigid(transform, RIGID_TOLERANCE)
+    # Float32 rounding (recordings) is clearly rigid too.
+    rounded = transform.astype(np.float32).astype(np.float64)
+    assert tilt_kernels.clearly_rigid(rounded, RIGID_TOLERANCE)
+    # Perturbed around the tolerance: whatever the kernel accepts, rigid_transform accepts.
+    for scale in (1e-8, 1e-7, 2e-7, 4e-7, 6e-7, 1e-6, 2e-6, 1e-4):
+        for _ in range(20):
+            perturbed = transform.copy()
+            perturbed[:3, :3] += scale * rng.normal(size=(3, 3))
+            if tilt_kernels.clearly_rigid(perturbed, RIGID_TOLERANCE):
+                assert _rigid_verdict(perturbed)
+
+
+def test_clearly_rigid_refuses_what_rigid_transform_refuses():
+    rng = np.random.default_rng(7)
+    transform = _transform(_rotation(rng))
+    reflection = transform.copy()
+    reflection[:3, 0] = -reflection[:3, 0]
+    shear = transform.copy()
+    shear[0, 1] += 1e-3
+    last_row = transform.copy()
+    last_row[3, 0] = 1e-9
+    not_finite = transform.copy()
+    not_finite[1, 3] = np.nan
+    infinite = transform.copy()
+    infinite[2, 2] = np.inf
+    for bad in (reflection, shear, last_row, not_finite, infinite, 2.0 * transform):
+        assert not tilt_kernels.clearly_rigid(bad, RIGID_TOLERANCE)
+        assert not _rigid_verdict(bad)
+
+
+def test_segment_depth_takes_every_transform_rigid_transform_takes():
+    # The fast check and rigid_transform's own path give the same result and the same errors.
+    camera = look_down_camera((0.0, 0.0, 0.9), 30.0)
+    depth = render_scene(INTRINSICS, camera, staircase()).depth_m
+    reference = segment_depth(depth, INTRINSICS, camera)
+    for same in (camera.tolist(), np.asfortranarray(camera), camera.astype(np.longdouble)):
+        result = segment_depth(depth, INTRINSICS, same)
+        assert _same(result.floor_heights, reference.floor_heights)
+        assert _same(result.transform_camera_to_robot, reference.transform_camera_to_robot)
+    shear = camera.copy()
+    shear[0, 1] += 1e-3
+    with pytest.raises(InvalidInputError, match="transform_camera_to_robot must be a rigid"):
+        segment_depth(depth, INTRINSICS, shear)
+    with pytest.raises(InvalidInputError, match="transform_camera_to_robot must be a finite"):
+        segment_depth(depth, INTRINSICS, np.eye(3))
+
+
+@pytest.mark.parametrize("noise,seed", [(0.0, 0), (0.01, 1), (0.02, 2)])
+def test_floor_points_regions_are_the_labels_taken_at_the_pixels(noise, seed):
+    z, sigma_z, points, rays, depth, segments, origin_z = _floor_inputs(noise, seed)
+    labels = _level_regions(z, sigma_z, points, rays, depth, segments, origin_z, PARAMS)[0]
+    pixel_index = np.flatnonzero(np.isfinite(depth))
+    n_regions = int(labels.max()) + 1
+    origin = np.array([0.0, 0.0, origin_z])
+    *_, regions = scanline.floor_points(
+        pixel_index,
+        labels,
+        np.linspace(0.0, 0.1, n_regions),
+        0.0,
+        rays,
+        depth,
+        np.full(depth.shape, 0.002),
+        origin,
+        PARAMS.ground_relabel_sigma_factor,
+        PARAMS.floor_snap_sigma_factor,
+    )
+    assert _same(regions, np.take(labels, pixel_index))
