@@ -1025,9 +1025,10 @@ def ceiling_map(
 ) -> NDArray[np.float64]:
     """(nx, ny) ceiling heights [m] as defined in the module docstring, NaN where none."""
     nx, ny, nz = og.shape
-    out = np.full((nx, ny), np.nan)
+    out = np.empty((nx, ny))  # not np.full: its overload would be compiled for this alone
     for ix in range(nx):
         for iy in range(ny):
+            out[ix, iy] = np.nan
             hf = floor[ix, iy]
             seen_free = False
             for k in range(nz):

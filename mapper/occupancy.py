@@ -83,9 +83,10 @@ NONFINITE = -2
 BEYOND_RANGE = -3
 
 #: numba options of the small per-ray helpers that take only scalars (classification, slab
-#: tests, first crossings): compiled once each as functions of their own, not inlined into
-#: every kernel's numba IR (``inline="always"``), which compiled them again inside each caller
-#: and made `insert_frame_columns` the costliest compile of a cold start. LLVM still inlines
+#: tests, first crossings, the clamped cell — inlined, it was compiled at 15 call sites):
+#: compiled once each as functions of their own, not inlined into every kernel's numba IR
+#: (``inline="always"``), which compiled them again inside each caller and made
+#: `insert_frame_columns` the costliest compile of a cold start. LLVM still inlines
 #: them into the kernels (checked in the kernel's assembly: no call left; they take no arrays,
 #: so no reference counting at the call). `_clip_ray` and `_clip_ray_through` stay inlined in
 #: numba IR: compiled on their own LLVM kept them as calls (15 values returned through memory
@@ -142,7 +143,7 @@ def floor_int(v: float) -> int:
     return i - 1 if v < i else i
 
 
-@numba.njit(cache=True, inline="always")
+@numba.njit(**_SCALAR_HELPER)
 def _clamped_cell(v: float, n: int) -> int:
     """``min(max(floor(v), 0), n - 1)`` for finite ``v``: the cell of a grid coordinate, clamped.
 
@@ -1024,10 +1025,11 @@ def insert_frame_columns(
         walk, sx, sy, sz, dx, dy, dz, inv_d, cx, cy, cz, ex, ey, ez, stop_cleared = clip
         if not walk:
             continue
-        ix0 = min(ix0, cx, ex)
-        ix1 = max(ix1, cx, ex)
-        iy0 = min(iy0, cy, ey)
-        iy1 = max(iy1, cy, ey)
+        # Two-argument min/max: numba's three-argument overloads are compiled on their own.
+        ix0 = min(min(ix0, cx), ex)
+        ix1 = max(max(ix1, cx), ex)
+        iy0 = min(min(iy0, cy), ey)
+        iy1 = max(max(iy1, cy), ey)
         rem_x = abs(ex - cx)
         rem_y = abs(ey - cy)
         tmx, tdx = _first_crossing(rem_x, dx, inv_d[0], sx, cx)

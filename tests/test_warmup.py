@@ -210,3 +210,14 @@ def test_every_run_kernel_is_compiled_with_the_same_flags():
         ("nopython", True),
     )
     assert {name: f for name, f in flags.items() if f != expected} == {}
+
+
+def test_kernels_the_helper_shares_are_compiled_here_before_the_helper_gets_to_them():
+    """The helper compiles the tilt filter last in its segmentation; the numpy-exact sum it
+    calls (`mapper.pairwise`) is z-matching's too. This process compiles z-matching right after
+    its floor stage, before the FOG map's update, so that the helper loads the sum from the
+    cache (`fogsim.run.warmup`'s module doc)."""
+    assert warmup.MATCHING not in warmup.HELPER_GROUPS
+    assert warmup.SEGMENTATION in warmup.HELPER_GROUPS
+    here = [group for group in GROUPS if group not in warmup.HELPER_GROUPS]
+    assert here[:2] == [warmup.FLOOR_REGIONS, warmup.MATCHING]

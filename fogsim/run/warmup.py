@@ -28,11 +28,16 @@ Where there is no ``fork`` (Windows) every group is compiled here.
 
 The segmentation's kernels took two thirds of the compile time, so they are split: this
 process first compiles its last stage (:data:`FLOOR_REGIONS`, called on a synthetic image
-whose every row is one segment, with the argument types ``segment_depth`` passes), then the
-FOG map's update, then z-matching and the baseline map; the helper runs the whole
+whose every row is one segment, with the argument types ``segment_depth`` passes), then
+z-matching and the baseline map, then the FOG map's update; the helper runs the whole
 segmentation, loading that stage from the cache when it gets there (it compiles it itself, once
-more, only if it gets there first), then the heading scores. The split is measured by
-``bench/bench_cold.py``: both processes then take about as long (:data:`HELPER_GROUPS`).
+more, only if it gets there first), then the heading scores. z-matching comes before the FOG
+map's update because its numpy-exact sum (`mapper.pairwise`, about 1 s of compile CPU time) is
+the tilt filter's too: the helper compiles the tilt filter last in the segmentation, and now
+finds the sum in the cache; after the FOG map's update this process reached z-matching about
+when the helper reached the tilt filter (both about 40 s in), and each could compile the sum.
+The split is measured by ``bench/bench_cold.py``: both processes then take about as long
+(:data:`HELPER_GROUPS`).
 
 Every kernel a run compiles carries the same flags (``nogil=True, error_model="numpy",
 no_cfunc_wrapper=True``; ``test_warmup`` checks it): numba compiles its own overloads that the
@@ -174,7 +179,7 @@ SELF_FILTER = KernelGroup("self-filter", _kernels(self_filter))
 """The kernel removing the robot's body from simulated depth images."""
 
 
-GROUPS = (FLOOR_REGIONS, MAPPER, MATCHING, HEADING, SEGMENTATION, SELF_FILTER)
+GROUPS = (FLOOR_REGIONS, MATCHING, MAPPER, HEADING, SEGMENTATION, SELF_FILTER)
 """Every group, in the order this process compiles them (without a helper)."""
 
 HELPER_GROUPS = (SELF_FILTER, SEGMENTATION, HEADING)
