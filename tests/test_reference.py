@@ -136,6 +136,17 @@ def test_stereo_scatter_waits_for_a_precise_estimate_not_the_first_8_frames():
     assert reference.error_m == pytest.approx(1.2533 * 1.4826 * 0.002 / np.sqrt(56))
 
 
+def test_at_the_start_level_min_frames_suffice_whatever_the_scatter():
+    # Standing on the start surface, the map is anchored to the start pose's z (exact by the
+    # kinematics), not to this estimate: the same first 8 frames as above make it known.
+    reference = HeightReference()
+    for value_mm in [2, 3, 1, 4, 2, 9, 3, 5]:
+        assert not reference.known
+        feed(reference, [-value_mm / 1000.0], [GROUND_AREA_M2], rise_m=-0.002)
+    assert reference.error_m > reference.params.known_error_m
+    assert reference.known and reference.shift_m == pytest.approx(0.003)
+
+
 def test_known_error_of_exact_measurements_is_zero():
     reference = HeightReference()
     assert reference.error_m == np.inf
