@@ -481,7 +481,13 @@ class Pipeline:
         deferred = self._deferred
         fractions = self._way_fractions(arrival)
         surfaces_m = self._deferred_surfaces_m()
-        drift_m = self._arrival_drift_m(arrival, fractions, surfaces_m)
+        # The drift is the slope of the heights at which the frames saw the arrival surface:
+        # shifted by one estimate, the camera's height error is the same in every frame and
+        # drops out. With each frame's own shift, the frames on that surface (their own
+        # measurement: its view lies exactly at their odometry) and the earlier ones (the
+        # estimate, off by its error) differ by the estimate's error, which went into the
+        # slope (stereo, stage_down: drift 0.8 mm off on seeds 7 and 8).
+        drift_m = self._arrival_drift_m(arrival, fractions, self._deferred_surfaces_m(False))
         if arrival is not None and arrival.measured_shift_m is not None:
             drift = 0.0 if drift_m is None else drift_m
             self._start_surfaces_m = [
@@ -526,12 +532,18 @@ class Pipeline:
             surfaces_m, fractions, arrival_z_m, self._start_z_m, self.reference.params
         )
 
-    def _deferred_surfaces_m(self) -> list[NDArray[np.float64]]:
-        """World heights of each deferred frame's ground-sized floors (odometry, its shift)."""
+    def _deferred_surfaces_m(self, own_shift: bool = True) -> list[NDArray[np.float64]]:
+        """World heights of each deferred frame's ground-sized floors (odometry, its shift).
+
+        Args:
+            own_shift: Each frame's shift (`HeightReference.frame_shift_m`: its own
+                measurement when it agrees); False: the estimate's, the same in every frame.
+        """
+        reference = self.reference
         return [
             data.ground_sized_m
             + float(data.frame.robot_pose_believed[2])
-            + self.reference.frame_shift_m(data.measured_shift_m)
+            + (reference.frame_shift_m(data.measured_shift_m) if own_shift else reference.shift_m)
             for data in self._deferred
         ]
 
