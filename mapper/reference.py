@@ -120,8 +120,8 @@ class HeightReferenceParams:
         max_wait_frames: frames without convergence after which the kinematics are trusted
             (0: never). 400 (32 s at 12.5 Hz): longer than the walk down the stage's staircase
             before the ground is in view (about 190 frames) and, in stereo, the frames on the
-            ground until the estimate is precise (`known_error_m`: known at frame 272-311 on
-            stage_down seeds 1, 3, 6, 8); it also bounds the frames a caller defers (about
+            ground until the estimate is precise (`known_error_m`: known at frame 187-311 on
+            stage_down seeds 1, 3, 6, 7, 8); it also bounds the frames a caller defers (about
             0.2 MB each for 88×72 images).
         frame_gate_m: a frame's own measurement within this of the estimate is its shift [m]
             (`HeightReference.frame_shift_m`). 0.005: on the stage (seed 1) a frame's
