@@ -629,7 +629,11 @@ def test_cells_in_view_of_points_made_ahead_are_the_cells_made_in_line() -> None
 
 
 class _OldReference(HeightReference):
-    """``HeightReference.update`` as it was at 30a3fc2 (the lowest level re-made every frame)."""
+    """``HeightReference.update`` as it was at 30a3fc2 (the lowest level re-made every frame).
+
+    With today's `_settle` (the precision asked before the waiting frames are mapped) on its
+    lowest level: what is compared is the incremental median, not that rule.
+    """
 
     old_lowest_m = np.empty(0)
 
@@ -654,6 +658,9 @@ class _OldReference(HeightReference):
             rises <= rises.min() + params.start_level_m
         ]
         self._shift_m = float(np.median(self.old_lowest_m))
+        self._lowest_rise_m = float(rises.min())
+        self._lowest_sorted_m = sorted(self.old_lowest_m.tolist())
+        self._settle()
         return measured
 
     @property

@@ -100,8 +100,59 @@ def test_walking_down_a_tread_taking_the_ground_below_for_its_own_is_outvoted():
         feed(reference, [h], [GROUND_AREA_M2], rise_m=-0.121)
         assert not reference.known  # 5 + up to 7 measurements: 8 of them, but not 8 down here
     feed(reference, [0.004], [GROUND_AREA_M2], rise_m=-0.118)  # odometry's noise: same level
-    assert reference.known
+    assert reference.converged
     assert reference.shift_m == pytest.approx(-float(np.median((*ground, 0.004))))
+    # Known once precise enough (`known_error_m`): the 8 scatter by ±3 mm (MAD 1 mm, standard
+    # error 1.2533 · 1.4826 · 1 mm / √8 = 0.66 mm); two more at 4 mm make the MAD 0.5 mm
+    # (0.29 mm).
+    assert not reference.known
+    for _ in range(2):
+        feed(reference, [0.004], [GROUND_AREA_M2], rise_m=-0.121)
+    assert reference.known and reference.shift_m == pytest.approx(-0.004)
+
+
+def test_stereo_scatter_waits_for_a_precise_estimate_not_the_first_8_frames():
+    # Walking down (stereo, stage_down seed 3): the camera is 6 mm too low, the ground under
+    # the feet scatters by ±6 mm a frame, and the first 8 frames on the ground happened to see
+    # it high: measurements 2, 3, 1, 4, 2, 9, 3, 5 mm, median 3 mm (the old reference, known
+    # after 8, put every row 3 mm low). Their MAD is 1 mm: standard error
+    # 1.2533 · 1.4826 · 1 mm / √8 = 0.66 mm > `known_error_m`, so the frames wait. Then the
+    # measurements go round 6 mm + (-4, 4, -2, 2, 0, -6, 6, -1, 1, 0): after 56 in all the
+    # median is 6 mm, the MAD 2 mm, the standard error 1.2533 · 1.4826 · 2 / √56 = 0.497 mm
+    # (0.501 mm after 55).
+    reference = HeightReference()
+    first_mm = [2, 3, 1, 4, 2, 9, 3, 5]
+    cycle_mm = [-4, 4, -2, 2, 0, -6, 6, -1, 1, 0]
+    measured_mm = first_mm + [6 + c for _ in range(5) for c in cycle_mm]
+    for count, value_mm in enumerate(measured_mm[:56], start=1):
+        feed(reference, [-value_mm / 1000.0], [GROUND_AREA_M2], rise_m=-0.125)
+        if count == 8:
+            assert reference.converged and reference.shift_m == pytest.approx(0.003)
+            assert reference.error_m == pytest.approx(1.2533 * 1.4826 * 0.001 / np.sqrt(8))
+        if count == 55:
+            assert not reference.known
+    assert reference.known
+    assert reference.shift_m == pytest.approx(0.006)
+    assert reference.error_m == pytest.approx(1.2533 * 1.4826 * 0.002 / np.sqrt(56))
+
+
+def test_at_the_start_level_min_frames_suffice_whatever_the_scatter():
+    # Standing on the start surface, the map is anchored to the start pose's z (exact by the
+    # kinematics), not to this estimate: the same first 8 frames as above make it known.
+    reference = HeightReference()
+    for value_mm in [2, 3, 1, 4, 2, 9, 3, 5]:
+        assert not reference.known
+        feed(reference, [-value_mm / 1000.0], [GROUND_AREA_M2], rise_m=-0.002)
+    assert reference.error_m > reference.params.known_error_m
+    assert reference.known and reference.shift_m == pytest.approx(0.003)
+
+
+def test_known_error_of_exact_measurements_is_zero():
+    reference = HeightReference()
+    assert reference.error_m == np.inf
+    for _ in range(reference.params.min_frames):
+        feed(reference, [-0.004], [GROUND_AREA_M2])
+    assert reference.error_m == 0.0 and reference.known
 
 
 def test_a_7_degree_neck_error_takes_the_ground_not_a_patch_of_the_first_step():
@@ -163,6 +214,8 @@ def test_non_floor_regions_are_never_measured():
         ("start_min_area_m2", float("inf")),
         ("start_level_m", 0.0),
         ("surface_gate_m", float("nan")),
+        ("known_error_m", 0.0),
+        ("known_error_m", float("inf")),
     ],
 )
 def test_bad_parameters_are_refused_naming_the_field(field, value):

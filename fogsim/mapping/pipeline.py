@@ -13,7 +13,9 @@ Per frame (paper Fig. 1, 2 and Sec. IV), with the pose the robot *believes*:
    own ground measurement agrees with the estimate takes its own: its ground then lies exactly
    at the feet's height, whatever the encoders' noise did to this frame's camera). Frames
    segmented before it is known are *deferred*, then mapped in order (steps 3-8) with the
-   converged shift just before the frame that makes it known: the start pose's exact odometry,
+   converged shift just before the frame that makes it known (the first time, known also
+   means precise: ``ref.known_error_m``; every later frame is anchored to what the deferred
+   frames made of the ground, so their shift is the map's offset): the start pose's exact odometry,
    not one frame's ground fragment, anchors the map, also when the start surface is out of view.
    The robot then stands on the ground it measured; how the height at which the first frames
    saw that surface changes over the way walked gives odometry's z drift since the start
@@ -479,7 +481,13 @@ class Pipeline:
         deferred = self._deferred
         fractions = self._way_fractions(arrival)
         surfaces_m = self._deferred_surfaces_m()
-        drift_m = self._arrival_drift_m(arrival, fractions, surfaces_m)
+        # The drift is the slope of the heights at which the frames saw the arrival surface:
+        # shifted by one estimate, the camera's height error is the same in every frame and
+        # drops out. With each frame's own shift, the frames on that surface (their own
+        # measurement: its view lies exactly at their odometry) and the earlier ones (the
+        # estimate, off by its error) differ by the estimate's error, which went into the
+        # slope (stereo, stage_down: drift 0.8 mm off on seeds 7 and 8).
+        drift_m = self._arrival_drift_m(arrival, fractions, self._deferred_surfaces_m(False))
         if arrival is not None and arrival.measured_shift_m is not None:
             drift = 0.0 if drift_m is None else drift_m
             self._start_surfaces_m = [
@@ -524,12 +532,18 @@ class Pipeline:
             surfaces_m, fractions, arrival_z_m, self._start_z_m, self.reference.params
         )
 
-    def _deferred_surfaces_m(self) -> list[NDArray[np.float64]]:
-        """World heights of each deferred frame's ground-sized floors (odometry, its shift)."""
+    def _deferred_surfaces_m(self, own_shift: bool = True) -> list[NDArray[np.float64]]:
+        """World heights of each deferred frame's ground-sized floors (odometry, its shift).
+
+        Args:
+            own_shift: Each frame's shift (`HeightReference.frame_shift_m`: its own
+                measurement when it agrees); False: the estimate's, the same in every frame.
+        """
+        reference = self.reference
         return [
             data.ground_sized_m
             + float(data.frame.robot_pose_believed[2])
-            + self.reference.frame_shift_m(data.measured_shift_m)
+            + (reference.frame_shift_m(data.measured_shift_m) if own_shift else reference.shift_m)
             for data in self._deferred
         ]
 
