@@ -224,7 +224,6 @@ class HeightReference:
         self._lowest_sorted_m: list[float] = []
         self._shift_m = 0.0
         self._zero_at_lowest = False
-        self._error_m = math.inf  # the estimate's standard error (`known_error_m`)
         self._settled = False  # converged once, and precise unless at the start level
 
     @property
@@ -247,8 +246,11 @@ class HeightReference:
 
     @property
     def error_m(self) -> float:
-        """The estimate's standard error [m] (inf before `min_frames` measurements)."""
-        return self._error_m
+        """The estimate's standard error [m] (inf before `min_frames` measurements).
+
+        Computed when asked: O(n) in the measurements at the lowest level.
+        """
+        return self._median_error_m()
 
     @property
     def shift_m(self) -> float:
@@ -356,9 +358,10 @@ class HeightReference:
         0.35 → 0.82 mm mean). Below it, the map is anchored to the waiting frames' view of the
         ground, shifted by this estimate: its error is the map's offset.
         """
-        self._error_m = self._median_error_m()
+        if self._settled or not self.converged:  # latched; the median's error costs O(n)
+            return
         at_start = abs(self._lowest_rise_m) <= self.params.start_level_m  # NaN: not
-        self._settled |= self.converged and (at_start or self._error_m <= self.params.known_error_m)
+        self._settled = at_start or self._median_error_m() <= self.params.known_error_m
 
     def _median_error_m(self) -> float:
         """Standard error of the median at the lowest level [m] (inf below `min_frames`).
