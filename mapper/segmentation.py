@@ -721,7 +721,7 @@ def segment_depth(
     )
 
 
-def _rigid_transform(value) -> NDArray[np.float64]:
+def _rigid_transform(value: object) -> NDArray[np.float64]:
     """`rigid_transform` of ``transform_camera_to_robot``, in one kernel call when it is plain.
 
     A C-contiguous float64 4×4 that `tilt_kernels.clearly_rigid` accepts is returned as it is
