@@ -528,11 +528,7 @@ def segment_depth(
             shear is refused).
     """
     params = _DEFAULT_PARAMS if params is None else params
-    # A float64 image is taken as it is (what `real_array` returns for it, without its calls).
-    if type(depth_m) is np.ndarray and depth_m.dtype == np.float64:
-        depth = depth_m
-    else:
-        depth = real_array(depth_m, "depth_m")
+    depth = real_array(depth_m, "depth_m")
     if depth.shape != intrinsics.shape:
         raise InvalidInputError(
             f"depth_m must have shape (height, width) = {intrinsics.shape}, got {depth.shape}"

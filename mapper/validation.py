@@ -84,6 +84,8 @@ def real_array(value: ArrayLike, name: str) -> NDArray[np.float64]:
         InvalidInputError: complex, bool, string or object data (numpy would drop an imaginary
             part or turn True into 1.0 without a word).
     """
+    if type(value) is np.ndarray and value.dtype == np.float64:
+        return value  # what the conversions below return for it, without their calls
     array = np.asarray(value)
     if array.dtype.kind not in _REAL_KINDS:
         raise InvalidInputError(
