@@ -39,10 +39,12 @@ prints both, with ``os.getloadavg()`` before and after each frame set.
 
 Per-stage breakdown (``--stages``): after the interleaved peers, ``FloorObstacleMapper.update``
 once more over the same frames with each stage it calls timed on its own (the frame checks, the
-insert, eq. 8's floor check, the floor votes, eq. 9, the floor cover, the FOG; thread CPU time
-around each call, the wrapping adding a few microseconds a call): rows ``update: STAGE`` and
-``update (stages summed)``, medians per frame, so that a speed-up of the update can be told
-apart by where it comes from.
+insert, eq. 8's floor check, the floor votes, eq. 9, the floor cover, and the FOG, which
+``update`` leaves to the next read of the map and the pass reads after every update; thread CPU
+time around each call, the wrapping adding a few microseconds a call): rows ``update: STAGE``
+and ``update (stages summed)``, medians per frame, so that a speed-up of the update can be told
+apart by where it comes from. The peer ``FloorObstacleMapper + fog() a frame`` is the update
+with the FOG read after every frame (what it cost when ``update`` computed it).
 
 Run: ``.venv/bin/python bench/bench_mapper.py [--frames 200] [--sets stage edge centre]
 [--codegen both|host|generic] [--stage-files REC.npz ...] [--stages]``.
@@ -91,6 +93,7 @@ SCENES = {
 }
 PEERS = (
     "FloorObstacleMapper",
+    "FloorObstacleMapper + fog() a frame",
     "FloorObstacleMapper (cell marks)",
     "FloorObstacleMapper (discretized)",
     "AveragingMap",
@@ -214,15 +217,20 @@ def stage_frames(path: Path, count: int) -> FrameSet:
 def make_peers(params: MapperParams) -> dict[str, Callable[[MapperInput], float]]:
     """Each peer's insertion of one frame; returns the seconds the insertion itself took."""
     column = FloorObstacleMapper(replace(params, discretize_rays=False))
+    read_fog = FloorObstacleMapper(replace(params, discretize_rays=False))
     cell = FloorObstacleMapper(replace(params, discretize_rays=False), column_marks=False)
     discretized = FloorObstacleMapper(replace(params, discretize_rays=True))
     averaging = AveragingMap(params)
 
-    def grid_map(m: FloorObstacleMapper | AveragingMap) -> Callable[[MapperInput], float]:
+    def grid_map(
+        m: FloorObstacleMapper | AveragingMap, fog: bool = False
+    ) -> Callable[[MapperInput], float]:
         def insert(f: MapperInput) -> float:
             m.recenter(*f.center_xy_m)
             t0 = time.thread_time()
             m.update(f.points, f.floor_heights, f.sensor_origin)
+            if fog:  # the FOG is computed when read (`FloorObstacleMapper._refresh_fog`)
+                m.fog()  # type: ignore[union-attr]
             return time.thread_time() - t0
 
         return insert
@@ -240,6 +248,7 @@ def make_peers(params: MapperParams) -> dict[str, Callable[[MapperInput], float]
 
     impls = (
         grid_map(column),
+        grid_map(read_fog, fog=True),
         grid_map(cell),
         grid_map(discretized),
         grid_map(averaging),
@@ -308,7 +317,9 @@ def stage_breakdown(frame_set: FrameSet, codegen: str) -> list[Row]:
 
     Each stage's function is replaced in `mapper.mapper` by a timing wrapper for the pass (and
     put back after it); a frame's stage time is the sum over its calls (0 when it is not called,
-    e.g. an empty frame). A first pass on a throwaway mapper warms the kernels.
+    e.g. an empty frame). The FOG (`update_fog_area`) is computed when read, not in ``update``:
+    the pass reads it after every update, so the stages sum to the update plus that read. A
+    first pass on a throwaway mapper warms the kernels.
     """
     originals = {name: getattr(mapper_module, name) for name in STAGES}
     spent = dict.fromkeys(STAGES, 0.0)
@@ -336,6 +347,7 @@ def stage_breakdown(frame_set: FrameSet, codegen: str) -> list[Row]:
             for name in STAGES:
                 spent[name] = 0.0
             mapper.update(f.points, f.floor_heights, f.sensor_origin)
+            mapper.fog()  # the FOG stage runs when the FOG is read (`update` marks its area)
             for name in STAGES:
                 times[name][i] = spent[name]
     finally:
@@ -413,10 +425,11 @@ def print_table(rows: list[Row]) -> None:
     by = {(r.frame_set, r.resolution, r.codegen, r.peer): r.median_ms for r in rows}
     print()
     for key in sorted({(r.frame_set, r.resolution, r.codegen) for r in rows}):
-        ours, cell, discretized, _, octo, octo_discretized = (by[(*key, p)] for p in PEERS)
+        ours, read, cell, discretized, _, octo, octo_discretized = (by[(*key, p)] for p in PEERS)
         print(
             f"{' '.join(key)}: update {ours:.3f} ms, column vs cell marks {cell / ours:.2f}x, "
-            f"vs OctoMap {octo / ours:.1f}x; discretized {discretized:.3f} ms, vs OctoMap "
+            f"vs OctoMap {octo / ours:.1f}x; with fog() a frame {read:.3f} ms, vs OctoMap "
+            f"{octo / read:.1f}x; discretized {discretized:.3f} ms, vs OctoMap "
             f"{octo / discretized:.1f}x, vs OctoMap discretized "
             f"{octo_discretized / discretized:.1f}x"
         )
