@@ -318,10 +318,11 @@ def test_pose_error_accumulator_gives_the_per_frame_errors_bit_for_bit(count: in
             rows.append(row)
             if residual is not None:
                 residuals.append(residual)
-    got_rows, got_residuals = accumulator._errors_per_frame()
+    got_rows, got_residuals, got_mapped = accumulator._errors_per_frame()
     expected_rows = np.array(rows).reshape(-1, 4)
     assert got_rows.tobytes() == expected_rows.tobytes()
     assert got_residuals.tobytes() == np.array(residuals, dtype=np.float64).tobytes()
+    assert got_mapped.tobytes() == got_residuals.tobytes()  # no frame mapped again
 
 
 def _yaw(angle_rad: float) -> np.ndarray:

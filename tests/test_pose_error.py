@@ -73,10 +73,41 @@ def test_residual_heading_is_the_yaw_left_after_the_corrections():
     assert stats.residual_heading_deg == MedianMax(1.0, 1.5)  # of |yaw|: 0.5 and 1.5
 
 
+def test_map_heading_takes_each_frames_last_mapping():
+    # Three frames, believed 4° off, each corrected by 1.5° when processed (2.5° left); frames 0
+    # and 1 are mapped again with the heading's estimate (0.5° and then -0.25° left on frame 0:
+    # the last mapping wins, 0.75° on frame 1); frame 2 keeps its first mapping.
+    errors = PoseErrorAccumulator()
+    for index in range(3):
+        errors.add(frame(index, camera_in_robot(yaw_deg=4.0)), camera_in_robot(yaw_deg=2.5))
+    errors.remapped(0, camera_in_robot(yaw_deg=0.5))
+    errors.remapped(1, camera_in_robot(yaw_deg=0.75))
+    errors.remapped(0, camera_in_robot(yaw_deg=-0.25))
+    stats = errors.stats()
+    assert stats.residual_heading_deg == MedianMax(2.5, 2.5)  # as processed
+    assert stats.map_heading_deg == MedianMax(0.75, 2.5)  # of 0.25, 0.75 and 2.5
+    with pytest.raises(IndexError, match=r"position 3 is not among the 3 frames added"):
+        errors.remapped(3, camera_in_robot())
+
+
+def test_map_heading_skips_frames_without_a_true_pose_in_step_with_the_residual():
+    # Frame 1 has no true pose: the remapping of frame 2 must land on frame 2's residual.
+    errors = PoseErrorAccumulator()
+    errors.add(frame(0, camera_in_robot(yaw_deg=4.0)), camera_in_robot(yaw_deg=1.0))
+    errors.add(frame(1, camera_in_robot(), true_pose=False), camera_in_robot(yaw_deg=9.0))
+    errors.add(frame(2, camera_in_robot(yaw_deg=4.0)), camera_in_robot(yaw_deg=3.0))
+    errors.remapped(2, camera_in_robot(yaw_deg=-2.0))
+    errors.remapped(1, camera_in_robot(yaw_deg=7.0))  # no true pose: not counted
+    stats = errors.stats()
+    assert stats.residual_heading_deg == MedianMax(2.0, 3.0)  # of 1 and 3
+    assert stats.map_heading_deg == MedianMax(1.5, 2.0)  # of 1 and |-2|
+
+
 def test_no_corrected_pose_leaves_the_residual_heading_out():
     errors = PoseErrorAccumulator()
     errors.add(frame(0, camera_in_robot(yaw_deg=2.0)))
     assert errors.stats().residual_heading_deg is UNSET
+    assert errors.stats().map_heading_deg is UNSET
 
 
 def test_heading_error_ignores_a_small_tilt_and_keeps_the_sign():

@@ -4,7 +4,12 @@ Per frame with a true pose, the camera pose the robot believes is compared with 
 :func:`fogsim.geometry.pose_error` twice: in the robot frame (what the encoders cause, the
 paper's "7° and 10 mm") and in the world (encoders plus odometry drift). When the caller also gives
 the camera pose after the pipeline's corrections (tilt, heading), the yaw left between it and the
-true one is recorded too (the residual heading, :func:`heading_error_deg`).
+true one is recorded too (the residual heading, :func:`heading_error_deg`): as the frame was
+corrected when it was processed (``residual_heading_deg``: what a robot using the map at that
+moment saw), and as the frame was last mapped (``map_heading_deg``: what the final maps hold).
+The two differ for the frames the pipeline mapped again later (:meth:`remapped`): the frames
+mapped once more with the heading's first estimate (`pipe.heading_rebuild_frames`) and the
+frames deferred by the height reference.
 """
 
 from __future__ import annotations
@@ -61,6 +66,8 @@ class PoseErrorAccumulator:
         self._camera_believed: list[NDArray[np.float64]] = []
         self._robot_believed: list[NDArray[np.float64]] = []
         self._corrected: list[NDArray[np.float64] | None] = []
+        # Frame position -> corrected camera pose of its last mapping, where it was mapped again.
+        self._remapped: dict[int, NDArray[np.float64]] = {}
 
     def add(
         self,
@@ -86,6 +93,27 @@ class PoseErrorAccumulator:
             else np.array(transform_camera_to_robot_corrected, dtype=np.float64)
         )
 
+    def remapped(
+        self, position: int, transform_camera_to_robot_corrected: NDArray[np.float64]
+    ) -> None:
+        """The frame added ``position``-th (0 = first) was mapped again with this camera pose.
+
+        Args:
+            position: The frame's place among the frames added.
+            transform_camera_to_robot_corrected: 4×4 camera pose in the robot frame it was
+                mapped with that time (`fogsim.mapping.pipeline.LateMapping`); the last call
+                for a position wins.
+
+        Raises:
+            IndexError: No frame was added at ``position``.
+        """
+        if not 0 <= position < len(self._corrected):
+            raise IndexError(
+                f"remapped frame position {position} is not among the {len(self._corrected)} "
+                "frames added (0 ... frames - 1)"
+            )
+        self._remapped[position] = np.array(transform_camera_to_robot_corrected, dtype=np.float64)
+
     def stats(self) -> PoseErrorStats:
         """Median and max of the errors; only ``frames=0`` when no frame had a true pose.
 
@@ -94,9 +122,10 @@ class PoseErrorAccumulator:
         camera pose brought into the true robot frame) and in the world (the believed one
         through the believed robot pose). ``residual_heading_deg`` (of |yaw|, the yaw between
         the corrected and the true camera pose in the robot frame) is set when some such frame
-        was added with its corrected camera pose.
+        was added with its corrected camera pose, and ``map_heading_deg`` with it (the same
+        with the pose of each frame's last mapping, :meth:`remapped`).
         """
-        rows, residual = self._errors_per_frame()
+        rows, residual, residual_mapped = self._errors_per_frame()
         if rows.shape[0] == 0:
             return PoseErrorStats(frames=0)
         stats = PoseErrorStats(
@@ -106,22 +135,30 @@ class PoseErrorAccumulator:
         )
         if residual.size == 0:
             return stats
-        return dataclasses.replace(stats, residual_heading_deg=_median_max(residual))
+        return dataclasses.replace(
+            stats,
+            residual_heading_deg=_median_max(residual),
+            map_heading_deg=_median_max(residual_mapped),
+        )
 
-    def _errors_per_frame(self) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+    def _errors_per_frame(
+        self,
+    ) -> tuple[NDArray[np.float64], NDArray[np.float64], NDArray[np.float64]]:
         """The errors of the frames with a finite true pose, in the order added.
 
         Returns:
             (N, 4) rotation [deg] and translation [mm] in the robot frame, then in the world;
-            (M,) |residual heading| [deg] of those of them added with a corrected pose.
+            (M,) |residual heading| [deg] of those of them added with a corrected pose, as
+            added and as last mapped (:meth:`remapped`).
         """
+        empty = (np.empty((0, 4)), np.empty(0), np.empty(0))
         if not self._world_true:
-            return np.empty((0, 4)), np.empty(0)
+            return empty
         world_true = np.stack(self._world_true)
         robot_true = np.stack(self._robot_true)
         known = np.isfinite(world_true).all(axis=(1, 2)) & np.isfinite(robot_true).all(axis=1)
         if not known.any():
-            return np.empty((0, 4)), np.empty(0)
+            return empty
         world_true = world_true[known]
         camera_true = np.linalg.inv(_planar_matrices(robot_true[known])) @ world_true
         camera_believed = np.stack(self._camera_believed)[known]
@@ -129,17 +166,36 @@ class PoseErrorAccumulator:
         rows = np.column_stack(
             [*_errors(camera_believed, camera_true), *_errors(world_believed, world_true)]
         )
-        corrected = [c for c, k in zip(self._corrected, known, strict=True) if k]
+        positions = np.flatnonzero(known).tolist()
+        corrected = [self._corrected[i] for i in positions]
         with_corrected = np.array([c is not None for c in corrected], dtype=bool)
         if not with_corrected.any():
-            return rows, np.empty(0)
-        rotation = np.stack([c[:3, :3] for c in corrected if c is not None])
-        error = rotation @ camera_true[with_corrected, :3, :3].transpose(0, 2, 1)
-        residual = [
+            return rows, np.empty(0), np.empty(0)
+        true_rotations = camera_true[with_corrected, :3, :3]
+        first = [c for c in corrected if c is not None]
+        last = [
+            self._remapped.get(i, c)
+            for i, c in zip(positions, corrected, strict=True)
+            if c is not None
+        ]
+        return rows, _abs_yaw_deg(first, true_rotations), _abs_yaw_deg(last, true_rotations)
+
+
+def _abs_yaw_deg(
+    corrected: list[NDArray[np.float64]], true_rotations: NDArray[np.float64]
+) -> NDArray[np.float64]:
+    """(M,) |yaw| [deg] between M 4×4 corrected camera poses and M 3×3 true rotations.
+
+    :func:`heading_error_deg` of each pair, with its one matrix product done for the stack.
+    """
+    rotation = np.stack([c[:3, :3] for c in corrected])
+    error = rotation @ true_rotations.transpose(0, 2, 1)
+    return np.array(
+        [
             abs(math.degrees(math.atan2(e10 - e01, e00 + e11)))
             for (e00, e01, _), (e10, e11, _), _ in error.tolist()
         ]
-        return rows, np.array(residual)
+    )
 
 
 def _planar_matrices(poses: NDArray[np.float64]) -> NDArray[np.float64]:

@@ -32,6 +32,8 @@ figure                                        direction  tolerance    meaning
                                                                       floor within 10 mm
 ``pose_error.residual_heading_deg.median``    lower      0.25°        median |yaw| of the
                                                                       corrected camera
+``pose_error.map_heading_deg.median``         lower      0.25°        the same as the frames
+                                                                      were last mapped
 ``timing.frame_ms_median``                    lower      not checked  pipeline time per frame
 ============================================  =========  ===========  =========================
 
@@ -141,7 +143,7 @@ def rule_for(metric: str) -> MetricRule:
         return MetricRule("lower", 20.0)
     if metric.endswith((".cleared_frames", ".floor_again_frames")):
         return MetricRule("lower", 3.0)
-    if metric == "pose_error.residual_heading_deg.median":
+    if metric in ("pose_error.residual_heading_deg.median", "pose_error.map_heading_deg.median"):
         return MetricRule("lower", 0.25)
     if metric.startswith("timing."):
         return MetricRule("lower", 5.0, 1.0, checked=False)
@@ -189,9 +191,10 @@ def report_metrics(report: Report) -> dict[str, float]:
             metrics[f"events.{event.object}.floor_again_frames"] = _frames(
                 event.floor_again_frames.fog
             )
-    residual = report.pose_error.residual_heading_deg
-    if not isinstance(residual, UnsetType) and residual.median is not None:
-        metrics["pose_error.residual_heading_deg.median"] = float(residual.median)
+    for key in ("residual_heading_deg", "map_heading_deg"):
+        residual = getattr(report.pose_error, key)
+        if not isinstance(residual, UnsetType) and residual.median is not None:
+            metrics[f"pose_error.{key}.median"] = float(residual.median)
     median = report.timing.frame_ms.median
     if median is not None:
         metrics["timing.frame_ms_median"] = float(median)

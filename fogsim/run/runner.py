@@ -233,6 +233,7 @@ def _run_pipeline(
     archiver.flush(pipeline)
 
     for late in pipeline.mapped_late:  # deferred frames: withdrawn when seen, mapped later
+        pose_errors.remapped(late.position, late.transform_camera_to_robot)
         timings[late.position] = dataclasses.replace(
             timings[late.position],
             withdrawn=late.withdrawn,

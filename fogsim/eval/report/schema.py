@@ -514,14 +514,20 @@ class PoseErrorStats:
             10 mm).
         camera_in_world: Camera in the world: encoders plus odometry drift.
         residual_heading_deg: |Yaw| [deg] of the camera orientation after the pipeline's
-            corrections (tilt, heading) against the true one, in the robot frame: the heading
-            error the maps still see (absent when no frame gave a corrected pose).
+            corrections (tilt, heading) against the true one, in the robot frame, as each frame
+            was corrected when it was processed: the heading error the maps had at that
+            moment (absent when no frame gave a corrected pose).
+        map_heading_deg: The same as each frame was last mapped: the heading error the final
+            maps hold. Lower than ``residual_heading_deg`` where frames mapped before the
+            heading's first estimate were mapped again with it (`pipe.heading_rebuild_frames`);
+            present with ``residual_heading_deg``.
     """
 
     frames: int
     camera_in_robot: PoseErrorPair | UnsetType = UNSET
     camera_in_world: PoseErrorPair | UnsetType = UNSET
     residual_heading_deg: MedianMax | UnsetType = UNSET
+    map_heading_deg: MedianMax | UnsetType = UNSET
 
 
 @dataclass(frozen=True)
