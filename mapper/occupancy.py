@@ -821,6 +821,24 @@ def _walk_columns(miss_cols, range_masks, c, z_entry, axis_x, axis_y, z_line, z_
     The rays' order does not matter to the marks (the OR commutes):
     sorted by azimuth the walk is 4 % faster, less than a sort costs; shuffled 10 % slower.
 
+    Run-slice walks (issue #14), each giving the same marks, are no faster (the insert's
+    speed relative to this walk, host / ``generic``, interleaved over stage seed 1's 832
+    frames; Intel Xeon, load 7-10; stage_zigzag seed 2 alike). (1) The major axis's crossings
+    up to the next minor one as an inner loop, with the same comparisons: 0.98 / 0.96.
+    (2) Its first ``floor(tdb / tda) - 1`` steps after each minor crossing taken without a
+    comparison (a counted loop): 0.95 / 0.93. (3) The minor crossings' places among the
+    major ones computed per ray first (``floor((t_b - t_a0) / tda) + 1`` with the accumulated
+    ``t_b``; a ray with a crossing within 1e-10 of a tie left to this walk, none on the
+    stage), then one branch-free step per major crossing (an optional minor column, two ORs):
+    0.98-0.99 / 0.975. That loop alone is 16 % faster than this walk, but the schedule costs as
+    much (0.083 ms a frame for 33 k minor crossings, with its loop's exit once a ray). The
+    bound: with the branch on the nearer crossing replaced by a predictable pattern (wrong
+    marks) the insert is 1.36× (1.34× ``generic``) faster; every exact branch-free
+    replacement tried costs as much as the mispredictions it avoids. Numba note from (3):
+    arrays passed to an inlined helper called inside a branch (or with early returns) are
+    reference-counted once a ray (``NRT_incref`` calls in the kernel's assembly; 0.1 ms a
+    frame): written out in the kernel, they were not.
+
     What sharing could save: on the stage's frames 92 % of the ORs add no bit at 88 × 72 (98 %
     at 176 × 144), but only 26 % of the rays add none at all (65 % at 176 × 144): most rays
     add a few cells near their ends, so skipping whole rays, even with a free test, would
