@@ -271,7 +271,13 @@ class MapperParams:
             unchanged — but on the room's stereo replays the sill, 3 cells deep and patchy
             under stereo noise, loses cells (seed 4: 29 → 17, its row −1.55 → −2.00 mm; the
             worst row over seeds 1.82 → 2.00 mm), more than the +0.1 mm allowed, so it is off:
-            0 (the default) = off; 2 where rough tops matter more than thin sills.
+            0 (the default) = off; 2 where rough tops matter more than thin sills. 1 (a floor
+            cell with no floor neighbour within the band, beside a taller obstacle; session
+            34, with `HeadingParams.first_estimate_every` 1, seeds 1–8): depth unsafe cells
+            stage 0.12 (1) → 0, room 1.38 → 1.0, moving_box 8.9 → 8.5, talos_course 0.25 →
+            0.12, stereo room 9.75 → 8.25, stage 5.1 → 4.75, zig-zag stage 32.5 → 31.4, rows
+            unchanged — but the zig-zag stage's stereo sill (patchy: 18 % of its cells have a
+            floor) kept one wrong cell on seed 8: its row 0.3 → 16 mm. Off too.
         rim_over_spill: Beyond the paper, with ``edge_band_m`` > 0: the rim rule counts a
             neighbour that eq. 11 labels obstacle when its stored floor lies more than
             ``edge_band_m`` below the floor beside it, its top reaches no higher than that

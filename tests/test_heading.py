@@ -121,6 +121,25 @@ def test_two_robot_positions_suffice():
     assert math.degrees(estimator.correction_rad) == pytest.approx(-4.0, abs=0.5)
 
 
+def test_until_the_first_estimate_every_keyframe_may_give_it():
+    # Every frame of the walk is a keyframe (0.3 m apart); the cameras span 0.5 m from the
+    # third on. Trying every 4th keyframe, the first estimate waits for the fourth frame;
+    # trying every keyframe until the first estimate, it comes with the third, and the
+    # fourth (the 4th keyframe) is the next try of every 4th.
+    rng = np.random.default_rng(5)
+    boxes = box_points_world(rng)
+    estimates = {}
+    for first in (4, 1):
+        estimator = HeadingEstimator(HeadingParams(estimate_every=4, first_estimate_every=first))
+        counts = []
+        for x, y, yaw in WALK:
+            correct(estimator, *frame(boxes, floor_points_world(x), (x, y, yaw), 3.0))
+            counts.append(estimator.estimates)
+        estimates[first] = counts
+        assert math.degrees(estimator.correction_rad) == pytest.approx(-3.0, abs=0.5)
+    assert estimates == {4: [0, 0, 0, 1], 1: [0, 0, 1, 2]}
+
+
 def test_a_flat_floor_leaves_the_prior():
     estimator = HeadingEstimator(HeadingParams(prior_deg=1.5, estimate_every=1))
     no_structure = np.zeros((0, 3))
@@ -206,6 +225,7 @@ def test_scores_count_pairs_of_different_keyframes_in_one_voxel():
         ("max_height_m", 0.0),
         ("max_keyframes", 1),
         ("estimate_every", 0),
+        ("first_estimate_every", 1001),
         ("min_contrast", 1.0),
         ("peak_band", 1.0),
         ("correct_heading", 1),
