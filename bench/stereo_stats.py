@@ -42,7 +42,7 @@ import numpy as np
 from scipy.ndimage import grey_erosion
 
 from fogsim.config import load_scenario
-from fogsim.run.seeds import parse_seeds
+from fogsim.run.seed_spec import parse_seeds
 from fogsim.sim.camera import StereoErrorModel, camera_intrinsics
 from fogsim.sim.simulation import Simulation
 

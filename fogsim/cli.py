@@ -9,8 +9,11 @@ reasons are printed); 130 interrupted (Ctrl-C). Every error is one line on stand
 never a traceback; a failed or interrupted run leaves nothing of itself (an earlier result in
 its folder stays as it was).
 
-What one command alone needs (rosbags, the comparison, the scene export, the recorder, Rerun's
-display check) is imported by that command, not here: ``fogsim run`` starts without them.
+What one command or option alone needs (rosbags, the comparison, the scene export, the
+recorder, Rerun's display check, the runners of ``run --seeds`` and of ``suite``, the baselines'
+rules of ``suite`` and ``run --strict``, the tuner's) is imported by that command, not here:
+``fogsim run`` starts without them (the parser's help needs only ``--seeds``' spec,
+:mod:`fogsim.run.seed_spec`).
 """
 
 from __future__ import annotations
@@ -37,20 +40,12 @@ from fogsim.config import CAMERA_MODES, Scenario, find_scenario_files, load_scen
 from fogsim.data.recording import load_recording
 from fogsim.errors import FogsimError
 from fogsim.eval.report import format_table1
-from fogsim.run.baseline import (
-    REGENERATE,
-    baseline_to_update,
-    load_baseline,
-    poor_reasons,
-    write_baseline,
-)
 from fogsim.run.output_paths import check_output_path, child_path
 from fogsim.run.process_exit import exit_process
 from fogsim.run.ray_cluster import RAY_ADDRESS_HELP
 from fogsim.run.run_folder import check_run_folder
 from fogsim.run.runner import run_scenario
-from fogsim.run.seeds import SEEDS_ALLOWED, check_workers, parse_seeds, run_seeds, worst_lines
-from fogsim.run.suite import check_against_baseline, run_suite, update_baseline
+from fogsim.run.seed_spec import SEEDS_ALLOWED, parse_seeds
 from fogsim.sim.camera.backends import DEPTH_BACKENDS
 from fogsim.tune.cli import add_tune_arguments
 from mapper.errors import MapperError
@@ -362,7 +357,11 @@ def _cmd_run(args: argparse.Namespace) -> int:
         f"{timing.frames} frames, mapper update {timing.update_ms.median} ms median, "
         f"wall {timing.wall_s} s -> {out / 'report.json'}"
     )
-    return _strict_exit({name: poor_reasons(report)}) if args.strict else 0
+    if not args.strict:
+        return 0
+    from fogsim.run.baseline import poor_reasons  # only for --strict
+
+    return _strict_exit({name: poor_reasons(report)})
 
 
 def _workers(args: argparse.Namespace) -> int:
@@ -371,6 +370,8 @@ def _workers(args: argparse.Namespace) -> int:
         raise FogsimError(
             "give --workers N (local processes) or --ray ADDRESS (the cluster's CPUs), not both"
         )
+    from fogsim.run.seeds import check_workers  # the runner of seeds: only for --workers
+
     workers = args.workers if args.workers is not None else 2
     check_workers(workers)
     return workers
@@ -378,6 +379,8 @@ def _workers(args: argparse.Namespace) -> int:
 
 def _cmd_run_seeds(args: argparse.Namespace) -> int:
     """``fogsim run SCENARIO --seeds SPEC``: the seeds in parallel, then their summary."""
+    from fogsim.run.seeds import run_seeds, worst_lines  # only for --seeds
+
     if args.replay is not None:
         raise FogsimError(
             "--seeds simulates the scenario once per seed; a recording (--replay) has fixed "
@@ -455,6 +458,9 @@ def _cmd_scene(args: argparse.Namespace) -> int:
 
 
 def _cmd_suite(args: argparse.Namespace) -> int:
+    from fogsim.run.baseline import REGENERATE, baseline_to_update, load_baseline, write_baseline
+    from fogsim.run.suite import check_against_baseline, run_suite, update_baseline
+
     seeds = parse_seeds(args.seeds) if args.seeds is not None else None
     workers = _workers(args)
     check_run_folder(args.out, "--out")

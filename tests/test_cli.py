@@ -27,24 +27,45 @@ def removal_recording(tmp_path_factory):
 SIMULATION_MODULES = ("mujoco", "dm_control", "pinocchio", "coal", "OpenGL")
 """What only a simulation needs: MuJoCo, its MJCF tools, the robot's kinematics, OpenGL."""
 
+OTHER_COMMAND_MODULES = (
+    "fogsim.run.seeds",
+    "fogsim.run.suite",
+    "fogsim.run.baseline",
+    "fogsim.tune.executors",
+    "fogsim.tune.segment_cache",
+    "fogsim.tune.suite",
+)
+"""What only other commands or options need: ``run --seeds``, ``suite``, ``run --strict``
+(the baselines' rules), ``tune``."""
+
 
 def test_a_replay_imports_nothing_of_the_simulation(removal_recording, tmp_path):
-    """``run --replay`` maps a recording without MuJoCo: none of it is imported (a new process)."""
+    """``run --replay`` maps a recording without MuJoCo and without the other commands' modules:
+    none of them is imported (a new process); ``--strict`` imports what it needs and works."""
     out = str(tmp_path / "run")
+    strict_out = str(tmp_path / "strict")
+    watched = SIMULATION_MODULES + OTHER_COMMAND_MODULES
     code = (
         "import sys\n"
         "from fogsim.cli import main\n"
         f"args = ['run', '--replay', {str(removal_recording)!r}, '--out', {out!r}, "
         "'--quiet', '--no-pictures']\n"
         "assert main(args) == 0\n"
-        f"print(' '.join(m for m in {SIMULATION_MODULES!r} if m in sys.modules))\n"
+        f"imported = [m for m in {watched!r} if m in sys.modules]\n"
+        f"code = main(args[:4] + [{strict_out!r}, '--quiet', '--no-pictures', '--strict'])\n"
+        "print('@', ' '.join(imported), '@', code, '@', 'fogsim.run.baseline' in sys.modules)\n"
     )
     env = dict(os.environ, PYTHONPATH=str(Path(__file__).resolve().parent.parent))
     done = subprocess.run(
         [sys.executable, "-c", code], env=env, capture_output=True, text=True, check=True
     )
     assert (tmp_path / "run" / "report.json").is_file()
-    assert done.stdout.splitlines()[-1] == "", f"a replay imported {done.stdout.splitlines()[-1]}"
+    imported, strict_code, baseline = done.stdout.splitlines()[-1].split("@")[1:]
+    assert imported.strip() == "", f"a replay imported {imported}"
+    # The recording's map is good (the box is cleared): --strict passes, after reading the rules.
+    assert strict_code.strip() == "0"
+    assert baseline.strip() == "True"
+    assert (tmp_path / "strict" / "report.json").is_file()
 
 
 def test_list_names_every_scenario(capsys):

@@ -22,6 +22,7 @@ from fogsim.eval.report.schema import (
     StepEdge,
 )
 from fogsim.run.baseline import NEVER_FRAMES
+from fogsim.run.seed_spec import format_seeds, parse_seeds
 from fogsim.run.seeds import (
     FigureStats,
     SeedRun,
@@ -29,8 +30,6 @@ from fogsim.run.seeds import (
     SeedValue,
     figure_stats,
     figures_markdown,
-    format_seeds,
-    parse_seeds,
     worst_lines,
 )
 

@@ -28,7 +28,7 @@ from fogsim.errors import FogsimError
 from fogsim.run.output_paths import check_output_path
 from fogsim.run.ray_cluster import RayCluster, check_ray_address
 from fogsim.run.runner import sensor_fields
-from fogsim.run.seeds import parse_seeds
+from fogsim.run.seed_spec import parse_seeds
 from fogsim.sim.simulation import Simulation
 
 

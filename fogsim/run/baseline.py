@@ -264,7 +264,7 @@ def set_name(quick: bool, seeds: str | None) -> str:
 
     Args:
         quick: The quick subset ran.
-        seeds: The seeds in canonical form (:func:`fogsim.run.seeds.format_seeds`, e.g.
+        seeds: The seeds in canonical form (:func:`fogsim.run.seed_spec.format_seeds`, e.g.
             ``"1-8"``), or None when each scenario ran at its own seed (``seeds=scenario``).
     """
     return f"{'quick' if quick else 'full'} seeds={seeds if seeds is not None else 'scenario'}"

@@ -1,6 +1,7 @@
 """Run a scenario over several seeds in parallel; each figure's mean and worst over the seeds.
 
-``fogsim run SCENARIO --seeds 1-8`` calls :func:`run_seeds`: every seed runs in its own process
+``fogsim run SCENARIO --seeds 1-8`` calls :func:`run_seeds` (the spec read by
+:func:`fogsim.run.seed_spec.parse_seeds`): every seed runs in its own process
 exactly as ``fogsim run SCENARIO --seed n`` does (the scenario with ``seed=n``, through
 :func:`fogsim.run.runner.run_scenario`) into ``OUT/seed_<n>/`` (its ``report.json`` and
 pictures), and ``OUT/summary.json`` (:class:`SeedsSummary`, through the one JSON writer of
@@ -21,14 +22,11 @@ returns the files, which the driver writes where the local run would have writte
 
 from __future__ import annotations
 
-import collections
 import concurrent.futures
 import dataclasses
-import itertools
 import math
 import multiprocessing
 import os
-import re
 import tempfile
 import time
 from collections.abc import Mapping, Sequence
@@ -44,15 +42,7 @@ from fogsim.run.baseline import NEVER_FRAMES, poor_reasons, report_metrics, rule
 from fogsim.run.ray_cluster import RayCluster, check_ray_address
 from fogsim.run.run_folder import RunFolder
 from fogsim.run.runner import run_scenario, sensor_fields
-
-MAX_SEED = 2**32 - 1
-"""The largest seed a scenario takes (``seed`` in the scenario schema)."""
-
-MAX_SEEDS = 1000
-"""Most seeds of one ``--seeds`` spec. Each seed is a whole run (seconds to minutes); a thousand
-runs of the stage take hours even on many cores, and the worst of a thousand seeds is more
-statistics than a regression check needs. A larger spec is a slip (``1-10000000``) that would
-otherwise build millions of jobs before the first run."""
+from fogsim.run.seed_spec import format_seeds
 
 MAX_WORKERS = 64
 """Most worker processes of ``--workers``. Each holds a MuJoCo model, an EGL context and the
@@ -60,71 +50,8 @@ mapper (about 0.6 GB measured on ``flat_floor`` with pictures): 64 of them need 
 most a machine with that many cores is likely to have; more processes than cores only slow
 each other down."""
 
-SEEDS_ALLOWED = (
-    "a range 1-8, a list 1,3,5, a single seed 2, or a mix such as 1-4,9 "
-    f"(whole numbers 0 to {MAX_SEED}, each seed once, at most {MAX_SEEDS} seeds)"
-)
-
 GROUP_ORDER = ("table1", "cells", "safety", "step_edges", "events", "timing")
 """Figure groups (the first part of a flat name) in the order the text shows them."""
-
-_ITEM = re.compile(r"\s*(\d+)\s*(?:-\s*(\d+)\s*)?")
-
-
-def parse_seeds(spec: str) -> tuple[int, ...]:
-    """The seeds of a ``--seeds`` spec such as ``1-8``, ``1,3,5`` or ``2``, sorted.
-
-    Args:
-        spec: Comma-separated seeds and inclusive ranges ``first-last``.
-
-    Raises:
-        FogsimError: A malformed item, a backward range, a seed out of range, a repeated seed
-            or more than :data:`MAX_SEEDS` seeds; the message names the argument, the spec and
-            what is allowed.
-    """
-    seeds: list[int] = []
-    for item in spec.split(","):
-        match = _ITEM.fullmatch(item)
-        if match is None:
-            raise FogsimError(
-                f"--seeds {spec!r}: {item.strip()!r} is not a seed or a range; "
-                f"allowed: {SEEDS_ALLOWED}"
-            )
-        first = int(match[1])
-        last = int(match[2]) if match[2] is not None else first
-        if last < first:
-            raise FogsimError(
-                f"--seeds {spec!r}: range {item.strip()!r} ends before it starts; "
-                f"allowed: {SEEDS_ALLOWED}"
-            )
-        if last > MAX_SEED:
-            raise FogsimError(
-                f"--seeds {spec!r}: seed {last} is above {MAX_SEED}; allowed: {SEEDS_ALLOWED}"
-            )
-        if len(seeds) + last - first + 1 > MAX_SEEDS:
-            raise FogsimError(
-                f"--seeds {spec!r}: more than {MAX_SEEDS} seeds; allowed: {SEEDS_ALLOWED}"
-            )
-        seeds.extend(range(first, last + 1))
-    repeated = sorted(seed for seed, count in collections.Counter(seeds).items() if count > 1)
-    if repeated:
-        raise FogsimError(
-            f"--seeds {spec!r}: seed {repeated[0]} is given twice; allowed: {SEEDS_ALLOWED}"
-        )
-    return tuple(sorted(seeds))
-
-
-def format_seeds(seeds: Sequence[int]) -> str:
-    """The canonical spec of sorted distinct seeds: runs of consecutive seeds as ranges.
-
-    ``(1, 2, 3, 4, 9)`` → ``"1-4,9"``; :func:`parse_seeds` reads it back.
-    """
-    parts = []
-    for _, run in itertools.groupby(enumerate(seeds), key=lambda pair: pair[1] - pair[0]):
-        members = [seed for _, seed in run]
-        first, last = members[0], members[-1]
-        parts.append(str(first) if first == last else f"{first}-{last}")
-    return ",".join(parts)
 
 
 @dataclass(frozen=True)
@@ -419,7 +346,7 @@ def run_seeds(
 
     Args:
         scenario: The scenario, overrides other than the seed applied.
-        seeds: The seeds (from :func:`parse_seeds`).
+        seeds: The seeds (from :func:`~fogsim.run.seed_spec.parse_seeds`).
         out_dir: Output folder: ``seed_<n>/`` per seed, and the summaries.
         workers: Parallel processes (1 = run inline).
         pictures: Write each seed's PNGs.

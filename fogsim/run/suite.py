@@ -39,6 +39,7 @@ from fogsim.run.baseline import (
 from fogsim.run.output_paths import child_path
 from fogsim.run.ray_cluster import check_ray_address
 from fogsim.run.run_folder import RunFolder
+from fogsim.run.seed_spec import format_seeds
 from fogsim.run.seeds import (
     FigureStats,
     SeedJob,
@@ -46,7 +47,6 @@ from fogsim.run.seeds import (
     check_workers,
     figure_stats,
     figures_markdown,
-    format_seeds,
     run_jobs,
     runs_markdown,
     seed_jobs,

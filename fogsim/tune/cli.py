@@ -1,4 +1,8 @@
-"""The ``fogsim tune`` subcommand: its arguments, and running it from them."""
+"""The ``fogsim tune`` subcommand: its arguments, and running it from them.
+
+Adding the arguments imports only the tuner's configuration (every ``fogsim`` command builds
+the whole parser); what running it needs is imported by :func:`run_tune`.
+"""
 
 from __future__ import annotations
 
@@ -6,11 +10,8 @@ import argparse
 from pathlib import Path
 
 from fogsim.tune.config import RECORDINGS_DIR, SamplerKind, TuneConfig
-from fogsim.tune.executors import check_ray_address
 from fogsim.tune.objective import ObjectiveWeights
-from fogsim.tune.segment_cache import cached_replay_report
 from fogsim.tune.space import ParamSpec, check_ranges
-from fogsim.tune.suite import load_suite
 
 
 def add_tune_arguments(
@@ -77,7 +78,10 @@ def add_tune_arguments(
 
 def run_tune(args: argparse.Namespace) -> int:
     """Run ``fogsim tune`` from parsed arguments; prints the best block and the top table."""
+    from fogsim.tune.executors import check_ray_address
+    from fogsim.tune.segment_cache import cached_replay_report
     from fogsim.tune.study import tune  # Optuna: imported by this command only (package doc)
+    from fogsim.tune.suite import load_suite
 
     params = tuple(ParamSpec.parse(text) for text in args.param)
     check_ranges(params)  # before the suite is recorded: errors come before long work
