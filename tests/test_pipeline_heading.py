@@ -1,5 +1,6 @@
 """The pipeline's heading rebuild: frames mapped before the heading's first estimate are mapped
-again with it (synthetic walk, exact depth, a known 3° camera yaw error), no MuJoCo."""
+again with it, and again when a later estimate moves more than `heading_rebuild_change_deg`
+(synthetic walk, exact depth, a known 3° camera yaw error), no MuJoCo."""
 
 import math
 
@@ -12,7 +13,7 @@ from fogsim.config.params import PipelineParams
 from fogsim.data.frame import Frame
 from fogsim.errors import ParameterError
 from fogsim.mapping.pipeline import Pipeline
-from mapper import HeadingParams
+from mapper import HeadingEstimator, HeadingParams
 from mapper.heading import yaw_about_pivot
 from mapper.intrinsics import PinholeIntrinsics
 from mapper.transforms import planar_pose_to_matrix
@@ -61,13 +62,32 @@ def walk(n):
 FRAMES = walk(FIRST_ESTIMATE + 3)
 
 
-def run(rebuild_frames=300, heading=None):
+class ScriptedHeading(HeadingEstimator):
+    """A heading estimator whose estimates come as scripted: frame index → correction [deg]."""
+
+    def __init__(self, script):
+        super().__init__(HeadingParams())
+        self._script = script
+        self._seen = 0
+
+    def observe(self, *args, **kwargs):
+        if self._seen in self._script:
+            self.correction_rad = math.radians(self._script[self._seen])
+            self.estimates += 1
+        self._seen += 1
+
+
+def run(rebuild_frames=300, heading=None, script=None, change_deg=1.0):
     pipeline = Pipeline(
         RunParams(
-            pipeline=PipelineParams(heading_rebuild_frames=rebuild_frames),
+            pipeline=PipelineParams(
+                heading_rebuild_frames=rebuild_frames, heading_rebuild_change_deg=change_deg
+            ),
             heading=heading if heading is not None else HeadingParams(),
         )
     )
+    if script is not None:
+        pipeline.heading = ScriptedHeading(script)
     for frame in FRAMES:
         pipeline.process(frame)
     pipeline.finish()
@@ -144,6 +164,42 @@ def test_no_rebuild_beyond_heading_rebuild_frames(rebuilt):
 
 def test_same_frames_same_rebuilt_maps_bit_for_bit(rebuilt):
     assert_same_maps(run(), rebuilt)
+
+
+def test_an_estimate_that_moves_more_than_the_change_rebuilds_again():
+    # A first estimate at frame 10 of -1°, then +1.25° at frame 14 (2.25° away): frames 0-9 are
+    # mapped again at frame 10 and frames 0-13 at frame 14, with the estimate of the moment;
+    # the final maps are those of a run that knew +1.25° from its first frame.
+    script = {10: -1.0, 14: 1.25}
+    again = run(script=script)
+    positions = [late.position for late in again.mapped_late]
+    reference_wait = positions.index(0, 1)  # the first frames waited for the height reference
+    assert positions[reference_wait:] == [*range(10), *range(14)]
+    yaws = [
+        math.degrees(
+            math.atan2(late.transform_camera_to_robot[1, 2], late.transform_camera_to_robot[0, 2])
+        )
+        for late in again.mapped_late[reference_wait:]
+    ]
+    believed = math.degrees(math.atan2(CAMERA_BELIEVED[1, 2], CAMERA_BELIEVED[0, 2]))
+    assert yaws[:10] == pytest.approx([believed - 1.0] * 10, abs=1e-5)
+    assert yaws[10:] == pytest.approx([believed + 1.25] * 14, abs=1e-5)
+    known = run(heading=HeadingParams(correct_heading=False, prior_deg=1.25))
+    assert_same_maps(again, known)
+    # 0: only the first estimate's rebuild; a move within the change: none either.
+    for once in (run(script=script, change_deg=0.0), run(script={10: -1.0, 14: -0.25})):
+        positions = [late.position for late in once.mapped_late]
+        assert positions[positions.index(0, 1) :] == list(range(10))
+    # Beyond heading_rebuild_frames frames mapped, no more rebuilds.
+    bounded = run(script=script, rebuild_frames=12)
+    positions = [late.position for late in bounded.mapped_late]
+    assert positions[positions.index(0, 1) :] == list(range(10))
+
+
+@pytest.mark.parametrize("bad", [-1.0, float("inf"), float("nan")])
+def test_heading_rebuild_change_deg_must_be_finite_and_not_negative(bad):
+    with pytest.raises(ParameterError, match=r"PipelineParams\.heading_rebuild_change_deg"):
+        PipelineParams(heading_rebuild_change_deg=bad)
 
 
 @pytest.mark.parametrize("bad", [-1, 10_001, 2.0, True])

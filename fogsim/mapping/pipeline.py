@@ -26,7 +26,10 @@ Per frame (paper Fig. 1, 2 and Sec. IV), with the pose the robot *believes*:
    estimated from how well the structure seen from different places agrees, is taken out by a
    rotation about the vertical through the camera centre. The estimator takes its keyframes
    when a frame is segmented; when its first estimate comes, both maps are rebuilt from the
-   frames mapped before it (``pipe.heading_rebuild_frames``), with it.
+   frames mapped before it (``pipe.heading_rebuild_frames``), with it, and (when
+   ``pipe.heading_rebuild_change_deg`` is set; off by default) again when a later estimate
+   moves more than that from the one they were rebuilt with while no more than that many
+   frames have been mapped.
 4. Points and heights go to the world with the believed robot pose (x, y, yaw from odometry,
    z from the *elevation filter* below): ``h_G = h_R + z_R``.
 5. The grids follow the robot: both maps ``recenter`` on the believed (x, y).
@@ -64,6 +67,7 @@ evaluation layer (:mod:`fogsim.eval`).
 
 from __future__ import annotations
 
+import math
 import time
 from collections.abc import Callable
 from dataclasses import dataclass
@@ -250,13 +254,14 @@ class Pipeline:
         self.reference = HeightReference(self.run_params.reference)
         self._deferred: list[_FrameData] = []  # waiting for the height reference
         self._queue: list[_MapJob] = []  # to map at this frame
-        # Every frame mapped so far, for the rebuild with the heading's first estimate (None:
-        # no rebuild: done, off, or more than `heading_rebuild_frames` frames mapped before it).
+        # Every frame mapped so far, for the rebuilds with the heading's estimates (None: no
+        # more rebuilds: off, or more than `heading_rebuild_frames` frames mapped).
         self._mapped: list[_MapJob] | None = (
             []
             if self.heading.params.correct_heading and self.params.heading_rebuild_frames > 0
             else None
         )
+        self._rebuilt_rad: float | None = None  # the estimate the maps were rebuilt with
         self._processed = 0
         self.mapped_late: list[LateMapping] = []
         self.mapped_now: list[Frame] = []
@@ -398,25 +403,38 @@ class Pipeline:
         return [data.frame for data, _ in mapped]
 
     def _take_queue(self) -> list[_MapJob]:
-        """The queued frames to map now; with the heading's first estimate, all so far.
+        """The queued frames to map now; with a rebuild (`_rebuild_due`), all so far.
 
-        When the first estimate has come and frames were mapped before it, the maps start
-        anew (`_restart_maps`) and those frames come first. Beyond
-        ``pipe.heading_rebuild_frames`` frames mapped without an estimate there is no rebuild.
+        When the heading's first estimate has come, or a later one has moved more than
+        ``pipe.heading_rebuild_change_deg`` from the one the maps were rebuilt with, and frames
+        were mapped before it, the maps start anew (`_restart_maps`) and those frames come
+        first. Beyond ``pipe.heading_rebuild_frames`` frames mapped there is no rebuild.
         """
         jobs, self._queue = self._queue, []
         if self._mapped is None:
             return jobs
-        if self.heading.estimates:
+        if self._rebuild_due():
             if self._mapped:
                 jobs = self._mapped + jobs
                 self._restart_maps()
-            self._mapped = None
-            return jobs
+            self._mapped = []
+            self._rebuilt_rad = self.heading.correction_rad
+            if self.params.heading_rebuild_change_deg <= 0.0:  # only the first estimate's
+                self._mapped = None
+                return jobs
         self._mapped.extend(jobs)
         if len(self._mapped) > self.params.heading_rebuild_frames:
             self._mapped = None
         return jobs
+
+    def _rebuild_due(self) -> bool:
+        """The heading's first estimate has come, or it moved enough for another rebuild."""
+        if not self.heading.estimates:
+            return False
+        if self._rebuilt_rad is None:
+            return True
+        change_deg = math.degrees(abs(self.heading.correction_rad - self._rebuilt_rad))
+        return change_deg > self.params.heading_rebuild_change_deg
 
     def _restart_maps(self) -> None:
         """Both maps and the elevation filter as at the start (nothing mapped)."""
