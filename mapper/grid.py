@@ -226,6 +226,17 @@ class AffectedArea:
         """Columns in the area."""
         return (self.ix1 - self.ix0) * (self.iy1 - self.iy0)
 
+    def union(self, other: AffectedArea | None) -> AffectedArea:
+        """The bounding box of both areas (this one when ``other`` is None)."""
+        if other is None:
+            return self
+        return AffectedArea(
+            min(self.ix0, other.ix0),
+            max(self.ix1, other.ix1),
+            min(self.iy0, other.iy0),
+            max(self.iy1, other.iy1),
+        )
+
 
 @dataclass(frozen=True)
 class UpdateResult:

@@ -85,8 +85,8 @@ class FloorObstacleMapper:
         self._obstacle = np.full((p.nx, p.ny), np.nan)
         self._fog_types = np.full((p.nx, p.ny), CellType.UNKNOWN, dtype=np.int8)
         self._fog_heights = np.full((p.nx, p.ny), np.nan)
-        # (ix0, ix1, iy0, iy1), half-open: where the two above are stale (`_refresh_fog`).
-        self._stale_area: tuple[int, int, int, int] | None = None
+        # Where the two above are stale (`_refresh_fog`); None: nowhere.
+        self._stale_area: AffectedArea | None = None
         # Once-per-frame marks: one bit per layer in a word per column when the column fits one
         # word (`insert_frame_columns`, the fast path), else one bit per cell (`insert_frame`).
         if column_marks and p.nz > MAX_COLUMN_LAYERS:
@@ -248,21 +248,13 @@ class FloorObstacleMapper:
         # With raised rims the FOG is rewritten a cell farther, so that every cell whose
         # neighbour's label may have changed gets its label afresh before the rim rule.
         grow = 1 if p.raised_rim_obstacle else 0
-        area = (
+        grown = AffectedArea(
             max(int(ix0) - grow, 0),
             min(int(ix1) + grow, p.nx),
             max(int(iy0) - grow, 0),
             min(int(iy1) + grow, p.ny),
         )
-        stale = self._stale_area
-        if stale is not None:
-            area = (
-                min(stale[0], area[0]),
-                max(stale[1], area[1]),
-                min(stale[2], area[2]),
-                max(stale[3], area[3]),
-            )
-        self._stale_area = area
+        self._stale_area = grown.union(self._stale_area)
         return UpdateResult(
             AffectedArea(int(ix0), int(ix1), int(iy0), int(iy1)),
             used,
@@ -293,7 +285,7 @@ class FloorObstacleMapper:
         if stale is None:
             return
         self._stale_area = None
-        ix0, ix1, iy0, iy1 = stale
+        ix0, ix1, iy0, iy1 = stale.ix0, stale.ix1, stale.iy0, stale.iy1
         g = self._geometry
         p = self.params
         update_fog_area(

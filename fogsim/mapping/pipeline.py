@@ -417,14 +417,13 @@ class Pipeline:
             if self._mapped:
                 jobs = self._mapped + jobs
                 self._restart_maps()
-            self._mapped = []
             self._rebuilt_rad = self.heading.correction_rad
-            if self.params.heading_rebuild_change_deg <= 0.0:  # only the first estimate's
+            # Kept for another rebuild only when a later estimate may ask for one.
+            self._mapped = [] if self.params.heading_rebuild_change_deg > 0.0 else None
+        if self._mapped is not None:
+            self._mapped.extend(jobs)
+            if len(self._mapped) > self.params.heading_rebuild_frames:
                 self._mapped = None
-                return jobs
-        self._mapped.extend(jobs)
-        if len(self._mapped) > self.params.heading_rebuild_frames:
-            self._mapped = None
         return jobs
 
     def _rebuild_due(self) -> bool:
