@@ -14,11 +14,10 @@ import itertools
 import os
 from pathlib import Path
 
-from tqdm import tqdm
-
 from fogsim.config import Scenario
 from fogsim.data.recording import save_recording
 from fogsim.run.output_paths import check_output_path
+from fogsim.run.progress import FrameProgress
 from fogsim.sim.simulation import Simulation
 
 
@@ -53,7 +52,12 @@ def record_scenario(
     )
     frames = itertools.islice(simulation.frames(), total)
     if progress:
-        frames = tqdm(frames, total=total, unit="frame", desc=scenario.name)
-    kept = list(frames)
+        with FrameProgress(total, scenario.name) as bar:
+            kept = []
+            for frame in frames:
+                kept.append(frame)
+                bar.update()
+    else:
+        kept = list(frames)
     truths = [simulation.truth_at(frame.time_s) for frame in kept]
     return save_recording(path, kept, scenario=scenario, truths=truths), len(kept)

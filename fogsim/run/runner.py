@@ -603,12 +603,11 @@ def _run_frames_into(
         )
         warm_up.finish()
         if options.progress:
-            from tqdm import tqdm  # only for the progress bar
+            from fogsim.run.progress import FrameProgress  # tqdm: only for the progress bar
 
             name = scenario.name if scenario is not None else "run"
-            total = source.frame_count()
-            bar = cleanup.enter_context(tqdm(total=total, unit="frame", desc=name))
-            callbacks.append(lambda frame, pipeline: bar.update(1))
+            bar = cleanup.enter_context(FrameProgress(source.frame_count(), name))
+            callbacks.append(lambda frame, pipeline: bar.update())
         if video:
             from fogsim.viz.video import RunVideoWriter  # cv2, matplotlib: only for a video
 
