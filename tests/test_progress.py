@@ -2,13 +2,14 @@
 
 import io
 import time
+from contextlib import closing
 
 from fogsim.run.progress import FrameProgress
 
 
 def test_bar_starts_after_the_first_frame_counted_done() -> None:
     stream = io.StringIO()
-    with FrameProgress(10, "stage", file=stream) as progress:
+    with closing(FrameProgress(10, "stage", file=stream)) as progress:
         assert progress.bar is None  # nothing shown while the first frame runs
         assert stream.getvalue() == ""
         first_frame_done = time.time()
@@ -27,7 +28,7 @@ def test_bar_starts_after_the_first_frame_counted_done() -> None:
 
 def test_no_frame_no_bar() -> None:
     stream = io.StringIO()
-    with FrameProgress(5, "empty", file=stream) as progress:
+    with closing(FrameProgress(5, "empty", file=stream)) as progress:
         pass
     assert progress.bar is None
     assert stream.getvalue() == ""
@@ -35,7 +36,7 @@ def test_no_frame_no_bar() -> None:
 
 def test_unknown_total_counts_frames() -> None:
     stream = io.StringIO()
-    with FrameProgress(None, "bag", file=stream) as progress:
+    with closing(FrameProgress(None, "bag", file=stream)) as progress:
         for _ in range(3):
             progress.update()
     assert progress.bar is not None and progress.bar.n == 3

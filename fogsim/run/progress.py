@@ -12,7 +12,6 @@ the rest. The elapsed time it shows is the frames' after the first.
 
 from __future__ import annotations
 
-from types import TracebackType
 from typing import TextIO
 
 from tqdm import tqdm
@@ -20,6 +19,8 @@ from tqdm import tqdm
 
 class FrameProgress:
     """A tqdm bar over ``total`` frames, started at the end of the first.
+
+    Closed by :meth:`close` (``contextlib.closing`` in a ``with``).
 
     Attributes:
         bar: The tqdm bar; None until the first frame is done.
@@ -51,14 +52,3 @@ class FrameProgress:
         """Close the bar (if it was started)."""
         if self.bar is not None:
             self.bar.close()
-
-    def __enter__(self) -> FrameProgress:
-        return self
-
-    def __exit__(
-        self,
-        exc_type: type[BaseException] | None,
-        exc: BaseException | None,
-        traceback: TracebackType | None,
-    ) -> None:
-        self.close()

@@ -12,6 +12,7 @@ from __future__ import annotations
 
 import itertools
 import os
+from contextlib import closing
 from pathlib import Path
 
 from fogsim.config import Scenario
@@ -52,7 +53,7 @@ def record_scenario(
     )
     frames = itertools.islice(simulation.frames(), total)
     if progress:
-        with FrameProgress(total, scenario.name) as bar:
+        with closing(FrameProgress(total, scenario.name)) as bar:
             kept = []
             for frame in frames:
                 kept.append(frame)

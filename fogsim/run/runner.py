@@ -13,7 +13,7 @@ import os
 import sys
 import time
 from collections.abc import Callable, Iterable, Mapping
-from contextlib import ExitStack
+from contextlib import ExitStack, closing
 from dataclasses import dataclass
 from pathlib import Path
 from typing import TYPE_CHECKING
@@ -606,7 +606,7 @@ def _run_frames_into(
             from fogsim.run.progress import FrameProgress  # tqdm: only for the progress bar
 
             name = scenario.name if scenario is not None else "run"
-            bar = cleanup.enter_context(FrameProgress(source.frame_count(), name))
+            bar = cleanup.enter_context(closing(FrameProgress(source.frame_count(), name)))
             callbacks.append(lambda frame, pipeline: bar.update())
         if video:
             from fogsim.viz.video import RunVideoWriter  # cv2, matplotlib: only for a video
