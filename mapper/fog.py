@@ -71,6 +71,11 @@ Conventions (heights in world metres, NaN = invalid):
   left unlabelled fills the ground's layer with hits) or lower than every neighbour's (a
   stereo outlier), nothing in it stands on the floor. Only the output is relabelled: the rules
   above see eq. 11's obstacle, so a rim beside it stays unknown and no floor is added.
+- Beyond the paper, with `MapperParams.min_floor_frames` n > 1, after every rule above, a
+  floor fewer than n frames have seen as a plane (its frame votes) is unknown when no
+  neighbour holds a confirmed floor of its height and two opposite neighbours hold no floor
+  and a top reaching its level: a rough top's level patch that one frame's noise let through
+  (`mark_unconfirmed_floors`). Only the output is relabelled.
 - ``Ceiling(x, y)`` is the *bottom face* of the lowest occupied cell above the free space a
   robot could use: where the floor is valid, the lowest occupied cell whose top is above
   ``h_f + δ`` (the cells the FOG counts as obstacle); where it is not, the lowest occupied cell
@@ -1044,6 +1049,87 @@ def ceiling_map(
                 elif level < LEVEL_UNKNOWN:
                     seen_free = True
     return out
+
+
+# ---------------------------------------------------------------------------------------------
+# Unconfirmed floors (`MapperParams.min_floor_frames`), after every other rule.
+
+
+@numba.njit(cache=True, no_cfunc_wrapper=True, nogil=True, boundscheck=False, error_model="numpy")
+def mark_unconfirmed_floors(
+    floor: NDArray[np.float64],
+    obstacle: NDArray[np.float64],
+    frame_votes: NDArray[np.int32],
+    fog_types: NDArray[np.int8],
+    fog_heights: NDArray[np.float64],
+    min_frames: int,
+    band: float,
+    eps: float,
+    ix0: int,
+    ix1: int,
+    iy0: int,
+    iy1: int,
+) -> int:
+    """Beyond the paper: a floor only one frame has seen as a plane, inside something, is unknown.
+
+    In ``[ix0, ix1) × [iy0, iy1)`` (clipped to the grid) a cell the FOG labels floor whose
+    stored floor ``h`` holds fewer than ``min_frames`` frame votes (`MapperParams.floor_frame_cap`:
+    the frames that saw it as a plane, less those that saw no plane at its height) is unknown
+    when none of its 8 neighbours holds a floor within ``band`` of ``h`` with ``min_frames``
+    votes or more, and two opposite neighbours (north and south, east and west, or across a
+    diagonal) hold no floor and an obstacle top (eq. 10) no lower than ``h − eps``: the floor
+    lies inside something reaching its level (a rough top's columns around its level patch,
+    whether their bumps rise above it or not), not at its edge (a tread at its riser, the
+    ground at a wall, have such a neighbour on one side only). Now and then depth
+    noise lets a level patch of a rough top pass the segmentation's floor tests (stage, depth
+    seed 3: 25 regions in 832 frames, `SegmentationParams.floor_max_noise_ratio`), each time
+    elsewhere on the top and at another height, so another frame rarely confirms it; the
+    frames that see the top rough take it away (`mapper.floor_map.frame_verdicts`), but the
+    last frames' patches stay. A real surface is seen as a plane frame after frame, and a
+    floor seen for the first time beside a confirmed one of its height (a surface growing at
+    the edge of the view) keeps its label. Output only: the maps, and what the other rules
+    see, are unchanged.
+
+    The rule reads the maps, not the labels, so the result does not depend on the order of the
+    cells. The caller passes exactly the window whose labels `update_fog_area` (and
+    `mark_raised_rims`) have just written, for a stale area grown by a cell
+    (`FloorObstacleMapper.update`): a cell whose neighbour's maps changed is rewritten and
+    judged again.
+
+    Returns:
+        How many cells were relabelled.
+    """
+    nx, ny = floor.shape
+    changed = 0
+    for ix in range(max(ix0, 0), min(ix1, nx)):
+        for iy in range(max(iy0, 0), min(iy1, ny)):
+            if fog_types[ix, iy] != _FLOOR or frame_votes[ix, iy] >= min_frames:
+                continue
+            h = floor[ix, iy]
+            if np.isnan(h):
+                continue
+            confirmed = False
+            for jx in range(max(ix - 1, 0), min(ix + 2, nx)):
+                for jy in range(max(iy - 1, 0), min(iy + 2, ny)):
+                    f = floor[jx, jy]
+                    if (jx != ix or jy != iy) and frame_votes[jx, jy] >= min_frames:
+                        confirmed = confirmed or abs(f - h) <= band  # NaN floor: False
+            # Opposite neighbours (N-S, E-W and the diagonals) both of something reaching h.
+            inside = False
+            for dx, dy in ((1, 0), (0, 1), (1, 1), (1, -1)):
+                ax, ay, bx, by = ix + dx, iy + dy, ix - dx, iy - dy
+                if 0 <= ax < nx and 0 <= ay < ny and 0 <= bx < nx and 0 <= by < ny:
+                    inside = inside or (
+                        np.isnan(floor[ax, ay])
+                        and obstacle[ax, ay] >= h - eps  # NaN top: nothing
+                        and np.isnan(floor[bx, by])
+                        and obstacle[bx, by] >= h - eps
+                    )
+            if inside and not confirmed:
+                fog_types[ix, iy] = _UNKNOWN
+                fog_heights[ix, iy] = np.nan
+                changed += 1
+    return changed
 
 
 # ---------------------------------------------------------------------------------------------

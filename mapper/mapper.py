@@ -17,7 +17,7 @@ from numpy.typing import ArrayLike, NDArray
 from mapper.errors import InvalidParameterError
 from mapper.floor_cover import accumulate_cover, frame_floor_heights
 from mapper.floor_map import frame_verdicts, update_floor, verify_floor
-from mapper.fog import ceiling_map, mark_raised_rims, update_fog_area
+from mapper.fog import ceiling_map, mark_raised_rims, mark_unconfirmed_floors, update_fog_area
 from mapper.grid import (
     AffectedArea,
     CellType,
@@ -71,6 +71,8 @@ class FloorObstacleMapper:
     ) -> None:
         self.params = params if params is not None else MapperParams()
         p = self.params
+        # `MapperParams.min_floor_frames` needs the frame votes (`floor_frame_cap` > 0).
+        self._confirms_floors = p.min_floor_frames > 1 and p.floor_frame_cap > 0
         self._geometry = GridGeometry.from_params(p, center_xy_m)
         self._hit_table, self._miss_table = lookup_tables(p)
         self._occ_level = p.occ_threshold_level
@@ -247,7 +249,7 @@ class FloorObstacleMapper:
         # The obstacle heights and the FOG are recomputed when they are read (`_refresh_fog`).
         # With raised rims the FOG is rewritten a cell farther, so that every cell whose
         # neighbour's label may have changed gets its label afresh before the rim rule.
-        grow = 1 if p.raised_rim_obstacle else 0
+        grow = 1 if p.raised_rim_obstacle or self._confirms_floors else 0
         grown = AffectedArea(
             max(int(ix0) - grow, 0),
             min(int(ix1) + grow, p.nx),
@@ -270,11 +272,13 @@ class FloorObstacleMapper:
         """Recompute the obstacle heights (eq. 10) and the FOG (eq. 11) where they are stale.
 
         `update` changes the occupancy, floor and cover maps and only marks the area it
-        changed (grown by a cell with raised rims); the two derived maps are recomputed here,
-        once over the bounding box of every area marked since, when they are read (`fog`,
-        `obstacle`) and before the grids scroll (`recenter`). A cell's label is a function of
-        the maps around it (`mapper.fog.update_fog_area`, `mapper.fog.mark_raised_rims`:
-        they never read the labels they wrote before), so the result is bit for bit what
+        changed (grown by a cell with raised rims or `MapperParams.min_floor_frames`); the two
+        derived maps are recomputed here, once over the bounding box of every area marked
+        since, when they are read (`fog`, `obstacle`) and before the grids scroll
+        (`recenter`). A cell's label is a function of the maps around it
+        (`mapper.fog.update_fog_area`, `mapper.fog.mark_raised_rims`,
+        `mapper.fog.mark_unconfirmed_floors`: they never read the labels they wrote before,
+        but their own cell's), so the result is bit for bit what
         recomputing them after every update gives (``tests/test_fog_lazy.py``), and a frame
         whose FOG nobody reads costs no FOG (the stage's update: 0.14 of 0.93 ms a frame,
         `bench/bench_mapper.py --stages`). Scrolling first brings them up to date: after a
@@ -316,23 +320,38 @@ class FloorObstacleMapper:
             p.rim_over_seen_drop,
             p.ground_noise_unknown,
         )
+        # The window `update_fog_area` rewrote: the stale area and its ring of cells.
+        # (`update_fog_area`'s ring: the margin, the band's 2, the narrow rise's n + 1.)
+        banded = p.edge_band_m > 0.0 or p.unknown_beside_obstacles
+        ring = p.obstacle_margin_cells + (2 if banded else 0)
+        if p.edge_band_m > 0.0 and p.narrow_rise_cells > 0:
+            ring = max(ring, p.narrow_rise_cells + 1)
+        if p.edge_band_m > 0.0 and p.shadow_reach_cells > 1:
+            ring = max(ring, p.shadow_reach_cells + 1)
+        if p.edge_band_m > 0.0 and p.min_floor_neighbours > 0:
+            ring += 1
         if p.raised_rim_obstacle:  # `mapper.fog.mark_raised_rims`
-            # The window `update_fog_area` rewrote: the stale area and its ring of cells.
-            # (`update_fog_area`'s ring: the margin, the band's 2, the narrow rise's n + 1.)
-            banded = p.edge_band_m > 0.0 or p.unknown_beside_obstacles
-            ring = p.obstacle_margin_cells + (2 if banded else 0)
-            if p.edge_band_m > 0.0 and p.narrow_rise_cells > 0:
-                ring = max(ring, p.narrow_rise_cells + 1)
-            if p.edge_band_m > 0.0 and p.shadow_reach_cells > 1:
-                ring = max(ring, p.shadow_reach_cells + 1)
-            if p.edge_band_m > 0.0 and p.min_floor_neighbours > 0:
-                ring += 1
             mark_raised_rims(
                 self._floor,
                 self._obstacle,
                 self._fog_types,
                 self._fog_heights,
                 p.delta_m,
+                ix0 - ring,
+                ix1 + ring,
+                iy0 - ring,
+                iy1 + ring,
+            )
+        if self._confirms_floors:  # `mapper.fog.mark_unconfirmed_floors`, after every rule
+            mark_unconfirmed_floors(
+                self._floor,
+                self._obstacle,
+                self._floor_frame_votes,
+                self._fog_types,
+                self._fog_heights,
+                p.min_floor_frames,
+                p.edge_band_m if p.edge_band_m > 0.0 else p.eps_m,
+                p.eps_m,
                 ix0 - ring,
                 ix1 + ring,
                 iy0 - ring,

@@ -2385,6 +2385,41 @@ def level_heights(floor_of_segment, seg_hsums, n_floors):
 
 
 @numba.njit(cache=True, no_cfunc_wrapper=True, nogil=True, error_model="numpy")
+def region_noise_ratio(labels, sigma, typical, n_regions):
+    """(F,) mean of ``sigma / typical`` over each region's pixels (0 for a region without any).
+
+    `mapper.segmentation.segment_depth`'s roughness test of the floors
+    (`SegmentationParams.floor_max_noise_ratio`): ``sigma`` is the local noise estimate
+    (`local_noise_depth_m`, from second differences of inverse depth in a box reaching
+    ``noise_window_px`` columns and a row beyond the pixel, so also over pixels the region left
+    out), ``typical`` the sensor model's (or the image's) noise at the same depth.
+
+    Args:
+        labels: (H, W) region of each pixel (-1 none, -2 no measurement).
+        sigma: (H, W) local depth noise [m] (NaN: none).
+        typical: (H, W) typical depth noise at the pixel's depth [m] (NaN: none).
+        n_regions: F.
+    """
+    height, width = labels.shape
+    total = np.zeros(n_regions)
+    count = np.zeros(n_regions)
+    for r in range(height):
+        for c in range(width):
+            f = labels[r, c]
+            if f < 0:
+                continue
+            ratio = sigma[r, c] / typical[r, c]
+            if ratio == ratio:  # not NaN
+                total[f] += ratio
+                count[f] += 1.0
+    out = np.zeros(n_regions)
+    for f in range(n_regions):
+        if count[f] > 0.0:
+            out[f] = total[f] / count[f]
+    return out
+
+
+@numba.njit(cache=True, no_cfunc_wrapper=True, nogil=True, error_model="numpy")
 def floor_verdict(
     counts,
     n_segments,
@@ -2686,7 +2721,8 @@ def plane_labels(
 
     Returns:
         (W,) x and (H,) y of the columns and rows, (H, W) typical noise [m] (the range
-        profile's), the (S,) rows, starts and stops of the row segments, (H, W) plane of each
+        profile's, or the sensor model's), (H, W) local noise [m] (`local_noise_depth_m`),
+        the (S,) rows, starts and stops of the row segments, (H, W) plane of each
         pixel after the fill and (H, W) before it (-1 none, -2 no measurement), the (P, 13)
         plane fits and (P,) their pixels (before the fill).
     """
@@ -2792,6 +2828,7 @@ def plane_labels(
         x,
         y,
         typical_sigma,
+        sigma,
         seg_rows,
         seg_starts,
         seg_stops,

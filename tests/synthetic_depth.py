@@ -44,7 +44,10 @@ class Box:
         base_z_m: z of the bottom face [m] (0: standing on the ground).
         rough_amplitude_m: 0 for a flat top; else the peak amplitude of the top's bumps [m].
         rough_wavelength_m: spatial wavelength of the bumps [m].
-        rough_seed: seed of the bumps' random phases and directions.
+        rough_seed: seed of the bumps' random phases and directions (or heights).
+        rough_grid_m: 0 for the smooth bumps above; else the top is a height field like
+            fogsim's rough tops (`fogsim.sim.scene.rough_elevation`): heights drawn uniformly
+            within ±``rough_amplitude_m`` on a grid this far apart [m], bilinear between.
     """
 
     center_xy_m: tuple[float, float]
@@ -54,6 +57,7 @@ class Box:
     rough_amplitude_m: float = 0.0
     rough_wavelength_m: float = 0.12
     rough_seed: int = 0
+    rough_grid_m: float = 0.0
 
     @property
     def top_z_m(self) -> float:
@@ -64,6 +68,8 @@ class Box:
         """Height of the rough top above the flat top at box-frame (x, y) [m]; 0 if flat."""
         if self.rough_amplitude_m == 0.0:
             return np.zeros(np.broadcast(x_local, y_local).shape)
+        if self.rough_grid_m > 0.0:
+            return self._grid_bumps_m(x_local, y_local)
         rng = np.random.default_rng(self.rough_seed)
         angles = rng.uniform(0.0, np.pi, 3)
         phases = rng.uniform(0.0, 2.0 * np.pi, 3)
@@ -72,6 +78,25 @@ class Box:
         for angle, phase in zip(angles, phases, strict=True):
             total += np.sin(k * (np.cos(angle) * x_local + np.sin(angle) * y_local) + phase)
         return self.rough_amplitude_m * total / 3.0
+
+    def _grid_bumps_m(self, x_local: NDArray, y_local: NDArray) -> NDArray[np.float64]:
+        """The height-field bumps (``rough_grid_m`` > 0), bilinear in the grid's cells [m]."""
+        step = self.rough_grid_m
+        nx = math.ceil(self.size_m[0] / step) + 1
+        ny = math.ceil(self.size_m[1] / step) + 1
+        rng = np.random.default_rng(self.rough_seed)
+        heights = rng.uniform(-self.rough_amplitude_m, self.rough_amplitude_m, (nx, ny))
+        u = np.clip((np.asarray(x_local) + 0.5 * self.size_m[0]) / step, 0.0, nx - 1.0)
+        v = np.clip((np.asarray(y_local) + 0.5 * self.size_m[1]) / step, 0.0, ny - 1.0)
+        i = np.minimum(np.floor(u).astype(np.int64), nx - 2)
+        j = np.minimum(np.floor(v).astype(np.int64), ny - 2)
+        a, b = u - i, v - j
+        return (
+            (1 - a) * (1 - b) * heights[i, j]
+            + a * (1 - b) * heights[i + 1, j]
+            + (1 - a) * b * heights[i, j + 1]
+            + a * b * heights[i + 1, j + 1]
+        )
 
 
 @dataclass(frozen=True)

@@ -380,6 +380,47 @@ def test_rough_top_gets_no_floor_labels_at_one_percent_noise(seed):
     assert np.isfinite(heights[scene.box_index == GROUND]).mean() > 0.9
 
 
+# A rough top like fogsim's (heights drawn within ±5 cm on an 8 cm grid, bilinear between: the
+# stage's boxes, 10 cm bumps) seen through a depth camera's disparity noise, 1 % of the depth at
+# the box (σ_z = q·d²), with the segmentation's model of it (σ_d/(f·b) = q): the cases of box
+# seeds 0-5 × noise seeds 0-4 at 1.2 and 1.5 m in which a level patch of the top passes every
+# other floor test (27-63 pixels at 0.19-0.23 m), and one without any (the rule's no-op).
+ROUGH_GRID_CASES = [(1.2, 0, 1, 26), (1.2, 2, 0, 46), (1.5, 5, 1, 62), (1.5, 0, 0, 0)]
+
+
+@pytest.mark.parametrize(
+    ("x_m", "box_seed", "noise_seed", "floor_pixels_without"), ROUGH_GRID_CASES
+)
+def test_rough_grid_top_gets_no_floor_labels(x_m, box_seed, noise_seed, floor_pixels_without):
+    """`SegmentationParams.floor_max_noise_ratio` 1.3 (off by default: see its figures): the
+    top's local noise (bumps in the noise window) exceeds the sensor model's, so no patch of it
+    is a floor; the ground keeps its labels (the same with the rule off)."""
+    camera = look_down_camera((0.0, 0.0, 0.9), pitch_down_deg=30.0)
+    box = Box(
+        (x_m, 0.0),
+        (0.3, 0.25, 0.2),
+        rough_amplitude_m=0.05,
+        rough_grid_m=0.08,
+        rough_seed=box_seed,
+    )
+    scene = render_scene(SMALL, camera, [box])
+    q = 0.01 / math.hypot(x_m, 0.9 - 0.2)  # 1 % of the depth at the box [1/m]
+    depth = add_depth_noise(scene.depth_m, 0.0, np.random.default_rng(noise_seed), q)
+    model = {"disparity_noise_px": q * SMALL.fx * 0.07, "stereo_baseline_m": 0.07}
+    top = (scene.box_index == 0) & scene.on_top
+    ground = scene.box_index == GROUND
+    without = _floor_heights_image(
+        segment_depth(depth, SMALL, camera, SegmentationParams(floor_max_noise_ratio=0.0, **model))
+    )
+    params = SegmentationParams(floor_max_noise_ratio=1.3, **model)
+    heights = _floor_heights_image(segment_depth(depth, SMALL, camera, params))
+    assert np.isfinite(without[top]).sum() == floor_pixels_without
+    assert np.isnan(heights[top]).all()
+    labelled = np.isfinite(heights[ground])
+    assert labelled.mean() > 0.99
+    np.testing.assert_array_equal(labelled, np.isfinite(without[ground]))
+
+
 @pytest.mark.parametrize("seed", [0, 1])
 def test_far_noisy_ground_is_floor_never_below_it(seed):
     """Ground seen to 4 m with noise growing with the square of the range (the stage's stereo
