@@ -8,6 +8,9 @@ import numpy as np
 import pytest
 from synthetic_depth import Box, render_scene
 from test_pipeline import CAMERA_IN_ROBOT, INTR, RATE_HZ, ROBOT_POSE, camera_in_world
+from test_pipeline_heading import BOXES as WALK_BOXES
+from test_pipeline_heading import FIRST_ESTIMATE
+from test_pipeline_heading import FRAMES as WALK
 
 from fogsim.compare.command import run_compare
 from fogsim.compare.maps import parse_maps, row_names
@@ -23,6 +26,7 @@ from fogsim.config import PipelineParams, resolve_params
 from fogsim.data.frame import Frame
 from fogsim.data.recording import save_recording
 from fogsim.errors import FogsimError
+from fogsim.run.runner import run_frames
 from fogsim.world.truth import ObjectState, SceneTruth
 from mapper import CellType, GridGeometry, InvalidParameterError, MapperParams
 from mapper.backends import StepRuleParams, label_by_step
@@ -187,3 +191,38 @@ def test_a_mean_over_runs_that_never_cleared_is_shown_as_a_count():
     assert _cell(stat) == "never (never on 1 of 3)"
     cleared = aggregate([runs[0], runs[2]])["fog"][key]
     assert (cleared.mean, cleared.nevers) == (6.0, 0) and _cell(cleared) == "7 (6)"
+
+
+def _walk_truth():
+    """The truth of `test_pipeline_heading`'s walk: its three boxes on the ground."""
+    names = tuple(f"box_{i}" for i in range(len(WALK_BOXES)))
+    states = tuple(
+        ObjectState(name, box.center_xy_m, box.size_m, 0.0, 0.0, True)
+        for name, box in zip(names, WALK_BOXES, strict=True)
+    )
+    tops = zip(names, WALK_BOXES, strict=True)
+    heights = {"ground": 0.0} | {name: box.size_m[2] for name, box in tops}
+    return SceneTruth(0.0, states, ("ground", *names), heights)
+
+
+def test_the_comparison_rebuilds_every_map_with_the_heading_as_a_run_rebuilds_the_fog():
+    # The walk of test_pipeline_heading: the camera believed 3° off in yaw; the heading's first
+    # estimate comes at frame 17 and the pipeline maps the frames before it again. Every map
+    # starts anew there and gets those frames again, and the comparison's FOG scores what
+    # `fogsim run` scores (before session 36 it ran without the rebuild).
+    truth = _walk_truth()
+    params = resolve_params(None)
+    assert params.pipeline.heading_rebuild_frames >= FIRST_ESTIMATE
+    compared = compare_frames("walk", WALK, lambda t: truth, None, params, MAPS)
+    updates = compared.maps["fog"].update_ms.size
+    assert updates > len(WALK)  # frames mapped twice: before the estimate and with it
+    for m in MAPS:
+        assert compared.maps[m].update_ms.size == updates, m
+    run = run_frames(WALK, lambda t: truth, None, params=params, segment_ahead=False)
+    assert run.scores is not None
+    fog = compared.scores["fog"]  # its averaging rows score the FOG's heights: not compared
+    assert fog.cells.fog == run.scores.cells.fog
+    assert fog.cells.obstacles == run.scores.cells.obstacles
+    assert fog.table1.fog == run.scores.table1.fog
+    assert fog.safety == run.scores.safety
+    assert fog.step_edges == run.scores.step_edges

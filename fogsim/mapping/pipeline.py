@@ -223,6 +223,7 @@ class Pipeline:
             the heading's first estimate (a frame's last entry is its outcome).
         mapped_now: The frames mapped (again) by the last :meth:`process` before its own frame
             (the cells they saw count as seen at the grid's place now).
+        on_restart: The ``on_restart`` argument (settable).
 
     Args:
         params: All parameters (defaults when None).
@@ -233,6 +234,9 @@ class Pipeline:
             :class:`~fogsim.mapping.segmenter.FrameSegmenter` of the same ``params`` (a second
             thread's, :meth:`~fogsim.mapping.prefetch.SegmentAhead.segmented`), called with each
             frame processed, in order; None: a segmenter of this pipeline's with ``segment``.
+        on_restart: Called with the new FOG mapper each time the maps start anew for a
+            heading rebuild, before the frames mapped so far are mapped into it again (the
+            comparison restarts its other maps there and listens to the new mapper).
     """
 
     def __init__(
@@ -241,9 +245,11 @@ class Pipeline:
         segment: SegmentFunction = segment_depth,
         *,
         segmented: Segmented | None = None,
+        on_restart: Callable[[FloorObstacleMapper], None] | None = None,
     ) -> None:
         self.run_params = params or RunParams()
         self._segmented = segmented or FrameSegmenter(self.run_params, segment)
+        self.on_restart = on_restart
         self.mapper_params = self.run_params.mapper
         self.segmentation_params = pipeline_segmentation_params(self.run_params)
         self.params = self.run_params.pipeline
@@ -436,10 +442,12 @@ class Pipeline:
         return change_deg > self.params.heading_rebuild_change_deg
 
     def _restart_maps(self) -> None:
-        """Both maps and the elevation filter as at the start (nothing mapped)."""
+        """Both maps and the elevation filter as at the start (nothing mapped); ``on_restart``."""
         self.mapper = FloorObstacleMapper(self.mapper_params)
         self.baseline = AveragingMap(self.mapper_params)
         self.elevation = RobotElevationFilter(self.run_params.elevation)
+        if self.on_restart is not None:
+            self.on_restart(self.mapper)
 
     def _observe_heading(self, data: _FrameData) -> None:
         """Give the segmented frame to the heading estimator (the reference's shift so far)."""
