@@ -41,6 +41,22 @@ def test_region_interior_leaves_out_the_border_and_the_image_edge():
     assert not scanline.region_interior(labels, 2).any()  # 2 px in from every side: none
 
 
+def test_region_depth_counts_the_pixels_to_the_border():
+    labels = np.full((9, 9), -1, dtype=np.int64)
+    labels[1:8, 1:8] = 0  # a 7 × 7 region: border ring 0, then 1, 2, the centre 3
+    labels[0, :] = 1  # a region along the image's top edge: all border
+    depth = scanline.region_depth(labels, 5)
+    ring = np.minimum.reduce(np.indices((7, 7)).tolist() + (6 - np.indices((7, 7))).tolist())
+    np.testing.assert_array_equal(depth[1:8, 1:8], ring)
+    assert ring[3, 3] == 3
+    np.testing.assert_array_equal(depth[0], 0)
+    np.testing.assert_array_equal(depth[labels < 0], -1)
+    for margin in (0, 1, 2, 4):  # capped at the margin; `region_interior` is its top level
+        capped = scanline.region_depth(labels, margin)
+        np.testing.assert_array_equal(capped, np.minimum(depth, margin))
+        np.testing.assert_array_equal(capped >= margin, scanline.region_interior(labels, margin))
+
+
 def _matcher_window(depth_m, focal_baseline_px_m):
     """Disparity averaged over 3 rows (weights 1/4, 1/2, 1/4): a matcher's window at an edge."""
     disparity = focal_baseline_px_m / depth_m
@@ -86,3 +102,50 @@ def test_a_sill_blended_at_its_edges_is_labelled_at_its_height_from_its_inner_ro
     assert with_margin.size >= 18 and without.size >= 18  # the sill is labelled in most frames
     assert abs(np.median(with_margin)) <= 1.5, np.median(with_margin)
     assert np.median(without) <= -3.0, np.median(without)
+
+
+def _tread_heights(margins):
+    """A level region 5 rows × 22 columns seen straight down from 1 m above a 40 mm tread: its
+    border ring reads 10 mm low, the next ring 4 mm low (a matcher's window at the edges), the
+    middle row exact. The region's height [m] for each margin (`scanline.floor_statistics`)."""
+    height_m, origin_z = 0.04, 1.0
+    labels = np.full((7, 24), -1, dtype=np.int64)
+    labels[1:6, 1:23] = 0
+    ring = scanline.region_depth(labels, 5)
+    z = np.where(ring == 0, height_m - 0.010, np.where(ring == 1, height_m - 0.004, height_m))
+    rows, cols = np.indices(labels.shape)
+    rays = np.stack([(cols - 11.5) / 100.0, (rows - 3.0) / 100.0, -np.ones(labels.shape)], -1)
+    depth = np.where(labels >= 0, origin_z - z, np.nan)
+    points = rays * depth[..., None]
+    points[..., 2] += origin_z
+    interior = scanline.region_interior(labels, 1)
+    heights = []
+    for margin in margins:
+        _, h, *_ = scanline.floor_statistics(
+            labels,
+            labels,
+            interior,
+            scanline.region_depth(labels, margin),
+            margin,
+            points,
+            np.full(labels.shape, 0.002),
+            depth,
+            rays,
+            origin_z,
+            100.0,
+            100.0,
+            1,
+            0.0,
+        )
+        heights.append(h[0])
+    return np.asarray(heights)
+
+
+def test_a_narrow_region_takes_its_height_from_its_deepest_pixels():
+    """Margin 2 takes the middle row alone (exact); margin 3 finds no pixel 3 deep and takes
+    the deepest there are (exact; before session 35 it took every pixel, 6.1 mm low); margin 1
+    the inner 3 rows (2.8 mm low), margin 0 every pixel (6.1 mm low)."""
+    m0, m1, m2, m3 = _tread_heights((0, 1, 2, 3))
+    assert abs(m2 - 0.04) < 1e-9 and abs(m3 - 0.04) < 1e-9, (m2, m3)
+    assert -0.004 < m1 - 0.04 < -0.002, m1
+    assert m0 - 0.04 < -0.005, m0
