@@ -270,8 +270,11 @@ class SegmentationParams:
             the sill top's far row reads 10-25 mm low while its inner rows are within 4 mm, and
             the steps' floor pixels at 1-1.5 m (seed 4, true pose) are labelled twice as often
             and within 3 mm in the median instead of 11 mm low.
-        floor_height_margin_px: a floor region's height comes from its pixels farther than
-            this from its border (as `floor_edge_margin_px`). Growing selects one-sidedly at a
+        floor_height_margin_px: a floor region's height comes from its pixels at least this
+            far inside its border (up, down, left and right, `scanline.region_depth`); a region
+            with none (a narrow tread seen from afar) takes its deepest pixels, one with no pixel
+            inside its border ring all of them (before session 35 every region without a pixel
+            this deep took all its pixels, the border's too). Growing selects one-sidedly at a
             border: at a box top's rim the pixels just over the edge, on the side face, lie
             below the top, and those within the noise tolerance join the top's region — only
             from below, so they pull its height down in proportion to the noise (not at all on
@@ -279,6 +282,9 @@ class SegmentationParams:
             mode, seeds 1-8, frames 180-218: the flat box top 0.75 ± 0.07 mm below the ground's
             +60 mm with every pixel, 0.10 ± 0.05 mm without the ring; a synthetic box seen
             from the side: 0.79 mm low with 13 side-face pixels in its region of 234, 0.04).
+            For fogsim's stereo head 2 (`fogsim.sim.camera.noise_model`: its window rounds a
+            tread's convex edges down over two rows). Only the border ring counts as a rim
+            that a neighbouring surface may have lent (`_foreign_rim`), whatever the margin.
         plane_refit_sigma: the tilt correction takes each plane's normal from a refit on its
             pixels within this many sigma of the first least-squares fit (sigma: that fit's
             RMS residual, at least ``min_noise_m`` at the pixel's depth;
@@ -823,10 +829,10 @@ def floor_regions(origin, rays, points, sigma_z, depth, segments, intrinsics, pa
     return labels, floors
 
 
-def _foreign_rim(labels, height_interior, z, sigma_z, level_heights, params):
+def _foreign_rim(labels, inside, z, sigma_z, level_heights, params):
     """(H, W) bool: the pixels of the floor regions' rims that belong to a neighbouring surface.
 
-    A pixel outside its region's height interior (`SegmentationParams.floor_height_margin_px`)
+    A pixel of its region's border ring (with `SegmentationParams.floor_height_margin_px` >= 1)
     whose height lies farther from the region's level than ``floor_snap_sigma_factor`` times
     its noise along z. Growing takes such pixels into a region one-sidedly at its border (a box
     top's side face below its rim, a riser above a tread) and `scanline.floor_points` takes
@@ -836,14 +842,14 @@ def _foreign_rim(labels, height_interior, z, sigma_z, level_heights, params):
 
     Args:
         labels: (H, W) floor region of each pixel (-1 none, -2 no measurement).
-        height_interior: (H, W) bool, the pixels the regions' heights come from.
+        inside: (H, W) bool, the pixels within their region's border ring.
         z: (H, W) the pixels' heights in the tilt-corrected frame [m].
         sigma_z: (H, W) their noise along z [m].
         level_heights: (F,) each region's level [m] (its grown segments' weighted mean).
         params: segmentation parameters.
     """
     return scanline.foreign_rim(
-        labels, height_interior, z, sigma_z, level_heights, params.floor_snap_sigma_factor
+        labels, inside, z, sigma_z, level_heights, params.floor_snap_sigma_factor
     )
 
 
