@@ -2022,6 +2022,8 @@ def floor_statistics(
     fy,
     n_floors,
     tolerance_m,
+    roughness_m,
+    roughness_min_extent_m,
 ):
     """Per-floor pixel statistics of the level regions.
 
@@ -2050,12 +2052,16 @@ def floor_statistics(
         fy: focal length along y [px].
         n_floors: F.
         tolerance_m: added to sigma_z for the RMS (exact data) [m].
+        roughness_m: the surface's allowed unevenness, added to sigma_z (with
+            ``tolerance_m``, in quadrature) for the RMS of regions whose minor extent is at
+            least ``roughness_min_extent_m`` [m] (`SegmentationParams.floor_roughness_m`).
+        roughness_min_extent_m: ``floor_roughness_min_extent_m`` [m].
 
     Returns:
         pixel counts (F,) int64, heights (F,) [m] (the grown pixels' level fit in inverse
         depth, `_level_height`), RMS height residual over all pixels (about the level fit of
-        the same pixels) in units of sqrt(sigma_z² + tolerance_m²), squared residuals clipped
-        at 9 (F,),
+        the same pixels) in units of sqrt(sigma_z² + tolerance_m²) (+ roughness_m², see
+        above), squared residuals clipped at 9 (F,),
         footprint widths (F, 2) minor first [m] (sqrt(12)·std of the points moved onto the
         height along their rays) and footprint areas (F,) [m²] (pixel footprints on a
         horizontal plane, incidence capped at cos 0.1) and slopes (F,) ``|(a, b)|`` of the
@@ -2107,6 +2113,8 @@ def floor_statistics(
     used = np.zeros(n_floors, np.int64)
     counts = np.zeros(n_floors, np.int64)
     square = np.zeros(n_floors)
+    rough_square = np.zeros(n_floors)  # the same against the noise with the unevenness
+    rough_variance = tolerance_m**2 + roughness_m**2
     moments = np.zeros((n_floors, 5))  # x, y, xx, xy, yy of the points on the height
     fit = np.zeros((n_floors, 9))  # weighted sums for the slope: 1 x y xx xy yy z xz yz
     areas = np.zeros(n_floors)
@@ -2123,6 +2131,7 @@ def floor_statistics(
             n_f = counts[f]
             used_f = used[f]
             square_f = square[f]
+            rough_square_f = rough_square[f]
             m0, m1, m2, m3, m4 = (
                 moments[f, 0],
                 moments[f, 1],
@@ -2145,6 +2154,9 @@ def floor_statistics(
                     used_f += 1
                     # Clipped at 3 sigma: a row of riser pixels joined to a tread is no roughness.
                     square_f += min(residual * residual / (sigma * sigma + tolerance_m**2), 9.0)
+                    rough_square_f += min(
+                        residual * residual / (sigma * sigma + rough_variance), 9.0
+                    )
                 ray_z = rays[r, c, 2]
                 d = depth[r, c]
                 d_on = (height_f - origin_z) / ray_z if ray_z != 0.0 else -1.0
@@ -2176,6 +2188,7 @@ def floor_statistics(
             counts[f] = n_f
             used[f] = used_f
             square[f] = square_f
+            rough_square[f] = rough_square_f
             moments[f, 0], moments[f, 1], moments[f, 2], moments[f, 3], moments[f, 4] = (
                 m0,
                 m1,
@@ -2204,6 +2217,8 @@ def floor_statistics(
         root = math.sqrt(0.25 * (cxx - cyy) ** 2 + cxy * cxy)
         extents[f, 0] = math.sqrt(12.0 * max(half - root, 0.0))
         extents[f, 1] = math.sqrt(12.0 * max(half + root, 0.0))
+        if roughness_m > 0.0 and extents[f, 0] >= roughness_min_extent_m:
+            rms[f] = math.sqrt(rough_square[f] / used[f])
     return counts, heights, rms, extents, areas, slope
 
 
@@ -2572,6 +2587,8 @@ def level_regions(
     max_slope,
     max_rms_ratio,
     max_segment_chi2,
+    roughness_m,
+    roughness_min_extent_m,
 ):
     """The floor stage of `mapper.segmentation.floor_regions` in one call (its kernels in turn).
 
@@ -2611,6 +2628,8 @@ def level_regions(
         max_slope: tangent of ``floor_max_normal_angle_deg``.
         max_rms_ratio: ``floor_max_rms_ratio`` (0: no test).
         max_segment_chi2: ``floor_max_segment_chi2`` (0: no test).
+        roughness_m: ``floor_roughness_m`` [m] (`floor_statistics`).
+        roughness_min_extent_m: ``floor_roughness_min_extent_m`` [m].
 
     Returns:
         (H, W) floor region of each pixel (-1 none, -2 no measurement); per region (F,)
@@ -2683,6 +2702,8 @@ def level_regions(
         fy,
         n_floors,
         tolerance_floor_m,
+        roughness_m,
+        roughness_min_extent_m,
     )
     chi2, n_segments = floor_segment_fit(
         sums, floor_of_segment, n_floors, height_tolerance_m, min_extent_m

@@ -114,6 +114,8 @@ def _numpy_floor_stage(z, sigma_z, points, rays, depth, segments, origin_z, para
         INTRINSICS.fy,
         n_floors,
         params.tolerance_floor_m,
+        params.floor_roughness_m,
+        params.floor_roughness_min_extent_m,
     )
     chi2, n_segments = scanline.floor_segment_fit(
         sums, floor_of_segment, n_floors, params.floor_height_tolerance_m, params.min_plane_extent_m
@@ -163,6 +165,8 @@ def _level_regions(z, sigma_z, points, rays, depth, segments, origin_z, params):
         math.tan(math.radians(params.floor_max_normal_angle_deg)),
         params.floor_max_rms_ratio,
         params.floor_max_segment_chi2,
+        params.floor_roughness_m,
+        params.floor_roughness_min_extent_m,
     )
 
 
