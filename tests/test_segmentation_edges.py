@@ -138,6 +138,8 @@ def _tread_heights(margins):
             100.0,
             1,
             0.0,
+            0.0,
+            0.0,
         )
         heights.append(h[0])
     return np.asarray(heights)
