@@ -225,8 +225,9 @@ class SegmentationParams:
             34 at edges moved by the 2.4° residual heading, 22 heights more than 20 mm off),
             obstacle recall 98 → 24 %, and ``room`` 1.5 (5) → 2.0 (8), so it is off by default;
             3 mm is the value to try on measured, uneven terrain. Synthetic tops seen at 45°
-            from 0.9 m through the depth mode's noise (`tests/test_segmentation.py`): ±5 mm bumps are floor on 8 of 8 seeds (6 of 8
-            without), ±2 and ±4 cm bumps on none, as without. 5 mm (without the extent test)
+            from 0.9 m through the depth mode's noise (`tests/test_segmentation.py`): ±5 mm
+            bumps are floor on 8 of 8 seeds (6 of 8 without), ±2 and ±4 cm bumps on none, as
+            without. 5 mm (without the extent test)
             let the rocks of ``room``, ``stage`` and ``talos_course`` into the map: unsafe cells
             1.5 → 39.4, 0 → 8.9, 0.25 → 8.0 per run (depth, seeds 1-8). 0 (default): off.
         floor_roughness_min_extent_m: narrower regions (minor extent, as
@@ -321,8 +322,17 @@ class SegmentationParams:
             mode, seeds 1-8, frames 180-218: the flat box top 0.75 ± 0.07 mm below the ground's
             +60 mm with every pixel, 0.10 ± 0.05 mm without the ring; a synthetic box seen
             from the side: 0.79 mm low with 13 side-face pixels in its region of 234, 0.04).
-            For fogsim's stereo head 2 (`fogsim.sim.camera.noise_model`: its window rounds a
-            tread's convex edges down over two rows). Only the border ring counts as a rim
+            A stereo matcher's window rounds a tread's convex edges towards the farther
+            surface over more rows: fogsim's stereo head (window 2.5 output pixels), a 38 mm
+            sill and a 31 mm step seen from 0.93 m high (63 views, exact depth as reference):
+            the first row from an edge reads 6.8 / 4.9 mm low, the second 1.9 mm low on the
+            step, the third and fourth within 1.2 mm. 2 there (stereo replays, seeds 1-8,
+            session 35, 1 → 2, mean (worst)): Table I rows stage sill 2.23 (3.46) → 1.27
+            (2.04) mm, every stage row better, room sill 1.02 (1.87) → 0.76 (1.19); but the
+            zig-zag stage's sill 0.80 (1.37) → 1.03 (3.26, seed 8) and unsafe cells stage 5.0
+            (8) → 6.75 (12), zig-zag 31.9 (70) → 32.75 (87) (room 9.0 → 8.0, stage_down 6.5
+            → 5.6), so the stereo head keeps 1 (3: stage step_1 1.22 (1.44) mm, stage_down's
+            rows within 2.49 mm, room 11.25 unsafe cells). Only the border ring counts as a rim
             that a neighbouring surface may have lent (`_foreign_rim`), whatever the margin.
         plane_refit_sigma: the tilt correction takes each plane's normal from a refit on its
             pixels within this many sigma of the first least-squares fit (sigma: that fit's

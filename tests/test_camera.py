@@ -22,7 +22,6 @@ from fogsim.sim.camera import (
 from fogsim.sim.camera.noise_model import (
     MATCHER_DISPARITY_NOISE_PX,
     MATCHER_EDGE_MARGIN_PX,
-    MATCHER_HEIGHT_MARGIN_PX,
     MATCHER_MEAN_VARIANCE_FACTOR,
     segmentation_noise_fields,
 )
@@ -334,7 +333,6 @@ def test_segmentation_noise_fields_per_mode():
         "stereo_baseline_m": 0.068,
         "noise_correlation_factor": MATCHER_MEAN_VARIANCE_FACTOR,
         "floor_edge_margin_px": MATCHER_EDGE_MARGIN_PX,
-        "floor_height_margin_px": MATCHER_HEIGHT_MARGIN_PX,
         "max_depth_m": camera.range_m[1],
     }
     depth = segmentation_noise_fields(dataclasses.replace(camera, mode="depth"), 0.068)

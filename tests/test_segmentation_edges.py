@@ -12,7 +12,6 @@ import dataclasses
 import numpy as np
 from synthetic_depth import Box, add_stereo_noise, look_down_camera, render_scene
 
-from fogsim.sim.camera.noise_model import MATCHER_HEIGHT_MARGIN_PX
 from mapper import scanline
 from mapper.intrinsics import PinholeIntrinsics
 from mapper.segmentation import SegmentationParams, segment_depth
@@ -159,13 +158,13 @@ VIEWS_DEG_M = ((25.0, 30.0, 35.0), tuple(np.linspace(-0.3, 0.3, 7)))
 """Pitches down [deg] and camera x [m] of the views of a tread: 21 views from 0.9 m high."""
 
 
-def test_the_stereo_heads_height_margin_labels_narrow_treads_at_their_height():
+def test_a_height_margin_of_2_labels_narrow_treads_at_their_height_in_stereo():
     """A 31 mm tread 0.2 m deep 1.3-1.9 m ahead and one 0.1 m deep (a sill) 1.1-1.7 m ahead,
-    blended at their edges by the matcher's window (3 noise draws a view): with the stereo
-    head's margin (`MATCHER_HEIGHT_MARGIN_PX` 2) the median of the frames' median labels is
-    within 0.5 mm (measured -0.14 and -0.30 mm); with the default margin 1 the second rows
-    from the edges pull them 1.2 mm or more low (measured -1.73 and -1.33 mm)."""
-    head = dataclasses.replace(STEREO, floor_height_margin_px=MATCHER_HEIGHT_MARGIN_PX)
+    blended at their edges by the matcher's window (3 noise draws a view): with a height
+    margin of 2 (`SegmentationParams.floor_height_margin_px`) the median of the frames' median
+    labels is within 0.5 mm (measured -0.14 and -0.30 mm); with the default margin 1 the second
+    rows from the edges pull them 1.2 mm or more low (measured -1.73 and -1.33 mm)."""
+    head = dataclasses.replace(STEREO, floor_height_margin_px=2)
     for box in (Box((1.4, 0.0), (0.2, 1.5, 0.031)), Box((1.2, 0.0), (0.1, 1.5, 0.031))):
         with_head_margin = _sill_errors_mm(head, box, *VIEWS_DEG_M)
         with_one = _sill_errors_mm(STEREO, box, *VIEWS_DEG_M)

@@ -7,8 +7,7 @@ noise from the image, which reads a matcher's correlated errors at about 0.6× t
 
 - ``stereo``: the matcher's figures measured by ``bench/stereo_stats.py`` (stage, seed 1, every
   16th frame): :data:`MATCHER_DISPARITY_NOISE_PX`, :data:`MATCHER_MEAN_VARIANCE_FACTOR`, the
-  robot's baseline, :data:`MATCHER_EDGE_MARGIN_PX` and :data:`MATCHER_HEIGHT_MARGIN_PX` (the
-  matching window's reach);
+  robot's baseline, and :data:`MATCHER_EDGE_MARGIN_PX` (the matching window's reach);
 - ``depth``: the error model's own figures (:meth:`StereoErrorModel.equivalent_noise_px`,
   :meth:`StereoErrorModel.mean_variance_factor`);
 - ``ideal``: none.
@@ -30,23 +29,6 @@ MATCHER_EDGE_MARGIN_PX = 1
 """Pixels at a floor region's border that the segmentation leaves out of its height and
 smoothness (``floor_edge_margin_px``): the matcher's 5 render px window is 2.5 output pixels
 wide, so it blends about one output pixel on either side of an edge with the other surface."""
-MATCHER_HEIGHT_MARGIN_PX = 2
-"""Pixels at a floor region's border that the segmentation leaves out of its height
-(``floor_height_margin_px``; a narrow region takes its deepest pixels): the matcher's window
-(2.5 output pixels) rounds a tread's convex edges, where the depth along an image column has a
-local minimum, towards the farther surface, and growing adds the riser's pixels one-sidedly.
-A 38 mm sill and a 31 mm step seen in stereo from 0.93 m high (63 views, the exact depth
-as reference): the pixels of the top's first row from an edge read 6.8 and 4.9 mm low in the
-mean, the second row 1.9 mm low on the step (+1.8 mm on the sill, but 6.4 mm low next to its
-far, occluding edge in one view), the third and fourth rows within 1.2 mm. The default
-margin 1 leaves out only the first.
-Replays of the stereo recordings (seeds 1-8, session 35), margin 1 → 2, Table I rows mean
-(worst) [mm]: stage sill 2.23 (3.46) → 1.27 (2.04), step_1 1.89 (2.19) → 1.62 (1.86), every
-stage row better; room sill 1.02 (1.87) → 0.76 (1.19); stage_down within 1.69 (1.39 before);
-stage_zigzag's sill 0.80 (1.37) → 1.03 (3.26, seed 8). Unsafe cells stage 5.1 (8) → 7.0 (12),
-room 9.75 (16) → 8.25 (15), stage_down 6.5 (27) → 5.6 (26), zig-zag 32.5 (70) → 33.6 (88).
-Margin 3 (beyond the window's reach): stage step_1 1.22 (1.44) but stage_down's rows within
-2.49 mm and room's unsafe cells 11.25 (20)."""
 MATCHER_MEAN_VARIANCE_FACTOR = 3.0
 """How much the matcher's correlated errors inflate the variance of a mean of a row's pixels
 (`bench/stereo_stats.py`: 1.9, 2.3, 2.7 for 4, 8, 16 pixels, growing with the run; the
@@ -66,9 +48,8 @@ def segmentation_noise_fields(
         ``disparity_noise_px``, ``stereo_baseline_m``, ``noise_correlation_factor`` and
         ``max_depth_m`` (the camera's ``range_m`` cut: near it only the pixels measured too
         near are left, which the segmentation's tilt leaves out) for ``stereo`` and ``depth``,
-        and ``floor_edge_margin_px`` and ``floor_height_margin_px`` for ``stereo`` (the error
-        model of ``depth`` has no matching window); empty for ``ideal`` (the image's own noise
-        estimate).
+        and ``floor_edge_margin_px`` for ``stereo`` (the error model of ``depth`` has no
+        matching window); empty for ``ideal`` (the image's own noise estimate).
     """
     if config.mode == "stereo":
         return {
@@ -76,7 +57,6 @@ def segmentation_noise_fields(
             "stereo_baseline_m": stereo_baseline_m,
             "noise_correlation_factor": MATCHER_MEAN_VARIANCE_FACTOR,
             "floor_edge_margin_px": MATCHER_EDGE_MARGIN_PX,
-            "floor_height_margin_px": MATCHER_HEIGHT_MARGIN_PX,
             "max_depth_m": config.range_m[1],
         }
     if config.mode == "depth":
