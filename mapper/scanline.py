@@ -1946,15 +1946,51 @@ def region_interior(labels, margin_px):
 
 
 @numba.njit(cache=True, no_cfunc_wrapper=True, nogil=True, error_model="numpy")
-def foreign_rim(labels, height_interior, z, sigma_z, level_heights, factor):
+def region_depth(labels, margin_px):
+    """(H, W) int64: how deep inside its region each pixel lies [px], at most ``margin_px``.
+
+    A labelled pixel's depth is the largest ``k`` <= ``margin_px`` for which its neighbours up
+    to ``k`` away up, down, left and right all carry its own region (beyond the image border
+    counts as another region): 0 on the region's border, and ``region_depth(labels, m) >= m``
+    is `region_interior` ``(labels, m)``. -1 where ``labels`` < 0.
+    """
+    height, width = labels.shape
+    out = np.full((height, width), -1, np.int64)
+    for r in range(height):
+        for c in range(width):
+            f = labels[r, c]
+            if f < 0:
+                continue
+            k = 0
+            while k < margin_px:
+                j = k + 1
+                if (
+                    r - j < 0
+                    or r + j >= height
+                    or c - j < 0
+                    or c + j >= width
+                    or labels[r - j, c] != f
+                    or labels[r + j, c] != f
+                    or labels[r, c - j] != f
+                    or labels[r, c + j] != f
+                ):
+                    break
+                k = j
+            out[r, c] = k
+    return out
+
+
+@numba.njit(cache=True, no_cfunc_wrapper=True, nogil=True, error_model="numpy")
+def foreign_rim(labels, inside, z, sigma_z, level_heights, factor):
     """(H, W) bool: the floor regions' rim pixels of a neighbouring surface.
 
-    Labelled pixels outside ``height_interior`` farther from their region's level than
+    Labelled pixels outside ``inside`` farther from their region's level than
     ``factor`` times their noise along z (`segmentation._foreign_rim`, in one pass).
 
     Args:
         labels: (H, W) floor region of each pixel (-1 none, -2 no measurement).
-        height_interior: (H, W) bool, the pixels the regions' heights come from.
+        inside: (H, W) bool, the pixels within their region's border ring (`region_depth`
+            >= 1; every labelled pixel when ``floor_height_margin_px`` is 0).
         z: (H, W) the pixels' heights [m].
         sigma_z: (H, W) their noise along z [m].
         level_heights: (F,) each region's level [m].
@@ -1965,7 +2001,7 @@ def foreign_rim(labels, height_interior, z, sigma_z, level_heights, factor):
     for r in range(height):
         for c in range(width):
             f = labels[r, c]
-            if f >= 0 and not height_interior[r, c]:
+            if f >= 0 and not inside[r, c]:
                 out[r, c] = abs(z[r, c] - level_heights[f]) > factor * sigma_z[r, c]
     return out
 
@@ -1975,7 +2011,8 @@ def floor_statistics(
     labels,
     grown,
     interior,
-    height_interior,
+    height_depth,
+    height_margin_px,
     points,
     sigma_z,
     depth,
@@ -1985,21 +2022,27 @@ def floor_statistics(
     fy,
     n_floors,
     tolerance_m,
+    roughness_m,
+    roughness_min_extent_m,
 ):
     """Per-floor pixel statistics of the level regions.
 
     RMS and slope come from a region's *interior* pixels (`region_interior`) when it has any,
     else from all of them: a stereo matcher's window blends the pixels at a region's border
     with the neighbouring surface (a sill's far row reads 10-25 mm low, a tread's rows next to
-    its riser too), which would count as roughness. The height comes from the pixels of
-    ``height_interior`` the same way: besides the blending, a region's border is where the
-    growing selects one-sidedly (see `SegmentationParams.floor_height_margin_px`).
+    its riser too), which would count as roughness. The height comes from the grown pixels at
+    least ``height_margin_px`` inside the region (``height_depth``, `region_depth`); a region
+    with none (a narrow tread seen from afar) takes its deepest pixels, and only one without
+    any pixel inside its border takes all: besides the blending, a region's border is where
+    the growing selects one-sidedly (see `SegmentationParams.floor_height_margin_px`).
 
     Args:
         labels: (H, W) floor of each pixel after the fill (-1 none, -2 invalid).
         grown: (H, W) floor of each pixel before the fill (its segments').
         interior: (H, W) bool, the pixel is in its region's interior (`region_interior`).
-        height_interior: (H, W) bool, the interior the height is taken from.
+        height_depth: (H, W) int, how deep inside its region each pixel lies, capped at
+            ``height_margin_px`` (`region_depth` of ``labels``).
+        height_margin_px: ``floor_height_margin_px``: the depth the height is taken from.
         points: (H, W, 3) points in the tilt-corrected robot frame [m].
         sigma_z: (H, W) their noise along z [m].
         depth: (H, W) measured depths [m].
@@ -2009,12 +2052,16 @@ def floor_statistics(
         fy: focal length along y [px].
         n_floors: F.
         tolerance_m: added to sigma_z for the RMS (exact data) [m].
+        roughness_m: the surface's allowed unevenness, added to sigma_z (with
+            ``tolerance_m``, in quadrature) for the RMS of regions whose minor extent is at
+            least ``roughness_min_extent_m`` [m] (`SegmentationParams.floor_roughness_m`).
+        roughness_min_extent_m: ``floor_roughness_min_extent_m`` [m].
 
     Returns:
         pixel counts (F,) int64, heights (F,) [m] (the grown pixels' level fit in inverse
         depth, `_level_height`), RMS height residual over all pixels (about the level fit of
-        the same pixels) in units of sqrt(sigma_z² + tolerance_m²), squared residuals clipped
-        at 9 (F,),
+        the same pixels) in units of sqrt(sigma_z² + tolerance_m²) (+ roughness_m², see
+        above), squared residuals clipped at 9 (F,),
         footprint widths (F, 2) minor first [m] (sqrt(12)·std of the points moved onto the
         height along their rays) and footprint areas (F,) [m²] (pixel footprints on a
         horizontal plane, incidence capped at cos 0.1) and slopes (F,) ``|(a, b)|`` of the
@@ -2024,8 +2071,9 @@ def floor_statistics(
     height, width = labels.shape
     # Normal equations of the level model in inverse depth, q = ray_z·u with u = 1/(h − origin_z)
     # (see `_level_height`): Σw·ray_z², Σw·ray_z·q over the grown pixels: all of them, the
-    # interior ones, those of the height's interior.
-    normal_sums = np.zeros((n_floors, 3, 2))
+    # interior ones; and over those at each depth inside the region (0 .. height_margin_px).
+    normal_sums = np.zeros((n_floors, 2, 2))
+    depth_sums = np.zeros((n_floors, height_margin_px + 1, 2))
     has_interior = np.zeros(n_floors, np.bool_)
     for r in range(height):
         for c in range(width):
@@ -2045,19 +2093,28 @@ def floor_statistics(
                 if interior[r, c]:
                     normal_sums[f, 1, 0] += term_0
                     normal_sums[f, 1, 1] += term_1
-                if height_interior[r, c]:
-                    normal_sums[f, 2, 0] += term_0
-                    normal_sums[f, 2, 1] += term_1
+                k = height_depth[r, c]
+                if k > 0:
+                    depth_sums[f, k, 0] += term_0
+                    depth_sums[f, k, 1] += term_1
     heights = np.zeros(n_floors)
     rms_heights = np.zeros(n_floors)  # the reference of the RMS: its own pixels' level
     for f in range(n_floors):
-        k = 2 if normal_sums[f, 2, 0] > 0.0 else 0
-        heights[f] = _level_height(normal_sums[f, k, 0], normal_sums[f, k, 1], origin_z)
+        # The deepest pixels up to the margin (a level's sums hold the pixels at that depth).
+        k = height_margin_px
+        while k > 0 and not depth_sums[f, k, 0] > 0.0:
+            k -= 1
+        if k > 0:
+            heights[f] = _level_height(depth_sums[f, k, 0], depth_sums[f, k, 1], origin_z)
+        else:
+            heights[f] = _level_height(normal_sums[f, 0, 0], normal_sums[f, 0, 1], origin_z)
         k = 1 if normal_sums[f, 1, 0] > 0.0 else 0
         rms_heights[f] = _level_height(normal_sums[f, k, 0], normal_sums[f, k, 1], origin_z)
     used = np.zeros(n_floors, np.int64)
     counts = np.zeros(n_floors, np.int64)
     square = np.zeros(n_floors)
+    rough_square = np.zeros(n_floors)  # the same against the noise with the unevenness
+    rough_variance = tolerance_m**2 + roughness_m**2
     moments = np.zeros((n_floors, 5))  # x, y, xx, xy, yy of the points on the height
     fit = np.zeros((n_floors, 9))  # weighted sums for the slope: 1 x y xx xy yy z xz yz
     areas = np.zeros(n_floors)
@@ -2074,6 +2131,7 @@ def floor_statistics(
             n_f = counts[f]
             used_f = used[f]
             square_f = square[f]
+            rough_square_f = rough_square[f]
             m0, m1, m2, m3, m4 = (
                 moments[f, 0],
                 moments[f, 1],
@@ -2096,6 +2154,9 @@ def floor_statistics(
                     used_f += 1
                     # Clipped at 3 sigma: a row of riser pixels joined to a tread is no roughness.
                     square_f += min(residual * residual / (sigma * sigma + tolerance_m**2), 9.0)
+                    rough_square_f += min(
+                        residual * residual / (sigma * sigma + rough_variance), 9.0
+                    )
                 ray_z = rays[r, c, 2]
                 d = depth[r, c]
                 d_on = (height_f - origin_z) / ray_z if ray_z != 0.0 else -1.0
@@ -2127,6 +2188,7 @@ def floor_statistics(
             counts[f] = n_f
             used[f] = used_f
             square[f] = square_f
+            rough_square[f] = rough_square_f
             moments[f, 0], moments[f, 1], moments[f, 2], moments[f, 3], moments[f, 4] = (
                 m0,
                 m1,
@@ -2155,6 +2217,8 @@ def floor_statistics(
         root = math.sqrt(0.25 * (cxx - cyy) ** 2 + cxy * cxy)
         extents[f, 0] = math.sqrt(12.0 * max(half - root, 0.0))
         extents[f, 1] = math.sqrt(12.0 * max(half + root, 0.0))
+        if roughness_m > 0.0 and extents[f, 0] >= roughness_min_extent_m:
+            rms[f] = math.sqrt(rough_square[f] / used[f])
     return counts, heights, rms, extents, areas, slope
 
 
@@ -2523,14 +2587,16 @@ def level_regions(
     max_slope,
     max_rms_ratio,
     max_segment_chi2,
+    roughness_m,
+    roughness_min_extent_m,
 ):
     """The floor stage of `mapper.segmentation.floor_regions` in one call (its kernels in turn).
 
     `split_level`, `horizontal_sums`, `grow_floors`, `segment_labels`, `level_heights`,
     `fill_pixels` (grown heights, no pixel fill without regions or passes), `region_interior`
-    (edge and height margins), `foreign_rim` (with ``snap_factor`` > 0), `floor_statistics`,
-    `floor_segment_fit` and `floor_verdict`, with the same arguments: one dispatch and no
-    intermediate arrays handed to Python (the same results bit for bit).
+    (edge margin), `region_depth` (height margin), `foreign_rim` (with ``snap_factor`` > 0),
+    `floor_statistics`, `floor_segment_fit` and `floor_verdict`, with the same arguments: one
+    dispatch and no intermediate arrays handed to Python (the same results bit for bit).
 
     Args:
         z: (H, W) C-contiguous heights of the pixels in the tilt-corrected frame [m].
@@ -2562,6 +2628,8 @@ def level_regions(
         max_slope: tangent of ``floor_max_normal_angle_deg``.
         max_rms_ratio: ``floor_max_rms_ratio`` (0: no test).
         max_segment_chi2: ``floor_max_segment_chi2`` (0: no test).
+        roughness_m: ``floor_roughness_m`` [m] (`floor_statistics`).
+        roughness_min_extent_m: ``floor_roughness_min_extent_m`` [m].
 
     Returns:
         (H, W) floor region of each pixel (-1 none, -2 no measurement); per region (F,)
@@ -2612,19 +2680,19 @@ def level_regions(
             _LEVEL_MODEL,
         )
     interior = region_interior(labels, edge_margin_px)
-    height_interior = (
-        interior
-        if height_margin_px == edge_margin_px
-        else region_interior(labels, height_margin_px)
-    )
+    # The height comes from the pixels deepest inside, up to the margin; the rim a neighbouring
+    # surface may have lent a region is its border ring (the margin's first pixel).
+    height_depth = region_depth(labels, height_margin_px)
     if n_floors > 0 and snap_factor > 0.0:
-        rim = foreign_rim(labels, height_interior, z, sigma_z, grown_heights, snap_factor)
+        ring_inside = height_depth >= min(height_margin_px, 1)
+        rim = foreign_rim(labels, ring_inside, z, sigma_z, grown_heights, snap_factor)
         interior = interior & ~rim
     counts, heights, rms, extents, areas, slope = floor_statistics(
         labels,
         grown,
         interior,
-        height_interior,
+        height_depth,
+        height_margin_px,
         points,
         sigma_z,
         depth,
@@ -2634,6 +2702,8 @@ def level_regions(
         fy,
         n_floors,
         tolerance_floor_m,
+        roughness_m,
+        roughness_min_extent_m,
     )
     chi2, n_segments = floor_segment_fit(
         sums, floor_of_segment, n_floors, height_tolerance_m, min_extent_m

@@ -104,6 +104,8 @@ _NON_NEGATIVE_FIELDS = (
     "noise_cap_factor",
     "floor_max_rms_ratio",
     "floor_max_noise_ratio",
+    "floor_roughness_m",
+    "floor_roughness_min_extent_m",
     "ground_relabel_sigma_factor",
     "floor_snap_sigma_factor",
     "floor_height_tolerance_m",
@@ -205,6 +207,44 @@ class SegmentationParams:
             over its side edge. Stereo: no effect (the model floors the local estimate; a
             matcher's smoothing leaves rough tops at 0.45-0.9 of it, flat floors 0.36-1.1).
             `MapperParams.min_floor_frames` takes the patches that reach the map instead.
+        floor_roughness_m: the unevenness a floor may have besides the sensor noise [m, RMS]:
+            the RMS ratio of a region at least `floor_roughness_min_extent_m` wide is taken
+            against sqrt(σ_z² + ``tolerance_floor_m``² + this²) instead of sqrt(σ_z² +
+            ``tolerance_floor_m``²), so a surface uneven by this much passes where the sensor
+            resolves millimetres and the test is nearly unchanged where it does not (at σ_z
+            10 mm by 4 %). A foot stands on a tread level within ±5 mm (the growing's
+            `floor_height_tolerance_m` lets segment means differ by as much); unevenness spread
+            evenly over ±5 mm has an RMS of 5/√3 = 2.9 mm. 3 mm: the measured treads
+            of ``eth_stairs`` (an ANYmal elevation map, 8-bit heights: 4.9 mm steps) read
+            1.16–1.33 at σ_z of 2–3 mm (about 2 mm RMS of unevenness) and its landing
+            1.02–1.13, so 63 % of its frames had no floor but the ground and were withdrawn
+            (seeds 1-8, depth: 144 of 227 frames, 30 % of the seen floor found); with 3 mm none
+            is withdrawn and 87 % of the floor is found (2 mm left 1–2 frames withdrawn on 2 of 4
+            seeds). But the floor it finds there shows what the withdrawn frames hid: unsafe
+            cells 5.9 (13) → 146 (195) per run (91 from treads above the grid's 0.58 m top,
+            34 at edges moved by the 2.4° residual heading, 22 heights more than 20 mm off),
+            obstacle recall 98 → 24 %, and ``room`` 1.5 (5) → 2.0 (8), so it is off by default;
+            3 mm is the value to try on measured, uneven terrain. Synthetic tops seen at 45°
+            from 0.9 m through the depth mode's noise (`tests/test_segmentation.py`): ±5 mm
+            bumps are floor on 8 of 8 seeds (6 of 8 without), ±2 and ±4 cm bumps on none, as
+            without. 5 mm (without the extent test)
+            let the rocks of ``room``, ``stage`` and ``talos_course`` into the map: unsafe cells
+            1.5 → 39.4, 0 → 8.9, 0.25 → 8.0 per run (depth, seeds 1-8). 0 (default): off.
+        floor_roughness_min_extent_m: narrower regions (minor extent, as
+            `min_plane_extent_m`) keep the plain RMS ratio [m]. A rough top's level regions
+            are the patches whose noisy heights happen to lie near one level (growing selects
+            pixels by their height), so their RMS understates the top's roughness and many sit
+            just above `floor_max_rms_ratio`; the allowance turned them into floors (3 mm for
+            every region: unsafe cells on ``room`` 1.5 → 8.0, ``stage`` 0 → 2.25,
+            ``talos_course`` 0.25 → 2.1 per run, depth, seeds 1-8). Such patches are narrower
+            than the rough objects (at most 0.35 m): the ones 3 mm made floors were 0.08–0.23 m
+            wide (``room``, ``talos_course``, ``stage_zigzag`` seed 1 and ``stage`` seed 3,
+            depth, every 2nd frame; 0.16–0.18 m on ``stage_zigzag`` stereo), while the
+            ``eth_stairs`` treads are 0.28–0.55 m. 0.25 (default; a stair's going is at least
+            about that): ``stage_zigzag`` unsafe cells 11.25 → 11.5 per run (a gate of 200
+            pixels instead: 14.4, its rough box tops are seen from nearby), ``room`` 1.5 → 2.0;
+            ``eth_stairs`` loses its narrow views of the landing (87 % of its floor found
+            instead of 94 % with the pixel gate; none withdrawn either way). 0: every region.
         ground_relabel_sigma_factor: a point in no level region whose depth is within this many
             sigma (the typical noise at its depth) of where its ray meets the ground plane is
             a ground point (labelled with the ground's height). 3: far, noisy ground that
@@ -270,8 +310,11 @@ class SegmentationParams:
             the sill top's far row reads 10-25 mm low while its inner rows are within 4 mm, and
             the steps' floor pixels at 1-1.5 m (seed 4, true pose) are labelled twice as often
             and within 3 mm in the median instead of 11 mm low.
-        floor_height_margin_px: a floor region's height comes from its pixels farther than
-            this from its border (as `floor_edge_margin_px`). Growing selects one-sidedly at a
+        floor_height_margin_px: a floor region's height comes from its pixels at least this
+            far inside its border (up, down, left and right, `scanline.region_depth`); a region
+            with none (a narrow tread seen from afar) takes its deepest pixels, one with no pixel
+            inside its border ring all of them (before session 35 every region without a pixel
+            this deep took all its pixels, the border's too). Growing selects one-sidedly at a
             border: at a box top's rim the pixels just over the edge, on the side face, lie
             below the top, and those within the noise tolerance join the top's region — only
             from below, so they pull its height down in proportion to the noise (not at all on
@@ -279,6 +322,18 @@ class SegmentationParams:
             mode, seeds 1-8, frames 180-218: the flat box top 0.75 ± 0.07 mm below the ground's
             +60 mm with every pixel, 0.10 ± 0.05 mm without the ring; a synthetic box seen
             from the side: 0.79 mm low with 13 side-face pixels in its region of 234, 0.04).
+            A stereo matcher's window rounds a tread's convex edges towards the farther
+            surface over more rows: fogsim's stereo head (window 2.5 output pixels), a 38 mm
+            sill and a 31 mm step seen from 0.93 m high (63 views, exact depth as reference):
+            the first row from an edge reads 6.8 / 4.9 mm low, the second 1.9 mm low on the
+            step, the third and fourth within 1.2 mm. 2 there (stereo replays, seeds 1-8,
+            session 35, 1 → 2, mean (worst)): Table I rows stage sill 2.23 (3.46) → 1.27
+            (2.04) mm, every stage row better, room sill 1.02 (1.87) → 0.76 (1.19); but the
+            zig-zag stage's sill 0.80 (1.37) → 1.03 (3.26, seed 8) and unsafe cells stage 5.0
+            (8) → 6.75 (12), zig-zag 31.9 (70) → 32.75 (87) (room 9.0 → 8.0, stage_down 6.5
+            → 5.6), so the stereo head keeps 1 (3: stage step_1 1.22 (1.44) mm, stage_down's
+            rows within 2.49 mm, room 11.25 unsafe cells). Only the border ring counts as a rim
+            that a neighbouring surface may have lent (`_foreign_rim`), whatever the margin.
         plane_refit_sigma: the tilt correction takes each plane's normal from a refit on its
             pixels within this many sigma of the first least-squares fit (sigma: that fit's
             RMS residual, at least ``min_noise_m`` at the pixel's depth;
@@ -321,6 +376,8 @@ class SegmentationParams:
     min_plane_extent_m: float = 0.08
     floor_max_rms_ratio: float = 1.05
     floor_max_noise_ratio: float = 0.0
+    floor_roughness_m: float = 0.0
+    floor_roughness_min_extent_m: float = 0.25
     ground_relabel_sigma_factor: float = 3.0
     floor_snap_sigma_factor: float = 3.0
     floor_height_tolerance_m: float = 0.005
@@ -811,6 +868,8 @@ def floor_regions(origin, rays, points, sigma_z, depth, segments, intrinsics, pa
         math.tan(math.radians(params.floor_max_normal_angle_deg)),
         params.floor_max_rms_ratio,
         params.floor_max_segment_chi2,
+        params.floor_roughness_m,
+        params.floor_roughness_min_extent_m,
     )
     floors = FloorTable(
         pixel_counts=counts,
@@ -823,10 +882,10 @@ def floor_regions(origin, rays, points, sigma_z, depth, segments, intrinsics, pa
     return labels, floors
 
 
-def _foreign_rim(labels, height_interior, z, sigma_z, level_heights, params):
+def _foreign_rim(labels, inside, z, sigma_z, level_heights, params):
     """(H, W) bool: the pixels of the floor regions' rims that belong to a neighbouring surface.
 
-    A pixel outside its region's height interior (`SegmentationParams.floor_height_margin_px`)
+    A pixel of its region's border ring (with `SegmentationParams.floor_height_margin_px` >= 1)
     whose height lies farther from the region's level than ``floor_snap_sigma_factor`` times
     its noise along z. Growing takes such pixels into a region one-sidedly at its border (a box
     top's side face below its rim, a riser above a tread) and `scanline.floor_points` takes
@@ -836,14 +895,14 @@ def _foreign_rim(labels, height_interior, z, sigma_z, level_heights, params):
 
     Args:
         labels: (H, W) floor region of each pixel (-1 none, -2 no measurement).
-        height_interior: (H, W) bool, the pixels the regions' heights come from.
+        inside: (H, W) bool, the pixels within their region's border ring.
         z: (H, W) the pixels' heights in the tilt-corrected frame [m].
         sigma_z: (H, W) their noise along z [m].
         level_heights: (F,) each region's level [m] (its grown segments' weighted mean).
         params: segmentation parameters.
     """
     return scanline.foreign_rim(
-        labels, height_interior, z, sigma_z, level_heights, params.floor_snap_sigma_factor
+        labels, inside, z, sigma_z, level_heights, params.floor_snap_sigma_factor
     )
 
 

@@ -93,20 +93,18 @@ def _numpy_floor_stage(z, sigma_z, points, rays, depth, segments, origin_z, para
             False,
         )
     interior = scanline.region_interior(labels, params.floor_edge_margin_px)
-    height_interior = (
-        interior
-        if params.floor_height_margin_px == params.floor_edge_margin_px
-        else scanline.region_interior(labels, params.floor_height_margin_px)
-    )
+    height_depth = scanline.region_depth(labels, params.floor_height_margin_px)
+    ring_inside = height_depth >= min(params.floor_height_margin_px, 1)
     if n_floors > 0 and params.floor_snap_sigma_factor > 0.0:
         interior = interior & ~scanline.foreign_rim(
-            labels, height_interior, z, sigma_z, grown_heights, params.floor_snap_sigma_factor
+            labels, ring_inside, z, sigma_z, grown_heights, params.floor_snap_sigma_factor
         )
     counts, heights, rms, extents, areas, slope = scanline.floor_statistics(
         labels,
         grown,
         interior,
-        height_interior,
+        height_depth,
+        params.floor_height_margin_px,
         points,
         sigma_z,
         depth,
@@ -116,6 +114,8 @@ def _numpy_floor_stage(z, sigma_z, points, rays, depth, segments, origin_z, para
         INTRINSICS.fy,
         n_floors,
         params.tolerance_floor_m,
+        params.floor_roughness_m,
+        params.floor_roughness_min_extent_m,
     )
     chi2, n_segments = scanline.floor_segment_fit(
         sums, floor_of_segment, n_floors, params.floor_height_tolerance_m, params.min_plane_extent_m
@@ -165,6 +165,8 @@ def _level_regions(z, sigma_z, points, rays, depth, segments, origin_z, params):
         math.tan(math.radians(params.floor_max_normal_angle_deg)),
         params.floor_max_rms_ratio,
         params.floor_max_segment_chi2,
+        params.floor_roughness_m,
+        params.floor_roughness_min_extent_m,
     )
 
 

@@ -58,6 +58,8 @@ def _floor_heights_image(result: SegmentationResult) -> np.ndarray:
         ("max_depth_m", math.nan),
         ("correct_tilt", 1),
         ("plane_refit_sigma", -1.0),
+        ("floor_roughness_m", -0.001),
+        ("floor_roughness_min_extent_m", -0.1),
     ],
 )
 def test_invalid_params_name_the_field(field, value):
@@ -365,6 +367,43 @@ def test_floor_points_never_carry_a_higher_surface_beyond_one_cell(seed):
     above = result.floor_heights[floor] - _support_height_m(SILL_AND_STAIRS, xy) > 0.005
     assert floor.sum() > 2000
     assert (_edge_distance_m(SILL_AND_STAIRS, xy[above]) <= 0.05).all()
+
+
+DEPTH_MODE = {"disparity_noise_px": 0.05, "stereo_baseline_m": 0.07}
+"""The sensor model of fogsim's ``depth`` mode ([camera] defaults: 0.05 px disparity noise,
+0.07 m baseline); `add_stereo_noise` with ``SMALL.fx * 0.07`` and 0.05 px draws that noise."""
+
+
+def _top_floor_share(amplitude_m, seed, roughness_m):
+    """Share of a 0.5 m box top's pixels (0.12 m high, bumps of ``amplitude_m``, 0.12 m
+    wavelength) labelled floor, seen from 0.9 m at 45° down through the depth mode's noise, and
+    those pixels' floor heights [m]."""
+    camera = look_down_camera((0.0, 0.0, 0.9), pitch_down_deg=45.0)
+    box = Box((0.9, 0.0), (0.5, 0.5, 0.12), rough_amplitude_m=amplitude_m, rough_seed=seed)
+    scene = render_scene(SMALL, camera, [box])
+    depth = add_stereo_noise(scene.depth_m, SMALL.fx * 0.07, 0.05, 0.0, np.random.default_rng(seed))
+    params = SegmentationParams(**DEPTH_MODE, floor_roughness_m=roughness_m)
+    heights = _floor_heights_image(segment_depth(depth, SMALL, camera, params))
+    top = (scene.box_index == 0) & scene.on_top
+    assert top.sum() > 1000
+    labelled = heights[top][np.isfinite(heights[top])]
+    return labelled.size / top.sum(), labelled
+
+
+def test_uneven_tread_is_floor_and_rough_top_is_not():
+    """A tread uneven by ±5 mm (a foot stands on it) is a floor on every seed with a roughness
+    allowance of 3 mm (off by default: `SegmentationParams.floor_roughness_m`), at its height;
+    without it the smoothness test drops it on seeds 3 and 5 (σ_z about 2 mm there: the
+    unevenness shows). A top rough by ±4 cm stays no floor on every seed: its level patches are
+    narrower than `floor_roughness_min_extent_m`."""
+    assert SegmentationParams().floor_roughness_m == 0.0
+    for seed in range(8):
+        share, heights = _top_floor_share(0.005, seed, 0.003)
+        assert share > 0.98, seed
+        assert abs(np.median(heights) - 0.12) < 0.003, seed
+        rough_share, _ = _top_floor_share(0.04, seed, 0.003)
+        assert rough_share == 0.0, seed
+    assert [_top_floor_share(0.005, seed, 0.0)[0] for seed in (3, 5)] == [0.0, 0.0]
 
 
 @pytest.mark.parametrize("seed", [0, 1, 2, 3])

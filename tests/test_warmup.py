@@ -47,6 +47,7 @@ FLOOR_STAGE = {
     "horizontal_sums",
     "grow_floors",
     "region_interior",
+    "region_depth",
     "floor_statistics",
     "floor_segment_fit",
     "floor_points",

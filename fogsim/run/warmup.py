@@ -144,6 +144,7 @@ _FLOOR_KERNELS = (
     mapper.scanline.horizontal_sums,
     mapper.scanline.grow_floors,
     mapper.scanline.region_interior,
+    mapper.scanline.region_depth,
     mapper.scanline.floor_statistics,
     mapper.scanline.floor_segment_fit,
     mapper.scanline.level_heights,
