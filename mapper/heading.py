@@ -165,6 +165,31 @@ class HeadingParams:
             `stairs` 0.022–0.045 (never estimates), stage, zig-zag stage and talos course
             0.066–0.091 (then ≥ 0.1: building up, and the better estimate; the edge score
             standing in there cost the stage seed 3 6 unsafe cells). Half `min_contrast`.
+        voxel_points: A structure keyframe keeps one point per occupied `cell_m` × `cell_m` ×
+            `layer_m` voxel of its frame (`voxel_centroids`: the mean of the voxel's points)
+            instead of every n-th point: the score then counts the voxels two keyframes share,
+            not the products of their point densities. A camera samples a surface densely
+            where it is near, and two keyframes' densities along a surface that slides along
+            itself under a yaw error correlate best where their dense parts meet, not at the
+            true correction: with the *true* camera pose (replays with the believed pose made
+            the true one, session 36) the structure score's accepted estimates are +0.5…+1.0°
+            on `room` depth (every seed) and −0.75…−2.0° on the zig-zag stage's stereo
+            recordings from its second leg on; with voxel points +0.0…+0.25° on room (seed
+            8: +1.0°) and −0.5…0° on the zig-zag (seed 5: −1.5° once). Replays, seeds 1–8,
+            `map_heading_deg` mean (worst) off → on: `room` depth 0.82 (1.84) → 0.69
+            (1.68)°, stereo 0.89 (1.55) → 0.65 (1.55)°, stage stereo 0.44 (0.74) → 0.37
+            (0.51)°, stage_down depth 0.42 (0.78) → 0.35 (0.61)°, stereo 0.63 (1.25) → 0.48
+            (0.73)°, zig-zag depth 0.61 (1.16) → 0.56 (1.12)°, talos course 0.65 (1.06) →
+            0.43 (0.75)°; but the stage depth 0.31 (0.46) → 0.37 (0.63)° and `table` 1.40
+            (2.22) → 1.27 (3.36)° (seed 7: its structure score's contrast, higher with voxel
+            points, stays between `flat_contrast` and `min_contrast`, so neither score
+            estimates). And the maps lose: unsafe cells on the stage depth 0 (0) → 1.75 (11)
+            (seeds 3 and 7), stage stereo 5.0 (8) → 7.6 (20), zig-zag depth 11.3 (44) → 13.4
+            (52), `table` 0.6 (4) → 1.5 (5), `room` depth seed 7 1 → 8; the zig-zag stereo
+            seed 8's sill row 0.01 → 33.9 mm. The contrasts' scale changes with it (the first
+            estimate comes at a shorter baseline on the stage), so `min_contrast` and
+            `flat_contrast`, set on the point counts, do not carry over. So False; the
+            estimator's own imprecision (±0.5–1° on a plateau) is the finding.
     """
 
     correct_heading: bool = True
@@ -191,6 +216,7 @@ class HeadingParams:
     edge_margin_m: float = 0.06
     min_edge_evidence: float = 200.0
     flat_contrast: float = 0.05
+    voxel_points: bool = False
 
     def __post_init__(self) -> None:
         def check(name: str, kind: type, allowed: str, ok=lambda _: True) -> None:
@@ -198,6 +224,7 @@ class HeadingParams:
 
         check("correct_heading", bool, "a bool")
         check("edge_score", bool, "a bool")
+        check("voxel_points", bool, "a bool")
         check(
             "edge_margin_m",
             float,
@@ -258,6 +285,31 @@ class HeadingParams:
             f"an integer in [1, max_points_per_keyframe ({self.max_points_per_keyframe})]",
             lambda v: 1 <= v <= self.max_points_per_keyframe,
         )
+
+
+def voxel_centroids(
+    points: NDArray[np.float64], cell_m: float, layer_m: float
+) -> tuple[NDArray[np.float64], NDArray[np.int64]]:
+    """The centroid of each occupied ``cell_m`` × ``cell_m`` × ``layer_m`` voxel's points.
+
+    Args:
+        points: (N, 3) points [m] (any frame with z up).
+        cell_m: Horizontal voxel size [m].
+        layer_m: Vertical voxel size [m].
+
+    Returns:
+        (V, 3) float64 centroids, one per occupied voxel, in the order of the voxels' first
+        points; (V,) the index of each voxel's first point.
+    """
+    if points.shape[0] == 0:
+        return np.zeros((0, 3)), np.zeros(0, dtype=np.int64)
+    ijk = np.floor(points / np.array([cell_m, cell_m, layer_m])).astype(np.int64)
+    _, first, inverse = np.unique(ijk, axis=0, return_index=True, return_inverse=True)
+    inverse = inverse.reshape(-1)
+    counts = np.bincount(inverse).astype(np.float64)
+    sums = np.column_stack([np.bincount(inverse, weights=points[:, axis]) for axis in range(3)])
+    order = np.argsort(first, kind="stable")
+    return (sums / counts[:, None])[order], first[order]
 
 
 def yaw_about_pivot(angle_rad: float, pivot_m: NDArray[np.float64]) -> NDArray[np.float64]:
@@ -509,6 +561,8 @@ class HeadingEstimator:
     Attributes:
         correction_rad: Current correction [rad], added to the camera's yaw about its centre.
         estimates: How many times the correction was (re-)estimated.
+        edge_estimates: How many of them were the edge score's (`edge_score`).
+        from_edges: Whether the current correction is the edge score's estimate.
         transform_camera_to_robot: 4×4 camera pose in the robot frame of the last frame
             corrected, after the correction (None before the first frame).
     """
@@ -518,6 +572,7 @@ class HeadingEstimator:
         self.correction_rad = math.radians(self.params.prior_deg)
         self.estimates = 0
         self.edge_estimates = 0
+        self.from_edges = False  # the current correction is the edge score's estimate
         self.transform_camera_to_robot: NDArray[np.float64] | None = None
         self._keyframes: list[_Keyframe] = []  # structure points
         self._edge_keyframes: list[_Keyframe] = []  # edge points (`edge_score`)
@@ -676,20 +731,20 @@ class HeadingEstimator:
             index = in_band[structure & np.isnan(floor_heights_m[in_band])]
         if index.size < p.min_points:
             return False
-        step = -(-index.size // p.max_points_per_keyframe)
-        index = index[::step]
+        points = points_robot[index]
+        if p.voxel_points and not edges:
+            points, _ = voxel_centroids(points, p.cell_m, p.layer_m)
+        step = -(-points.shape[0] // p.max_points_per_keyframe)
+        points = points[::step]
         if gradients is not None:
             gradients = np.ascontiguousarray(gradients[::step])
         keyframes.append(
             _Keyframe(
                 key=key,
                 offsets_xy=np.column_stack(
-                    [
-                        points_robot[index, 0] - transform[0, 3],
-                        points_robot[index, 1] - transform[1, 3],
-                    ]
+                    [points[:, 0] - transform[0, 3], points[:, 1] - transform[1, 3]]
                 ),
-                z_world=(points_robot[index, 2] + z_shift_m) + pose[2],
+                z_world=(points[:, 2] + z_shift_m) + pose[2],
                 camera_xy=camera_xy,
                 yaw_rad=float(pose[3]),
                 gradients_xy=gradients,
@@ -755,6 +810,7 @@ class HeadingEstimator:
             self.correction_rad = math.radians(float(fine[int(np.argmax(fine_scores))]))
         self.estimates += 1
         self.edge_estimates += edges
+        self.from_edges = edges
 
 
 def _edge_weights(
