@@ -171,22 +171,25 @@ class HeadingParams:
             not the products of their point densities. A camera samples a surface densely
             where it is near, and two keyframes' densities along a surface that slides along
             itself under a yaw error correlate best where their dense parts meet, not at the
-            true correction: with the *true* camera pose (replays with the believed pose made
-            the true one, session 36) the structure score's accepted estimates are +0.5…+1.0°
-            on `room` depth (every seed) and −0.75…−2.0° on the zig-zag stage's stereo
-            recordings from its second leg on; with voxel points +0.0…+0.25° on room (seed
-            8: +1.0°) and −0.5…0° on the zig-zag (seed 5: −1.5° once). Replays, seeds 1–8,
+            true correction. With the true camera pose (`bench/heading_trace.py --true-pose`,
+            session 36; what is left is the estimator's own error) the structure score's
+            accepted estimates are +0.15…+0.92° off on `room` depth (+0.4…+0.9° on seven
+            seeds) and −0.8…−1.8° on the zig-zag stage's stereo recordings from its second leg
+            (frames 233–291) on (−0.3…−1.1° at the end); with voxel points −0.36…+0.81° on room
+            (seed 8 +1.24° until its last) and, on the zig-zag, −0.6…+0.2° at the end but
+            still −0.5…−1.6° on the second leg. Replays, seeds 1–8,
             `map_heading_deg` mean (worst) off → on: `room` depth 0.82 (1.84) → 0.69
             (1.68)°, stereo 0.89 (1.55) → 0.65 (1.55)°, stage stereo 0.44 (0.74) → 0.37
             (0.51)°, stage_down depth 0.42 (0.78) → 0.35 (0.61)°, stereo 0.63 (1.25) → 0.48
             (0.73)°, zig-zag depth 0.61 (1.16) → 0.56 (1.12)°, talos course 0.65 (1.06) →
-            0.43 (0.75)°; but the stage depth 0.31 (0.46) → 0.37 (0.63)° and `table` 1.40
-            (2.22) → 1.27 (3.36)° (seed 7: its structure score's contrast, higher with voxel
-            points, stays between `flat_contrast` and `min_contrast`, so neither score
-            estimates). And the maps lose: unsafe cells on the stage depth 0 (0) → 1.75 (11)
-            (seeds 3 and 7), stage stereo 5.0 (8) → 7.6 (20), zig-zag depth 11.3 (44) → 13.4
-            (52), `table` 0.6 (4) → 1.5 (5), `room` depth seed 7 1 → 8; the zig-zag stereo
-            seed 8's sill row 0.01 → 33.9 mm. The contrasts' scale changes with it (the first
+            0.43 (0.75)°, zig-zag stereo 0.49 (1.01) → 0.54 (0.88)°; but the stage depth
+            0.31 (0.46) → 0.37 (0.63)° and `table` 1.40 (2.22) → 1.27 (3.36)° (seed 7: its
+            structure score's contrast, higher with voxel points, stays between
+            `flat_contrast` and `min_contrast`, so neither score estimates). And the maps
+            lose: unsafe cells on the stage depth 0 (0) → 1.75 (11) (seeds 3 and 7), stage
+            stereo 5.0 (8) → 7.6 (20), zig-zag depth 11.3 (44) → 13.4 (52), `table` 0.6 (4) →
+            1.5 (5), `room` depth seed 7 1 → 8; the zig-zag stereo seed 8's sill row 0.01 →
+            33.9 mm. The contrasts' scale changes with it (the first
             estimate comes at a shorter baseline on the stage), so `min_contrast` and
             `flat_contrast`, set on the point counts, do not carry over. So False; the
             estimator's own imprecision (±0.5–1° on a plateau) is the finding.
