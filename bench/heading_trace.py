@@ -13,7 +13,7 @@ odometry's yaw error, a few tenths of a degree) [deg].
 Session 36 (seeds 1–8, ``--true-pose``): the structure score's accepted estimates are
 +0.15…+0.92° off on `room` depth, and on the zig-zag stage's stereo recordings −0.8…−1.8° from
 its second leg (frames 233–291) on: the estimator's own bias, not the poses' errors
-(`HeadingParams.voxel_points` has the figures with one point per voxel).
+(`HeadingParams.voxel_estimate` has the figures with one point per voxel).
 
 Usage::
 
@@ -118,7 +118,7 @@ def main() -> None:
         action="append",
         default=[],
         metavar="KEY=VALUE",
-        help="a parameter override, e.g. head.voxel_points=true (VALUE as JSON, else a string)",
+        help="a parameter override, e.g. head.voxel_estimate=true (VALUE as JSON, else a string)",
     )
     args = parser.parse_args()
     overrides: dict[str, object] = {}

@@ -91,12 +91,12 @@ WALK = [(0.0, 0.5, 0.0), (0.3, 0.5, 0.02), (0.6, 0.5, -0.01), (0.9, 0.52, 0.0)]
 """Robot poses (x [m], y [m], yaw [rad]) of the walk: 0.3 m steps towards the boxes."""
 
 
-@pytest.mark.parametrize("voxel_points", [True, False])
+@pytest.mark.parametrize("voxel_estimate", [False, True])
 @pytest.mark.parametrize("yaw_error_deg", [3.0, -5.5])
-def test_a_known_yaw_error_is_recovered_within_half_a_degree(yaw_error_deg, voxel_points):
+def test_a_known_yaw_error_is_recovered_within_half_a_degree(yaw_error_deg, voxel_estimate):
     rng = np.random.default_rng(11)
     boxes = box_points_world(rng)
-    estimator = HeadingEstimator(HeadingParams(estimate_every=1, voxel_points=voxel_points))
+    estimator = HeadingEstimator(HeadingParams(estimate_every=1, voxel_estimate=voxel_estimate))
     for x, y, yaw in WALK:
         correction = correct(
             estimator, *frame(boxes, floor_points_world(x), (x, y, yaw), yaw_error_deg)
@@ -231,7 +231,7 @@ def test_scores_count_pairs_of_different_keyframes_in_one_voxel():
         ("min_contrast", 1.0),
         ("peak_band", 1.0),
         ("correct_heading", 1),
-        ("voxel_points", 1),
+        ("voxel_estimate", 1),
     ],
 )
 def test_bad_parameters_are_refused_by_name(field, value):
@@ -427,15 +427,23 @@ def test_voxel_centroids_keep_one_mean_point_per_voxel_in_the_order_first_seen()
     assert empty.shape == (0, 3) and none.shape == (0,)
 
 
-def test_with_voxel_points_a_keyframe_holds_one_point_per_occupied_voxel():
+def test_with_voxel_estimate_a_keyframe_holds_one_point_per_occupied_voxel_beside_its_points():
     # The boxes' sides are sampled 1 cm apart: a 3 cm × 3 cm × 4 cm voxel holds up to a dozen
-    # of a frame's points (more where a camera is near), and the keyframe keeps one, their mean.
+    # of a frame's points (more where a camera is near); the keyframe keeps their means beside
+    # its strided points, which stay those of a keyframe without the option.
     rng = np.random.default_rng(11)
     boxes = box_points_world(rng)
     points, heights, camera, pose = frame(boxes, floor_points_world(0.0), WALK[0], 0.0)
-    params = HeadingParams(voxel_points=True, max_points_per_keyframe=100_000, edge_score=False)
-    estimator = HeadingEstimator(params)
-    estimator.observe(points, heights, camera, pose)
+    params = HeadingParams(voxel_estimate=True, max_points_per_keyframe=100_000, edge_score=False)
+    with_voxels, without = (
+        HeadingEstimator(params),
+        HeadingEstimator(HeadingParams(max_points_per_keyframe=100_000, edge_score=False)),
+    )
+    with_voxels.observe(points, heights, camera, pose)
+    without.observe(points, heights, camera, pose)
+    (keyframe,), (plain,) = with_voxels._keyframes, without._keyframes
+    np.testing.assert_array_equal(keyframe.offsets_xy, plain.offsets_xy)
+    assert plain.voxel_offsets_xy is None
     structure = points[np.isnan(heights) & (points[:, 2] >= params.min_height_m)]
     structure = structure[
         np.hypot(structure[:, 0] - camera[0, 3], structure[:, 1] - camera[1, 3])
@@ -444,5 +452,6 @@ def test_with_voxel_points_a_keyframe_holds_one_point_per_occupied_voxel():
     voxels = np.unique(
         np.floor(structure / [params.cell_m, params.cell_m, params.layer_m]), axis=0
     ).shape[0]
-    (keyframe,) = estimator._keyframes
-    assert keyframe.offsets_xy.shape[0] == voxels < structure.shape[0] / 3
+    assert keyframe.voxel_offsets_xy.shape == (voxels, 2)
+    assert keyframe.voxel_z_world.shape == (voxels,)
+    assert voxels < structure.shape[0] / 3

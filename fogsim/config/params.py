@@ -87,21 +87,20 @@ class PipelineParams:
             heading's edge score (its stand-in while the structure score has never stood out:
             `HeadingParams.flat_contrast`), rebuild them once more (while at most
             `heading_rebuild_frames` frames were mapped) with the structure score's first
-            estimate, the better evidence where it stands out: no change threshold; it acts
-            only on runs whose first estimate was the edge score's (`room`, `stairs`, `table`).
-            Replays seeds 1–8 with it and `heading_rebuild_frames` 400 (`room`'s structure
-            estimates come at frames 211–330 of 343, after the first rebuild's 300 frames on
-            some seeds), session 36: every other recording set bit for bit the same; `room`
-            depth `map_heading_deg` 0.82 (1.84) → 0.78 (1.26)° (seed 3 1.84 → 0.32°, but
-            seeds 5 and 6 0.79 / 0.73 → 1.16 / 1.26°: on room depth the structure score's
-            estimates are themselves 0.3–1.2° off, `HeadingParams.voxel_points`), unsafe cells
-            1.5 (5) → 1.5 (3); stereo 0.89 (1.55) → 0.58 (1.33)° but unsafe cells 9.0 (16) →
-            10.0 (20) and the sill row 1.02 (1.87) → 1.59 (3.65) mm (seed 2: 0.26 → 3.65 mm
-            with its heading 0.79 → 0.26°, as with `heading_rebuild_change_deg` 1: that seed's
-            sill row is better with the worse heading); `stairs` 0.66 (1.43) → 0.65 (1.40)°,
-            unsafe cells 2.5 (8) → 1.9 (4). With `HeadingParams.voxel_points` as well, `room`
-            is within 1° on every seed (depth 0.51 (0.84)°, stereo 0.49 (0.83)°), at that
-            option's costs elsewhere. So False.
+            estimate, the better evidence where it stands out: no change threshold. Replays,
+            seeds 1–8, with it and `heading_rebuild_frames` 400 (`room`'s structure estimates
+            come at frames 211–330 of 343, after the first rebuild's 300 frames on some
+            seeds), session 36: only `room` changes (elsewhere the first estimate is the
+            structure score's, or, on `stairs`, it never stands out): depth `map_heading_deg`
+            0.82 (1.84) → 0.78 (1.26)° (seed 3 1.84 → 0.32°, but seeds 5 and 6 0.79 / 0.73 →
+            1.16 / 1.26°: room depth's structure estimates are themselves 0.3–1.2° off,
+            `HeadingParams.voxel_estimate`), unsafe cells 1.5 (5) → 1.5 (3); stereo 0.89
+            (1.55) → 0.58 (1.33)° but unsafe cells 9.0 (16) → 10.0 (20) and the sill row 1.02
+            (1.87) → 1.59 (3.65) mm (seed 2: 0.26 → 3.65 mm with its heading 0.79 → 0.26°, as
+            with `heading_rebuild_change_deg` 1: that seed's sill row is better with the worse
+            heading). With `HeadingParams.voxel_estimate` as well, `room` is within 1° on every
+            seed (depth 0.51 (0.84)°, stereo 0.49 (0.83)°; unsafe cells 1.5 (5) → 1.4 (8) and
+            9.0 (16) → 8.9 (21)), at that option's costs elsewhere. So False.
     """
 
     use_z_match: bool = True
