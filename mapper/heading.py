@@ -165,6 +165,38 @@ class HeadingParams:
             `stairs` 0.022–0.045 (never estimates), stage, zig-zag stage and talos course
             0.066–0.091 (then ≥ 0.1: building up, and the better estimate; the edge score
             standing in there cost the stage seed 3 6 unsafe cells). Half `min_contrast`.
+        voxel_estimate: The structure score's estimate (not whether it stands out: its
+            contrast stays that of the point counts, which `min_contrast` and `flat_contrast`
+            were set on) is taken from the keyframes' *voxel centroids* (`voxel_centroids`:
+            one mean point per occupied `cell_m` × `cell_m` × `layer_m` voxel of the frame,
+            kept beside the strided points) instead of their points: the score then counts the
+            voxels two keyframes share, not the products of their point densities. A camera
+            samples a surface densely where it is near, and two keyframes' densities along a
+            surface that slides along itself under a yaw error correlate best where their
+            dense parts meet, not at the true correction: with the true camera pose
+            (`bench/heading_trace.py --true-pose`, session 36: what is left is the estimator's
+            own error) the accepted structure estimates are +0.15…+0.92° off on `room` depth
+            (+0.4…+0.9° on seven seeds) and −0.8…−1.8° on the zig-zag stage's stereo
+            recordings from its second leg (frames 233–291) on, −0.3…−1.1° at the end; with
+            voxel centroids −0.36…+0.81° on room (seed 8 +1.24° until its last) and −0.6…+0.2°
+            at the zig-zag's end, but still −0.5…−1.6° on its second leg. Replays, seeds 1–8,
+            `map_heading_deg` mean (worst) off → on: `room` depth 0.82 (1.84) → 0.69 (1.84)°,
+            stereo 0.89 (1.55) → 0.75 (1.55)° (with `pipe.heading_rebuild_on_structure` and
+            `pipe.heading_rebuild_frames` 400 as well: 0.51 (0.84)° and 0.49 (0.83)°, every
+            seed within 1°), stage stereo 0.44 (0.74) → 0.36 (0.51)°, stage_down depth 0.42
+            (0.78) → 0.35 (0.61)°, stereo 0.63 (1.25) → 0.48 (0.73)°, zig-zag depth 0.61
+            (1.16) → 0.54 (1.12)°, `table` 1.40 (2.22) → 1.18 (2.22)°, talos course 0.65
+            (1.06) → 0.40 (0.74)°; but the stage depth 0.31 (0.46) → 0.36 (0.63)° and the
+            zig-zag stereo 0.49 (1.01) → 0.54 (0.88)°. The estimate is better on most seeds and
+            worse on a few, and the maps follow those few: unsafe cells on the stage depth 0
+            (0) → 1.4 (11) (seed 7), stage stereo 5.0 (8) → 7.3 (20) (seed 7), zig-zag depth
+            11.3 (44) → 13.3 (52) (seed 5), `room` depth 1.5 (5) → 2.0 (8) (seed 7 1 → 8),
+            and the zig-zag stereo seed 8's sill row 0.01 → 33.9 mm; fewer on the stage_down
+            stereo 6.5 (27) → 4.5 (10), `room` stereo 9.0 (16) → 8.3 (13). (Keeping only the
+            voxel centroids as the keyframes' points, contrast and all, session 36: the same,
+            and `table` seed 7's contrast, higher, then stays between `flat_contrast` and
+            `min_contrast`: no estimate, 1.11 → 3.36°.) So False: the estimator's imprecision
+            on a flat-topped score (±0.5–1°), not this bias alone, sets the residual.
     """
 
     correct_heading: bool = True
@@ -191,6 +223,7 @@ class HeadingParams:
     edge_margin_m: float = 0.06
     min_edge_evidence: float = 200.0
     flat_contrast: float = 0.05
+    voxel_estimate: bool = False
 
     def __post_init__(self) -> None:
         def check(name: str, kind: type, allowed: str, ok=lambda _: True) -> None:
@@ -198,6 +231,7 @@ class HeadingParams:
 
         check("correct_heading", bool, "a bool")
         check("edge_score", bool, "a bool")
+        check("voxel_estimate", bool, "a bool")
         check(
             "edge_margin_m",
             float,
@@ -258,6 +292,31 @@ class HeadingParams:
             f"an integer in [1, max_points_per_keyframe ({self.max_points_per_keyframe})]",
             lambda v: 1 <= v <= self.max_points_per_keyframe,
         )
+
+
+def voxel_centroids(
+    points: NDArray[np.float64], cell_m: float, layer_m: float
+) -> tuple[NDArray[np.float64], NDArray[np.int64]]:
+    """The centroid of each occupied ``cell_m`` × ``cell_m`` × ``layer_m`` voxel's points.
+
+    Args:
+        points: (N, 3) points [m] (any frame with z up).
+        cell_m: Horizontal voxel size [m].
+        layer_m: Vertical voxel size [m].
+
+    Returns:
+        (V, 3) float64 centroids, one per occupied voxel, in the order of the voxels' first
+        points; (V,) the index of each voxel's first point.
+    """
+    if points.shape[0] == 0:
+        return np.zeros((0, 3)), np.zeros(0, dtype=np.int64)
+    ijk = np.floor(points / np.array([cell_m, cell_m, layer_m])).astype(np.int64)
+    _, first, inverse = np.unique(ijk, axis=0, return_index=True, return_inverse=True)
+    inverse = inverse.reshape(-1)
+    counts = np.bincount(inverse).astype(np.float64)
+    sums = np.column_stack([np.bincount(inverse, weights=points[:, axis]) for axis in range(3)])
+    order = np.argsort(first, kind="stable")
+    return (sums / counts[:, None])[order], first[order]
 
 
 def yaw_about_pivot(angle_rad: float, pivot_m: NDArray[np.float64]) -> NDArray[np.float64]:
@@ -501,6 +560,8 @@ class _Keyframe:
     camera_xy: NDArray[np.float64]
     yaw_rad: float
     gradients_xy: NDArray[np.float64] | None = None  # robot frame, with `edge_score`
+    voxel_offsets_xy: NDArray[np.float64] | None = None  # structure, with `voxel_estimate`
+    voxel_z_world: NDArray[np.float64] | None = None  # ... and their world z
 
 
 class HeadingEstimator:
@@ -509,6 +570,8 @@ class HeadingEstimator:
     Attributes:
         correction_rad: Current correction [rad], added to the camera's yaw about its centre.
         estimates: How many times the correction was (re-)estimated.
+        edge_estimates: How many of them were the edge score's (`edge_score`).
+        from_edges: Whether the current correction is the edge score's estimate.
         transform_camera_to_robot: 4×4 camera pose in the robot frame of the last frame
             corrected, after the correction (None before the first frame).
     """
@@ -518,6 +581,7 @@ class HeadingEstimator:
         self.correction_rad = math.radians(self.params.prior_deg)
         self.estimates = 0
         self.edge_estimates = 0
+        self.from_edges = False  # the current correction is the edge score's estimate
         self.transform_camera_to_robot: NDArray[np.float64] | None = None
         self._keyframes: list[_Keyframe] = []  # structure points
         self._edge_keyframes: list[_Keyframe] = []  # edge points (`edge_score`)
@@ -676,23 +740,31 @@ class HeadingEstimator:
             index = in_band[structure & np.isnan(floor_heights_m[in_band])]
         if index.size < p.min_points:
             return False
-        step = -(-index.size // p.max_points_per_keyframe)
-        index = index[::step]
+        points = points_robot[index]
+        voxels = None
+        if p.voxel_estimate and not edges:
+            voxels, _ = voxel_centroids(points, p.cell_m, p.layer_m)
+            voxels = voxels[:: -(-voxels.shape[0] // p.max_points_per_keyframe)]
+        step = -(-points.shape[0] // p.max_points_per_keyframe)
+        points = points[::step]
         if gradients is not None:
             gradients = np.ascontiguousarray(gradients[::step])
         keyframes.append(
             _Keyframe(
                 key=key,
                 offsets_xy=np.column_stack(
-                    [
-                        points_robot[index, 0] - transform[0, 3],
-                        points_robot[index, 1] - transform[1, 3],
-                    ]
+                    [points[:, 0] - transform[0, 3], points[:, 1] - transform[1, 3]]
                 ),
-                z_world=(points_robot[index, 2] + z_shift_m) + pose[2],
+                z_world=(points[:, 2] + z_shift_m) + pose[2],
                 camera_xy=camera_xy,
                 yaw_rad=float(pose[3]),
                 gradients_xy=gradients,
+                voxel_offsets_xy=None
+                if voxels is None
+                else np.column_stack(
+                    [voxels[:, 0] - transform[0, 3], voxels[:, 1] - transform[1, 3]]
+                ),
+                voxel_z_world=None if voxels is None else (voxels[:, 2] + z_shift_m) + pose[2],
             )
         )
         keys = self._keys[edges]
@@ -745,6 +817,18 @@ class HeadingEstimator:
             return
         if edges and best - float(np.median(scores)) < p.min_edge_evidence:
             return
+        if p.voxel_estimate and not edges:
+            # Accepted on the points' score (its thresholds); the estimate from the voxels'.
+            data = (
+                np.concatenate([k.voxel_offsets_xy for k in keyframes]),
+                np.concatenate([k.voxel_z_world for k in keyframes]),
+                np.concatenate(
+                    [[0], np.cumsum([k.voxel_offsets_xy.shape[0] for k in keyframes])]
+                ).astype(np.int64),
+                *data[3:],
+            )
+            scores = score(*data, np.radians(coarse), p.cell_m, p.layer_m)
+            best = float(scores.max())
         if p.peak_band > 0.0:
             drop = p.peak_band * (best - float(np.median(scores)))
             self.correction_rad = math.radians(_band_centre_deg(coarse, scores, drop))
@@ -755,6 +839,7 @@ class HeadingEstimator:
             self.correction_rad = math.radians(float(fine[int(np.argmax(fine_scores))]))
         self.estimates += 1
         self.edge_estimates += edges
+        self.from_edges = edges
 
 
 def _edge_weights(

@@ -11,6 +11,7 @@ from mapper.heading import (
     _band_centre_deg,
     edge_gradients,
     heading_scores,
+    voxel_centroids,
     weighted_heading_scores,
     yaw_about_pivot,
 )
@@ -90,11 +91,12 @@ WALK = [(0.0, 0.5, 0.0), (0.3, 0.5, 0.02), (0.6, 0.5, -0.01), (0.9, 0.52, 0.0)]
 """Robot poses (x [m], y [m], yaw [rad]) of the walk: 0.3 m steps towards the boxes."""
 
 
+@pytest.mark.parametrize("voxel_estimate", [False, True])
 @pytest.mark.parametrize("yaw_error_deg", [3.0, -5.5])
-def test_a_known_yaw_error_is_recovered_within_half_a_degree(yaw_error_deg):
+def test_a_known_yaw_error_is_recovered_within_half_a_degree(yaw_error_deg, voxel_estimate):
     rng = np.random.default_rng(11)
     boxes = box_points_world(rng)
-    estimator = HeadingEstimator(HeadingParams(estimate_every=1))
+    estimator = HeadingEstimator(HeadingParams(estimate_every=1, voxel_estimate=voxel_estimate))
     for x, y, yaw in WALK:
         correction = correct(
             estimator, *frame(boxes, floor_points_world(x), (x, y, yaw), yaw_error_deg)
@@ -229,6 +231,7 @@ def test_scores_count_pairs_of_different_keyframes_in_one_voxel():
         ("min_contrast", 1.0),
         ("peak_band", 1.0),
         ("correct_heading", 1),
+        ("voxel_estimate", 1),
     ],
 )
 def test_bad_parameters_are_refused_by_name(field, value):
@@ -403,3 +406,52 @@ def test_the_edge_score_does_not_stand_in_where_the_structure_score_is_building_
         structure_only.observe(*seen)
     assert both.edge_estimates == 0 and both.estimates == structure_only.estimates == 2
     assert both.correction_rad == structure_only.correction_rad
+
+
+def test_voxel_centroids_keep_one_mean_point_per_voxel_in_the_order_first_seen():
+    points = np.array(
+        [
+            [0.011, 0.001, 0.05],  # voxel (0, 0, 1)
+            [0.041, 0.002, 0.01],  # voxel (1, 0, 0)
+            [0.019, 0.009, 0.07],  # voxel (0, 0, 1)
+            [0.059, 0.028, 0.03],  # voxel (1, 0, 0)
+            [0.045, 0.010, 0.02],  # voxel (1, 0, 0)
+        ]
+    )
+    centroids, first = voxel_centroids(points, 0.03, 0.04)
+    np.testing.assert_allclose(
+        centroids, [[0.015, 0.005, 0.06], [0.145 / 3, 0.040 / 3, 0.02]], atol=1e-15
+    )
+    np.testing.assert_array_equal(first, [0, 1])
+    empty, none = voxel_centroids(np.zeros((0, 3)), 0.03, 0.04)
+    assert empty.shape == (0, 3) and none.shape == (0,)
+
+
+def test_with_voxel_estimate_a_keyframe_holds_one_point_per_occupied_voxel_beside_its_points():
+    # The boxes' sides are sampled 1 cm apart: a 3 cm × 3 cm × 4 cm voxel holds up to a dozen
+    # of a frame's points (more where a camera is near); the keyframe keeps their means beside
+    # its strided points, which stay those of a keyframe without the option.
+    rng = np.random.default_rng(11)
+    boxes = box_points_world(rng)
+    points, heights, camera, pose = frame(boxes, floor_points_world(0.0), WALK[0], 0.0)
+    params = HeadingParams(voxel_estimate=True, max_points_per_keyframe=100_000, edge_score=False)
+    with_voxels, without = (
+        HeadingEstimator(params),
+        HeadingEstimator(HeadingParams(max_points_per_keyframe=100_000, edge_score=False)),
+    )
+    with_voxels.observe(points, heights, camera, pose)
+    without.observe(points, heights, camera, pose)
+    (keyframe,), (plain,) = with_voxels._keyframes, without._keyframes
+    np.testing.assert_array_equal(keyframe.offsets_xy, plain.offsets_xy)
+    assert plain.voxel_offsets_xy is None
+    structure = points[np.isnan(heights) & (points[:, 2] >= params.min_height_m)]
+    structure = structure[
+        np.hypot(structure[:, 0] - camera[0, 3], structure[:, 1] - camera[1, 3])
+        <= params.max_range_m
+    ]
+    voxels = np.unique(
+        np.floor(structure / [params.cell_m, params.cell_m, params.layer_m]), axis=0
+    ).shape[0]
+    assert keyframe.voxel_offsets_xy.shape == (voxels, 2)
+    assert keyframe.voxel_z_world.shape == (voxels,)
+    assert voxels < structure.shape[0] / 3

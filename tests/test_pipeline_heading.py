@@ -1,5 +1,6 @@
 """The pipeline's heading rebuild: frames mapped before the heading's first estimate are mapped
-again with it, and again when a later estimate moves more than `heading_rebuild_change_deg`
+again with it, and again when a later estimate moves more than `heading_rebuild_change_deg` or
+(`heading_rebuild_on_structure`) the structure score's first estimate replaces the edge score's
 (synthetic walk, exact depth, a known 3° camera yaw error), no MuJoCo."""
 
 import math
@@ -63,7 +64,8 @@ FRAMES = walk(FIRST_ESTIMATE + 3)
 
 
 class ScriptedHeading(HeadingEstimator):
-    """A heading estimator whose estimates come as scripted: frame index → correction [deg]."""
+    """A heading estimator whose estimates come as scripted: frame index → correction [deg],
+    or (correction [deg], whether it is the edge score's)."""
 
     def __init__(self, script):
         super().__init__(HeadingParams())
@@ -72,16 +74,22 @@ class ScriptedHeading(HeadingEstimator):
 
     def observe(self, *args, **kwargs):
         if self._seen in self._script:
-            self.correction_rad = math.radians(self._script[self._seen])
+            step = self._script[self._seen]
+            degrees, edges = step if isinstance(step, tuple) else (step, False)
+            self.correction_rad = math.radians(degrees)
             self.estimates += 1
+            self.edge_estimates += edges
+            self.from_edges = edges
         self._seen += 1
 
 
-def run(rebuild_frames=300, heading=None, script=None, change_deg=1.0):
+def run(rebuild_frames=300, heading=None, script=None, change_deg=1.0, on_structure=False):
     pipeline = Pipeline(
         RunParams(
             pipeline=PipelineParams(
-                heading_rebuild_frames=rebuild_frames, heading_rebuild_change_deg=change_deg
+                heading_rebuild_frames=rebuild_frames,
+                heading_rebuild_change_deg=change_deg,
+                heading_rebuild_on_structure=on_structure,
             ),
             heading=heading if heading is not None else HeadingParams(),
         )
@@ -194,6 +202,42 @@ def test_an_estimate_that_moves_more_than_the_change_rebuilds_again():
     bounded = run(script=script, rebuild_frames=12)
     positions = [late.position for late in bounded.mapped_late]
     assert positions[positions.index(0, 1) :] == list(range(10))
+
+
+def rebuilt_positions(pipeline):
+    """Positions of the frames mapped again with the heading (after the reference's wait)."""
+    positions = [late.position for late in pipeline.mapped_late]
+    return positions[positions.index(0, 1) :]
+
+
+def test_the_structure_scores_first_estimate_replaces_the_edge_scores_in_a_rebuild():
+    # The edge score's -1° at frame 10 (the maps rebuilt with it: frames 0-9), the structure
+    # score's +1.25° at frame 14: frames 0-13 are mapped again with it, and the final maps are
+    # those of a run that knew +1.25° from its first frame. No change threshold (0).
+    script = {10: (-1.0, True), 14: (1.25, False)}
+    replaced = run(script=script, change_deg=0.0, on_structure=True)
+    assert rebuilt_positions(replaced) == [*range(10), *range(14)]
+    assert_same_maps(replaced, run(heading=HeadingParams(correct_heading=False, prior_deg=1.25)))
+    # Off: only the first estimate's rebuild.
+    assert rebuilt_positions(run(script=script, change_deg=0.0)) == list(range(10))
+    # Once only: a later structure estimate, or an edge estimate after an edge estimate, or a
+    # first estimate of the structure score rebuilds nothing more.
+    for once in (
+        {10: (-1.0, True), 12: (-0.5, True)},
+        {10: (-1.0, False), 14: (1.25, False)},
+    ):
+        assert rebuilt_positions(run(script=once, change_deg=0.0, on_structure=True)) == list(
+            range(10)
+        )
+    twice = run(
+        script={10: (-1.0, True), 12: (1.0, False), 16: (-2.0, False)},
+        change_deg=0.0,
+        on_structure=True,
+    )
+    assert rebuilt_positions(twice) == [*range(10), *range(12)]
+    # Beyond heading_rebuild_frames frames mapped, no more rebuilds.
+    bounded = run(script=script, rebuild_frames=12, change_deg=0.0, on_structure=True)
+    assert rebuilt_positions(bounded) == list(range(10))
 
 
 @pytest.mark.parametrize("bad", [-1.0, float("inf"), float("nan")])

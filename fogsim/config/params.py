@@ -83,6 +83,24 @@ class PipelineParams:
             stereo (replays) the zig-zag stage's later estimates are the worse ones (its
             `map_heading_deg` 0.49 (1.01) → 0.67 (1.42)°) and `room`'s sill row on seed 2 went
             from 0.3 to 3.65 mm: the latest estimate is not always the better one, so it is off.
+        heading_rebuild_on_structure: When the maps were rebuilt with an estimate of the
+            heading's edge score (its stand-in while the structure score has never stood out:
+            `HeadingParams.flat_contrast`), rebuild them once more (while at most
+            `heading_rebuild_frames` frames were mapped) with the structure score's first
+            estimate, the better evidence where it stands out: no change threshold. Replays,
+            seeds 1–8, with it and `heading_rebuild_frames` 400 (`room`'s structure estimates
+            come at frames 211–330 of 343, after the first rebuild's 300 frames on some
+            seeds), session 36: only `room` changes (elsewhere the first estimate is the
+            structure score's, or, on `stairs`, it never stands out): depth `map_heading_deg`
+            0.82 (1.84) → 0.78 (1.26)° (seed 3 1.84 → 0.32°, but seeds 5 and 6 0.79 / 0.73 →
+            1.16 / 1.26°: room depth's structure estimates are themselves 0.3–1.2° off,
+            `HeadingParams.voxel_estimate`), unsafe cells 1.5 (5) → 1.5 (3); stereo 0.89
+            (1.55) → 0.58 (1.33)° but unsafe cells 9.0 (16) → 10.0 (20) and the sill row 1.02
+            (1.87) → 1.59 (3.65) mm (seed 2: 0.26 → 3.65 mm with its heading 0.79 → 0.26°, as
+            with `heading_rebuild_change_deg` 1: that seed's sill row is better with the worse
+            heading). With `HeadingParams.voxel_estimate` as well, `room` is within 1° on every
+            seed (depth 0.51 (0.84)°, stereo 0.49 (0.83)°; unsafe cells 1.5 (5) → 1.4 (8) and
+            9.0 (16) → 8.9 (21)), at that option's costs elsewhere. So False.
     """
 
     use_z_match: bool = True
@@ -95,6 +113,7 @@ class PipelineParams:
     tilt_bias_deg: float = 4.0
     heading_rebuild_frames: int = 300
     heading_rebuild_change_deg: float = 0.0
+    heading_rebuild_on_structure: bool = False
 
     def __post_init__(self) -> None:
         if not self.event_tolerance_m > 0.0:

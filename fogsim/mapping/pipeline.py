@@ -29,7 +29,8 @@ Per frame (paper Fig. 1, 2 and Sec. IV), with the pose the robot *believes*:
    frames mapped before it (``pipe.heading_rebuild_frames``), with it, and (when
    ``pipe.heading_rebuild_change_deg`` is set; off by default) again when a later estimate
    moves more than that from the one they were rebuilt with while no more than that many
-   frames have been mapped.
+   frames have been mapped, or (``pipe.heading_rebuild_on_structure``) when the structure
+   score's first estimate replaces the edge score's stand-in they were rebuilt with.
 4. Points and heights go to the world with the believed robot pose (x, y, yaw from odometry,
    z from the *elevation filter* below): ``h_G = h_R + z_R``.
 5. The grids follow the robot: both maps ``recenter`` on the believed (x, y).
@@ -268,6 +269,7 @@ class Pipeline:
             else None
         )
         self._rebuilt_rad: float | None = None  # the estimate the maps were rebuilt with
+        self._rebuilt_from_edges = False  # ... and whether it was the edge score's
         self._processed = 0
         self.mapped_late: list[LateMapping] = []
         self.mapped_now: list[Frame] = []
@@ -424,8 +426,12 @@ class Pipeline:
                 jobs = self._mapped + jobs
                 self._restart_maps()
             self._rebuilt_rad = self.heading.correction_rad
+            self._rebuilt_from_edges = self.heading.from_edges
             # Kept for another rebuild only when a later estimate may ask for one.
-            self._mapped = [] if self.params.heading_rebuild_change_deg > 0.0 else None
+            again = self.params.heading_rebuild_change_deg > 0.0 or (
+                self.params.heading_rebuild_on_structure and self._rebuilt_from_edges
+            )
+            self._mapped = [] if again else None
         if self._mapped is not None:
             self._mapped.extend(jobs)
             if len(self._mapped) > self.params.heading_rebuild_frames:
@@ -433,11 +439,25 @@ class Pipeline:
         return jobs
 
     def _rebuild_due(self) -> bool:
-        """The heading's first estimate has come, or it moved enough for another rebuild."""
+        """Whether the maps are to be rebuilt with the heading's current estimate.
+
+        Yes when the first estimate has come, when a later one moved more than
+        ``pipe.heading_rebuild_change_deg`` from the one they were rebuilt with, or when the
+        structure score's first estimate replaced the edge score's they were rebuilt with
+        (``pipe.heading_rebuild_on_structure``).
+        """
         if not self.heading.estimates:
             return False
         if self._rebuilt_rad is None:
             return True
+        if (
+            self.params.heading_rebuild_on_structure
+            and self._rebuilt_from_edges
+            and not self.heading.from_edges
+        ):
+            return True
+        if self.params.heading_rebuild_change_deg <= 0.0:  # 0: off
+            return False
         change_deg = math.degrees(abs(self.heading.correction_rad - self._rebuilt_rad))
         return change_deg > self.params.heading_rebuild_change_deg
 

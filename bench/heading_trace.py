@@ -1,0 +1,136 @@
+"""Every try of the heading estimator on a replay, against the correction the run needed.
+
+For each recording, one replay (with ``--true-pose``: every frame's believed camera pose made
+the true one, `heading_oracle.true_pose_frame`, so any estimate but 0 is the estimator's own
+error); each time the estimator scores its keyframes (`mapper.heading.HeadingEstimator`) one
+line: the frame, which score (``S`` structure points, ``E`` edge points), keyframes, the span
+of their cameras [m], the contrast ``(best − median) / best``, whether the estimate was
+accepted, the correction after the try [deg] and its error against the correction the run
+needed (the median over its frames of the yaw between the believed and the true camera pose in
+the robot frame, `fogsim.eval.pose_error.heading_error_deg`; with ``--true-pose`` only
+odometry's yaw error, a few tenths of a degree) [deg].
+
+Session 36 (seeds 1–8, ``--true-pose``): the structure score's accepted estimates are
++0.15…+0.92° off on `room` depth, and on the zig-zag stage's stereo recordings −0.8…−1.8° from
+its second leg (frames 233–291) on: the estimator's own bias, not the poses' errors
+(`HeadingParams.voxel_estimate` has the figures with one point per voxel).
+
+Usage::
+
+    python bench/heading_trace.py [--true-pose] [--set KEY=VALUE ...] /work/rec/room_depth_s3.npz
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import math
+import sys
+from pathlib import Path
+
+import numpy as np
+
+sys.path.insert(0, str(Path(__file__).resolve().parent))
+from heading_oracle import true_pose_frame
+
+import mapper.heading as heading_module
+from fogsim.config import resolve_params
+from fogsim.data.frame import Frame
+from fogsim.data.recording import load_recording
+from fogsim.eval.pose_error import heading_error_deg
+from fogsim.run.runner import run_frames, sensor_fields
+from mapper.transforms import planar_pose_to_matrix
+
+
+def needed_deg(frame: Frame) -> float:
+    """The correction [deg] that undoes the frame's believed camera yaw error (robot frame)."""
+    true_in_robot = (
+        np.linalg.inv(planar_pose_to_matrix(frame.robot_pose_true))
+        @ frame.transform_camera_to_world_true
+    )
+    believed = np.asarray(frame.transform_camera_to_robot_believed, dtype=np.float64)
+    return -heading_error_deg(believed[:3, :3], true_in_robot[:3, :3])
+
+
+def trace(path: Path, overrides: dict[str, object], true_pose: bool) -> list[str]:
+    """The lines of one recording's replay (module docstring)."""
+    recording = load_recording(path)
+    params = resolve_params(recording.scenario, overrides, sensor_fields(recording.scenario))
+    frames = [true_pose_frame(f) for f in recording.frames] if true_pose else recording.frames
+    tries: list[tuple[int, bool, int, float, float, bool, float]] = []
+    position = [0]
+    scores: list[np.ndarray] = []
+    estimate = heading_module.HeadingEstimator._estimate
+    plain, weighted = heading_module.heading_scores, heading_module.weighted_heading_scores
+
+    def keep(score):
+        def scored(*args):
+            scores.append(score(*args))
+            return scores[-1]
+
+        return scored
+
+    def estimate_and_note(self, edges: bool) -> None:
+        scores.clear()
+        before = self.estimates
+        estimate(self, edges)
+        if not scores:
+            return  # no try: no baseline, or the edge score not standing in
+        keyframes = self._edge_keyframes if edges else self._keyframes
+        span = float(np.ptp(np.array([k.camera_xy for k in keyframes]), axis=0).max())
+        best, median = float(scores[0].max()), float(np.median(scores[0]))
+        contrast = (best - median) / best if best > 0.0 else 0.0
+        accepted = self.estimates > before
+        correction = math.degrees(self.correction_rad)
+        tries.append((position[0], edges, len(keyframes), span, contrast, accepted, correction))
+
+    heading_module.HeadingEstimator._estimate = estimate_and_note
+    heading_module.heading_scores, heading_module.weighted_heading_scores = (
+        keep(plain),
+        keep(weighted),
+    )
+    try:
+
+        def count(frame, pipeline) -> None:
+            position[0] += 1
+
+        needed = float(np.median([needed_deg(f) for f in frames]))
+        run_frames(frames, recording.truth_at, recording.scenario, params=params, on_frame=count)
+    finally:
+        heading_module.HeadingEstimator._estimate = estimate
+        heading_module.heading_scores, heading_module.weighted_heading_scores = plain, weighted
+    lines = [f"== {path.name}: needed {needed:+.2f}°"]
+    for frame, edges, keyframes, span, contrast, accepted, correction in tries:
+        lines.append(
+            f"  frame {frame:4d} {'E' if edges else 'S'} keyframes {keyframes:3d} span "
+            f"{span:4.2f} m contrast {contrast:5.3f} {'accepted' if accepted else '        '} "
+            f"correction {correction:+6.2f}° error {correction - needed:+6.2f}°"
+        )
+    return lines
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("recordings", nargs="+", type=Path)
+    parser.add_argument("--true-pose", action="store_true", help="replay with the true pose")
+    parser.add_argument(
+        "--set",
+        action="append",
+        default=[],
+        metavar="KEY=VALUE",
+        help="a parameter override, e.g. head.voxel_estimate=true (VALUE as JSON, else a string)",
+    )
+    args = parser.parse_args()
+    overrides: dict[str, object] = {}
+    for item in args.set:
+        key, _, value = item.partition("=")
+        try:
+            overrides[key] = json.loads(value)
+        except json.JSONDecodeError:
+            overrides[key] = value
+    for path in args.recordings:
+        print("\n".join(trace(path, overrides, args.true_pose)), flush=True)
+
+
+if __name__ == "__main__":
+    main()
