@@ -68,8 +68,17 @@ class _Outcome:
 
 
 def can_segment_in_process() -> bool:
-    """Whether :class:`SegmentInProcess` may fork now: ``fork`` exists and no other thread runs."""
-    return "fork" in multiprocessing.get_all_start_methods() and threading.active_count() == 1
+    """Whether :class:`SegmentInProcess` may fork now.
+
+    It may when ``fork`` exists (not on Windows), no other thread of this process runs, and
+    this process is no ``multiprocessing`` daemon (a daemon may have no children: a worker of
+    ``multiprocessing.Pool``).
+    """
+    return (
+        "fork" in multiprocessing.get_all_start_methods()
+        and threading.active_count() == 1
+        and not multiprocessing.current_process().daemon
+    )
 
 
 class SegmentInProcess:
