@@ -3,6 +3,7 @@ same run as in line, errors raised as the frame's own, the child stopped with th
 
 from __future__ import annotations
 
+import dataclasses
 import multiprocessing
 
 import numpy as np
@@ -14,6 +15,7 @@ from test_prefetch import (
 )
 
 from fogsim.config import RunParams
+from fogsim.data.recording import load_recording, save_recording
 from fogsim.errors import FogsimError
 from fogsim.eval.archive import view_points_world
 from fogsim.eval.maps import write_maps
@@ -170,3 +172,29 @@ def test_refuses_another_frame_a_second_ask_and_bad_use(frames):
         refuses_another_frame_and_a_second_ask(ahead, frames)
         assert ahead.also(frames[2]) is None  # no `also` callable (and another frame)
     ahead.close()  # idempotent
+
+
+def test_a_recordings_frames_are_built_here_from_the_childs_depth(frames, tmp_path):
+    """A recording's frames come out equal to its own, depth included, read once by the child."""
+    recorded = load_recording(save_recording(tmp_path / "walk.npz", frames)).frames
+    mapped = []
+    with SegmentInProcess(recorded, FrameSegmenter(RunParams())) as ahead:
+        ahead.start()
+        for frame, own in zip(ahead, recorded, strict=True):
+            assert ahead.segmented(frame) is not None
+            for field in dataclasses.fields(own):
+                a, b = getattr(frame, field.name), getattr(own, field.name)
+                if isinstance(a, np.ndarray):
+                    np.testing.assert_array_equal(a, b, strict=True)
+                else:
+                    assert a == b, field.name
+            mapped.append(frame.index)
+    assert mapped == list(range(len(frames)))
+    results = {
+        name: run_frames(recorded, None, None, segment_ahead=ahead, segment_process=ahead)
+        for name, ahead in (("inline", False), ("process", True))
+    }
+    np.testing.assert_array_equal(
+        results["inline"].archive.fog_types, results["process"].archive.fog_types, strict=True
+    )
+    assert not children()
