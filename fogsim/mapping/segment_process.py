@@ -30,7 +30,6 @@ import mmap
 import multiprocessing
 import os
 import pickle
-import queue
 import threading
 import time
 from collections.abc import Callable, Iterator, Sequence
@@ -53,7 +52,7 @@ _SLOT_BYTES_PER_PIXEL = 88
 """Room a frame's message takes in the shared memory per depth pixel [bytes]: its arrays (the
 result's per-point arrays: 48 bytes a valid pixel; the world points of the cells in view: 24 a
 pixel; the depth image: 4 a pixel; the small tables) with room to spare. A message that does
-not fit is sent through the queue whole."""
+not fit is sent through the pipe whole."""
 
 _SLOT_SPARE_BYTES = 1 << 16
 """Room added to every slot for the small arrays (planes, floors, transforms) [bytes]."""
@@ -98,11 +97,12 @@ class SegmentInProcess:
     hand each frame to the pipeline.
 
     A frame's message (its outcome, pickled with protocol 5) leaves its arrays' bytes in a slot
-    of a memory shared with the child, created before the fork (``ahead`` + 2 slots: the
-    frames queued, the one the child writes, the one this process reads); the queue carries the
-    rest, a few kilobytes. This process copies the bytes out of the slot once (the arrays are
-    built on the copies): through the queue, the pipe's copies and pickling took 0.33 s of the
-    mapping thread's CPU time in a stage replay (832 frames), 0.4 ms a frame.
+    of a memory shared with the child, created before the fork (``ahead`` + 1 slots, handed out
+    by a semaphore: the child takes one before it writes a frame's bytes, this process gives it
+    back once it copied them out); a pipe carries the rest, a few kilobytes. This process copies
+    the bytes out of the slot once (the arrays are built on the copies). Sent whole through a
+    ``multiprocessing`` queue, pipe and pickling took 0.33 s of the mapping thread's CPU time in
+    a stage replay (832 frames), 0.4 ms a frame; through the slots and the queue 0.04 s.
 
     Args:
         frames: The frames in order (a recording's: a sequence this process holds).
@@ -136,10 +136,11 @@ class SegmentInProcess:
         self._also = also
         pixels = int(np.asarray(frames[0].depth_m).size) if len(frames) else 0
         self._slot_bytes = _SLOT_BYTES_PER_PIXEL * pixels + _SLOT_SPARE_BYTES
-        self._slots = ahead + 2
+        self._slots = ahead + 1
         self._shared = mmap.mmap(-1, self._slots * self._slot_bytes)  # shared with the fork
         context = multiprocessing.get_context("fork")
-        self._queue = context.Queue(maxsize=ahead)
+        self._free = context.Semaphore(self._slots)  # slots the child may write
+        self._reader, self._writer = context.Pipe(duplex=False)
         self._process = context.Process(
             target=self._serve, args=(os.getpid(),), name="fogsim-segment-process", daemon=True
         )
@@ -209,8 +210,8 @@ class SegmentInProcess:
             self._process.kill()
         if self._started:
             self._process.join()
-        self._queue.close()
-        self._queue.join_thread()
+        self._reader.close()
+        self._writer.close()
         self._shared.close()
 
     def __enter__(self) -> SegmentInProcess:
@@ -221,17 +222,15 @@ class SegmentInProcess:
 
     def _receive(self) -> tuple[bytes, list[int] | None]:
         """The child's next message; raises if it ended without one."""
-        while True:
-            try:
-                message = self._queue.get(timeout=_POLL_S)
-            except queue.Empty:
-                if not self._process.is_alive() and self._queue.empty():
-                    raise FogsimError(
-                        "the segmentation process ended without a word (exit status "
-                        f"{self._process.exitcode})"
-                    ) from None
-                continue
-            return message
+        while not self._reader.poll(_POLL_S):
+            if not self._process.is_alive() and not self._reader.poll():
+                raise FogsimError(
+                    "the segmentation process ended without a word (exit status "
+                    f"{self._process.exitcode})"
+                )
+        message = self._reader.recv()
+        assert isinstance(message, tuple)
+        return message
 
     def _unpack(self, position: int, message: tuple[bytes, list[int] | None]) -> _Outcome:
         """The outcome of the frame at ``position`` from its message (arrays copied out)."""
@@ -245,23 +244,21 @@ class SegmentInProcess:
                 buffers.append(bytearray(self._shared[offset : offset + size]))
                 offset += size
             outcome = pickle.loads(data, buffers=buffers)
+        self._free.release()  # its slot copied out: the child may write it again
         assert isinstance(outcome, _Outcome)
         return outcome
 
     # ------------------------------------------------------------------ the child
 
     def _serve(self, parent_pid: int) -> None:
+        self._reader.close()
         for position, frame in enumerate(self._frames):
-            message = self._pack(position, self._segment(frame))
-            while True:  # waits for room; ends when the parent has ended
-                try:
-                    self._queue.put(message, timeout=_POLL_S)
-                    break
-                except queue.Full:
-                    if os.getppid() != parent_pid:
-                        return
-        self._queue.close()
-        self._queue.join_thread()  # everything written before the child ends
+            outcome = self._segment(frame)
+            while not self._free.acquire(timeout=_POLL_S):  # a slot; ends with the parent
+                if os.getppid() != parent_pid:
+                    return
+            self._writer.send(self._pack(position, outcome))
+        self._writer.close()
 
     def _pack(self, position: int, outcome: _Outcome) -> tuple[bytes, list[int] | None]:
         """The message of the frame at ``position``: its arrays' bytes go to its slot."""
