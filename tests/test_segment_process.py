@@ -5,6 +5,7 @@ from __future__ import annotations
 
 import dataclasses
 import multiprocessing
+import threading
 
 import numpy as np
 import pytest
@@ -22,6 +23,7 @@ from fogsim.eval.maps import write_maps
 from fogsim.mapping import segment_process
 from fogsim.mapping.segment_process import SegmentInProcess, can_segment_in_process
 from fogsim.mapping.segmenter import FrameSegmenter
+from fogsim.run import runner
 from fogsim.run.runner import run_frames
 from fogsim.world.truth import ObjectState, SceneTruth
 from mapper.segmentation import segment_depth
@@ -41,6 +43,12 @@ TRUTH = SceneTruth(
 @pytest.fixture(scope="module")
 def frames():
     return walk_frames()
+
+
+@pytest.fixture
+def forks(monkeypatch):
+    """``run_frames`` forks its segmentation's process even if another test left a thread."""
+    monkeypatch.setattr(runner, "can_segment_in_process", lambda: True)
 
 
 def children() -> list[multiprocessing.process.BaseProcess]:
@@ -73,9 +81,8 @@ def test_hands_out_exactly_the_segmenters_results_in_order(frames, monkeypatch, 
     assert not children()
 
 
-def test_a_run_segmented_in_a_process_equals_the_run_in_line(frames, tmp_path):
+def test_a_run_segmented_in_a_process_equals_the_run_in_line(frames, tmp_path, forks):
     """run_frames' maps, archive, counts and scores are the same in a process and in line."""
-    assert can_segment_in_process()
     results = {
         name: run_frames(frames, lambda t: TRUTH, None, segment_ahead=ahead, segment_process=ahead)
         for name, ahead in (("inline", False), ("process", True))
@@ -97,7 +104,7 @@ def test_a_run_segmented_in_a_process_equals_the_run_in_line(frames, tmp_path):
     assert not children()
 
 
-def test_a_segmentation_error_in_frame_k_surfaces_as_frame_ks(frames):
+def test_a_segmentation_error_in_frame_k_surfaces_as_frame_ks(frames, forks):
     """Frames 0-2 are mapped; frame 3's error is raised when the pipeline segments frame 3."""
     calls = []
 
@@ -137,7 +144,7 @@ def test_an_unpicklable_error_travels_as_its_text(frames):
     assert not children()
 
 
-def test_an_interrupt_in_the_consumer_stops_the_child(frames):
+def test_an_interrupt_in_the_consumer_stops_the_child(frames, forks):
     def interrupt(frame, pipeline):
         if frame.index == 2:
             raise KeyboardInterrupt
@@ -174,7 +181,7 @@ def test_refuses_another_frame_a_second_ask_and_bad_use(frames):
     ahead.close()  # idempotent
 
 
-def test_a_recordings_frames_are_built_here_from_the_childs_depth(frames, tmp_path):
+def test_a_recordings_frames_are_built_here_from_the_childs_depth(frames, tmp_path, forks):
     """A recording's frames come out equal to its own, depth included, read once by the child."""
     recorded = load_recording(save_recording(tmp_path / "walk.npz", frames)).frames
     mapped = []
@@ -198,3 +205,15 @@ def test_a_recordings_frames_are_built_here_from_the_childs_depth(frames, tmp_pa
         results["inline"].archive.fog_types, results["process"].archive.fog_types, strict=True
     )
     assert not children()
+
+
+def test_no_fork_beside_another_thread():
+    """A thread of this process running: the run segments on a thread instead (no fork)."""
+    release = threading.Event()
+    waiting = threading.Thread(target=release.wait)
+    waiting.start()
+    try:
+        assert not can_segment_in_process()
+    finally:
+        release.set()
+        waiting.join()
