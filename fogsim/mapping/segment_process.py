@@ -30,6 +30,7 @@ import mmap
 import multiprocessing
 import os
 import pickle
+import signal
 import threading
 import time
 from collections.abc import Callable, Iterator, Sequence
@@ -251,14 +252,24 @@ class SegmentInProcess:
     # ------------------------------------------------------------------ the child
 
     def _serve(self, parent_pid: int) -> None:
+        """The child: segment every frame and send it; end quietly when the parent has gone.
+
+        Ctrl-C (sent to the terminal's whole process group) is the parent's to handle: it
+        stops the child (:meth:`close`).
+        """
+        signal.signal(signal.SIGINT, signal.SIG_IGN)
         self._reader.close()
-        for position, frame in enumerate(self._frames):
-            outcome = self._segment(frame)
-            while not self._free.acquire(timeout=_POLL_S):  # a slot; ends with the parent
-                if os.getppid() != parent_pid:
-                    return
-            self._writer.send(self._pack(position, outcome))
-        self._writer.close()
+        try:
+            for position, frame in enumerate(self._frames):
+                outcome = self._segment(frame)
+                while not self._free.acquire(timeout=_POLL_S):  # a slot; ends with the parent
+                    if os.getppid() != parent_pid:
+                        return
+                self._writer.send(self._pack(position, outcome))
+        except BrokenPipeError:  # the parent closed its end: nobody to send to
+            return
+        finally:
+            self._writer.close()
 
     def _pack(self, position: int, outcome: _Outcome) -> tuple[bytes, list[int] | None]:
         """The message of the frame at ``position``: its arrays' bytes go to its slot."""
