@@ -2,15 +2,17 @@
 
 :class:`~fogsim.mapping.prefetch.SegmentAhead` segments on a second thread; both threads then
 share Python's GIL: in a stage replay (832 frames, Intel Xeon 2 cores, session 36) the mapping
-takes 1.22 s of CPU time alone (the frames segmented before) but 1.35 s beside the thread, and
-the frame loop 1.69-1.75 s wall. :class:`SegmentInProcess` forks a process that runs the
-segmenter on every frame in order (the frames are the forked copy of this process's, nothing is
-sent to it) and sends back each result: the two halves then run on two cores without a shared
-GIL, and the same frame loop takes 1.53-1.57 s (3 interleaved repeats each, load 3.7, run at
-nice -10 in an autogroup of its own; ``fogsim run --replay`` of the stage 2.79 -> 2.66 s wall,
-``bench/bench_run.py --no-run``, 6 repeats, load 1.6-3.4). The results are the segmenter's bit
-for bit (the same code on the same frames in the same order; pickling keeps every array's
-bytes).
+takes 1.22 s of CPU time alone (the frames segmented before) but 1.35 s beside the thread.
+:class:`SegmentInProcess` forks a process that runs the segmenter on every frame in order (the
+frames are the forked copy of this process's, nothing is sent to it) and sends back each
+result: the two halves then run on two cores without a shared GIL. The frame loop (in one
+process, 5 interleaved repeats each, medians, load 2.2-3.0, run at nice -10 in an autogroup of
+its own): stage 1.68 -> 1.45 s, room 1.00 -> 0.94 s, stage_down 2.24 -> 2.00 s, the same CPU
+time. ``fogsim run --replay`` (``bench/bench_run.py --no-run``, interleaved, load about 2): the
+stage 2.79 -> 2.53 s wall (7 repeats), room 2.35 -> 2.25 s, stage_down 3.40 -> 3.12 s (4);
+on a machine whose cores are busy (two busy loops beside it) the same: 4.60 and 4.66 s, CPU
+4.06 and 4.29 s. The results are the segmenter's bit for bit (the same code on the same frames
+in the same order; pickling keeps every array's bytes).
 
 Fork it only where a fork is safe: this process has no other thread (a forked child has only
 the thread that forked; one holding a lock there would hold it for ever), and the frames are
