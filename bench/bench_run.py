@@ -2,10 +2,10 @@
 
 Usage:
     .venv/bin/python bench/bench_run.py [SCENARIO] [--repeats N] [--replay FILE] [--cold N]
-        [--parts] [--overlap N] [--ahead N] [--no-commands] [--tree DIR ...]
+        [--parts] [--overlap N] [--ahead N] [--no-commands] [--no-run] [--tree DIR ...]
 
-Every figure is the median of N repeats (all of them printed), each command a fresh
-``python -m fogsim`` process run from this tree (``PYTHONPATH`` = the tree), with the load
+Every figure is the median of N repeats (their minimum and all of them printed), each command
+a fresh ``python -m fogsim`` process run from this tree (``PYTHONPATH`` = the tree), with the load
 average (``os.getloadavg``, 2 cores) noted before and after each measurement. With
 ``--tree DIR`` (repeatable) the commands (``run``, ``replay``, ``cold``) run from each tree
 instead, their repeats interleaved (tree A, tree B, tree A, ...) so the load hits them alike;
@@ -18,7 +18,10 @@ the in-process figures (``--overlap``, ``--ahead``, ``--parts``) are this tree's
   loaded machine the longest of them bounds the wall time a quiet one would show);
 - ``teardown``: of ``run``, the time from the last ``atexit`` handler to the process's exit
   (the interpreter's finalisation: modules freed, native destructors);
-- ``replay`` (``--replay FILE``): ``fogsim run --replay FILE --out TMP --quiet``, pictures on;
+- ``replay`` (``--replay FILE``): ``fogsim run --replay FILE --out TMP --quiet``, pictures on
+  (``--no-run``: the replay without ``run``: the caches are warmed by a replay); its CPU time
+  counts the segmentation process it forks (``fogsim.mapping.segment_process``), whose thread
+  figure is then 0;
 - ``cold`` (``--cold N``, N repeats): ``run`` on a fresh machine: ``NUMBA_CACHE_DIR`` and
   ``FOGSIM_CACHE`` empty folders (numba compiles every kernel, the robot's meshes are
   converted, the scene compiled);
@@ -127,6 +130,7 @@ def repeat(
             column = [v[i] for v in values[tree]]
             print(
                 f"  {label + ' ' + name:<34} median {statistics.median(column):6.2f} s   "
+                f"min {min(column):6.2f} s   "
                 f"all {[round(v, 2) for v in column]}"
             )
     print(f"  {'':<34} {note} before, {load_note()} after")
@@ -270,6 +274,9 @@ def main() -> None:
     )
     parser.add_argument("--no-commands", action="store_true", help="skip run/replay/cold")
     parser.add_argument(
+        "--no-run", action="store_true", help="skip the simulated run (replay and cold only)"
+    )
+    parser.add_argument(
         "--tree",
         type=Path,
         action="append",
@@ -287,15 +294,19 @@ def main() -> None:
         ahead(args.replay, args.ahead)
     if args.no_commands:
         return
+    if args.no_run and args.replay is None:
+        raise SystemExit("--no-run leaves the replay: give --replay FILE")
     with tempfile.TemporaryDirectory() as tmp:
         out = str(Path(tmp) / "out")
         run = ["run", args.scenario, "--out", out, "--quiet"]
+        replay = ["run", "--replay", str(args.replay.resolve()) if args.replay else "", "--out"]
+        replay += [out, "--quiet"]
         for tree in trees:
-            fogsim(run, envs[tree], tree)  # caches warm first
+            fogsim(replay if args.no_run and args.replay else run, envs[tree], tree)  # warm
         figures = ("wall", "cpu", "teardown", *(f"cpu {name}" for name in THREADS))
-        repeat("run", args.repeats, lambda tree: fogsim(run, envs[tree], tree), figures, trees)
+        if not args.no_run:
+            repeat("run", args.repeats, lambda tree: fogsim(run, envs[tree], tree), figures, trees)
         if args.replay is not None:
-            replay = ["run", "--replay", str(args.replay.resolve()), "--out", out, "--quiet"]
             repeat(
                 "replay",
                 args.repeats,

@@ -218,20 +218,25 @@ def test_looks_ahead_at_most_ahead_frames_and_stops_when_closed():
     source.close()  # idempotent
 
 
+def refuses_another_frame_and_a_second_ask(ahead, frames) -> None:
+    """``ahead`` (started, over ``frames[:3]``) refuses another frame, a copy, a second ask."""
+    iterator = iter(ahead)
+    frame = next(iterator)
+    with pytest.raises(FogsimError, match="another frame"):
+        ahead.segmented(frames[1])
+    frame = next(iterator)
+    with pytest.raises(FogsimError, match="another frame"):  # an equal copy is not it
+        ahead.segmented(dataclasses.replace(frame))
+    frame = next(iterator)
+    assert ahead.segmented(frame) is not None
+    with pytest.raises(FogsimError, match="another frame"):  # asked already
+        ahead.segmented(frame)
+
+
 def test_refuses_another_frame_and_a_second_ask(frames):
     with SegmentAhead(frames[:3], FrameSegmenter(RunParams())) as ahead:
         ahead.start()
-        iterator = iter(ahead)
-        frame = next(iterator)
-        with pytest.raises(FogsimError, match="another frame"):
-            ahead.segmented(frames[1])
-        frame = next(iterator)
-        with pytest.raises(FogsimError, match="another frame"):  # an equal copy is not it
-            ahead.segmented(dataclasses.replace(frame))
-        frame = next(iterator)
-        assert ahead.segmented(frame) is not None
-        with pytest.raises(FogsimError, match="another frame"):  # asked already
-            ahead.segmented(frame)
+        refuses_another_frame_and_a_second_ask(ahead, frames)
 
 
 def test_refuses_no_look_ahead_and_iterating_before_start(frames):

@@ -12,7 +12,7 @@ import dataclasses
 import os
 import sys
 import time
-from collections.abc import Callable, Iterable, Mapping
+from collections.abc import Callable, Iterable, Mapping, Sequence
 from contextlib import ExitStack, closing
 from dataclasses import dataclass
 from pathlib import Path
@@ -35,6 +35,7 @@ from fogsim.eval.report.schema import Source
 from fogsim.eval.result import RunResult, Snapshot
 from fogsim.mapping.pipeline import FrameCallback, FrameTiming, Pipeline
 from fogsim.mapping.prefetch import SegmentAhead
+from fogsim.mapping.segment_process import SegmentInProcess, can_segment_in_process
 from fogsim.mapping.segmenter import FrameSegmenter, SegmentFunction
 from fogsim.robot.description import load_description
 from fogsim.run.run_folder import RunFolder
@@ -124,6 +125,7 @@ def run_frames(
     segment: SegmentFunction = segment_depth,
     segment_ahead: bool = True,
     in_view: InView = cells_in_view,
+    segment_process: bool = False,
 ) -> RunResult:
     """Feed frames through the pipeline and score the run.
 
@@ -144,6 +146,11 @@ def run_frames(
             two overlapped); False: in line.
         in_view: The cells of a grid a frame saw (:func:`~fogsim.eval.archive.cells_in_view`,
             or a cache in front of it: ``fogsim tune``).
+        segment_process: With ``segment_ahead``, segment in a forked process instead of a
+            thread (:class:`~fogsim.mapping.segment_process.SegmentInProcess`: the same
+            results, no GIL shared with the mapping) when ``frames`` is a sequence and a fork
+            is safe (:func:`~fogsim.mapping.segment_process.can_segment_in_process`); else
+            on a thread. ``fogsim run --replay`` does.
 
     Raises:
         FogsimError: No frames.
@@ -160,6 +167,21 @@ def run_frames(
             frames, None, pipeline, truth_provider, scenario, run_params, on_frame, start, in_view
         )
     segmenter = FrameSegmenter(run_params, segment)
+    if segment_process and isinstance(frames, Sequence) and can_segment_in_process():
+        with SegmentInProcess(frames, segmenter, also=view_points_world) as forked:
+            forked.start()
+            pipeline = Pipeline(run_params, segmented=forked.segmented)
+            return _run_pipeline(
+                forked,
+                forked,
+                pipeline,
+                truth_provider,
+                scenario,
+                run_params,
+                on_frame,
+                start,
+                in_view,
+            )
     # The frames' world points for the cells in view are made on the thread too.
     with SegmentAhead(frames, segmenter, also=view_points_world) as ahead:
         pipeline = Pipeline(run_params, segmented=ahead.segmented)
@@ -171,7 +193,7 @@ def run_frames(
 
 def _run_pipeline(
     frames: Iterable[Frame],
-    ahead: SegmentAhead | None,
+    ahead: SegmentAhead | SegmentInProcess | None,
     pipeline: Pipeline,
     truth_provider: TruthProvider | None,
     scenario: Scenario | None,
@@ -637,6 +659,7 @@ def _run_frames_into(
             scenario,
             params=params,
             on_frame=_all_of(callbacks) if callbacks else None,
+            segment_process=source.kind == "replay",
         )
     return result, source.kind, writer
 
