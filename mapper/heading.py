@@ -216,8 +216,17 @@ class HeadingParams:
             1.50 → 1.50° (seed 5 early on), 0.50 → 0.50°. 2 cells (the same voxels nearly)
             leave `room` at +0.5…+0.75° and scatter the stage ±1.5°; 5 cells without the roots
             is as good on `room`, worse on the zig-zag (0.38 (0.75)°, an accepted 2.5°);
-            one count per voxel with 5 cells overshoots (`room` −0.75…−2.0°). Off by default
-            until the replays (heading, unsafe cells, Table I) show it better everywhere.
+            one count per voxel with 5 cells overshoots (`room` −0.75…−2.0°); 3, 4 and 7
+            cells √: `room` 0.41, 0.41, 0.31°, zig-zag 0.28, 0.19, 0.19°. But the replays
+            (their real poses, seeds 1–8, `map_heading_deg` mean (worst), unsafe cells mean
+            (worst), 0 → 5): `room` depth 0.82 (1.84) → 0.54 (1.84)°, 1.5 (5) → 1.0 (5);
+            stage stereo 0.44 (0.74) → 0.35 (0.63)°; zig-zag stereo 0.49 (1.01) → 0.48
+            (0.90)°, 31.9 (70) → 30.4 (66); `room` stereo 0.89 (1.55) → 0.94 (2.12)° (seed
+            4); stage depth 0.31 (0.46) → 0.40 (0.84)° (seed 3: the estimate +0.25° where the
+            run needs +1.05°, the counts +0.75°), 0 (0) → 1.4 (10) (seed 7); zig-zag depth
+            0.61 (1.16) → 0.61 (1.35)°, 11.3 (44) → 16.3 (65) (seed 3). So 0: it takes the
+            estimator's own bias out where the pose is exact, but under the real poses'
+            errors it is no better everywhere.
     """
 
     correct_heading: bool = True
