@@ -7,13 +7,21 @@ line: the frame, which score (``S`` structure points, ``E`` edge points), keyfra
 of their cameras [m], the contrast ``(best − median) / best``, whether the estimate was
 accepted, the correction after the try [deg] and its error against the correction the run
 needed (the median over its frames of the yaw between the believed and the true camera pose in
-the robot frame, `fogsim.eval.pose_error.heading_error_deg`; with ``--true-pose`` only
-odometry's yaw error, a few tenths of a degree) [deg].
+the robot frame, `fogsim.eval.pose_error.heading_error_deg`) [deg].
 
-Session 36 (seeds 1–8, ``--true-pose``): the structure score's accepted estimates are
-+0.15…+0.92° off on `room` depth, and on the zig-zag stage's stereo recordings −0.8…−1.8° from
-its second leg (frames 233–291) on: the estimator's own bias, not the poses' errors
-(`HeadingParams.voxel_estimate` has the figures with one point per voxel).
+With ``--true-pose`` the run needs no correction: `heading_oracle.true_pose_frame` puts the true
+camera pose into the *believed* robot frame, so every frame's world points are exact and the
+right answer is 0; the error is then the correction itself. (The yaw between the believed and
+the true camera pose in the *true* robot frame is then the odometry's yaw error alone, which no
+camera correction should follow; the header shows it as ``odometry``. Up to session 36 the error
+was taken against it, which made the stage depth's exact 0.00° on every seed read −0.55…+0.82°
+off.)
+
+Session 36 (seeds 1–8, ``--true-pose``, error against 0): the structure score's accepted
+estimates are +0.25…+1.0° on `room` depth (+0.5…+0.75° at the last), −1.0…+0.25° at the end of
+the zig-zag stage's stereo recordings, 0.00° on the stage depth: the estimator's own bias, not
+the poses' errors (`HeadingParams.voxel_estimate` has the figures with one point per voxel,
+against the odometry then).
 
 Usage::
 
@@ -94,12 +102,16 @@ def trace(path: Path, overrides: dict[str, object], true_pose: bool) -> list[str
         def count(frame, pipeline) -> None:
             position[0] += 1
 
-        needed = float(np.median([needed_deg(f) for f in frames]))
+        odometry = float(np.median([needed_deg(f) for f in frames]))
+        needed = 0.0 if true_pose else odometry
         run_frames(frames, recording.truth_at, recording.scenario, params=params, on_frame=count)
     finally:
         heading_module.HeadingEstimator._estimate = estimate
         heading_module.heading_scores, heading_module.weighted_heading_scores = plain, weighted
-    lines = [f"== {path.name}: needed {needed:+.2f}°"]
+    lines = [
+        f"== {path.name}: needed {needed:+.2f}°"
+        + (f" (odometry {odometry:+.2f}°)" if true_pose else "")
+    ]
     for frame, edges, keyframes, span, contrast, accepted, correction in tries:
         lines.append(
             f"  frame {frame:4d} {'E' if edges else 'S'} keyframes {keyframes:3d} span "

@@ -69,6 +69,7 @@ __all__ = [
     "edge_gradients",
     "heading_scores",
     "inside_image",
+    "overlap_heading_scores",
     "weighted_heading_scores",
     "yaw_about_pivot",
 ]
@@ -197,6 +198,35 @@ class HeadingParams:
             and `table` seed 7's contrast, higher, then stays between `flat_contrast` and
             `min_contrast`: no estimate, 1.11 → 3.36°.) So False: the estimator's imprecision
             on a flat-topped score (±0.5–1°), not this bias alone, sets the residual.
+        overlap_cells: 0: off. Else the structure score's estimate (not whether it stands out:
+            that stays the point counts', which `min_contrast` and `flat_contrast` were set
+            on; exclusive with `voxel_estimate`) is taken from `overlap_heading_scores`: the
+            root-products of two keyframes' point counts in shared `cell_m` voxels divided by
+            those in voxels this many `cell_m` wide. With the true camera pose (session 36,
+            `bench/heading_trace.py --true-pose`, against 0) the point counts' top is not a
+            plateau centred on the truth but a steep side at it and a shoulder 2–3° long on one
+            side (`room` depth: on the positive side, the zig-zag stage's stereo: the
+            negative): a correction that widens where two keyframes see the same structure
+            raises the counts without making anything coincide. Weighting does not move it
+            (one count per voxel, √ of the counts, or the counts times the squared range all
+            leave `room` at +0.25…+1.0°); dividing by the wide voxels' does. The last
+            estimate of each run, seeds 1–8, mean |error| (worst), counts → 5 cells: `room`
+            depth 0.56 (0.75) → 0.22 (0.50)°, zig-zag stereo 0.62 (1.00) → 0.28 (0.75)°, stage
+            depth 0.00 (0.00) → 0.00 (0.00)°; any accepted estimate's worst 1.00 → 0.50°,
+            1.50 → 1.50° (seed 5 early on), 0.50 → 0.50°. 2 cells (the same voxels nearly)
+            leave `room` at +0.5…+0.75° and scatter the stage ±1.5°; 5 cells without the roots
+            is as good on `room`, worse on the zig-zag (0.38 (0.75)°, an accepted 2.5°);
+            one count per voxel with 5 cells overshoots (`room` −0.75…−2.0°); 3, 4 and 7
+            cells √: `room` 0.41, 0.41, 0.31°, zig-zag 0.28, 0.19, 0.19°. But the replays
+            (their real poses, seeds 1–8, `map_heading_deg` mean (worst), unsafe cells mean
+            (worst), 0 → 5): `room` depth 0.82 (1.84) → 0.54 (1.84)°, 1.5 (5) → 1.0 (5);
+            stage stereo 0.44 (0.74) → 0.35 (0.63)°; zig-zag stereo 0.49 (1.01) → 0.48
+            (0.90)°, 31.9 (70) → 30.4 (66); `room` stereo 0.89 (1.55) → 0.94 (2.12)° (seed
+            4); stage depth 0.31 (0.46) → 0.40 (0.84)° (seed 3: the estimate +0.25° where the
+            run needs +1.05°, the counts +0.75°), 0 (0) → 1.4 (10) (seed 7); zig-zag depth
+            0.61 (1.16) → 0.61 (1.35)°, 11.3 (44) → 16.3 (65) (seed 3). So 0: it takes the
+            estimator's own bias out where the pose is exact, but under the real poses'
+            errors it is no better everywhere.
     """
 
     correct_heading: bool = True
@@ -224,6 +254,7 @@ class HeadingParams:
     min_edge_evidence: float = 200.0
     flat_contrast: float = 0.05
     voxel_estimate: bool = False
+    overlap_cells: int = 0
 
     def __post_init__(self) -> None:
         def check(name: str, kind: type, allowed: str, ok=lambda _: True) -> None:
@@ -232,6 +263,12 @@ class HeadingParams:
         check("correct_heading", bool, "a bool")
         check("edge_score", bool, "a bool")
         check("voxel_estimate", bool, "a bool")
+        check(
+            "overlap_cells",
+            int,
+            "0 (off) or an integer in [2, 20], and 0 with voxel_estimate",
+            lambda v: (v == 0 or 2 <= v <= 20) and not (v and self.voxel_estimate),
+        )
         check(
             "edge_margin_m",
             float,
@@ -451,6 +488,84 @@ def weighted_heading_scores(
             for i in range(offsets_xy.shape[0]):
                 sums[slots[i]] = 0.0
         scores[a] = pairs
+    return scores
+
+
+@numba.njit(cache=True, inline="always")
+def _root_pairs(slots, starts, k, own, acc, stamp):
+    """Keyframe ``k``'s ``Σ_voxels √n_k · Σ_{j<k} √n_j``, then its ``√n_k`` added (numba).
+
+    ``own`` (per slot, zero) counts the keyframe's points; ``stamp`` (per slot) marks the slots
+    it has scored; ``acc`` (per slot) holds ``Σ_{j<k} √n_j``. ``own`` is left zero.
+    """
+    out = 0.0
+    for i in range(starts[k], starts[k + 1]):
+        own[slots[i]] += 1
+    for i in range(starts[k], starts[k + 1]):
+        slot = slots[i]
+        if stamp[slot] != k:
+            stamp[slot] = k
+            out += math.sqrt(own[slot]) * acc[slot]
+    for i in range(starts[k], starts[k + 1]):
+        slot = slots[i]
+        if own[slot] > 0:
+            acc[slot] += math.sqrt(own[slot])
+            own[slot] = 0
+    return out
+
+
+@numba.njit(cache=True, no_cfunc_wrapper=True, nogil=True, error_model="numpy")
+def overlap_heading_scores(
+    offsets_xy, z_world, starts, camera_xy, yaw_rad, angles_rad, cell, layer, overlap_cells
+):
+    """Agreement of the keyframes' structure points *per pair of points near each other* (numba).
+
+    For each candidate correction (points placed as in `heading_scores`): ``Σ_{j<k} Σ_voxels
+    √n_j·√n_k`` over `cell` × `cell` × `layer` voxels, divided by the same sum over voxels
+    ``overlap_cells`` times wider (`cell` · ``overlap_cells`` square, `layer` high), both
+    summed over two grids offset by half a voxel. The denominator counts the structure two
+    keyframes see in the same place, within a few voxels, whether or not it coincides: a
+    correction that only widens the keyframes' overlap (structure sliding along itself, the
+    top's plateau of `heading_scores`) raises both, one that makes structure coincide raises
+    the numerator alone. The square roots temper the near, dense parts of a view.
+
+    Args:
+        offsets_xy: (M, 2) points' horizontal offsets from their camera [m], keyframe by
+            keyframe.
+        z_world: (M,) points' world z [m].
+        starts: (K + 1,) first point of each keyframe, then M.
+        camera_xy: (K, 2) world camera positions [m].
+        yaw_rad: (K,) robot yaw of each keyframe [rad].
+        angles_rad: (A,) candidate corrections [rad].
+        cell: Horizontal voxel size [m].
+        layer: Vertical voxel size [m].
+        overlap_cells: The wide voxels' size in `cell` (>= 2).
+
+    Returns:
+        (A,) float64 scores in [0, 1] (0 where nothing lies near anything).
+    """
+    mask = (1 << _HASH_BITS) - 1
+    own = np.zeros(1 << _HASH_BITS, dtype=np.int32)
+    acc = np.zeros((2, 1 << _HASH_BITS))
+    stamp = np.full((2, 1 << _HASH_BITS), -1, dtype=np.int64)
+    slots = np.empty((2, offsets_xy.shape[0]), dtype=np.int64)
+    scores = np.zeros(angles_rad.shape[0])
+    for a in range(angles_rad.shape[0]):
+        pairs = np.zeros(2)
+        for shift in (0.0, 0.5):  # two voxel grids, the second offset by half a voxel
+            for k in range(starts.shape[0] - 1):
+                for g in range(2):  # fine, wide
+                    size = cell if g == 0 else cell * overlap_cells
+                    _keyframe_slots(
+                        slots[g], offsets_xy, z_world, starts, camera_xy, yaw_rad, k,
+                        angles_rad[a], shift, size, layer, mask,
+                    )  # fmt: skip
+                    pairs[g] += _root_pairs(slots[g], starts, k, own, acc[g], stamp[g])
+            for g in range(2):
+                for i in range(offsets_xy.shape[0]):
+                    acc[g, slots[g, i]] = 0.0
+                    stamp[g, slots[g, i]] = -1
+        scores[a] = pairs[0] / pairs[1] if pairs[1] > 0.0 else 0.0
     return scores
 
 
@@ -827,6 +942,13 @@ class HeadingEstimator:
                 ).astype(np.int64),
                 *data[3:],
             )
+            scores = score(*data, np.radians(coarse), p.cell_m, p.layer_m)
+            best = float(scores.max())
+        if p.overlap_cells and not edges:
+            # Accepted on the points' score (its thresholds); the estimate from the overlap's.
+            def score(*args):
+                return overlap_heading_scores(*args, p.overlap_cells)
+
             scores = score(*data, np.radians(coarse), p.cell_m, p.layer_m)
             best = float(scores.max())
         if p.peak_band > 0.0:

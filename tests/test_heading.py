@@ -11,6 +11,7 @@ from mapper.heading import (
     _band_centre_deg,
     edge_gradients,
     heading_scores,
+    overlap_heading_scores,
     voxel_centroids,
     weighted_heading_scores,
     yaw_about_pivot,
@@ -91,12 +92,12 @@ WALK = [(0.0, 0.5, 0.0), (0.3, 0.5, 0.02), (0.6, 0.5, -0.01), (0.9, 0.52, 0.0)]
 """Robot poses (x [m], y [m], yaw [rad]) of the walk: 0.3 m steps towards the boxes."""
 
 
-@pytest.mark.parametrize("voxel_estimate", [False, True])
+@pytest.mark.parametrize("estimate", [{}, {"voxel_estimate": True}, {"overlap_cells": 5}])
 @pytest.mark.parametrize("yaw_error_deg", [3.0, -5.5])
-def test_a_known_yaw_error_is_recovered_within_half_a_degree(yaw_error_deg, voxel_estimate):
+def test_a_known_yaw_error_is_recovered_within_half_a_degree(yaw_error_deg, estimate):
     rng = np.random.default_rng(11)
     boxes = box_points_world(rng)
-    estimator = HeadingEstimator(HeadingParams(estimate_every=1, voxel_estimate=voxel_estimate))
+    estimator = HeadingEstimator(HeadingParams(estimate_every=1, **estimate))
     for x, y, yaw in WALK:
         correction = correct(
             estimator, *frame(boxes, floor_points_world(x), (x, y, yaw), yaw_error_deg)
@@ -217,9 +218,27 @@ def test_scores_count_pairs_of_different_keyframes_in_one_voxel():
     np.testing.assert_array_equal(scores, [4.0, 0.0])
 
 
+def test_overlap_scores_divide_the_root_pairs_by_those_of_the_wide_voxels():
+    # Keyframe 0 at the origin sees two points in one 3 cm voxel at world (1.01, 0.005, 0.01);
+    # keyframe 1, one metre to the side, one point there and one 3 cm on, at (1.04, 0.005):
+    # another 3 cm voxel, the same 15 cm one (5 cells), on both grids. Per grid: fine
+    # √2·√1, wide √2·√2 → √2 / 2. At 10° the keyframes' points are 17 cm apart: nothing near
+    # anything, 0.
+    offsets = np.array([[1.010, 0.005], [1.012, 0.007], [1.010, -0.995], [1.040, -0.995]])
+    z = np.full(4, 0.01)
+    starts = np.array([0, 2, 4])
+    cameras = np.array([[0.0, 0.0], [0.0, 1.0]])
+    scores = overlap_heading_scores(
+        offsets, z, starts, cameras, np.zeros(2), np.radians([0.0, 10.0]), 0.03, 0.04, 5
+    )
+    np.testing.assert_allclose(scores, [math.sqrt(2.0) / 2.0, 0.0], rtol=1e-12)
+
+
 @pytest.mark.parametrize(
     ("field", "value"),
     [
+        ("overlap_cells", 1),
+        ("overlap_cells", 21),
         ("max_correction_deg", 0.0),
         ("prior_deg", 20.0),
         ("fine_step_deg", 1.0),
@@ -237,6 +256,11 @@ def test_scores_count_pairs_of_different_keyframes_in_one_voxel():
 def test_bad_parameters_are_refused_by_name(field, value):
     with pytest.raises(InvalidParameterError, match=f"HeadingParams.{field}"):
         HeadingParams(**{field: value})
+
+
+def test_the_overlap_estimate_and_the_voxel_estimate_are_not_both_asked_for():
+    with pytest.raises(InvalidParameterError, match=r"HeadingParams\.overlap_cells"):
+        HeadingParams(overlap_cells=5, voxel_estimate=True)
 
 
 def test_the_estimate_is_the_centre_of_the_band_around_the_best_score():
