@@ -42,6 +42,24 @@ from mapper.validation import real_scalar
 from mapper.zmatch import ZMatch, match_z
 
 
+def _rewritten_ring(p: MapperParams) -> int:
+    """Cells beyond the stale area that `update_fog_area` rewrites (its ring) [cells].
+
+    The margin, the band's 2, the narrow rise's n + 1, the shadow's reach + 1 and one more for
+    `MapperParams.min_floor_neighbours`; the rules after it (`mapper.fog.mark_raised_rims`,
+    `mapper.fog.mark_unconfirmed_floors`) judge exactly that window.
+    """
+    banded = p.edge_band_m > 0.0 or p.unknown_beside_obstacles
+    ring = p.obstacle_margin_cells + (2 if banded else 0)
+    if p.edge_band_m > 0.0 and p.narrow_rise_cells > 0:
+        ring = max(ring, p.narrow_rise_cells + 1)
+    if p.edge_band_m > 0.0 and p.shadow_reach_cells > 1:
+        ring = max(ring, p.shadow_reach_cells + 1)
+    if p.edge_band_m > 0.0 and p.min_floor_neighbours > 0:
+        ring += 1
+    return ring
+
+
 class FloorObstacleMapper:
     """The floor and obstacle height map of Gutmann, Fukuchi and Fujita.
 
@@ -73,6 +91,7 @@ class FloorObstacleMapper:
         p = self.params
         # `MapperParams.min_floor_frames` needs the frame votes (`floor_frame_cap` > 0).
         self._confirms_floors = p.min_floor_frames > 1 and p.floor_frame_cap > 0
+        self._fog_ring = _rewritten_ring(p)
         self._geometry = GridGeometry.from_params(p, center_xy_m)
         self._hit_table, self._miss_table = lookup_tables(p)
         self._occ_level = p.occ_threshold_level
@@ -320,16 +339,7 @@ class FloorObstacleMapper:
             p.rim_over_seen_drop,
             p.ground_noise_unknown,
         )
-        # The window `update_fog_area` rewrote: the stale area and its ring of cells.
-        # (`update_fog_area`'s ring: the margin, the band's 2, the narrow rise's n + 1.)
-        banded = p.edge_band_m > 0.0 or p.unknown_beside_obstacles
-        ring = p.obstacle_margin_cells + (2 if banded else 0)
-        if p.edge_band_m > 0.0 and p.narrow_rise_cells > 0:
-            ring = max(ring, p.narrow_rise_cells + 1)
-        if p.edge_band_m > 0.0 and p.shadow_reach_cells > 1:
-            ring = max(ring, p.shadow_reach_cells + 1)
-        if p.edge_band_m > 0.0 and p.min_floor_neighbours > 0:
-            ring += 1
+        ring = self._fog_ring
         if p.raised_rim_obstacle:  # `mapper.fog.mark_raised_rims`
             mark_raised_rims(
                 self._floor,

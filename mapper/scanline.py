@@ -2115,6 +2115,7 @@ def floor_statistics(
     square = np.zeros(n_floors)
     rough_square = np.zeros(n_floors)  # the same against the noise with the unevenness
     rough_variance = tolerance_m**2 + roughness_m**2
+    rough = roughness_m > 0.0  # the second sum only when the allowance is on
     moments = np.zeros((n_floors, 5))  # x, y, xx, xy, yy of the points on the height
     fit = np.zeros((n_floors, 9))  # weighted sums for the slope: 1 x y xx xy yy z xz yz
     areas = np.zeros(n_floors)
@@ -2154,9 +2155,10 @@ def floor_statistics(
                     used_f += 1
                     # Clipped at 3 sigma: a row of riser pixels joined to a tread is no roughness.
                     square_f += min(residual * residual / (sigma * sigma + tolerance_m**2), 9.0)
-                    rough_square_f += min(
-                        residual * residual / (sigma * sigma + rough_variance), 9.0
-                    )
+                    if rough:
+                        rough_square_f += min(
+                            residual * residual / (sigma * sigma + rough_variance), 9.0
+                        )
                 ray_z = rays[r, c, 2]
                 d = depth[r, c]
                 d_on = (height_f - origin_z) / ray_z if ray_z != 0.0 else -1.0
@@ -2217,7 +2219,7 @@ def floor_statistics(
         root = math.sqrt(0.25 * (cxx - cyy) ** 2 + cxy * cxy)
         extents[f, 0] = math.sqrt(12.0 * max(half - root, 0.0))
         extents[f, 1] = math.sqrt(12.0 * max(half + root, 0.0))
-        if roughness_m > 0.0 and extents[f, 0] >= roughness_min_extent_m:
+        if rough and extents[f, 0] >= roughness_min_extent_m:
             rms[f] = math.sqrt(rough_square[f] / used[f])
     return counts, heights, rms, extents, areas, slope
 

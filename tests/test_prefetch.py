@@ -100,26 +100,29 @@ def test_hands_out_exactly_the_segmenters_results_in_order(frames):
     assert not ahead_threads()
 
 
+def assert_same_run(inline, other, tmp_path):
+    """Two `run_frames` results have the same maps (written files), counts and scores."""
+    for name, result in (("inline", inline), ("other", other)):
+        write_maps(tmp_path / f"{name}.npz", result, result.final_truth)
+    with np.load(tmp_path / "inline.npz") as a, np.load(tmp_path / "other.npz") as b:
+        assert sorted(a.files) == sorted(b.files)
+        for name in a.files:
+            np.testing.assert_array_equal(a[name], b[name], err_msg=name, strict=True)
+    assert (inline.frames, inline.withdrawn, inline.z_matched) == (
+        other.frames,
+        other.withdrawn,
+        other.z_matched,
+    )
+    assert inline.scores == other.scores
+    assert inline.scores.table1.fog  # something was scored
+
+
 def test_a_run_segmented_ahead_equals_the_run_in_line(frames, tmp_path):
     """run_frames' maps, archive, counts and scores are the same with and without the thread."""
-    results = {
-        ahead: run_frames(frames, lambda t: TRUTH, None, segment_ahead=ahead)
-        for ahead in (False, True)
-    }
-    for ahead, result in results.items():
-        write_maps(tmp_path / f"{ahead}.npz", result, result.final_truth)
-    with np.load(tmp_path / "False.npz") as inline, np.load(tmp_path / "True.npz") as ahead:
-        assert sorted(inline.files) == sorted(ahead.files)
-        for name in inline.files:
-            np.testing.assert_array_equal(inline[name], ahead[name], err_msg=name, strict=True)
-    inline, ahead = results[False], results[True]
-    assert (inline.frames, inline.withdrawn, inline.z_matched) == (
-        ahead.frames,
-        ahead.withdrawn,
-        ahead.z_matched,
+    inline, ahead = (
+        run_frames(frames, lambda t: TRUTH, None, segment_ahead=ahead) for ahead in (False, True)
     )
-    assert inline.scores == ahead.scores
-    assert inline.scores.table1.fog  # something was scored
+    assert_same_run(inline, ahead, tmp_path)
     np.testing.assert_array_equal(np.isnan(inline.update_ms), np.isnan(ahead.update_ms))
     assert not ahead_threads()
 

@@ -11,6 +11,7 @@ import numpy as np
 import pytest
 from test_prefetch import (
     assert_same_result,
+    assert_same_run,
     refuses_another_frame_and_a_second_ask,
     walk_frames,
 )
@@ -19,7 +20,6 @@ from fogsim.config import RunParams
 from fogsim.data.recording import load_recording, save_recording
 from fogsim.errors import FogsimError
 from fogsim.eval.archive import view_points_world
-from fogsim.eval.maps import write_maps
 from fogsim.mapping import segment_process
 from fogsim.mapping.segment_process import SegmentInProcess, can_segment_in_process
 from fogsim.mapping.segmenter import FrameSegmenter
@@ -83,24 +83,11 @@ def test_hands_out_exactly_the_segmenters_results_in_order(frames, monkeypatch, 
 
 def test_a_run_segmented_in_a_process_equals_the_run_in_line(frames, tmp_path, forks):
     """run_frames' maps, archive, counts and scores are the same in a process and in line."""
-    results = {
-        name: run_frames(frames, lambda t: TRUTH, None, segment_ahead=ahead, segment_process=ahead)
-        for name, ahead in (("inline", False), ("process", True))
-    }
-    for name, result in results.items():
-        write_maps(tmp_path / f"{name}.npz", result, result.final_truth)
-    with np.load(tmp_path / "inline.npz") as inline, np.load(tmp_path / "process.npz") as forked:
-        assert sorted(inline.files) == sorted(forked.files)
-        for name in inline.files:
-            np.testing.assert_array_equal(inline[name], forked[name], err_msg=name, strict=True)
-    inline, forked = results["inline"], results["process"]
-    assert (inline.frames, inline.withdrawn, inline.z_matched) == (
-        forked.frames,
-        forked.withdrawn,
-        forked.z_matched,
+    inline, forked = (
+        run_frames(frames, lambda t: TRUTH, None, segment_ahead=ahead, segment_process=ahead)
+        for ahead in (False, True)
     )
-    assert inline.scores == forked.scores
-    assert inline.scores.table1.fog  # something was scored
+    assert_same_run(inline, forked, tmp_path)
     assert not children()
 
 
