@@ -4,6 +4,7 @@ Usage:
     .venv/bin/python bench/bench_cold.py kernels [--tree DIR ...] [--repeats N] [--top K]
         [--group NAME ...]
     .venv/bin/python bench/bench_cold.py run [--tree DIR ...] [--repeats N] [--scenario NAME]
+    .venv/bin/python bench/bench_cold.py phases [--tree DIR ...] [--repeats N] [--group NAME ...]
 
 Every measurement is a fresh ``python`` process run from a tree (``PYTHONPATH`` = the tree)
 with an empty ``NUMBA_CACHE_DIR`` (and, for ``run``, an empty ``FOGSIM_CACHE``: the robot's
@@ -20,6 +21,19 @@ measure on a shared machine: wall time only means something at load < 2.
   imports. ``--group NAME`` (repeatable) compiles only the named groups (each group's step
   calls only its own kernels), for a quicker A/B of one group. Printed per tree: the median
   over the repeats of every figure.
+- ``phases``: the ``kernels`` compile (every group, or ``--group``), its CPU time split by
+  numba's compiler phase, each counted exclusive of the compiles nested in it: numba's other
+  passes (bytecode, IR-level inlining of ``inline="always"`` helpers, SSA, rewrites), type
+  inference, lowering to LLVM IR (Python), LLVM's parse and function passes of each new module
+  (``add_ir_module``), LLVM's link, module passes and machine code (``finalize``: a kernel's
+  final module holds the optimised modules of every kernel it calls, linked in, optimised and
+  code-generated again), the rest (caching, wrappers' set-up, dispatch); the share of the
+  LLVM instructions going through ``finalize`` that are such linked copies of callees; and the
+  compiles of numba's own overloads (``np.empty``, ...), which numba makes once per argument
+  types and keywords at the call (``np.empty(n, np.int64)`` and ``np.empty(n, dtype=np.int64)``
+  are two) and per flag set of the caller (numba's own implementations calling them, such as
+  ``np.zeros``'s, carry other flags than the kernels): per overload, the compiles and the
+  distinct signatures.
 - ``run``: ``fogsim run SCENARIO --seed 1 --no-pictures --out TMP`` (progress shown, so the
   warm-up reports its groups): wall, CPU (user + sys of the process and its helper), each
   process's share (the main process's CPU is the critical path's bound when the load makes
@@ -84,6 +98,80 @@ json.dump({"groups": groups, "inclusive": inclusive, "exclusive": exclusive,
 """The ``kernels`` child: compiles the warm-up's groups in turn, prints JSON."""
 
 
+_PHASES = r"""
+import json, sys, time
+from collections import defaultdict
+from numba.core import codegen, compiler_machinery, event
+PHASES = {"nopython_type_inference": "type inference", "native_lowering": "lowering"}
+stack, spent_in, instrumentation = [], defaultdict(float), [0.0]
+overloads = defaultdict(lambda: [0, set(), 0.0])
+sizes = {"own": 0, "linked": 0}
+def push(label):
+    stack.append([label, time.process_time(), 0.0])
+def pop():
+    label, begun, inner = stack.pop()
+    spent = time.process_time() - begun
+    spent_in[label] += spent - inner
+    if stack:
+        stack[-1][2] += spent
+    return spent
+class Compiles(event.Listener):
+    def on_start(self, ev):
+        push("other (caching, wrappers' set-up, dispatch)")
+    def on_end(self, ev):
+        spent = pop()
+        f = ev.data["dispatcher"].py_func
+        if f.__module__.startswith("numba."):
+            entry = overloads[f"{f.__module__}.{f.__qualname__}"]
+            entry[0] += 1
+            entry[1].add(str(ev.data["args"]))
+            entry[2] += spent
+event.register("numba:compile", Compiles())
+def timed(label, function):
+    def wrapper(*args, **kwargs):
+        push(label)
+        try:
+            return function(*args, **kwargs)
+        finally:
+            pop()
+    return wrapper
+run_pass = compiler_machinery.PassManager._runPass
+def timed_pass(self, index, pss, state):
+    label = PHASES.get(pss.name(), "other passes (bytecode, IR inlining, SSA, rewrites)")
+    return timed(label, run_pass)(self, index, pss, state)
+compiler_machinery.PassManager._runPass = timed_pass
+def instructions(module):
+    return sum(len(list(b.instructions)) for f in module.functions for b in f.blocks)
+finalize = codegen.CPUCodeLibrary.finalize
+def counted_finalize(self):
+    begun = time.process_time()
+    sizes["own"] += instructions(self._final_module)
+    for library in set(self._linking_libraries):
+        sizes["linked"] += instructions(library._get_module_for_linking())
+    counting = time.process_time() - begun
+    instrumentation[0] += counting
+    if stack:
+        stack[-1][1] += counting  # the count is no compile time
+    return timed("LLVM link, module passes, machine code (finalize)", finalize)(self)
+codegen.CPUCodeLibrary.finalize = counted_finalize
+codegen.CPUCodeLibrary.add_ir_module = timed(
+    "LLVM parse, function passes (add_ir_module)", codegen.CPUCodeLibrary.add_ir_module)
+from fogsim.config import RunParams
+from fogsim.run import warmup
+params = RunParams()
+steps = warmup._steps(params)
+chosen = sys.argv[1:]
+begun = time.process_time()
+for group in (g for g in warmup.GROUPS if not chosen or g.name in chosen):
+    steps[group]()
+total = time.process_time() - begun - instrumentation[0]
+json.dump({"total": total, "phases": spent_in, "sizes": sizes,
+           "overloads": {k: [n, len(s), t] for k, (n, s, t) in overloads.items()}}, sys.stdout)
+"""
+"""The ``phases`` child: compiles the warm-up's groups with each compile phase timed, prints
+JSON (the instruction count of each final module's own and linked code is not timed)."""
+
+
 _RUN = r"""
 import atexit, resource, sys
 def cpu_shares():
@@ -119,12 +207,13 @@ def _env(tree: Path, scratch: Path) -> dict[str, str]:
     }
 
 
-def profile_kernels(tree: Path, groups: list[str]) -> dict:
-    """One ``kernels`` measurement of ``tree`` (the child's JSON): ``groups`` (names; none =
-    every group, then the pipeline that should find them all in the cache)."""
+def profile_kernels(tree: Path, groups: list[str], script: str = _PROFILE) -> dict:
+    """One ``kernels`` (or, with ``script`` = `_PHASES`, ``phases``) measurement of ``tree``
+    (the child's JSON): ``groups`` (names; none = every group, then, for ``kernels``, the
+    pipeline that should find them all in the cache)."""
     with tempfile.TemporaryDirectory() as scratch:
         done = subprocess.run(
-            [PYTHON, "-W", "ignore", "-c", _PROFILE, *groups],
+            [PYTHON, "-W", "ignore", "-c", script, *groups],
             env=_env(tree, Path(scratch)),
             cwd=tree,
             capture_output=True,
@@ -196,6 +285,42 @@ def kernels(trees: list[Path], repeats: int, top: int, groups: list[str]) -> Non
                 print(f"      {signature}")
 
 
+def phases(trees: list[Path], repeats: int, groups: list[str]) -> None:
+    """The ``phases`` command: interleaved phase profiles, then medians per tree."""
+    runs: dict[Path, list[dict]] = {tree: [] for tree in trees}
+    for i in range(repeats):
+        for tree in trees:
+            note = load_note()
+            runs[tree].append(profile_kernels(tree, groups, _PHASES))
+            print(
+                f"  {tree} repeat {i + 1}: {runs[tree][-1]['total']:.2f} s CPU "
+                f"({note} -> {load_note()})"
+            )
+    for tree in trees:
+        total = statistics.median(run["total"] for run in runs[tree])
+        print(f"\n{tree}: median of {repeats}, CPU seconds, exclusive of nested compiles")
+        spent = _median_table(runs[tree], "phases")
+        for name in sorted(spent, key=spent.get, reverse=True):
+            print(f"  {spent[name]:6.2f} {100 * spent[name] / total:4.0f} %  {name}")
+        print(f"  {total:6.2f}        total")
+        sizes = runs[tree][-1]["sizes"]
+        linked = sizes["linked"] / max(sizes["own"] + sizes["linked"], 1)
+        print(
+            f"  LLVM instructions through finalize: {sizes['own']} own, {sizes['linked']} "
+            f"linked copies of callees ({100 * linked:.0f} %)"
+        )
+        overloads = runs[tree][-1]["overloads"]
+        seconds = sum(t for _, _, t in overloads.values())
+        count = sum(n for n, _, _ in overloads.values())
+        print(
+            f"  numba's overloads: {count} compiles, {seconds:.2f} s inclusive; "
+            "compiles / distinct signatures:"
+        )
+        for name, (n, distinct, t) in sorted(overloads.items(), key=lambda kv: -kv[1][2]):
+            if n > 1:
+                print(f"    {n:3d} / {distinct:3d} {t:5.2f} s  {name}")
+
+
 def _numba_share(exclusive: dict[str, float]) -> float:
     """The part of the exclusive compile time spent in numba's own functions (overloads)."""
     return sum(seconds for name, seconds in exclusive.items() if name.startswith("numba."))
@@ -225,7 +350,7 @@ def runs(trees: list[Path], repeats: int, scenario: str) -> None:
 def main() -> None:
     """Parse the command line and measure."""
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
-    parser.add_argument("command", choices=("kernels", "run"))
+    parser.add_argument("command", choices=("kernels", "run", "phases"))
     parser.add_argument(
         "--tree", type=Path, action="append", help="a source tree (repeatable; default: this)"
     )
@@ -233,13 +358,18 @@ def main() -> None:
     parser.add_argument("--top", type=int, default=25, help="kernels listed (kernels)")
     parser.add_argument("--scenario", default="stage", help="scenario of the run (run)")
     parser.add_argument(
-        "--group", action="append", default=[], help="only this warm-up group (kernels; repeatable)"
+        "--group",
+        action="append",
+        default=[],
+        help="only this warm-up group (kernels, phases; repeatable)",
     )
     args = parser.parse_args()
     trees = [tree.resolve() for tree in args.tree or [ROOT]]
     print(f"{load_note()}, {os.cpu_count()} CPUs, python {PYTHON}")
     if args.command == "kernels":
         kernels(trees, args.repeats, args.top, args.group)
+    elif args.command == "phases":
+        phases(trees, args.repeats, args.group)
     else:
         runs(trees, args.repeats, args.scenario)
 
