@@ -121,10 +121,8 @@ def trace(path: Path, overrides: dict[str, object], true_pose: bool) -> list[str
     return lines
 
 
-def main() -> None:
-    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("recordings", nargs="+", type=Path)
-    parser.add_argument("--true-pose", action="store_true", help="replay with the true pose")
+def add_overrides_argument(parser: argparse.ArgumentParser) -> None:
+    """Add ``--set KEY=VALUE`` (repeatable) to a bench tool's parser."""
     parser.add_argument(
         "--set",
         action="append",
@@ -132,14 +130,27 @@ def main() -> None:
         metavar="KEY=VALUE",
         help="a parameter override, e.g. head.voxel_estimate=true (VALUE as JSON, else a string)",
     )
-    args = parser.parse_args()
+
+
+def overrides_of(items: list[str]) -> dict[str, object]:
+    """The parameter overrides of ``--set`` items (a VALUE that is no JSON is a string)."""
     overrides: dict[str, object] = {}
-    for item in args.set:
+    for item in items:
         key, _, value = item.partition("=")
         try:
             overrides[key] = json.loads(value)
         except json.JSONDecodeError:
             overrides[key] = value
+    return overrides
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("recordings", nargs="+", type=Path)
+    parser.add_argument("--true-pose", action="store_true", help="replay with the true pose")
+    add_overrides_argument(parser)
+    args = parser.parse_args()
+    overrides = overrides_of(args.set)
     for path in args.recordings:
         print("\n".join(trace(path, overrides, args.true_pose)), flush=True)
 

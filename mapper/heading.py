@@ -227,6 +227,46 @@ class HeadingParams:
             0.61 (1.16) → 0.61 (1.35)°, 11.3 (44) → 16.3 (65) (seed 3). So 0: it takes the
             estimator's own bias out where the pose is exact, but under the real poses'
             errors it is no better everywhere.
+        noise_band: 0: off (the overlap estimate is the centre of its `peak_band`). With
+            `overlap_cells`, the overlap estimate is instead the centre of the run of
+            candidates around the best whose scores lie within ``noise_band · √2 · σ`` of it,
+            ``σ`` the scores' own noise (`score_noise`: their scatter about a smooth curve, from
+            the second differences): the corrections the score cannot tell from the best. On
+            the recordings the overlap score's top is within 1–2 % over ±2° and its noise
+            (σ ≈ 0.3 % of the best) picks the highest candidate anywhere on it; a fixed
+            fraction of (best − median) is far wider than the noise where the score stands out
+            and narrower where it barely does. Why the overlap score under-corrects with the
+            runs' real poses (session 37, keyframes of every try re-scored with each error
+            source put back alone into the true pose, seeds 1–8): a constant yaw error alone
+            is recovered to ±0.25…0.7° (the 0.5° grid's phase: with the true pose the truth
+            lies on a candidate, which made the true-pose figures look exact), the cameras'
+            position errors (odometry's x, y) move the estimate by −0.75…+1.5°, the residual
+            tilt and height errors by −0.5…+0.75°, and where the fine voxels' agreement is
+            smeared by them the ratio follows the wide voxels' own slope (zig-zag depth s1,
+            frame 413: the root pairs peak at −2.5°, the wide ones at −3.5°, their ratio at
+            −1.5°, needed −2.2° in the world). Every accepted try of the default replays, its
+            structure estimate against the correction the run needed (robot frame), mean
+            |error| (worst): counts (the default) → overlap 5 cells with `peak_band` → with
+            `noise_band` 4: `room` depth 0.75 (1.33) → 0.27 (0.55) → 0.32 (0.63)°, stereo
+            0.44 (1.37) → 0.69 (2.12) → 0.40 (0.87)°; stage depth 0.24 (0.99) → 0.32 (1.06)
+            → 0.28 (0.98)°; zig-zag depth 0.62 (1.71) → 0.60 (2.21) → 0.49 (1.07)°, stereo
+            0.53 (1.92) → 0.46 (1.56) → 0.31 (0.81)° (2: 0.45 (1.87)° on `room` stereo; 3:
+            0.39 (1.12)°; 6: 0.40 (0.96)°; wide voxels of 3, 7, 10, 15 cells scatter
+            without a trend). Replays, seeds 1–8, `map_heading_deg` mean (worst), with
+            `overlap_cells` 5, `pipe.heading_rebuild_on_structure` and
+            `pipe.heading_rebuild_frames` 400 (all three needed: without the rebuild `room`
+            depth stays 0.59 (1.84)°, with 300 frames `room` stereo seed 5's structure
+            estimate at frame 319 comes too late, 1.55°): `room` depth 0.82 (1.84) → 0.40
+            (0.63)°, stereo 0.89 (1.55) → 0.45 (0.66)° (every seed within 1°), zig-zag depth
+            0.61 (1.16) → 0.51 (0.75)°, stereo 0.49 (1.01) → 0.37 (0.52)°, stage stereo 0.44
+            (0.74) → 0.38 (1.03)°, stage depth 0.31 (0.46) → 0.36 (0.54)°; unsafe cells mean
+            (worst) `room` depth 1.5 (5) → 0.5 (2), zig-zag stereo 31.9 (70) → 26.9 (44), but
+            zig-zag depth 11.3 (44) → 14.9 (41) (seed 1 5 → 32: its estimate −1.25° where
+            the world needs −2.2°), stage stereo 5.0 (8) → 5.6 (15) (seed 7 4 → 15: its
+            estimates −3.25…−3.5° match the neck's −3.49° but odometry's yaw drifts the
+            world's need from −3.55° to −4.8°), `room` stereo 9.0 (16) → 8.6 (19) (seed 5),
+            and the zig-zag stereo seed 8's sill row 0.01 → 33.9 mm (as with
+            `voxel_estimate`; its heading 0.29 → 0.24°). So 0.
     """
 
     correct_heading: bool = True
@@ -255,6 +295,7 @@ class HeadingParams:
     flat_contrast: float = 0.05
     voxel_estimate: bool = False
     overlap_cells: int = 0
+    noise_band: float = 0.0
 
     def __post_init__(self) -> None:
         def check(name: str, kind: type, allowed: str, ok=lambda _: True) -> None:
@@ -314,6 +355,12 @@ class HeadingParams:
             lambda v: math.isfinite(v) and v >= 0.0,
         )
         check("peak_band", float, "in [0, 1)", lambda v: 0.0 <= v < 1.0)
+        check(
+            "noise_band",
+            float,
+            "0 (off) or a finite float > 0, and > 0 only with overlap_cells",
+            lambda v: math.isfinite(v) and v >= 0.0 and not (v and not self.overlap_cells),
+        )
         check("max_keyframes", int, "an integer in [2, 1000]", lambda v: 2 <= v <= 1000)
         check(
             "max_points_per_keyframe",
@@ -951,7 +998,10 @@ class HeadingEstimator:
 
             scores = score(*data, np.radians(coarse), p.cell_m, p.layer_m)
             best = float(scores.max())
-        if p.peak_band > 0.0:
+        if p.noise_band > 0.0 and p.overlap_cells and not edges:
+            drop = p.noise_band * math.sqrt(2.0) * score_noise(scores)
+            self.correction_rad = math.radians(_band_centre_deg(coarse, scores, drop))
+        elif p.peak_band > 0.0:
             drop = p.peak_band * (best - float(np.median(scores)))
             self.correction_rad = math.radians(_band_centre_deg(coarse, scores, drop))
         else:
@@ -991,6 +1041,24 @@ def _edge_weights(
         g = k.gradients_xy @ np.array([[c, s], [-s, c]])  # rows: R(yaw)·g
         out.append(np.sqrt(np.maximum(np.einsum("ni,ij,nj->n", g, across, g), 0.0)))
     return np.concatenate(out)
+
+
+def score_noise(scores: NDArray[np.float64]) -> float:
+    """The noise of a candidate grid's scores: their scatter about a smooth curve.
+
+    Estimated from the second differences ``s[i−1] − 2·s[i] + s[i+1]`` (a smooth score's are
+    small; independent noise of standard deviation σ gives them 6·σ² variance) by their median
+    absolute deviation (robust to the peak's own curvature): ``MAD / 0.6745 / √6``.
+
+    Args:
+        scores: (A,) scores on an evenly spaced candidate grid, A >= 3.
+
+    Returns:
+        σ, in the scores' unit (0 for a straight line).
+    """
+    second = scores[:-2] - 2.0 * scores[1:-1] + scores[2:]
+    mad = float(np.median(np.abs(second - np.median(second))))
+    return mad / 0.6745 / math.sqrt(6.0)
 
 
 def _band_centre_deg(
