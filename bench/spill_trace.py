@@ -1,7 +1,8 @@
 """Trace a replay's unsafe cells back to the frames, pixels and floor regions that put them there.
 
 Usage:
-    PYTHONPATH=. python bench/spill_trace.py REC.npz [--set KEY=VALUE ...] [--cells N] [--json OUT]
+    PYTHONPATH=. python bench/spill_trace.py REC.npz [--set KEY=VALUE ...] [--cells N]
+        [--cell IX,IY ...] [--json OUT] [--maps MAPS.npz]
 
 Replays the recording in line (no second thread), keeping every frame's segmentation (after the
 tilt filter) and every point set the FOG mapper received. For each unsafe cell of the final
@@ -9,7 +10,17 @@ maps (as `bench/unsafe_cells.py`: FOG floor on a true obstacle or more than 20 m
 floor) it lists the mapped frames whose floor points landed in the cell: per frame the points'
 floor heights, their pixels, the floor region they belong to (its height and pixel count), the
 measured depth against the true depth of the left camera (a ray cast of the scenario's boxes
-and the ground with the frame's true camera pose) and what the true ray hits there.
+and the ground with the frame's true camera pose, rough tops taken flat) and what the true ray
+hits there, where the true hit lies and where the map put the point, and what the pixels of each
+region truly hit. Printed: per cell, how many of its floor points truly hit which surface at
+which floor height (10 mm bins); ``--json`` keeps every point, ``--cell`` traces a cell that
+is not unsafe too, ``--maps`` writes the final maps (``bench/unsafe_cells.py`` reads them as
+``FOLDER/seed_N/maps.npz``). The `fogsim` replay's maps are the same (in line instead of the
+second thread: the same results, `fogsim.mapping.prefetch`).
+
+Session 37, stage stereo seeds 1 and 4: the cells beside step_1's side edge got 300-420 floor
+points a run at the step's height from ground pixels 2-6 cm past the edge, at the right depth,
+in step_1's region (`mapper.floor_sides`).
 """
 
 from __future__ import annotations
