@@ -23,6 +23,7 @@ from fogsim.sim.camera.noise_model import (
     MATCHER_DISPARITY_NOISE_PX,
     MATCHER_EDGE_MARGIN_PX,
     MATCHER_MEAN_VARIANCE_FACTOR,
+    MATCHER_SIDE_STRIP_PX,
     segmentation_noise_fields,
 )
 from fogsim.sim.scene import Scene
@@ -333,6 +334,7 @@ def test_segmentation_noise_fields_per_mode():
         "stereo_baseline_m": 0.068,
         "noise_correlation_factor": MATCHER_MEAN_VARIANCE_FACTOR,
         "floor_edge_margin_px": MATCHER_EDGE_MARGIN_PX,
+        "floor_side_strip_px": MATCHER_SIDE_STRIP_PX,
         "max_depth_m": camera.range_m[1],
     }
     depth = segmentation_noise_fields(dataclasses.replace(camera, mode="depth"), 0.068)

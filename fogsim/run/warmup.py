@@ -77,6 +77,7 @@ from numpy.typing import NDArray
 import mapper.averaging
 import mapper.floor_cover
 import mapper.floor_map
+import mapper.floor_sides
 import mapper.fog
 import mapper.grid
 import mapper.heading
@@ -159,10 +160,15 @@ points (the scan-line kernels it shares with the planes stage are the helper's).
 
 SEGMENTATION = KernelGroup(
     "segmentation",
-    tuple(k for k in _kernels(mapper.scanline, mapper.tilt_kernels) if k not in _FLOOR_KERNELS),
+    tuple(
+        k
+        for k in _kernels(mapper.scanline, mapper.tilt_kernels, mapper.floor_sides)
+        if k not in _FLOOR_KERNELS
+    ),
 )
 """The rest of the depth-image segmentation's scan-line kernels: noise, row segments, planes;
-and the tilt correction's (the planes' normals, the tilt filter's measurement and turn)."""
+the tilt correction's (the planes' normals, the tilt filter's measurement and turn); and the
+floors' side bands (`mapper.floor_sides`, the stereo head's)."""
 
 MAPPER = KernelGroup(
     "mapper",
@@ -473,6 +479,10 @@ def _segment(frame: Frame, params: RunParams) -> None:
     )
     measured, _ = measured_tilt(result, segmentation_params)
     apply_tilt(result, np.zeros(2) if measured is None else measured)
+    if segmentation_params.floor_side_strip_px == 0:  # compiled for the stereo head's runs
+        labels = np.zeros((2, 5), dtype=np.int64)
+        z = np.zeros((2, 5))
+        mapper.floor_sides.peel_side_strips(labels, z, z + 0.01, np.zeros(1), 1, 3.0, 1.0, 0.0, 1.0)
 
 
 def _floors(frame: Frame, params: SegmentationParams) -> None:

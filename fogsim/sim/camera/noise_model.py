@@ -7,7 +7,8 @@ noise from the image, which reads a matcher's correlated errors at about 0.6× t
 
 - ``stereo``: the matcher's figures measured by ``bench/stereo_stats.py`` (stage, seed 1, every
   16th frame): :data:`MATCHER_DISPARITY_NOISE_PX`, :data:`MATCHER_MEAN_VARIANCE_FACTOR`, the
-  robot's baseline, and :data:`MATCHER_EDGE_MARGIN_PX` (the matching window's reach);
+  robot's baseline, :data:`MATCHER_EDGE_MARGIN_PX` (the matching window's reach) and
+  :data:`MATCHER_SIDE_STRIP_PX` (the side bands tested for another floor's level);
 - ``depth``: the error model's own figures (:meth:`StereoErrorModel.equivalent_noise_px`,
   :meth:`StereoErrorModel.mean_variance_factor`);
 - ``ideal``: none.
@@ -29,6 +30,15 @@ MATCHER_EDGE_MARGIN_PX = 1
 """Pixels at a floor region's border that the segmentation leaves out of its height and
 smoothness (``floor_edge_margin_px``): the matcher's 5 render px window is 2.5 output pixels
 wide, so it blends about one output pixel on either side of an edge with the other surface."""
+MATCHER_SIDE_STRIP_PX = 32
+"""Widest band of a floor region's side the segmentation tests for another floor's level
+(``floor_side_strip_px``, `mapper.floor_sides`): with this noise a row does not split at a
+31 mm step at 1.3 m, and a tread's rows run on over its side edge as far as the ground beside
+it is in view (stage seed 1, frame 178: step_1's rows 8 and 5-10 columns past its two side
+edges). The test picks the band's width; this bounds it. Stereo replays, seeds 1-8, unsafe
+cells mean (worst) with 8 / 16 / 32: stage 2.0 (5) / 2.25 (5) / 2.25 (5), zig-zag 31.5 (68) /
+31.5 (68) / 31.1 (66), room 9.0 (16) / 8.9 (15) / 8.6 (13), stage_down 4.25 (9) / 4.4 (9) /
+4.4 (9); without the test 5.0 (8), 31.9 (70), 9.0 (16), 6.5 (27)."""
 MATCHER_MEAN_VARIANCE_FACTOR = 3.0
 """How much the matcher's correlated errors inflate the variance of a mean of a row's pixels
 (`bench/stereo_stats.py`: 1.9, 2.3, 2.7 for 4, 8, 16 pixels, growing with the run; the
@@ -48,8 +58,9 @@ def segmentation_noise_fields(
         ``disparity_noise_px``, ``stereo_baseline_m``, ``noise_correlation_factor`` and
         ``max_depth_m`` (the camera's ``range_m`` cut: near it only the pixels measured too
         near are left, which the segmentation's tilt leaves out) for ``stereo`` and ``depth``,
-        and ``floor_edge_margin_px`` for ``stereo`` (the error model of ``depth`` has no
-        matching window); empty for ``ideal`` (the image's own noise estimate).
+        and ``floor_edge_margin_px`` and ``floor_side_strip_px`` for ``stereo`` (the error
+        model of ``depth`` has no matching window, and its step test resolves the stage's
+        steps); empty for ``ideal`` (the image's own noise estimate).
     """
     if config.mode == "stereo":
         return {
@@ -57,6 +68,7 @@ def segmentation_noise_fields(
             "stereo_baseline_m": stereo_baseline_m,
             "noise_correlation_factor": MATCHER_MEAN_VARIANCE_FACTOR,
             "floor_edge_margin_px": MATCHER_EDGE_MARGIN_PX,
+            "floor_side_strip_px": MATCHER_SIDE_STRIP_PX,
             "max_depth_m": config.range_m[1],
         }
     if config.mode == "depth":
