@@ -137,12 +137,14 @@ def test_rules_allow_the_tolerance_and_flag_beyond_it():
         rule_for("cells.accuracy")
 
 
-def suite_of(runs_by_scenario, seeds="1-3", quick=False):
+def suite_of(runs_by_scenario, seeds="1-3", quick=False, overrides=()):
     scenarios = {
         name: ScenarioRuns(tuple(runs), figure_stats(runs))
         for name, runs in runs_by_scenario.items()
     }
-    return SuiteSummary("fogsim-suite", 2, quick, seeds, 1, 1.0, scenarios)
+    return SuiteSummary(
+        "fogsim-suite", 2, quick, seeds, 1, 1.0, scenarios, overrides=tuple(overrides)
+    )
 
 
 def sill_runs(*errors_mm, recall=0.9):
@@ -212,6 +214,28 @@ def test_check_of_one_seed_compares_the_value_once_and_skips_failed_runs():
         "(it has: 'full seeds=scenario')"
     ]
     assert set_name(True, None) == "quick seeds=scenario"
+
+
+def test_a_run_with_overrides_has_a_set_of_its_own():
+    depth = update_baseline(None, suite_of({"stage": sill_runs(1.0, 1.0, 1.0)}))
+    stereo_runs = {"stage": sill_runs(3.0, 3.0, 4.0)}
+    stereo = suite_of(stereo_runs, overrides=["camera.mode = stereo", "mapper.p_occ=0.7"])
+    name = "full seeds=1-3 set=camera.mode=stereo,mapper.p_occ=0.7"
+    assert set_name(False, "1-3", ["mapper.p_occ=0.7", "camera.mode=stereo"]) == name
+    # Never checked against, nor written over, the plain run's figures.
+    assert check_against_baseline(stereo, depth) == [
+        f"baseline has no set '{name}' to compare this run with (it has: 'full seeds=1-3')"
+    ]
+    both = update_baseline(depth, stereo)
+    assert both.sets["full seeds=1-3"] == depth.sets["full seeds=1-3"]
+    assert both.sets[name]["stage"].figures["table1.sill.abs_error_mm"] == BaselineFigure(
+        3.333333,
+        4.0,  # the mean rounded as a figure is
+    )
+    assert check_against_baseline(stereo, both) == []
+    worse = suite_of({"stage": sill_runs(3.0, 3.0, 5.5)}, overrides=["camera.mode=stereo"])
+    assert check_against_baseline(worse, update_baseline(None, worse)) == []
+    assert check_against_baseline(worse, both)[0].startswith("baseline has no set")
 
 
 def test_update_baseline_keeps_other_sets_and_leaves_failed_scenarios_out():

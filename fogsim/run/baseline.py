@@ -66,7 +66,8 @@ An event whose object the map never saw before its event has no figure (the repo
 ``seen: false``): it is left out, and a baseline that has it reports it missing.
 
 ``baseline.json`` (version 2) holds figure **sets**: one per way the suite ran (quick or full,
-over which seeds), named by :func:`set_name` (``"full seeds=1-8"``, ``"quick seeds=scenario"``
+over which seeds, with which ``--set`` overrides), named by :func:`set_name` (``"full seeds=1-8"``,
+``"full seeds=1-8 set=camera.mode=stereo"``, ``"quick seeds=scenario"``
 for each scenario's own seed). Each set maps a scenario to its figures, each figure to its
 ``mean`` and ``worst`` over the set's seeds::
 
@@ -84,7 +85,7 @@ baseline holding the set it wrote.
 from __future__ import annotations
 
 import os
-from collections.abc import Mapping
+from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Literal
@@ -259,15 +260,25 @@ class _BaselineV1:
     scenarios: dict[str, _EntryV1] | None = None
 
 
-def set_name(quick: bool, seeds: str | None) -> str:
-    """The baseline set of a run: ``"<quick|full> seeds=<spec>"``.
+def set_name(quick: bool, seeds: str | None, overrides: Sequence[str] = ()) -> str:
+    """The baseline set of a run: ``"<quick|full> seeds=<spec>[ set=<key=value,...>]"``.
+
+    A suite run with ``--set`` overrides is another kind of run (``--set camera.mode=stereo``
+    scores the stereo head): its figures are checked against, and written to, a set of their
+    own, never the plain run's.
 
     Args:
         quick: The quick subset ran.
         seeds: The seeds in canonical form (:func:`fogsim.run.seed_spec.format_seeds`, e.g.
             ``"1-8"``), or None when each scenario ran at its own seed (``seeds=scenario``).
+        overrides: The ``key=value`` assignments applied to every scenario; named sorted, with
+            the blanks around ``=`` removed, so their order on the command line does not matter.
     """
-    return f"{'quick' if quick else 'full'} seeds={seeds if seeds is not None else 'scenario'}"
+    name = f"{'quick' if quick else 'full'} seeds={seeds if seeds is not None else 'scenario'}"
+    if overrides:
+        canonical = sorted("=".join(part.strip() for part in o.split("=", 1)) for o in overrides)
+        name += " set=" + ",".join(canonical)
+    return name
 
 
 def check_figures(

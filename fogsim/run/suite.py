@@ -96,6 +96,9 @@ class SuiteSummary:
         scenarios: Each scenario's runs and figures, by name, in file order.
         ray_address: The Ray cluster the runs went to (its CPUs, not ``workers``); None =
             local processes (and in summaries written before the field existed).
+        overrides: The ``--set`` assignments applied to every scenario, in the order given
+            (empty in summaries written before the field existed); part of the baseline set's
+            name (:func:`fogsim.run.baseline.set_name`).
     """
 
     format: Literal["fogsim-suite"]
@@ -106,6 +109,7 @@ class SuiteSummary:
     wall_s: float
     scenarios: dict[str, ScenarioRuns]
     ray_address: str | None = None
+    overrides: tuple[str, ...] = ()
 
     def failures(self) -> dict[str, list[str]]:
         """Failed scenarios → why (see :meth:`ScenarioRuns.failures`)."""
@@ -207,6 +211,7 @@ def run_suite(
             wall_s=round(time.perf_counter() - start, 2),
             scenarios=scenarios,
             ray_address=ray_address,
+            overrides=tuple(overrides),
         )
         comparison = check_against_baseline(summary, baseline) if baseline is not None else None
         write_json(folder.path / "summary.json", summary)
@@ -225,7 +230,8 @@ def check_against_baseline(summary: SuiteSummary, baseline: Baseline) -> list[st
 
     The summary is compared with the baseline's set of the same kind of run
     (:func:`fogsim.run.baseline.set_name`): a quick run over seeds 1–8 only with
-    ``"quick seeds=1-8"``. Means are compared, and over several seeds the worst values too.
+    ``"quick seeds=1-8"``, a run with ``--set camera.mode=stereo`` only with that set of its own.
+    Means are compared, and over several seeds the worst values too.
     Scenarios of the baseline that the summary did not run are skipped; a figure the baseline
     has but the run lacks is reported, as is a scenario whose run raised (its figures would be
     over fewer seeds). A poor run's figures are compared: the suite fails it anyway.
@@ -233,7 +239,7 @@ def check_against_baseline(summary: SuiteSummary, baseline: Baseline) -> list[st
     Returns:
         Human-readable lines, empty if nothing got worse.
     """
-    key = set_name(summary.quick, summary.seeds)
+    key = set_name(summary.quick, summary.seeds, summary.overrides)
     entries = baseline.sets.get(key)
     if entries is None:
         known = ", ".join(f"'{name}'" for name in sorted(baseline.sets)) or "none"
@@ -265,7 +271,7 @@ def update_baseline(baseline: Baseline | None, summary: SuiteSummary) -> Baselin
         if name not in failed
     }
     sets = dict(baseline.sets) if baseline is not None else {}
-    sets[set_name(summary.quick, summary.seeds)] = entries
+    sets[set_name(summary.quick, summary.seeds, summary.overrides)] = entries
     return Baseline(sets=sets)
 
 
@@ -278,12 +284,13 @@ def summary_markdown(summary: SuiteSummary, comparison: Sequence[str] | None = N
             baseline was given.
     """
     seeds = f"seeds {summary.seeds}" if summary.seeds is not None else "each at its own seed"
+    settings = f"; every scenario with {', '.join(summary.overrides)}" if summary.overrides else ""
     lines = [
         "# fogsim suite",
         "",
         f"{len(summary.scenarios)} scenarios, {seeds}, "
         f"{where_run(summary.workers, summary.ray_address)}, "
-        f"{summary.wall_s} s wall{' (quick subset)' if summary.quick else ''}. "
+        f"{summary.wall_s} s wall{' (quick subset)' if summary.quick else ''}{settings}. "
         "Worst = the largest error, the smallest recall or precision.",
         "",
         "| scenario | runs | frames | wall s | status |",
