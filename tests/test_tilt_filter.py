@@ -57,9 +57,10 @@ def test_constant_bias_with_white_noise_is_estimated_within_its_steady_state_sig
     assert estimate.sigma_rad / DEG == pytest.approx(sigma_x_deg, rel=0.01)
 
 
-def _steady_filter(tilt_rad):
+def _steady_filter(tilt_rad, reset_refusals=5):
     """A filter at steady state on noise-free measurements ``tilt_rad`` (hand case above)."""
-    tilt_filter = TiltFilter(TiltFilterParams(noise_deg=NOISE_DEG, bias_deg=BIAS_DEG))
+    params = TiltFilterParams(noise_deg=NOISE_DEG, bias_deg=BIAS_DEG, reset_refusals=reset_refusals)
+    tilt_filter = TiltFilter(params)
     for _ in range(200):
         tilt_filter.update(tilt_rad, SIGMA_DEG * DEG, TURN_RAD)
     return tilt_filter
@@ -88,7 +89,8 @@ def test_the_gate_refuses_an_improbable_measurement_until_the_bias_is_uncertain_
     # Steady state: P⁻ + R = 0.5 deg². An innovation of 2.5° (12.5 < 13.82) is used, one of 3°
     # (18) is refused: the frame takes b̂⁻. A lasting 4° step (32) is refused while
     # 16/(0.5 + 0.125·j) > 13.8155 (P⁻ grows by q = 0.125 deg² per refused frame), i.e. for
-    # j = 0..5 (j = 5: 16/1.125 = 14.2), and used at j = 6 (16/1.25 = 12.8).
+    # j = 0..5 (j = 5: 16/1.125 = 14.2), and used at j = 6 (16/1.25 = 12.8) — the gate alone,
+    # without the re-start after agreeing refusals (next tests).
     before = np.array([1.0, -2.0]) * DEG
     accepted = _steady_filter(before).update(
         before + np.array([0.0, 2.5]) * DEG, SIGMA_DEG * DEG, TURN_RAD
@@ -98,12 +100,58 @@ def test_the_gate_refuses_an_improbable_measurement_until_the_bias_is_uncertain_
     refused = tilt_filter.update(before + np.array([0.0, 3.0]) * DEG, SIGMA_DEG * DEG, TURN_RAD)
     assert not refused.measured
     np.testing.assert_allclose(refused.tilt_rad, before, rtol=1e-12)
-    tilt_filter = _steady_filter(before)
+    tilt_filter = _steady_filter(before, reset_refusals=0)
     used = [
         tilt_filter.update(before + np.array([4.0, 0.0]) * DEG, SIGMA_DEG * DEG, TURN_RAD).measured
         for _ in range(8)
     ]
     assert used == [False] * 6 + [True, True]
+
+
+def test_agreeing_refusals_restart_the_filter_from_their_weighted_mean():
+    # A gross error accepted under the wide prior (the first frame measures 13.9°, prior 4°:
+    # 13.9²/(16 + 0.09 + 0.0625) = 11.96 < 13.82) locks the bias: the right measurements
+    # (0°) are refused. The fifth refused in a row re-starts the filter from the five: bias =
+    # their weighted mean, variance 1/Σ(1/R_i) (R_i = σ_w² + σ_i²), and is taken as measured.
+    tilt_filter = TiltFilter(TiltFilterParams(noise_deg=0.3, bias_deg=4.0))
+    assert tilt_filter.update(np.array([13.9, 0.0]) * DEG, 0.25 * DEG, 0.0).measured
+    values_deg = [0.1, -0.2, 0.05, 0.0, 0.15]
+    sigmas_deg = [0.2, 0.25, 0.2, 0.3, 0.25]
+    used = [
+        tilt_filter.update(np.array([x, -x]) * DEG, s * DEG, 0.0).measured
+        for x, s in zip(values_deg, sigmas_deg, strict=True)
+    ]
+    assert used == [False, False, False, False, True]
+    assert tilt_filter.restarts == 1
+    weights = np.array([1.0 / (0.09 + s**2) for s in sigmas_deg])  # 1/deg²
+    mean_deg = weights @ np.array(values_deg) / weights.sum()
+    np.testing.assert_allclose(tilt_filter.bias_rad, np.array([mean_deg, -mean_deg]) * DEG)
+    assert tilt_filter.bias_var == pytest.approx(DEG**2 / weights.sum(), rel=1e-12)
+    # From then on the right measurements pass the gate.
+    assert tilt_filter.update(np.array([0.1, 0.0]) * DEG, 0.2 * DEG, 0.0).measured
+
+
+def test_refusals_that_disagree_or_are_broken_by_an_accepted_one_do_not_restart():
+    # Gross errors scattered ±8° (a different wrong plane each time) never agree.
+    tilt_filter = _steady_filter(np.zeros(2))
+    for x in (8.0, -8.0, 8.0, -8.0, 8.0, -8.0, 8.0):
+        assert not tilt_filter.update(np.array([x, 0.0]) * DEG, 0.2 * DEG, 0.0).measured
+    assert tilt_filter.restarts == 0
+    np.testing.assert_allclose(tilt_filter.bias_rad, 0.0, atol=1e-15)
+    # Four agreeing refusals, an accepted frame, four more: no re-start (the row is broken).
+    tilt_filter = TiltFilter(TiltFilterParams(noise_deg=0.3, bias_deg=4.0))
+    for _ in range(50):
+        tilt_filter.update(np.zeros(2), 0.2 * DEG, 0.0)
+    for accepted in ([False] * 4 + [True]) * 2:
+        z = np.zeros(2) if accepted else np.array([6.0, 0.0]) * DEG
+        assert tilt_filter.update(z, 0.2 * DEG, 0.0).measured == accepted
+    assert tilt_filter.restarts == 0
+    # Frames without a measurement do not break the row: the fifth agreeing one re-starts.
+    for _ in range(4):
+        tilt_filter.update(np.array([6.0, 0.0]) * DEG, 0.2 * DEG, 0.0)
+        tilt_filter.update(None, math.inf, 0.0)
+    assert tilt_filter.update(np.array([6.0, 0.0]) * DEG, 0.2 * DEG, 0.0).measured
+    assert tilt_filter.restarts == 1
 
 
 def test_a_frame_without_a_measurement_takes_the_bias_estimate_and_loses_certainty():
@@ -120,7 +168,15 @@ def test_a_frame_without_a_measurement_takes_the_bias_estimate_and_loses_certain
 
 
 @pytest.mark.parametrize(
-    ("name", "value"), [("noise_deg", -0.1), ("bias_deg", math.inf), ("gate_chi2", 0.0)]
+    ("name", "value"),
+    [
+        ("noise_deg", -0.1),
+        ("bias_deg", math.inf),
+        ("gate_chi2", 0.0),
+        ("reset_refusals", -1),
+        ("reset_refusals", 2.0),
+        ("reset_refusals", True),
+    ],
 )
 def test_params_refuse_negative_or_infinite_levels_naming_the_field(name, value):
     with pytest.raises(InvalidParameterError, match=f"TiltFilterParams.{name}"):
