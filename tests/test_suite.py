@@ -421,8 +421,12 @@ def test_suite_check_without_a_baseline_file_exits_2_before_running(tmp_path, ca
 def test_committed_baseline_holds_the_stage_over_seeds_and_the_quick_subset(tmp_path):
     committed = SCENARIOS_DIR / "baseline.json"
     baseline = load_baseline(committed)
-    assert set(baseline.sets) == {"full seeds=1-8", "quick seeds=scenario"}
+    stereo = "full seeds=1-8 set=camera.mode=stereo"
+    assert set(baseline.sets) == {"full seeds=1-8", "quick seeds=scenario", stereo}
     assert set(baseline.sets["quick seeds=scenario"]) == set(QUICK_SCENARIOS)
+    # The stereo suite's set: its failing scenarios are left out, the stage is in.
+    assert "stage" in baseline.sets[stereo]
+    assert "talos_course" not in baseline.sets[stereo]
     stage = baseline.sets["full seeds=1-8"]["stage"].figures
     assert {"table1.step_1.abs_error_mm", "cells.obstacle_recall", "safety.unsafe_cells"} <= set(
         stage
