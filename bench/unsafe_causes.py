@@ -20,9 +20,26 @@ obstacle). Each wrong point is one of:
 A cell's cause is the kind of most of its wrong points (``O:`` in front: the truth calls it an
 obstacle). Printed: the cells by cause, by *surface* (the cell's true object, ``<-`` the
 object whose level its FOG floor has) and by both, per seed (the seed read from a ``sN`` in the
-file name, else the file's position). Session 37, zig-zag stage stereo seeds 1-8: 249 cells,
-98 ``pose`` and 91 ``relabelled`` (with the true camera pose, `spill_trace.py --pose 'true
-pose'`: 108 cells, 58 ``relabelled``).
+file name, else the file's position).
+
+Session 37, the zig-zag stage, seeds 1-8 (``bench/heading_oracle.py`` for the replays with a
+true yaw or pose), unsafe cells mean (worst): stereo 31.1 (66) with the pipeline's pose, 17.75
+(26) with the true yaw, 13.5 (26) with the true camera pose; depth 11.25 (44), 0.62 (2), 0.25
+(1). Of the stereo run's 249 cells, 120 are ``pose`` (98, and 22 ``O:`` on the sill): the side
+rows beside the staircase (y = -0.30 on seeds 3 and 5, y = 1.34 on seeds 1, 7, 8, as the
+believed pose's mean offset in y of the traced points, -49 / -29 / +26 mm on seeds 5 / 3 / 1)
+and the sill's front cells; 129 are ``relabelled``. Of the 108 cells left with the true pose,
+28 are the first row of step_3 (and of the platform) holding step_2's (step_3's) height: pixels
+of the riser face at x = 3.600 (true z 71-88 mm, measured depth right to ±2 cm) that the lower
+tread's region took (stereo noise hides a 25 mm riser) and `scanline.floor_points` snapped along
+their descending rays onto the lower tread's height, which carries them 0-4 cm forward past the
+riser (placed at x = 3.60-3.64, median 3.62; the true pose puts their measured depth at 3.54-3.70,
+median 3.60): every such point lands in the upper tread's first cell. 25 are ground beside the
+staircase's side edges at a tread's or the platform's height: ground pixels in the tread's or
+platform's region, measured at its depth (step_1's sides 3-8 cm short, the platform's 18-28 cm:
+the matcher's fattened edge), 23 the sill's front cells (half sill, an obstacle to the truth),
+25 rough box tops taken for floors (box_a on seed 4, box_c on seed 2). Depth mode's 90 cells are
+82 ``pose``.
 """
 
 from __future__ import annotations
