@@ -2,7 +2,7 @@
 
 Usage:
     PYTHONPATH=. python bench/spill_trace.py REC.npz [--set KEY=VALUE ...] [--cells N]
-        [--cell IX,IY ...] [--json OUT] [--maps MAPS.npz]
+        [--cell IX,IY ...] [--json OUT] [--maps MAPS.npz] [--pose MODE]
 
 Replays the recording in line (no second thread), keeping every frame's segmentation (after the
 tilt filter) and every point set the FOG mapper received. For each unsafe cell of the final
@@ -16,11 +16,17 @@ region truly hit. Printed: per cell, how many of its floor points truly hit whic
 which floor height (10 mm bins); ``--json`` keeps every point, ``--cell`` traces a cell that
 is not unsafe too, ``--maps`` writes the final maps (``bench/unsafe_cells.py`` reads them as
 ``FOLDER/seed_N/maps.npz``). The `fogsim` replay's maps are the same (in line instead of the
-second thread: the same results, `fogsim.mapping.prefetch`).
+second thread: the same results, `fogsim.mapping.prefetch`). Each point also keeps
+``meas_xyz``, where the true camera pose puts its measured depth (world, m): against
+``pt_xyz`` the believed pose's share of its error, against ``hit_xyz`` the depth's
+(`bench/unsafe_causes.py` counts the cells by cause from them). ``--pose`` replays with one of
+`bench/heading_oracle.py`'s believed poses ('true yaw', 'true position', 'true pose'; the
+heading estimator off), to see what is left without the pose's errors.
 
 Session 37, stage stereo seeds 1 and 4: the cells beside step_1's side edge got 300-420 floor
 points a run at the step's height from ground pixels 2-6 cm past the edge, at the right depth,
-in step_1's region (`mapper.floor_sides`).
+in step_1's region (`mapper.floor_sides`). Zig-zag stage stereo seeds 1-8: 249 unsafe cells,
+142 with the true yaw, 108 with the true pose (`bench/unsafe_causes.py`).
 """
 
 from __future__ import annotations
@@ -80,6 +86,12 @@ def main() -> None:
     parser.add_argument("--json")
     parser.add_argument("--cell", action="append", default=[], help="IX,IY: trace this cell too")
     parser.add_argument("--maps", help="write the final maps here (fogsim's maps.npz)")
+    parser.add_argument(
+        "--pose",
+        default="pipeline",
+        help="the believed camera pose: pipeline, 'true yaw', 'true position' or 'true pose'"
+        " (`bench/heading_oracle.py`'s modes; the heading estimator off but in pipeline)",
+    )
     args = parser.parse_args()
 
     from fogsim.config.params import resolve_params
@@ -95,6 +107,17 @@ def main() -> None:
         key, value = item.split("=", 1)
         overrides[key] = json.loads(value)
     rec = load_recording(args.recording)
+    if args.pose != "pipeline":
+        import dataclasses
+        import sys
+        from pathlib import Path
+
+        sys.path.insert(0, str(Path(__file__).resolve().parent))
+        from heading_oracle import MODES
+
+        change = MODES[args.pose]
+        overrides.setdefault("head.correct_heading", 0.0)
+        rec = dataclasses.replace(rec, frames=[change(f) for f in rec.frames])
     segs = {}
     updates = []  # (frame index, points_world, floor_world)
     current = {"frame": -1}
@@ -201,6 +224,9 @@ def main() -> None:
                     "true_hit": names,
                     "pt_xyz": [[round(float(c), 3) for c in q] for q in points[inside]],
                     "hit_xyz": [[round(float(c), 3) for c in h] for h in hit_xyz],
+                    "meas_xyz": [
+                        [round(float(c), 3) for c in q] for q in pose[:3, 3] + depth[:, None] * dirs
+                    ],
                     "region_hits": {str(k): v for k, v in region_hits.items()},
                     "region_height_mm": {
                         str(r): round(float(seg.floors.heights_m[r]) * 1e3, 1) for r in region_hits
