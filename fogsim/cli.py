@@ -161,7 +161,8 @@ def _parser() -> argparse.ArgumentParser:
         action="append",
         default=[],
         metavar="KEY=VALUE",
-        help="override a value in every scenario",
+        help="override a value in every scenario (e.g. camera.mode=stereo); the baseline keeps "
+        "such a run's figures in a set of their own",
     )
     bag = sub.add_parser(
         "import-bag", help="turn a ROS 1 / ROS 2 bag into a recording that run --replay maps"
