@@ -998,7 +998,7 @@ class HeadingEstimator:
 
             scores = score(*data, np.radians(coarse), p.cell_m, p.layer_m)
             best = float(scores.max())
-        if p.noise_band > 0.0 and p.overlap_cells and not edges:
+        if p.noise_band > 0.0 and not edges:  # noise_band > 0 only with overlap_cells
             drop = p.noise_band * math.sqrt(2.0) * score_noise(scores)
             self.correction_rad = math.radians(_band_centre_deg(coarse, scores, drop))
         elif p.peak_band > 0.0:

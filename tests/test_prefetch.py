@@ -221,7 +221,7 @@ def test_looks_ahead_at_most_ahead_frames_and_stops_when_closed():
     source.close()  # idempotent
 
 
-def refuses_another_frame_and_a_second_ask(ahead, frames) -> None:
+def assert_refuses_another_frame_and_a_second_ask(ahead, frames) -> None:
     """``ahead`` (started, over ``frames[:3]``) refuses another frame, a copy, a second ask."""
     iterator = iter(ahead)
     frame = next(iterator)
@@ -239,7 +239,7 @@ def refuses_another_frame_and_a_second_ask(ahead, frames) -> None:
 def test_refuses_another_frame_and_a_second_ask(frames):
     with SegmentAhead(frames[:3], FrameSegmenter(RunParams())) as ahead:
         ahead.start()
-        refuses_another_frame_and_a_second_ask(ahead, frames)
+        assert_refuses_another_frame_and_a_second_ask(ahead, frames)
 
 
 def test_refuses_no_look_ahead_and_iterating_before_start(frames):

@@ -10,9 +10,9 @@ import threading
 import numpy as np
 import pytest
 from test_prefetch import (
+    assert_refuses_another_frame_and_a_second_ask,
     assert_same_result,
     assert_same_run,
-    refuses_another_frame_and_a_second_ask,
     walk_frames,
 )
 
@@ -163,7 +163,7 @@ def test_refuses_another_frame_a_second_ask_and_bad_use(frames):
         ahead.start()
         with pytest.raises(FogsimError, match="already started"):
             ahead.start()
-        refuses_another_frame_and_a_second_ask(ahead, frames)
+        assert_refuses_another_frame_and_a_second_ask(ahead, frames)
         assert ahead.also(frames[2]) is None  # no `also` callable (and another frame)
     ahead.close()  # idempotent
 
