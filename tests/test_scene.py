@@ -8,6 +8,7 @@ import subprocess
 import sys
 import time
 from pathlib import Path
+from xml.etree import ElementTree
 
 import mujoco
 import numpy as np
@@ -15,11 +16,20 @@ import pytest
 
 from fogsim.config import load_scenario
 from fogsim.errors import FogsimError
+from fogsim.robot.mj_xml import model_from_xml_string
 from fogsim.robot.model import CAMERA_NAMES, load_robot
 from fogsim.sim import model_cache
 from fogsim.sim.assets import MJCF_DIR, load_mjcf_piece
 from fogsim.sim.model_cache import content_key, model_cache_dir
-from fogsim.sim.scene import Scene, compile_scene, rough_elevation, scene_key
+from fogsim.sim.scene import (
+    TERRAIN_MIN_SPAN_M,
+    Scene,
+    box_mesh,
+    build_scene_mjcf,
+    compile_scene,
+    rough_elevation,
+    scene_key,
+)
 from fogsim.world import SceneTruth, object_center_at
 
 ROOT = Path(__file__).resolve().parent.parent
@@ -285,3 +295,74 @@ def test_a_cached_scene_is_loaded_without_dm_control(tmp_path):
         for _ in range(2)
     ]
     assert imported == ["True", "False"]  # built (and cached) by the first, loaded by the second
+
+
+def _as_text_attributes(xml: str, assets: dict[str, bytes]) -> str:
+    """``xml`` with every ``.msh`` mesh and binary height field written as numbers in text.
+
+    Reads the files as MuJoCo's documentation describes them (not with fogsim's writer), so
+    the text is the MJCF of the same numbers as the files: the attributes the scene once had.
+    """
+    root = ElementTree.fromstring(xml)
+    numbers = lambda values: " ".join(repr(v.item()) for v in values)  # noqa: E731
+    for mesh in root.iter("mesh"):
+        data = assets[mesh.attrib.pop("file")]
+        nvert, nnormal, ntex, nface = np.frombuffer(data[:16], "<i4")
+        arrays = np.split(
+            np.frombuffer(data[16:], "<f4"), np.cumsum([3 * nvert, 3 * nnormal, 2 * ntex])
+        )
+        assert nnormal == 0 and arrays[3].size == 3 * nface  # faces are int32: same size
+        mesh.set("vertex", numbers(arrays[0]))
+        mesh.set("face", numbers(arrays[3].view("<i4")))
+        if ntex:
+            mesh.set("texcoord", numbers(arrays[2]))
+    for hfield in root.iter("hfield"):
+        data = assets[hfield.attrib.pop("file")]
+        nrow, ncol = np.frombuffer(data[:8], "<i4")
+        heights = np.frombuffer(data[8:], "<f4").reshape(nrow, ncol)
+        hfield.set("nrow", str(nrow))
+        hfield.set("ncol", str(ncol))
+        hfield.set("elevation", numbers(heights[::-1].ravel()))  # MuJoCo flips its rows
+    return ElementTree.tostring(root, encoding="unicode")
+
+
+# stage: box meshes, rough tops, iCub; eth_stairs: the largest height field; talos_course: TALOS.
+@pytest.mark.parametrize("name", ["stage", "eth_stairs", "talos_course"])
+def test_meshes_and_heights_as_files_compile_to_the_model_of_the_same_numbers_as_text(name):
+    scenario = load_scenario(name)
+    robot = load_robot(scenario.robot.model)
+    root = build_scene_mjcf(scenario, robot)
+    xml, assets = root.to_xml_string(), root.get_assets()
+    longest = max(len(v) for e in ElementTree.fromstring(xml).iter() for v in e.attrib.values())
+    assert longest < 300  # no long numeric text for MuJoCo to parse
+    text_xml = _as_text_attributes(xml, assets)
+    assert len(text_xml) > 10 * len(xml)
+    files = compile_scene(scenario, robot)
+    text = model_from_xml_string(text_xml, assets)
+    assert files.nmesh == text.nmesh > 0 and files.nhfield == text.nhfield > 0
+    compared = 0
+    for field in dir(files):
+        value = getattr(files, field)
+        # Every array but the file names (paths, and _sizes holding their count and length).
+        if isinstance(value, np.ndarray) and "path" not in field and field != "_sizes":
+            np.testing.assert_array_equal(value, getattr(text, field), err_msg=field)
+            compared += 1
+    assert compared > 200
+    # The files hold the scene's own numbers (as float32, what MuJoCo keeps of text too).
+    named = {
+        e.get("name"): e.get("file") for e in ElementTree.fromstring(xml).iter() if e.get("file")
+    }
+    for index, obj in enumerate(scenario.objects):
+        if obj.heightfield is not None:  # a terrain: its heights from its lowest over its span
+            heights_m = obj.heightfield_m()
+            elevation = (heights_m - heights_m.min()) / max(np.ptp(heights_m), TERRAIN_MIN_SPAN_M)
+        elif obj.surface == "rough":
+            elevation = rough_elevation(obj, scenario.seed, index)
+        else:
+            vertices, faces, texcoords = box_mesh(obj.size)
+            expected = (vertices.astype("<f4"), texcoords.astype("<f4"), faces.astype("<i4"))
+            data = assets[named[f"mesh_{obj.name}"]]
+            assert data[16:] == b"".join(a.tobytes() for a in expected)
+            continue
+        heights = np.frombuffer(assets[named[f"hf_{obj.name}"]][8:], "<f4")
+        np.testing.assert_array_equal(heights, elevation[::-1].ravel().astype(np.float32))

@@ -43,7 +43,8 @@ class Robot:
 
     Attributes:
         description: What the testbed knows of the robot beyond its URDF.
-        mjcf_path: Standalone MuJoCo XML (free joint "root", cameras in `CAMERA_NAMES`).
+        mjcf_path: Standalone MuJoCo XML (free joint "root", cameras in `CAMERA_NAMES`); its
+            meshes are the files of `fogsim.robot.mjcf.mjcf_files`, in the folder beside it.
         pin_model: Pinocchio model with a free-flyer root and frames "head_camera",
             "head_camera_left", "head_camera_right" (OpenCV convention).
         pin_data: Pinocchio data for `pin_model` (scratch space; not thread safe).

@@ -2,19 +2,23 @@
 
 The MuJoCo model is generated *from the pinocchio model* (joint placements, axes, inertias,
 geometry placements), so both agree on joint zeros and axes by construction. Meshes are taken
-from the geometry pinocchio loaded (coal meshes), written inline into one standalone MJCF file in
-a cache directory (``~/.cache/fogsim/robots/<name>/``, root overridable by the environment
-variable ``FOGSIM_CACHE``) whose name carries a digest of everything the text depends on.
+from the geometry pinocchio loaded (coal meshes). The model is one MJCF file in a cache directory
+(``~/.cache/fogsim/robots/<name>/``, root overridable by the environment variable
+``FOGSIM_CACHE``) whose name carries a digest of everything the text depends on, and its meshes
+are MuJoCo's binary ``.msh`` files in the folder of the same name beside it (``<compiler
+meshdir>``): MuJoCo then parses no long numeric text, whose parse a stray ``errno`` can fail
+(:mod:`fogsim.robot.mj_xml`), and the iCub's XML is 30 kB, not 3.5 MB.
 
 The text is built with ElementTree, not ``dm_control.mjcf`` (which the scene uses to assemble
 the world): numbers are written with ``repr`` so MuJoCo reads back pinocchio's doubles bit for
-bit, and mesh vertices with 9 digits; ``dm_control.mjcf`` writes every float at a fixed
-precision, adds ``class`` attributes and reorders attributes, so the same robot would give
-another text (and a 33 % larger file).
+bit (mesh vertices are float32 in MuJoCo, as in the ``.msh`` file); ``dm_control.mjcf`` writes
+every float at a fixed precision, adds ``class`` attributes and reorders attributes, so the same
+robot would give another text.
 """
 
 import hashlib
 import os
+import re
 import xml.etree.ElementTree as ET
 from pathlib import Path
 
@@ -24,13 +28,14 @@ import numpy as np
 import pinocchio as pin
 from numpy.typing import ArrayLike, NDArray
 
-from fogsim.atomic import write_text_atomic
+from fogsim.atomic import write_atomic, write_text_atomic
 from fogsim.errors import RobotModelError
 from fogsim.geometry import MJ_FROM_CV
 from fogsim.robot.description import CAMERA_NAMES, RobotDescription
 from fogsim.robot.meshes import mesh_faces, mesh_vertices_m
+from fogsim.robot.mj_xml import mesh_file
 
-_CACHE_FORMAT_VERSION = 3
+_CACHE_FORMAT_VERSION = 4
 """Bump when the generated MJCF changes, so stale cache files are rebuilt."""
 MIN_BODY_MASS_KG = 1e-3
 """Lightest body MuJoCo gets [kg]: URDF links without mass (frames, sensors) would not simulate."""
@@ -38,6 +43,8 @@ MIN_PRINCIPAL_INERTIA_KGM2 = 1e-6
 """Added to an inertia whose smallest principal moment is below it [kg m²], for the same reason."""
 CAMERA_FOVY_DEG = 39.0
 """Vertical field of view of the MJCF cameras [deg] (the scene may set its own)."""
+_SAFE_FILE_NAME = re.compile(r"[A-Za-z0-9_.-]+")
+"""A mesh's file name is its MJCF name: of these characters only (no folder, no space)."""
 
 
 def cache_root() -> Path:
@@ -64,9 +71,27 @@ def cached_mjcf(
     name = description.name
     digest = _source_digest(description, urdf_path)
     path = cache_root() / name / f"{name}_{digest}.xml"
-    if not path.exists():
-        write_text_atomic(path, build_mjcf(description, model, geometry_model))
+    if not all(p.exists() for p in mjcf_files(path)):  # the XML last, so it implies its meshes
+        text, meshes = build_mjcf(description, model, geometry_model, path.stem)
+        for file_name, content in meshes.items():
+            write_atomic(path.parent / file_name, lambda f, data=content: f.write(data))
+        write_text_atomic(path, text)
     return path
+
+
+def mjcf_files(path: Path) -> list[Path]:
+    """The robot MJCF file ``path`` and the mesh files it names, in the XML's order.
+
+    Just ``[path]`` if the file does not exist. Its mesh files lie in the folder of its
+    ``<compiler meshdir>`` beside it (:func:`build_mjcf`); together they are the robot model
+    MuJoCo and ``dm_control`` load, so content keys read them all.
+    """
+    if not path.exists():
+        return [path]
+    tree = ET.parse(path)
+    compiler = tree.find("compiler")
+    mesh_dir = path.parent / (compiler.get("meshdir", "") if compiler is not None else "")
+    return [path, *(mesh_dir / mesh.get("file") for mesh in tree.iter("mesh") if mesh.get("file"))]
 
 
 def _source_digest(description: RobotDescription, urdf_path: str) -> str:
@@ -77,14 +102,30 @@ def _source_digest(description: RobotDescription, urdf_path: str) -> str:
 
 
 def build_mjcf(
-    description: RobotDescription, model: pin.Model, geometry_model: pin.GeometryModel
-) -> str:
-    """Generate the standalone MJCF text of a robot from its pinocchio model.
+    description: RobotDescription,
+    model: pin.Model,
+    geometry_model: pin.GeometryModel,
+    mesh_dir: str,
+) -> tuple[str, dict[str, bytes]]:
+    """Generate the MJCF text of a robot from its pinocchio model, and its mesh files.
 
     Numbers are written with full precision so that MuJoCo and pinocchio agree to 1e-12.
+
+    Args:
+        description: The robot's description.
+        model: Its pinocchio model, camera frames added.
+        geometry_model: The geometries MuJoCo renders.
+        mesh_dir: The folder of the mesh files, relative to the MJCF file's
+            (``<compiler meshdir>``).
+
+    Returns:
+        The MJCF text and its mesh files: path relative to the MJCF file's folder → contents
+        (MuJoCo's binary ``.msh``, :func:`fogsim.robot.mj_xml.mesh_file`).
     """
     root = ET.Element("mujoco", model=description.name)
-    ET.SubElement(root, "compiler", angle="radian", autolimits="true", fusestatic="false")
+    ET.SubElement(
+        root, "compiler", angle="radian", autolimits="true", fusestatic="false", meshdir=mesh_dir
+    )
     visual = ET.SubElement(root, "visual")
     ET.SubElement(visual, "global", offwidth="640", offheight="480")
     asset = ET.SubElement(root, "asset")
@@ -118,8 +159,10 @@ def build_mjcf(
             )
         bodies.append(body)
     fix_y_up = description.quirks.fix_y_up_meshes
+    meshes: dict[str, bytes] = {}
     for geometry_object in geometry_model.geometryObjects:
-        _add_geometry(asset, bodies[geometry_object.parentJoint], geometry_object, fix_y_up)
+        body = bodies[geometry_object.parentJoint]
+        meshes.update(_add_geometry(asset, body, geometry_object, fix_y_up))
     # Every other pinocchio frame becomes a site of the same name (l_sole, head_camera, ...).
     for frame in model.frames:
         if frame.type in (pin.FrameType.JOINT, pin.FrameType.FIXED_JOINT):
@@ -149,7 +192,7 @@ def build_mjcf(
             fovy=repr(CAMERA_FOVY_DEG),
         )
     ET.indent(root)
-    return ET.tostring(root, encoding="unicode")
+    return ET.tostring(root, encoding="unicode"), {f"{mesh_dir}/{k}": v for k, v in meshes.items()}
 
 
 def _body_names(model: pin.Model) -> list[str]:
@@ -167,8 +210,16 @@ def _body_names(model: pin.Model) -> list[str]:
 
 def _add_geometry(
     asset: ET.Element, body: ET.Element, geometry_object: pin.GeometryObject, fix_y_up: bool
-) -> None:
-    """One geom (and, for a mesh, its inline mesh asset) for a pinocchio geometry object."""
+) -> dict[str, bytes]:
+    """One geom (and, for a mesh, its mesh asset) for a pinocchio geometry object.
+
+    Returns:
+        For a mesh, its file (name in the mesh folder → ``.msh`` contents); else nothing.
+
+    Raises:
+        RobotModelError: The geometry's type is not supported, or a mesh's name is no safe
+            file name.
+    """
     geometry = geometry_object.geometry
     name = geometry_object.name
     placement = geometry_object.placement
@@ -185,16 +236,14 @@ def _add_geometry(
         "group": "1",
     }
     if isinstance(geometry, coal.BVHModelBase):
-        ET.SubElement(
-            asset,
-            "mesh",
-            name=f"{name}_mesh",
-            vertex=_fmt_mesh(mesh_vertices_m(geometry_object, fix_y_up)),
-            face=" ".join(str(int(i)) for i in mesh_faces(geometry_object).reshape(-1)),
-            inertia="shell",
-        )
+        file_name = f"{name}_mesh.msh"
+        if not _SAFE_FILE_NAME.fullmatch(file_name):
+            raise RobotModelError(f"mesh {name!r}: not a safe file name for its .msh file")
+        ET.SubElement(asset, "mesh", name=f"{name}_mesh", file=file_name, inertia="shell")
         ET.SubElement(body, "geom", type="mesh", mesh=f"{name}_mesh", **attributes)
-    elif isinstance(geometry, coal.Box):
+        vertices = mesh_vertices_m(geometry_object, fix_y_up)
+        return {file_name: mesh_file(vertices, mesh_faces(geometry_object))}
+    if isinstance(geometry, coal.Box):
         ET.SubElement(body, "geom", type="box", size=_fmt(geometry.halfSide), **attributes)
     elif isinstance(geometry, coal.Cylinder | coal.Capsule):
         kind = "cylinder" if isinstance(geometry, coal.Cylinder) else "capsule"
@@ -204,6 +253,7 @@ def _add_geometry(
         ET.SubElement(body, "geom", type="sphere", size=_fmt([geometry.radius]), **attributes)
     else:
         raise RobotModelError(f"unsupported geometry {type(geometry).__name__} in {name}")
+    return {}
 
 
 def _joint_axis(joint_model: pin.JointModel) -> NDArray[np.float64]:
@@ -241,8 +291,3 @@ def _bounded_inertia(
 def _fmt(values: ArrayLike) -> str:
     """Space-separated floats that read back bit for bit (MuJoCo's own writer keeps 6 digits)."""
     return " ".join(repr(float(v)) for v in np.asarray(values, dtype=np.float64).reshape(-1))
-
-
-def _fmt_mesh(values: ArrayLike) -> str:
-    """Space-separated mesh coordinates with 9 digits (MuJoCo stores them as float32)."""
-    return " ".join(f"{v:.9g}" for v in np.asarray(values, dtype=np.float64).reshape(-1))

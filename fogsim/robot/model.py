@@ -24,7 +24,7 @@ from fogsim.robot.description import CAMERA_NAMES, CameraMount, RobotDescription
 from fogsim.robot.disk_cache import content_key, library_versions, load_or_build, source_digest
 from fogsim.robot.kinematics import Robot
 from fogsim.robot.mj_xml import model_from_xml_path
-from fogsim.robot.mjcf import cache_root, cached_mjcf
+from fogsim.robot.mjcf import cache_root, cached_mjcf, mjcf_files
 
 MAX_CACHED_ROBOTS = 8
 """Most loaded robot models kept on disk, the least recently used removed first: both robots
@@ -63,7 +63,8 @@ def load_robot(name: str = "icub") -> Robot:
         cache_root().parent / "robot_models" / f"{name}_{key}.pickle",
         lambda: _load(description),
         MAX_CACHED_ROBOTS,
-        usable=lambda loaded: Path(loaded["mjcf_path"]).exists(),  # the MJCF may be deleted
+        # The MJCF or its meshes may be deleted.
+        usable=lambda loaded: all(path.exists() for path in mjcf_files(Path(loaded["mjcf_path"]))),
     )
     return Robot(description=description, pin_data=fields["pin_model"].createData(), **fields)
 

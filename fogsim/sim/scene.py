@@ -36,7 +36,8 @@ from fogsim.config import CameraConfig, Scenario, SceneObject
 from fogsim.errors import FogsimError, RobotModelError
 from fogsim.geometry import MJ_FROM_CV
 from fogsim.robot import CAMERA_NAMES, Robot
-from fogsim.robot.mj_xml import model_from_xml_string
+from fogsim.robot.mj_xml import hfield_file, mesh_file, model_from_xml_string
+from fogsim.robot.mjcf import mjcf_files
 from fogsim.sim import assets
 from fogsim.sim.assets import MJCF_DIR, load_mjcf_piece, scene_textures
 from fogsim.sim.camera.depth import VISIBLE_GEOMGROUPS
@@ -198,13 +199,11 @@ def _add_object(
         shape = _height_field(root, obj, elevation, obj.roughness_m, bumps_from_m)
         kind, z = "hfield", bumps_from_m
     else:
-        vertices, triangles, texcoords = box_mesh(obj.size)
+        from dm_control import mjcf  # only to build a scene (TYPE_CHECKING import)
+
+        mesh = mesh_file(*box_mesh(obj.size))
         shape = root.asset.add(
-            "mesh",
-            name=f"mesh_{obj.name}",
-            vertex=vertices.ravel(),
-            face=triangles.ravel(),
-            texcoord=texcoords.ravel(),
+            "mesh", name=f"mesh_{obj.name}", file=mjcf.Asset(mesh, ".msh", f"mesh_{obj.name}")
         )
         kind, z = "mesh", 0.5 * sz
     body.add(
@@ -241,18 +240,18 @@ def _height_field(
             down to the base, or :data:`TERRAIN_MIN_SPAN_M` below the base when ``low_m`` is 0
             (MuJoCo needs a base).
     """
+    from dm_control import mjcf  # only to build a scene (TYPE_CHECKING import)
+
     return root.asset.add(
         "hfield",
         name=f"hf_{obj.name}",
-        nrow=elevation.shape[0],
-        ncol=elevation.shape[1],
+        file=mjcf.Asset(hfield_file(elevation), ".bin", f"hf_{obj.name}"),
         size=[
             0.5 * obj.size[0],
             0.5 * obj.size[1],
             span_m,
             low_m if low_m > 0.0 else TERRAIN_MIN_SPAN_M,
         ],
-        elevation=elevation.ravel(),
     )
 
 
@@ -349,10 +348,10 @@ def _scene_inputs(scenario: Scenario) -> tuple[object, ...]:
 def scene_key(scenario: Scenario, robot: Robot | None) -> str:
     """Content key of the compiled scene: everything :func:`compile_scene` reads.
 
-    The scenario's part that builds the model (its ``repr``), the robot's MJCF file (meshes
-    are inlined in it), every file of ``assets/mjcf`` (pieces, textures), the source of this
-    module and of :mod:`fogsim.sim.assets` (which generates the textures), the MuJoCo and
-    dm_control versions and the heights of every terrain's image.
+    The scenario's part that builds the model (its ``repr``), the robot's MJCF file and its
+    mesh files (:func:`fogsim.robot.mjcf.mjcf_files`), every file of ``assets/mjcf`` (pieces,
+    textures), the source of this module and of :mod:`fogsim.sim.assets` (which generates the
+    textures), the MuJoCo and dm_control versions and the heights of every terrain's image.
     """
     pieces = tuple(path.read_bytes() for path in sorted(MJCF_DIR.iterdir()) if path.is_file())
     terrains = tuple(
@@ -361,7 +360,7 @@ def scene_key(scenario: Scenario, robot: Robot | None) -> str:
     return content_key(
         (
             repr(_scene_inputs(scenario)).encode(),
-            robot.mjcf_path.read_bytes() if robot is not None else b"",
+            *(path.read_bytes() for path in (mjcf_files(robot.mjcf_path) if robot else ())),
             *pieces,
             *terrains,
             Path(__file__).read_bytes(),
