@@ -1,6 +1,7 @@
-"""The scene exported for MuJoCo's viewer: the XML and its textures, the built model, frame 0."""
+"""The scene exported for MuJoCo's viewer: the XML and its files, the built model, frame 0."""
 
 import dataclasses
+from pathlib import Path
 from xml.etree import ElementTree
 
 import mujoco
@@ -45,9 +46,12 @@ def test_the_saved_scene_is_the_built_model_and_starts_at_the_first_frame(tmp_pa
     scenario = load_scenario(name)
     path = export_scene(scenario, tmp_path / "scene.xml")
     named = sorted(e.attrib["file"] for e in ElementTree.parse(path).iter() if "file" in e.attrib)
-    assert named and all(name.endswith(".png") for name in named)  # the generated textures
-    # The XML and the textures it names, nothing else (no temporary left).
+    kinds = {Path(file).suffix for file in named}  # textures, meshes, height fields (stage)
+    assert kinds == ({".png", ".msh", ".bin"} if name == "stage" else {".png", ".msh"})
+    # The XML and the files it names, nothing else (no temporary left).
     assert sorted(p.name for p in tmp_path.iterdir()) == sorted({*named, "scene.xml"})
+    longest = max(len(v) for e in ElementTree.parse(path).iter() for v in e.attrib.values())
+    assert longest < 600  # the keyframe's qpos; no mesh or height field as text
 
     saved = mujoco.MjModel.from_xml_path(str(path))
     simulation = Simulation(scenario, depth_backend="raycast")  # at its first frame
@@ -57,9 +61,11 @@ def test_the_saved_scene_is_the_built_model_and_starts_at_the_first_frame(tmp_pa
     assert names(saved, mujoco.mjtObj.mjOBJ_BODY)[-1].startswith(f"{scenario.robot.model}/")
     assert saved.nhfield == sum(o.surface == "rough" for o in scenario.objects)
     assert (saved.nq, saved.nv, saved.nmocap) == (built.nq, built.nv, built.nmocap)
-    for field in ("body_pos", "body_quat", "geom_size", "geom_pos", "geom_rgba", "mesh_vertnum"):
+    for field in (
+        *("body_pos", "body_quat", "geom_size", "geom_pos", "geom_rgba", "mesh_vertnum"),
+        *("mesh_vert", "mesh_face", "mesh_texcoord", "mesh_normal", "hfield_data"),
+    ):
         np.testing.assert_array_equal(getattr(saved, field), getattr(built, field), err_msg=field)
-    np.testing.assert_array_equal(saved.hfield_data, built.hfield_data)
 
     assert saved.nkey == 1 and saved.key(0).name == START_KEYFRAME
     data = mujoco.MjData(saved)

@@ -15,6 +15,7 @@ from fogsim.robot import (
     read_description,
 )
 from fogsim.robot.description import ROBOTS_DIR
+from fogsim.robot.mjcf import mjcf_files
 from mapper.transforms import planar_pose_to_matrix
 
 
@@ -168,8 +169,15 @@ def test_model_is_built_into_the_cache_dir_given_by_fogsim_cache(tmp_path, monke
     monkeypatch.setenv("FOGSIM_CACHE", str(tmp_path))
     robot = load_robot.__wrapped__("icub")  # bypass the per-process cache
     assert robot.mjcf_path.parent == tmp_path / "robots" / "icub"
-    model = mujoco.MjModel.from_xml_path(str(robot.mjcf_path))  # standalone, no asset files
+    model = mujoco.MjModel.from_xml_path(str(robot.mjcf_path))  # its meshes from the files
     assert model.nmesh > 0 and model.njnt == 33
+    # One .msh per mesh, in the folder named as the MJCF beside it.
+    meshes = mjcf_files(robot.mjcf_path)[1:]
+    assert len(meshes) == model.nmesh
+    assert {path.parent for path in meshes} == {robot.mjcf_path.with_suffix("")}
+    assert sorted(p.name for p in robot.mjcf_path.with_suffix("").iterdir()) == sorted(
+        path.name for path in meshes
+    )
 
 
 def test_shipped_descriptions_hold_the_values_of_the_former_literals():

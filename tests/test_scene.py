@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import dataclasses
 import os
+import shutil
 import subprocess
 import sys
 import time
@@ -17,6 +18,7 @@ import pytest
 from fogsim.config import load_scenario
 from fogsim.errors import FogsimError
 from fogsim.robot.mj_xml import model_from_xml_string
+from fogsim.robot.mjcf import mjcf_files
 from fogsim.robot.model import CAMERA_NAMES, load_robot
 from fogsim.sim import model_cache
 from fogsim.sim.assets import MJCF_DIR, load_mjcf_piece
@@ -366,3 +368,19 @@ def test_meshes_and_heights_as_files_compile_to_the_model_of_the_same_numbers_as
             continue
         heights = np.frombuffer(assets[named[f"hf_{obj.name}"]][8:], "<f4")
         np.testing.assert_array_equal(heights, elevation[::-1].ravel().astype(np.float32))
+
+
+def test_the_scene_key_reads_the_robot_mesh_files(robot, tmp_path):
+    """The key is of the robot's MJCF and mesh contents: a changed mesh is a new scene."""
+    scenario = load_scenario("stage")
+    folder = robot.mjcf_path.with_suffix("")
+    copy = tmp_path / robot.mjcf_path.name
+    shutil.copy(robot.mjcf_path, copy)
+    shutil.copytree(folder, tmp_path / folder.name)
+    moved = dataclasses.replace(robot, mjcf_path=copy)
+    assert scene_key(scenario, moved) == scene_key(scenario, robot)  # contents, not place
+    mesh = mjcf_files(copy)[-1]
+    data = bytearray(mesh.read_bytes())
+    data[16] ^= 1  # the lowest bit of the first vertex's x (after the 16-byte header)
+    mesh.write_bytes(bytes(data))
+    assert scene_key(scenario, moved) != scene_key(scenario, robot)

@@ -11,6 +11,7 @@ import pytest
 from fogsim.config import load_scenario
 from fogsim.errors import FogsimError
 from fogsim.robot import disk_cache, load_robot, model
+from fogsim.robot.mjcf import mjcf_files
 from fogsim.sim import route_cache
 from fogsim.sim.route_cache import planned_route, route_key
 
@@ -48,12 +49,17 @@ def test_a_cached_robot_is_the_loaded_one_and_is_not_built_again(empty_cache, mo
     assert cached_file.exists()
 
 
-def test_a_cached_robot_whose_mjcf_was_deleted_is_built_again(empty_cache):
+@pytest.mark.parametrize("deleted", [0, -1], ids=["the MJCF", "a mesh file"])
+def test_a_cached_robot_whose_mjcf_was_deleted_is_built_again(empty_cache, deleted):
     built = load_robot("icub")
-    built.mjcf_path.unlink()
+    files = mjcf_files(built.mjcf_path)
+    assert len(files) > 1 and files[-1].suffix == ".msh"
+    contents = [path.read_bytes() for path in files]
+    files[deleted].unlink()
     load_robot.cache_clear()
     again = load_robot("icub")
-    assert again.mjcf_path == built.mjcf_path and again.mjcf_path.exists()
+    assert again.mjcf_path == built.mjcf_path
+    assert [path.read_bytes() for path in mjcf_files(again.mjcf_path)] == contents
 
 
 def test_a_cached_walk_is_the_planned_one_and_is_shared_by_seeds_and_camera_modes(

@@ -1,10 +1,11 @@
 """A scenario's built MuJoCo scene as an MJCF file (and its textures), for MuJoCo's own viewer.
 
 ``python -m mujoco.viewer --mjcf scene.xml`` opens the file: the stage, its objects and the robot
-(or the free camera rig) exactly as :func:`fogsim.sim.scene.build_scene_mjcf` builds them —
-robot meshes and height fields inline. The generated surface textures (``assets/mjcf/
-textures.toml``) are PNG files the MJCF names by their content hash; they are written beside the
-XML file, so the folder holding ``scene.xml`` is all the viewer needs. The file holds
+(or the free camera rig) exactly as :func:`fogsim.sim.scene.build_scene_mjcf` builds them. The
+files the MJCF names by their content hash — the generated surface textures (``assets/mjcf/
+textures.toml``, PNG), the meshes (the robot's and the boxes', MuJoCo's binary ``.msh``) and
+the height fields (MuJoCo's binary height-field files, ``.bin``) — are written beside the XML
+file, so the folder holding ``scene.xml`` is all the viewer needs. The file holds
 one keyframe, ``start``: the robot standing at the first sample of its planned walk and every
 moving object where the events put it at time 0. Load it in the viewer's *Simulation* panel
 (*Key*, then *Load key*): the viewer opens at the model's reference pose, and its physics lets
