@@ -1,8 +1,8 @@
 """Compiled MuJoCo models cached on disk by content (``$FOGSIM_CACHE/scenes`` or ~/.cache).
 
-Building a scene through ``dm_control.mjcf`` and compiling it takes about 0.1 s (``stage`` with
-the iCub or ``talos_course`` with TALOS, median of 7, load below 2, session 38,
-``bench/bench_scene_compile.py``; 0.7 and 0.37 s while the meshes were MJCF text); a compiled
+Building a scene through ``dm_control.mjcf`` and compiling it takes about 0.1 s of CPU
+(``stage`` with the iCub or ``talos_course`` with TALOS, median of 7, session 38,
+``bench/bench_scene_compile.py``; 0.5 and 0.26 s while the meshes were MJCF text); a compiled
 model saved with ``mj_saveModel`` loads in milliseconds. :func:`load_or_compile` keeps one
 ``<key>.mjb`` per content key: the caller derives the key from everything the model is built
 from (:func:`fogsim.robot.disk_cache.content_key`), so a changed input gives a new key and
