@@ -450,9 +450,10 @@ def _cmd_scene(args: argparse.Namespace) -> int:
     check_output_path(args.out, "file", "--out")
     scenario = _load(args.scenario, args)
     path = export_scene(scenario, args.out)
-    size_mb = os.path.getsize(path) / 1e6
+    size_kb = os.path.getsize(path) / 1e3
     print(
-        f"saved the scene of {scenario.name} to {path} ({size_mb:.1f} MB); "
+        f"saved the scene of {scenario.name} to {path} ({size_kb:.0f} kB; the meshes, height "
+        f"fields and textures it names beside it); "
         f"open it with `python -m mujoco.viewer --mjcf {path}`"
     )
     return 0
