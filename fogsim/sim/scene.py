@@ -3,7 +3,8 @@
 The scene is the world of DESIGN.md: z up, a textured ground plane at z = 0 reaching well
 beyond the 4 × 1 m stage, one body per scenario object (``obj_<name>``, geom
 ``geom_<name>``, material ``mat_<name>``; a flat box is a mesh ``mesh_<name>`` with texture
-coordinates, a rough top or a terrain a height field ``hf_<name>``), the robot
+coordinates, a rough top or a terrain a height field ``hf_<name>``; both are MuJoCo's binary
+files, in-memory assets of the MJCF, not numeric text: :mod:`fogsim.robot.mj_xml`), the robot
 attached from its standalone MJCF (names prefixed ``<model>/``, its free joint moved onto the
 attachment frame), or, without a robot, a free-floating camera rig (mocap body
 ``camera_rig``) carrying ``head_camera``, ``head_camera_left`` and ``head_camera_right``.
