@@ -10,8 +10,9 @@ import pytest
 
 from fogsim.cli import main
 from fogsim.config import load_scenario
+from fogsim.robot.model import load_robot
 from fogsim.sim.export import START_KEYFRAME, export_scene
-from fogsim.sim.scene import PARKED_Z_M
+from fogsim.sim.scene import PARKED_Z_M, compile_scene
 from fogsim.sim.simulation import Simulation
 
 OBJECT_KINDS = (
@@ -94,3 +95,22 @@ def test_fogsim_scene_saves_a_file_mujoco_loads(tmp_path, capsys):
     assert mujoco.MjModel.from_xml_path(str(path)).nkey == 1
     assert main(["scene", "flat_floor", "--out", str(tmp_path)]) == 2  # a folder
     assert "--out" in capsys.readouterr().err
+
+
+def test_a_stereo_scenario_saves_its_own_model_posed_as_its_depth_run(tmp_path):
+    """`untextured` runs a stereo head, which the ray-cast backend refuses: the saved model is
+    the stereo scenario's, the keyframe the start of the same walk in depth mode."""
+    scenario = load_scenario("untextured")
+    assert scenario.camera.mode == "stereo"
+    path = tmp_path / "scene.xml"
+    assert main(["scene", "untextured", "--out", str(path)]) == 0
+    saved = mujoco.MjModel.from_xml_path(str(path))
+    built = compile_scene(scenario, load_robot(scenario.robot.model))
+    assert saved.nbody == built.nbody and saved.ncam == built.ncam == 3  # head, left, right
+    assert (saved.vis.global_.offwidth, saved.vis.global_.offheight) == (
+        built.vis.global_.offwidth,
+        built.vis.global_.offheight,
+    )
+    depth = dataclasses.replace(scenario, camera=dataclasses.replace(scenario.camera, mode="depth"))
+    start = Simulation(depth, depth_backend="raycast").scene.data.qpos
+    np.testing.assert_array_equal(saved.key(0).qpos, start)

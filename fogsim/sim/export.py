@@ -15,6 +15,7 @@ the robot fall, since the testbed only ever poses it.
 from __future__ import annotations
 
 import os
+from dataclasses import replace
 from pathlib import Path
 
 from fogsim.atomic import write_atomic, write_text_atomic
@@ -30,12 +31,18 @@ def scene_xml(scenario: Scenario) -> tuple[str, dict[str, bytes]]:
     """The MJCF text of the scenario's scene with the ``start`` keyframe, and its asset files.
 
     The state comes from a :class:`~fogsim.sim.simulation.Simulation` at its first frame
-    (ray-cast depth backend: no OpenGL needed).
+    (ray-cast depth backend: no OpenGL needed). A stereo camera needs rendered images, which
+    the ray-cast backend cannot give, so that simulation runs the ``depth`` mode instead: the
+    camera mode changes what the camera measures, not the robot's walk or the objects' state;
+    the model saved is built from the scenario as it is.
 
     Returns:
         The MJCF text and the files it names (file name → content), to be written beside it.
     """
-    simulation = Simulation(scenario, depth_backend="raycast")
+    posed = scenario
+    if scenario.camera.mode == "stereo":
+        posed = replace(scenario, camera=replace(scenario.camera, mode="depth"))
+    simulation = Simulation(posed, depth_backend="raycast")
     root = build_scene_mjcf(scenario, simulation.robot)
     assets = dict(sorted(root.get_assets().items()))
     data = simulation.scene.data
