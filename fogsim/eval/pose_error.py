@@ -7,14 +7,14 @@ the camera pose after the pipeline's corrections (tilt, heading), the yaw left b
 true one is recorded too (the residual heading, :func:`heading_error_deg`): as the frame was
 corrected when it was processed (``residual_heading_deg``: what a robot using the map at that
 moment saw), and as the frame was last mapped (``map_heading_deg``: what the final maps hold).
-Both are in the robot frame: the camera's own yaw error, what a neck correction can be judged
-by. The maps are built in the *believed* world (odometry's) and scored against the true one, so
-what they hold is the yaw between the corrected camera pose brought into the world by the
-believed robot pose and the true camera pose in the world (``world_heading_deg``, as last
-mapped): the robot-frame figure plus odometry's yaw error at the frame, which drifts over a run
-(`bench/heading_drift.py`). The two differ for the frames the pipeline mapped again later (:meth:`remapped`): the frames
+The two differ for the frames the pipeline mapped again later (:meth:`remapped`): the frames
 mapped once more with the heading's first estimate (`pipe.heading_rebuild_frames`) and the
-frames deferred by the height reference.
+frames deferred by the height reference. Both are in the robot frame: the camera's own yaw
+error, what a neck correction is judged by. The maps are built in the *believed* world
+(odometry's) and scored against the true one, so what they hold is the yaw between the
+corrected camera pose brought into the world by the believed robot pose and the true camera
+pose in the world (``world_heading_deg``, as last mapped): the robot-frame yaw plus odometry's
+yaw error at the frame, which drifts over a run (`bench/heading_drift.py`).
 """
 
 from __future__ import annotations
