@@ -267,6 +267,17 @@ class HeadingParams:
             world's need from −3.55° to −4.8°), `room` stereo 9.0 (16) → 8.6 (19) (seed 5),
             and the zig-zag stereo seed 8's sill row 0.01 → 33.9 mm (as with
             `voxel_estimate`; its heading 0.29 → 0.24°). So 0.
+        drift_deg_per_m: 0: off (one correction for all keyframes). Else the structure
+            score's estimate follows a drift of the correction the *world* needs: odometry's
+            yaw error changes as the robot walks (`bench/heading_drift.py`), and the maps are
+            built in odometry's world, so keyframe k needs ``a + b·(s_k − s_n)``, ``s`` the
+            believed distance walked [m] at the keyframe, ``n`` the newest. Slopes ``b`` on a
+            grid of `drift_step_deg_per_m` within ± this [deg/m] are scored (each a candidate
+            grid of ``a``, as `heading_scores` with the keyframes' yaws turned by
+            ``b·(s_k − s_n)``), the best-scoring slope's ``a`` (the correction at the newest
+            keyframe, by `peak_band`) becomes the correction. Whether the score stands out is
+            still decided on slope 0 (`min_contrast`, `flat_contrast`).
+        drift_step_deg_per_m: Step of the slope grid of `drift_deg_per_m` [deg/m].
     """
 
     correct_heading: bool = True
@@ -296,6 +307,8 @@ class HeadingParams:
     voxel_estimate: bool = False
     overlap_cells: int = 0
     noise_band: float = 0.0
+    drift_deg_per_m: float = 0.0
+    drift_step_deg_per_m: float = 0.1
 
     def __post_init__(self) -> None:
         def check(name: str, kind: type, allowed: str, ok=lambda _: True) -> None:
@@ -334,6 +347,18 @@ class HeadingParams:
             float,
             f"in (0, coarse_step_deg ({self.coarse_step_deg})] degrees",
             lambda v: 0.0 < v <= self.coarse_step_deg,
+        )
+        check(
+            "drift_deg_per_m",
+            float,
+            "a finite float in [0, 10] [deg/m]",
+            lambda v: math.isfinite(v) and 0.0 <= v <= 10.0,
+        )
+        check(
+            "drift_step_deg_per_m",
+            float,
+            "a finite float > 0 [deg/m]",
+            lambda v: math.isfinite(v) and v > 0.0,
         )
         check("keyframe_sector_deg", float, "in (0, 360] degrees", lambda v: 0.0 < v <= 360.0)
         for name in ("keyframe_spacing_m", "max_range_m", "cell_m", "layer_m"):
@@ -724,6 +749,7 @@ class _Keyframe:
     gradients_xy: NDArray[np.float64] | None = None  # robot frame, with `edge_score`
     voxel_offsets_xy: NDArray[np.float64] | None = None  # structure, with `voxel_estimate`
     voxel_z_world: NDArray[np.float64] | None = None  # ... and their world z
+    walked_m: float = 0.0  # believed distance walked when it was taken [m]
 
 
 class HeadingEstimator:
@@ -750,6 +776,9 @@ class HeadingEstimator:
         self._added = [0, 0]  # keyframes ever added to each
         self._keys: tuple[set, set] = (set(), set())  # the keys held by each
         self._structure_flat = False  # the structure points' latest score was flat
+        self._walked_m = 0.0  # believed distance walked so far [m] (`drift_deg_per_m`)
+        self._last_xy: NDArray[np.float64] | None = None
+        self.drift_rad_per_m = 0.0  # the slope of the latest estimate (`drift_deg_per_m`)
 
     @property
     def keyframes(self) -> int:
@@ -781,6 +810,10 @@ class HeadingEstimator:
         transform = np.asarray(transform_camera_to_robot, dtype=np.float64)
         if not self.params.correct_heading:
             return
+        xy = np.asarray(robot_pose[:2], dtype=np.float64)
+        if self._last_xy is not None:
+            self._walked_m += math.hypot(xy[0] - self._last_xy[0], xy[1] - self._last_xy[1])
+        self._last_xy = xy.copy()
         # The keyframe test and the points in the height band are the same for both sets: made
         # once a frame, the band only when a set has no keyframe in the frame's cell and sector.
         key, camera_xy = self._frame_key(transform, robot_pose)
@@ -920,6 +953,7 @@ class HeadingEstimator:
                 z_world=(points[:, 2] + z_shift_m) + pose[2],
                 camera_xy=camera_xy,
                 yaw_rad=float(pose[3]),
+                walked_m=self._walked_m,
                 gradients_xy=gradients,
                 voxel_offsets_xy=None
                 if voxels is None
@@ -979,6 +1013,22 @@ class HeadingEstimator:
             return
         if edges and best - float(np.median(scores)) < p.min_edge_evidence:
             return
+        self.drift_rad_per_m = 0.0
+        if p.drift_deg_per_m > 0.0 and not edges:
+            # The slope whose keyframe yaws, turned by it, make the points agree best.
+            walked = np.array([k.walked_m for k in keyframes])
+            walked -= walked[-1]
+            steps = int(math.floor(p.drift_deg_per_m / p.drift_step_deg_per_m + 1e-9))
+            chosen = data
+            for slope in np.arange(-steps, steps + 1) * math.radians(p.drift_step_deg_per_m):
+                if slope == 0.0:
+                    continue
+                turned = (*data[:4], data[4] + slope * walked)
+                slope_scores = score(*turned, np.radians(coarse), p.cell_m, p.layer_m)
+                if float(slope_scores.max()) > best:
+                    best, scores, chosen = float(slope_scores.max()), slope_scores, turned
+                    self.drift_rad_per_m = float(slope)
+            data = chosen
         if p.voxel_estimate and not edges:
             # Accepted on the points' score (its thresholds); the estimate from the voxels'.
             data = (
