@@ -1018,7 +1018,7 @@ class HeadingEstimator:
             # The slope whose keyframe yaws, turned by it, make the points agree best.
             walked = np.array([k.walked_m for k in keyframes])
             walked -= walked[-1]
-            steps = int(math.floor(p.drift_deg_per_m / p.drift_step_deg_per_m + 1e-9))
+            steps = math.floor(p.drift_deg_per_m / p.drift_step_deg_per_m + 1e-9)
             chosen = data
             for slope in np.arange(-steps, steps + 1) * math.radians(p.drift_step_deg_per_m):
                 if slope == 0.0:
