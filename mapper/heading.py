@@ -278,6 +278,8 @@ class HeadingParams:
             keyframe, by `peak_band`) becomes the correction. Whether the score stands out is
             still decided on slope 0 (`min_contrast`, `flat_contrast`).
         drift_step_deg_per_m: Step of the slope grid of `drift_deg_per_m` [deg/m].
+        smooth_estimates: The correction is the median of the structure score's last this
+            many accepted estimates (1: the latest alone); the edge score's are not smoothed.
     """
 
     correct_heading: bool = True
@@ -309,6 +311,7 @@ class HeadingParams:
     noise_band: float = 0.0
     drift_deg_per_m: float = 0.0
     drift_step_deg_per_m: float = 0.1
+    smooth_estimates: int = 1
 
     def __post_init__(self) -> None:
         def check(name: str, kind: type, allowed: str, ok=lambda _: True) -> None:
@@ -360,6 +363,7 @@ class HeadingParams:
             "a finite float > 0 [deg/m]",
             lambda v: math.isfinite(v) and v > 0.0,
         )
+        check("smooth_estimates", int, "an integer in [1, 100]", lambda v: 1 <= v <= 100)
         check("keyframe_sector_deg", float, "in (0, 360] degrees", lambda v: 0.0 < v <= 360.0)
         for name in ("keyframe_spacing_m", "max_range_m", "cell_m", "layer_m"):
             check(name, float, "a finite float > 0 [m]", lambda v: math.isfinite(v) and v > 0)
@@ -779,6 +783,7 @@ class HeadingEstimator:
         self._walked_m = 0.0  # believed distance walked so far [m] (`drift_deg_per_m`)
         self._last_xy: NDArray[np.float64] | None = None
         self.drift_rad_per_m = 0.0  # the slope of the latest estimate (`drift_deg_per_m`)
+        self._recent_rad: list[float] = []  # the latest structure estimates (`smooth_estimates`)
 
     @property
     def keyframes(self) -> int:
@@ -1059,6 +1064,9 @@ class HeadingEstimator:
             fine = coarse[int(np.argmax(scores))] + np.arange(-steps, steps + 1) * p.fine_step_deg
             fine_scores = score(*data, np.radians(fine), p.cell_m, p.layer_m)
             self.correction_rad = math.radians(float(fine[int(np.argmax(fine_scores))]))
+        if not edges and p.smooth_estimates > 1:
+            self._recent_rad = [*self._recent_rad[1 - p.smooth_estimates :], self.correction_rad]
+            self.correction_rad = float(np.median(self._recent_rad))
         self.estimates += 1
         self.edge_estimates += edges
         self.from_edges = edges
