@@ -68,22 +68,20 @@ class Figures:
 
 def true_yaw_frame(frame: Frame) -> Frame:
     """The frame with its believed camera yaw replaced by the true one (module docstring)."""
-    believed = np.asarray(frame.transform_camera_to_robot_believed, dtype=np.float64)
-    true_in_believed_robot = (
-        np.linalg.inv(planar_pose_to_matrix(frame.robot_pose_believed))
-        @ frame.transform_camera_to_world_true
-    )
-    error_rad = math.radians(heading_error_deg(believed[:3, :3], true_in_believed_robot[:3, :3]))
-    corrected = yaw_about_pivot(-error_rad, believed[:3, 3]) @ believed
-    return dataclasses.replace(frame, transform_camera_to_robot_believed=corrected)
+    return _yaw_made_true(frame, frame.robot_pose_believed)
 
 
 def true_neck_yaw_frame(frame: Frame) -> Frame:
     """The frame with its believed camera yaw in the robot frame made the true one."""
+    return _yaw_made_true(frame, frame.robot_pose_true)
+
+
+def _yaw_made_true(frame: Frame, robot_pose) -> Frame:
+    """The frame's believed camera turned about its centre to the true camera's yaw as seen
+    from ``robot_pose`` (the believed one: exact in the world; the true one: in the robot)."""
     believed = np.asarray(frame.transform_camera_to_robot_believed, dtype=np.float64)
-    true_in_robot = (
-        np.linalg.inv(planar_pose_to_matrix(frame.robot_pose_true))
-        @ frame.transform_camera_to_world_true
+    true_in_robot = np.linalg.inv(planar_pose_to_matrix(robot_pose)) @ (
+        frame.transform_camera_to_world_true
     )
     error_rad = math.radians(heading_error_deg(believed[:3, :3], true_in_robot[:3, :3]))
     corrected = yaw_about_pivot(-error_rad, believed[:3, 3]) @ believed
