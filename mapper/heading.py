@@ -304,9 +304,10 @@ class HeadingParams:
             many accepted estimates (1: the latest alone); the edge score's are not smoothed.
             Successive estimates scatter by up to ±1.6° (stage stereo seed 7), but they share
             most of their keyframes, so their errors are not independent. Replays, seeds 1–8
-            (session 38), 1 → 3: every heading figure's mean within 0.04°, worst seeds up
-            to 0.18° worse (talos course `world_heading_deg` 1.03 → 1.21°), the zig-zag stereo's unsafe cells 31.5 (66) → 32.8 (76), zig-zag depth 11.3
-            (44) → 12.6 (48), stage stereo 2.25 (5) → 2.0 (4). So 1.
+            (session 38), 1 → 3: every heading figure's mean within 0.04°, worst seeds up to
+            0.18° worse (talos course `world_heading_deg` 1.03 → 1.21°), unsafe cells on the
+            zig-zag stereo 31.5 (66) → 32.8 (76), zig-zag depth 11.3 (44) → 12.6 (48), stage
+            stereo 2.25 (5) → 2.0 (4). So 1.
     """
 
     correct_heading: bool = True
