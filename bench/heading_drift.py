@@ -26,6 +26,12 @@ room, stairs, talos course 0.34–0.38°; table 0.24°; the standing moving_box 
 mean per scenario): the drift a correction could follow is a fraction of the estimator's own
 ±0.5–1° (`mapper.heading.HeadingParams.noise_band`).
 
+Replays (session 38), every 10 % of the frames: stage stereo seed 7, odometry 0 → +1.07°, the
+robot-frame residual scattering −1.64…+0.66° with the estimates, the world one −0.95…+1.47°
+(median |.| 0.72° robot, 0.42° world); with `head.drift_deg_per_m` 0.6 1.57° and 1.16°. The
+zig-zag depth seed 1: odometry 0 → +0.79°, residual −1.89…+1.12° (0.79° robot, 0.55° world),
+with the drift model 1.42° and 1.49°.
+
 Usage::
 
     python bench/heading_drift.py [--set KEY=VALUE ...] [--workers 2] /work/rec/room_depth_s3.npz

@@ -48,6 +48,15 @@ out and was flat at its latest try (`flat_contrast`) or has no keyframes, and ne
 `min_edge_evidence` besides `min_contrast` (a staircase wider than the view shows no lateral
 end: no estimate, the correction stays, rather than a guess).
 
+Which correction the maps need: they are built in the believed (odometry's) world and scored
+in the true one, so the camera must be right in the world, odometry's yaw error included
+(`fogsim.eval.pose_error`'s ``world_heading_deg``); a correction exact in the robot frame
+leaves the maps odometry's yaw error (session 38, `bench/heading_oracle.py`: unsafe cells on
+the stage stereo seeds 1–8 1.25 (3) exact in the world, 2.5 (8) exact in the robot frame).
+That error drifts (up to 1.18° over a run, `bench/heading_drift.py`), which one constant
+cannot follow; the drift models (`drift_deg_per_m`, `max_keyframes`) have the figures of
+following it: the drift is below the estimator's own scatter.
+
 Frames: robot frame R (z up, origin on the ground below the robot); the robot's pose in the
 world is (x, y, z, yaw); camera centre = translation of the corrected camera-to-robot transform.
 """
