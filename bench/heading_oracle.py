@@ -6,6 +6,10 @@ For each recording, up to four replays (``--modes``, default all):
 * ``true yaw``: every frame's believed camera-to-robot transform turned about the vertical
   through the camera centre by the yaw between it and the true camera pose in the *believed*
   robot frame (so the odometry's yaw error is taken out too);
+* ``true neck yaw``: as ``true yaw`` but against the true camera pose in the *true* robot frame:
+  the camera's own (neck) yaw error taken out, odometry's yaw error left in (a heading
+  correction exact in the robot frame, ``map_heading_deg`` 0; ``true yaw`` is exact in the
+  world, ``world_heading_deg`` 0);
 * ``true position``: the camera's position made the true one in the believed robot frame, its
   believed rotation kept;
 * ``true pose``: the whole transform replaced by the true camera pose in the believed robot
@@ -64,12 +68,22 @@ class Figures:
 
 def true_yaw_frame(frame: Frame) -> Frame:
     """The frame with its believed camera yaw replaced by the true one (module docstring)."""
+    return _yaw_made_true(frame, frame.robot_pose_believed)
+
+
+def true_neck_yaw_frame(frame: Frame) -> Frame:
+    """The frame with its believed camera yaw in the robot frame made the true one."""
+    return _yaw_made_true(frame, frame.robot_pose_true)
+
+
+def _yaw_made_true(frame: Frame, robot_pose) -> Frame:
+    """The frame's believed camera turned about its centre to the true camera's yaw as seen
+    from ``robot_pose`` (the believed one: exact in the world; the true one: in the robot)."""
     believed = np.asarray(frame.transform_camera_to_robot_believed, dtype=np.float64)
-    true_in_believed_robot = (
-        np.linalg.inv(planar_pose_to_matrix(frame.robot_pose_believed))
-        @ frame.transform_camera_to_world_true
+    true_in_robot = np.linalg.inv(planar_pose_to_matrix(robot_pose)) @ (
+        frame.transform_camera_to_world_true
     )
-    error_rad = math.radians(heading_error_deg(believed[:3, :3], true_in_believed_robot[:3, :3]))
+    error_rad = math.radians(heading_error_deg(believed[:3, :3], true_in_robot[:3, :3]))
     corrected = yaw_about_pivot(-error_rad, believed[:3, 3]) @ believed
     return dataclasses.replace(frame, transform_camera_to_robot_believed=corrected)
 
@@ -93,6 +107,7 @@ def true_position_frame(frame: Frame) -> Frame:
 MODES = {
     "pipeline": None,
     "true yaw": true_yaw_frame,
+    "true neck yaw": true_neck_yaw_frame,
     "true position": true_position_frame,
     "true pose": true_pose_frame,
 }

@@ -302,11 +302,12 @@ def _random_pose_frame(rng: np.random.Generator, index: int) -> Frame:
 
 @pytest.mark.parametrize("count", [0, 1, 2, 5, 300])
 def test_pose_error_accumulator_gives_the_per_frame_errors_bit_for_bit(count: int) -> None:
-    from fogsim.eval.pose_error import PoseErrorAccumulator
+    from fogsim.eval.pose_error import PoseErrorAccumulator, heading_error_deg
+    from mapper.transforms import planar_pose_to_matrix
 
     rng = np.random.default_rng(100 + count)
     accumulator = PoseErrorAccumulator()
-    rows, residuals = [], []
+    rows, residuals, world = [], [], []
     for index in range(count):
         frame = _random_pose_frame(rng, index)
         corrected = None
@@ -318,7 +319,16 @@ def test_pose_error_accumulator_gives_the_per_frame_errors_bit_for_bit(count: in
             rows.append(row)
             if residual is not None:
                 residuals.append(residual)
-    got_rows, got_residuals, got_mapped = accumulator._errors_per_frame()
+                in_world = planar_pose_to_matrix(frame.robot_pose_believed) @ corrected
+                world.append(
+                    abs(
+                        heading_error_deg(
+                            in_world[:3, :3], frame.transform_camera_to_world_true[:3, :3]
+                        )
+                    )
+                )
+    got_rows, got_residuals, got_mapped, got_world = accumulator._errors_per_frame()
+    np.testing.assert_allclose(got_world, np.array(world).reshape(-1), rtol=0, atol=1e-12)
     expected_rows = np.array(rows).reshape(-1, 4)
     assert got_rows.tobytes() == expected_rows.tobytes()
     assert got_residuals.tobytes() == np.array(residuals, dtype=np.float64).tobytes()

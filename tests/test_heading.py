@@ -6,6 +6,7 @@ import math
 import numpy as np
 import pytest
 
+import mapper.heading as heading_module
 from mapper import HeadingEstimator, HeadingParams, InvalidParameterError
 from mapper.heading import (
     _band_centre_deg,
@@ -116,6 +117,52 @@ def test_a_known_yaw_error_is_recovered_within_half_a_degree(yaw_error_deg, esti
     np.testing.assert_allclose(
         correction[:3, :3] @ CAMERA_IN_ROBOT_M + correction[:3, 3], CAMERA_IN_ROBOT_M, atol=1e-12
     )
+
+
+@pytest.mark.parametrize("rate_deg_per_m", [2.0, -2.0])
+def test_a_yaw_error_growing_with_the_distance_walked_is_followed_by_the_drift_model(
+    rate_deg_per_m,
+):
+    # Ten frames 0.1 m apart, the yaw error 3° + rate · x: the correction the newest frame
+    # needs is −(3 + 0.9 · rate)°. One constant for all keyframes misses it by over 2°; with
+    # the slopes ±2°/m on a 0.5°/m grid the newest keyframe's correction is within 0.5° and
+    # the slope is −rate.
+    rng = np.random.default_rng(11)
+    boxes = box_points_world(rng)
+    needed_deg = -(3.0 + 0.9 * rate_deg_per_m)
+    for drift, tolerance in ((0.0, None), (2.0, 0.5)):
+        estimator = HeadingEstimator(
+            HeadingParams(estimate_every=1, drift_deg_per_m=drift, drift_step_deg_per_m=0.5)
+        )
+        for i in range(10):
+            x, yaw = 0.1 * i, 0.01 * (-1) ** i
+            error_deg = 3.0 + rate_deg_per_m * x
+            correct(estimator, *frame(boxes, floor_points_world(x), (x, 0.5, yaw), error_deg))
+        assert estimator.estimates == 5
+        correction_deg = math.degrees(estimator.correction_rad)
+        if tolerance is None:
+            assert abs(correction_deg - needed_deg) > 2.0
+            assert estimator.drift_rad_per_m == 0.0
+        else:
+            assert correction_deg == pytest.approx(needed_deg, abs=tolerance)
+            assert math.degrees(estimator.drift_rad_per_m) == pytest.approx(-rate_deg_per_m)
+
+
+def test_smoothing_takes_the_median_of_the_last_accepted_estimates(monkeypatch):
+    # The estimates are scripted (−1, −5, −2, −4, −3°, one per try of a walk of ten frames
+    # 0.1 m apart); with 3 the correction after each try is the median of the last three.
+    scripted = iter([-1.0, -5.0, -2.0, -4.0, -3.0] * 2)
+    monkeypatch.setattr(heading_module, "_band_centre_deg", lambda *_: next(scripted))
+    boxes = box_points_world(np.random.default_rng(11))
+    for smooth, expected in ((1, [-1.0, -5.0, -2.0, -4.0, -3.0]), (3, [-1, -3, -2, -4, -3])):
+        estimator = HeadingEstimator(HeadingParams(estimate_every=1, smooth_estimates=smooth))
+        corrections = []
+        for i in range(10):
+            x = 0.1 * i
+            correct(estimator, *frame(boxes, floor_points_world(x), (x, 0.5, 0.0), 3.0))
+            if estimator.estimates > len(corrections):
+                corrections.append(math.degrees(estimator.correction_rad))
+        assert corrections == pytest.approx(expected)
 
 
 def test_two_robot_positions_suffice():
@@ -255,6 +302,9 @@ def test_overlap_scores_divide_the_root_pairs_by_those_of_the_wide_voxels():
         ("peak_band", 1.0),
         ("correct_heading", 1),
         ("voxel_estimate", 1),
+        ("drift_deg_per_m", -0.5),
+        ("drift_step_deg_per_m", 0.0),
+        ("smooth_estimates", 0),
     ],
 )
 def test_bad_parameters_are_refused_by_name(field, value):

@@ -24,9 +24,9 @@ def camera_in_robot(yaw_deg=0.0, z_m=0.9):
     return t
 
 
-def frame(index, believed_camera, robot_offset_m=0.0, true_pose=True):
+def frame(index, believed_camera, robot_offset_m=0.0, true_pose=True, robot_yaw_deg=0.0):
     true_world = planar_pose_to_matrix(ROBOT_POSE) @ camera_in_robot()
-    believed_robot = ROBOT_POSE + np.array([robot_offset_m, 0.0, 0.0, 0.0])
+    believed_robot = ROBOT_POSE + np.array([robot_offset_m, 0.0, 0.0, math.radians(robot_yaw_deg)])
     return Frame(
         index=index,
         time_s=index / 12.5,
@@ -103,11 +103,32 @@ def test_map_heading_skips_frames_without_a_true_pose_in_step_with_the_residual(
     assert stats.map_heading_deg == MedianMax(1.5, 2.0)  # of 1 and |-2|
 
 
+def test_world_heading_adds_odometrys_yaw_error_to_the_last_mapping():
+    # Odometry's yaw error +1°, −2°, +0.5° on three frames (a drift); the corrected camera is
+    # 0.5° off in the robot frame on each, frame 2 mapped again 0.5° the other way. In the
+    # world: 1.5°, −1.5° and 0.5° − 0.5° = 0°; in the robot frame 0.5°, 0.5° and 0.5°.
+    errors = PoseErrorAccumulator()
+    for index, odometry_deg in enumerate((1.0, -2.0, 0.5)):
+        believed = frame(index, camera_in_robot(yaw_deg=4.0), robot_yaw_deg=odometry_deg)
+        errors.add(believed, camera_in_robot(yaw_deg=0.5))
+    errors.remapped(2, camera_in_robot(yaw_deg=-0.5))
+    stats = errors.stats()
+    assert stats.map_heading_deg == MedianMax(0.5, 0.5)
+    assert stats.world_heading_deg.median == pytest.approx(1.5, abs=1e-4)
+    assert stats.world_heading_deg.max == pytest.approx(1.5, abs=1e-4)
+    # A frame whose odometry's yaw error the correction cancels is exact in the world only.
+    errors = PoseErrorAccumulator()
+    errors.add(frame(0, camera_in_robot(yaw_deg=4.0), robot_yaw_deg=1.0), camera_in_robot(-1.0))
+    assert errors.stats().map_heading_deg == MedianMax(1.0, 1.0)
+    assert errors.stats().world_heading_deg == MedianMax(0.0, 0.0)
+
+
 def test_no_corrected_pose_leaves_the_residual_heading_out():
     errors = PoseErrorAccumulator()
     errors.add(frame(0, camera_in_robot(yaw_deg=2.0)))
     assert errors.stats().residual_heading_deg is UNSET
     assert errors.stats().map_heading_deg is UNSET
+    assert errors.stats().world_heading_deg is UNSET
 
 
 def test_heading_error_ignores_a_small_tilt_and_keeps_the_sign():

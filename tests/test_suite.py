@@ -76,18 +76,21 @@ def test_report_metrics_take_the_residual_heading_median_when_the_run_has_one():
             frames=5,
             residual_heading_deg=MedianMax(median=0.4, max=2.5),
             map_heading_deg=MedianMax(median=0.3, max=2.5),
+            world_heading_deg=MedianMax(median=0.6, max=3.0),
         ),
     )
     metrics = report_metrics(with_heading)
     assert metrics["pose_error.residual_heading_deg.median"] == 0.4
     assert metrics["pose_error.map_heading_deg.median"] == 0.3
+    assert metrics["pose_error.world_heading_deg.median"] == 0.6
     assert metrics.keys() - report_metrics(REPORT).keys() == {
         "pose_error.residual_heading_deg.median",
         "pose_error.map_heading_deg.median",
+        "pose_error.world_heading_deg.median",
     }
     coverage = rule_for("table1.sill.coverage")
     assert coverage.worse_by(0.46, 0.5) < 0 and coverage.worse_by(0.44, 0.5) > 0
-    for name in ("residual_heading_deg", "map_heading_deg"):
+    for name in ("residual_heading_deg", "map_heading_deg", "world_heading_deg"):
         heading = rule_for(f"pose_error.{name}.median")
         assert heading.worse_by(0.64, 0.4) < 0 and heading.worse_by(0.66, 0.4) > 0
 

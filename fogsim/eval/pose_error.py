@@ -9,7 +9,12 @@ corrected when it was processed (``residual_heading_deg``: what a robot using th
 moment saw), and as the frame was last mapped (``map_heading_deg``: what the final maps hold).
 The two differ for the frames the pipeline mapped again later (:meth:`remapped`): the frames
 mapped once more with the heading's first estimate (`pipe.heading_rebuild_frames`) and the
-frames deferred by the height reference.
+frames deferred by the height reference. Both are in the robot frame: the camera's own yaw
+error, what a neck correction is judged by. The maps are built in the *believed* world
+(odometry's) and scored against the true one, so what they hold is the yaw between the
+corrected camera pose brought into the world by the believed robot pose and the true camera
+pose in the world (``world_heading_deg``, as last mapped): the robot-frame yaw plus odometry's
+yaw error at the frame, which drifts over a run (`bench/heading_drift.py`).
 """
 
 from __future__ import annotations
@@ -123,9 +128,11 @@ class PoseErrorAccumulator:
         through the believed robot pose). ``residual_heading_deg`` (of |yaw|, the yaw between
         the corrected and the true camera pose in the robot frame) is set when some such frame
         was added with its corrected camera pose, and ``map_heading_deg`` with it (the same
-        with the pose of each frame's last mapping, :meth:`remapped`).
+        with the pose of each frame's last mapping, :meth:`remapped`), and ``world_heading_deg``
+        with them (of |yaw| between that pose brought into the world by the believed robot pose
+        and the true camera pose in the world).
         """
-        rows, residual, residual_mapped = self._errors_per_frame()
+        rows, residual, residual_mapped, world_mapped = self._errors_per_frame()
         if rows.shape[0] == 0:
             return PoseErrorStats(frames=0)
         stats = PoseErrorStats(
@@ -139,19 +146,21 @@ class PoseErrorAccumulator:
             stats,
             residual_heading_deg=_median_max(residual),
             map_heading_deg=_median_max(residual_mapped),
+            world_heading_deg=_median_max(world_mapped),
         )
 
     def _errors_per_frame(
         self,
-    ) -> tuple[NDArray[np.float64], NDArray[np.float64], NDArray[np.float64]]:
+    ) -> tuple[NDArray[np.float64], ...]:
         """The errors of the frames with a finite true pose, in the order added.
 
         Returns:
             (N, 4) rotation [deg] and translation [mm] in the robot frame, then in the world;
             (M,) |residual heading| [deg] of those of them added with a corrected pose, as
-            added and as last mapped (:meth:`remapped`).
+            added and as last mapped (:meth:`remapped`), in the robot frame; (M,) the last
+            in the world.
         """
-        empty = (np.empty((0, 4)), np.empty(0), np.empty(0))
+        empty = (np.empty((0, 4)), np.empty(0), np.empty(0), np.empty(0))
         if not self._world_true:
             return empty
         world_true = np.stack(self._world_true)
@@ -162,7 +171,8 @@ class PoseErrorAccumulator:
         world_true = world_true[known]
         camera_true = np.linalg.inv(_planar_matrices(robot_true[known])) @ world_true
         camera_believed = np.stack(self._camera_believed)[known]
-        world_believed = _planar_matrices(np.stack(self._robot_believed)[known]) @ camera_believed
+        robot_believed = _planar_matrices(np.stack(self._robot_believed)[known])
+        world_believed = robot_believed @ camera_believed
         rows = np.column_stack(
             [*_errors(camera_believed, camera_true), *_errors(world_believed, world_true)]
         )
@@ -170,7 +180,7 @@ class PoseErrorAccumulator:
         corrected = [self._corrected[i] for i in positions]
         with_corrected = np.array([c is not None for c in corrected], dtype=bool)
         if not with_corrected.any():
-            return rows, np.empty(0), np.empty(0)
+            return rows, np.empty(0), np.empty(0), np.empty(0)
         true_rotations = camera_true[with_corrected, :3, :3]
         first = [c for c in corrected if c is not None]
         last = [
@@ -178,7 +188,13 @@ class PoseErrorAccumulator:
             for i, c in zip(positions, corrected, strict=True)
             if c is not None
         ]
-        return rows, _abs_yaw_deg(first, true_rotations), _abs_yaw_deg(last, true_rotations)
+        last_in_world = list(robot_believed[with_corrected] @ np.stack(last))
+        return (
+            rows,
+            _abs_yaw_deg(first, true_rotations),
+            _abs_yaw_deg(last, true_rotations),
+            _abs_yaw_deg(last_in_world, world_true[with_corrected, :3, :3]),
+        )
 
 
 def _abs_yaw_deg(

@@ -34,6 +34,8 @@ figure                                        direction  tolerance    meaning
                                                                       corrected camera
 ``pose_error.map_heading_deg.median``         lower      0.25°        the same as the frames
                                                                       were last mapped
+``pose_error.world_heading_deg.median``       lower      0.25°        the same in the world
+                                                                      (with odometry's yaw)
 ``timing.frame_ms_median``                    lower      not checked  pipeline time per frame
 ============================================  =========  ===========  =========================
 
@@ -144,7 +146,11 @@ def rule_for(metric: str) -> MetricRule:
         return MetricRule("lower", 20.0)
     if metric.endswith((".cleared_frames", ".floor_again_frames")):
         return MetricRule("lower", 3.0)
-    if metric in ("pose_error.residual_heading_deg.median", "pose_error.map_heading_deg.median"):
+    if metric in (
+        "pose_error.residual_heading_deg.median",
+        "pose_error.map_heading_deg.median",
+        "pose_error.world_heading_deg.median",
+    ):
         return MetricRule("lower", 0.25)
     if metric.startswith("timing."):
         return MetricRule("lower", 5.0, 1.0, checked=False)
@@ -192,7 +198,7 @@ def report_metrics(report: Report) -> dict[str, float]:
             metrics[f"events.{event.object}.floor_again_frames"] = _frames(
                 event.floor_again_frames.fog
             )
-    for key in ("residual_heading_deg", "map_heading_deg"):
+    for key in ("residual_heading_deg", "map_heading_deg", "world_heading_deg"):
         residual = getattr(report.pose_error, key)
         if not isinstance(residual, UnsetType) and residual.median is not None:
             metrics[f"pose_error.{key}.median"] = float(residual.median)

@@ -521,6 +521,11 @@ class PoseErrorStats:
             maps hold. Lower than ``residual_heading_deg`` where frames mapped before the
             heading's first estimate were mapped again with it (`pipe.heading_rebuild_frames`);
             present with ``residual_heading_deg``.
+        world_heading_deg: |Yaw| [deg] of the camera orientation as each frame was last
+            mapped, brought into the world by the *believed* robot pose, against the true
+            camera orientation in the world: ``map_heading_deg`` plus odometry's yaw error at
+            the frame, the heading error of the maps (built in odometry's world, scored in the
+            true one); present with ``residual_heading_deg``.
     """
 
     frames: int
@@ -528,6 +533,7 @@ class PoseErrorStats:
     camera_in_world: PoseErrorPair | UnsetType = UNSET
     residual_heading_deg: MedianMax | UnsetType = UNSET
     map_heading_deg: MedianMax | UnsetType = UNSET
+    world_heading_deg: MedianMax | UnsetType = UNSET
 
 
 @dataclass(frozen=True)
