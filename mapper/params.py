@@ -145,6 +145,17 @@ class MapperParams:
         zmatch_min_pairs: Matched floor points needed before a z shift is trusted (Sec. IV).
         zmatch_max_shift_m: Largest z shift [m] accepted; larger ones are reported but not
             accepted (they would mean the frame matched the wrong floor level).
+        zmatch_nearest_level: Beyond the paper: when the residuals' median level lies more
+            than ``eps_m`` from 0 and another level of at least ``zmatch_min_pairs`` pairs lies
+            nearer to 0 (the level a ±``eps_m`` mean shift reaches from 0), the shift is that
+            level's (`mapper.zmatch`). The robot's elevation is already corrected (elevation
+            filter, height reference), so a whole frame off by a floor level is less likely
+            than part of the map held at a wrong level: a surface the segmentation merged into
+            the ground from far (stereo ``talos_course``: the 40 mm threshold, from the start
+            pose) or mapped with a wrong tilt. With the median alone, a frame that sees mostly
+            that surface is shifted onto it, its true heights never outvote the wrong ones, and
+            every surface it sees next goes into the map off by as much (seeds 5 and 6: every
+            row −29 and −53 mm). FIGURES.
         floor_vote_cap: Beyond the paper: the most votes a cell's stored floor height holds
             (`mapper.floor_map.update_floor`). Each floor point within ``±eps_m`` of it adds
             one, each point of another surface (higher or lower) takes one away, and the other
@@ -430,6 +441,7 @@ class MapperParams:
     clear_outside: bool = True
     zmatch_min_pairs: int = 30
     zmatch_max_shift_m: float = 0.08
+    zmatch_nearest_level: bool = True
     floor_vote_cap: int = 64
     floor_frame_cap: int = 40
     discretize_rays: bool = False
@@ -517,6 +529,7 @@ class MapperParams:
             "rim_over_spill",
             "rim_over_seen_drop",
             "ground_noise_unknown",
+            "zmatch_nearest_level",
         ):
             check(name, bool, "a bool")
         for name in _CAP_FIELDS:
