@@ -146,9 +146,10 @@ class MapperParams:
         zmatch_max_shift_m: Largest z shift [m] accepted; larger ones are reported but not
             accepted (they would mean the frame matched the wrong floor level).
         zmatch_nearest_level: Beyond the paper: when the residuals' median level lies more
-            than ``eps_m`` from 0 and another level of at least ``zmatch_min_pairs`` pairs lies
-            nearer to 0 (the level a ±``eps_m`` mean shift reaches from 0), the shift is that
-            level's (`mapper.zmatch`). The robot's elevation is already corrected (elevation
+            than ``2·eps_m`` from 0 and another level of at least ``zmatch_min_pairs`` pairs
+            lies within ``eps_m`` of 0 (the level a ±``eps_m`` mean shift reaches from 0: the
+            frame agrees with the map there unshifted), the shift is that level's
+            (`mapper.zmatch`). The robot's elevation is already corrected (elevation
             filter, height reference), so a whole frame off by a floor level is less likely
             than part of the map held at a wrong level: a surface the segmentation merged into
             the ground from far (stereo ``talos_course``: the 40 mm threshold, from the start

@@ -15,10 +15,11 @@ Beyond the paper (``zmatch_nearest_level``): the median picks the level most pai
 when that is a surface the map holds at a wrong height (merged into the ground when seen from
 far, or mapped with a wrong tilt) a frame that sees mostly it is shifted onto it, and its true
 heights never outvote the wrong ones. The robot's elevation is already corrected, so the shift
-expected is 0: when the median's level lies more than ``eps_m`` from 0 and the residuals hold
-another level within reach of 0 (a flat ±``eps_m`` mean shift from 0 stops on it) with at least
-``zmatch_min_pairs`` pairs, that level's pairs are kept instead. A frame whose residuals form one
-level (however far from 0) is matched as before.
+expected is 0: when the median's level lies more than ``2·eps_m`` from 0 (a whole surface level
+away from "no shift") and the residuals hold a level within ``eps_m`` of 0 (a flat ±``eps_m``
+mean shift from 0 stops on it) with at least ``zmatch_min_pairs`` pairs — the frame's data agree
+with the map there as they are — that level's pairs are kept instead. A frame whose residuals
+form one level (however far from 0) is matched as before.
 
 What the caller does with the result (the paper's rule, see `frame_decision`): apply the shift
 when it is accepted (enough pairs, plausible size); otherwise keep the frame unshifted only if
@@ -210,9 +211,10 @@ def _level_from(residual_m, start_m, eps_m):
 def _gated_shift(residual_m, eps_m, nearest_level, min_pairs):
     """(shift, pairs kept, rms) of the residuals ``Floor − h`` [m] (numba); see the module.
 
-    With ``nearest_level``, when the median's window lies more than ``eps_m`` from 0 and the
-    level reached from 0 (`_level_from`) holds at least ``min_pairs`` residuals and lies more
-    than ``eps_m`` from the median's, that level's residuals are kept instead.
+    With ``nearest_level``, when the median's level lies more than ``2·eps_m`` from 0 (no
+    window of ±``eps_m`` about 0 reaches it: another surface level than "no shift") and the
+    level reached from 0 (`_level_from`) lies within ``eps_m`` of 0 and holds at least
+    ``min_pairs`` residuals, that level's residuals are kept instead.
     """
     if residual_m.size == 0:
         return 0.0, 0, np.nan
@@ -221,9 +223,9 @@ def _gated_shift(residual_m, eps_m, nearest_level, min_pairs):
     if kept.size == 0:  # an even count whose two middle residuals are more than 2·eps apart
         return 0.0, 0, np.nan
     shift = pairwise_sum(kept) / kept.size
-    if nearest_level and abs(shift) > eps_m:
+    if nearest_level and abs(shift) > 2.0 * eps_m:
         level, count = _level_from(residual_m, 0.0, eps_m)
-        if count >= min_pairs and abs(level - shift) > eps_m:
+        if count >= min_pairs and abs(level) <= eps_m:
             kept = residual_m[np.abs(residual_m - level) <= eps_m]
             shift = pairwise_sum(kept) / kept.size
     squares = (kept - shift) ** 2

@@ -37,9 +37,9 @@ def shift_numpy(residual, params):
     if kept.size == 0:
         return ZMatch(0.0, 0, float("nan"), False)
     shift = float(np.mean(kept))
-    if params.zmatch_nearest_level and abs(shift) > params.eps_m:
+    if params.zmatch_nearest_level and abs(shift) > 2.0 * params.eps_m:
         level, count = level_from_numpy(residual, 0.0, params.eps_m)
-        if count >= params.zmatch_min_pairs and abs(level - shift) > params.eps_m:
+        if count >= params.zmatch_min_pairs and abs(level) <= params.eps_m:
             kept = residual[np.abs(residual - level) <= params.eps_m]
             shift = float(np.mean(kept))
     rms = float(np.sqrt(np.mean((kept - shift) ** 2)))
@@ -215,15 +215,24 @@ def test_a_median_level_within_eps_of_zero_is_kept_bit_for_bit():
     assert same_bits(shift_from_residuals(residual, P), shift_from_residuals(residual, off))
 
 
-def test_a_single_level_beyond_eps_is_reached_from_zero_and_kept():
-    # One level at 14 mm (±3 mm): the window from 0 holds its lower tail, moves up to it and
-    # stops on the same level: the shift is the median's, bit for bit.
+def test_a_single_level_beyond_two_eps_is_reached_from_zero_and_kept():
+    # One level at 24 mm (±6 mm): the window from 0 holds its lower tail, moves up to it and
+    # stops on the same level, beyond eps of 0: the shift is the median's, bit for bit.
     rng = np.random.default_rng(7)
-    residual = rng.normal(0.014, 0.003, 800)
+    residual = rng.normal(0.024, 0.006, 800)
     off = MapperParams(zmatch_nearest_level=False)
     match = shift_from_residuals(residual, P)
-    assert abs(match.shift_m) > P.eps_m
+    assert abs(match.shift_m) > 2 * P.eps_m
     assert same_bits(match, shift_from_residuals(residual, off))
+
+
+def test_two_levels_straddling_zero_within_two_eps_keep_the_median():
+    # Stereo frames whose residuals spread over −15 mm and +9 mm (a tilt's far and near parts):
+    # the median's level (−15 mm) is within 2·eps of 0, so the rule is not asked.
+    residual = two_levels(500, -0.015, 300)
+    residual[500:] += 0.009
+    off = MapperParams(zmatch_nearest_level=False)
+    assert same_bits(shift_from_residuals(residual, P), shift_from_residuals(residual, off))
 
 
 @pytest.mark.parametrize("seed", range(8))
