@@ -37,7 +37,14 @@ measurements of about 0° refused and the whole map 0.35 m high; stairs seeds 3�
 talos_course seeds 5–6 in stereo alike). So ``reset_refusals`` measurements refused in a row
 (frames without a measurement do not break the row) that agree with one another — each within
 the gate of their weighted mean — re-start the filter from them: they say the camera's tilt is
-elsewhere, consistently, and the bias estimate is the outlier.
+elsewhere, consistently, and the bias estimate is the outlier. Only when the row is longer than
+the run of measurements the filter used since its start or last re-start, though: a locked
+filter has used few, while one that has followed the camera for a while meets rows of agreeing
+wrong planes (stereo talos_course seed 6, frames 146-153 at x ≈ 1.4 m: the ground strips
+between the threshold, the sill and step_1, each 0.24-0.3 m deep with its far and near rows
+blended with the surfaces beside them, measured about 3° off in five frames; the re-start at
+frame 154 took the filter there from the right tilt it had followed since frame 84, and step_1
+and step_2, seen in the next 20 frames, went into the map 23 mm low).
 
 The tilt is the ground normal's (x, y) in the believed robot frame R (small angles, rad); the
 two axes are filtered independently with the same gains.
@@ -85,7 +92,8 @@ class TiltFilterParams:
             (each within the gate of their weighted mean, its variance ``σ_w² + σ_k²``)
             re-start the filter from them (module docstring); 0: never. 5: a gross error comes
             from one frame's wrong plane (1.5 % of the stage stereo frames), so five mutually
-            consistent ones in a row do not happen while the bias is right, and a locked
+            consistent ones in a row are rare while the bias is right (they do happen: see
+            the module docstring, hence the row must also outnumber), and a locked
             filter (simulated_world stereo seed 5: the right measurements refused from frame 1
             on) is freed after five frames, before the height reference (8 ground
             measurements) has converged on the tilted frames.
@@ -144,6 +152,7 @@ class TiltFilter:
         self.restarts = 0
         # The measurements refused in a row: (tilt (2,), its variance σ_w² + σ_k²).
         self._refused: list[tuple[NDArray[np.float64], float]] = []
+        self._accepted = 0  # measurements used since the start or the last re-start
 
     def update(
         self, measured_rad: NDArray[np.float64] | None, sigma_rad: float, turn_rad: float
@@ -178,14 +187,18 @@ class TiltFilter:
             # Re-started from the refused measurements (this one among them): taken as measured.
             return TiltEstimate(self.bias_rad.copy(), math.sqrt(self.bias_var), measured=True)
         self._refused.clear()
+        self._accepted += 1
         tilt = self.bias_rad + (signal_var / total_var) * innovation
         self.bias_rad = self.bias_rad + (prior_var / total_var) * innovation
         self.bias_var = prior_var * (1.0 - prior_var / total_var)
         return TiltEstimate(tilt, math.sqrt(signal_var * sigma_rad**2 / total_var), measured=True)
 
     def _restart(self) -> bool:
-        """Re-start from the refused measurements if there are enough and they agree.
+        """Re-start from the refused measurements if there are enough, they agree and outnumber.
 
+        Enough: ``reset_refusals`` in a row. Outnumber: the row is longer than the run of
+        measurements the filter used since its start or last re-start (a locked filter has used
+        few; one that has followed the camera for a while is refusing a run of wrong planes).
         The bias becomes their inverse-variance weighted mean, its variance ``1/Σ(1/R_i)``
         (``R_i = σ_w² + σ_i²``: each measures ``b`` plus the frame's noise and the fit's).
 
@@ -193,7 +206,7 @@ class TiltFilter:
             Whether it re-started (the refused measurements are then forgotten).
         """
         wanted = self.params.reset_refusals
-        if wanted == 0 or len(self._refused) < wanted:
+        if wanted == 0 or len(self._refused) < wanted or len(self._refused) <= self._accepted:
             return False
         recent = self._refused[-wanted:]
         weights = np.array([1.0 / var for _, var in recent])
@@ -205,6 +218,7 @@ class TiltFilter:
         self.bias_rad = mean
         self.bias_var = 1.0 / float(weights.sum())
         self._refused.clear()
+        self._accepted = 0
         self.restarts += 1
         return True
 

@@ -11,6 +11,16 @@ numpy's pairwise summation, bit for bit). Their median was tried: over the stage
 1–8 it moves the rows but not the error (mean |error| 1.04 → 1.07 mm, the worst row 2.19 →
 2.41 mm), so the paper's estimator stays.
 
+Beyond the paper (``zmatch_nearest_level``): the median picks the level most pairs lie on, and
+when that is a surface the map holds at a wrong height (merged into the ground when seen from
+far, or mapped with a wrong tilt) a frame that sees mostly it is shifted onto it, and its true
+heights never outvote the wrong ones. The robot's elevation is already corrected, so the shift
+expected is 0: when the median's level lies more than ``2·eps_m`` from 0 (a whole surface level
+away from "no shift") and the residuals hold a level within ``eps_m`` of 0 (a flat ±``eps_m``
+mean shift from 0 stops on it) with at least ``zmatch_min_pairs`` pairs — the frame's data agree
+with the map there as they are — that level's pairs are kept instead. A frame whose residuals
+form one level (however far from 0) is matched as before.
+
 What the caller does with the result (the paper's rule, see `frame_decision`): apply the shift
 when it is accepted (enough pairs, plausible size); otherwise keep the frame unshifted only if
 segmentation found the ground plane; with few matches and no ground plane, withdraw the frame.
@@ -109,6 +119,10 @@ def match_z(
     return shift_from_residuals(residual, params)
 
 
+_MAX_LEVEL_STEPS = 64
+"""Most window moves of `_level_from` (a flat-window mean shift stops after a few)."""
+
+
 @numba.njit(cache=True, no_cfunc_wrapper=True, nogil=True, error_model="numpy")
 def _median(values):
     """``np.median`` of a non-empty float64 array (NaN if one is NaN, as numpy's).
@@ -166,8 +180,42 @@ def _select(work, k):
 
 
 @numba.njit(cache=True, no_cfunc_wrapper=True, nogil=True, error_model="numpy")
-def _gated_shift(residual_m, eps_m):
-    """(shift, pairs kept, rms) of the residuals ``Floor − h`` [m] (numba); see the module."""
+def _level_from(residual_m, start_m, eps_m):
+    """The residuals' level reached from ``start_m``: (centre [m], residuals within ±eps of it).
+
+    Mean shift with a flat ±``eps_m`` window: the window's centre moves to the mean of the
+    residuals inside it until that set no longer changes (at most `_MAX_LEVEL_STEPS` moves), so
+    it stops on the level (a run of residuals no wider than the window's reach) nearest
+    ``start_m``. (start_m, 0) when the first window holds none.
+    """
+    centre = start_m
+    count = 0
+    for _ in range(_MAX_LEVEL_STEPS):
+        total = 0.0
+        inside = 0
+        for value in residual_m:
+            if abs(value - centre) <= eps_m:
+                total += value
+                inside += 1
+        if inside == 0:
+            return centre, 0
+        moved = total / inside
+        if inside == count and moved == centre:
+            break
+        centre = moved
+        count = inside
+    return centre, count
+
+
+@numba.njit(cache=True, no_cfunc_wrapper=True, nogil=True, error_model="numpy")
+def _gated_shift(residual_m, eps_m, nearest_level, min_pairs):
+    """(shift, pairs kept, rms) of the residuals ``Floor − h`` [m] (numba); see the module.
+
+    With ``nearest_level``, when the median's level lies more than ``2·eps_m`` from 0 (no
+    window of ±``eps_m`` about 0 reaches it: another surface level than "no shift") and the
+    level reached from 0 (`_level_from`) lies within ``eps_m`` of 0 and holds at least
+    ``min_pairs`` residuals, that level's residuals are kept instead.
+    """
     if residual_m.size == 0:
         return 0.0, 0, np.nan
     centre = _median(residual_m)
@@ -175,6 +223,11 @@ def _gated_shift(residual_m, eps_m):
     if kept.size == 0:  # an even count whose two middle residuals are more than 2·eps apart
         return 0.0, 0, np.nan
     shift = pairwise_sum(kept) / kept.size
+    if nearest_level and abs(shift) > 2.0 * eps_m:
+        level, count = _level_from(residual_m, 0.0, eps_m)
+        if count >= min_pairs and abs(level) <= eps_m:
+            kept = residual_m[np.abs(residual_m - level) <= eps_m]
+            shift = pairwise_sum(kept) / kept.size
     squares = (kept - shift) ** 2
     return shift, kept.size, np.sqrt(pairwise_sum(squares) / kept.size)
 
@@ -184,7 +237,12 @@ def shift_from_residuals(residual_m: NDArray[np.float64], params: MapperParams) 
     residual = real_array(residual_m, "residual_m")
     if residual.ndim != 1:
         raise InvalidInputError(f"residual_m must be one-dimensional, got shape {residual.shape}")
-    shift, pairs, rms = _gated_shift(np.ascontiguousarray(residual), float(params.eps_m))
+    shift, pairs, rms = _gated_shift(
+        np.ascontiguousarray(residual),
+        float(params.eps_m),
+        bool(params.zmatch_nearest_level),
+        int(params.zmatch_min_pairs),
+    )
     accepted = pairs >= params.zmatch_min_pairs and abs(shift) <= params.zmatch_max_shift_m
     return ZMatch(float(shift), int(pairs), float(rms), bool(accepted))
 

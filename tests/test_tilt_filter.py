@@ -146,12 +146,36 @@ def test_refusals_that_disagree_or_are_broken_by_an_accepted_one_do_not_restart(
         z = np.zeros(2) if accepted else np.array([6.0, 0.0]) * DEG
         assert tilt_filter.update(z, 0.2 * DEG, 0.0).measured == accepted
     assert tilt_filter.restarts == 0
-    # Frames without a measurement do not break the row: the fifth agreeing one re-starts.
+    # Frames without a measurement do not break the row: in a filter that has used one
+    # measurement (a narrow prior, 0.5°: 6° is refused), the fifth agreeing one re-starts.
+    tilt_filter = TiltFilter(TiltFilterParams(noise_deg=0.3, bias_deg=0.5))
+    assert tilt_filter.update(np.zeros(2), 0.2 * DEG, 0.0).measured
     for _ in range(4):
-        tilt_filter.update(np.array([6.0, 0.0]) * DEG, 0.2 * DEG, 0.0)
+        assert not tilt_filter.update(np.array([6.0, 0.0]) * DEG, 0.2 * DEG, 0.0).measured
         tilt_filter.update(None, math.inf, 0.0)
     assert tilt_filter.update(np.array([6.0, 0.0]) * DEG, 0.2 * DEG, 0.0).measured
     assert tilt_filter.restarts == 1
+
+
+def test_agreeing_refusals_restart_only_once_they_outnumber_the_measurements_used():
+    # A filter that has followed the camera for 50 measurements (0°) refuses a run of agreeing
+    # wrong ones (6°: talos_course stereo seed 6, five frames measuring the ground strips
+    # between the threshold, sill and step_1 about 3° off while the bias was right): it
+    # re-starts only when the row is longer than the 50 it used, at the 51st.
+    tilt_filter = TiltFilter(TiltFilterParams(noise_deg=0.3, bias_deg=4.0))
+    for _ in range(50):
+        assert tilt_filter.update(np.zeros(2), 0.2 * DEG, 0.0).measured
+    used = [
+        tilt_filter.update(np.array([6.0, 0.0]) * DEG, 0.2 * DEG, 0.0).measured for _ in range(51)
+    ]
+    assert used == [False] * 50 + [True]
+    assert tilt_filter.restarts == 1
+    np.testing.assert_allclose(tilt_filter.bias_rad, np.array([6.0, 0.0]) * DEG, rtol=1e-12)
+    # After the re-start the count begins anew: 0 used, so five agreeing refusals re-start.
+    for _ in range(4):
+        assert not tilt_filter.update(np.zeros(2), 0.2 * DEG, 0.0).measured
+    assert tilt_filter.update(np.zeros(2), 0.2 * DEG, 0.0).measured
+    assert tilt_filter.restarts == 2
 
 
 def test_a_frame_without_a_measurement_takes_the_bias_estimate_and_loses_certainty():

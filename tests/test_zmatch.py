@@ -15,6 +15,20 @@ P = MapperParams()
 G = GridGeometry.from_params(P)
 
 
+def level_from_numpy(residual, start, eps):
+    """The plain numpy flat-window mean shift from ``start``: (centre, count)."""
+    centre, count = start, 0
+    for _ in range(64):
+        inside = residual[np.abs(residual - centre) <= eps]
+        if inside.size == 0:
+            return centre, 0
+        moved = float(sum(inside.tolist())) / inside.size  # in order, as the kernel's loop
+        if inside.size == count and moved == centre:
+            break
+        centre, count = moved, inside.size
+    return centre, count
+
+
 def shift_numpy(residual, params):
     """The plain numpy gated shift (as before numba) the compiled one must equal bit for bit."""
     if residual.size == 0:
@@ -23,6 +37,11 @@ def shift_numpy(residual, params):
     if kept.size == 0:
         return ZMatch(0.0, 0, float("nan"), False)
     shift = float(np.mean(kept))
+    if params.zmatch_nearest_level and abs(shift) > 2.0 * params.eps_m:
+        level, count = level_from_numpy(residual, 0.0, params.eps_m)
+        if count >= params.zmatch_min_pairs and abs(level) <= params.eps_m:
+            kept = residual[np.abs(residual - level) <= params.eps_m]
+            shift = float(np.mean(kept))
     rms = float(np.sqrt(np.mean((kept - shift) ** 2)))
     accepted = kept.size >= params.zmatch_min_pairs and abs(shift) <= params.zmatch_max_shift_m
     return ZMatch(shift, int(kept.size), rms, bool(accepted))
@@ -157,3 +176,69 @@ def test_two_surfaces_far_apart_around_an_even_median_give_no_shift():
     match = shift_from_residuals(np.array([0.0, 0.0, 0.1, 0.1]), params)
     assert match == ZMatch(0.0, 0, match.rms_m, False)
     assert np.isnan(match.rms_m)
+
+
+def two_levels(n_far, far_m, n_zero, seed=5):
+    """Residuals of ``n_far`` pairs at ``far_m`` and ``n_zero`` at 0, each ±2 mm (uniform)."""
+    rng = np.random.default_rng(seed)
+    return np.concatenate(
+        [far_m + rng.uniform(-0.002, 0.002, n_far), rng.uniform(-0.002, 0.002, n_zero)]
+    )
+
+
+def test_the_level_nearest_zero_wins_over_the_median_when_large_enough():
+    # A frame sees mostly a surface the map holds 40 mm too low (residual −40 mm, 300 pairs) and
+    # 100 pairs of ground the map holds right: the shift is the ground's, not the surface's.
+    residual = two_levels(300, -0.040, 100)
+    match = shift_from_residuals(residual, P)
+    zero = residual[300:]
+    assert match.pairs == 100 and match.accepted
+    assert match.shift_m == pytest.approx(zero.mean(), abs=1e-15)
+    assert match.rms_m == pytest.approx(zero.std(), abs=1e-15)
+    # The paper's rule (the median's level) without it.
+    paper = shift_from_residuals(residual, MapperParams(zmatch_nearest_level=False))
+    assert paper.pairs == 300 and paper.shift_m == pytest.approx(residual[:300].mean(), abs=1e-15)
+
+
+def test_a_level_near_zero_with_too_few_pairs_does_not_win():
+    residual = two_levels(300, -0.040, P.zmatch_min_pairs - 1)
+    match = shift_from_residuals(residual, P)
+    assert match.pairs == 300
+    assert match.shift_m == pytest.approx(residual[:300].mean(), abs=1e-15)
+
+
+def test_a_median_level_within_eps_of_zero_is_kept_bit_for_bit():
+    # Median at 6 mm: the rule is not asked; 9 mm wide spread reaches 0 but it is the same level.
+    rng = np.random.default_rng(6)
+    residual = np.concatenate([rng.normal(0.006, 0.003, 500), two_levels(200, -0.045, 0)])
+    off = MapperParams(zmatch_nearest_level=False)
+    assert same_bits(shift_from_residuals(residual, P), shift_from_residuals(residual, off))
+
+
+def test_a_single_level_beyond_two_eps_is_reached_from_zero_and_kept():
+    # One level at 24 mm (±6 mm): the window from 0 holds its lower tail, moves up to it and
+    # stops on the same level, beyond eps of 0: the shift is the median's, bit for bit.
+    rng = np.random.default_rng(7)
+    residual = rng.normal(0.024, 0.006, 800)
+    off = MapperParams(zmatch_nearest_level=False)
+    match = shift_from_residuals(residual, P)
+    assert abs(match.shift_m) > 2 * P.eps_m
+    assert same_bits(match, shift_from_residuals(residual, off))
+
+
+def test_two_levels_straddling_zero_within_two_eps_keep_the_median():
+    # Stereo frames whose residuals spread over −15 mm and +9 mm (a tilt's far and near parts):
+    # the median's level (−15 mm) is within 2·eps of 0, so the rule is not asked.
+    residual = two_levels(500, -0.015, 300)
+    residual[500:] += 0.009
+    off = MapperParams(zmatch_nearest_level=False)
+    assert same_bits(shift_from_residuals(residual, P), shift_from_residuals(residual, off))
+
+
+@pytest.mark.parametrize("seed", range(8))
+def test_compiled_nearest_level_equals_numpy(seed):
+    rng = np.random.default_rng(seed)
+    residual = np.concatenate(
+        [rng.normal(-0.03, 0.004, 400), rng.normal(0.0, 0.004, rng.integers(0, 120))]
+    )
+    assert same_bits(shift_from_residuals(residual, P), shift_numpy(residual, P))
