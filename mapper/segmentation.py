@@ -384,8 +384,9 @@ class SegmentationParams:
             2.0 (5), zig-zag 31.5 (68); 16: 2.25 (5), 31.5 (68)). Time: 0.92 → 0.97 ms CPU a
             frame (median, stage stereo seed 1, every 4th frame, 3 repeats interleaved).
         tilt_max_step_t: a tilt candidate (near-horizontal plane) that fits better as itself
-            with a step across its downhill direction, the step's t-statistic above this
-            (`mapper.pose_correction.stepped_planes`), does not steer the tilt: it is two
+            with a step across its downhill direction, the step's t-statistic above this, the
+            step turning its normal by more than `tilt_consensus_deg` and at least half its
+            rise (`mapper.pose_correction.stepped_planes`), does not steer the tilt: it is two
             levels that noise joined (a tread and the ground beside it), and its slope is the
             step's, not the camera's. 0 (default): off (a depth camera's rows split at every
             step). For fogsim's stereo head `fogsim.sim.camera.noise_model.MATCHER_STEP_T`.
@@ -761,6 +762,7 @@ def segment_depth(
             math.cos(math.radians(params.max_tilt_correction_deg)),
             params.tilt_max_step_t,
             params.noise_correlation_factor,
+            math.radians(params.tilt_consensus_deg),
         )
         tilt_counts = np.where(stepped, 0, counts)
     correction = estimate_tilt(tilt_normals, tilt_information, eigen, tilt_counts, pivot, params)

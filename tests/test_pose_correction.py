@@ -60,7 +60,7 @@ def _patch(rng, n, height_of, noise_m):
     return np.column_stack([x, y, height_of(x, y) + rng.normal(0.0, noise_m, n)])
 
 
-def _stepped(patches, max_step_t=8.0):
+def _stepped(patches, max_step_t=12.0):
     points = np.concatenate(patches)
     ids = np.concatenate([np.full(len(p), i) for i, p in enumerate(patches)])
     normals = []
@@ -71,7 +71,15 @@ def _stepped(patches, max_step_t=8.0):
         normals.append(normal / np.linalg.norm(normal))
     counts = np.array([len(p) for p in patches])
     return stepped_planes(
-        points, ids, np.array(normals), counts, 20, math.cos(math.radians(20.0)), max_step_t, 3.0
+        points,
+        ids,
+        np.array(normals),
+        counts,
+        20,
+        math.cos(math.radians(20.0)),
+        max_step_t,
+        3.0,
+        math.radians(1.5),
     )
 
 
@@ -101,6 +109,6 @@ def test_the_step_test_keeps_a_true_15_degree_tilt_error_corrected():
     # Real tilted planes (the neck's error) have no step: the correction is the same with it on.
     depth = render_boxes(INTR, CAMERA_TRUE, [Box((1.6, 0.0), (0.3, 0.6, 0.06))])
     believed = believed_with_pitch_error(15.0)
-    params = dataclasses.replace(SegmentationParams(), tilt_max_step_t=8.0)
+    params = dataclasses.replace(SegmentationParams(), tilt_max_step_t=12.0)
     result = segment_depth(depth, INTR, believed, params)
     assert result.correction.rotation_deg == pytest.approx(15.0, abs=0.05)

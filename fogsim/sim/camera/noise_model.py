@@ -40,14 +40,24 @@ edges). The test picks the band's width; this bounds it. Stereo replays, seeds 1
 cells mean (worst) with 8 / 16 / 32: stage 2.0 (5) / 2.25 (5) / 2.25 (5), zig-zag 31.5 (68) /
 31.5 (68) / 31.1 (66), room 9.0 (16) / 8.9 (15) / 8.6 (13), stage_down 4.25 (9) / 4.4 (9) /
 4.4 (9); without the test 5.0 (8), 31.9 (70), 9.0 (16), 6.5 (27)."""
-MATCHER_STEP_T = 8.0
+MATCHER_STEP_T = 12.0
 """The t-statistic of a step above which a near-horizontal plane does not steer the tilt
 (``tilt_max_step_t``, `mapper.pose_correction.stepped_planes`): the matcher joins a tread and
 the ground beside its side edge into one plane tilted by the step (`simulated_world` seed 2,
-frames 23-28: 60 mm over 0.3-0.6 m, 3.5-3.9°), which outweighed the ground in the consensus and,
-five frames in a row during a head turn, got through the tilt filter. On those frames such
-planes score 9.5-46; the other planes of frames 23-28 at most 4.4 (ground, tread and level
-tops, rough tops). PLACEHOLDER_FIGURES"""
+frames 23-28: 60 mm over 0.3-0.6 m, 3.5-3.9°), which outweighed the ground's planes in the tilt
+consensus and, five frames in a row during a head turn, got through the tilt filter: 231 cells
+mapped 30-60 mm off. Those planes score t 9.5-46, the frames' other planes at most 4.4. Stereo
+replays, seeds 1-8 (session 38), unsafe cells mean (worst) off / 6 / 8 / 12: `simulated_world`
+30.6 (231) / 1.1 (6) / 1.4 (6) / 1.6 (7); `talos_course` 927 (3764) / 1360 (3669) / 1362
+(3764) / 927 (3764); `stairs` 48.6 (122) / 48.4 (120) / 48.4 (120) / 48.6 (122). With 8
+`talos_course` seed 2 goes 81 → 3528 (every row 13-26 mm off): its per-frame tilt errors are
+the same (89 against 90 frames more than 1° off the truth), but the tilt filter, locked on a
+wrong bias from frame ~160 with or without the test, re-started at frame 172 only without it
+(the test changed which measurements were refused in a row). With 12 `talos_course` and
+`stairs` are the same bit for bit, the stage, `stage_down` and `room` too, the zig-zag 31.5
+(66) → 31.25 (66) (rows within 0.04 mm mean), `simulated_world`: floor recall 92.2 (79.5) →
+97.3 (96.7) %, rows ground 1.83 (5.32) → 1.45 (3.68) mm, level_1 2.85 (5.81) → 2.63 (5.78),
+level_2 2.46 (5.60) → 2.29 (5.38). Depth mode leaves it off (its rows split at the steps)."""
 MATCHER_MEAN_VARIANCE_FACTOR = 3.0
 """How much the matcher's correlated errors inflate the variance of a mean of a row's pixels
 (`bench/stereo_stats.py`: 1.9, 2.3, 2.7 for 4, 8, 16 pixels, growing with the run; the
