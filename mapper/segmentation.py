@@ -75,6 +75,7 @@ from mapper.pose_correction import (
     PoseCorrection,
     estimate_tilt,
     ground_shift,
+    stepped_planes,
 )
 from mapper.validation import check_field, real_array, rigid_transform
 
@@ -116,6 +117,7 @@ _NON_NEGATIVE_FIELDS = (
     "disparity_noise_px",
     "plane_refit_sigma",
     "stereo_baseline_m",
+    "tilt_max_step_t",
 )
 """`SegmentationParams` fields that must be finite and >= 0."""
 _INTEGER_RANGES: dict[str, tuple[int, int | None]] = {
@@ -381,6 +383,13 @@ class SegmentationParams:
             coverage 82.5 → 77.7 %. 8 and 16 gave the same within 0.5 cells a run (8: stage
             2.0 (5), zig-zag 31.5 (68); 16: 2.25 (5), 31.5 (68)). Time: 0.92 → 0.97 ms CPU a
             frame (median, stage stereo seed 1, every 4th frame, 3 repeats interleaved).
+        tilt_max_step_t: a tilt candidate (near-horizontal plane) that fits better as itself
+            with a step across its downhill direction, the step's t-statistic above this, the
+            step turning its normal by more than `tilt_consensus_deg` and at least half its
+            rise (`mapper.pose_correction.stepped_planes`), does not steer the tilt: it is two
+            levels that noise joined (a tread and the ground beside it), and its slope is the
+            step's, not the camera's. 0 (default): off (a depth camera's rows split at every
+            step). For fogsim's stereo head `fogsim.sim.camera.noise_model.MATCHER_STEP_T`.
     """
 
     min_depth_m: float = 0.05
@@ -428,6 +437,7 @@ class SegmentationParams:
     plane_refit_sigma: float = 0.0
     plane_normal_margin_px: int = 1
     floor_side_strip_px: int = 0
+    tilt_max_step_t: float = 0.0
 
     def __post_init__(self) -> None:
         def check(name: str, kind: type, allowed: str, ok=lambda _: True) -> None:
@@ -739,7 +749,23 @@ def segment_depth(
     )
     # The tilt's planes are weighted by the information of their normals (1/σ²), not by area:
     # a far plane's footprint is large while its normal, under stereo noise, is poor.
-    correction = estimate_tilt(tilt_normals, tilt_information, eigen, counts, pivot, params)
+    tilt_counts = counts
+    if params.tilt_max_step_t > 0.0 and params.correct_tilt and counts.size > 0:
+        # Planes that are two levels joined over a hidden step do not steer the tilt.
+        believed = depth.reshape(-1)[pixel_index][:, None] * rays_camera[pixel_index]
+        stepped = stepped_planes(
+            believed @ rotation.T + pivot,
+            plane_ids,
+            tilt_normals,
+            counts,
+            params.min_plane_pixels,
+            math.cos(math.radians(params.max_tilt_correction_deg)),
+            params.tilt_max_step_t,
+            params.noise_correlation_factor,
+            math.radians(params.tilt_consensus_deg),
+        )
+        tilt_counts = np.where(stepped, 0, counts)
+    correction = estimate_tilt(tilt_normals, tilt_information, eigen, tilt_counts, pivot, params)
     centroids_c, normals_c, extents, is_floor_shape = tilt_kernels.corrected_planes(
         centroids,
         normals,

@@ -24,6 +24,7 @@ from fogsim.sim.camera.noise_model import (
     MATCHER_EDGE_MARGIN_PX,
     MATCHER_MEAN_VARIANCE_FACTOR,
     MATCHER_SIDE_STRIP_PX,
+    MATCHER_STEP_T,
     segmentation_noise_fields,
 )
 from fogsim.sim.scene import Scene
@@ -335,6 +336,7 @@ def test_segmentation_noise_fields_per_mode():
         "noise_correlation_factor": MATCHER_MEAN_VARIANCE_FACTOR,
         "floor_edge_margin_px": MATCHER_EDGE_MARGIN_PX,
         "floor_side_strip_px": MATCHER_SIDE_STRIP_PX,
+        "tilt_max_step_t": MATCHER_STEP_T,
         "max_depth_m": camera.range_m[1],
     }
     depth = segmentation_noise_fields(dataclasses.replace(camera, mode="depth"), 0.068)

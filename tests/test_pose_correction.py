@@ -8,7 +8,7 @@ import pytest
 from synthetic_depth import Box, look_down_camera, render_boxes
 
 from mapper.intrinsics import PinholeIntrinsics
-from mapper.pose_correction import estimate_tilt
+from mapper.pose_correction import estimate_tilt, stepped_planes
 from mapper.segmentation import SegmentationParams, segment_depth
 
 INTR = PinholeIntrinsics.from_fov(88, 72, 47.0, 39.0)
@@ -51,3 +51,64 @@ def test_agreeing_horizontal_planes_outvote_one_larger_ramp():
     correction = estimate_tilt(normals, areas, eigen, counts, np.zeros(3), params)
     assert correction.tilt_planes == 2
     assert correction.rotation_deg == pytest.approx(5.0, abs=1e-9)
+
+
+def _patch(rng, n, height_of, noise_m):
+    """``n`` points on a 0.6 × 1.0 m patch, z = height_of(x, y) + Gaussian noise [m]."""
+    x = rng.uniform(1.0, 1.6, n)
+    y = rng.uniform(-0.5, 0.5, n)
+    return np.column_stack([x, y, height_of(x, y) + rng.normal(0.0, noise_m, n)])
+
+
+def _stepped(patches, max_step_t=12.0):
+    points = np.concatenate(patches)
+    ids = np.concatenate([np.full(len(p), i) for i, p in enumerate(patches)])
+    normals = []
+    for p in patches:
+        design = np.column_stack([np.ones(len(p)), p[:, 0], p[:, 1]])
+        a = np.linalg.lstsq(design, p[:, 2], rcond=None)[0]
+        normal = np.array([-a[1], -a[2], 1.0])
+        normals.append(normal / np.linalg.norm(normal))
+    counts = np.array([len(p) for p in patches])
+    return stepped_planes(
+        points,
+        ids,
+        np.array(normals),
+        counts,
+        20,
+        math.cos(math.radians(20.0)),
+        max_step_t,
+        3.0,
+        math.radians(1.5),
+    )
+
+
+def test_a_plane_over_a_hidden_step_is_stepped_a_tilted_or_level_one_is_not():
+    # Stereo-like noise at 1.3 m (20 mm): a tread 60 mm above the ground beside its side edge
+    # (y = 0), one plane over both; the ground seen 3.5° tilted (an encoder error); level ground.
+    rng = np.random.default_rng(11)
+    noise = 0.02
+    step = _patch(rng, 1300, lambda x, y: np.where(y < 0.0, 0.06, 0.0), noise)
+    tilted = _patch(rng, 1300, lambda x, y: y * math.tan(math.radians(3.5)), noise)
+    level = _patch(rng, 1300, lambda x, y: np.zeros_like(x), noise)
+    np.testing.assert_array_equal(_stepped([step, tilted, level]), [True, False, False])
+    # Off: nothing is stepped.
+    assert not _stepped([step, tilted, level], max_step_t=0.0).any()
+
+
+def test_level_and_tilted_planes_are_never_stepped_over_many_draws():
+    # The test's false alarms: 50 draws each of a level and a 3.5°-tilted patch, 600 points.
+    rng = np.random.default_rng(5)
+    for _ in range(50):
+        level = _patch(rng, 600, lambda x, y: np.zeros_like(x), 0.02)
+        tilted = _patch(rng, 600, lambda x, y: x * math.tan(math.radians(3.5)), 0.02)
+        assert not _stepped([level, tilted]).any()
+
+
+def test_the_step_test_keeps_a_true_15_degree_tilt_error_corrected():
+    # Real tilted planes (the neck's error) have no step: the correction is the same with it on.
+    depth = render_boxes(INTR, CAMERA_TRUE, [Box((1.6, 0.0), (0.3, 0.6, 0.06))])
+    believed = believed_with_pitch_error(15.0)
+    params = dataclasses.replace(SegmentationParams(), tilt_max_step_t=12.0)
+    result = segment_depth(depth, INTR, believed, params)
+    assert result.correction.rotation_deg == pytest.approx(15.0, abs=0.05)
