@@ -211,43 +211,14 @@ def stepped_planes(
     sorted_ids = plane_ids[order]
     starts = np.searchsorted(sorted_ids, np.arange(n_planes), side="left")
     stops = np.searchsorted(sorted_ids, np.arange(n_planes), side="right")
-    quantiles = np.linspace(0.1, 0.9, STEP_SPLITS)
-    for p in np.flatnonzero(tested):
-        own = points[order[starts[p] : stops[p]]]
-        n = own.shape[0]
-        centred = own - own.mean(axis=0)
-        design = np.column_stack([np.ones(n), centred[:, 0], centred[:, 1]])
-        z = centred[:, 2]
-        coef = np.linalg.lstsq(design, z, rcond=None)[0]
-        slope = math.hypot(coef[1], coef[2])
-        if slope == 0.0:
-            continue
-        s = (centred[:, 0] * coef[1] + centred[:, 1] * coef[2]) / slope
-        splits = np.quantile(s, quantiles)
-        rise = slope * (splits[-1] - splits[0])  # the plane's rise over its central 80 % [m]
-        upper = (s[None, :] > splits[:, None]).astype(np.float64)  # (K, n)
-        k = quantiles.size
-        gram = np.empty((k, 4, 4))
-        gram[:, :3, :3] = design.T @ design
-        cross = upper @ design  # (K, 3)
-        gram[:, 3, :3] = cross
-        gram[:, :3, 3] = cross
-        gram[:, 3, 3] = upper.sum(axis=1)
-        rhs = np.empty((k, 4))
-        rhs[:, :3] = design.T @ z
-        rhs[:, 3] = upper @ z
-        ok = (gram[:, 3, 3] > 0.0) & (gram[:, 3, 3] < n)
-        if not ok.any():
-            continue
-        gram, rhs = gram[ok], rhs[ok]
-        inverse = np.linalg.inv(gram)
-        fit = np.einsum("kij,kj->ki", inverse, rhs)
-        residual = np.maximum(z @ z - np.einsum("ki,ki->k", fit, rhs), 0.0)
-        variance = residual / (n - 4) * correlation * inverse[:, 3, 3]
-        with np.errstate(divide="ignore", invalid="ignore"):
-            t = np.abs(fit[:, 3]) / np.sqrt(variance)
-        # The step's share of the plane's tilt: how far the step model turns its normal.
-        turn = np.hypot(fit[:, 1] - coef[1], fit[:, 2] - coef[2])  # [rad], small angles
-        big = np.abs(fit[:, 3]) >= 0.5 * rise
-        stepped[p] = bool(np.any((t > max_step_t) & (turn > min_turn_rad) & big))
-    return stepped
+    return tilt_kernels.stepped_plane_flags(
+        np.ascontiguousarray(points, dtype=np.float64),
+        order,
+        starts,
+        stops,
+        tested,
+        np.linspace(0.1, 0.9, STEP_SPLITS),
+        float(max_step_t),
+        float(correlation),
+        float(min_turn_rad),
+    )

@@ -660,3 +660,139 @@ def shifted_floors(heights, is_floor, z_shift_m, expected_z_m, find_ground):
         offsets[f] = abs(shifted[f] - expected_z_m) if is_floor[f] else np.inf
     ground_m = shifted[_first_min(offsets)] if find_ground and n > 0 else np.nan
     return shifted, floor_heights, ground_m
+
+
+@numba.njit(cache=True, no_cfunc_wrapper=True, nogil=True, error_model="numpy")
+def _quantile_sorted(values, q):
+    """The ``q`` quantile of ascending ``values`` as numpy's ``quantile`` (method ``linear``)."""
+    position = q * (values.size - 1)
+    below = math.floor(position)
+    above = min(below + 1, values.size - 1)
+    t = position - below
+    a, b = values[below], values[above]
+    difference = b - a
+    return b - difference * (1.0 - t) if t >= 0.5 else a + difference * t
+
+
+@numba.njit(cache=True, no_cfunc_wrapper=True, nogil=True, error_model="numpy")
+def stepped_plane_flags(
+    points, order, starts, stops, tested, quantiles, max_step_t, correlation, min_turn_rad
+):
+    """`mapper.pose_correction.stepped_planes`'s test of each plane (its docstring).
+
+    The step model ``z = a + b·x + c·y + Δ·[s > s₀]`` is solved through the plane's 3 × 3
+    normal equations ``A`` (closed-form inverse) and the Schur complement of the step's
+    column: with ``u`` the step column's products with ``[1, x, y]`` and ``m`` its points,
+    ``w = A⁻¹u``, ``Δ = (Σ_{s>s₀} z − u·β₀) / (m − u·w)``, the other coefficients
+    ``β₀ − w·Δ``, and ``(BᵀB)⁻¹_ΔΔ = 1 / (m − u·w)`` — the 4 × 4 solution of every split from
+    one sort of the points along the downhill direction and their suffix sums.
+
+    Args:
+        points: (N, 3) points [m], z up.
+        order: (N,) point indices sorted by plane.
+        starts: (P,) where each plane's points begin in ``order``.
+        stops: (P,) ... and end.
+        tested: (P,) the planes to test.
+        quantiles: (K,) split quantiles along the downhill direction.
+        max_step_t: The step's t-statistic above which a plane is stepped.
+        correlation: The noise correlation factor τ ≥ 1 (the t-statistic's variance × τ).
+        min_turn_rad: The least change of slope the step must make [rad].
+
+    Returns:
+        (P,) bool: stepped planes.
+    """
+    stepped = np.zeros(tested.size, dtype=np.bool_)
+    for p in range(tested.size):
+        first = starts[p]
+        n = stops[p] - first
+        if not tested[p] or n < 5:
+            continue
+        mx = my = mz = 0.0
+        for i in range(n):
+            q = order[first + i]
+            mx += points[q, 0]
+            my += points[q, 1]
+            mz += points[q, 2]
+        mx /= n
+        my /= n
+        mz /= n
+        x = np.empty(n)
+        y = np.empty(n)
+        z = np.empty(n)
+        sx = sy = sz = sxx = sxy = syy = sxz = syz = szz = 0.0
+        for i in range(n):
+            q = order[first + i]
+            xi = points[q, 0] - mx
+            yi = points[q, 1] - my
+            zi = points[q, 2] - mz
+            x[i] = xi
+            y[i] = yi
+            z[i] = zi
+            sx += xi
+            sy += yi
+            sz += zi
+            sxx += xi * xi
+            sxy += xi * yi
+            syy += yi * yi
+            sxz += xi * zi
+            syz += yi * zi
+            szz += zi * zi
+        # The inverse of A = [[n, sx, sy], [sx, sxx, sxy], [sy, sxy, syy]] by cofactors.
+        c00 = sxx * syy - sxy * sxy
+        c01 = sy * sxy - sx * syy
+        c02 = sx * sxy - sy * sxx
+        c11 = n * syy - sy * sy
+        c12 = sx * sy - n * sxy
+        c22 = n * sxx - sx * sx
+        det = n * c00 + sx * c01 + sy * c02
+        if not det > 0.0:
+            continue  # the points lie on a line
+        i00, i01, i02 = c00 / det, c01 / det, c02 / det
+        i11, i12, i22 = c11 / det, c12 / det, c22 / det
+        a0 = i00 * sz + i01 * sxz + i02 * syz
+        b0 = i01 * sz + i11 * sxz + i12 * syz
+        c0 = i02 * sz + i12 * sxz + i22 * syz
+        slope = math.hypot(b0, c0)
+        if slope == 0.0:
+            continue
+        s = (x * b0 + y * c0) / slope
+        rank = np.argsort(s)
+        s_sorted = s[rank]
+        # Suffix sums in that order: the step column's products with 1, x, y and z.
+        upper_x = np.zeros(n + 1)
+        upper_y = np.zeros(n + 1)
+        upper_z = np.zeros(n + 1)
+        for i in range(n - 1, -1, -1):
+            upper_x[i] = upper_x[i + 1] + x[rank[i]]
+            upper_y[i] = upper_y[i + 1] + y[rank[i]]
+            upper_z[i] = upper_z[i + 1] + z[rank[i]]
+        first_split = _quantile_sorted(s_sorted, quantiles[0])
+        last_split = _quantile_sorted(s_sorted, quantiles[quantiles.size - 1])
+        rise = slope * (last_split - first_split)  # over the central quantiles [m]
+        for k in range(quantiles.size):
+            split = _quantile_sorted(s_sorted, quantiles[k])
+            j = np.searchsorted(s_sorted, split, side="right")
+            m = n - j
+            if m <= 0 or m >= n:
+                continue
+            u0, u1, u2 = float(m), upper_x[j], upper_y[j]
+            w0 = i00 * u0 + i01 * u1 + i02 * u2
+            w1 = i01 * u0 + i11 * u1 + i12 * u2
+            w2 = i02 * u0 + i12 * u1 + i22 * u2
+            schur = u0 - (u0 * w0 + u1 * w1 + u2 * w2)
+            if not schur > 0.0:
+                continue
+            delta = (upper_z[j] - (u0 * a0 + u1 * b0 + u2 * c0)) / schur
+            explained = (
+                (a0 - w0 * delta) * sz
+                + (b0 - w1 * delta) * sxz
+                + (c0 - w2 * delta) * syz
+                + delta * upper_z[j]
+            )
+            variance = max(szz - explained, 0.0) / (n - 4) * correlation / schur
+            t = abs(delta) / math.sqrt(variance)
+            turn = abs(delta) * math.hypot(w1, w2)  # the slope's change [rad], small angles
+            if t > max_step_t and turn > min_turn_rad and abs(delta) >= 0.5 * rise:
+                stepped[p] = True
+                break
+    return stepped

@@ -112,3 +112,51 @@ def test_the_step_test_keeps_a_true_15_degree_tilt_error_corrected():
     params = dataclasses.replace(SegmentationParams(), tilt_max_step_t=12.0)
     result = segment_depth(depth, INTR, believed, params)
     assert result.correction.rotation_deg == pytest.approx(15.0, abs=0.05)
+
+
+def _stepped_by_lstsq(points, max_step_t, correlation, min_turn_rad):
+    """One plane's step test written out: every split's 4-column least squares, numpy."""
+    centred = points - points.mean(axis=0)
+    n = len(points)
+    design = np.column_stack([np.ones(n), centred[:, 0], centred[:, 1]])
+    z = centred[:, 2]
+    coef = np.linalg.lstsq(design, z, rcond=None)[0]
+    slope = math.hypot(coef[1], coef[2])
+    s = (centred[:, 0] * coef[1] + centred[:, 1] * coef[2]) / slope
+    splits = np.quantile(s, np.linspace(0.1, 0.9, 17))
+    rise = slope * (splits[-1] - splits[0])
+    for split in splits:
+        upper = (s > split).astype(np.float64)
+        if not 0 < upper.sum() < n:
+            continue
+        full = np.column_stack([design, upper])
+        fit, *_ = np.linalg.lstsq(full, z, rcond=None)
+        residual = float(np.sum((z - full @ fit) ** 2))
+        inverse = np.linalg.inv(full.T @ full)
+        t = abs(fit[3]) / math.sqrt(residual / (n - 4) * correlation * inverse[3, 3])
+        turn = math.hypot(fit[1] - coef[1], fit[2] - coef[2])
+        if t > max_step_t and turn > min_turn_rad and abs(fit[3]) >= 0.5 * rise:
+            return True
+    return False
+
+
+def test_the_step_kernel_agrees_with_each_splits_least_squares():
+    # Steps of 0-60 mm under 5-20 mm noise, on level and tilted patches: the Schur-complement
+    # kernel decides as the plain 4-column least squares of every split, at thresholds that
+    # put some draws on each side.
+    rng = np.random.default_rng(23)
+    decided = []
+    for draw in range(60):
+        step_m = rng.uniform(0.0, 0.06)
+        tilt = math.tan(math.radians(rng.uniform(-4.0, 4.0)))
+        patch = _patch(
+            rng,
+            int(rng.integers(40, 900)),
+            lambda x, y, s=step_m, a=tilt: np.where(y < 0.0, s, 0.0) + a * x,
+            rng.uniform(0.005, 0.02),
+        )
+        for threshold in (4.0, 12.0):
+            expected = _stepped_by_lstsq(patch, threshold, 3.0, math.radians(1.5))
+            assert _stepped([patch], max_step_t=threshold)[0] == expected, (draw, threshold)
+            decided.append(expected)
+    assert 0 < sum(decided) < len(decided)  # both answers occur

@@ -92,6 +92,7 @@ from fogsim.robot import self_filter
 from mapper import AveragingMap, FloorObstacleMapper, SegmentationParams
 from mapper.heading import heading_scores, weighted_heading_scores
 from mapper.intrinsics import PinholeIntrinsics
+from mapper.pose_correction import stepped_planes
 from mapper.segmentation import floor_regions, segment_depth
 from mapper.tilt_filter import apply_tilt, measured_tilt
 from mapper.transforms import apply_transform
@@ -483,6 +484,19 @@ def _segment(frame: Frame, params: RunParams) -> None:
         labels = np.zeros((2, 5), dtype=np.int64)
         z = np.zeros((2, 5))
         mapper.floor_sides.peel_side_strips(labels, z, z + 0.01, np.zeros(1), 1, 3.0, 1.0, 0.0, 1.0)
+    if segmentation_params.tilt_max_step_t == 0.0:  # the stereo head's step test, likewise
+        ids = np.zeros(8, dtype=np.int64)
+        stepped_planes(
+            np.zeros((8, 3)),
+            ids,
+            np.array([[0.0, 0.0, 1.0]]),
+            np.array([8]),
+            1,
+            0.9,
+            1.0,
+            1.0,
+            0.01,
+        )
 
 
 def _floors(frame: Frame, params: SegmentationParams) -> None:
