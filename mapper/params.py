@@ -147,8 +147,9 @@ class MapperParams:
             accepted (they would mean the frame matched the wrong floor level).
         zmatch_nearest_level: Beyond the paper: when the residuals' median level lies more
             than ``2·eps_m`` from 0 and another level of at least ``zmatch_min_pairs`` pairs
-            lies within ``eps_m`` of 0 (the level a ±``eps_m`` mean shift reaches from 0: the
-            frame agrees with the map there unshifted), the shift is that level's
+            (and ``zmatch_nearest_min_share`` of the median level's) lies within ``eps_m`` of 0
+            (the level a ±``eps_m`` mean shift reaches from 0: the frame agrees with the map
+            there unshifted), the shift is that level's
             (`mapper.zmatch`). The robot's elevation is already corrected (elevation
             filter, height reference), so a whole frame off by a floor level is less likely
             than part of the map held at a wrong level: a surface the segmentation merged into
@@ -166,6 +167,25 @@ class MapperParams:
             beyond ``eps_m`` (not ``2·eps_m``) also took stereo frames whose residuals straddle
             0 (−15 / +9 mm, a tilt's near and far parts) to the wrong level (talos s7 unsafe
             39 → 1009, zig-zag s8 sill 0.78 → 6.41 mm).
+        zmatch_nearest_min_share: With ``zmatch_nearest_level``, the level near 0 must also
+            hold at least this share of the pairs the median's level holds (0: any level of
+            ``zmatch_min_pairs`` pairs). A frame off by a whole step (the elevation a step
+            behind or ahead while climbing) matches the map right at the median's level; a thin
+            level near 0 is then far pairs of mixed surfaces and noise that happen to agree.
+            Traced (``bench/zmatch_levels_trace.py``, stereo, frames where the rule switched):
+            where the median was right (the zig-zag s1 frames 417, 609, 629, s2 540, s3 310,
+            514; ``talos_course`` s1 131, 162-170) the level near 0 held 1.6-17 % of the
+            median level's pairs; where the map held a surface wrong (``talos_course`` s6
+            frames 79-131) mostly 29-92 % (two single frames 6-7 %: s5 94, s6 95). 0.25 lies
+            in that gap. Stereo seeds 1-8, mean (worst), 0 → 0.25: zig-zag sill 0.93 (1.79) →
+            0.83 (1.39) mm, unsafe 31.9 (71) → 31.75 (71) (without the nearest level: 0.82
+            (1.37), 30.9 (66); the rest is seed 5, whose frames at the zig-zag's turn are tilted,
+            not shifted: neither level is their shift); ``talos_course`` unsafe 52.9 (95) →
+            51.5 (92), worst row per seed unchanged (6.93), threshold coverage worst 0.02 →
+            0.55 (s6); room sill 1.05 (1.82) → 1.06
+            (1.82) (s8 1.20 → 1.34); stage rows within 0.05 mm; simulated_world, stairs,
+            stage_down, table unchanged. Depth: 4 of 96 replays differ, by 0.01-0.02 mm on a
+            row.
         floor_vote_cap: Beyond the paper: the most votes a cell's stored floor height holds
             (`mapper.floor_map.update_floor`). Each floor point within ``±eps_m`` of it adds
             one, each point of another surface (higher or lower) takes one away, and the other
@@ -452,6 +472,7 @@ class MapperParams:
     zmatch_min_pairs: int = 30
     zmatch_max_shift_m: float = 0.08
     zmatch_nearest_level: bool = True
+    zmatch_nearest_min_share: float = 0.25
     floor_vote_cap: int = 64
     floor_frame_cap: int = 40
     discretize_rays: bool = False
@@ -561,6 +582,12 @@ class MapperParams:
             "obstacle_margin_cells",
             self.obstacle_margin_cells,
             f"below min(nx, ny) = {min(self.nx, self.ny)}",
+        )
+        check(
+            "zmatch_nearest_min_share",
+            float,
+            "a finite float >= 0 (0: any level of zmatch_min_pairs pairs)",
+            lambda v: math.isfinite(v) and v >= 0,
         )
         check(
             "zmatch_max_shift_m",

@@ -17,8 +17,11 @@ far, or mapped with a wrong tilt) a frame that sees mostly it is shifted onto it
 heights never outvote the wrong ones. The robot's elevation is already corrected, so the shift
 expected is 0: when the median's level lies more than ``2·eps_m`` from 0 (a whole surface level
 away from "no shift") and the residuals hold a level within ``eps_m`` of 0 (a flat ±``eps_m``
-mean shift from 0 stops on it) with at least ``zmatch_min_pairs`` pairs — the frame's data agree
-with the map there as they are — that level's pairs are kept instead. A frame whose residuals
+mean shift from 0 stops on it) with at least ``zmatch_min_pairs`` pairs and at least
+``zmatch_nearest_min_share`` of the pairs the median's level holds — the frame's data agree with
+the map there as they are — that level's pairs are kept instead. (A thinner level near 0 is far
+pairs of mixed surfaces that happen to agree, in a frame off by a whole step: the stereo
+zig-zag's sill.) A frame whose residuals
 form one level (however far from 0) is matched as before.
 
 What the caller does with the result (the paper's rule, see `frame_decision`): apply the shift
@@ -208,13 +211,14 @@ def _level_from(residual_m, start_m, eps_m):
 
 
 @numba.njit(cache=True, no_cfunc_wrapper=True, nogil=True, error_model="numpy")
-def _gated_shift(residual_m, eps_m, nearest_level, min_pairs):
+def _gated_shift(residual_m, eps_m, nearest_level, min_pairs, min_share):
     """(shift, pairs kept, rms) of the residuals ``Floor − h`` [m] (numba); see the module.
 
     With ``nearest_level``, when the median's level lies more than ``2·eps_m`` from 0 (no
     window of ±``eps_m`` about 0 reaches it: another surface level than "no shift") and the
     level reached from 0 (`_level_from`) lies within ``eps_m`` of 0 and holds at least
-    ``min_pairs`` residuals, that level's residuals are kept instead.
+    ``min_pairs`` residuals and at least ``min_share`` times as many as the median's level,
+    that level's residuals are kept instead.
     """
     if residual_m.size == 0:
         return 0.0, 0, np.nan
@@ -225,7 +229,7 @@ def _gated_shift(residual_m, eps_m, nearest_level, min_pairs):
     shift = pairwise_sum(kept) / kept.size
     if nearest_level and abs(shift) > 2.0 * eps_m:
         level, count = _level_from(residual_m, 0.0, eps_m)
-        if count >= min_pairs and abs(level) <= eps_m:
+        if count >= min_pairs and count >= min_share * kept.size and abs(level) <= eps_m:
             kept = residual_m[np.abs(residual_m - level) <= eps_m]
             shift = pairwise_sum(kept) / kept.size
     squares = (kept - shift) ** 2
@@ -242,6 +246,7 @@ def shift_from_residuals(residual_m: NDArray[np.float64], params: MapperParams) 
         float(params.eps_m),
         bool(params.zmatch_nearest_level),
         int(params.zmatch_min_pairs),
+        float(params.zmatch_nearest_min_share),
     )
     accepted = pairs >= params.zmatch_min_pairs and abs(shift) <= params.zmatch_max_shift_m
     return ZMatch(float(shift), int(pairs), float(rms), bool(accepted))

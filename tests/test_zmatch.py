@@ -39,7 +39,9 @@ def shift_numpy(residual, params):
     shift = float(np.mean(kept))
     if params.zmatch_nearest_level and abs(shift) > 2.0 * params.eps_m:
         level, count = level_from_numpy(residual, 0.0, params.eps_m)
-        if count >= params.zmatch_min_pairs and abs(level) <= params.eps_m:
+        enough = count >= params.zmatch_min_pairs
+        share = count >= params.zmatch_nearest_min_share * kept.size
+        if enough and share and abs(level) <= params.eps_m:
             kept = residual[np.abs(residual - level) <= params.eps_m]
             shift = float(np.mean(kept))
     rms = float(np.sqrt(np.mean((kept - shift) ** 2)))
@@ -235,6 +237,28 @@ def test_two_levels_straddling_zero_within_two_eps_keep_the_median():
     assert same_bits(shift_from_residuals(residual, P), shift_from_residuals(residual, off))
 
 
+def test_a_level_near_zero_with_too_small_a_share_does_not_win():
+    # A frame off by one 25 mm step (stereo zig-zag: 3700 pairs at −27 mm on surfaces the map
+    # holds right) with a few far pairs near 0 (60): the median's level is kept.
+    params = MapperParams(zmatch_nearest_min_share=0.25)
+    residual = two_levels(3700, -0.027, 60)
+    match = shift_from_residuals(residual, params)
+    assert match.pairs == 3700
+    assert match.shift_m == pytest.approx(residual[:3700].mean(), abs=1e-15)
+    # Without the share (0), the 60 pairs win as before.
+    assert shift_from_residuals(residual, MapperParams(zmatch_nearest_min_share=0.0)).pairs == 60
+
+
+@pytest.mark.parametrize(("n_zero", "wins"), [(100, True), (99, False)])
+def test_the_share_is_counted_against_the_median_level(n_zero, wins):
+    # 400 pairs at −40 mm: a level near 0 needs a quarter of them, 100 pairs.
+    params = MapperParams(zmatch_nearest_min_share=0.25)
+    residual = two_levels(400, -0.040, n_zero)
+    match = shift_from_residuals(residual, params)
+    assert match.pairs == (n_zero if wins else 400)
+    assert same_bits(match, shift_numpy(residual, params))
+
+
 @pytest.mark.parametrize("seed", range(8))
 def test_compiled_nearest_level_equals_numpy(seed):
     rng = np.random.default_rng(seed)
@@ -242,3 +266,5 @@ def test_compiled_nearest_level_equals_numpy(seed):
         [rng.normal(-0.03, 0.004, 400), rng.normal(0.0, 0.004, rng.integers(0, 120))]
     )
     assert same_bits(shift_from_residuals(residual, P), shift_numpy(residual, P))
+    shared = MapperParams(zmatch_nearest_min_share=0.25)
+    assert same_bits(shift_from_residuals(residual, shared), shift_numpy(residual, shared))
