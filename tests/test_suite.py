@@ -427,9 +427,11 @@ def test_committed_baseline_holds_the_stage_over_seeds_and_the_quick_subset(tmp_
     stereo = "full seeds=1-8 set=camera.mode=stereo"
     assert set(baseline.sets) == {"full seeds=1-8", "quick seeds=scenario", stereo}
     assert set(baseline.sets["quick seeds=scenario"]) == set(QUICK_SCENARIOS)
-    # The stereo suite's set: its failing scenarios are left out, the stage is in.
-    assert "stage" in baseline.sets[stereo]
-    assert "talos_course" not in baseline.sets[stereo]
+    # The stereo suite's set: its failing scenario (eth_stairs, poor on 7 seeds) is left out;
+    # the stage and talos_course (passing since session 38's z-match) are in.
+    assert {"stage", "talos_course"} <= set(baseline.sets[stereo])
+    assert "eth_stairs" not in baseline.sets[stereo]
+    assert "eth_stairs" not in baseline.sets["full seeds=1-8"]
     stage = baseline.sets["full seeds=1-8"]["stage"].figures
     assert {"table1.step_1.abs_error_mm", "cells.obstacle_recall", "safety.unsafe_cells"} <= set(
         stage
