@@ -37,6 +37,7 @@ import os
 from collections import defaultdict
 
 import numpy as np
+from overrides import parse_overrides
 
 os.environ.setdefault("MUJOCO_GL", "egl")
 
@@ -102,10 +103,7 @@ def main() -> None:
     from fogsim.run.runner import run_frames, sensor_fields
     from mapper.mapper import FloorObstacleMapper
 
-    overrides = {}
-    for item in args.set:
-        key, value = item.split("=", 1)
-        overrides[key] = json.loads(value)
+    overrides = parse_overrides(args.set)
     rec = load_recording(args.recording)
     if args.pose != "pipeline":
         import dataclasses

@@ -39,11 +39,11 @@ every surface seen after it down by about 45 mm.
 from __future__ import annotations
 
 import argparse
-import json
 import math
 import os
 
 import numpy as np
+from overrides import parse_overrides
 
 os.environ.setdefault("MUJOCO_GL", "egl")
 
@@ -88,10 +88,7 @@ def main() -> None:
     from fogsim.run.runner import resolve_params, sensor_fields
     from mapper.tilt_filter import apply_tilt
 
-    overrides = {}
-    for item in args.set:
-        key, value = item.split("=", 1)
-        overrides[key] = json.loads(value)
+    overrides = parse_overrides(args.set)
     probes = {}
     for item in args.probe:
         name, xy = item.split("=", 1)

@@ -17,11 +17,11 @@ count) they lie on.
 from __future__ import annotations
 
 import argparse
-import json
 import os
 from collections import Counter
 
 import numpy as np
+from overrides import parse_overrides
 
 os.environ.setdefault("MUJOCO_GL", "egl")
 
@@ -41,10 +41,7 @@ def main() -> None:
     from mapper.mapper import FloorObstacleMapper
     from mapper.zmatch import match_z
 
-    overrides = {}
-    for item in args.set:
-        key, value = item.split("=", 1)
-        overrides[key] = json.loads(value)
+    overrides = parse_overrides(args.set)
     rec = load_recording(args.recording)
     params = resolve_params(rec.scenario, overrides, sensor_fields(rec.scenario))
     truth = SceneTruth.from_scenario(rec.scenario, 0.0)
