@@ -37,7 +37,7 @@ import os
 from collections import defaultdict
 
 import numpy as np
-from overrides import parse_overrides
+from trace_replay import parse_overrides
 
 os.environ.setdefault("MUJOCO_GL", "egl")
 

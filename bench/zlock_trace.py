@@ -43,7 +43,7 @@ import math
 import os
 
 import numpy as np
-from overrides import parse_overrides
+from trace_replay import parse_overrides, replay_traced
 
 os.environ.setdefault("MUJOCO_GL", "egl")
 
@@ -84,8 +84,6 @@ def main() -> None:
 
     import fogsim.mapping.segmenter as segmenter
     from fogsim.data.recording import load_recording
-    from fogsim.mapping.pipeline import Pipeline
-    from fogsim.run.runner import resolve_params, sensor_fields
     from mapper.tilt_filter import apply_tilt
 
     overrides = parse_overrides(args.set)
@@ -99,13 +97,9 @@ def main() -> None:
             seg, true_tilt_rad(frame)
         )
 
-    rec = load_recording(args.recording)
-    params = resolve_params(rec.scenario, overrides, sensor_fields(rec.scenario))
-    pipe = Pipeline(params)
     mapped = [0]
-    plain_map = Pipeline._map
 
-    def traced_map(self, job):
+    def traced_map(self, job, plain_map):
         seen = {}
         match_z = self.mapper.match_z
 
@@ -147,10 +141,7 @@ def main() -> None:
         print(line, flush=True)
         return outcome
 
-    Pipeline._map = traced_map
-    for frame in rec.frames:
-        pipe.process(frame)
-    pipe.finish()
+    replay_traced(load_recording(args.recording), overrides, traced_map)
 
 
 if __name__ == "__main__":

@@ -21,7 +21,7 @@ import os
 from collections import Counter
 
 import numpy as np
-from overrides import parse_overrides
+from trace_replay import parse_overrides, replay_traced
 
 os.environ.setdefault("MUJOCO_GL", "egl")
 
@@ -35,17 +35,13 @@ def main() -> None:
     from dataclasses import replace
 
     from fogsim.data.recording import load_recording
-    from fogsim.mapping.pipeline import Pipeline
-    from fogsim.run.runner import resolve_params, sensor_fields
     from fogsim.world.truth import SceneTruth
     from mapper.mapper import FloorObstacleMapper
     from mapper.zmatch import match_z
 
     overrides = parse_overrides(args.set)
     rec = load_recording(args.recording)
-    params = resolve_params(rec.scenario, overrides, sensor_fields(rec.scenario))
     truth = SceneTruth.from_scenario(rec.scenario, 0.0)
-    pipe = Pipeline(params)
     state = {"frame": None, "pos": -1}
     plain = FloorObstacleMapper.match_z
 
@@ -97,17 +93,13 @@ def main() -> None:
         return result
 
     FloorObstacleMapper.match_z = traced
-    plain_map = Pipeline._map
 
-    def traced_map(self, job):
+    def traced_map(self, job, plain_map):
         state["frame"] = job.data.frame
         state["pos"] = job.data.position
         return plain_map(self, job)
 
-    Pipeline._map = traced_map
-    for frame in rec.frames:
-        pipe.process(frame)
-    pipe.finish()
+    replay_traced(rec, overrides, traced_map)
 
 
 if __name__ == "__main__":
