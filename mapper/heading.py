@@ -1058,13 +1058,12 @@ class HeadingEstimator:
         coarse = np.arange(-half, half + 1) * p.coarse_step_deg
         scores = score(*data, np.radians(coarse), p.cell_m, p.layer_m)
         best = float(scores.max())
+        above_median = best - float(np.median(scores))
         if not edges:
-            self._structure_flat = best <= 0.0 or best - float(np.median(scores)) < (
-                p.flat_contrast * best
-            )
-        if best <= 0.0 or best - float(np.median(scores)) < p.min_contrast * best:
+            self._structure_flat = best <= 0.0 or above_median < p.flat_contrast * best
+        if best <= 0.0 or above_median < p.min_contrast * best:
             return
-        if edges and best - float(np.median(scores)) < p.min_edge_evidence:
+        if edges and above_median < p.min_edge_evidence:
             return
         self.drift_rad_per_m = 0.0
         if p.drift_deg_per_m > 0.0 and not edges:
