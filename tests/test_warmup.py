@@ -5,6 +5,7 @@ The kernels that replace numba's slow-to-compile functions give numpy's answers.
 
 import dataclasses
 import os
+import pkgutil
 import signal
 import subprocess
 import sys
@@ -15,12 +16,13 @@ import numpy as np
 import pytest
 from test_pipeline import INTR, make_frames, provider_removed_at
 
+import mapper.scanline
 from fogsim.config import RunParams
 from fogsim.data.recording import Recording
 from fogsim.run import warmup
 from fogsim.run.runner import run_scenario
 from fogsim.run.warmup import GROUPS, MESSAGE, KernelGroup, is_cold
-from mapper.scanline import _stable_order
+from mapper.scanline.regions import _stable_order
 from mapper.zmatch import _median
 
 ROOT = Path(__file__).resolve().parent.parent
@@ -109,7 +111,7 @@ def _signature_counts(cache_dir: Path) -> dict[str, int]:
         [sys.executable, "-c", count], env=env, capture_output=True, text=True, check=True
     ).stdout.split("\n")
     counts = {f"{m}.{k}": int(n) for m, k, n in (line.split() for line in listed if line)}
-    assert counts["mapper.scanline.grow_planes"] == 1  # the listing is not empty
+    assert counts["mapper.scanline.planes.grow_planes"] == 1  # the listing is not empty
     return counts
 
 
@@ -211,6 +213,20 @@ def test_every_run_kernel_is_compiled_with_the_same_flags():
         ("nopython", True),
     )
     assert {name: f for name, f in flags.items() if f != expected} == {}
+
+
+def test_every_scanline_kernel_is_in_exactly_one_group():
+    """The package's kernels are defined in its modules (`warmup.SCANLINE_MODULES`, every one
+    of them): each is warmed up by one group, the floor stage's or the segmentation's."""
+    modules = {info.name for info in pkgutil.iter_modules(mapper.scanline.__path__)}
+    assert {m.__name__.rsplit(".", 1)[1] for m in warmup.SCANLINE_MODULES} == modules
+    kernels = warmup._kernels(*warmup.SCANLINE_MODULES)
+    assert len(kernels) == 49  # as mapper/scanline.py had before its split (not inlined)
+    groups = {k.py_func.__name__: [g.name for g in GROUPS if k in g.kernels] for k in kernels}
+    assert {name: g for name, g in groups.items() if len(g) != 1} == {}
+    assert {name for name, g in groups.items() if g == ["floor regions"]} == {
+        k.py_func.__name__ for k in warmup.FLOOR_REGIONS.kernels
+    }
 
 
 def test_kernels_the_helper_shares_are_compiled_here_before_the_helper_gets_to_them():

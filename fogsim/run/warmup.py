@@ -83,6 +83,15 @@ import mapper.grid
 import mapper.heading
 import mapper.occupancy
 import mapper.scanline
+import mapper.scanline.floors
+import mapper.scanline.fused
+import mapper.scanline.levels
+import mapper.scanline.noise
+import mapper.scanline.plane_pixels
+import mapper.scanline.planes
+import mapper.scanline.points
+import mapper.scanline.regions
+import mapper.scanline.rows
 import mapper.tilt_kernels
 import mapper.zmatch
 from fogsim.config import RunParams
@@ -139,6 +148,19 @@ def _kernels(*modules: ModuleType) -> tuple[Dispatcher, ...]:
     )
 
 
+SCANLINE_MODULES = (
+    mapper.scanline.noise,
+    mapper.scanline.rows,
+    mapper.scanline.regions,
+    mapper.scanline.planes,
+    mapper.scanline.plane_pixels,
+    mapper.scanline.levels,
+    mapper.scanline.floors,
+    mapper.scanline.points,
+    mapper.scanline.fused,
+)
+"""The modules of `mapper.scanline` (its kernels are defined there, not in the package)."""
+
 _FLOOR_KERNELS = (
     mapper.scanline.level_geometry,
     mapper.scanline.level_regions,
@@ -163,7 +185,7 @@ SEGMENTATION = KernelGroup(
     "segmentation",
     tuple(
         k
-        for k in _kernels(mapper.scanline, mapper.tilt_kernels, mapper.floor_sides)
+        for k in _kernels(*SCANLINE_MODULES, mapper.tilt_kernels, mapper.floor_sides)
         if k not in _FLOOR_KERNELS
     ),
 )
