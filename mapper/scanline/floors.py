@@ -3,9 +3,9 @@
 The regions are those grown by `mapper.scanline.levels`, filled (`mapper.scanline.regions`):
 
 - `floor_statistics`: per region its pixels, height (a level fit in inverse depth,
-  `_level_height`), RMS height residual in sigma units, footprint widths and area [m²] and
-  slope, from its interior pixels where a stereo matcher's window blends a border with the
-  neighbouring surface;
+  `_level_height`), RMS height residual in sigma units, footprint widths [m] and area [m²] and
+  slope; the RMS and slope from its interior pixels (a stereo matcher's window blends a
+  region's border with the neighbouring surface);
 - `floor_segment_fit`: how well a plane fits each region's segment mean heights (reduced χ²);
 - `foreign_rim`: a region's border pixels that belong to a neighbouring surface;
 - `region_noise_ratio`: each region's local noise over the typical (the roughness test);

@@ -1,7 +1,7 @@
 """Level regions grown over row segments: the horizontal model ``z = h`` (heights [m]).
 
 The heights are the pixels' points' z in the tilt-corrected robot frame, with their noise along
-z (`mapper.scanline.points.level_geometry`); the row segments are the planes'
+z (`mapper.scanline.points.level_geometry`); the row segments are those the planes grow over
 (`mapper.scanline.rows`).
 
 - `split_level`: segments split where their heights step (a row running along a low step's
