@@ -121,6 +121,18 @@ def test_a_run_with_progress_leaves_the_cache_warm():
     assert not any(is_cold(group) for group in GROUPS if group is not warmup.SELF_FILTER)
 
 
+def test_a_cache_stamped_by_other_sources_is_cold(monkeypatch):
+    # Warm (the replay above, or this one), then the sources' stamp changes (an edited kernel
+    # module): numba would recompile every kernel of the group, so its compile is announced.
+    group = warmup.MATCHING
+    if is_cold(group):
+        run_scenario(None, None, replay=_recording(), pictures=False)
+    assert not is_cold(group)
+    for kernel in group.kernels:
+        monkeypatch.setattr(kernel._cache._cache_file, "_source_stamp", "edited sources")
+    assert is_cold(group)
+
+
 @pytest.mark.parametrize("simulated", [True, False])
 def test_only_a_simulated_run_warms_the_self_filter_up(monkeypatch, simulated):
     calls = []

@@ -30,9 +30,9 @@ both a constant and a variable are numpy scalars (``np.int64(0)``, ``np.bool_(Tr
 compiles a kernel once per argument type, and a literal (0, True) is a type of its own.
 
 numba's cache (``cache=True``) checks a kernel's own source file only: a kernel calling one of
-another module (the fused kernels, `mapper.tilt_kernels`) keeps the code it was cached with when
-only the callee's file changes. After editing a kernel here, clear the cache (the
-``__pycache__/*.nbi`` and ``*.nbc`` files, or a fresh ``NUMBA_CACHE_DIR``) before measuring.
+another module (the fused kernels, `mapper.tilt_kernels`) would keep the code it was cached with
+when only the callee's file changed. `mapper.kernel_cache` stamps every mapper kernel with all
+the package's kernel modules instead, so an edit here recompiles them all on the next run.
 """
 
 from __future__ import annotations
