@@ -1,5 +1,7 @@
 """Floor and obstacle height map (Gutmann, Fukuchi, Fujita) as a library; no MuJoCo dependency."""
 
+# First: the kernels' cache locator is chosen when a kernel is decorated (`mapper.kernel_cache`).
+from mapper import kernel_cache  # noqa: F401  (installs the package-wide cache stamp)
 from mapper.averaging import AveragingMap
 from mapper.backends import HeightMapBackend, StepRuleParams, label_by_step
 from mapper.elevation import ElevationFilterParams, RobotElevationFilter

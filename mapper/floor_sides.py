@@ -1,6 +1,6 @@
 """Side bands of floor regions that lie at another floor's level (beyond Gutmann et al.).
 
-Level regions are grown from row segments (`scanline.grow_floors`): a row is split where its
+Level regions are grown from row segments (`scanline.levels.grow_floors`): a row is split where its
 heights step by more than the step test's standard error allows, and a step the row's noise
 hides is not split. A tread's side edge crosses every row of the tread, so each of its rows runs
 on over the edge onto the surface beside it, and the tread's region takes those pixels. Through
@@ -10,7 +10,7 @@ cannot see a 31 mm step at 1.3 m: on the stage's stereo replays (`bench/spill_tr
 the step's height, from ground pixels 2–6 cm past the edge measured at the right depth (median
 error −31…−2 mm at 1.3 m, where σ is about 26 mm: not the matcher's window), which step_1's
 region had taken (in frame 178 of seed 1 its rows ran 8 and 5–10 columns past its two side
-edges at 1.3 m) and `scanline.floor_points` had snapped onto its height; the cells held 29 mm
+edges at 1.3 m) and `scanline.points.floor_points` had snapped onto its height; the cells held 29 mm
 over true ground.
 
 No single row tells such pixels from the tread's own, but the rows together do: the k-th pixel

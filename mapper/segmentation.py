@@ -22,9 +22,10 @@ along the viewing ray, where a depth camera has them. Then
    large footprint does not outvote a near plane's well-determined normal; absorbs camera
    rotation errors of the joint encoders);
 2. floors are grown in that frame with the one-parameter model ``z = h``
-   (`scanline.split_level`, `scanline.grow_floors`): row pieces split where their heights
-   step, level pieces (heights scattering by their noise along z, the typical depth noise
-   times the ray's z component) joined to touching level pieces of the same mean height.
+   (`scanline.levels.split_level`, `scanline.levels.grow_floors`): row pieces split where
+   their heights step, level pieces (heights scattering by their noise along z, the typical
+   depth noise times the ray's z component) joined to touching level pieces of the same mean
+   height.
    A free plane can tilt and creep up a staircase tread by tread when 1-2 % depth noise hides
    each small step; a level region cannot. A region is a floor when it has at least
    `min_plane_pixels` pixels in 3 or more segments, a footprint at least
@@ -151,8 +152,8 @@ class SegmentationParams:
         max_depth_m: depths above this are no measurement [m]; set it to the sensor's range
             limit when the sensor cuts there itself. The cut is on the measured depth, so near
             it only the pixels measured too near are left: the tilt's normals come from each
-            plane's pixels predicted well inside it (`scanline.plane_refits`). 10 (default):
-            beyond any indoor scene; fogsim's depth and stereo modes cut at the camera's
+            plane's pixels predicted well inside it (`scanline.plane_pixels.plane_refits`). 10
+            (default): beyond any indoor scene; fogsim's depth and stereo modes cut at the camera's
             ``range_m`` (4 m): with 10 here the stage's tilt read −0.38 mrad forward (depth
             mode, seed 1, every 4th frame; −0.15 with 4 here, the rest the treads' borders:
             `plane_normal_margin_px`), which put the treads near the camera 0.4 mm high
@@ -263,7 +264,7 @@ class SegmentationParams:
             half the 31 mm smallest step of the paper's staircase, so a region never climbs one.
         floor_max_segment_chi2: a floor's row segments' mean heights scatter about a plane
             fitted to them with a reduced chi² (the growing tolerance added to every standard
-            error, `scanline.floor_segment_fit`) of at most this times 1 + 3·sqrt(2/dof), the
+            error, `scanline.floors.floor_segment_fit`) of at most this times 1 + 3·sqrt(2/dof), the
             reduced chi²'s mean plus three standard deviations for dof = segments − 3. 1.0:
             a flat floor's segments scatter by their errors (chi² about 0.5 with the
             tolerance on stage recordings), while on a rough top they scatter by the bumps,
@@ -316,35 +317,34 @@ class SegmentationParams:
             the sill top's far row reads 10-25 mm low while its inner rows are within 4 mm, and
             the steps' floor pixels at 1-1.5 m (seed 4, true pose) are labelled twice as often
             and within 3 mm in the median instead of 11 mm low.
-        floor_height_margin_px: a floor region's height comes from its pixels at least this
-            far inside its border (up, down, left and right, `scanline.region_depth`); a region
+        floor_height_margin_px: a floor region's height comes from its pixels at least this far
+            inside its border (up, down, left and right, `scanline.regions.region_depth`); a region
             with none (a narrow tread seen from afar) takes its deepest pixels, one with no pixel
-            inside its border ring all of them (before session 35 every region without a pixel
-            this deep took all its pixels, the border's too). Growing selects one-sidedly at a
-            border: at a box top's rim the pixels just over the edge, on the side face, lie
-            below the top, and those within the noise tolerance join the top's region — only
-            from below, so they pull its height down in proportion to the noise (not at all on
-            exact data). 1 (default): the rim's ring of pixels is left out (moving_box, depth
-            mode, seeds 1-8, frames 180-218: the flat box top 0.75 ± 0.07 mm below the ground's
-            +60 mm with every pixel, 0.10 ± 0.05 mm without the ring; a synthetic box seen
-            from the side: 0.79 mm low with 13 side-face pixels in its region of 234, 0.04).
-            A stereo matcher's window rounds a tread's convex edges towards the farther
-            surface over more rows: fogsim's stereo head (window 2.5 output pixels), a 38 mm
-            sill and a 31 mm step seen from 0.93 m high (63 views, exact depth as reference):
-            the first row from an edge reads 6.8 / 4.9 mm low, the second 1.9 mm low on the
-            step, the third and fourth within 1.2 mm. 2 there (stereo replays, seeds 1-8,
-            session 35, 1 → 2, mean (worst)): Table I rows stage sill 2.23 (3.46) → 1.27
-            (2.04) mm, every stage row better, room sill 1.02 (1.87) → 0.76 (1.19); but the
-            zig-zag stage's sill 0.80 (1.37) → 1.03 (3.26, seed 8) and unsafe cells stage 5.0
-            (8) → 6.75 (12), zig-zag 31.9 (70) → 32.75 (87) (room 9.0 → 8.0, stage_down 6.5
-            → 5.6), so the stereo head keeps 1 (3: stage step_1 1.22 (1.44) mm, stage_down's
-            rows within 2.49 mm, room 11.25 unsafe cells). Only the border ring counts as a rim
-            that a neighbouring surface may have lent (`_foreign_rim`), whatever the margin.
+            inside its border ring all of them (before session 35 every region without a pixel this
+            deep took all its pixels, the border's too). Growing selects one-sidedly at a border: at
+            a box top's rim the pixels just over the edge, on the side face, lie below the top, and
+            those within the noise tolerance join the top's region — only from below, so they pull
+            its height down in proportion to the noise (not at all on exact data). 1 (default): the
+            rim's ring of pixels is left out (moving_box, depth mode, seeds 1-8, frames 180-218: the
+            flat box top 0.75 ± 0.07 mm below the ground's +60 mm with every pixel, 0.10 ± 0.05 mm
+            without the ring; a synthetic box seen from the side: 0.79 mm low with 13 side-face
+            pixels in its region of 234, 0.04). A stereo matcher's window rounds a tread's convex
+            edges towards the farther surface over more rows: fogsim's stereo head (window 2.5
+            output pixels), a 38 mm sill and a 31 mm step seen from 0.93 m high (63 views, exact
+            depth as reference): the first row from an edge reads 6.8 / 4.9 mm low, the second 1.9
+            mm low on the step, the third and fourth within 1.2 mm. 2 there (stereo replays, seeds
+            1-8, session 35, 1 → 2, mean (worst)): Table I rows stage sill 2.23 (3.46) → 1.27 (2.04)
+            mm, every stage row better, room sill 1.02 (1.87) → 0.76 (1.19); but the zig-zag stage's
+            sill 0.80 (1.37) → 1.03 (3.26, seed 8) and unsafe cells stage 5.0 (8) → 6.75 (12),
+            zig-zag 31.9 (70) → 32.75 (87) (room 9.0 → 8.0, stage_down 6.5 → 5.6), so the stereo
+            head keeps 1 (3: stage step_1 1.22 (1.44) mm, stage_down's rows within 2.49 mm, room
+            11.25 unsafe cells). Only the border ring counts as a rim that a neighbouring surface
+            may have lent (`_foreign_rim`), whatever the margin.
         plane_refit_sigma: the tilt correction takes each plane's normal from a refit on its
             pixels within this many sigma of the first least-squares fit (sigma: that fit's
             RMS residual, at least ``min_noise_m`` at the pixel's depth;
-            `scanline.plane_refits`), so a stereo matcher's edge-fattened pixels don't tilt
-            it; everything else uses the first fit. 0 (default): no outlier test (a depth
+            `scanline.plane_pixels.plane_refits`), so a stereo matcher's edge-fattened pixels
+            don't tilt it; everything else uses the first fit. 0 (default): no outlier test (a depth
             sensor without a matching window; the refit still leaves out the pixels near
             `max_depth_m`). For fogsim's stereo head 1 (`fogsim.sim.camera.noise_model`).
         plane_normal_margin_px: the tilt correction takes each plane's normal from its pixels
@@ -670,7 +670,7 @@ def segment_depth(
         if params.stereo_baseline_m > 0.0
         else 0.0
     )  # std of the inverse depth [1/m]
-    # Noise, row segments, planes grown and refined, pixels filled (`scanline.plane_labels`).
+    # Noise, row segments, planes grown and refined, pixels filled (`scanline.fused.plane_labels`).
     (
         x,
         y,
@@ -895,7 +895,7 @@ def _rigid_transform(value: object) -> NDArray[np.float64]:
 
 
 def floor_regions(origin, rays, points, sigma_z, depth, segments, intrinsics, params):
-    """Level regions of the image (`scanline.grow_floors`) and their table.
+    """Level regions of the image (`scanline.levels.grow_floors`) and their table.
 
     The floor stage of `segment_depth` (public for the warm-up, which compiles it alone).
 
@@ -961,7 +961,7 @@ def _foreign_rim(labels, inside, z, sigma_z, level_heights, params):
     A pixel of its region's border ring (with `SegmentationParams.floor_height_margin_px` >= 1)
     whose height lies farther from the region's level than ``floor_snap_sigma_factor`` times
     its noise along z. Growing takes such pixels into a region one-sidedly at its border (a box
-    top's side face below its rim, a riser above a tread) and `scanline.floor_points` takes
+    top's side face below its rim, a riser above a tread) and `scanline.points.floor_points` takes
     their floor label away again (they are not on the region's height within the snap's
     tolerance), so they are no roughness of the region: its RMS ratio leaves them out. Inside
     the region such pixels stay roughness (a rough top's bumps).
@@ -1003,7 +1003,7 @@ def _normal_sigma_deg(plane_table, correlation, min_inv_sigma=None):
     Degenerate planes: inf.
 
     Args:
-        plane_table: (P, 13) `scanline.plane_fits` table.
+        plane_table: (P, 13) `scanline.plane_pixels.plane_fits` table.
         correlation: the noise's variance inflation of means (≥ 1).
         min_inv_sigma: (P,) lower bound of each plane's inverse-depth noise [1/m] (None: 0).
     """

@@ -253,7 +253,7 @@ def normal_sigma_deg(plane_table, correlation, min_inv_sigma):
     at 0), ``sqrt(·)/|(A, B, C)|`` in degrees; inf where that is not finite.
 
     Args:
-        plane_table: (P, 13) `mapper.scanline.plane_fits` table.
+        plane_table: (P, 13) `mapper.scanline.plane_pixels.plane_fits` table.
         correlation: the noise's variance inflation of means (≥ 1).
         min_inv_sigma: (P,) lower bound of each plane's inverse-depth noise [1/m].
     """
@@ -332,21 +332,21 @@ def plane_geometry(
     """The planes' table and the tilt's inputs in one call (`mapper.segmentation.segment_depth`).
 
     Keeps the planes of ``min_plane_pixels`` or more with a finite fit and renumbers them
-    (`mapper.scanline.renumber_planes`); their unit normals (`unit_normals`), centroids,
-    covariance eigenvalues and areas (`mapper.scanline.plane_moments`, on the grown pixels),
-    centroids in the robot frame (`rotate_points` about the origin, plus ``pivot``), RMS depth
-    residuals ``sqrt(s²)·z_c²`` and noise floors ``min_noise_m/z_c²`` at the centroids; the
-    refit on the interior pixels (`mapper.scanline.region_interior` with ``normal_margin_px``
-    > 0, `mapper.scanline.plane_refits`), its normals in the robot frame and their information
-    ``1/σ²`` (`normal_sigma_deg`, σ in degrees). The same operations in the same order as the
-    numpy code it replaced (bit for bit).
+    (`mapper.scanline.plane_pixels.renumber_planes`); their unit normals (`unit_normals`),
+    centroids, covariance eigenvalues and areas (`mapper.scanline.plane_pixels.plane_moments`, on
+    the grown pixels), centroids in the robot frame (`rotate_points` about the origin, plus
+    ``pivot``), RMS depth residuals ``sqrt(s²)·z_c²`` and noise floors ``min_noise_m/z_c²`` at the
+    centroids; the refit on the interior pixels (`mapper.scanline.regions.region_interior` with
+    ``normal_margin_px`` > 0, `mapper.scanline.plane_pixels.plane_refits`), its normals in the
+    robot frame and their information ``1/σ²`` (`normal_sigma_deg`, σ in degrees). The same
+    operations in the same order as the numpy code it replaced (bit for bit).
 
     Args:
         labels: (H, W) plane of each pixel after the fill (-1 none, -2 no measurement).
         grown_labels: (H, W) the same before the fill.
         pixel_index: (N,) the valid pixels' indices into the flattened image.
-        counts: (P,) pixels of each plane (`mapper.scanline.plane_fits`).
-        plane_table: (P, 13) the planes' fits (`mapper.scanline.plane_fits`).
+        counts: (P,) pixels of each plane (`mapper.scanline.plane_pixels.plane_fits`).
+        plane_table: (P, 13) the planes' fits (`mapper.scanline.plane_pixels.plane_fits`).
         rotation: (3, 3) C-order camera to robot rotation.
         pivot: (3,) the camera centre in the robot frame [m].
         rays_camera: (H·W, 3) camera-frame rays with unit z, row-major.
@@ -359,7 +359,7 @@ def plane_geometry(
         min_plane_pixels: planes with fewer pixels are dissolved.
         min_noise_m: lower bound of the depth noise [m].
         normal_margin_px: ``plane_normal_margin_px`` (0: every pixel refits).
-        refit_sigma: ``plane_refit_sigma`` (`mapper.scanline.plane_refits`).
+        refit_sigma: ``plane_refit_sigma`` (`mapper.scanline.plane_pixels.plane_refits`).
         min_inv_depth: 1 / ``max_depth_m`` [1/m].
         correlation: ``noise_correlation_factor``.
 

@@ -17,6 +17,8 @@ from synthetic_depth import add_depth_noise, look_down_camera, render_scene, sta
 
 from mapper import scanline
 from mapper.intrinsics import PinholeIntrinsics
+from mapper.scanline.planes import _add_segment, _best_seed, _segment_fits, _solve_plane
+from mapper.scanline.regions import _overlap, _row_index
 from mapper.segmentation import SegmentationParams
 
 INTRINSICS = PinholeIntrinsics.from_fov(88, 72, 47.0, 39.0)
@@ -37,13 +39,13 @@ def _rescoring_grow_planes(inv_depth, x, y, rows, starts, stops, table, sums, *f
     height = inv_depth.shape[0]
     n_seg = rows.shape[0]
     plane_of = np.full(n_seg, -1, np.int64)
-    row_first = scanline._row_index(rows, height)
+    row_first = _row_index(rows, height)
     work = np.zeros(20), np.zeros(13), np.full(3, -1, np.int64), np.full(3, -1, np.int64)
     tried = np.full((n_seg, 9), -1, np.int64)
 
     def best_seed(s: int) -> float:
         segment_sums, plane, members, chosen = work
-        return scanline._best_seed(
+        return _best_seed(
             s,
             (sums, x, y, rows, starts, stops, table, row_first),
             plane_of,
@@ -64,26 +66,26 @@ def _rescoring_grow_planes(inv_depth, x, y, rows, starts, stops, table, sums, *f
         for t in members:
             plane_of[t] = n_planes
             queue.append(int(t))
-            scanline._add_segment(plane_sums, sums, t)
-        scanline._solve_plane(plane_sums, plane)
+            _add_segment(plane_sums, sums, t)
+        _solve_plane(plane_sums, plane)
         for q in queue:  # grows while it is walked: breadth first
             for rr in (rows[q] - 1, rows[q], rows[q] + 1):
                 if not 0 <= rr < height:
                     continue
                 gap = 1 if rr == rows[q] else 0
                 for t in range(row_first[rr], row_first[rr + 1]):
-                    if plane_of[t] >= 0 or not scanline._overlap(
+                    if plane_of[t] >= 0 or not _overlap(
                         starts[q], stops[q], starts[t], stops[t], gap
                     ):
                         continue
-                    if scanline._segment_fits(
+                    if _segment_fits(
                         plane, sums, table, t, x, y[rr], starts[t], stops[t],
                         grow_factor, rms_factor, tol0,
                     ):  # fmt: skip
                         plane_of[t] = n_planes
                         queue.append(t)
-                        scanline._add_segment(plane_sums, sums, t)
-                        scanline._solve_plane(plane_sums, plane)
+                        _add_segment(plane_sums, sums, t)
+                        _solve_plane(plane_sums, plane)
         n_planes += 1
     return plane_of
 
@@ -112,19 +114,19 @@ def test_tried_lists_the_picked_segments_beside_the_seed():
     table = np.zeros((height, 3))  # each row's line 1/d = 0.5 + 0·x, its depth sigma [m]
     table[:, 0] = 0.5
     table[:, 2] = 1e-4
-    row_first = scanline._row_index(rows, height)
+    row_first = _row_index(rows, height)
     plane_of = np.full(height, -1, np.int64)
     members = np.full(3, -1, np.int64)
     tried = np.full((height, 9), -7, np.int64)
     segments = (sums, x, y, rows, starts, stops, table, row_first)
     limits = (3.0, 3.0, 0.002, 4)
     work = (members, np.zeros(20), np.zeros(13), np.full(3, -1, np.int64), tried)
-    score = scanline._best_seed(2, segments, plane_of, limits, work)
+    score = _best_seed(2, segments, plane_of, limits, work)
     assert score <= 1.0
     # Triples (2, 3, 4), (1, 2, 3), (0, 1, 2): s itself is not listed (it is free by the caller).
     np.testing.assert_array_equal(tried[2], [-1, 3, 4, 1, -1, 3, 0, 1, -1])
     np.testing.assert_array_equal(tried[[0, 1, 3, 4]], -7)  # only s's row is written
     # Once a picked segment is taken, the triples through it are gone: a different answer.
     plane_of[4] = 0
-    scanline._best_seed(2, segments, plane_of, limits, work)
+    _best_seed(2, segments, plane_of, limits, work)
     np.testing.assert_array_equal(tried[2], [-1, 3, -1, 1, -1, 3, 0, 1, -1])

@@ -11,6 +11,8 @@ import numpy as np
 import pytest
 
 from mapper import scanline
+from mapper.scanline.noise import _box_counts, _box_mean
+from mapper.scanline.planes import _solve_plane
 
 
 def _blocky_labels(rng: np.random.Generator) -> np.ndarray:
@@ -45,8 +47,8 @@ def test_box_mean_is_the_clipped_mean_of_a_3_row_box():
     clip = rng.uniform(0.1, 0.5, size=values.shape)
     half_cols = 2
     counts, work, row_sum, out = (np.empty(values.shape) for _ in range(4))
-    scanline._box_counts(values, half_cols, counts, row_sum)
-    scanline._box_mean(values, 2.5, clip, half_cols, counts, work, row_sum, out)
+    _box_counts(values, half_cols, counts, row_sum)
+    _box_mean(values, 2.5, clip, half_cols, counts, work, row_sum, out)
     clipped = np.minimum(values, 2.5 * clip)
     for r in range(values.shape[0]):
         for c in range(values.shape[1]):
@@ -193,7 +195,7 @@ def test_plane_fits_run_sums_are_the_pixel_order_sums():
     np.testing.assert_array_equal(counts, sums[:, 0].astype(np.int64))
     for p in range(3):
         expected = np.full(13, np.nan)
-        if scanline._solve_plane(sums[p], expected):
+        if _solve_plane(sums[p], expected):
             np.testing.assert_array_equal(planes[p], expected)
 
 

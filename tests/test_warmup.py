@@ -5,6 +5,7 @@ The kernels that replace numba's slow-to-compile functions give numpy's answers.
 
 import dataclasses
 import os
+import pkgutil
 import signal
 import subprocess
 import sys
@@ -15,12 +16,13 @@ import numpy as np
 import pytest
 from test_pipeline import INTR, make_frames, provider_removed_at
 
+import mapper.scanline
 from fogsim.config import RunParams
 from fogsim.data.recording import Recording
 from fogsim.run import warmup
 from fogsim.run.runner import run_scenario
 from fogsim.run.warmup import GROUPS, MESSAGE, KernelGroup, is_cold
-from mapper.scanline import _stable_order
+from mapper.scanline.regions import _stable_order
 from mapper.zmatch import _median
 
 ROOT = Path(__file__).resolve().parent.parent
@@ -109,7 +111,7 @@ def _signature_counts(cache_dir: Path) -> dict[str, int]:
         [sys.executable, "-c", count], env=env, capture_output=True, text=True, check=True
     ).stdout.split("\n")
     counts = {f"{m}.{k}": int(n) for m, k, n in (line.split() for line in listed if line)}
-    assert counts["mapper.scanline.grow_planes"] == 1  # the listing is not empty
+    assert counts["mapper.scanline.planes.grow_planes"] == 1  # the listing is not empty
     return counts
 
 
@@ -117,6 +119,18 @@ def test_a_run_with_progress_leaves_the_cache_warm():
     run_scenario(None, None, replay=_recording(), pictures=False, progress=True)
     # a replay warms up every kernel but the self-filter's, which only a simulation calls
     assert not any(is_cold(group) for group in GROUPS if group is not warmup.SELF_FILTER)
+
+
+def test_a_cache_stamped_by_other_sources_is_cold(monkeypatch):
+    # Warm (the replay above, or this one), then the sources' stamp changes (an edited kernel
+    # module): numba would recompile every kernel of the group, so its compile is announced.
+    group = warmup.MATCHING
+    if is_cold(group):
+        run_scenario(None, None, replay=_recording(), pictures=False)
+    assert not is_cold(group)
+    for kernel in group.kernels:
+        monkeypatch.setattr(kernel._cache._cache_file, "_source_stamp", "edited sources")
+    assert is_cold(group)
 
 
 @pytest.mark.parametrize("simulated", [True, False])
@@ -211,6 +225,20 @@ def test_every_run_kernel_is_compiled_with_the_same_flags():
         ("nopython", True),
     )
     assert {name: f for name, f in flags.items() if f != expected} == {}
+
+
+def test_every_scanline_kernel_is_in_exactly_one_group():
+    """The package's kernels are defined in its modules (`warmup.SCANLINE_MODULES`, every one
+    of them): each is warmed up by one group, the floor stage's or the segmentation's."""
+    modules = {info.name for info in pkgutil.iter_modules(mapper.scanline.__path__)}
+    assert {m.__name__.rsplit(".", 1)[1] for m in warmup.SCANLINE_MODULES} == modules
+    kernels = warmup._kernels(*warmup.SCANLINE_MODULES)
+    assert len(kernels) == 49  # as mapper/scanline.py had before its split (not inlined)
+    groups = {k.py_func.__name__: [g.name for g in GROUPS if k in g.kernels] for k in kernels}
+    assert {name: g for name, g in groups.items() if len(g) != 1} == {}
+    assert {name for name, g in groups.items() if g == ["floor regions"]} == {
+        k.py_func.__name__ for k in warmup.FLOOR_REGIONS.kernels
+    }
 
 
 def test_kernels_the_helper_shares_are_compiled_here_before_the_helper_gets_to_them():

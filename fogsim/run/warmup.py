@@ -65,7 +65,6 @@ import traceback
 from collections.abc import Callable
 from dataclasses import dataclass
 from multiprocessing.connection import Connection
-from pathlib import Path
 from types import ModuleType, TracebackType
 from typing import TextIO
 
@@ -83,6 +82,15 @@ import mapper.grid
 import mapper.heading
 import mapper.occupancy
 import mapper.scanline
+import mapper.scanline.floors
+import mapper.scanline.fused
+import mapper.scanline.levels
+import mapper.scanline.noise
+import mapper.scanline.plane_pixels
+import mapper.scanline.planes
+import mapper.scanline.points
+import mapper.scanline.regions
+import mapper.scanline.rows
 import mapper.tilt_kernels
 import mapper.zmatch
 from fogsim.config import RunParams
@@ -139,6 +147,19 @@ def _kernels(*modules: ModuleType) -> tuple[Dispatcher, ...]:
     )
 
 
+SCANLINE_MODULES = (
+    mapper.scanline.noise,
+    mapper.scanline.rows,
+    mapper.scanline.regions,
+    mapper.scanline.planes,
+    mapper.scanline.plane_pixels,
+    mapper.scanline.levels,
+    mapper.scanline.floors,
+    mapper.scanline.points,
+    mapper.scanline.fused,
+)
+"""The modules of `mapper.scanline` (its kernels are defined there, not in the package)."""
+
 _FLOOR_KERNELS = (
     mapper.scanline.level_geometry,
     mapper.scanline.level_regions,
@@ -163,7 +184,7 @@ SEGMENTATION = KernelGroup(
     "segmentation",
     tuple(
         k
-        for k in _kernels(mapper.scanline, mapper.tilt_kernels, mapper.floor_sides)
+        for k in _kernels(*SCANLINE_MODULES, mapper.tilt_kernels, mapper.floor_sides)
         if k not in _FLOOR_KERNELS
     ),
 )
@@ -415,24 +436,26 @@ def _compile(params: RunParams, groups: list[KernelGroup]) -> None:
 
 
 def is_cold(group: KernelGroup) -> bool:
-    """Whether none of the group's kernels has a cache index file (``*.nbi``).
+    """Whether none of the group's kernels has a fresh cache index (``*.nbi``).
 
-    A group counts as warm when any of its kernels is cached: not every kernel is used by a
-    run (``mapper.occupancy`` keeps a second insertion kernel for comparison, the stereo
-    camera's plane refit is not compiled for a depth camera), and kernels inlined into others
-    (``inline="always"``) are never compiled on their own. A cache made stale by edited
-    sources is recompiled by numba without the message (a developer's case; a fresh install
-    has no cache at all).
+    Fresh: numba would load compiled code from it, its source stamp being the current one (the
+    whole `mapper` package's, `mapper.kernel_cache`, so after an edit of any kernel module every
+    mapper group is cold and its compile is announced). A group counts as warm when any of its
+    kernels is cached: not every kernel is used by a run (``mapper.occupancy`` keeps a second
+    insertion kernel for comparison, the stereo camera's plane refit is not compiled for a
+    depth camera), and kernels inlined into others (``inline="always"``) are never compiled on
+    their own.
     """
-    return not any(_index_path(kernel).exists() for kernel in group.kernels)
+    return not any(_fresh_index(kernel) for kernel in group.kernels)
 
 
-def _index_path(kernel: Dispatcher) -> Path:
-    """Where numba's cache keeps ``kernel``'s index file (its locator's choice of folder).
+def _fresh_index(kernel: Dispatcher) -> bool:
+    """Whether numba's cache holds compiled code of ``kernel`` it would load (a fresh index).
 
-    numba has no public call for this; its cache object (``FunctionCache``) knows the file.
+    numba has no public call for this; its cache file object reads the index and returns no
+    entries when the file is missing, of another numba version or stamped by other sources.
     """
-    return Path(kernel._cache._cache_file._index_path)
+    return bool(kernel._cache._cache_file._load_index())
 
 
 def _floor_frames() -> tuple[Frame, ...]:
