@@ -99,6 +99,7 @@ _POSITIVE_FIELDS = (
     "grow_sigma_factor",
     "rms_sigma_factor",
     "ground_search_window_m",
+    "tilt_pitch_sigma_factor",
 )
 """`SegmentationParams` fields that must be finite and > 0."""
 _NON_NEGATIVE_FIELDS = (
@@ -390,6 +391,20 @@ class SegmentationParams:
             levels that noise joined (a tread and the ground beside it), and its slope is the
             step's, not the camera's. 0 (default): off (a depth camera's rows split at every
             step). For fogsim's stereo head `fogsim.sim.camera.noise_model.MATCHER_STEP_T`.
+        tilt_pitch_sigma_factor: the std `mapper.tilt_filter.measured_tilt` gives the
+            measured pitch (the ground normal's x in the believed robot frame) is its planes'
+            fit std times this; the roll keeps the fit's (the tilt filter weighs and gates each
+            axis by its own variance). 1 (default): the fit's std on both axes. Against the
+            truth (`bench/tilt_calibration.py`, every 4th frame of seeds 1-4, session 39) the
+            stereo head's pitch errors are 1.61-2.05 times the predicted std (robust std of
+            the normalised error: stage 1.86, room 1.79, zig-zag 1.61, stairs 1.79,
+            talos_course 2.05), its roll's 0.68-0.84, a depth camera's both 1.1-1.3. With
+            1.8 on the stereo replays (seeds 1-8, unsafe cells mean (worst)) talos_course
+            goes 51.5 (92) → 45.1 (71), the stage 2.25 (5) → 1.5 (3), the table 1.25 (5) →
+            0.75 (3), but stairs 48.6 (122) → 58.4 (116), the room 8.6 (13) → 10.6 (26) and
+            stage_down 3.75 (9) → 53.9 (401): the gate, wider in pitch, lets a wrong plane's
+            tilt in (6-13 % of the stereo frames measure beyond it, the heavy tail the robust
+            std leaves out). So it stays 1 until the tail has its own model.
     """
 
     min_depth_m: float = 0.05
@@ -438,6 +453,7 @@ class SegmentationParams:
     plane_normal_margin_px: int = 1
     floor_side_strip_px: int = 0
     tilt_max_step_t: float = 0.0
+    tilt_pitch_sigma_factor: float = 1.0
 
     def __post_init__(self) -> None:
         def check(name: str, kind: type, allowed: str, ok=lambda _: True) -> None:

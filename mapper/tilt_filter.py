@@ -47,7 +47,9 @@ frame 154 took the filter there from the right tilt it had followed since frame 
 and step_2, seen in the next 20 frames, went into the map 23 mm low).
 
 The tilt is the ground normal's (x, y) in the believed robot frame R (small angles, rad); the
-two axes are filtered independently with the same gains.
+two axes are filtered independently, each with its own measurement variance: in stereo the
+measured pitch (x) scatters more than its fit predicts
+(`SegmentationParams.tilt_pitch_sigma_factor`).
 """
 
 from __future__ import annotations
@@ -131,12 +133,12 @@ class TiltEstimate:
 
     Attributes:
         tilt_rad: (2,) estimated (x, y) of the ground normal in the believed robot frame.
-        sigma_rad: Its predicted std per axis [rad].
+        sigma_rad: (2,) its predicted std per axis [rad].
         measured: The frame's measurement was used (False: none, or refused by the gate).
     """
 
     tilt_rad: NDArray[np.float64]
-    sigma_rad: float
+    sigma_rad: NDArray[np.float64]
     measured: bool
 
 
@@ -148,20 +150,24 @@ class TiltFilter:
         self._noise_var = math.radians(self.params.noise_deg) ** 2
         self._bias_var = math.radians(self.params.bias_deg) ** 2
         self.bias_rad = np.zeros(2)
-        self.bias_var = self._bias_var  # the prior: b ~ N(0, bias_deg²)
+        self.bias_var = np.full(2, self._bias_var)  # per axis; the prior: b ~ N(0, bias_deg²)
         self.restarts = 0
-        # The measurements refused in a row: (tilt (2,), its variance σ_w² + σ_k²).
-        self._refused: list[tuple[NDArray[np.float64], float]] = []
+        # The measurements refused in a row: (tilt (2,), its variance σ_w² + σ_k² (2,)).
+        self._refused: list[tuple[NDArray[np.float64], NDArray[np.float64]]] = []
         self._accepted = 0  # measurements used since the start or the last re-start
 
     def update(
-        self, measured_rad: NDArray[np.float64] | None, sigma_rad: float, turn_rad: float
+        self,
+        measured_rad: NDArray[np.float64] | None,
+        sigma_rad: float | NDArray[np.float64],
+        turn_rad: float,
     ) -> TiltEstimate:
         """Filter one frame's measurement.
 
         Args:
             measured_rad: (2,) the frame's measured tilt, None when it measured none.
-            sigma_rad: The measurement's std per axis [rad] (ignored without a measurement).
+            sigma_rad: The measurement's std [rad]: one for both axes, or (2,) per axis
+                (ignored without a measurement).
             turn_rad: Rotation angle of the believed camera pose in R since the previous frame.
 
         Returns:
@@ -170,28 +176,32 @@ class TiltFilter:
         """
         prior_var = self.bias_var + self._bias_var * turn_rad**2
         signal_var = prior_var + self._noise_var  # Var(x_k) given the past
-        total_var = signal_var + sigma_rad**2
+        measurement_var = np.broadcast_to(np.asarray(sigma_rad, dtype=np.float64) ** 2, (2,))
+        total_var = signal_var + measurement_var
         innovation = (
             None
-            if measured_rad is None or not math.isfinite(sigma_rad)
+            if measured_rad is None or not np.all(np.isfinite(measurement_var))
             else np.asarray(measured_rad, dtype=np.float64) - self.bias_rad
         )
         if innovation is None:
             self.bias_var = prior_var
-            return TiltEstimate(self.bias_rad.copy(), math.sqrt(signal_var), measured=False)
-        if float(innovation @ innovation) > self.params.gate_chi2 * total_var:
-            self._refused.append((self.bias_rad + innovation, self._noise_var + sigma_rad**2))
+            return TiltEstimate(self.bias_rad.copy(), np.sqrt(signal_var), measured=False)
+        # χ² of the innovation over both axes, in units of the x axis's variance (the same
+        # floats as ``innovation·innovation / total_var`` when the axes' variances are equal).
+        scaled = innovation * (total_var[0] / total_var)
+        if float(innovation @ scaled) > self.params.gate_chi2 * total_var[0]:
+            self._refused.append((self.bias_rad + innovation, self._noise_var + measurement_var))
             if not self._restart():
                 self.bias_var = prior_var
-                return TiltEstimate(self.bias_rad.copy(), math.sqrt(signal_var), measured=False)
+                return TiltEstimate(self.bias_rad.copy(), np.sqrt(signal_var), measured=False)
             # Re-started from the refused measurements (this one among them): taken as measured.
-            return TiltEstimate(self.bias_rad.copy(), math.sqrt(self.bias_var), measured=True)
+            return TiltEstimate(self.bias_rad.copy(), np.sqrt(self.bias_var), measured=True)
         self._refused.clear()
         self._accepted += 1
         tilt = self.bias_rad + (signal_var / total_var) * innovation
         self.bias_rad = self.bias_rad + (prior_var / total_var) * innovation
         self.bias_var = prior_var * (1.0 - prior_var / total_var)
-        return TiltEstimate(tilt, math.sqrt(signal_var * sigma_rad**2 / total_var), measured=True)
+        return TiltEstimate(tilt, np.sqrt(signal_var * measurement_var / total_var), measured=True)
 
     def _restart(self) -> bool:
         """Re-start from the refused measurements if there are enough, they agree and outnumber.
@@ -199,8 +209,9 @@ class TiltFilter:
         Enough: ``reset_refusals`` in a row. Outnumber: the row is longer than the run of
         measurements the filter used since its start or last re-start (a locked filter has used
         few; one that has followed the camera for a while is refusing a run of wrong planes).
-        The bias becomes their inverse-variance weighted mean, its variance ``1/Σ(1/R_i)``
-        (``R_i = σ_w² + σ_i²``: each measures ``b`` plus the frame's noise and the fit's).
+        The bias becomes their inverse-variance weighted mean per axis, its variance
+        ``1/Σ(1/R_i)`` (``R_i = σ_w² + σ_i²``: each measures ``b`` plus the frame's noise and
+        the fit's).
 
         Returns:
             Whether it re-started (the refused measurements are then forgotten).
@@ -209,14 +220,14 @@ class TiltFilter:
         if wanted == 0 or len(self._refused) < wanted or len(self._refused) <= self._accepted:
             return False
         recent = self._refused[-wanted:]
-        weights = np.array([1.0 / var for _, var in recent])
+        weights = np.array([1.0 / var for _, var in recent])  # (n, 2)
         values = np.array([value for value, _ in recent])
-        mean = weights @ values / weights.sum()
-        spread = ((values - mean) ** 2).sum(axis=1) * weights
+        mean = (weights * values).sum(axis=0) / weights.sum(axis=0)
+        spread = ((values - mean) ** 2 * weights).sum(axis=1)
         if np.any(spread > self.params.gate_chi2):
             return False
         self.bias_rad = mean
-        self.bias_var = 1.0 / float(weights.sum())
+        self.bias_var = 1.0 / weights.sum(axis=0)
         self._refused.clear()
         self._accepted = 0
         self.restarts += 1
@@ -253,7 +264,7 @@ def steady_state(
 
 def measured_tilt(
     result: SegmentationResult, params: SegmentationParams
-) -> tuple[NDArray[np.float64] | None, float]:
+) -> tuple[NDArray[np.float64] | None, NDArray[np.float64] | float]:
     """The tilt a segmentation measured and its predicted std per axis [rad].
 
     The tilt is the (x, y) of the ground normal its correction took to vertical (believed robot
@@ -265,8 +276,12 @@ def measured_tilt(
     ray to its centroid, ``n`` its pixels, ``a, b`` its in-plane extents, ``c`` the
     ``noise_correlation_factor``.
 
+    The x axis's std (the pitch: the ground normal's forward component) is multiplied by
+    ``tilt_pitch_sigma_factor``.
+
     Returns:
-        (tilt, σ): tilt None and σ inf when the frame's correction used no plane.
+        (tilt, σ): σ (2,) per axis; tilt None and σ inf when the frame's correction used no
+        plane.
     """
     correction = result.correction
     planes = result.planes
@@ -290,7 +305,7 @@ def measured_tilt(
         return None, math.inf
     up = correction.rotation.T @ np.array([0.0, 0.0, 1.0])
     sigma = 1.0 / math.sqrt(information * 2.0)
-    return up[:2].copy(), sigma
+    return up[:2].copy(), np.array([sigma * params.tilt_pitch_sigma_factor, sigma])
 
 
 def apply_tilt(result: SegmentationResult, tilt_rad: NDArray[np.float64]) -> SegmentationResult:

@@ -188,7 +188,7 @@ def test_a_frame_without_a_measurement_takes_the_bias_estimate_and_loses_certain
     # Var(x) = P + q + σ_w², q = (4° · 0.1)².
     expected = var + (4.0 * DEG * 0.1) ** 2
     assert tilt_filter.bias_var == pytest.approx(expected, rel=1e-12)
-    assert estimate.sigma_rad == pytest.approx(math.sqrt(expected + (0.3 * DEG) ** 2), rel=1e-12)
+    assert estimate.sigma_rad == pytest.approx(np.sqrt(expected + (0.3 * DEG) ** 2), rel=1e-12)
 
 
 @pytest.mark.parametrize(
@@ -230,7 +230,11 @@ def test_the_measured_tilt_is_the_believed_pose_s_error_and_applying_the_truth_l
     measured, sigma = measured_tilt(result, params)
     assert measured is not None
     np.testing.assert_allclose(measured, [0.0, -math.sin(math.radians(2.0))], atol=1e-6)
-    assert 0.0 < sigma < 1e-3
+    assert sigma.shape == (2,) and 0.0 < sigma[1] < 1e-3
+    assert sigma[0] == sigma[1]  # tilt_pitch_sigma_factor 1: the fit's std on both axes
+    doubled = SegmentationParams(correct_ground_shift=False, tilt_pitch_sigma_factor=2.0)
+    _, sigma_doubled = measured_tilt(segment_depth(depth, INTR, believed, doubled), doubled)
+    np.testing.assert_array_equal(sigma_doubled, [2.0 * sigma[1], sigma[1]])
     # Applying a 1° tilt instead: the ground tilts by the remaining 1° about the camera centre.
     half = apply_tilt(result, np.array([0.0, -math.sin(math.radians(1.0))]))
     np.testing.assert_allclose(
@@ -251,3 +255,35 @@ def test_the_measured_tilt_is_the_believed_pose_s_error_and_applying_the_truth_l
     np.testing.assert_allclose(
         again.transform_camera_to_robot, result.transform_camera_to_robot, atol=1e-9
     )
+
+
+def test_each_axis_takes_the_gain_of_its_own_measurement_variance():
+    # One measurement, prior N(0, 4°²), σ_w = 0.3°; σ = (0.6°, 0.2°) per axis: each axis's gain
+    # is Kx = (P + σ_w²) / (P + σ_w² + σ²) with its own σ (hand-computed here).
+    tilt_filter = TiltFilter(TiltFilterParams(noise_deg=0.3, bias_deg=4.0))
+    measured = np.array([0.5, -0.5]) * DEG
+    sigma = np.array([0.6, 0.2]) * DEG
+    estimate = tilt_filter.update(measured, sigma, 0.0)
+    signal = (4.0**2 + 0.3**2) * DEG**2
+    gains = signal / (signal + sigma**2)
+    np.testing.assert_allclose(estimate.tilt_rad, gains * measured, rtol=1e-12)
+    np.testing.assert_allclose(
+        estimate.sigma_rad, np.sqrt(signal * sigma**2 / (signal + sigma**2)), rtol=1e-12
+    )
+    bias_gains = (4.0 * DEG) ** 2 / (signal + sigma**2)
+    np.testing.assert_allclose(tilt_filter.bias_rad, bias_gains * measured, rtol=1e-12)
+    assert estimate.tilt_rad[0] / measured[0] < estimate.tilt_rad[1] / measured[1]
+
+
+def test_the_gate_weighs_each_axis_by_its_own_variance():
+    # After the bias has settled at 0, an innovation of 1.5° on x is within the gate when x's
+    # measurement is noisy (σ_x = 1°) and refused when it is as precise as y's (0.1°).
+    def settled(sigma_x_deg: float) -> TiltFilter:
+        tilt_filter = TiltFilter(TiltFilterParams(noise_deg=0.3, bias_deg=4.0))
+        for _ in range(100):
+            tilt_filter.update(np.zeros(2), np.array([sigma_x_deg, 0.1]) * DEG, 0.0)
+        return tilt_filter
+
+    jump = np.array([1.5, 0.0]) * DEG
+    assert settled(1.0).update(jump, np.array([1.0, 0.1]) * DEG, 0.0).measured
+    assert not settled(0.1).update(jump, np.array([0.1, 0.1]) * DEG, 0.0).measured
