@@ -79,6 +79,7 @@ __all__ = [
     "heading_scores",
     "inside_image",
     "overlap_heading_scores",
+    "surface_spreads",
     "weighted_heading_scores",
     "yaw_about_pivot",
 ]
@@ -359,6 +360,7 @@ class HeadingParams:
     drift_step_deg_per_m: float = 0.1
     drift_margin: float = 0.0
     smooth_estimates: int = 1
+    surface_power: float = 0.0
 
     def __post_init__(self) -> None:
         def check(name: str, kind: type, allowed: str, ok=lambda _: True) -> None:
@@ -412,6 +414,16 @@ class HeadingParams:
         )
         check("drift_margin", float, "a finite float >= 0", lambda v: math.isfinite(v) and v >= 0)
         check("smooth_estimates", int, "an integer in [1, 100]", lambda v: 1 <= v <= 100)
+        check(
+            "surface_power",
+            float,
+            "0 (off) or a finite float in (0, 10], and 0 with voxel_estimate or overlap_cells",
+            lambda v: (
+                math.isfinite(v)
+                and 0.0 <= v <= 10.0
+                and not (v and (self.voxel_estimate or self.overlap_cells))
+            ),
+        )
         check("keyframe_sector_deg", float, "in (0, 360] degrees", lambda v: 0.0 < v <= 360.0)
         for name in ("keyframe_spacing_m", "max_range_m", "cell_m", "layer_m"):
             check(name, float, "a finite float > 0 [m]", lambda v: math.isfinite(v) and v > 0)
@@ -802,6 +814,7 @@ class _Keyframe:
     voxel_offsets_xy: NDArray[np.float64] | None = None  # structure, with `voxel_estimate`
     voxel_z_world: NDArray[np.float64] | None = None  # ... and their world z
     walked_m: float = 0.0  # believed distance walked when it was taken [m]
+    spreads: NDArray[np.float64] | None = None  # (N, 3) robot frame, with `surface_power`
 
 
 class HeadingEstimator:
@@ -994,6 +1007,9 @@ class HeadingEstimator:
             voxels, _ = voxel_centroids(points, p.cell_m, p.layer_m)
             voxels = voxels[:: -(-voxels.shape[0] // p.max_points_per_keyframe)]
         step = -(-points.shape[0] // p.max_points_per_keyframe)
+        spreads = None
+        if p.surface_power > 0.0 and not edges:
+            spreads = surface_spreads(points[:, :2], p.cell_m)[::step]
         points = points[::step]
         if gradients is not None:
             gradients = np.ascontiguousarray(gradients[::step])
@@ -1014,6 +1030,7 @@ class HeadingEstimator:
                     [voxels[:, 0] - transform[0, 3], voxels[:, 1] - transform[1, 3]]
                 ),
                 voxel_z_world=None if voxels is None else (voxels[:, 2] + z_shift_m) + pose[2],
+                spreads=spreads,
             )
         )
         keys = self._keys[edges]
@@ -1094,6 +1111,15 @@ class HeadingEstimator:
             )
             scores = score(*data, np.radians(coarse), p.cell_m, p.layer_m)
             best = float(scores.max())
+        if p.surface_power > 0.0 and not edges:
+            # Accepted on the points' score (its thresholds); the estimate from the weighted one.
+            weights = _surface_weights(keyframes, data[3], data[4], p.surface_power)
+
+            def score(offsets_xy, z_world, starts, *rest):
+                return weighted_heading_scores(offsets_xy, z_world, weights, starts, *rest)
+
+            scores = score(*data, np.radians(coarse), p.cell_m, p.layer_m)
+            best = float(scores.max())
         if p.overlap_cells and not edges:
             # Accepted on the points' score (its thresholds); the estimate from the overlap's.
             def score(*args):
@@ -1146,6 +1172,96 @@ def _edge_weights(
         assert k.gradients_xy is not None  # kept with `edge_score`
         g = k.gradients_xy @ np.array([[c, s], [-s, c]])  # rows: R(yaw)·g
         out.append(np.sqrt(np.maximum(np.einsum("ni,ij,nj->n", g, across, g), 0.0)))
+    return np.concatenate(out)
+
+
+def surface_spreads(points_xy: NDArray[np.float64], cell_m: float) -> NDArray[np.float64]:
+    """How each point's neighbourhood spreads horizontally: its normalised 2×2 covariance.
+
+    The neighbourhood is the points in the 3 × 3 ``cell_m`` squares around the point's square
+    (a ``3·cell_m`` window): along a wall or a box side the points spread along the surface
+    only (``Σ̂ = t·tᵀ``, ``t`` the surface's horizontal direction), at a corner or in clutter
+    both ways (``Σ̂ ≈ I / 2``).
+
+    Args:
+        points_xy: (N, 2) points' horizontal coordinates [m] (any frame).
+        cell_m: Square size [m].
+
+    Returns:
+        (N, 3) float64 ``(Σ̂xx, Σ̂xy, Σ̂yy)``, the covariance divided by its trace (``Σ̂xx +
+        Σ̂yy = 1``); ``(0.5, 0, 0.5)`` (isotropic) where the neighbourhood holds fewer than 3
+        points or does not spread.
+    """
+    n = points_xy.shape[0]
+    out = np.tile([0.5, 0.0, 0.5], (n, 1))
+    if n == 0:
+        return out
+    local = points_xy - points_xy.min(axis=0)  # small coordinates: no cancellation below
+    ij = np.floor(local / cell_m).astype(np.int64) + 1  # every neighbour index >= 0
+    width = int(ij[:, 1].max()) + 2
+    keys = ij[:, 0] * width + ij[:, 1]
+    squares, inverse = np.unique(keys, return_inverse=True)
+    inverse = inverse.reshape(-1)
+    x, y = local[:, 0], local[:, 1]
+    moments = np.column_stack(
+        [np.bincount(inverse, weights=w, minlength=squares.size)
+         for w in (np.ones(n), x, y, x * x, x * y, y * y)]
+    )  # fmt: skip
+    around = np.zeros((n, 6))
+    for di in (-1, 0, 1):
+        for dj in (-1, 0, 1):
+            shifted = keys + (di * width + dj)
+            at = np.minimum(np.searchsorted(squares, shifted), squares.size - 1)
+            hit = squares[at] == shifted
+            around[hit] += moments[at[hit]]
+    count = around[:, 0]
+    mean_x, mean_y = around[:, 1] / count, around[:, 2] / count
+    xx = around[:, 3] / count - mean_x * mean_x
+    xy = around[:, 4] / count - mean_x * mean_y
+    yy = around[:, 5] / count - mean_y * mean_y
+    trace = xx + yy
+    ok = (count >= 3) & (trace > 1e-12)
+    out[ok] = np.column_stack([xx[ok], xy[ok], yy[ok]]) / trace[ok, None]
+    return out
+
+
+def _surface_weights(
+    keyframes: list[_Keyframe],
+    cameras_xy: NDArray[np.float64],
+    yaw_rad: NDArray[np.float64],
+    power: float,
+) -> NDArray[np.float64]:
+    """Weight of each structure point: how far its surface extends *across* the camera path.
+
+    A yaw error moves the frames against each other sideways to their baselines (module
+    docstring): along ``P`` = ``(tr Σ·I − Σ) / tr Σ``, ``Σ`` the covariance of the cameras'
+    positions (`_edge_weights`). A surface that extends along that direction (a wall or a box
+    side faced head-on) slides along itself and shows nothing but the density of its points; one
+    that extends along the path shows it fully. A point's weight is ``(1 − tr(P·Σ̂))^(power/2)``
+    with ``Σ̂`` its neighbourhood's normalised spread (`surface_spreads`) in the world: 0 on a
+    surface lying along ``P``, 1 across it, ``2^(−power/2)`` in clutter or at a corner.
+
+    Args:
+        keyframes: The structure keyframes, with their `spreads` (robot frame).
+        cameras_xy: (K, 2) their world camera positions [m].
+        yaw_rad: (K,) the robot yaw of each [rad] (as scored).
+        power: The exponent (`HeadingParams.surface_power`).
+
+    Returns:
+        (M,) float64 weights in [0, 1], keyframe by keyframe.
+    """
+    spread = np.cov(cameras_xy.T, bias=True)
+    across = (np.trace(spread) * np.eye(2) - spread) / max(float(np.trace(spread)), 1e-12)
+    out = []
+    for k, yaw in zip(keyframes, yaw_rad, strict=True):
+        assert k.spreads is not None  # kept with `surface_power`
+        c, s = math.cos(yaw), math.sin(yaw)
+        turn = np.array([[c, -s], [s, c]])
+        p = turn.T @ across @ turn  # `across` in the keyframe's robot frame
+        along = (
+            p[0, 0] * k.spreads[:, 0] + 2.0 * p[0, 1] * k.spreads[:, 1] + p[1, 1] * k.spreads[:, 2]
+        )
+        out.append(np.maximum(1.0 - along, 0.0) ** (0.5 * power))
     return np.concatenate(out)
 
 

@@ -10,10 +10,13 @@ import mapper.heading as heading_module
 from mapper import HeadingEstimator, HeadingParams, InvalidParameterError
 from mapper.heading import (
     _band_centre_deg,
+    _Keyframe,
+    _surface_weights,
     edge_gradients,
     heading_scores,
     overlap_heading_scores,
     score_noise,
+    surface_spreads,
     voxel_centroids,
     weighted_heading_scores,
     yaw_about_pivot,
@@ -96,7 +99,13 @@ WALK = [(0.0, 0.5, 0.0), (0.3, 0.5, 0.02), (0.6, 0.5, -0.01), (0.9, 0.52, 0.0)]
 
 @pytest.mark.parametrize(
     "estimate",
-    [{}, {"voxel_estimate": True}, {"overlap_cells": 5}, {"overlap_cells": 5, "noise_band": 4.0}],
+    [
+        {},
+        {"voxel_estimate": True},
+        {"overlap_cells": 5},
+        {"overlap_cells": 5, "noise_band": 4.0},
+        {"surface_power": 3.0},
+    ],
 )
 @pytest.mark.parametrize("yaw_error_deg", [3.0, -5.5])
 def test_a_known_yaw_error_is_recovered_within_half_a_degree(yaw_error_deg, estimate):
@@ -575,3 +584,62 @@ def test_with_voxel_estimate_a_keyframe_holds_one_point_per_occupied_voxel_besid
     assert keyframe.voxel_offsets_xy.shape == (voxels, 2)
     assert keyframe.voxel_z_world.shape == (voxels,)
     assert voxels < structure.shape[0] / 3
+
+
+def test_surface_spreads_are_a_lines_direction_and_isotropic_in_clutter():
+    # A line along x sampled every 5 mm: its points spread along x only, (1, 0, 0); along y:
+    # (0, 0, 1); along the diagonal: (½, ½, ½). A square filled on a 5 mm grid spreads both
+    # ways evenly, (½, 0, ½) (a point's 3 × 3 squares of 3 cm are 9 cm square, most inside the
+    # square); a point alone, or with one neighbour, has no spread to tell: isotropic.
+    t = np.arange(0.0, 0.6, 0.005)
+    along_x = np.column_stack([t, np.full(t.size, 0.3)])
+    np.testing.assert_allclose(
+        surface_spreads(along_x, 0.03), np.tile([1, 0, 0], (t.size, 1)), atol=1e-9
+    )
+    along_y = along_x[:, ::-1]
+    np.testing.assert_allclose(
+        surface_spreads(along_y, 0.03), np.tile([0, 0, 1], (t.size, 1)), atol=1e-9
+    )
+    diagonal = np.column_stack([t, t]) + 0.001
+    np.testing.assert_allclose(
+        surface_spreads(diagonal, 0.03), np.tile([0.5, 0.5, 0.5], (t.size, 1)), atol=1e-9
+    )
+    xx, yy = np.meshgrid(np.arange(0.0, 0.3, 0.005), np.arange(0.0, 0.3, 0.005))
+    square = surface_spreads(np.column_stack([xx.ravel(), yy.ravel()]), 0.03)
+    inside = (np.abs(xx.ravel() - 0.15) < 0.09) & (np.abs(yy.ravel() - 0.15) < 0.09)
+    np.testing.assert_allclose(
+        square[inside], np.tile([0.5, 0.0, 0.5], (inside.sum(), 1)), atol=0.02
+    )
+    lone = surface_spreads(np.array([[0.0, 0.0], [0.01, 0.0], [1.0, 1.0]]), 0.03)
+    np.testing.assert_allclose(lone, np.tile([0.5, 0.0, 0.5], (3, 1)))
+    assert surface_spreads(np.zeros((0, 2)), 0.03).shape == (0, 3)
+
+
+def test_surface_weights_drop_structure_that_faces_a_straight_walk():
+    # Cameras on a straight walk along the world x: a wall facing the walk (along y) slides
+    # along itself under a yaw error, weight 0; a wall along the walk shows it fully, weight
+    # 1; clutter 2^(−power/2). A keyframe whose robot faces 90° to the left sees the facing
+    # wall along its own x: the spreads are in the robot frame, the weights in the world's.
+    spreads = np.array([[0.0, 0.0, 1.0], [1.0, 0.0, 0.0], [0.5, 0.0, 0.5]])  # robot frame
+
+    def keyframe(x):
+        return _Keyframe(
+            key=(0, 0, 0), offsets_xy=np.zeros((3, 2)), z_world=np.zeros(3),
+            camera_xy=np.array([x, 0.0]), yaw_rad=0.0, spreads=spreads,
+        )  # fmt: skip
+
+    keyframes = [keyframe(0.0), keyframe(0.5)]
+    cameras = np.array([[0.0, 0.0], [0.5, 0.0]])
+    weights = _surface_weights(keyframes, cameras, np.zeros(2), 3.0)
+    np.testing.assert_allclose(weights, np.tile([0.0, 1.0, 0.5**1.5], 2), atol=1e-12)
+    turned = _surface_weights(keyframes, cameras, np.full(2, math.pi / 2), 3.0)
+    np.testing.assert_allclose(turned, np.tile([1.0, 0.0, 0.5**1.5], 2), atol=1e-12)
+
+
+def test_surface_power_is_refused_with_the_other_estimates():
+    with pytest.raises(InvalidParameterError, match=r"HeadingParams\.surface_power"):
+        HeadingParams(surface_power=3.0, voxel_estimate=True)
+    with pytest.raises(InvalidParameterError, match=r"HeadingParams\.surface_power"):
+        HeadingParams(surface_power=3.0, overlap_cells=5)
+    with pytest.raises(InvalidParameterError, match=r"HeadingParams\.surface_power"):
+        HeadingParams(surface_power=-1.0)
