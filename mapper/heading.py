@@ -349,8 +349,11 @@ class HeadingParams:
             density of its points, which differs from view to view (a near camera sees a short,
             dense piece of it), so the counts' peak is pulled off the truth; its ends and the
             table's sides hold the evidence. Weighted (power 3), the accepted `table` depth
-            estimates in the replays are −0.31…+0.37° off the correction the run needed, from
-            +0.94…+1.67°. Replays, seeds 1–8, `map_heading_deg` mean (worst), unsafe cells mean
+            estimates in the replays are −0.60…+0.37° off the correction the run needed, from
+            +0.94…+1.67° (`bench/heading_bias.py`, against the keyframes' yaw error in
+            the world, error mean (mean |error|, worst) over the accepted tries: `table` +1.44
+            (1.44, 1.71) → −0.12 (0.28, 0.54)°, `room` +0.63 (0.71, 1.39) → +0.31 (0.44,
+            0.95)°). Replays, seeds 1–8, `map_heading_deg` mean (worst), unsafe cells mean
             (worst), off → power 3 with `surface_grids` 4 (→ with 2): depth `table` 1.40
             (2.22) → 0.86 (2.22)° (0.81), `room` 0.82 (1.84) → 0.70 (1.84)° (0.68), unsafe 1.5
             (5) → 1.1 (5), zig-zag 0.61 (1.16) → 0.50 (0.87)°, stage_down 0.42 (0.78) → 0.37
