@@ -30,65 +30,26 @@ from pathlib import Path
 import numpy as np
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
-from heading_decompose import _world
+from heading_decompose import _world, accepted_tries
 from heading_trace import add_overrides_argument, overrides_of
 
-import fogsim.mapping.pipeline as pipeline_module
-import mapper.heading as heading_module
 from fogsim.config import resolve_params
 from fogsim.data.recording import load_recording
-from fogsim.run.runner import run_frames, sensor_fields
+from fogsim.run.runner import sensor_fields
 
 
 def accepted_errors(
     path: Path, overrides: dict[str, object]
 ) -> list[tuple[int, int, float, float, float, float]]:
-    """(frame, keyframes, mean ψ, min ψ, max ψ, correction) [deg] of each accepted structure try."""
+    """(frame, keyframes, mean ψ, min ψ, max ψ, correction) [deg] of each accepted try."""
     recording = load_recording(path)
     params = resolve_params(recording.scenario, overrides, sensor_fields(recording.scenario))
     frames = {f.index: f for f in recording.frames}
-    current = [0]
-    meta: dict[int, dict] = {}
     out = []
-    observe, estimator = pipeline_module.Pipeline._observe_heading, heading_module.HeadingEstimator
-    add_keyframe, estimate = estimator._add_keyframe, estimator._estimate
-
-    def observe_noting(self, data):
-        current[0] = data.frame.index
-        return observe(self, data)
-
-    def add_noting(self, points, floor, transform, pose, z_shift_m, *rest):
-        added = add_keyframe(self, points, floor, transform, pose, z_shift_m, *rest)
-        if added and not rest[-1]:  # a structure keyframe
-            meta[id(self._keyframes[-1])] = dict(
-                frame=current[0], transform=np.array(transform), pose=np.array(pose),
-                z_shift_m=z_shift_m,
-            )  # fmt: skip
-        return added
-
-    def estimate_noting(self, edges):
-        before = self.estimates
-        estimate(self, edges)
-        if edges or self.estimates == before:
-            return
-        psi = np.array([
-            _world(
-                dict(meta[id(k)], offsets_xy=k.offsets_xy, z_world=k.z_world,
-                     camera_xy=k.camera_xy, yaw=k.yaw_rad),
-                frames[meta[id(k)]["frame"]],
-            )[4]
-            for k in self._keyframes
-        ])  # fmt: skip
-        correction = math.degrees(self.correction_rad)
-        out.append((current[0], psi.size, psi.mean(), psi.min(), psi.max(), correction))
-
-    pipeline_module.Pipeline._observe_heading = observe_noting
-    estimator._add_keyframe, estimator._estimate = add_noting, estimate_noting
-    try:
-        run_frames(recording.frames, recording.truth_at, recording.scenario, params=params)
-    finally:
-        pipeline_module.Pipeline._observe_heading = observe
-        estimator._add_keyframe, estimator._estimate = add_keyframe, estimate
+    for frame, kept in accepted_tries(recording, params):
+        psi = np.array([_world(k, frames[k["frame"]])[4] for k in kept])
+        correction = math.degrees(kept[-1]["correction_rad"])
+        out.append((frame, psi.size, psi.mean(), psi.min(), psi.max(), correction))
     return out
 
 
@@ -104,7 +65,8 @@ def main() -> None:
         for frame, keyframes, psi, low, high, correction in accepted_errors(path, overrides):
             print(
                 f"  frame {frame:4d} keyframes {keyframes:3d} ψ {psi:+.2f}° "
-                f"({low:+.2f}…{high:+.2f}) correction {correction:+.2f}° error {correction - psi:+.2f}°",
+                f"({low:+.2f}…{high:+.2f}) correction {correction:+.2f}° "
+                f"error {correction - psi:+.2f}°",
                 flush=True,
             )
             errors[re.sub(r"_s\d+$", "", path.stem)].append(correction - psi)
