@@ -380,8 +380,13 @@ class HeadingParams:
             mean over the accepted tries, both scores; a pure constant yaw −0.7…−1.2° on stereo
             seed 5) stays: its cameras spread both ways, so ``P`` is near ``I / 2`` and the
             weights tell little (``P`` from each keyframe's ±4 or ±8 neighbours on the path
-            instead: no better). Better on most scenes and worse on the stage's and zig-zag's
-            fragile seeds, so 0.
+            instead: no better). With `pipe.heading_rebuild_on_structure` and
+            `pipe.heading_rebuild_frames` 400 as well (the maps rebuilt when the structure
+            score's first estimate replaces the edge score's stand-in): `room` depth 0.56
+            (0.83)°, every seed within 1°, unsafe 0.5 (2); `room` stereo 0.46 (0.77)° but
+            unsafe 8.6 (13) → 9.5 (19) and its sill row 1.06 → 1.21 mm; talos course stereo
+            1.38 (3.06) → 1.06 (2.81)°, unsafe 51.5 (92) → 43.9 (84); the rest as without.
+            Better on most scenes and worse on the stage's and zig-zag's fragile seeds, so 0.
         surface_grids: With `surface_power`, the weighted score sums this many voxel grids,
             each offset by ``1 / surface_grids`` of a voxel (`weighted_heading_scores`). A
             thin wall along a voxel row falls into one row or two as a correction moves it by
