@@ -429,6 +429,7 @@ class HeadingParams:
     smooth_estimates: int = 1
     surface_power: float = 0.0
     surface_grids: int = 4
+    surface_contrast: float = 0.0
 
     def __post_init__(self) -> None:
         def check(name: str, kind: type, allowed: str, ok=lambda _: True) -> None:
@@ -483,6 +484,7 @@ class HeadingParams:
         check("drift_margin", float, "a finite float >= 0", lambda v: math.isfinite(v) and v >= 0)
         check("smooth_estimates", int, "an integer in [1, 100]", lambda v: 1 <= v <= 100)
         check("surface_grids", int, "an integer in [1, 16]", lambda v: 1 <= v <= 16)
+        check("surface_contrast", float, "in [0, 1)", lambda v: 0.0 <= v < 1.0)
         check(
             "surface_power",
             float,
@@ -1150,7 +1152,9 @@ class HeadingEstimator:
         above_median = best - float(np.median(scores))
         if not edges:
             self._structure_flat = best <= 0.0 or above_median < p.flat_contrast * best
-        if best <= 0.0 or above_median < p.min_contrast * best:
+        if (best <= 0.0 or above_median < p.min_contrast * best) and not (
+            not edges and self._surface_stands_out(keyframes, data, coarse, best, above_median)
+        ):
             return
         if edges and above_median < p.min_edge_evidence:
             return
@@ -1218,6 +1222,32 @@ class HeadingEstimator:
         self.estimates += 1
         self.edge_estimates += edges
         self.from_edges = edges
+
+    def _surface_stands_out(
+        self,
+        keyframes: list[_Keyframe],
+        data: tuple,
+        coarse_deg: NDArray[np.float64],
+        best: float,
+        above_median: float,
+    ) -> bool:
+        """Whether the surface-weighted score stands out where the point counts' does not.
+
+        Only with `surface_power` and `surface_contrast`, and where the counts' score is not
+        flat (`flat_contrast`): its best must exceed its median by `surface_contrast` of it.
+        """
+        p = self.params
+        if p.surface_power <= 0.0 or p.surface_contrast <= 0.0:
+            return False
+        if best <= 0.0 or above_median < p.flat_contrast * best:
+            return False
+        weights = _surface_weights(keyframes, data[3], data[4], p.surface_power)
+        scores = weighted_heading_scores(
+            data[0], data[1], weights, *data[2:], np.radians(coarse_deg), p.cell_m, p.layer_m,
+            p.surface_grids,
+        )  # fmt: skip
+        top = float(scores.max())
+        return top > 0.0 and top - float(np.median(scores)) >= p.surface_contrast * top
 
 
 def _across_baselines(cameras_xy: NDArray[np.float64]) -> NDArray[np.float64]:

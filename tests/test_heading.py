@@ -670,20 +670,12 @@ def _wall(x0, x1, y0, y1, height, step):
     return np.stack([x0 + (x1 - x0) * tt.ravel(), y0 + (y1 - y0) * tt.ravel(), zz.ravel()], 1)
 
 
-@pytest.mark.parametrize("yaw_error_deg", [3.0, -3.0, 1.3, -4.2])
-def test_the_surface_weighted_estimate_of_a_wall_faced_head_on_with_a_side_wall(yaw_error_deg):
-    # `table`'s structure: a wall across the path (1.5 m wide) with a 20 cm side wall along it
-    # at one end, walked straight at 0.1 m a frame; each frame sees it as a camera does, its
-    # points thinned with the square of the range (dense near, sparse far). The weights leave
-    # the side wall and the corner; 4 voxel grids recover the error within 0.25° (2 grids:
-    # the score oscillates with a 0.55° period against the 0.5° candidates, 0.3–0.75° off).
+def _walk_at_l_shaped_wall(estimator, yaw_error_deg):
+    """Walk the estimator 0.7 m straight at a wall across the path with a side wall (below)."""
     scene = np.concatenate(
         [_wall(1.9, 1.9, -0.6, 0.9, 0.3, 0.005), _wall(1.9, 2.1, 0.9, 0.9, 0.3, 0.005)]
     )
     rng = np.random.default_rng(5)
-    estimator = HeadingEstimator(
-        HeadingParams(estimate_every=1, edge_score=False, surface_power=3.0, surface_grids=4)
-    )
     for i in range(8):
         x = 0.1 * i
         camera_xy = np.array([x + CAMERA_IN_ROBOT_M[0], 0.5])
@@ -692,5 +684,38 @@ def test_the_surface_weighted_estimate_of_a_wall_faced_head_on_with_a_side_wall(
         seen = seen + rng.normal(0.0, 0.003, seen.shape)
         pose = (x, 0.5, 0.01 * (-1) ** i)
         correct(estimator, *frame(seen, floor_points_world(x), pose, yaw_error_deg))
+
+
+@pytest.mark.parametrize("yaw_error_deg", [3.0, -3.0, 1.3, -4.2])
+def test_the_surface_weighted_estimate_of_a_wall_faced_head_on_with_a_side_wall(yaw_error_deg):
+    # `table`'s structure: a wall across the path (1.5 m wide) with a 20 cm side wall along it
+    # at one end, walked straight at 0.1 m a frame; each frame sees it as a camera does, its
+    # points thinned with the square of the range (dense near, sparse far). The weights leave
+    # the side wall and the corner; 4 voxel grids recover the error within 0.25° (2 grids:
+    # the score oscillates with a 0.55° period against the 0.5° candidates, 0.3–0.75° off).
+    estimator = HeadingEstimator(
+        HeadingParams(estimate_every=1, edge_score=False, surface_power=3.0, surface_grids=4)
+    )
+    _walk_at_l_shaped_wall(estimator, yaw_error_deg)
     assert estimator.estimates == 3
     assert math.degrees(estimator.correction_rad) == pytest.approx(-yaw_error_deg, abs=0.25)
+
+
+def test_the_surface_weighted_score_accepts_where_the_counts_do_not_stand_out():
+    # The L-shaped wall walked at (above): its counts' contrast is 0.12–0.14 at the three
+    # tries, the weighted score's 0.63–0.71 (the facing wall's flat counts left out). With
+    # `min_contrast` 0.9 the counts never stand out: no estimate, the correction stays 0; with
+    # `surface_contrast` 0.1 the weighted score stands in and recovers the error within 0.25°;
+    # with `flat_contrast` 0.9 too the counts are flat: no estimate.
+    def walked(**params):
+        estimator = HeadingEstimator(
+            HeadingParams(estimate_every=1, edge_score=False, surface_power=3.0, **params)
+        )
+        _walk_at_l_shaped_wall(estimator, 3.0)
+        return estimator
+
+    assert walked(min_contrast=0.9).estimates == 0
+    accepted = walked(min_contrast=0.9, surface_contrast=0.1)
+    assert accepted.estimates == 3
+    assert math.degrees(accepted.correction_rad) == pytest.approx(-3.0, abs=0.25)
+    assert walked(min_contrast=0.9, flat_contrast=0.9, surface_contrast=0.1).estimates == 0
