@@ -394,6 +394,24 @@ class HeadingParams:
             with δ (a synthetic L-shaped wall: period 0.55°, beating against the 0.5° grid,
             the estimate 0.75° off with 2 grids; smooth and within 0.1° with 4). The
             replays' figures with 2 and 4 are under `surface_power`; 4 costs 10–20 % more.
+        surface_contrast: 0: off. With `surface_power`, a try whose point counts do not stand
+            out (below `min_contrast`) but are not flat either (`flat_contrast`) is accepted
+            when the surface-weighted score's best exceeds its median by this fraction of it
+            (`_surface_stands_out`). `table` walks 0.7 m and tries a last time with the counts'
+            contrast 0.093–0.097 on seeds 1, 4 and 5, so those never get an estimate; the
+            weighted score, without the facing wall's flat counts, stands out there (0.27–0.30
+            at the last try). Set from a survey of every try that was not accepted, over every
+            depth and stereo recording, seeds 1–8 (session 39; weights from each keyframe's
+            strided points): with the cameras spanning `min_baseline_m`, the tries whose
+            weighted contrast reaches 0.24 are `table` depth's last ones (estimates −0.4…+1.4°
+            off the world's yaw error), `table` stereo's (−0.3…+2.0°) and the talos course
+            seed 7's (+0.25°); none of `stairs`' (whose weighted contrast reaches 0.22 with
+            estimates 2° off). Replays, seeds 1–8, with `surface_power` 3, 0 → 0.24: `table`
+            depth `map_heading_deg` 0.86 (2.22) → 0.49 (1.11)° (seed 7's edge-score estimate
+            the worst), unsafe cells 1.0 (4) → 0.6 (2), floor precision 99.92 → 99.95 %; every
+            other depth and stereo figure unchanged (in the replays `table` stereo and the
+            talos course do not reach 0.24). A threshold that so far only `table` depth
+            crosses: off with `surface_power`.
     """
 
     correct_heading: bool = True
