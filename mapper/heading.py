@@ -405,13 +405,15 @@ class HeadingParams:
             strided points): with the cameras spanning `min_baseline_m`, the tries whose
             weighted contrast reaches 0.24 are `table` depth's last ones (estimates −0.4…+1.4°
             off the world's yaw error), `table` stereo's (−0.3…+2.0°) and the talos course
-            seed 7's (+0.25°); none of `stairs`' (whose weighted contrast reaches 0.22 with
-            estimates 2° off). Replays, seeds 1–8, with `surface_power` 3, 0 → 0.24: `table`
+            seed 7's (0.0…+0.3°); none of `stairs`' (whose weighted contrast reaches 0.22 with
+            an estimate 1.8° off). Replays, seeds 1–8, with `surface_power` 3, 0 → 0.24: `table`
             depth `map_heading_deg` 0.86 (2.22) → 0.49 (1.11)° (seed 7's edge-score estimate
             the worst), unsafe cells 1.0 (4) → 0.6 (2), floor precision 99.92 → 99.95 %; every
             other depth and stereo figure unchanged (in the replays `table` stereo and the
-            talos course do not reach 0.24). A threshold that so far only `table` depth
-            crosses: off with `surface_power`.
+            talos course do not reach 0.24). With `surface_power` 3, this and the rebuild pair
+            of `surface_power` together (replays, every depth and stereo set, seeds 1–8): depth
+            `table` 0.49 (1.11)°, `room` 0.56 (0.83)°, every other figure as with each alone.
+            A threshold that so far only `table` depth crosses: off with `surface_power`.
     """
 
     correct_heading: bool = True
