@@ -97,11 +97,12 @@ def _world(keyframe, frame):
     return believed, camera[:2, 3], true, frame.transform_camera_to_world_true[:2, 3], psi
 
 
-def decompose(path: Path, overrides: dict[str, object], args) -> list[str]:
-    """The lines of one recording (module docstring)."""
-    recording = load_recording(path)
-    params = resolve_params(recording.scenario, overrides, sensor_fields(recording.scenario))
-    frames = {f.index: f for f in recording.frames}
+def accepted_tries(recording, params) -> list[tuple[int, list[dict]]]:
+    """The replay's accepted structure tries: (frame, its keyframes) (module docstring).
+
+    Each keyframe a dict of its frame, believed camera transform, pose, height shift, and its
+    points (`offsets_xy`, `z_world`, `camera_xy`, `yaw`): what `_world` takes.
+    """
     current = [0]
     meta: dict[int, dict] = {}
     tries: list[tuple[int, list[dict]]] = []
@@ -127,7 +128,7 @@ def decompose(path: Path, overrides: dict[str, object], args) -> list[str]:
         if not edges and self.estimates > before:
             kept = [
                 dict(meta[id(k)], offsets_xy=k.offsets_xy, z_world=k.z_world,
-                     camera_xy=k.camera_xy, yaw=k.yaw_rad)
+                     camera_xy=k.camera_xy, yaw=k.yaw_rad, correction_rad=self.correction_rad)
                 for k in self._keyframes
             ]  # fmt: skip
             tries.append((current[0], kept))
@@ -139,6 +140,15 @@ def decompose(path: Path, overrides: dict[str, object], args) -> list[str]:
     finally:
         pipeline_module.Pipeline._observe_heading = observe
         add._add_keyframe, add._estimate = add_keyframe, estimate
+    return tries
+
+
+def decompose(path: Path, overrides: dict[str, object], args) -> list[str]:
+    """The lines of one recording (module docstring)."""
+    recording = load_recording(path)
+    params = resolve_params(recording.scenario, overrides, sensor_fields(recording.scenario))
+    frames = {f.index: f for f in recording.frames}
+    tries = accepted_tries(recording, params)
     needed = float(np.median([needed_deg(f) for f in recording.frames]))
     lines = [f"== {path.name}: needed {needed:+.2f}° (robot frame); errors counts / overlap"]
     for frame_index, kept in tries:

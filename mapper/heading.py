@@ -48,6 +48,11 @@ out and was flat at its latest try (`flat_contrast`) or has no keyframes, and ne
 `min_edge_evidence` besides `min_contrast` (a staircase wider than the view shows no lateral
 end: no estimate, the correction stays, rather than a guess).
 
+Surface weights (`surface_power`, off): the structure points of a surface that faces the
+camera path slide along it under a yaw error and add only their density to the score, which
+pulls the estimate off the truth where they dominate (`table`, `room`); weighted by how far
+their surface extends across the path, they drop out.
+
 Which correction the maps need: they are built in the believed (odometry's) world and scored
 in the true one, so the camera must be right in the world, odometry's yaw error included
 (`fogsim.eval.pose_error`'s ``world_heading_deg``); a correction exact in the robot frame
@@ -79,6 +84,7 @@ __all__ = [
     "heading_scores",
     "inside_image",
     "overlap_heading_scores",
+    "surface_spreads",
     "weighted_heading_scores",
     "yaw_about_pivot",
 ]
@@ -326,6 +332,88 @@ class HeadingParams:
             0.18° worse (talos course `world_heading_deg` 1.03 → 1.21°), unsafe cells on the
             zig-zag stereo 31.5 (66) → 32.8 (76), zig-zag depth 11.3 (44) → 12.6 (48), stage
             stereo 2.25 (5) → 2.0 (4). So 1.
+        surface_power: 0: off. Else the structure score's estimate (not whether it stands out:
+            that stays the point counts', which `min_contrast` and `flat_contrast` were set on;
+            exclusive with `voxel_estimate` and `overlap_cells`) weighs each point by how far
+            its surface extends *across* the camera path (`_surface_weights`: ``(1 −
+            tr(P·Σ̂))^(power/2)``, ``Σ̂`` the normalised horizontal spread of the frame's
+            structure points in the 3 × 3 `cell_m` squares around it, `surface_spreads`; ``P``
+            the across-baseline projector of `_edge_weights`): a wall or box side faced head-on
+            weighs 0, one along the path 1, clutter and corners 2^(−power/2). Why (session 39,
+            every try of the estimator on the depth and stereo replays, keyframes re-scored
+            against the yaw error each keyframe truly had in the world): the accepted
+            estimates are biased, not scattered: +0.9…+1.8° on every accepted `table` depth
+            try (+1.44° mean), +0.1…+1.4° on `room` (+0.63° mean), and the bias is the
+            estimator's own: the keyframes' true points turned by one constant yaw
+            (`bench/heading_decompose.py`, ``yaw``) are estimated +1.97° off on `table` seed 2.
+            On `table` the structure is a box face across the path and
+            a table: the face slides along itself under a yaw error and its counts follow the
+            density of its points, which differs from view to view (a near camera sees a short,
+            dense piece of it), so the counts' peak is pulled off the truth; its ends and the
+            table's sides hold the evidence. Weighted (power 3), the accepted `table` depth
+            estimates in the replays are −0.60…+0.37° off the correction the run needed, from
+            +0.94…+1.67° (`bench/heading_bias.py`, against the keyframes' yaw error in
+            the world, error mean (mean |error|, worst) over the accepted tries: `table` +1.44
+            (1.44, 1.71) → −0.12 (0.28, 0.54)°, `room` +0.63 (0.71, 1.39) → +0.31 (0.44,
+            0.95)°). Replays, seeds 1–8, `map_heading_deg` mean (worst), unsafe cells mean
+            (worst), off → power 3 with `surface_grids` 4 (→ with 2): depth `table` 1.40
+            (2.22) → 0.86 (2.22)° (0.81), `room` 0.82 (1.84) → 0.70 (1.84)° (0.68), unsafe 1.5
+            (5) → 1.1 (5), zig-zag 0.61 (1.16) → 0.50 (0.87)°, stage_down 0.42 (0.78) → 0.37
+            (0.58)°, talos course 0.65 (1.06) → 0.59 (1.46)° (seed 3 0.87 → 1.5°); stereo
+            `room` 0.89 (1.55) → 0.76 (1.55)° (0.81), stage 0.43 (0.77) → 0.30 (0.40)°,
+            stage_down 0.60 (1.25) → 0.48 (1.00)°, `table` 2.35 (4.65) → 2.10 (4.65)°. But
+            stage depth 0.31 (0.46) → 0.34 (0.56)° and its unsafe cells 0 (0) → 1.25 (10)
+            (seed 7, whose world need drifts from −3.55 to −4.8°: the weighted estimates are
+            −2.75…−3.25° until its last try, the counts' −3.25…−4.0°), stage stereo unsafe
+            2.25 (5) → 3.4 (15) (4.25 (19)), zig-zag depth unsafe 11.25 (44) → 13.4 (52)
+            (11.0 (44)), zig-zag stereo 0.49 (1.01) → 0.55 (1.26)° (1.51), unsafe 31.75 (71)
+            → 34.75 (85) (seed 5: both scores jump 2° off on its second leg, the weighted one
+            0.5° further),
+            `stairs` stereo 2.43 (4.75) → 2.65 (5.44)° (1.92 (4.75)), unsafe 48.6 → 52.75
+            (37.1), `table` depth obstacle precision 87.5 → 84.8 % (on the seeds whose heading
+            came right); Table I rows and floor precision within 0.04 mm and 0.1 %. Power 2
+            (grids 4): `table` 0.84°, zig-zag stereo 0.56 (1.25)°, `stairs` stereo 1.99°, 38.5
+            unsafe, stage stereo 3.9 (16) unsafe. Blending a constant into the weights (0.1 +
+            0.9·w) gives most of the `table` gain back (accepted tries +1.02° off). Heading
+            observe cost (load 5–6) 0.31 → 0.59 ms a frame on `room` depth, 0.53 → 1.14 ms on
+            the zig-zag stereo, its worst frame 31 → 75 ms. The zig-zag's own bias (−0.4…−0.6°
+            mean over the accepted tries, both scores; a pure constant yaw −0.7…−1.2° on stereo
+            seed 5) stays: its cameras spread both ways, so ``P`` is near ``I / 2`` and the
+            weights tell little (``P`` from each keyframe's ±4 or ±8 neighbours on the path
+            instead: no better). With `pipe.heading_rebuild_on_structure` and
+            `pipe.heading_rebuild_frames` 400 as well (the maps rebuilt when the structure
+            score's first estimate replaces the edge score's stand-in): `room` depth 0.56
+            (0.83)°, every seed within 1°, unsafe 0.5 (2); `room` stereo 0.46 (0.77)° but
+            unsafe 8.6 (13) → 9.5 (19) and its sill row 1.06 → 1.21 mm; talos course stereo
+            1.38 (3.06) → 1.06 (2.81)°, unsafe 51.5 (92) → 43.9 (84); the rest as without.
+            Better on most scenes and worse on the stage's and zig-zag's fragile seeds, so 0.
+        surface_grids: With `surface_power`, the weighted score sums this many voxel grids,
+            each offset by ``1 / surface_grids`` of a voxel (`weighted_heading_scores`). A
+            thin wall along a voxel row falls into one row or two as a correction moves it by
+            ``δ·range``: the score of the few lateral surfaces the weights leave oscillates
+            with δ (a synthetic L-shaped wall: period 0.55°, beating against the 0.5° grid,
+            the estimate 0.75° off with 2 grids; smooth and within 0.1° with 4). The
+            replays' figures with 2 and 4 are under `surface_power`; 4 costs 10–20 % more.
+        surface_contrast: 0: off. With `surface_power`, a try whose point counts do not stand
+            out (below `min_contrast`) but are not flat either (`flat_contrast`) is accepted
+            when the surface-weighted score's best exceeds its median by this fraction of it
+            (`_surface_stands_out`). `table` walks 0.7 m and tries a last time with the counts'
+            contrast 0.093–0.097 on seeds 1, 4 and 5, so those never get an estimate; the
+            weighted score, without the facing wall's flat counts, stands out there (0.27–0.30
+            at the last try). Set from a survey of every try that was not accepted, over every
+            depth and stereo recording, seeds 1–8 (session 39; weights from each keyframe's
+            strided points): with the cameras spanning `min_baseline_m`, the tries whose
+            weighted contrast reaches 0.24 are `table` depth's last ones (estimates −0.4…+1.4°
+            off the world's yaw error), `table` stereo's (−0.3…+2.0°) and the talos course
+            seed 7's (0.0…+0.3°); none of `stairs`' (whose weighted contrast reaches 0.22 with
+            an estimate 1.8° off). Replays, seeds 1–8, with `surface_power` 3, 0 → 0.24: `table`
+            depth `map_heading_deg` 0.86 (2.22) → 0.49 (1.11)° (seed 7's edge-score estimate
+            the worst), unsafe cells 1.0 (4) → 0.6 (2), floor precision 99.92 → 99.95 %; every
+            other depth and stereo figure unchanged (in the replays `table` stereo and the
+            talos course do not reach 0.24). With `surface_power` 3, this and the rebuild pair
+            of `surface_power` together (replays, every depth and stereo set, seeds 1–8): depth
+            `table` 0.49 (1.11)°, `room` 0.56 (0.83)°, every other figure as with each alone.
+            A threshold that so far only `table` depth crosses: off with `surface_power`.
     """
 
     correct_heading: bool = True
@@ -359,6 +447,9 @@ class HeadingParams:
     drift_step_deg_per_m: float = 0.1
     drift_margin: float = 0.0
     smooth_estimates: int = 1
+    surface_power: float = 0.0
+    surface_grids: int = 4
+    surface_contrast: float = 0.0
 
     def __post_init__(self) -> None:
         def check(name: str, kind: type, allowed: str, ok=lambda _: True) -> None:
@@ -412,6 +503,18 @@ class HeadingParams:
         )
         check("drift_margin", float, "a finite float >= 0", lambda v: math.isfinite(v) and v >= 0)
         check("smooth_estimates", int, "an integer in [1, 100]", lambda v: 1 <= v <= 100)
+        check("surface_grids", int, "an integer in [1, 16]", lambda v: 1 <= v <= 16)
+        check("surface_contrast", float, "in [0, 1)", lambda v: 0.0 <= v < 1.0)
+        check(
+            "surface_power",
+            float,
+            "0 (off) or a finite float in (0, 10], and 0 with voxel_estimate or overlap_cells",
+            lambda v: (
+                math.isfinite(v)
+                and 0.0 <= v <= 10.0
+                and not (v and (self.voxel_estimate or self.overlap_cells))
+            ),
+        )
         check("keyframe_sector_deg", float, "in (0, 360] degrees", lambda v: 0.0 < v <= 360.0)
         for name in ("keyframe_spacing_m", "max_range_m", "cell_m", "layer_m"):
             check(name, float, "a finite float > 0 [m]", lambda v: math.isfinite(v) and v > 0)
@@ -571,7 +674,7 @@ def heading_scores(offsets_xy, z_world, starts, camera_xy, yaw_rad, angles_rad, 
 
 @numba.njit(cache=True, no_cfunc_wrapper=True, nogil=True, error_model="numpy")
 def weighted_heading_scores(
-    offsets_xy, z_world, weights, starts, camera_xy, yaw_rad, angles_rad, cell, layer
+    offsets_xy, z_world, weights, starts, camera_xy, yaw_rad, angles_rad, cell, layer, grids=2
 ):
     """`heading_scores` with a weight per point: ``Σ_{j<k} Σ_voxels W_j·W_k`` (numba).
 
@@ -589,6 +692,8 @@ def weighted_heading_scores(
         angles_rad: (A,) candidate corrections [rad].
         cell: Horizontal voxel size [m].
         layer: Vertical voxel size [m].
+        grids: Voxel grids summed over, each offset by ``1 / grids`` of a voxel along x, y and
+            z from the previous (2: `heading_scores`' two).
 
     Returns:
         (A,) float64 scores.
@@ -599,7 +704,8 @@ def weighted_heading_scores(
     scores = np.zeros(angles_rad.shape[0])
     for a in range(angles_rad.shape[0]):
         pairs = 0.0
-        for shift in (0.0, 0.5):  # two voxel grids, the second offset by half a voxel
+        for g in range(grids):  # voxel grids offset by 1 / grids of a voxel (2: by half)
+            shift = g / grids
             for k in range(starts.shape[0] - 1):
                 _keyframe_slots(
                     slots, offsets_xy, z_world, starts, camera_xy, yaw_rad, k, angles_rad[a],
@@ -802,6 +908,7 @@ class _Keyframe:
     voxel_offsets_xy: NDArray[np.float64] | None = None  # structure, with `voxel_estimate`
     voxel_z_world: NDArray[np.float64] | None = None  # ... and their world z
     walked_m: float = 0.0  # believed distance walked when it was taken [m]
+    spreads: NDArray[np.float64] | None = None  # (N, 3) robot frame, with `surface_power`
 
 
 class HeadingEstimator:
@@ -994,6 +1101,9 @@ class HeadingEstimator:
             voxels, _ = voxel_centroids(points, p.cell_m, p.layer_m)
             voxels = voxels[:: -(-voxels.shape[0] // p.max_points_per_keyframe)]
         step = -(-points.shape[0] // p.max_points_per_keyframe)
+        spreads = None
+        if p.surface_power > 0.0 and not edges:
+            spreads = surface_spreads(points[:, :2], p.cell_m)[::step]
         points = points[::step]
         if gradients is not None:
             gradients = np.ascontiguousarray(gradients[::step])
@@ -1014,6 +1124,7 @@ class HeadingEstimator:
                     [voxels[:, 0] - transform[0, 3], voxels[:, 1] - transform[1, 3]]
                 ),
                 voxel_z_world=None if voxels is None else (voxels[:, 2] + z_shift_m) + pose[2],
+                spreads=spreads,
             )
         )
         keys = self._keys[edges]
@@ -1061,7 +1172,9 @@ class HeadingEstimator:
         above_median = best - float(np.median(scores))
         if not edges:
             self._structure_flat = best <= 0.0 or above_median < p.flat_contrast * best
-        if best <= 0.0 or above_median < p.min_contrast * best:
+        if (best <= 0.0 or above_median < p.min_contrast * best) and not (
+            not edges and self._surface_stands_out(keyframes, data, coarse, best, above_median)
+        ):
             return
         if edges and above_median < p.min_edge_evidence:
             return
@@ -1094,6 +1207,17 @@ class HeadingEstimator:
             )
             scores = score(*data, np.radians(coarse), p.cell_m, p.layer_m)
             best = float(scores.max())
+        if p.surface_power > 0.0 and not edges:
+            # Accepted on the points' score (its thresholds); the estimate from the weighted one.
+            weights = _surface_weights(keyframes, data[3], data[4], p.surface_power)
+
+            def score(offsets_xy, z_world, starts, *rest):
+                return weighted_heading_scores(
+                    offsets_xy, z_world, weights, starts, *rest, p.surface_grids
+                )
+
+            scores = score(*data, np.radians(coarse), p.cell_m, p.layer_m)
+            best = float(scores.max())
         if p.overlap_cells and not edges:
             # Accepted on the points' score (its thresholds); the estimate from the overlap's.
             def score(*args):
@@ -1119,6 +1243,42 @@ class HeadingEstimator:
         self.edge_estimates += edges
         self.from_edges = edges
 
+    def _surface_stands_out(
+        self,
+        keyframes: list[_Keyframe],
+        data: tuple,
+        coarse_deg: NDArray[np.float64],
+        best: float,
+        above_median: float,
+    ) -> bool:
+        """Whether the surface-weighted score stands out where the point counts' does not.
+
+        Only with `surface_power` and `surface_contrast`, and where the counts' score is not
+        flat (`flat_contrast`): its best must exceed its median by `surface_contrast` of it.
+        """
+        p = self.params
+        if p.surface_power <= 0.0 or p.surface_contrast <= 0.0:
+            return False
+        if best <= 0.0 or above_median < p.flat_contrast * best:
+            return False
+        weights = _surface_weights(keyframes, data[3], data[4], p.surface_power)
+        scores = weighted_heading_scores(
+            data[0], data[1], weights, *data[2:], np.radians(coarse_deg), p.cell_m, p.layer_m,
+            p.surface_grids,
+        )  # fmt: skip
+        top = float(scores.max())
+        return top > 0.0 and top - float(np.median(scores)) >= p.surface_contrast * top
+
+
+def _across_baselines(cameras_xy: NDArray[np.float64]) -> NDArray[np.float64]:
+    """``P = (tr Σ·I − Σ) / tr Σ``, ``Σ`` the covariance of the cameras' world x, y (2×2, trace 1).
+
+    How much a horizontal direction lies across the keyframes' baselines: a straight walk along
+    ``d`` gives ``d⊥·d⊥ᵀ``, cameras spread evenly ``I / 2``.
+    """
+    spread = np.cov(cameras_xy.T, bias=True)
+    return (np.trace(spread) * np.eye(2) - spread) / max(float(np.trace(spread)), 1e-12)
+
 
 def _edge_weights(
     keyframes: list[_Keyframe], cameras_xy: NDArray[np.float64]
@@ -1138,14 +1298,102 @@ def _edge_weights(
     Returns:
         (M,) float64 weights, keyframe by keyframe.
     """
-    spread = np.cov(cameras_xy.T, bias=True)
-    across = (np.trace(spread) * np.eye(2) - spread) / max(float(np.trace(spread)), 1e-12)
+    across = _across_baselines(cameras_xy)
     out = []
     for k in keyframes:
         c, s = math.cos(k.yaw_rad), math.sin(k.yaw_rad)
         assert k.gradients_xy is not None  # kept with `edge_score`
         g = k.gradients_xy @ np.array([[c, s], [-s, c]])  # rows: R(yaw)·g
         out.append(np.sqrt(np.maximum(np.einsum("ni,ij,nj->n", g, across, g), 0.0)))
+    return np.concatenate(out)
+
+
+def surface_spreads(points_xy: NDArray[np.float64], cell_m: float) -> NDArray[np.float64]:
+    """How each point's neighbourhood spreads horizontally: its normalised 2×2 covariance.
+
+    The neighbourhood is the points in the 3 × 3 ``cell_m`` squares around the point's square
+    (a ``3·cell_m`` window): along a wall or a box side the points spread along the surface
+    only (``Σ̂ = t·tᵀ``, ``t`` the surface's horizontal direction), at a corner or in clutter
+    both ways (``Σ̂ ≈ I / 2``).
+
+    Args:
+        points_xy: (N, 2) points' horizontal coordinates [m] (any frame).
+        cell_m: Square size [m].
+
+    Returns:
+        (N, 3) float64 ``(Σ̂xx, Σ̂xy, Σ̂yy)``, the covariance divided by its trace (``Σ̂xx +
+        Σ̂yy = 1``); ``(0.5, 0, 0.5)`` (isotropic) where the neighbourhood holds fewer than 3
+        points or does not spread.
+    """
+    n = points_xy.shape[0]
+    out = np.tile([0.5, 0.0, 0.5], (n, 1))
+    if n == 0:
+        return out
+    local = points_xy - points_xy.min(axis=0)  # small coordinates: no cancellation below
+    ij = np.floor(local / cell_m).astype(np.int64) + 1  # every neighbour index >= 0
+    width = int(ij[:, 1].max()) + 2
+    keys = ij[:, 0] * width + ij[:, 1]
+    squares, inverse = np.unique(keys, return_inverse=True)
+    inverse = inverse.reshape(-1)
+    x, y = local[:, 0], local[:, 1]
+    moments = np.column_stack(
+        [np.bincount(inverse, weights=w, minlength=squares.size)
+         for w in (np.ones(n), x, y, x * x, x * y, y * y)]
+    )  # fmt: skip
+    around = np.zeros((n, 6))
+    for di in (-1, 0, 1):
+        for dj in (-1, 0, 1):
+            shifted = keys + (di * width + dj)
+            at = np.minimum(np.searchsorted(squares, shifted), squares.size - 1)
+            hit = squares[at] == shifted
+            around[hit] += moments[at[hit]]
+    count = around[:, 0]
+    mean_x, mean_y = around[:, 1] / count, around[:, 2] / count
+    xx = around[:, 3] / count - mean_x * mean_x
+    xy = around[:, 4] / count - mean_x * mean_y
+    yy = around[:, 5] / count - mean_y * mean_y
+    trace = xx + yy
+    ok = (count >= 3) & (trace > 1e-12)
+    out[ok] = np.column_stack([xx[ok], xy[ok], yy[ok]]) / trace[ok, None]
+    return out
+
+
+def _surface_weights(
+    keyframes: list[_Keyframe],
+    cameras_xy: NDArray[np.float64],
+    yaw_rad: NDArray[np.float64],
+    power: float,
+) -> NDArray[np.float64]:
+    """Weight of each structure point: how far its surface extends *across* the camera path.
+
+    A yaw error moves the frames against each other sideways to their baselines (module
+    docstring): along ``P`` = ``(tr Σ·I − Σ) / tr Σ``, ``Σ`` the covariance of the cameras'
+    positions (`_edge_weights`). A surface that extends along that direction (a wall or a box
+    side faced head-on) slides along itself and shows nothing but the density of its points; one
+    that extends along the path shows it fully. A point's weight is ``(1 − tr(P·Σ̂))^(power/2)``
+    with ``Σ̂`` its neighbourhood's normalised spread (`surface_spreads`) in the world: 0 on a
+    surface lying along ``P``, 1 across it, ``2^(−power/2)`` in clutter or at a corner.
+
+    Args:
+        keyframes: The structure keyframes, with their `spreads` (robot frame).
+        cameras_xy: (K, 2) their world camera positions [m].
+        yaw_rad: (K,) the robot yaw of each [rad] (as scored).
+        power: The exponent (`HeadingParams.surface_power`).
+
+    Returns:
+        (M,) float64 weights in [0, 1], keyframe by keyframe.
+    """
+    across = _across_baselines(cameras_xy)
+    out = []
+    for k, yaw in zip(keyframes, yaw_rad, strict=True):
+        assert k.spreads is not None  # kept with `surface_power`
+        c, s = math.cos(yaw), math.sin(yaw)
+        turn = np.array([[c, -s], [s, c]])
+        p = turn.T @ across @ turn  # `across` in the keyframe's robot frame
+        along = (
+            p[0, 0] * k.spreads[:, 0] + 2.0 * p[0, 1] * k.spreads[:, 1] + p[1, 1] * k.spreads[:, 2]
+        )
+        out.append(np.maximum(1.0 - along, 0.0) ** (0.5 * power))
     return np.concatenate(out)
 
 
