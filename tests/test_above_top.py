@@ -12,7 +12,7 @@ import numpy as np
 import pytest
 
 from mapper import CellType, FloorObstacleMapper, InvalidParameterError, MapperParams
-from mapper.above_top import above_top_columns
+from mapper.above_top import MIN_HIT_POINTS, above_top_columns
 from mapper.grid import GridGeometry
 
 GRID = dict(nx=20, ny=20)
@@ -81,14 +81,26 @@ def test_rays_crossing_the_top_face_clear_the_column_again():
 
 def test_a_hit_wins_over_a_miss_in_one_frame():
     geometry = GridGeometry.from_params(MapperParams(**GRID), (0.4, 0.4))
-    ground = np.array([[1.5625, 0.1 + (ROW_Y - 0.1) * 0.9 / 0.32, 0.0], [0.62, ROW_Y, 0.7]])
+    riser = [[0.62, ROW_Y, 0.7]] * MIN_HIT_POINTS
+    ground = np.array([[1.5625, 0.1 + (ROW_Y - 0.1) * 0.9 / 0.32, 0.0], *riser])
     columns = above_top_columns(ground, SENSOR, geometry, 0.05, 0.6, np.inf)
     assert columns.hit.tolist() == [15 * 20 + 10] and columns.miss.size == 0
 
 
+def test_a_single_stray_point_is_no_hit():
+    geometry = GridGeometry.from_params(MapperParams(**GRID), (0.4, 0.4))
+    assert MIN_HIT_POINTS == 2
+    one = np.array([[0.62, ROW_Y, 0.7]])
+    assert above_top_columns(one, SENSOR, geometry, 0.05, 0.6, np.inf).hit.size == 0
+    assert (
+        above_top_columns(np.repeat(one, 2, axis=0), SENSOR, geometry, 0.05, 0.6, np.inf).hit.size
+        == 1
+    )
+
+
 def test_points_beyond_the_range_are_no_hit():
     geometry = GridGeometry.from_params(MapperParams(**GRID), (0.4, 0.4))
-    far = np.array([[0.62, ROW_Y, 0.7]])
+    far = np.array([[0.62, ROW_Y, 0.7]] * MIN_HIT_POINTS)
     assert above_top_columns(far, SENSOR, geometry, 0.05, 0.6, 0.5).hit.size == 0
     assert above_top_columns(far, SENSOR, geometry, 0.05, 0.6, 1.0).hit.size == 1
 
