@@ -14,6 +14,7 @@ from __future__ import annotations
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
+from mapper.above_top import above_top_columns, apply_above_top
 from mapper.errors import InvalidParameterError
 from mapper.floor_cover import accumulate_cover, frame_floor_heights
 from mapper.floor_map import frame_verdicts, update_floor, verify_floor
@@ -106,6 +107,8 @@ class FloorObstacleMapper:
         self._obstacle = np.full((p.nx, p.ny), np.nan)
         self._fog_types = np.full((p.nx, p.ny), CellType.UNKNOWN, dtype=np.int8)
         self._fog_heights = np.full((p.nx, p.ny), np.nan)
+        # Something just above the grid's top, per column (`mapper.above_top`).
+        self._above_top = np.full((p.nx, p.ny), LEVEL_UNKNOWN, dtype=np.uint8)
         # Where the two above are stale (`_refresh_fog`); None: nowhere.
         self._stale_area: AffectedArea | None = None
         # Once-per-frame marks: one bit per layer in a word per column when the column fits one
@@ -215,6 +218,14 @@ class FloorObstacleMapper:
                 cells,
             )
         used, nonfinite, outside, beyond, cells, ix0, ix1, iy0, iy1 = inserted
+        if p.above_top_reach_m > p.delta_m:  # `mapper.above_top`
+            columns = above_top_columns(
+                pts, origin, g, p.delta_m, p.above_top_reach_m, float(p.max_range_m)
+            )
+            apply_above_top(self._above_top, columns, self._hit_table, self._miss_table)
+            above_area = columns.area(p.ny)
+            if above_area is not None:
+                self._stale_area = above_area.union(self._stale_area)
         if cells == 0:
             return UpdateResult(None, used, nonfinite, outside, 0, 0, 0, beyond)
         verify_floor(
@@ -367,6 +378,12 @@ class FloorObstacleMapper:
                 iy0 - ring,
                 iy1 + ring,
             )
+        if p.above_top_reach_m > p.delta_m:  # `mapper.above_top`, over every other rule
+            # The whole grid, idempotently: a column whose level changed lies in the stale
+            # area, whose labels the rules above rewrote; the others already carry it.
+            rises = self._above_top > self._occ_level
+            self._fog_types[rises] = CellType.OBSTACLE
+            self._fog_heights[rises] = g.z_max_m
 
     # ------------------------------------------------------------------ read-out
     def occupancy(self) -> NDArray[np.float64]:
@@ -455,5 +472,6 @@ class FloorObstacleMapper:
         scroll_xy(self._obstacle, sx, sy, np.nan)
         scroll_xy(self._fog_types, sx, sy, CellType.UNKNOWN)
         scroll_xy(self._fog_heights, sx, sy, np.nan)
+        scroll_xy(self._above_top, sx, sy, LEVEL_UNKNOWN)
         self._geometry = self._geometry.shifted(sx, sy)
         return (sx, sy)

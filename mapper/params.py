@@ -451,6 +451,12 @@ class MapperParams:
         floor_range_power: Beyond the paper: with ``floor_memory``, a frame's measurement
             at range ``r`` [m] weighs ``(WEIGHT_RANGE_M / r)^floor_range_power`` (at most 1).
             4: the variance of stereo depth grows as ``z^4`` (constant disparity noise).
+        above_top_reach_m: Beyond the paper: points more than ``delta_m`` and at most this
+            far above the grid's top [m] (`z_max_m`) mark their column as holding something
+            above the grid, rays crossing the top face downwards clear it, and the FOG calls
+            such a column an obstacle at the grid's top (`mapper.above_top`): a surface
+            rising out of the grid (a staircase seen from its bottom) is no floor of the
+            tread at its foot. 0 (default) or at most ``delta_m``: off, the paper's grid.
     """
 
     nx: int = 100
@@ -492,6 +498,7 @@ class MapperParams:
     raised_rim_obstacle: bool = False
     floor_memory: float = 8.0
     floor_range_power: float = 4.0
+    above_top_reach_m: float = 0.0
 
     def __post_init__(self) -> None:
         def check(name: str, kind: type, allowed: str, ok=lambda _: True) -> None:
@@ -549,6 +556,7 @@ class MapperParams:
             "edge_band_m",
             "narrow_rise_m",
             "shadow_reach_m",
+            "above_top_reach_m",
         ):
             check(name, float, "a finite float >= 0 [m]", lambda v: math.isfinite(v) and v >= 0)
         check("max_range_m", float, "a float > 0 [m] (inf: no limit)", lambda v: v > 0)

@@ -1,0 +1,119 @@
+"""Something above the grid's top makes its column an obstacle (`mapper.above_top`).
+
+The default grid's top is z_min + nz·layer = −0.06 + 16·0.04 = 0.58 m; delta_m is 0.05, so a
+hit lies in (0.63, 0.58 + reach]. The frames below: a sensor at (0.1, 0.1, 0.9) over a grid
+of 20 × 20 cells of 0.04 m from (0, 0); a "tread" of floor points at 0.56 m (the top layer,
+0.54–0.58) over x in [0.4, 0.6), and a "riser" column of points at 0.70 m at x = 0.62.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from mapper import CellType, FloorObstacleMapper, InvalidParameterError, MapperParams
+from mapper.above_top import MIN_HIT_POINTS, above_top_columns
+from mapper.grid import GridGeometry
+
+GRID = dict(nx=20, ny=20)
+SENSOR = np.array([0.1, 0.1, 0.9])
+TREAD_Z = 0.56
+ROW_Y = 0.42  # the cells of row iy = 10
+
+
+def tread_frame(riser_z: float | None) -> tuple[np.ndarray, np.ndarray]:
+    """Floor points on the tread (x cells 10-14, row 10) and, with ``riser_z``, a point at
+    that height in column (15, 10) (x = 0.62)."""
+    xs = np.arange(0.41, 0.6, 0.01)
+    points = [np.array([x, ROW_Y, TREAD_Z]) for x in xs]
+    heights = [TREAD_Z] * len(points)
+    if riser_z is not None:
+        points += [np.array([0.62, ROW_Y, riser_z])] * 3
+        heights += [np.nan] * 3
+    return np.array(points), np.array(heights)
+
+
+def fog_of(params: MapperParams, frames: list[tuple[np.ndarray, np.ndarray]]):
+    mapper = FloorObstacleMapper(params, center_xy_m=(0.4, 0.4))
+    for points, heights in frames:
+        mapper.update(points, heights, SENSOR)
+    return mapper.fog()
+
+
+def test_a_point_above_the_top_makes_its_column_an_obstacle_at_the_top():
+    params = MapperParams(**GRID, above_top_reach_m=0.6)
+    assert params.z_max_m == pytest.approx(0.58)
+    types, heights = fog_of(params, [tread_frame(0.70)] * 4)
+    assert types[15, 10] == CellType.OBSTACLE
+    assert heights[15, 10] == pytest.approx(0.58)
+    assert (types[10:15, 10] == CellType.FLOOR).all()  # the tread itself stays a floor
+    # Off (the default): the riser's column holds nothing the grid can see.
+    types_off, _ = fog_of(MapperParams(**GRID), [tread_frame(0.70)] * 4)
+    assert types_off[15, 10] != CellType.OBSTACLE
+
+
+@pytest.mark.parametrize("riser_z", [0.60, 0.63, 1.30])
+def test_points_within_delta_of_the_top_or_beyond_the_reach_do_not_count(riser_z):
+    # 0.60 and 0.63 lie within delta (0.05) of the top (a top-layer surface's noise); 1.30 is
+    # beyond 0.58 + 0.6.
+    params = MapperParams(**GRID, above_top_reach_m=0.6)
+    types, _ = fog_of(params, [tread_frame(riser_z)] * 4)
+    assert types[15, 10] != CellType.OBSTACLE
+
+
+def test_rays_crossing_the_top_face_clear_the_column_again():
+    # Hits for 4 frames, then the riser is gone: a ray to the ground beyond crosses the top
+    # face inside column (15, 10), and its misses take the column's level back below p_occ.
+    params = MapperParams(**GRID, above_top_reach_m=0.6)
+    mapper = FloorObstacleMapper(params, center_xy_m=(0.4, 0.4))
+    for _ in range(4):
+        mapper.update(*tread_frame(0.70), SENSOR)
+    assert mapper.fog()[0][15, 10] == CellType.OBSTACLE
+    # A ray from the sensor crosses z = 0.58 at (0.62, 0.42) when it ends on the ground (z = 0)
+    # at x = 0.1 + (0.62 - 0.1) · 0.9 / (0.9 - 0.58) = 1.5625, y = 0.1 + 0.32 · 0.9 / 0.32 = 1.0.
+    ground = np.array([[1.5625, 0.1 + (ROW_Y - 0.1) * 0.9 / 0.32, 0.0]])
+    columns = above_top_columns(ground, SENSOR, mapper.geometry, 0.05, 0.6, np.inf)
+    assert columns.miss.tolist() == [15 * 20 + 10] and columns.hit.size == 0
+    for _ in range(12):
+        mapper.update(ground, np.array([np.nan]), SENSOR)
+    assert mapper.fog()[0][15, 10] != CellType.OBSTACLE
+
+
+def test_a_hit_wins_over_a_miss_in_one_frame():
+    geometry = GridGeometry.from_params(MapperParams(**GRID), (0.4, 0.4))
+    riser = [[0.62, ROW_Y, 0.7]] * MIN_HIT_POINTS
+    ground = np.array([[1.5625, 0.1 + (ROW_Y - 0.1) * 0.9 / 0.32, 0.0], *riser])
+    columns = above_top_columns(ground, SENSOR, geometry, 0.05, 0.6, np.inf)
+    assert columns.hit.tolist() == [15 * 20 + 10] and columns.miss.size == 0
+
+
+def test_a_single_stray_point_is_no_hit():
+    geometry = GridGeometry.from_params(MapperParams(**GRID), (0.4, 0.4))
+    assert MIN_HIT_POINTS == 2
+    one = np.array([[0.62, ROW_Y, 0.7]])
+    assert above_top_columns(one, SENSOR, geometry, 0.05, 0.6, np.inf).hit.size == 0
+    assert (
+        above_top_columns(np.repeat(one, 2, axis=0), SENSOR, geometry, 0.05, 0.6, np.inf).hit.size
+        == 1
+    )
+
+
+def test_points_beyond_the_range_are_no_hit():
+    geometry = GridGeometry.from_params(MapperParams(**GRID), (0.4, 0.4))
+    far = np.array([[0.62, ROW_Y, 0.7]] * MIN_HIT_POINTS)
+    assert above_top_columns(far, SENSOR, geometry, 0.05, 0.6, 0.5).hit.size == 0
+    assert above_top_columns(far, SENSOR, geometry, 0.05, 0.6, 1.0).hit.size == 1
+
+
+def test_the_column_scrolls_with_the_grid():
+    params = MapperParams(**GRID, above_top_reach_m=0.6)
+    mapper = FloorObstacleMapper(params, center_xy_m=(0.4, 0.4))
+    for _ in range(4):
+        mapper.update(*tread_frame(0.70), SENSOR)
+    assert mapper.recenter(0.48, 0.4) == (2, 0)
+    assert mapper.fog()[0][13, 10] == CellType.OBSTACLE
+
+
+def test_a_negative_reach_is_refused_with_the_allowed_values():
+    with pytest.raises(InvalidParameterError, match=r"above_top_reach_m.*>= 0"):
+        MapperParams(above_top_reach_m=-0.1)
