@@ -47,8 +47,9 @@ def test_a_point_above_the_top_makes_its_column_an_obstacle_at_the_top():
     assert types[15, 10] == CellType.OBSTACLE
     assert heights[15, 10] == pytest.approx(0.58)
     assert (types[10:15, 10] == CellType.FLOOR).all()  # the tread itself stays a floor
-    # Off (the default): the riser's column holds nothing the grid can see.
-    types_off, _ = fog_of(MapperParams(**GRID), [tread_frame(0.70)] * 4)
+    # Off: the riser's column holds nothing the grid can see.
+    assert MapperParams().above_top_reach_m == 0.6  # on by default
+    types_off, _ = fog_of(MapperParams(**GRID, above_top_reach_m=0.0), [tread_frame(0.70)] * 4)
     assert types_off[15, 10] != CellType.OBSTACLE
 
 
