@@ -24,12 +24,22 @@ below it.
 
 from __future__ import annotations
 
+import numba
 import numpy as np
 from numpy.typing import NDArray
 
 from mapper.grid import AffectedArea, GridGeometry
 
-__all__ = ["MIN_HIT_POINTS", "AboveTopColumns", "above_top_columns", "apply_above_top"]
+__all__ = [
+    "MIN_HIT_POINTS",
+    "AboveTopColumns",
+    "above_top_columns",
+    "apply_above_top",
+    "update_above_top",
+]
+
+_CROSSED = np.int32(1 << 20)
+"""`update_above_top`'s flag in a column's scratch count: a ray crossed its top face."""
 
 MIN_HIT_POINTS = 2
 """Points a column needs above the top in one frame for a hit: a riser gives many, while the
@@ -126,3 +136,94 @@ def apply_above_top(
     flat = levels.reshape(-1)
     flat[columns.hit] = hit_table[flat[columns.hit]]
     flat[columns.miss] = miss_table[flat[columns.miss]]
+
+
+@numba.njit(cache=True, no_cfunc_wrapper=True, nogil=True, error_model="numpy")
+def update_above_top(
+    points,
+    sensor_origin,
+    origin_x,
+    origin_y,
+    cell,
+    top,
+    min_above,
+    reach,
+    max_range,
+    levels,
+    counts,
+    touched,
+    hit_table,
+    miss_table,
+    min_points,
+):
+    """`above_top_columns` and `apply_above_top` in one pass over the points (numba).
+
+    The same columns and levels as the two (``tests/test_above_top.py`` compares them), in
+    about 30 µs for the stage's 6 000 points instead of about 1 ms of numpy sorting.
+
+    Args:
+        points: (N, 3) world points [m].
+        sensor_origin: (3,) world sensor position [m].
+        origin_x: World x of the grid's corner [m].
+        origin_y: World y of the grid's corner [m].
+        cell: Cell side [m].
+        top: World z of the grid's top face [m].
+        min_above: A hit lies more than this above the top [m].
+        reach: ... and at most this above it [m].
+        max_range: Points farther from the sensor are no hit [m].
+        levels: (nx, ny) uint8 levels, updated in place.
+        counts: (nx·ny,) int32 scratch, zero on entry and on return: the frame's hits per
+            column, with ``_CROSSED`` set where a ray crossed its top face.
+        touched: (2·N,) int64 scratch for the columns the frame touched.
+        hit_table: (256,) uint8 table of a hit.
+        miss_table: (256,) uint8 table of a miss.
+        min_points: Points a column needs for a hit (`MIN_HIT_POINTS`).
+
+    Returns:
+        (ix0, ix1, iy0, iy1) the touched columns' bounding box (end-exclusive); ix1 = 0 when
+        none.
+    """
+    nx, ny = levels.shape
+    flat = levels.reshape(-1)
+    ox, oy, oz = sensor_origin[0], sensor_origin[1], sensor_origin[2]
+    n_touched = 0
+    for i in range(points.shape[0]):
+        x, y, z = points[i, 0], points[i, 1], points[i, 2]
+        if not (np.isfinite(x) and np.isfinite(y) and np.isfinite(z)):
+            continue
+        dx, dy, dz = x - ox, y - oy, z - oz
+        length = np.sqrt(dx * dx + dy * dy + dz * dz) if max_range < np.inf else 0.0
+        height = z - top
+        mark = 0
+        if height > min_above and height <= reach and length <= max_range:
+            fx = np.floor((x - origin_x) / cell)
+            fy = np.floor((y - origin_y) / cell)
+            mark = 1
+        elif oz > top and z < top:
+            t = (oz - top) / (oz - z)  # in (0, 1): where the ray crosses the top face
+            if max_range == np.inf or t <= min(1.0, max_range / max(length, 1e-12)):
+                fx = np.floor((ox + t * dx - origin_x) / cell)
+                fy = np.floor((oy + t * dy - origin_y) / cell)
+                mark = _CROSSED
+        if mark == 0 or not (0.0 <= fx < nx and 0.0 <= fy < ny):
+            continue
+        c = np.int64(fx) * ny + np.int64(fy)
+        if counts[c] == 0:
+            touched[n_touched] = c
+            n_touched += 1
+        counts[c] = counts[c] + 1 if mark == 1 else counts[c] | _CROSSED
+    ix0, ix1, iy0, iy1 = nx, 0, ny, 0
+    for k in range(n_touched):
+        c = touched[k]
+        if counts[c] & (_CROSSED - 1) >= min_points:
+            flat[c] = hit_table[flat[c]]
+        elif counts[c] & _CROSSED:
+            flat[c] = miss_table[flat[c]]
+        counts[c] = 0
+        ix = c // ny
+        iy = c - ix * ny
+        ix0 = min(ix0, ix)
+        ix1 = max(ix1, ix + 1)
+        iy0 = min(iy0, iy)
+        iy1 = max(iy1, iy + 1)
+    return ix0, ix1, iy0, iy1

@@ -14,7 +14,7 @@ from __future__ import annotations
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from mapper.above_top import above_top_columns, apply_above_top
+from mapper.above_top import MIN_HIT_POINTS, update_above_top
 from mapper.errors import InvalidParameterError
 from mapper.floor_cover import accumulate_cover, frame_floor_heights
 from mapper.floor_map import frame_verdicts, update_floor, verify_floor
@@ -109,6 +109,8 @@ class FloorObstacleMapper:
         self._fog_heights = np.full((p.nx, p.ny), np.nan)
         # Something just above the grid's top, per column (`mapper.above_top`).
         self._above_top = np.full((p.nx, p.ny), LEVEL_UNKNOWN, dtype=np.uint8)
+        self._above_counts = np.zeros(p.nx * p.ny, dtype=np.int32)  # scratch, kept zero
+        self._above_scratch = np.empty(0, dtype=np.int64)  # touched columns, grown as needed
         # Where the two above are stale (`_refresh_fog`); None: nowhere.
         self._stale_area: AffectedArea | None = None
         # Once-per-frame marks: one bit per layer in a word per column when the column fits one
@@ -219,13 +221,27 @@ class FloorObstacleMapper:
             )
         used, nonfinite, outside, beyond, cells, ix0, ix1, iy0, iy1 = inserted
         if p.above_top_reach_m > p.delta_m:  # `mapper.above_top`
-            columns = above_top_columns(
-                pts, origin, g, p.delta_m, p.above_top_reach_m, float(p.max_range_m)
+            if self._above_scratch.shape[0] < 2 * pts.shape[0]:
+                self._above_scratch = np.empty(2 * pts.shape[0], dtype=np.int64)
+            a0, a1, b0, b1 = update_above_top(
+                pts,
+                origin,
+                ox,
+                oy,
+                g.cell_m,
+                g.z_max_m,
+                p.delta_m,
+                p.above_top_reach_m,
+                float(p.max_range_m),
+                self._above_top,
+                self._above_counts,
+                self._above_scratch,
+                self._hit_table,
+                self._miss_table,
+                MIN_HIT_POINTS,
             )
-            apply_above_top(self._above_top, columns, self._hit_table, self._miss_table)
-            above_area = columns.area(p.ny)
-            if above_area is not None:
-                self._stale_area = above_area.union(self._stale_area)
+            if a1 > a0:
+                self._stale_area = AffectedArea(a0, a1, b0, b1).union(self._stale_area)
         if cells == 0:
             return UpdateResult(None, used, nonfinite, outside, 0, 0, 0, beyond)
         verify_floor(
@@ -379,11 +395,15 @@ class FloorObstacleMapper:
                 iy1 + ring,
             )
         if p.above_top_reach_m > p.delta_m:  # `mapper.above_top`, over every other rule
-            # The whole grid, idempotently: a column whose level changed lies in the stale
-            # area, whose labels the rules above rewrote; the others already carry it.
-            rises = self._above_top > self._occ_level
-            self._fog_types[rises] = CellType.OBSTACLE
-            self._fog_heights[rises] = g.z_max_m
+            # The window the rules above rewrote (the stale area and its ring): a column whose
+            # level changed lies in the stale area; the others already carry it.
+            window = (
+                slice(max(ix0 - ring, 0), min(ix1 + ring, p.nx)),
+                slice(max(iy0 - ring, 0), min(iy1 + ring, p.ny)),
+            )
+            rises = self._above_top[window] > self._occ_level
+            self._fog_types[window][rises] = CellType.OBSTACLE
+            self._fog_heights[window][rises] = g.z_max_m
 
     # ------------------------------------------------------------------ read-out
     def occupancy(self) -> NDArray[np.float64]:

@@ -12,8 +12,14 @@ import numpy as np
 import pytest
 
 from mapper import CellType, FloorObstacleMapper, InvalidParameterError, MapperParams
-from mapper.above_top import MIN_HIT_POINTS, above_top_columns
+from mapper.above_top import (
+    MIN_HIT_POINTS,
+    above_top_columns,
+    apply_above_top,
+    update_above_top,
+)
 from mapper.grid import GridGeometry
+from mapper.occupancy import lookup_tables
 
 GRID = dict(nx=20, ny=20)
 SENSOR = np.array([0.1, 0.1, 0.9])
@@ -118,3 +124,38 @@ def test_the_column_scrolls_with_the_grid():
 def test_a_negative_reach_is_refused_with_the_allowed_values():
     with pytest.raises(InvalidParameterError, match=r"above_top_reach_m.*>= 0"):
         MapperParams(above_top_reach_m=-0.1)
+
+
+@pytest.mark.parametrize("seed", range(6))
+def test_the_kernel_updates_the_levels_as_the_numpy_steps_do(seed):
+    # Random frames around the top (some beyond the range, some NaN, the sensor above or below
+    # the top): the same levels after each frame, the scratch zero again.
+    rng = np.random.default_rng(seed)
+    params = MapperParams(**GRID, above_top_reach_m=0.6)
+    geometry = GridGeometry.from_params(params, (0.4, 0.4))
+    hit_table, miss_table = lookup_tables(params)
+    ours = np.full((20, 20), 128, dtype=np.uint8)
+    theirs = ours.copy()
+    counts = np.zeros(400, dtype=np.int32)
+    for frame in range(8):
+        n = 300
+        points = np.column_stack(
+            [rng.uniform(-0.2, 1.0, n), rng.uniform(-0.2, 1.0, n), rng.uniform(0.3, 1.3, n)]
+        )
+        points[rng.random(n) < 0.05] = np.nan
+        # Columns with many points above the top, so that hits occur.
+        points[:40, :2] = rng.uniform(0.3, 0.5, (40, 2))
+        points[:40, 2] = rng.uniform(0.64, 1.1, 40)
+        sensor = np.array([0.1, 0.1, 0.9 if frame % 3 else 0.5])
+        max_range = 1.2 if frame % 2 else np.inf
+        columns = above_top_columns(points, sensor, geometry, 0.05, 0.6, max_range)
+        apply_above_top(theirs, columns, hit_table, miss_table)
+        ox, oy = geometry.origin_xy_m
+        touched = np.empty(2 * n, dtype=np.int64)
+        update_above_top(
+            points, sensor, ox, oy, geometry.cell_m, geometry.z_max_m, 0.05, 0.6, max_range,
+            ours, counts, touched, hit_table, miss_table, MIN_HIT_POINTS,
+        )  # fmt: skip
+        np.testing.assert_array_equal(ours, theirs)
+        assert not counts.any()
+    assert (theirs > 128).any() and (theirs < 128).any()  # both kinds of update happened

@@ -73,6 +73,7 @@ from numba.core.dispatcher import Dispatcher
 from numba.core.registry import cpu_target
 from numpy.typing import NDArray
 
+import mapper.above_top
 import mapper.averaging
 import mapper.floor_cover
 import mapper.floor_map
@@ -194,9 +195,17 @@ floors' side bands (`mapper.floor_sides`, the stereo head's)."""
 
 MAPPER = KernelGroup(
     "mapper",
-    _kernels(mapper.grid, mapper.occupancy, mapper.floor_map, mapper.floor_cover, mapper.fog),
+    _kernels(
+        mapper.grid,
+        mapper.occupancy,
+        mapper.floor_map,
+        mapper.floor_cover,
+        mapper.fog,
+        mapper.above_top,
+    ),
 )
-"""The FOG map's update kernels: frame checks, occupancy, floor map, floor cover, FOG types."""
+"""The FOG map's update kernels: frame checks, occupancy, floor map, floor cover, FOG types,
+the columns above the grid's top."""
 
 MATCHING = KernelGroup("z-match, baseline", _kernels(mapper.zmatch, mapper.averaging))
 """z-matching and the averaging baseline map (no FOG map update)."""
