@@ -221,8 +221,8 @@ class FloorObstacleMapper:
             )
         used, nonfinite, outside, beyond, cells, ix0, ix1, iy0, iy1 = inserted
         if p.above_top_reach_m > p.delta_m:  # `mapper.above_top`
-            if self._above_scratch.shape[0] < 2 * pts.shape[0]:
-                self._above_scratch = np.empty(2 * pts.shape[0], dtype=np.int64)
+            if self._above_scratch.shape[0] < pts.shape[0]:
+                self._above_scratch = np.empty(pts.shape[0], dtype=np.int64)
             a0, a1, b0, b1 = update_above_top(
                 pts,
                 origin,

@@ -10,16 +10,92 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
+from numpy.typing import NDArray
 
 from mapper import CellType, FloorObstacleMapper, InvalidParameterError, MapperParams
-from mapper.above_top import (
-    MIN_HIT_POINTS,
-    above_top_columns,
-    apply_above_top,
-    update_above_top,
-)
+from mapper.above_top import MIN_HIT_POINTS, update_above_top
 from mapper.grid import GridGeometry
 from mapper.occupancy import lookup_tables
+
+
+class AboveTopColumns:
+    """Reference: a frame's hit and missed columns (flat ``ix * ny + iy``, none in both).
+
+    Attributes:
+        hit: (H,) int64 columns with a point just above the grid's top.
+        miss: (M,) int64 columns whose top face a ray crossed downwards (and no point hit).
+    """
+
+    __slots__ = ("hit", "miss")
+
+    def __init__(self, hit: NDArray[np.int64], miss: NDArray[np.int64]) -> None:
+        self.hit = hit
+        self.miss = miss
+
+
+def _columns(
+    xy: NDArray[np.float64], geometry: GridGeometry, min_points: int = 1
+) -> NDArray[np.int64]:
+    """Flat columns holding at least ``min_points`` of the world (x, y) points, sorted."""
+    ox, oy = geometry.origin_xy_m
+    fx = np.floor((xy[:, 0] - ox) / geometry.cell_m)
+    fy = np.floor((xy[:, 1] - oy) / geometry.cell_m)
+    inside = (fx >= 0) & (fx < geometry.nx) & (fy >= 0) & (fy < geometry.ny)
+    flat = fx[inside].astype(np.int64) * geometry.ny + fy[inside].astype(np.int64)
+    columns, counts = np.unique(flat, return_counts=True)
+    return columns[counts >= min_points]
+
+
+def above_top_columns(
+    points: NDArray[np.float64],
+    sensor_origin: NDArray[np.float64],
+    geometry: GridGeometry,
+    min_above_m: float,
+    reach_m: float,
+    max_range_m: float,
+) -> AboveTopColumns:
+    """Reference in numpy: the columns a frame hits and misses just above the grid's top.
+
+    Args:
+        points: (N, 3) world points [m] (rows with NaN or inf are left out).
+        sensor_origin: (3,) world sensor position [m].
+        geometry: The grid (its top is ``geometry.z_max_m``).
+        min_above_m: A hit lies more than this above the top [m] (``delta_m``).
+        reach_m: ... and at most this above it [m] (``above_top_reach_m``).
+        max_range_m: Points farther from the sensor are no hit [m]; their rays still miss.
+    """
+    top = geometry.z_max_m
+    finite = np.isfinite(points).all(axis=1)
+    pts = points[finite]
+    offset = pts - sensor_origin
+    length = np.sqrt((offset * offset).sum(axis=1))
+    height = pts[:, 2] - top
+    is_hit = (height > min_above_m) & (height <= reach_m) & (length <= max_range_m)
+    hit = _columns(pts[is_hit], geometry, MIN_HIT_POINTS)
+    oz = float(sensor_origin[2])
+    if oz > top:
+        down = pts[:, 2] < top
+        t = (oz - top) / (oz - pts[down, 2])  # in (0, 1): where the ray crosses the top face
+        t_max = np.minimum(1.0, max_range_m / np.maximum(length[down], 1e-12))
+        crossing = t <= t_max
+        xy = sensor_origin[:2] + t[crossing, None] * offset[down][crossing, :2]
+        miss = np.setdiff1d(_columns(xy, geometry), hit, assume_unique=True)
+    else:
+        miss = np.empty(0, dtype=np.int64)
+    return AboveTopColumns(hit, miss)
+
+
+def apply_above_top(
+    levels: NDArray[np.uint8],
+    columns: AboveTopColumns,
+    hit_table: NDArray[np.uint8],
+    miss_table: NDArray[np.uint8],
+) -> None:
+    """One frame's update of the (nx, ny) levels in place: table lookups, a column once."""
+    flat = levels.reshape(-1)
+    flat[columns.hit] = hit_table[flat[columns.hit]]
+    flat[columns.miss] = miss_table[flat[columns.miss]]
+
 
 GRID = dict(nx=20, ny=20)
 SENSOR = np.array([0.1, 0.1, 0.9])
@@ -151,7 +227,7 @@ def test_the_kernel_updates_the_levels_as_the_numpy_steps_do(seed):
         columns = above_top_columns(points, sensor, geometry, 0.05, 0.6, max_range)
         apply_above_top(theirs, columns, hit_table, miss_table)
         ox, oy = geometry.origin_xy_m
-        touched = np.empty(2 * n, dtype=np.int64)
+        touched = np.empty(n, dtype=np.int64)
         update_above_top(
             points, sensor, ox, oy, geometry.cell_m, geometry.z_max_m, 0.05, 0.6, max_range,
             ours, counts, touched, hit_table, miss_table, MIN_HIT_POINTS,
