@@ -200,6 +200,8 @@ def test_a_frame_without_a_measurement_takes_the_bias_estimate_and_loses_certain
         ("reset_refusals", -1),
         ("reset_refusals", 2.0),
         ("reset_refusals", True),
+        ("tail_dof", 0.0),
+        ("tail_dof", -2.0),
     ],
 )
 def test_params_refuse_negative_or_infinite_levels_naming_the_field(name, value):
@@ -287,3 +289,65 @@ def test_the_gate_weighs_each_axis_by_its_own_variance():
     jump = np.array([1.5, 0.0]) * DEG
     assert settled(1.0).update(jump, np.array([1.0, 0.1]) * DEG, 0.0).measured
     assert not settled(0.1).update(jump, np.array([0.1, 0.1]) * DEG, 0.0).measured
+
+
+def test_tail_weight_is_the_hand_computed_one_when_the_prior_is_certain():
+    # With no signal variance the estimate stays at the prior whatever λ, so the residual is
+    # the innovation and λ = (dof + 1)/(dof + ν²/R) after one step: dof 4, ν²/R = 9 → 5/13.
+    from mapper.tilt_filter import _tail_weights
+
+    variance = (0.4 * DEG) ** 2
+    weights = _tail_weights(np.array([1.2, 0.0]) * DEG, np.zeros(2), np.full(2, variance), dof=4.0)
+    np.testing.assert_allclose(weights, [5.0 / 13.0, 5.0 / 4.0], rtol=1e-12)
+
+
+def test_tail_weights_solve_their_fixed_point_equation():
+    from mapper.tilt_filter import _tail_weights
+
+    innovation = np.array([1.5, -0.4]) * DEG
+    signal = np.full(2, (0.3**2 + 0.1**2) * DEG**2)
+    measurement = np.array([0.5, 0.2]) ** 2 * DEG**2
+    dof = 2.0
+    weights = _tail_weights(innovation, signal, measurement, dof, iterations=50)
+    effective = measurement / weights
+    total = signal + effective
+    expected = (dof + 1.0) / (
+        dof + ((innovation * effective / total) ** 2 + signal * effective / total) / measurement
+    )
+    np.testing.assert_allclose(weights, expected, rtol=1e-9)
+    # Five iterations (the filter's) are within 1e-3 of the fixed point.
+    np.testing.assert_allclose(
+        _tail_weights(innovation, signal, measurement, dof), weights, rtol=1e-3
+    )
+
+
+def _settled(params: TiltFilterParams, sigma_deg: float) -> TiltFilter:
+    tilt_filter = TiltFilter(params)
+    for _ in range(100):
+        tilt_filter.update(np.zeros(2), np.full(2, sigma_deg * DEG), 0.0)
+    return tilt_filter
+
+
+def test_a_heavy_tailed_filter_takes_an_outlying_noisy_pitch_at_a_lower_gain():
+    # Stereo-like σ = 0.5°: a 1.5° innovation (inside the gate) is applied at the Gaussian
+    # gain by default and at less than half of it with tail_dof = 2 (0.157° against 0.408°);
+    # a 0.1° one at a little more than the Gaussian gain (λ > 1 for a residual below σ).
+    big = np.array([1.5, 0.0]) * DEG
+    gaussian = _settled(TiltFilterParams(), 0.5).update(big, np.full(2, 0.5 * DEG), 0.0)
+    heavy = _settled(TiltFilterParams(tail_dof=2.0), 0.5).update(big, np.full(2, 0.5 * DEG), 0.0)
+    assert gaussian.measured and heavy.measured
+    assert heavy.tilt_rad[0] < 0.5 * gaussian.tilt_rad[0]
+    small = np.array([0.1, 0.0]) * DEG
+    gaussian = _settled(TiltFilterParams(), 0.5).update(small, np.full(2, 0.5 * DEG), 0.0)
+    heavy = _settled(TiltFilterParams(tail_dof=2.0), 0.5).update(small, np.full(2, 0.5 * DEG), 0.0)
+    assert gaussian.tilt_rad[0] < heavy.tilt_rad[0] < 1.5 * gaussian.tilt_rad[0]
+
+
+def test_a_heavy_tailed_filter_takes_a_precise_measurement_as_the_gaussian_one_does():
+    # Depth-like σ = 0.02° far below σ_w = 0.3°: a 1° innovation is the frame's real tilt
+    # (encoder noise), not a measurement error; λ stays ~1 and the gain is the Gaussian one.
+    jump = np.array([1.0, -0.5]) * DEG
+    sigma = np.full(2, 0.02 * DEG)
+    gaussian = _settled(TiltFilterParams(), 0.02).update(jump, sigma, 0.0)
+    heavy = _settled(TiltFilterParams(tail_dof=2.0), 0.02).update(jump, sigma, 0.0)
+    np.testing.assert_allclose(heavy.tilt_rad, gaussian.tilt_rad, rtol=1e-3)

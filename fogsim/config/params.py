@@ -63,6 +63,9 @@ class PipelineParams:
             top was then never mapped).
         tilt_bias_deg: The neck encoders' per-run bias std [deg], the filter's
             `TiltFilterParams.bias_deg` (4.0: the default neck encoder bias).
+        tilt_tail_dof: The filter's `TiltFilterParams.tail_dof`: degrees of freedom of a
+            Student-t measurement noise, inf (the default) Gaussian; its docstring has the
+            measured trade-off of 2.
         heading_rebuild_frames: When the heading's first estimate comes, the maps are rebuilt
             from the frames mapped before it (issue 11: they carried the neck's 2–3° yaw error,
             8–17 cm at 2 m), if there are at most this many (each is kept until then: 88×72
@@ -111,6 +114,7 @@ class PipelineParams:
     use_tilt_filter: bool = True
     tilt_noise_deg: float = 0.3
     tilt_bias_deg: float = 4.0
+    tilt_tail_dof: float = math.inf
     heading_rebuild_frames: int = 300
     heading_rebuild_change_deg: float = 0.0
     heading_rebuild_on_structure: bool = False
@@ -131,6 +135,11 @@ class PipelineParams:
                 raise ParameterError(
                     f"PipelineParams.{name} must be a finite float >= 0 deg, got {value!r}"
                 )
+        if not self.tilt_tail_dof > 0.0:
+            raise ParameterError(
+                f"PipelineParams.tilt_tail_dof must be a float > 0 (inf: Gaussian), "
+                f"got {self.tilt_tail_dof!r}"
+            )
         if isinstance(self.heading_rebuild_frames, bool) or not (
             isinstance(self.heading_rebuild_frames, int)
             and 0 <= self.heading_rebuild_frames <= 10_000

@@ -62,7 +62,13 @@ class FrameSegmenter:
         self.segmentation_params = pipeline_segmentation_params(params)
         pipe = params.pipeline
         self.tilt = (
-            TiltFilter(TiltFilterParams(pipe.tilt_noise_deg, pipe.tilt_bias_deg))
+            TiltFilter(
+                TiltFilterParams(
+                    pipe.tilt_noise_deg,
+                    pipe.tilt_bias_deg,
+                    tail_dof=pipe.tilt_tail_dof,
+                )
+            )
             if pipe.use_tilt_filter and self.segmentation_params.correct_tilt
             else None
         )
