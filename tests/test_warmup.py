@@ -4,6 +4,7 @@ The kernels that replace numba's slow-to-compile functions give numpy's answers.
 """
 
 import dataclasses
+import json
 import os
 import pkgutil
 import signal
@@ -16,8 +17,10 @@ import numpy as np
 import pytest
 from test_pipeline import INTR, make_frames, provider_removed_at
 
+import mapper.floor_sides
 import mapper.scanline
-from fogsim.config import RunParams
+import mapper.tilt_kernels
+from fogsim.config import RunParams, resolve_params
 from fogsim.data.recording import Recording
 from fogsim.run import warmup
 from fogsim.run.runner import run_scenario
@@ -28,8 +31,9 @@ from mapper.zmatch import _median
 ROOT = Path(__file__).resolve().parent.parent
 
 WARM_UP = (
+    "import json, sys\n"
     "from numba.core import event\n"
-    "from fogsim.config import RunParams\n"
+    "from fogsim.config import RunParams, resolve_params\n"
     "from fogsim.run.warmup import warm_up_kernels\n"
     "compiled = set()\n"
     "class Compiled(event.Listener):\n"
@@ -38,10 +42,15 @@ WARM_UP = (
     "        compiled.add(f.__module__ + '.' + f.__name__)\n"
     "    def on_end(self, ev): pass\n"
     "event.register('numba:compile', Compiled())\n"
-    "warm_up_kernels(RunParams())\n"
+    "overrides = json.loads(sys.argv[1]) if len(sys.argv) > 1 else None\n"
+    "warm_up_kernels(resolve_params(None, overrides) if overrides else RunParams())\n"
     "print(' '.join(sorted(compiled)))\n"
 )
-"""A warm-up that prints the kernels this process compiled (numba's events)."""
+"""A warm-up that prints the kernels this process compiled (numba's events); its argument, if
+any, the run's parameter overrides as JSON."""
+
+STEREO_HEAD_OVERRIDES = {"seg.floor_side_strip_px": 3, "seg.tilt_max_step_t": 3.0}
+"""The stereo head's segmentation stages on (`warmup.uses_stereo_head`)."""
 
 FLOOR_STAGE = {
     "level_geometry",
@@ -57,12 +66,17 @@ FLOOR_STAGE = {
 """The segmentation's last stage, compiled by the main process beside the helper."""
 
 
-def _warm_up(cache_dir: Path) -> tuple[str, set[str]]:
+def _warm_up(cache_dir: Path, overrides: dict | None = None) -> tuple[str, set[str]]:
     """A warm-up in a fresh interpreter whose numba cache is ``cache_dir``: its standard error
     and the kernels (``module.name``) it compiled itself (not in its helper process)."""
     env = dict(os.environ, NUMBA_CACHE_DIR=str(cache_dir), PYTHONPATH=str(ROOT))
+    arguments = [json.dumps(overrides)] if overrides else []
     process = subprocess.run(
-        [sys.executable, "-c", WARM_UP], env=env, capture_output=True, text=True, check=True
+        [sys.executable, "-c", WARM_UP, *arguments],
+        env=env,
+        capture_output=True,
+        text=True,
+        check=True,
     )
     return process.stderr, set(process.stdout.split())
 
@@ -81,7 +95,9 @@ def test_message_with_a_cold_cache_only(tmp_path):
     scanline = {name.split(".")[-1] for name in compiled_here if name.startswith("mapper.scanl")}
     assert scanline >= FLOOR_STAGE
     assert not scanline & {"local_noise_depth_m", "split_rows", "grow_planes", "plane_moments"}
-    assert MESSAGE in cold and f"{len(GROUPS)} groups in 2 processes" in cold
+    groups = warmup.run_groups(RunParams())
+    assert warmup.STEREO_HEAD not in groups  # the stage's depth-mode parameters do not call it
+    assert MESSAGE in cold and f"{len(groups)} groups in 2 processes" in cold
     assert "floor regions kernels ..." in cold
     assert "mapper kernels ..." in cold
     assert "z-match, baseline kernels ..." in cold
@@ -94,6 +110,20 @@ def test_message_with_a_cold_cache_only(tmp_path):
     several = {kernel for kernel, n in _signature_counts(tmp_path).items() if n > 1}
     assert not several, several
     assert _warm_up(tmp_path) == ("", set())  # everything loaded from the cache
+    # The stereo head's parameters call two more stages: their group alone is compiled (in
+    # this process: one group cold needs no helper), every other kernel loaded.
+    stereo, compiled_here = _warm_up(tmp_path, STEREO_HEAD_OVERRIDES)
+    assert MESSAGE in stereo and "1 groups" in stereo and "stereo head kernels ..." in stereo
+    stereo_head = {
+        f"{k.py_func.__module__}.{k.py_func.__name__}" for k in warmup.STEREO_HEAD.kernels
+    }
+    mapper_compiled = {name for name in compiled_here if name.startswith("mapper.")}
+    assert "mapper.floor_sides.side_strips" in mapper_compiled
+    assert "mapper.tilt_kernels.stepped_plane_flags" in mapper_compiled
+    assert mapper_compiled <= stereo_head
+    several = {kernel for kernel, n in _signature_counts(tmp_path).items() if n > 1}
+    assert not several, several
+    assert _warm_up(tmp_path, STEREO_HEAD_OVERRIDES) == ("", set())
 
 
 def _signature_counts(cache_dir: Path) -> dict[str, int]:
@@ -117,8 +147,10 @@ def _signature_counts(cache_dir: Path) -> dict[str, int]:
 
 def test_a_run_with_progress_leaves_the_cache_warm():
     run_scenario(None, None, replay=_recording(), pictures=False, progress=True)
-    # a replay warms up every kernel but the self-filter's, which only a simulation calls
-    assert not any(is_cold(group) for group in GROUPS if group is not warmup.SELF_FILTER)
+    # a replay warms up every kernel but the self-filter's, which only a simulation calls, and
+    # the stereo head's, which these (default, depth-mode) parameters do not call
+    left_out = (warmup.SELF_FILTER, warmup.STEREO_HEAD)
+    assert not any(is_cold(group) for group in GROUPS if group not in left_out)
 
 
 def test_a_cache_stamped_by_other_sources_is_cold(monkeypatch):
@@ -239,6 +271,28 @@ def test_every_scanline_kernel_is_in_exactly_one_group():
     assert {name for name, g in groups.items() if g == ["floor regions"]} == {
         k.py_func.__name__ for k in warmup.FLOOR_REGIONS.kernels
     }
+
+
+def test_a_run_warms_up_the_stereo_head_s_kernels_only_when_its_parameters_call_them():
+    depth = RunParams()
+    stereo = resolve_params(None, STEREO_HEAD_OVERRIDES)
+    assert not warmup.uses_stereo_head(depth) and warmup.uses_stereo_head(stereo)
+    assert warmup.run_groups(stereo) == GROUPS
+    assert warmup.run_groups(depth) == tuple(g for g in GROUPS if g is not warmup.STEREO_HEAD)
+    assert warmup.run_groups(depth, simulated=False) == tuple(
+        g for g in GROUPS if g not in (warmup.STEREO_HEAD, warmup.SELF_FILTER)
+    )
+    for one in ({"seg.floor_side_strip_px": 3}, {"seg.tilt_max_step_t": 3.0}):
+        assert warmup.uses_stereo_head(resolve_params(None, one))
+    # No tilt correction, no step test: only the side bands would call the group.
+    no_tilt = {"seg.tilt_max_step_t": 3.0, "seg.correct_tilt": False}
+    assert not warmup.uses_stereo_head(resolve_params(None, no_tilt))
+    # The group is the whole side-band module and the step test, and no other group has them.
+    floor_sides = warmup._kernels(mapper.floor_sides)
+    steps = {mapper.tilt_kernels.stepped_plane_flags, mapper.tilt_kernels._quantile_sorted}
+    assert set(warmup.STEREO_HEAD.kernels) == {*floor_sides, *steps}
+    others = [k for g in GROUPS if g is not warmup.STEREO_HEAD for k in g.kernels]
+    assert not set(warmup.STEREO_HEAD.kernels) & set(others)
 
 
 def test_kernels_the_helper_shares_are_compiled_here_before_the_helper_gets_to_them():

@@ -97,6 +97,7 @@ import mapper.zmatch
 from fogsim.config import RunParams
 from fogsim.data.frame import Frame
 from fogsim.mapping.pipeline import Pipeline
+from fogsim.mapping.segmenter import pipeline_segmentation_params
 from fogsim.robot import self_filter
 from mapper import AveragingMap, FloorObstacleMapper, SegmentationParams
 from mapper.heading import heading_scores, weighted_heading_scores
@@ -181,17 +182,31 @@ FLOOR_REGIONS = KernelGroup("floor regions", _FLOOR_KERNELS)
 """The segmentation's last stage: level geometry, level regions grown and measured, floor
 points (the scan-line kernels it shares with the planes stage are the helper's)."""
 
+_STEREO_HEAD_KERNELS = (
+    *_kernels(mapper.floor_sides),
+    mapper.tilt_kernels.stepped_plane_flags,
+    mapper.tilt_kernels._quantile_sorted,  # called by stepped_plane_flags only
+)
+"""The kernels only the stereo head's segmentation parameters call (`uses_stereo_head`)."""
+
 SEGMENTATION = KernelGroup(
     "segmentation",
     tuple(
         k
-        for k in _kernels(*SCANLINE_MODULES, mapper.tilt_kernels, mapper.floor_sides)
-        if k not in _FLOOR_KERNELS
+        for k in _kernels(*SCANLINE_MODULES, mapper.tilt_kernels)
+        if k not in _FLOOR_KERNELS and k not in _STEREO_HEAD_KERNELS
     ),
 )
 """The rest of the depth-image segmentation's scan-line kernels: noise, row segments, planes;
-the tilt correction's (the planes' normals, the tilt filter's measurement and turn); and the
-floors' side bands (`mapper.floor_sides`, the stereo head's)."""
+the tilt correction's (the planes' normals, the tilt filter's measurement and turn)."""
+
+STEREO_HEAD = KernelGroup("stereo head", _STEREO_HEAD_KERNELS)
+"""What only the stereo head's segmentation calls: the floors' side bands (`mapper.floor_sides`,
+``floor_side_strip_px``) and the stepped tilt candidates' test (``tilt_max_step_t``). A run
+whose parameters call neither leaves them out (:func:`run_groups`): until session 40 every run
+compiled them, the stage's depth-mode first run too (4.7 s of its 48 s of compile CPU, AMD
+EPYC, `bench/bench_cold.py kernels`: `side_strips` 2.3 s, `stepped_plane_flags` 2.1 s,
+`_strip_sums` 0.3 s inclusive)."""
 
 MAPPER = KernelGroup(
     "mapper",
@@ -217,10 +232,10 @@ SELF_FILTER = KernelGroup("self-filter", _kernels(self_filter))
 """The kernel removing the robot's body from simulated depth images."""
 
 
-GROUPS = (FLOOR_REGIONS, MATCHING, MAPPER, HEADING, SEGMENTATION, SELF_FILTER)
+GROUPS = (FLOOR_REGIONS, MATCHING, MAPPER, HEADING, SEGMENTATION, STEREO_HEAD, SELF_FILTER)
 """Every group, in the order this process compiles them (without a helper)."""
 
-HELPER_GROUPS = (SELF_FILTER, SEGMENTATION, HEADING)
+HELPER_GROUPS = (SELF_FILTER, SEGMENTATION, STEREO_HEAD, HEADING)
 """The groups a helper process compiles on a cold cache, in this order; this process compiles
 the others. Stop 30: this process ended last, by about 8 s (``bench/bench_cold.py run``, the
 stage: its floor regions 28.2 s + mapper 18.3 s + z-matching, baseline and heading 6.1 s, wall,
@@ -238,6 +253,32 @@ Stop 26 had the segmentation whole in the helper: 16.6 s, this process 10 s; spl
 The self-filter comes first: a simulation's thread calls its kernel on its first frame, once
 the scene is set up (seconds into the warm-up); compiled last, the kernel was not in the cache
 yet and that thread compiled it a second time, in this process, beside its groups (1 s)."""
+
+
+def uses_stereo_head(params: RunParams) -> bool:
+    """Whether a run of ``params`` calls the :data:`STEREO_HEAD` kernels.
+
+    It does when its segmentation tests floor side bands or stepped tilt candidates (the
+    stereo head's parameters).
+    """
+    segmentation = pipeline_segmentation_params(params)
+    return segmentation.floor_side_strip_px > 0 or (
+        segmentation.tilt_max_step_t > 0.0 and segmentation.correct_tilt
+    )
+
+
+def run_groups(params: RunParams, *, simulated: bool = True) -> tuple[KernelGroup, ...]:
+    """The groups of :data:`GROUPS` a run of ``params`` calls, in their order.
+
+    Left out: :data:`SELF_FILTER` when the run simulates no frames (a replay, real data), and
+    :data:`STEREO_HEAD` when its parameters call neither of its stages (`uses_stereo_head`).
+    """
+    stereo = uses_stereo_head(params)
+    return tuple(
+        group
+        for group in GROUPS
+        if (simulated or group is not SELF_FILTER) and (stereo or group is not STEREO_HEAD)
+    )
 
 
 def warm_up_kernels(
@@ -285,7 +326,7 @@ class KernelWarmUp:
         self._start = time.perf_counter()
         self._params = params
         self._stream = stream
-        self._groups = GROUPS if simulated else tuple(g for g in GROUPS if g is not SELF_FILTER)
+        self._groups = run_groups(params, simulated=simulated)
         self._cold = [group for group in self._groups if is_cold(group)]
         away = [group for group in HELPER_GROUPS if group in self._cold]
         fork = bool(away) and len(away) < len(self._cold) and _can_fork()
@@ -366,6 +407,7 @@ def _steps(params: RunParams) -> dict[KernelGroup, Callable[[], None]]:
     return {
         FLOOR_REGIONS: lambda: _floors(frames[0], Pipeline(params).segmentation_params),
         SEGMENTATION: lambda: _segment(frames[0], params),
+        STEREO_HEAD: _stereo_head,
         MAPPER: lambda: _map(frames, params),
         MATCHING: lambda: _match(frames, params),
         HEADING: lambda: _heading(frames[0], params),
@@ -512,23 +554,27 @@ def _segment(frame: Frame, params: RunParams) -> None:
     )
     measured, _ = measured_tilt(result, segmentation_params)
     apply_tilt(result, np.zeros(2) if measured is None else measured)
-    if segmentation_params.floor_side_strip_px == 0:  # compiled for the stereo head's runs
-        labels = np.zeros((2, 5), dtype=np.int64)
-        z = np.zeros((2, 5))
-        mapper.floor_sides.peel_side_strips(labels, z, z + 0.01, np.zeros(1), 1, 3.0, 1.0, 0.0, 1.0)
-    if segmentation_params.tilt_max_step_t == 0.0:  # the stereo head's step test, likewise
-        ids = np.zeros(8, dtype=np.int64)
-        stepped_planes(
-            np.zeros((8, 3)),
-            ids,
-            np.array([[0.0, 0.0, 1.0]]),
-            np.array([8]),
-            1,
-            0.9,
-            1.0,
-            1.0,
-            0.01,
-        )
+
+
+def _stereo_head() -> None:
+    """Call the :data:`STEREO_HEAD` kernels with the argument types `segment_depth` passes.
+
+    A type that differed would compile a second version, and the run would load neither.
+    """
+    labels = np.zeros((2, 5), dtype=np.int64)
+    z = np.zeros((2, 5))
+    mapper.floor_sides.peel_side_strips(labels, z, z + 0.01, np.zeros(1), 1, 3.0, 1.0, 0.0, 1.0)
+    stepped_planes(
+        np.zeros((8, 3)),
+        np.zeros(8, dtype=np.int64),
+        np.array([[0.0, 0.0, 1.0]]),
+        np.array([8]),
+        1,
+        0.9,
+        1.0,
+        1.0,
+        0.01,
+    )
 
 
 def _floors(frame: Frame, params: SegmentationParams) -> None:
