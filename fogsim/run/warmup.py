@@ -81,6 +81,7 @@ import mapper.floor_sides
 import mapper.fog
 import mapper.grid
 import mapper.heading
+import mapper.heading_planes
 import mapper.occupancy
 import mapper.scanline
 import mapper.scanline.floors
@@ -225,7 +226,7 @@ the columns above the grid's top."""
 MATCHING = KernelGroup("z-match, baseline", _kernels(mapper.zmatch, mapper.averaging))
 """z-matching and the averaging baseline map (no FOG map update)."""
 
-HEADING = KernelGroup("heading", _kernels(mapper.heading))
+HEADING = KernelGroup("heading", _kernels(mapper.heading, mapper.heading_planes))
 """The heading scores (structure points and edge points)."""
 
 SELF_FILTER = KernelGroup("self-filter", _kernels(self_filter))
@@ -654,7 +655,10 @@ def _match(frames: tuple[Frame, ...], params: RunParams) -> None:
 
 
 def _heading(frame: Frame, params: RunParams) -> None:
-    """Both heading scores on four of the frame's floor points."""
+    """Both heading scores on four of the frame's floor points.
+
+    With `HeadingParams.plane_refine`, its point-to-plane refinement too.
+    """
     points_world = _floor_points_world(frame)[0]
     offsets_xy = np.ascontiguousarray(points_world[:4, :2])
     heights = points_world[:4, 2].copy()
@@ -664,6 +668,26 @@ def _heading(frame: Frame, params: RunParams) -> None:
     heading_scores(offsets_xy, heights, keys, *poses, *voxel)
     # the edge score (`mapper.heading`, on scenes like a staircase)
     weighted_heading_scores(offsets_xy, heights, np.ones(4), keys, *poses, *voxel)
+    if params.heading.plane_refine:  # the point-to-plane refinement, with its argument types
+        normals, weights = mapper.heading_planes.keyframe_normals(
+            offsets_xy, heights, mapper.heading_planes.NORMAL_RADIUS_M
+        )
+        mapper.heading_planes.refine_heading(
+            offsets_xy,
+            heights,
+            normals,
+            weights,
+            np.array([0, 0, 1, 1], dtype=np.int64),
+            offsets_xy[:2].copy(),
+            np.zeros(2),
+            0.0,
+            mapper.heading_planes.MATCH_M,
+            mapper.heading_planes.HUBER_M,
+            mapper.heading_planes.MIN_BASELINE_M,
+            mapper.heading_planes.ITERATIONS,
+            mapper.heading_planes.TOLERANCE_RAD,
+            mapper.heading_planes.MAX_SHIFT_RAD,
+        )
 
 
 def _pipeline(frames: tuple[Frame, ...], params: RunParams) -> None:

@@ -1,0 +1,311 @@
+"""Point-to-plane refinement of the heading correction (`HeadingParams.plane_refine`).
+
+The heading's agreement score (`mapper.heading.heading_scores`) counts the pairs of keyframe
+points that share a voxel. A surface that faces the camera path slides along itself under a
+yaw error and adds only its density to those counts, which pulls the score's best candidate off
+the truth where such surfaces dominate (`table`'s box face across the path: +1.44° on every
+accepted estimate, session 39). A point-to-plane residual has no such pull: a point's distance
+to the surface of its nearest point in another keyframe, measured along that surface's normal,
+does not change when the surface slides along itself.
+
+With a yaw correction ``δ`` a keyframe point lies at ``p(δ) = C_j + Rz(ψ_j + δ)·o`` (``C_j`` its
+camera's world x, y, ``ψ_j`` the keyframe's robot yaw, ``o`` the point's offset from the
+camera); its nearest point ``q`` of another keyframe ``k`` (within `match_m`, cameras at least
+`min_baseline_m` apart) carries the 2-D normal ``n`` of ``k``'s own surface there (turned with
+``q``). The residual ``r = n·(p − q)`` has the derivative
+
+    a = dr/dδ = n⊥·(p − q) + n·((p − C_j)⊥ − (q − C_k)⊥),    v⊥ = (−v_y, v_x),
+
+and Gauss-Newton steps ``δ ← δ − Σ w·r·a / Σ w·a²`` (``w``: the normal's planarity times a
+Huber weight ``min(1, huber_m / |r|)``) with the correspondences found again at every step. It
+refines the agreement score's estimate (the start): a point-to-plane fit only converges within
+a few centimetres of the truth, which a 4° error at 2 m is not.
+
+Normals (`keyframe_normals`): of each keyframe's own points, from the 2-D covariance of its
+points within `normal_radius_m` (3-D distance, at least `MIN_NORMAL_POINTS` of them), the
+eigenvector of the smaller eigenvalue; planarity ``1 − λ_min/λ_max`` at least
+`MIN_PLANARITY`, else the point has no normal (weight 0).
+
+Neighbours: both searches sort the points by a voxel key of the search radius and look in the
+27 voxels around each point (`_voxel_order`), exact within the radius.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numba
+import numpy as np
+
+__all__ = ["keyframe_normals", "refine_heading"]
+
+MIN_NORMAL_POINTS = 5
+"""A normal needs this many points (the point itself included) within the radius."""
+
+MIN_PLANARITY = 0.8
+"""A normal needs its neighbourhood this elongated: ``1 − λ_min/λ_max`` (a line: 1, a blob: 0)."""
+
+NEAREST = 8
+"""Correspondences per point: its nearest points (its own keyframe's among them skipped)."""
+
+NORMAL_RADIUS_M = 0.06
+"""`keyframe_normals`' neighbourhood: two of the heading's 3 cm cells, about 10 points of a
+surface at 2 m in the 88 × 72 image (7 mm between pixels at 1 m)."""
+
+MATCH_M = 0.08
+"""Correspondences lie within this [m]: the refinement starts from the agreement score's
+estimate, within about 1° of the truth, 3.5 cm at 2 m, plus the depth noise."""
+
+HUBER_M = 0.02
+"""Residuals beyond this are down-weighted [m]: about the depth noise at the heading's 2 m."""
+
+MIN_BASELINE_M = 0.15
+"""Keyframes whose cameras are closer than this are not paired [m]: their disagreement under a
+yaw error (the error times the baseline) is below the noise."""
+
+MIN_SLOPE_M = 0.01
+"""The residuals must move with the correction by this much on average [m/rad] (RMS of their
+slopes): else the scene shows the yaw error nowhere (surfaces faced head-on, a wall slid along
+itself) and the start is returned, not a step divided by almost nothing."""
+
+ITERATIONS = 8
+"""At most this many Gauss-Newton steps (each finds the correspondences again); the last one's
+correction is taken whether or not the steps got below `TOLERANCE_RAD` (requiring that refused
+most refinements of the stage's replays: the correspondences change by a point now and then,
+and the steps wobble by a few hundredths of a degree)."""
+
+TOLERANCE_RAD = math.radians(0.005)
+"""The steps stop once one is smaller than this [rad]."""
+
+MAX_SHIFT_RAD = math.radians(2.0)
+"""A refinement ending farther than this from the agreement score's estimate is refused [rad]:
+the score's estimates were within 1.7° of the truth wherever it stood out (its bias on `table`
+at most), while a point-to-plane fit that slid off (session 40: `stairs` stereo seed 6, a
+staircase faced head-on, 2.85 → 9.16° off) goes much farther."""
+
+_KEY_RANGE = np.int64(1 << 20)
+"""Voxel indices are offset into ``[0, 2**20)`` per axis for the key (±10 km at 1 cm)."""
+
+
+@numba.njit(cache=True, no_cfunc_wrapper=True, nogil=True, error_model="numpy")
+def _voxel_order(x, y, z, size):
+    """Points sorted by voxel (``size`` cube): (order, sorted keys, voxel indices (N, 3))."""
+    n = x.shape[0]
+    cells = np.empty((n, 3), dtype=np.int64)
+    keys = np.empty(n, dtype=np.int64)
+    half = _KEY_RANGE // 2
+    for i in range(n):
+        cx = np.int64(math.floor(x[i] / size)) + half
+        cy = np.int64(math.floor(y[i] / size)) + half
+        cz = np.int64(math.floor(z[i] / size)) + half
+        cells[i, 0], cells[i, 1], cells[i, 2] = cx, cy, cz
+        keys[i] = (cx * _KEY_RANGE + cy) * _KEY_RANGE + cz
+    order = np.argsort(keys, kind="mergesort")
+    return order, keys[order], cells
+
+
+@numba.njit(cache=True, no_cfunc_wrapper=True, nogil=True, error_model="numpy")
+def _neighbours(i, x, y, z, order, keys, cells, r2, found_j, found_d2):
+    """The points within ``sqrt(r2)`` of point ``i`` (itself too): how many, into ``found_*``.
+
+    ``order, keys, cells``: `_voxel_order` of the points with the voxel size ``sqrt(r2)`` (or
+    larger), so the 27 voxels around point ``i``'s hold every one of them. ``found_j`` (N,)
+    int64 and ``found_d2`` (N,) float64: their indices and squared distances, in voxel order.
+    """
+    n = keys.shape[0]
+    found = 0
+    for dx in range(-1, 2):
+        for dy in range(-1, 2):
+            for dz in range(-1, 2):
+                key = ((cells[i, 0] + dx) * _KEY_RANGE + cells[i, 1] + dy) * _KEY_RANGE + (
+                    cells[i, 2] + dz
+                )
+                at = np.searchsorted(keys, key)
+                while at < n and keys[at] == key:
+                    j = order[at]
+                    at += 1
+                    ex, ey, ez = x[j] - x[i], y[j] - y[i], z[j] - z[i]
+                    d2 = ex * ex + ey * ey + ez * ez
+                    if d2 <= r2:
+                        found_j[found] = j
+                        found_d2[found] = d2
+                        found += 1
+    return found
+
+
+@numba.njit(cache=True, no_cfunc_wrapper=True, nogil=True, error_model="numpy")
+def keyframe_normals(offsets_xy, z, radius_m):
+    """2-D unit normals of one keyframe's points and their planarity weights (module doc).
+
+    Args:
+        offsets_xy: (N, 2) the points' horizontal offsets from their camera [m].
+        z: (N,) their heights [m].
+        radius_m: Neighbourhood radius (3-D) [m].
+
+    Returns:
+        (normals (N, 2), weights (N,)): a point without a normal has weight 0 and normal 0.
+    """
+    n = offsets_xy.shape[0]
+    normals = np.zeros((n, 2))
+    weights = np.zeros(n)
+    x = np.ascontiguousarray(offsets_xy[:, 0])
+    y = np.ascontiguousarray(offsets_xy[:, 1])
+    order, keys, cells = _voxel_order(x, y, z, radius_m)
+    r2 = radius_m * radius_m
+    found_j = np.empty(n, dtype=np.int64)
+    found_d2 = np.empty(n)
+    for i in range(n):
+        count = _neighbours(i, x, y, z, order, keys, cells, r2, found_j, found_d2)
+        sx = sy = sxx = sxy = syy = 0.0
+        for t in range(count):
+            j = found_j[t]
+            ex, ey = x[j] - x[i], y[j] - y[i]
+            sx += ex
+            sy += ey
+            sxx += ex * ex
+            sxy += ex * ey
+            syy += ey * ey
+        if count < MIN_NORMAL_POINTS:
+            continue
+        mx, my = sx / count, sy / count
+        cxx = sxx / count - mx * mx
+        cxy = sxy / count - mx * my
+        cyy = syy / count - my * my
+        mean = 0.5 * (cxx + cyy)
+        spread = math.sqrt(0.25 * (cxx - cyy) ** 2 + cxy * cxy)
+        high, low = mean + spread, mean - spread
+        if high <= 0.0:
+            continue
+        planarity = 1.0 - max(low, 0.0) / high
+        if planarity < MIN_PLANARITY:
+            continue
+        # Eigenvector of the smaller eigenvalue: (cxy, low - cxx) or (low - cyy, cxy).
+        ax, ay = cxy, low - cxx
+        bx, by = low - cyy, cxy
+        if ax * ax + ay * ay < bx * bx + by * by:
+            ax, ay = bx, by
+        norm = math.sqrt(ax * ax + ay * ay)
+        if norm == 0.0:
+            continue
+        normals[i, 0], normals[i, 1] = ax / norm, ay / norm
+        weights[i] = planarity
+    return normals, weights
+
+
+@numba.njit(cache=True, no_cfunc_wrapper=True, nogil=True, error_model="numpy")
+def refine_heading(
+    offsets_xy,
+    z_world,
+    normals_xy,
+    normal_weights,
+    keyframe_of,
+    camera_xy,
+    yaw_rad,
+    start_rad,
+    match_m,
+    huber_m,
+    min_baseline_m,
+    iterations,
+    tolerance_rad,
+    max_shift_rad,
+):
+    """The heading correction refined by point-to-plane Gauss-Newton steps (module doc).
+
+    Args:
+        offsets_xy: (M, 2) the keyframes' points' horizontal offsets from their camera [m].
+        z_world: (M,) their world z [m].
+        normals_xy: (M, 2) their keyframe's own 2-D normals, in the offsets' frame.
+        normal_weights: (M,) the normals' planarity (0: no normal).
+        keyframe_of: (M,) each point's keyframe.
+        camera_xy: (K, 2) the keyframes' world camera positions [m].
+        yaw_rad: (K,) their robot yaws [rad].
+        start_rad: The correction to start from [rad].
+        match_m: Correspondences lie within this (3-D) [m].
+        huber_m: Residuals beyond this are down-weighted (Huber) [m].
+        min_baseline_m: ... between points of keyframes whose cameras are this far apart [m].
+        iterations: At most this many steps.
+        tolerance_rad: Stop once a step is smaller [rad].
+        max_shift_rad: A refinement that gets farther than this from the start is refused
+            [rad].
+
+    Returns:
+        (correction [rad], Σ w·a² of the last step [m²/rad²]); (``start_rad``, 0) when the
+        residuals' slopes' RMS is below `MIN_SLOPE_M` (no correspondence, or none that shows
+        the yaw), or the refinement is refused (``max_shift_rad``).
+    """
+    m = offsets_xy.shape[0]
+    delta = start_rad
+    information = 0.0
+    x = np.empty(m)
+    y = np.empty(m)
+    nx = np.empty(m)
+    ny = np.empty(m)
+    best_d = np.empty(NEAREST)
+    best_j = np.empty(NEAREST, dtype=np.int64)
+    found_j = np.empty(m, dtype=np.int64)
+    found_d2 = np.empty(m)
+    r2 = match_m * match_m
+    b2 = min_baseline_m * min_baseline_m
+    for _ in range(iterations):
+        for i in range(m):
+            k = keyframe_of[i]
+            c = math.cos(yaw_rad[k] + delta)
+            s = math.sin(yaw_rad[k] + delta)
+            x[i] = camera_xy[k, 0] + c * offsets_xy[i, 0] - s * offsets_xy[i, 1]
+            y[i] = camera_xy[k, 1] + s * offsets_xy[i, 0] + c * offsets_xy[i, 1]
+            nx[i] = c * normals_xy[i, 0] - s * normals_xy[i, 1]
+            ny[i] = s * normals_xy[i, 0] + c * normals_xy[i, 1]
+        order, keys, cells = _voxel_order(x, y, z_world, match_m)
+        numerator = 0.0
+        information = 0.0
+        weight_sum = 0.0
+        for i in range(m):
+            count = _neighbours(i, x, y, z_world, order, keys, cells, r2, found_j, found_d2)
+            found = 0
+            for t in range(count):
+                j = found_j[t]
+                d2 = found_d2[t]
+                # Insert into the NEAREST closest (ties: the lower index first).
+                slot = found
+                while slot > 0 and (
+                    best_d[slot - 1] > d2 or (best_d[slot - 1] == d2 and best_j[slot - 1] > j)
+                ):
+                    if slot < NEAREST:
+                        best_d[slot] = best_d[slot - 1]
+                        best_j[slot] = best_j[slot - 1]
+                    slot -= 1
+                if slot < NEAREST:
+                    best_d[slot] = d2
+                    best_j[slot] = j
+                    found = min(found + 1, NEAREST)
+            ki = keyframe_of[i]
+            for t in range(found):
+                j = best_j[t]
+                kj = keyframe_of[j]
+                if kj == ki or normal_weights[j] <= 0.0:
+                    continue
+                bx = camera_xy[kj, 0] - camera_xy[ki, 0]
+                by = camera_xy[kj, 1] - camera_xy[ki, 1]
+                if bx * bx + by * by < b2:
+                    continue
+                px, py = x[i] - x[j], y[i] - y[j]
+                residual = nx[j] * px + ny[j] * py
+                # n⊥·(p − q) + n·((p − C_i)⊥ − (q − C_j)⊥), v⊥ = (−v_y, v_x)
+                ux = -(y[i] - camera_xy[ki, 1]) + (y[j] - camera_xy[kj, 1])
+                uy = (x[i] - camera_xy[ki, 0]) - (x[j] - camera_xy[kj, 0])
+                slope = -ny[j] * px + nx[j] * py + nx[j] * ux + ny[j] * uy
+                weight = normal_weights[j]
+                if abs(residual) > huber_m:
+                    weight *= huber_m / abs(residual)
+                numerator += weight * residual * slope
+                information += weight * slope * slope
+                weight_sum += weight
+        if information <= MIN_SLOPE_M * MIN_SLOPE_M * weight_sum:
+            return start_rad, 0.0
+        step = -numerator / information
+        delta += step
+        if abs(delta - start_rad) > max_shift_rad:
+            return start_rad, 0.0
+        if abs(step) < tolerance_rad:
+            break
+    return delta, information

@@ -1,0 +1,104 @@
+"""Point-to-plane refinement of the heading (`mapper.heading_planes`): normals, known yaw errors."""
+
+import math
+
+import numpy as np
+
+from mapper.heading_planes import keyframe_normals, refine_heading
+
+DEG = math.pi / 180.0
+
+
+def _wall(start, end, heights, spacing=0.01):
+    """Points of a vertical wall from ``start`` to ``end`` (x, y) [m] at the given heights."""
+    length = math.dist(start, end)
+    t = np.arange(0.0, length + 1e-9, spacing) / length
+    xy = np.asarray(start) + np.outer(t, np.subtract(end, start))
+    return np.array([[x, y, z] for x, y in xy for z in heights])
+
+
+def test_normals_of_a_wall_are_across_it_and_a_blob_or_a_lone_point_has_none():
+    wall = _wall((0.0, 1.0), (1.0, 1.0), (0.1, 0.12, 0.14))  # along x: normal ±y
+    rng = np.random.default_rng(3)
+    blob = rng.uniform(-0.03, 0.03, size=(40, 3)) + np.array([2.0, 2.0, 0.1])  # round in x, y
+    lone = np.array([[5.0, 5.0, 0.1]])
+    points = np.vstack([wall, blob, lone])
+    normals, weights = keyframe_normals(points[:, :2], points[:, 2], 0.06)
+    n_wall = len(wall)
+    np.testing.assert_allclose(np.abs(normals[:n_wall, 1]), 1.0, atol=1e-9)
+    np.testing.assert_allclose(normals[:n_wall, 0], 0.0, atol=1e-9)
+    np.testing.assert_allclose(weights[:n_wall], 1.0, atol=1e-9)  # a line: planarity 1
+    assert np.all(weights[n_wall : n_wall + len(blob)] < 0.8 + 1e-9)  # refused as no surface
+    assert weights[-1] == 0.0 and np.all(normals[-1] == 0.0)
+
+
+def _keyframes(world, cameras, yaw_error_rad):
+    """Each camera's view of ``world`` believed turned by ``-yaw_error`` (robot yaw 0)."""
+    c, s = math.cos(-yaw_error_rad), math.sin(-yaw_error_rad)
+    turn = np.array([[c, -s], [s, c]])
+    offsets, z, keyframe_of, normals, weights = [], [], [], [], []
+    for k, camera in enumerate(cameras):
+        seen = np.linalg.norm(world[:, :2] - camera, axis=1) < 3.0
+        local = (world[seen, :2] - camera) @ turn.T
+        n, w = keyframe_normals(local, world[seen, 2], 0.06)
+        offsets.append(local)
+        z.append(world[seen, 2])
+        keyframe_of.append(np.full(int(seen.sum()), k))
+        normals.append(n)
+        weights.append(w)
+    return (
+        np.vstack(offsets),
+        np.concatenate(z),
+        np.vstack(normals),
+        np.concatenate(weights),
+        np.concatenate(keyframe_of).astype(np.int64),
+        np.asarray(cameras, dtype=np.float64),
+        np.zeros(len(cameras)),
+    )
+
+
+def _refine(data, start_rad):
+    return refine_heading(
+        *data, start_rad, 0.08, 0.02, 0.15, 8, math.radians(0.005), math.radians(2.0)
+    )
+
+
+def test_a_yaw_error_is_recovered_from_walls_across_the_path():
+    # Cameras walk along x; a wall along x (beside the path, normal y) shows a yaw error as a
+    # sideways shift between views (the error times the baseline); one across the path
+    # (normal x) slides along itself and only adds its density. 1.5° is recovered from 0.5°.
+    world = np.vstack(
+        [
+            _wall((1.0, 1.0), (2.6, 1.0), (0.1, 0.14, 0.18)),
+            _wall((2.8, -0.6), (2.8, 0.9), (0.1, 0.14, 0.18)),
+        ]
+    )
+    data = _keyframes(world, [(0.0, 0.0), (0.4, 0.0), (0.8, 0.0)], 1.5 * DEG)
+    correction, information = _refine(data, 0.5 * DEG)
+    assert abs(correction / DEG - 1.5) < 0.02
+    assert information > 0.0
+
+
+def test_a_wall_faced_head_on_shows_no_yaw_and_leaves_the_start():
+    # Only the wall across the path, longer than the view: a yaw error slides it along itself,
+    # every residual's slope is 0, and the start comes back unchanged.
+    world = _wall((2.8, -5.0), (2.8, 5.0), (0.1, 0.14, 0.18))
+    data = _keyframes(world, [(0.0, 0.0), (0.4, 0.0), (0.8, 0.0)], 1.5 * DEG)
+    correction, information = _refine(data, 0.5 * DEG)
+    assert correction == 0.5 * DEG and information == 0.0
+
+
+def test_a_refinement_that_would_move_beyond_the_bound_is_refused():
+    # The same scene as the recovered 1.5°, from 0.5° with at most 0.5° of shift allowed: the
+    # fit would move 1°, so the start comes back.
+    world = np.vstack(
+        [
+            _wall((1.0, 1.0), (2.6, 1.0), (0.1, 0.14, 0.18)),
+            _wall((2.8, -0.6), (2.8, 0.9), (0.1, 0.14, 0.18)),
+        ]
+    )
+    data = _keyframes(world, [(0.0, 0.0), (0.4, 0.0), (0.8, 0.0)], 1.5 * DEG)
+    correction, information = refine_heading(
+        *data, 0.5 * DEG, 0.08, 0.02, 0.15, 8, math.radians(0.005), math.radians(0.5)
+    )
+    assert correction == 0.5 * DEG and information == 0.0
