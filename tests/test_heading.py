@@ -105,6 +105,7 @@ WALK = [(0.0, 0.5, 0.0), (0.3, 0.5, 0.02), (0.6, 0.5, -0.01), (0.9, 0.52, 0.0)]
         {"overlap_cells": 5},
         {"overlap_cells": 5, "noise_band": 4.0},
         {"surface_power": 3.0},
+        {"plane_refine": True},
     ],
 )
 @pytest.mark.parametrize("yaw_error_deg", [3.0, -5.5])
@@ -311,6 +312,7 @@ def test_overlap_scores_divide_the_root_pairs_by_those_of_the_wide_voxels():
         ("peak_band", 1.0),
         ("correct_heading", 1),
         ("voxel_estimate", 1),
+        ("plane_refine", "yes"),
         ("drift_deg_per_m", -0.5),
         ("drift_step_deg_per_m", 0.0),
         ("smooth_estimates", 0),
@@ -699,6 +701,18 @@ def test_the_surface_weighted_estimate_of_a_wall_faced_head_on_with_a_side_wall(
     _walk_at_l_shaped_wall(estimator, yaw_error_deg)
     assert estimator.estimates == 3
     assert math.degrees(estimator.correction_rad) == pytest.approx(-yaw_error_deg, abs=0.25)
+
+
+@pytest.mark.parametrize("yaw_error_deg", [3.0, -3.0, 1.3, -4.2])
+def test_the_plane_refined_estimate_of_a_wall_faced_head_on_with_a_side_wall(yaw_error_deg):
+    # The same L-shaped wall: the score's estimate lies on its 0.5° candidates (0.2° off for
+    # 1.3° and -4.2°); refined point to plane it is within 0.02° of the error.
+    estimator = HeadingEstimator(
+        HeadingParams(estimate_every=1, edge_score=False, plane_refine=True)
+    )
+    _walk_at_l_shaped_wall(estimator, yaw_error_deg)
+    assert estimator.estimates == 3
+    assert math.degrees(estimator.correction_rad) == pytest.approx(-yaw_error_deg, abs=0.02)
 
 
 def test_the_surface_weighted_score_accepts_where_the_counts_do_not_stand_out():
