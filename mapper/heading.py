@@ -326,17 +326,24 @@ class HeadingParams:
             any gain. With 4 (slopes ±0.4°/m, steps of 0.2) the stage and zig-zag stereo
             replays, seeds 1–8, came out identical to `drift_deg_per_m` 0: no slope's gain
             ever stood out of the noise (session 38).
-        plane_refine: The structure score's accepted estimate is refined by point-to-plane
-            Gauss-Newton steps over the keyframes' points (`mapper.heading_planes`: each
-            point's distance to its nearest points of other keyframes along their own
-            surface's normal; a surface sliding along itself under a yaw error adds nothing,
-            where it adds its density to the agreement counts). False: the agreement score's
-            estimate as it is. Replays seeds 1–8 (its module's docstring has every figure):
-            the zig-zag stage's depth unsafe cells 11.2 (44) → 6.9 (26), `talos_course`
-            stereo 51.5 (92) → 45.9 (59), `table` depth's map heading 1.40 → 0.84°, `room`'s
-            0.82 → 0.62°; but the stage in depth 0 (0) → 1.4 (11) on seed 7 (odometry's yaw
-            drift: the map needs a drifting correction, the refinement finds the constant
-            one), so off.
+        plane_refine_estimates: The first this many accepted estimates of the run (the
+            structure score's; an edge-score estimate counts but is not refined) are refined by
+            point-to-plane Gauss-Newton steps over the keyframes' points
+            (`mapper.heading_planes`: each point's distance to its nearest points of other
+            keyframes along their own surface's normal; a surface sliding along itself under a
+            yaw error adds nothing, where it adds its density to the agreement counts). 0: none.
+            1: the first, the one the maps are rebuilt with (`pipe.heading_rebuild_frames`):
+            the frames mapped before it keep it for good, while later estimates only steer the
+            frames after them. Replays seeds 1–8 (session 40; its module's docstring has every
+            figure), 0 → 1, unsafe cells mean (worst), map heading mean (worst):
+            `talos_course` stereo 51.5 (92) → 45.9 (59), `room` depth 1.5 (5) → 0.9 (5) and
+            0.82 → 0.72°, `room` stereo 8.6 (13) → 7.0 (13), the stage in stereo 2.25 (5) →
+            1.9 (5), `table` depth's heading 1.40 (2.22) → 0.84 (2.22)° (0.6 (4) → 0.75 (4)
+            cells), `talos_course` depth 0.65 (1.06) → 0.49 (0.92)°; the stage in depth 0 (0)
+            both. Every estimate refined (1000) does more on the zig-zag stage (depth 11.2
+            (44) → 6.9 (26)) but puts 11 unsafe cells on the stage's seed 7, whose world map
+            needs a correction that drifts with odometry's yaw while the refinement finds the
+            constant one: so 1.
         smooth_estimates: The correction is the median of the structure score's last this
             many accepted estimates (1: the latest alone); the edge score's are not smoothed.
             Successive estimates scatter by up to ±1.6° (stage stereo seed 7), but they share
@@ -463,7 +470,7 @@ class HeadingParams:
     surface_power: float = 0.0
     surface_grids: int = 4
     surface_contrast: float = 0.0
-    plane_refine: bool = False
+    plane_refine_estimates: int = 1
 
     def __post_init__(self) -> None:
         def check(name: str, kind: type, allowed: str, ok=lambda _: True) -> None:
@@ -472,7 +479,12 @@ class HeadingParams:
         check("correct_heading", bool, "a bool")
         check("edge_score", bool, "a bool")
         check("voxel_estimate", bool, "a bool")
-        check("plane_refine", bool, "a bool")
+        check(
+            "plane_refine_estimates",
+            int,
+            "an integer in [0, 1000000] (0: none refined)",
+            lambda v: 0 <= v <= 1_000_000,
+        )
         check(
             "overlap_cells",
             int,
@@ -924,7 +936,7 @@ class _Keyframe:
     voxel_z_world: NDArray[np.float64] | None = None  # ... and their world z
     walked_m: float = 0.0  # believed distance walked when it was taken [m]
     spreads: NDArray[np.float64] | None = None  # (N, 3) robot frame, with `surface_power`
-    normals_xy: NDArray[np.float64] | None = None  # (N, 2) robot frame, with `plane_refine`
+    normals_xy: NDArray[np.float64] | None = None  # (N, 2) robot frame, while refining
     normal_weights: NDArray[np.float64] | None = None  # (N,) their planarity (0: none)
 
 
@@ -1130,7 +1142,7 @@ class HeadingEstimator:
         z_world = (points[:, 2] + z_shift_m) + pose[2]
         normals = (
             keyframe_normals(offsets_xy, z_world, heading_planes.NORMAL_RADIUS_M)
-            if p.plane_refine and not edges
+            if self.estimates < p.plane_refine_estimates and not edges
             else (None, None)
         )
         keyframes.append(
@@ -1262,7 +1274,8 @@ class HeadingEstimator:
             fine = coarse[int(np.argmax(scores))] + np.arange(-steps, steps + 1) * p.fine_step_deg
             fine_scores = score(*data, np.radians(fine), p.cell_m, p.layer_m)
             self.correction_rad = math.radians(float(fine[int(np.argmax(fine_scores))]))
-        if p.plane_refine and not edges:
+        if self.estimates < p.plane_refine_estimates and not edges:
+            # Every keyframe has its normals: each was added while estimates < this bound.
             self.correction_rad = _plane_refined(keyframes, data[3], data[4], self.correction_rad)
         if not edges and p.smooth_estimates > 1:
             self._recent_rad = [*self._recent_rad[1 - p.smooth_estimates :], self.correction_rad]

@@ -105,7 +105,8 @@ WALK = [(0.0, 0.5, 0.0), (0.3, 0.5, 0.02), (0.6, 0.5, -0.01), (0.9, 0.52, 0.0)]
         {"overlap_cells": 5},
         {"overlap_cells": 5, "noise_band": 4.0},
         {"surface_power": 3.0},
-        {"plane_refine": True},
+        {"plane_refine_estimates": 0},
+        {"plane_refine_estimates": 1000},
     ],
 )
 @pytest.mark.parametrize("yaw_error_deg", [3.0, -5.5])
@@ -160,12 +161,15 @@ def test_a_yaw_error_growing_with_the_distance_walked_is_followed_by_the_drift_m
 
 def test_smoothing_takes_the_median_of_the_last_accepted_estimates(monkeypatch):
     # The estimates are scripted (−1, −5, −2, −4, −3°, one per try of a walk of ten frames
-    # 0.1 m apart); with 3 the correction after each try is the median of the last three.
+    # 0.1 m apart; none refined); with 3 the correction after each try is the median of the last
+    # three.
     scripted = iter([-1.0, -5.0, -2.0, -4.0, -3.0] * 2)
     monkeypatch.setattr(heading_module, "_band_centre_deg", lambda *_: next(scripted))
     boxes = box_points_world(np.random.default_rng(11))
     for smooth, expected in ((1, [-1.0, -5.0, -2.0, -4.0, -3.0]), (3, [-1, -3, -2, -4, -3])):
-        estimator = HeadingEstimator(HeadingParams(estimate_every=1, smooth_estimates=smooth))
+        estimator = HeadingEstimator(
+            HeadingParams(estimate_every=1, smooth_estimates=smooth, plane_refine_estimates=0)
+        )
         corrections = []
         for i in range(10):
             x = 0.1 * i
@@ -312,7 +316,8 @@ def test_overlap_scores_divide_the_root_pairs_by_those_of_the_wide_voxels():
         ("peak_band", 1.0),
         ("correct_heading", 1),
         ("voxel_estimate", 1),
-        ("plane_refine", "yes"),
+        ("plane_refine_estimates", -1),
+        ("plane_refine_estimates", True),
         ("drift_deg_per_m", -0.5),
         ("drift_step_deg_per_m", 0.0),
         ("smooth_estimates", 0),
@@ -708,7 +713,7 @@ def test_the_plane_refined_estimate_of_a_wall_faced_head_on_with_a_side_wall(yaw
     # The same L-shaped wall: the score's estimate lies on its 0.5° candidates (0.2° off for
     # 1.3° and -4.2°); refined point to plane it is within 0.02° of the error.
     estimator = HeadingEstimator(
-        HeadingParams(estimate_every=1, edge_score=False, plane_refine=True)
+        HeadingParams(estimate_every=1, edge_score=False, plane_refine_estimates=1000)
     )
     _walk_at_l_shaped_wall(estimator, yaw_error_deg)
     assert estimator.estimates == 3

@@ -657,7 +657,7 @@ def _match(frames: tuple[Frame, ...], params: RunParams) -> None:
 def _heading(frame: Frame, params: RunParams) -> None:
     """Both heading scores on four of the frame's floor points.
 
-    With `HeadingParams.plane_refine`, its point-to-plane refinement too.
+    With `HeadingParams.plane_refine_estimates`, its point-to-plane refinement too.
     """
     points_world = _floor_points_world(frame)[0]
     offsets_xy = np.ascontiguousarray(points_world[:4, :2])
@@ -668,7 +668,7 @@ def _heading(frame: Frame, params: RunParams) -> None:
     heading_scores(offsets_xy, heights, keys, *poses, *voxel)
     # the edge score (`mapper.heading`, on scenes like a staircase)
     weighted_heading_scores(offsets_xy, heights, np.ones(4), keys, *poses, *voxel)
-    if params.heading.plane_refine:  # the point-to-plane refinement, with its argument types
+    if params.heading.plane_refine_estimates:  # the point-to-plane refinement, its types
         normals, weights = mapper.heading_planes.keyframe_normals(
             offsets_xy, heights, mapper.heading_planes.NORMAL_RADIUS_M
         )
