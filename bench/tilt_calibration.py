@@ -50,6 +50,17 @@ def robust_std(values: np.ndarray) -> np.ndarray:
     return 1.4826 * np.median(np.abs(values - np.median(values, axis=0)), axis=0)
 
 
+def true_tilt(frame) -> np.ndarray:
+    """(2,) the truth a frame's tilt measurement measures: the true up vector's (x, y) seen
+    from the believed robot frame, ``(R_believed · R_trueᵀ · e_z)[:2]``."""
+    true_in_robot = (
+        np.linalg.inv(planar_pose_to_matrix(frame.robot_pose_true))
+        @ frame.transform_camera_to_world_true
+    )
+    believed = np.asarray(frame.transform_camera_to_robot_believed)[:3, :3]
+    return (believed @ true_in_robot[:3, :3].T @ np.array([0.0, 0.0, 1.0]))[:2]
+
+
 def frame_errors(path: Path, every: int, overrides: dict[str, object]) -> np.ndarray:
     """(n, 4) per measured frame: ``z − x`` (2,) [rad] and ``σ`` (2,) [rad]."""
     recording = load_recording(path)
@@ -68,12 +79,7 @@ def frame_errors(path: Path, every: int, overrides: dict[str, object]) -> np.nda
         measured, sigma = measured_tilt(result, segmentation_params)
         if measured is None:
             continue
-        true_in_robot = (
-            np.linalg.inv(planar_pose_to_matrix(frame.robot_pose_true))
-            @ frame.transform_camera_to_world_true
-        )
-        believed = np.asarray(frame.transform_camera_to_robot_believed)[:3, :3]
-        truth = (believed @ true_in_robot[:3, :3].T @ np.array([0.0, 0.0, 1.0]))[:2]
+        truth = true_tilt(frame)
         rows.append(np.concatenate([measured - truth, np.broadcast_to(sigma, (2,))]))
     return np.array(rows).reshape(-1, 4)
 

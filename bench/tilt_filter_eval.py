@@ -8,7 +8,7 @@ Every frame of each recording is segmented once as a run does (the pipeline's se
 parameters, `fogsim.mapping.segmenter.pipeline_segmentation_params`; cached in ``--cache``):
 its measured tilt and predicted std (`mapper.tilt_filter.measured_tilt`, pitch factor 1), the
 believed camera's turn since the previous frame, and the truth (the true up vector seen from
-the believed robot frame, as `bench/tilt_calibration.py` has it). Each variant then runs a
+the believed robot frame, `bench/tilt_calibration.py`'s `true_tilt`). Each variant then runs a
 `mapper.tilt_filter.TiltFilter` over the frames in order, as `fogsim.mapping.segmenter` does,
 and the tilt it applies is compared with the truth. A variant is ``NAME:KEY=VALUE,...`` with
 keys ``pitch_factor`` (`SegmentationParams.tilt_pitch_sigma_factor`) and the fields of
@@ -28,6 +28,7 @@ from concurrent.futures import ProcessPoolExecutor
 from pathlib import Path
 
 import numpy as np
+from tilt_calibration import true_tilt
 
 from fogsim.config import resolve_params
 from fogsim.data.recording import load_recording
@@ -35,7 +36,7 @@ from fogsim.mapping.segmenter import pipeline_segmentation_params
 from fogsim.run.runner import sensor_fields
 from mapper.segmentation import segment_depth
 from mapper.tilt_filter import TiltFilter, TiltFilterParams, measured_tilt
-from mapper.transforms import planar_pose_to_matrix, rotation_angle_deg
+from mapper.transforms import rotation_angle_deg
 
 
 def frame_table(path: Path, cache: Path) -> np.ndarray:
@@ -55,11 +56,7 @@ def frame_table(path: Path, cache: Path) -> np.ndarray:
         rotation = believed[:3, :3]
         turn = 0.0 if previous is None else math.radians(rotation_angle_deg(previous.T @ rotation))
         previous = rotation
-        true_in_robot = (
-            np.linalg.inv(planar_pose_to_matrix(frame.robot_pose_true))
-            @ frame.transform_camera_to_world_true
-        )
-        truth = (rotation @ true_in_robot[:3, :3].T @ np.array([0.0, 0.0, 1.0]))[:2]
+        truth = true_tilt(frame)
         z = np.full(2, np.nan) if measured is None else measured
         rows.append(np.concatenate([z, np.broadcast_to(sigma, (2,)), [turn], truth]))
     table = np.array(rows)

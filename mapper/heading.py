@@ -76,7 +76,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from mapper import heading_planes
-from mapper.heading_planes import keyframe_normals, refine_heading
+from mapper.heading_planes import keyframe_normals, refined_heading
 from mapper.validation import check_field
 
 __all__ = [
@@ -1317,25 +1317,18 @@ def _plane_refined(
     yaw_rad: NDArray[np.float64],
     start_rad: float,
 ) -> float:
-    """`start_rad` refined by `mapper.heading_planes.refine_heading` over the keyframes."""
+    """`start_rad` refined by `mapper.heading_planes.refined_heading` over the keyframes."""
     sizes = [k.offsets_xy.shape[0] for k in keyframes]
-    refined, _ = refine_heading(
+    return refined_heading(
         np.concatenate([k.offsets_xy for k in keyframes]),
         np.concatenate([k.z_world for k in keyframes]),
         np.concatenate([k.normals_xy for k in keyframes]),
         np.concatenate([k.normal_weights for k in keyframes]),
         np.repeat(np.arange(len(keyframes), dtype=np.int64), sizes),
-        np.ascontiguousarray(cameras_xy, dtype=np.float64),
-        np.ascontiguousarray(yaw_rad, dtype=np.float64),
-        float(start_rad),
-        heading_planes.MATCH_M,
-        heading_planes.HUBER_M,
-        heading_planes.MIN_BASELINE_M,
-        heading_planes.ITERATIONS,
-        heading_planes.TOLERANCE_RAD,
-        heading_planes.MAX_SHIFT_RAD,
+        cameras_xy,
+        yaw_rad,
+        start_rad,
     )
-    return float(refined)
 
 
 def _across_baselines(cameras_xy: NDArray[np.float64]) -> NDArray[np.float64]:

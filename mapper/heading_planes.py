@@ -74,8 +74,9 @@ import math
 
 import numba
 import numpy as np
+from numpy.typing import NDArray
 
-__all__ = ["keyframe_normals", "refine_heading"]
+__all__ = ["keyframe_normals", "refine_heading", "refined_heading"]
 
 MIN_NORMAL_POINTS = 5
 """A normal needs this many points (the point itself included) within the radius."""
@@ -347,3 +348,38 @@ def refine_heading(
         if abs(step) < tolerance_rad:
             break
     return delta, information
+
+
+def refined_heading(
+    offsets_xy: NDArray[np.float64],
+    z_world: NDArray[np.float64],
+    normals_xy: NDArray[np.float64],
+    normal_weights: NDArray[np.float64],
+    keyframe_of: NDArray[np.int64],
+    camera_xy: NDArray[np.float64],
+    yaw_rad: NDArray[np.float64],
+    start_rad: float,
+) -> float:
+    """`refine_heading` with this module's constants: the refined correction [rad].
+
+    The arrays as `refine_heading` takes them; ``camera_xy`` and ``yaw_rad`` are made
+    contiguous float64 here, so every caller (the estimator, the warm-up) compiles the one
+    signature.
+    """
+    refined, _ = refine_heading(
+        offsets_xy,
+        z_world,
+        normals_xy,
+        normal_weights,
+        keyframe_of,
+        np.ascontiguousarray(camera_xy, dtype=np.float64),
+        np.ascontiguousarray(yaw_rad, dtype=np.float64),
+        float(start_rad),
+        MATCH_M,
+        HUBER_M,
+        MIN_BASELINE_M,
+        ITERATIONS,
+        TOLERANCE_RAD,
+        MAX_SHIFT_RAD,
+    )
+    return float(refined)

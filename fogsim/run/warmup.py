@@ -672,21 +672,15 @@ def _heading(frame: Frame, params: RunParams) -> None:
         normals, weights = mapper.heading_planes.keyframe_normals(
             offsets_xy, heights, mapper.heading_planes.NORMAL_RADIUS_M
         )
-        mapper.heading_planes.refine_heading(
+        mapper.heading_planes.refined_heading(
             offsets_xy,
             heights,
             normals,
             weights,
             np.array([0, 0, 1, 1], dtype=np.int64),
-            offsets_xy[:2].copy(),
+            offsets_xy[:2],
             np.zeros(2),
             0.0,
-            mapper.heading_planes.MATCH_M,
-            mapper.heading_planes.HUBER_M,
-            mapper.heading_planes.MIN_BASELINE_M,
-            mapper.heading_planes.ITERATIONS,
-            mapper.heading_planes.TOLERANCE_RAD,
-            mapper.heading_planes.MAX_SHIFT_RAD,
         )
 
 
