@@ -4,6 +4,7 @@ Usage:
     .venv/bin/python bench/bench_cold.py kernels [--tree DIR ...] [--repeats N] [--top K]
         [--group NAME ...]
     .venv/bin/python bench/bench_cold.py run [--tree DIR ...] [--repeats N] [--scenario NAME]
+        [--bundle on|off|both]
     .venv/bin/python bench/bench_cold.py phases [--tree DIR ...] [--repeats N] [--group NAME ...]
 
 Every measurement is a fresh ``python`` process run from a tree (``PYTHONPATH`` = the tree)
@@ -37,7 +38,13 @@ measure on a shared machine: wall time only means something at load < 2.
 - ``run``: ``fogsim run SCENARIO --seed 1 --no-pictures --out TMP`` (progress shown, so the
   warm-up reports its groups): wall, CPU (user + sys of the process and its helper), each
   process's share (the main process's CPU is the critical path's bound when the load makes
-  wall time meaningless) and the warm-up's ``compiled in`` line.
+  wall time meaningless) and the warm-up's ``compiled in`` line. ``--bundle on`` (a fresh
+  machine: the kernels' shipped build installed, `fogsim.run.kernel_bundle`), ``off`` (every
+  kernel compiled, ``FOGSIM_KERNEL_BUNDLE=0``) or ``both`` (the default, interleaved).
+  ``kernels`` and ``phases`` always compile (the build left out).
+
+Session 41 (AMD EPYC, 2 cores, load 1-2): ``run --repeats 3`` with the shipped build against
+compiling, see README "Benchmarks".
 """
 
 import argparse
@@ -193,12 +200,14 @@ def load_note() -> str:
     return "load " + "/".join(f"{x:.1f}" for x in os.getloadavg())
 
 
-def _env(tree: Path, scratch: Path) -> dict[str, str]:
-    """The environment of a cold child of ``tree``: empty caches in ``scratch``."""
+def _env(tree: Path, scratch: Path, bundle: bool = False) -> dict[str, str]:
+    """The environment of a cold child of ``tree``: empty caches in ``scratch``; the kernels'
+    shipped build (`fogsim.run.kernel_bundle`) installed only with ``bundle``."""
     (scratch / "numba").mkdir()
     (scratch / "fogsim").mkdir()
     return {
         **os.environ,
+        "FOGSIM_KERNEL_BUNDLE": "1" if bundle else "0",
         "PYTHONPATH": str(tree),
         "NUMBA_CACHE_DIR": str(scratch / "numba"),
         "FOGSIM_CACHE": str(scratch / "fogsim"),
@@ -225,11 +234,11 @@ def profile_kernels(tree: Path, groups: list[str], script: str = _PROFILE) -> di
     return json.loads(done.stdout)
 
 
-def cold_run(tree: Path, scenario: str) -> tuple[float, float, str]:
+def cold_run(tree: Path, scenario: str, bundle: bool) -> tuple[float, float, str]:
     """One cold ``fogsim run`` of ``tree``: (wall [s], CPU [s], what it printed of its compile
-    and each process's CPU time)."""
+    or the shipped build's install and each process's CPU time)."""
     with tempfile.TemporaryDirectory() as scratch:
-        env = _env(tree, Path(scratch))
+        env = _env(tree, Path(scratch), bundle)
         out = str(Path(scratch) / "out")
         before = resource.getrusage(resource.RUSAGE_CHILDREN)
         start = time.perf_counter()
@@ -246,7 +255,11 @@ def cold_run(tree: Path, scenario: str) -> tuple[float, float, str]:
     if done.returncode != 0:
         raise SystemExit(f"cold run of {tree} failed:\n{done.stderr}")
     cpu = (after.ru_utime - before.ru_utime) + (after.ru_stime - before.ru_stime)
-    lines = [line.strip() for line in done.stderr.splitlines() if " kernels ..." in line]
+    lines = [
+        line.strip()
+        for line in done.stderr.splitlines()
+        if " kernels ..." in line or "installed from the shipped build" in line
+    ]
     compiled = [line.strip() for line in done.stderr.splitlines() if "compiled in" in line]
     shares = [line.strip() for line in done.stderr.splitlines() if "bench_cold CPU" in line]
     return wall, cpu, "; ".join(lines + compiled + shares)
@@ -326,24 +339,27 @@ def _numba_share(exclusive: dict[str, float]) -> float:
     return sum(seconds for name, seconds in exclusive.items() if name.startswith("numba."))
 
 
-def runs(trees: list[Path], repeats: int, scenario: str) -> None:
-    """The ``run`` command: interleaved cold runs, then medians per tree."""
-    results: dict[Path, list[tuple[float, float]]] = {tree: [] for tree in trees}
+def runs(trees: list[Path], repeats: int, scenario: str, bundles: list[bool]) -> None:
+    """The ``run`` command: interleaved cold runs (per tree, with and/or without the shipped
+    build), then medians per tree and variant."""
+    variants = [(tree, bundle) for tree in trees for bundle in bundles]
+    results: dict[tuple[Path, bool], list[tuple[float, float]]] = {v: [] for v in variants}
+    names = {True: "shipped build", False: "compiling"}
     for i in range(repeats):
-        for tree in trees:
+        for tree, bundle in variants:
             note = load_note()
-            wall, cpu, compiled = cold_run(tree, scenario)
-            results[tree].append((wall, cpu))
+            wall, cpu, compiled = cold_run(tree, scenario, bundle)
+            results[tree, bundle].append((wall, cpu))
             print(
-                f"  {tree} repeat {i + 1}: wall {wall:.1f} s, CPU {cpu:.1f} s "
+                f"  {tree} ({names[bundle]}) repeat {i + 1}: wall {wall:.1f} s, CPU {cpu:.1f} s "
                 f"({note} -> {load_note()}): {compiled}"
             )
-    for tree in trees:
-        walls = [wall for wall, _ in results[tree]]
-        cpus = [cpu for _, cpu in results[tree]]
+    for tree, bundle in variants:
+        walls = [wall for wall, _ in results[tree, bundle]]
+        cpus = [cpu for _, cpu in results[tree, bundle]]
         print(
-            f"{tree}: cold run {scenario} median wall {statistics.median(walls):.1f} s, "
-            f"CPU {statistics.median(cpus):.1f} s over {repeats}"
+            f"{tree} ({names[bundle]}): cold run {scenario} median wall "
+            f"{statistics.median(walls):.1f} s, CPU {statistics.median(cpus):.1f} s over {repeats}"
         )
 
 
@@ -358,6 +374,13 @@ def main() -> None:
     parser.add_argument("--top", type=int, default=25, help="kernels listed (kernels)")
     parser.add_argument("--scenario", default="stage", help="scenario of the run (run)")
     parser.add_argument(
+        "--bundle",
+        choices=("on", "off", "both"),
+        default="both",
+        help="run: with the kernels' shipped build installed (a fresh machine), without "
+        "(every kernel compiled), or both, interleaved",
+    )
+    parser.add_argument(
         "--group",
         action="append",
         default=[],
@@ -371,7 +394,8 @@ def main() -> None:
     elif args.command == "phases":
         phases(trees, args.repeats, args.group)
     else:
-        runs(trees, args.repeats, args.scenario)
+        bundles = {"on": [True], "off": [False], "both": [True, False]}[args.bundle]
+        runs(trees, args.repeats, args.scenario, bundles)
 
 
 if __name__ == "__main__":

@@ -15,6 +15,7 @@ from __future__ import annotations
 
 import functools
 from dataclasses import dataclass
+from pathlib import Path
 from typing import TYPE_CHECKING
 
 import numba
@@ -22,7 +23,13 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from fogsim.errors import CameraError, ParameterError, RobotModelError
+from mapper import kernel_cache
 from mapper.intrinsics import PinholeIntrinsics
+
+# numba's cache of this folder's kernel stamped by its text, not the file's time (the mapper's
+# rule, `mapper.kernel_cache`): the shipped kernel bundle then applies to a fresh checkout
+# (`fogsim.run.kernel_bundle`). Installed before the kernel below is decorated.
+kernel_cache.install(Path(__file__).resolve().parent)
 
 if TYPE_CHECKING:
     from fogsim.robot.kinematics import Robot

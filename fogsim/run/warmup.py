@@ -48,6 +48,11 @@ compiled 99 functions, 88 with one flag set; the helper 114, 102). The numpy err
 the zero-divisor checks: a division by zero gives inf or NaN instead of raising; the kernels'
 divisors are parameters validated positive or guarded counts.
 
+Kernels compiled ahead of time: before compiling anything, a warm-up that finds a group cold
+installs the kernels' shipped build (`fogsim.run.kernel_bundle`: generic x86-64 code of this
+package's sources for this numba and CPython) into numba's cache, and compiles only what that
+leaves cold (nothing, where the build applies: the stage's first run 31.7 → 7.0 s).
+
 Where the cache is: numba keeps it beside the sources (``__pycache__/*.nbi`` index files and
 ``*.nbc`` code) and, when that folder is not writable (a wheel in a read-only site-packages),
 in its user-wide cache folder (``~/.cache/numba``, numba's ``UserWideCacheLocator``), or in
@@ -100,6 +105,7 @@ from fogsim.data.frame import Frame
 from fogsim.mapping.pipeline import Pipeline
 from fogsim.mapping.segmenter import pipeline_segmentation_params
 from fogsim.robot import self_filter
+from fogsim.run import kernel_bundle
 from mapper import AveragingMap, FloorObstacleMapper, SegmentationParams
 from mapper.heading import heading_scores, weighted_heading_scores
 from mapper.intrinsics import PinholeIntrinsics
@@ -306,8 +312,10 @@ def warm_up_kernels(
 class KernelWarmUp:
     """The warm-up of a run's kernels, begun before the run starts its threads.
 
-    Begun (made): finds the groups whose cache is cold, says so on ``stream`` and, with more
-    than one group cold, forks the helper process compiling :data:`HELPER_GROUPS` (module doc).
+    Begun (made): finds the groups whose cache is cold; with any cold, installs the shipped
+    build of the kernels (`fogsim.run.kernel_bundle.install`, saying so on ``stream``) and
+    looks again; says so on ``stream`` of the groups still cold and, with more than one,
+    forks the helper process compiling :data:`HELPER_GROUPS` (module doc).
     :meth:`finish`: runs each group of :data:`GROUPS` on synthetic data (throwaway maps, a
     2 × 2 image for :data:`SELF_FILTER`) but the helper's, waits for the helper and loads its
     kernels from the cache, then maps the synthetic frames with a throwaway :class:`Pipeline`
@@ -329,6 +337,16 @@ class KernelWarmUp:
         self._stream = stream
         self._groups = run_groups(params, simulated=simulated)
         self._cold = [group for group in self._groups if is_cold(group)]
+        if self._cold:
+            installed = kernel_bundle.install(k for group in GROUPS for k in group.kernels)
+            if installed is not None:
+                self._say(
+                    f"fogsim: {installed.indexes} kernels installed from the shipped build "
+                    f"{installed.bundle.name} (first run only; generic x86-64 code: "
+                    f"{kernel_bundle.ENV_SWITCH}=0 compiles them for this CPU instead)",
+                    flush=True,
+                )
+                self._cold = [group for group in self._groups if is_cold(group)]
         away = [group for group in HELPER_GROUPS if group in self._cold]
         fork = bool(away) and len(away) < len(self._cold) and _can_fork()
         if self._cold:

@@ -1,0 +1,401 @@
+"""Kernels compiled ahead of time: numba's cache of a run's kernels, shipped with the package.
+
+A machine's first run compiled every kernel a run calls (:mod:`fogsim.run.warmup`): 28 s of
+its 31.7 s wall on the 2 cores of an AMD EPYC, 55 s of CPU (session 40), most of it numba's
+front end (with ``NUMBA_OPT=0`` the compile still took 28 of 35 s CPU), so no trim of the
+compile reaches issue #14's 12 s. The kernels are compiled ahead of time instead:
+
+- :func:`build` (``python -m fogsim.run.kernel_bundle``) warms a run's kernels up in a child
+  process that compiles for a generic x86-64 CPU (``NUMBA_CPU_NAME=generic``, no CPU features:
+  baseline SSE2 code, which every x86-64 machine runs) into an empty numba cache, and packs
+  that cache into one file, ``assets/kernels/<platform>-<python>-numba<version>.tar.xz``
+  (1.7 MB), with a manifest of what it was compiled for and from (:data:`MANIFEST`);
+- a warm-up that finds a kernel cold (:class:`fogsim.run.warmup.KernelWarmUp`) first installs
+  the bundle into numba's cache (:func:`install`), then compiles only what is still missing.
+
+numba keys a cached kernel by its signature, the bytecode's hash and the code generator's
+*magic tuple* (target triple, CPU name, CPU features), and looks an entry up under the tuple
+of the machine it runs on. :func:`install` writes the bundle's index files with their keys'
+tuple made this machine's (:func:`rekeyed_index`): numba then loads the generic code as its
+own. Nothing else of numba's flow changes: a signature the bundle lacks is compiled and added
+to the same index as before.
+
+The bundle applies when the machine's target triple (architecture and OS), CPython version
+(the cache files' names and the bytecode hashes), numba version (numba ignores an index of
+another version) and the kernel modules' stamps (`mapper.kernel_cache.package_stamp`: one
+hash of every kernel module of a package) are the manifest's; otherwise nothing is installed
+and the first run compiles as before. `tests/test_kernel_bundle.py` fails when the shipped
+bundle's stamps are not the sources': after an edit of a kernel module, rebuild it
+(``python -m fogsim.run.kernel_bundle``, about 30 s on 2 cores).
+
+Measured (AMD EPYC, 2 cores, session 41): the stage's first run on an empty numba and fogsim
+cache 31.7 s → 7.0 s wall (the scene's compile and the kernels' load included); its maps are
+bit for bit those of code compiled for the host (every array of ``maps.npz``): the kernels
+use no fast-math, so LLVM may not fuse or reorder floating-point operations for either CPU.
+The generic code is slower than code compiled for the host: the mapper update about 10 %
+(`bench/bench_mapper.py`'s ``generic`` column), the warm stage run within the machine's
+spread. ``FOGSIM_KERNEL_BUNDLE=0`` leaves the bundle out: the first run compiles for this CPU.
+"""
+
+from __future__ import annotations
+
+import argparse
+import io
+import json
+import os
+import pickle
+import subprocess
+import sys
+import tarfile
+import tempfile
+import time
+from collections.abc import Iterable, Mapping
+from dataclasses import asdict, dataclass
+from pathlib import Path
+from typing import Any
+
+import numba
+from numba.core.dispatcher import Dispatcher
+from numba.core.registry import cpu_target
+
+from fogsim.atomic import write_atomic
+from fogsim.errors import FogsimError
+from fogsim.paths import ASSETS_DIR
+
+__all__ = [
+    "BUNDLE_DIR",
+    "ENV_SWITCH",
+    "MANIFEST",
+    "BundleTarget",
+    "Installed",
+    "build",
+    "bundle_path",
+    "enabled",
+    "install",
+    "rekeyed_index",
+]
+
+BUNDLE_DIR = ASSETS_DIR / "kernels"
+"""Where the shipped bundle lives (installed with the package's other data)."""
+
+MANIFEST = "manifest.json"
+"""The bundle's first member: its :class:`BundleTarget` and its folders' stamps, as JSON."""
+
+ENV_SWITCH = "FOGSIM_KERNEL_BUNDLE"
+"""Environment variable: ``0`` leaves the bundle out (the first run compiles for this CPU)."""
+
+GENERIC_CPU = {"NUMBA_CPU_NAME": "generic", "NUMBA_CPU_FEATURES": ""}
+"""The build's code generator: LLVM's generic CPU of the triple, no optional features."""
+
+
+@dataclass(frozen=True)
+class BundleTarget:
+    """What a bundle's code was compiled for, and a machine's own.
+
+    Attributes:
+        triple: LLVM target triple (architecture, vendor, OS), e.g. ``x86_64-unknown-linux-gnu``.
+        python: CPython's version tag in numba's cache file names, e.g. ``py311``.
+        numba: numba's version (numba ignores an index written by another).
+    """
+
+    triple: str
+    python: str
+    numba: str
+
+    @classmethod
+    def here(cls) -> BundleTarget:
+        """This process's target."""
+        return cls(
+            triple=str(cpu_target.target_context.codegen().magic_tuple()[0]),
+            python=f"py{sys.version_info.major}{sys.version_info.minor}{sys.abiflags}",
+            numba=numba.__version__,
+        )
+
+    @property
+    def file_name(self) -> str:
+        """The bundle's file name for this target."""
+        return f"{self.triple}-{self.python}-numba{self.numba}.tar.xz"
+
+
+@dataclass(frozen=True)
+class Installed:
+    """What :func:`install` wrote.
+
+    Attributes:
+        bundle: The bundle file.
+        indexes: Index files written (one per cached function).
+        files: Files written, index and code files.
+    """
+
+    bundle: Path
+    indexes: int
+    files: int
+
+
+def enabled() -> bool:
+    """Whether warm-ups install the bundle (``FOGSIM_KERNEL_BUNDLE`` is not ``0``)."""
+    return os.environ.get(ENV_SWITCH, "1").strip() != "0"
+
+
+def bundle_path(target: BundleTarget | None = None) -> Path:
+    """The shipped bundle's path for ``target`` (this machine's when None); it may not exist."""
+    return BUNDLE_DIR / (target or BundleTarget.here()).file_name
+
+
+def _folder_key(py_file: str) -> str:
+    """A kernel's source folder, e.g. ``mapper/scanline``.
+
+    Relative to the folder holding the ``mapper`` and ``fogsim`` packages: the same in a
+    checkout and in an installed wheel.
+    """
+    folder = Path(py_file).resolve().parent
+    for parent in folder.parents:
+        if (parent / "mapper").is_dir() and (parent / "fogsim").is_dir():
+            return folder.relative_to(parent).as_posix()
+    return folder.as_posix()
+
+
+def _jsonable(stamp: Any) -> Any:
+    """A numba source stamp as JSON holds it (a tuple of numbers becomes a list)."""
+    return json.loads(json.dumps(stamp))
+
+
+def cache_folders(kernels: Iterable[Dispatcher]) -> dict[str, tuple[Path, Any]]:
+    """The numba cache folder and source stamp per source folder of ``kernels``.
+
+    Keyed by :func:`_folder_key`: the folder numba caches that source folder's kernels in, in
+    this process (``NUMBA_CACHE_DIR``, beside the sources, or the user-wide folder), and the
+    stamp it writes into their index files.
+    """
+    folders: dict[str, tuple[Path, Any]] = {}
+    for kernel in kernels:
+        cache = getattr(kernel, "_cache", None)
+        cache_file = getattr(cache, "_cache_file", None)
+        if cache_file is None:
+            continue
+        key = _folder_key(kernel.py_func.__code__.co_filename)
+        folders.setdefault(key, (Path(cache._cache_path), cache_file._source_stamp))
+    return folders
+
+
+def _read_index(data: bytes) -> tuple[str, Any, dict]:
+    """An index file's numba version, source stamp and ``{key: code file name}``."""
+    stream = io.BytesIO(data)
+    version = pickle.load(stream)
+    stamp, overloads = pickle.loads(stream.read())
+    return version, stamp, overloads
+
+
+def rekeyed_index(data: bytes, magic_tuple: tuple) -> bytes:
+    """An index file whose entries' code generator tuple is ``magic_tuple``.
+
+    numba's index key is ``(signature, magic tuple, (bytecode hash, closure hash))``; only the
+    tuple changes. The version and the source stamp stay.
+    """
+    version, stamp, overloads = _read_index(data)
+    rekeyed = {(key[0], tuple(magic_tuple), key[2]): name for key, name in overloads.items()}
+    return pickle.dumps(version, protocol=-1) + pickle.dumps((stamp, rekeyed), protocol=-1)
+
+
+def _fresh(index_path: Path, stamp: Any) -> bool:
+    """Whether numba would use the index file at ``index_path`` (its version and stamp)."""
+    try:
+        version, found, overloads = _read_index(index_path.read_bytes())
+    except (OSError, EOFError, pickle.UnpicklingError, ValueError, TypeError):
+        return False
+    return version == numba.__version__ and found == stamp and bool(overloads)
+
+
+def _manifest(tar: tarfile.TarFile) -> dict:
+    """The bundle's manifest."""
+    member = tar.extractfile(MANIFEST)
+    if member is None:
+        raise FogsimError(f"kernel bundle {tar.name} has no {MANIFEST}")
+    return json.loads(member.read())
+
+
+def install(kernels: Iterable[Dispatcher], bundle: Path | None = None) -> Installed | None:
+    """Put the bundle's compiled kernels into numba's cache where they apply.
+
+    For each source folder of ``kernels`` whose stamp is the manifest's, every index file of
+    the bundle whose counterpart in numba's cache folder is not fresh (absent, stale or of
+    another numba) is written with its code files, rekeyed to this machine
+    (:func:`rekeyed_index`); each file atomically, the code files before their index, so a
+    process reading the cache meanwhile never finds an index without its code. A fresh index
+    (a kernel compiled here) is never overwritten.
+
+    Args:
+        kernels: The kernels whose folders are installed (every function numba cached in
+            those folders is, their callees too).
+        bundle: The bundle file; None: :func:`bundle_path`.
+
+    Returns:
+        What was written, or None when nothing was: no bundle for this machine, the bundle
+        left out (:func:`enabled`), not applying (another triple, CPython, numba or source
+        stamp), or every index fresh already.
+    """
+    path = bundle_path() if bundle is None else bundle
+    if not enabled() or not path.is_file():
+        return None
+    here = BundleTarget.here()
+    folders = cache_folders(kernels)
+    magic = cpu_target.target_context.codegen().magic_tuple()
+    indexes = files = 0
+    with tarfile.open(path, "r:xz") as tar:
+        manifest = _manifest(tar)
+        if BundleTarget(**manifest["target"]) != here:
+            return None
+        # Read once, in the archive's order: an xz stream cannot seek back without
+        # decompressing again from its start.
+        members = {member.name: _read_bytes(tar, member) for member in tar if member.isfile()}
+        for folder, stamp in manifest["stamps"].items():
+            if folder not in folders or _jsonable(folders[folder][1]) != stamp:
+                continue
+            cache_path = folders[folder][0]
+            for name in sorted(members):
+                if not name.startswith(f"{folder}/") or not name.endswith(".nbi"):
+                    continue
+                base = name[len(folder) + 1 :]
+                if "/" in base or _fresh(cache_path / base, folders[folder][1]):
+                    continue
+                index = members[name]
+                code_names = sorted(set(_read_index(index)[2].values()))
+                if any(f"{folder}/{code}" not in members for code in code_names):
+                    continue  # an incomplete bundle: this function compiles as before
+                for code in code_names:
+                    data = members[f"{folder}/{code}"]
+                    write_atomic(cache_path / code, lambda handle, data=data: handle.write(data))
+                rekeyed = rekeyed_index(index, magic)
+                write_atomic(cache_path / base, lambda handle, data=rekeyed: handle.write(data))
+                indexes += 1
+                files += 1 + len(code_names)
+    return Installed(path, indexes, files) if indexes else None
+
+
+def _read_bytes(tar: tarfile.TarFile, member: tarfile.TarInfo) -> bytes:
+    """A member's bytes."""
+    handle = tar.extractfile(member)
+    if handle is None:
+        raise FogsimError(f"kernel bundle {tar.name}: {member.name} is not a file")
+    return handle.read()
+
+
+def _compile_into(manifest_path: Path) -> None:
+    """The build's child: warm up every :func:`build_params` run, write the cache's manifest.
+
+    Runs with the generic CPU and an empty ``NUMBA_CACHE_DIR`` (:func:`build`). The manifest
+    names, per source folder of the warm-up's kernels, numba's cache folder and its stamp.
+    """
+    from fogsim.run import warmup  # the warm-up imports this module
+
+    for params in build_params():
+        warmup.warm_up_kernels(params, stream=None)
+    kernels = [kernel for group in warmup.GROUPS for kernel in group.kernels]
+    folders = cache_folders(kernels)
+    manifest = {
+        "target": asdict(BundleTarget.here()),
+        "magic_tuple": list(cpu_target.target_context.codegen().magic_tuple()),
+        "stamps": {key: _jsonable(stamp) for key, (_, stamp) in sorted(folders.items())},
+        "caches": {key: str(cache) for key, (cache, _) in sorted(folders.items())},
+    }
+    manifest_path.write_text(json.dumps(manifest, indent=1))
+
+
+def build_params() -> list:
+    """The runs whose kernels the bundle holds: the stage scenario in depth and stereo mode.
+
+    A replay calls the same kernels but the self-filter's; other scenarios, robots and
+    parameter values call them with the same types.
+    """
+    import dataclasses
+
+    from fogsim.config import load_scenario, resolve_params
+    from fogsim.run.runner import sensor_fields
+
+    stage = load_scenario("stage")
+    stereo = dataclasses.replace(stage, camera=dataclasses.replace(stage.camera, mode="stereo"))
+    return [resolve_params(s, None, sensor_fields(s)) for s in (stage, stereo)]
+
+
+def _tar_bytes(manifest: Mapping[str, Any], caches: Mapping[str, Path]) -> bytes:
+    """The bundle's bytes: the manifest, then every file of each cache folder.
+
+    Sorted, without times or owners: the same cache packs to the same bytes.
+    """
+    buffer = io.BytesIO()
+    with tarfile.open(fileobj=buffer, mode="w:xz") as tar:
+
+        def add(name: str, data: bytes) -> None:
+            info = tarfile.TarInfo(name)
+            info.size, info.mode, info.mtime = len(data), 0o644, 0
+            tar.addfile(info, io.BytesIO(data))
+
+        public = {key: manifest[key] for key in ("target", "magic_tuple", "stamps")}
+        add(MANIFEST, json.dumps(public, indent=1, sort_keys=True).encode())
+        for folder, cache in sorted(caches.items()):
+            for file in sorted(cache.iterdir()):
+                if file.suffix in (".nbi", ".nbc"):
+                    add(f"{folder}/{file.name}", file.read_bytes())
+    return buffer.getvalue()
+
+
+def build(out_dir: Path = BUNDLE_DIR) -> Path:
+    """Compile a run's kernels for the generic CPU and pack them into ``out_dir``.
+
+    The compile runs in a child process (``NUMBA_CPU_NAME=generic``, ``NUMBA_CPU_FEATURES``
+    empty, an empty ``NUMBA_CACHE_DIR``, the bundle left out); bundles of other numba or
+    CPython versions in ``out_dir`` are removed (one bundle is shipped).
+
+    Returns:
+        The bundle written.
+
+    Raises:
+        FogsimError: The child failed (its standard error ends the message).
+    """
+    with tempfile.TemporaryDirectory(prefix="fogsim-kernels-") as scratch:
+        manifest_path = Path(scratch) / MANIFEST
+        env = {
+            **os.environ,
+            **GENERIC_CPU,
+            "NUMBA_CACHE_DIR": str(Path(scratch) / "numba"),
+            ENV_SWITCH: "0",
+        }
+        child = subprocess.run(
+            [sys.executable, "-m", "fogsim.run.kernel_bundle", "--compile-into", manifest_path],
+            env=env,
+            capture_output=True,
+            text=True,
+        )
+        if child.returncode != 0:
+            raise FogsimError(f"compiling the kernel bundle failed: {child.stderr[-2000:]}")
+        manifest = json.loads(manifest_path.read_text())
+        caches = {key: Path(path) for key, path in manifest["caches"].items()}
+        data = _tar_bytes(manifest, caches)
+    target = out_dir / BundleTarget(**manifest["target"]).file_name
+    write_atomic(target, lambda handle: handle.write(data))
+    for old in out_dir.glob("*.tar.xz"):
+        if old != target:
+            old.unlink()
+    return target
+
+
+def main(argv: list[str] | None = None) -> int:
+    """``python -m fogsim.run.kernel_bundle [--out DIR]``: build the bundle."""
+    parser = argparse.ArgumentParser(
+        prog="python -m fogsim.run.kernel_bundle", description=main.__doc__
+    )
+    parser.add_argument("--out", type=Path, default=BUNDLE_DIR, help="folder of the bundle")
+    parser.add_argument("--compile-into", type=Path, help=argparse.SUPPRESS)
+    args = parser.parse_args(argv)
+    if args.compile_into is not None:
+        _compile_into(args.compile_into)
+        return 0
+    start = time.perf_counter()
+    path = build(args.out)
+    size_mb = path.stat().st_size / 1e6
+    print(f"{path} ({size_mb:.1f} MB) in {time.perf_counter() - start:.1f} s")
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
