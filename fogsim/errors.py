@@ -62,3 +62,11 @@ class ReportError(FogsimError, ValueError):
 
 class TuneError(FogsimError, ValueError):
     """A tuning study cannot run: bad ranges, weights, suite or a study that does not match."""
+
+
+class KernelBundleError(FogsimError):
+    """The kernels' shipped build cannot be read or installed.
+
+    A corrupt or truncated bundle, or a numba cache folder that cannot be written. The
+    message names the file and the reason; the warm-up then compiles the kernels instead.
+    """

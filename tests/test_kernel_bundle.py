@@ -23,7 +23,9 @@ import mapper.heading_planes
 import mapper.occupancy
 import mapper.scanline.fused
 import mapper.zmatch
+from fogsim.config import RunParams
 from fogsim.data.recording import save_recording
+from fogsim.errors import KernelBundleError
 from fogsim.robot import self_filter
 from fogsim.run import kernel_bundle, warmup
 from fogsim.run.kernel_bundle import MANIFEST, BundleTarget, rekeyed_index
@@ -95,7 +97,11 @@ def test_an_index_is_rekeyed_to_this_machine_and_nothing_else_changes():
     version, stamp, overloads = kernel_bundle._read_index(data)
     assert version == "0.68.1" and stamp == "stamp"
     assert overloads == {
-        (("float64", "int64"), ("t", "znver4", "+avx"), ("code hash", "")): "f-1.py311.1.nbc"
+        (
+            ("float64", "int64"),
+            ("t", "znver4", "+avx"),
+            ("code hash", ""),
+        ): "f-1.py311.1.shipped.nbc"
     }
 
 
@@ -213,3 +219,23 @@ def _load(path: Path):
     from fogsim.data.recording import load_recording
 
     return load_recording(path)
+
+
+def test_a_corrupt_build_is_an_error_naming_the_file(tmp_path):
+    broken = tmp_path / "x.tar.xz"
+    broken.write_bytes(b"\xfd7zXZ\x00 cut short")
+    with pytest.raises(KernelBundleError, match=r"cannot read kernel bundle .*x\.tar\.xz"):
+        kernel_bundle.install(KERNELS, broken)
+
+
+def test_a_warm_up_says_the_build_failed_and_compiles_instead(tmp_path, monkeypatch):
+    broken = tmp_path / "x.tar.xz"
+    broken.write_bytes(b"not xz at all")
+    monkeypatch.setattr(kernel_bundle, "bundle_path", lambda target=None: broken)
+    monkeypatch.setattr(warmup, "is_cold", lambda group: group is warmup.SELF_FILTER)
+    stream = io.StringIO()
+    warmup.warm_up_kernels(RunParams(), stream=stream)
+    said = stream.getvalue()
+    assert "the kernels' shipped build was not installed: cannot read kernel bundle" in said
+    assert str(broken) in said
+    assert f"{warmup.MESSAGE}, 1 groups" in said and "self-filter kernels ..." in said

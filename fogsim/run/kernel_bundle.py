@@ -42,6 +42,7 @@ from __future__ import annotations
 import argparse
 import io
 import json
+import lzma
 import os
 import pickle
 import subprocess
@@ -59,7 +60,7 @@ from numba.core.dispatcher import Dispatcher
 from numba.core.registry import cpu_target
 
 from fogsim.atomic import write_atomic
-from fogsim.errors import FogsimError
+from fogsim.errors import FogsimError, KernelBundleError, OutputError
 from fogsim.paths import ASSETS_DIR
 
 __all__ = [
@@ -73,6 +74,7 @@ __all__ = [
     "enabled",
     "install",
     "rekeyed_index",
+    "shipped_name",
 ]
 
 BUNDLE_DIR = ASSETS_DIR / "kernels"
@@ -186,14 +188,29 @@ def _read_index(data: bytes) -> tuple[str, Any, dict]:
     return version, stamp, overloads
 
 
+def shipped_name(code_name: str) -> str:
+    """An installed code file's name: numba's ``<base>.<n>.nbc`` as ``<base>.<n>.shipped.nbc``.
+
+    numba names a new entry's code file ``<base>.<n>.nbc`` with the lowest ``n`` its index does
+    not use yet; a process compiling a kernel while another installs the bundle could pick the
+    bundle's name for another signature, and whichever wrote last would leave an index entry
+    pointing at another signature's code. Under names numba never picks, a race between them
+    can only lose an index entry (compiled again later), never mismatch one.
+    """
+    return f"{code_name.removesuffix('.nbc')}.shipped.nbc"
+
+
 def rekeyed_index(data: bytes, magic_tuple: tuple) -> bytes:
     """An index file whose entries' code generator tuple is ``magic_tuple``.
 
     numba's index key is ``(signature, magic tuple, (bytecode hash, closure hash))``; only the
-    tuple changes. The version and the source stamp stay.
+    tuple changes, and each code file's name becomes its :func:`shipped_name`. The version and
+    the source stamp stay.
     """
     version, stamp, overloads = _read_index(data)
-    rekeyed = {(key[0], tuple(magic_tuple), key[2]): name for key, name in overloads.items()}
+    rekeyed = {
+        (key[0], tuple(magic_tuple), key[2]): shipped_name(name) for key, name in overloads.items()
+    }
     return pickle.dumps(version, protocol=-1) + pickle.dumps((stamp, rekeyed), protocol=-1)
 
 
@@ -233,10 +250,27 @@ def install(kernels: Iterable[Dispatcher], bundle: Path | None = None) -> Instal
         What was written, or None when nothing was: no bundle for this machine, the bundle
         left out (:func:`enabled`), not applying (another triple, CPython, numba or source
         stamp), or every index fresh already.
+
+    Raises:
+        KernelBundleError: The bundle cannot be read (corrupt, truncated) or a cache file
+            cannot be written; what was written before stays (each file whole, numba reads
+            an index only with its code).
     """
     path = bundle_path() if bundle is None else bundle
     if not enabled() or not path.is_file():
         return None
+    try:
+        return _install(kernels, path)
+    except (OSError, EOFError, lzma.LZMAError, tarfile.TarError) as exc:
+        raise KernelBundleError(f"cannot read kernel bundle {path}: {exc}") from exc
+    except (KeyError, TypeError, ValueError, pickle.UnpicklingError) as exc:
+        raise KernelBundleError(f"kernel bundle {path} is corrupt: {exc!r}") from exc
+    except OutputError as exc:
+        raise KernelBundleError(str(exc)) from exc
+
+
+def _install(kernels: Iterable[Dispatcher], path: Path) -> Installed | None:
+    """:func:`install` of the bundle at ``path`` (its errors as they come)."""
     here = BundleTarget.here()
     folders = cache_folders(kernels)
     magic = cpu_target.target_context.codegen().magic_tuple()
@@ -264,7 +298,10 @@ def install(kernels: Iterable[Dispatcher], bundle: Path | None = None) -> Instal
                     continue  # an incomplete bundle: this function compiles as before
                 for code in code_names:
                     data = members[f"{folder}/{code}"]
-                    write_atomic(cache_path / code, lambda handle, data=data: handle.write(data))
+                    write_atomic(
+                        cache_path / shipped_name(code),
+                        lambda handle, data=data: handle.write(data),
+                    )
                 rekeyed = rekeyed_index(index, magic)
                 write_atomic(cache_path / base, lambda handle, data=rekeyed: handle.write(data))
                 indexes += 1

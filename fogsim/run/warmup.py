@@ -102,6 +102,7 @@ import mapper.tilt_kernels
 import mapper.zmatch
 from fogsim.config import RunParams
 from fogsim.data.frame import Frame
+from fogsim.errors import KernelBundleError
 from fogsim.mapping.pipeline import Pipeline
 from fogsim.mapping.segmenter import pipeline_segmentation_params
 from fogsim.robot import self_filter
@@ -338,7 +339,11 @@ class KernelWarmUp:
         self._groups = run_groups(params, simulated=simulated)
         self._cold = [group for group in self._groups if is_cold(group)]
         if self._cold:
-            installed = kernel_bundle.install(k for group in GROUPS for k in group.kernels)
+            try:
+                installed = kernel_bundle.install(k for group in GROUPS for k in group.kernels)
+            except KernelBundleError as exc:
+                self._say(f"fogsim: the kernels' shipped build was not installed: {exc}")
+                installed = None
             if installed is not None:
                 self._say(
                     f"fogsim: {installed.indexes} kernels installed from the shipped build "
