@@ -268,13 +268,15 @@ def refine_heading(
             [rad].
 
     Returns:
-        (correction [rad], Σ w·a² of the last step [m²/rad²]); (``start_rad``, 0) when the
-        residuals' slopes' RMS is below `MIN_SLOPE_M` (no correspondence, or none that shows
-        the yaw), or the refinement is refused (``max_shift_rad``).
+        (correction [rad], Σ w·a² of the last step [m²/rad²], the weighted RMS of its
+        residuals √(Σ w·r² / Σ w) [m]); (``start_rad``, 0, 0) when the residuals' slopes' RMS
+        is below `MIN_SLOPE_M` (no correspondence, or none that shows the yaw), or the
+        refinement is refused (``max_shift_rad``).
     """
     m = offsets_xy.shape[0]
     delta = start_rad
     information = 0.0
+    rms = 0.0
     x = np.empty(m)
     y = np.empty(m)
     nx = np.empty(m)
@@ -298,6 +300,7 @@ def refine_heading(
         numerator = 0.0
         information = 0.0
         weight_sum = 0.0
+        square_sum = 0.0
         for i in range(m):
             count = _neighbours(i, x, y, z_world, order, keys, cells, r2, found_j, found_d2)
             found = 0
@@ -339,15 +342,17 @@ def refine_heading(
                 numerator += weight * residual * slope
                 information += weight * slope * slope
                 weight_sum += weight
+                square_sum += weight * residual * residual
         if information <= MIN_SLOPE_M * MIN_SLOPE_M * weight_sum:
-            return start_rad, 0.0
+            return start_rad, 0.0, 0.0
+        rms = math.sqrt(square_sum / weight_sum)
         step = -numerator / information
         delta += step
         if abs(delta - start_rad) > max_shift_rad:
-            return start_rad, 0.0
+            return start_rad, 0.0, 0.0
         if abs(step) < tolerance_rad:
             break
-    return delta, information
+    return delta, information, rms
 
 
 def refined_heading(
@@ -359,14 +364,17 @@ def refined_heading(
     camera_xy: NDArray[np.float64],
     yaw_rad: NDArray[np.float64],
     start_rad: float,
-) -> float:
-    """`refine_heading` with this module's constants: the refined correction [rad].
+) -> tuple[float, float, float]:
+    """`refine_heading` with this module's constants: the correction [rad] and the fit's figures.
+
+    Returns the correction, the fit's information Σ w·a² [m²/rad²] (0: refused, the correction
+    ``start_rad``) and its residuals' weighted RMS [m].
 
     The arrays as `refine_heading` takes them; ``camera_xy`` and ``yaw_rad`` are made
     contiguous float64 here, so every caller (the estimator, the warm-up) compiles the one
     signature.
     """
-    refined, _ = refine_heading(
+    refined, information, rms_m = refine_heading(
         offsets_xy,
         z_world,
         normals_xy,
@@ -382,4 +390,4 @@ def refined_heading(
         TOLERANCE_RAD,
         MAX_SHIFT_RAD,
     )
-    return float(refined)
+    return float(refined), float(information), float(rms_m)

@@ -738,3 +738,29 @@ def test_the_surface_weighted_score_accepts_where_the_counts_do_not_stand_out():
     assert accepted.estimates == 3
     assert math.degrees(accepted.correction_rad) == pytest.approx(-3.0, abs=0.25)
     assert walked(min_contrast=0.9, flat_contrast=0.9, surface_contrast=0.1).estimates == 0
+
+
+def test_the_plane_witness_accepts_a_shallow_peak_both_fits_agree_on():
+    # The L-shaped wall (above) with `min_contrast` 0.9: the counts never stand out. A yaw
+    # error of 1.3° is within the point-to-plane fit's reach from 0 (2°): the fits from the
+    # score's estimate and from 0 meet, the first try is accepted at the fit (0.05° off on its
+    # first keyframes; every estimate refined reaches 0.02° with more, above), and only the
+    # first (the witness stands in until the first estimate). At 3° the fit from 0 is refused
+    # (it would move more than 2°): no estimate, as without the witness; nor where the counts
+    # are flat (`flat_contrast` 0.9).
+    def walked(yaw_error_deg, **params):
+        estimator = HeadingEstimator(
+            HeadingParams(estimate_every=1, edge_score=False, min_contrast=0.9, **params)
+        )
+        _walk_at_l_shaped_wall(estimator, yaw_error_deg)
+        return estimator
+
+    assert walked(1.3, plane_witness_deg=0.0).estimates == 0
+    witnessed = walked(1.3)  # the default: 0.25°
+    assert witnessed.estimates == 1
+    assert math.degrees(witnessed.correction_rad) == pytest.approx(-1.3, abs=0.06)
+    mirrored = walked(-1.3, plane_witness_deg=0.25)
+    assert mirrored.estimates == 1
+    assert math.degrees(mirrored.correction_rad) == pytest.approx(1.3, abs=0.06)
+    assert walked(3.0, plane_witness_deg=0.25).estimates == 0
+    assert walked(1.3, plane_witness_deg=0.25, flat_contrast=0.9).estimates == 0

@@ -58,9 +58,10 @@ def _keyframes(world, cameras, yaw_error_rad):
 
 
 def _refine(data, start_rad):
-    return refine_heading(
+    correction, information, _ = refine_heading(
         *data, start_rad, 0.08, 0.02, 0.15, 8, math.radians(0.005), math.radians(2.0)
     )
+    return correction, information
 
 
 def test_a_yaw_error_is_recovered_from_walls_across_the_path():
@@ -98,7 +99,7 @@ def test_a_refinement_that_would_move_beyond_the_bound_is_refused():
         ]
     )
     data = _keyframes(world, [(0.0, 0.0), (0.4, 0.0), (0.8, 0.0)], 1.5 * DEG)
-    correction, information = refine_heading(
+    correction, information, rms_m = refine_heading(
         *data, 0.5 * DEG, 0.08, 0.02, 0.15, 8, math.radians(0.005), math.radians(0.5)
     )
-    assert correction == 0.5 * DEG and information == 0.0
+    assert correction == 0.5 * DEG and information == 0.0 and rms_m == 0.0
