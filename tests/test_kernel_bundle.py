@@ -239,3 +239,24 @@ def test_a_warm_up_says_the_build_failed_and_compiles_instead(tmp_path, monkeypa
     assert "the kernels' shipped build was not installed: cannot read kernel bundle" in said
     assert str(broken) in said
     assert f"{warmup.MESSAGE}, 1 groups" in said and "self-filter kernels ..." in said
+
+
+ONCE = (
+    "import io\n"
+    "from fogsim.run import warmup\n"
+    "said = io.StringIO()\n"
+    "print(warmup.install_shipped_kernels(said), warmup.install_shipped_kernels(said))\n"
+    "print(sum(warmup.is_cold(g) for g in warmup.GROUPS), said.getvalue().count('installed'))\n"
+)
+
+
+def test_what_maps_without_a_warm_up_installs_the_build_once_a_process(tmp_path):
+    # A replay's report (fogsim tune's trials) and fogsim compare map without a warm-up: on a
+    # cold cache they install the build (said once), then never look again in that process;
+    # a process on a warm cache installs nothing.
+    if not kernel_bundle.bundle_path().is_file():
+        pytest.skip(f"no shipped build for {BundleTarget.here()}")
+    lines = _python(ONCE, tmp_path).stdout.split("\n")
+    assert lines[:2] == ["True False", "0 1"]
+    lines = _python(ONCE, tmp_path).stdout.split("\n")
+    assert lines[:2] == ["False False", "0 0"]

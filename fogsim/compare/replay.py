@@ -46,6 +46,7 @@ from fogsim.eval.metrics import score_archive
 from fogsim.eval.report.schema import ArchiveScores, EventResult
 from fogsim.mapping.pipeline import Pipeline
 from fogsim.run.runner import truth_params
+from fogsim.run.warmup import install_shipped_kernels
 from fogsim.world.truth import SceneTruth
 from mapper.backends import HeightMapBackend, label_by_step
 from mapper.grid import CellType, UpdateResult
@@ -226,6 +227,7 @@ def compare_frames(
         raise FogsimError(f"the comparison needs the FOG among its maps, got {maps}")
     settings = settings if settings is not None else MapSettings()
     scan = scan if scan is not None else HeightScanParams()
+    install_shipped_kernels()  # on a fresh machine, instead of compiling them here
     pipeline = Pipeline(params)
     grid = pipeline.mapper_params
     compared = _ComparedMaps(pipeline.mapper, maps, grid, settings)

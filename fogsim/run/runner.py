@@ -39,7 +39,7 @@ from fogsim.mapping.segment_process import SegmentInProcess, can_segment_in_proc
 from fogsim.mapping.segmenter import FrameSegmenter, SegmentFunction
 from fogsim.robot.description import load_description
 from fogsim.run.run_folder import RunFolder
-from fogsim.run.warmup import KernelWarmUp
+from fogsim.run.warmup import KernelWarmUp, install_shipped_kernels
 from fogsim.sim.background import BackgroundSimulation
 from fogsim.sim.camera.noise_model import segmentation_noise_fields
 from fogsim.viz.forked import ForkedCall
@@ -387,6 +387,7 @@ def replay_report(
             ``fogsim tune`` turns it off: its worker processes already keep every core busy.
         in_view: The cells of a grid a frame saw (:func:`run_frames`).
     """
+    install_shipped_kernels()
     result = run_frames(
         recording.frames,
         recording.truth_at if recording.has_truth else None,

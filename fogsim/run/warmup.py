@@ -338,20 +338,8 @@ class KernelWarmUp:
         self._stream = stream
         self._groups = run_groups(params, simulated=simulated)
         self._cold = [group for group in self._groups if is_cold(group)]
-        if self._cold:
-            try:
-                installed = kernel_bundle.install(k for group in GROUPS for k in group.kernels)
-            except KernelBundleError as exc:
-                self._say(f"fogsim: the kernels' shipped build was not installed: {exc}")
-                installed = None
-            if installed is not None:
-                self._say(
-                    f"fogsim: {installed.indexes} kernels installed from the shipped build "
-                    f"{installed.bundle.name} (first run only; generic x86-64 code: "
-                    f"{kernel_bundle.ENV_SWITCH}=0 compiles them for this CPU instead)",
-                    flush=True,
-                )
-                self._cold = [group for group in self._groups if is_cold(group)]
+        if self._cold and _install_shipped(stream):
+            self._cold = [group for group in self._groups if is_cold(group)]
         away = [group for group in HELPER_GROUPS if group in self._cold]
         fork = bool(away) and len(away) < len(self._cold) and _can_fork()
         if self._cold:
@@ -508,6 +496,50 @@ def _compile(params: RunParams, groups: list[KernelGroup]) -> None:
     steps = _steps(params)
     for group in groups:
         steps[group]()
+
+
+_SHIPPED_TRIED = [False]
+"""Whether this process has asked for the shipped build (:func:`install_shipped_kernels`)."""
+
+
+def install_shipped_kernels(stream: TextIO | None = sys.stderr) -> bool:
+    """Install the kernels' shipped build when any group is cold; once a process.
+
+    For what maps without a :class:`KernelWarmUp` (a replay's report, ``fogsim tune``'s
+    trials, ``fogsim compare``): without it, each of their processes compiled every kernel on
+    a fresh machine (``fogsim compare`` of one recording: 55 s). A build that cannot be read is
+    reported on ``stream`` and left out (the kernels then compile as before).
+
+    Returns:
+        Whether anything was installed.
+    """
+    if _SHIPPED_TRIED[0]:
+        return False
+    _SHIPPED_TRIED[0] = True
+    if not any(is_cold(group) for group in GROUPS):
+        return False
+    return _install_shipped(stream)
+
+
+def _install_shipped(stream: TextIO | None) -> bool:
+    """`fogsim.run.kernel_bundle.install` of every group's folders, said on ``stream``."""
+
+    def say(text: str) -> None:
+        if stream is not None:
+            print(text, file=stream, flush=True)
+
+    try:
+        installed = kernel_bundle.install(k for group in GROUPS for k in group.kernels)
+    except KernelBundleError as exc:
+        say(f"fogsim: the kernels' shipped build was not installed: {exc}")
+        return False
+    if installed is not None:
+        say(
+            f"fogsim: {installed.indexes} kernels installed from the shipped build "
+            f"{installed.bundle.name} (first run only; generic x86-64 code: "
+            f"{kernel_bundle.ENV_SWITCH}=0 compiles them for this CPU instead)"
+        )
+    return installed is not None
 
 
 def is_cold(group: KernelGroup) -> bool:
