@@ -11,7 +11,10 @@ compile reaches issue #14's 12 s. The kernels are compiled ahead of time instead
   that cache into one file, ``assets/kernels/<platform>-<python>-numba<version>.tar.xz``
   (1.7 MB), with a manifest of what it was compiled for and from (:data:`MANIFEST`);
 - a warm-up that finds a kernel cold (:class:`fogsim.run.warmup.KernelWarmUp`) first installs
-  the bundle into numba's cache (:func:`install`), then compiles only what is still missing.
+  the bundle into numba's cache (:func:`install`), then compiles only what is still missing;
+  what maps without a warm-up (a replay's report, ``fogsim tune``'s trials, ``fogsim
+  compare``) installs it once a process (`fogsim.run.warmup.install_shipped_kernels`). The
+  build also holds the elevation map's kernels (``fogsim compare``).
 
 numba keys a cached kernel by its signature, the bytecode's hash and the code generator's
 *magic tuple* (target triple, CPU name, CPU features), and looks an entry up under the tuple
