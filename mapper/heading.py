@@ -371,6 +371,22 @@ class HeadingParams:
             seed 2's unsafe cells 24 → 25. Without the scatter bound the stage stereo seed 5
             went 1 → 4 unsafe cells and `talos_course` stereo seed 2 59 → 69. The seeds-1–8
             suites have every figure (README "Results"). So 0.25.
+        plane_after_edges: `plane_refine_estimates` counts the structure score's estimates
+            only (the keyframes keep their normals, and the structure score's first estimate
+            is refined, after an edge-score stand-in too); False: every estimate counts, so a
+            run whose first estimate was the edge score's never refined one. The witness
+            (`plane_witness_deg`) still stands in only before any estimate (its second fit
+            starts from no correction). With `pipe.heading_rebuild_on_structure` (the maps
+            rebuilt with that refined structure estimate) and `pipe.heading_rebuild_frames`
+            400; replays, every depth and stereo recording of the scenarios with structure,
+            seeds 1–8 (session 41), map heading mean (worst), unsafe cells mean (worst), off →
+            on: `room` depth 0.72 (1.84) → 0.49 (0.77)°, 0.88 (5) → 0.38 (1) (seed 3: its edge
+            estimate −1.0° where +0.96° is needed, 1.84 → 0.34°); `talos_course` stereo 1.27
+            (2.14) → 0.93 (2.14)°, 45.9 (59) → 41.1 (59); `room` stereo 0.77 (1.55) → 0.54
+            (1.06)° but 7.0 (13) → 8.5 (19) (seeds 2 and 5 13 → 19, obstacle recall worst 95
+            → 92 %); every other set unchanged. Letting the witness stand in after an edge
+            estimate too (its second fit from the edge estimate) put `table` seed 7 at 1.62°
+            (1.11), its fits meeting 1.6° off the need. So True.
         smooth_estimates: The correction is the median of the structure score's last this
             many accepted estimates (1: the latest alone); the edge score's are not smoothed.
             Successive estimates scatter by up to ±1.6° (stage stereo seed 7), but they share
@@ -499,6 +515,7 @@ class HeadingParams:
     surface_contrast: float = 0.0
     plane_refine_estimates: int = 1
     plane_witness_deg: float = 0.25
+    plane_after_edges: bool = True
 
     def __post_init__(self) -> None:
         def check(name: str, kind: type, allowed: str, ok=lambda _: True) -> None:
@@ -506,6 +523,7 @@ class HeadingParams:
 
         check("correct_heading", bool, "a bool")
         check("edge_score", bool, "a bool")
+        check("plane_after_edges", bool, "a bool")
         check("voxel_estimate", bool, "a bool")
         check(
             "plane_refine_estimates",
@@ -1171,7 +1189,7 @@ class HeadingEstimator:
         z_world = (points[:, 2] + z_shift_m) + pose[2]
         normals = (
             keyframe_normals(offsets_xy, z_world, heading_planes.NORMAL_RADIUS_M)
-            if self.estimates < p.plane_refine_estimates and not edges
+            if self._planes_counted() < p.plane_refine_estimates and not edges
             else (None, None)
         )
         keyframes.append(
@@ -1310,8 +1328,8 @@ class HeadingEstimator:
             self.correction_rad = math.radians(float(fine[int(np.argmax(fine_scores))]))
         if witnessed is not None:
             self.correction_rad = witnessed
-        elif self.estimates < p.plane_refine_estimates and not edges:
-            # Every keyframe has its normals: each was added while estimates < this bound.
+        elif self._planes_counted() < p.plane_refine_estimates and not edges:
+            # Every keyframe has its normals: each was added while the count was below.
             self.correction_rad = _plane_refined(keyframes, data[3], data[4], self.correction_rad)
         if not edges and p.smooth_estimates > 1:
             self._recent_rad = [*self._recent_rad[1 - p.smooth_estimates :], self.correction_rad]
@@ -1319,6 +1337,15 @@ class HeadingEstimator:
         self.estimates += 1
         self.edge_estimates += edges
         self.from_edges = edges
+
+    def _planes_counted(self) -> int:
+        """The estimates `plane_refine_estimates` and `plane_witness_deg` count.
+
+        All of them, or with `plane_after_edges` the structure score's only.
+        """
+        if self.params.plane_after_edges:
+            return self.estimates - self.edge_estimates
+        return self.estimates
 
     def _plane_witness(
         self,
@@ -1340,7 +1367,7 @@ class HeadingEstimator:
         if (
             p.plane_witness_deg <= 0.0
             or self.estimates > 0
-            or self.estimates >= p.plane_refine_estimates
+            or self._planes_counted() >= p.plane_refine_estimates
             or best <= 0.0
             or above_median < p.flat_contrast * best
         ):

@@ -764,3 +764,36 @@ def test_the_plane_witness_accepts_a_shallow_peak_both_fits_agree_on():
     assert math.degrees(mirrored.correction_rad) == pytest.approx(1.3, abs=0.06)
     assert walked(3.0, plane_witness_deg=0.25).estimates == 0
     assert walked(1.3, plane_witness_deg=0.25, flat_contrast=0.9).estimates == 0
+
+
+def test_after_an_edge_score_stand_in_the_first_structure_estimate_is_refined():
+    # An edge-score estimate came first (set by hand here); the L-shaped wall (above) then
+    # gives the structure score's first estimate. Counting the structure score's estimates
+    # only (`plane_after_edges`, the default), the keyframes keep their normals and that
+    # estimate is refined point to plane (within 0.06° of the 1.3° error); counting every
+    # estimate, it is the score's own, on its 0.5° candidates (0.2° off).
+    def first_structure_estimate(plane_after_edges):
+        estimator = HeadingEstimator(
+            HeadingParams(estimate_every=1, edge_score=False, plane_after_edges=plane_after_edges)
+        )
+        estimator.estimates = estimator.edge_estimates = 1
+        first = []
+        estimate = estimator._estimate
+
+        def noted(edges):
+            before = estimator.estimates
+            estimate(edges)
+            if estimator.estimates > before and not first:
+                first.append(math.degrees(estimator.correction_rad))
+
+        estimator._estimate = noted
+        _walk_at_l_shaped_wall(estimator, 1.3)
+        normals = [k.normals_xy is not None for k in estimator._keyframes]
+        return first[0], normals
+
+    refined, normals = first_structure_estimate(True)
+    assert normals[0] and any(normals)  # those before it (none after: only the first is refined)
+    assert refined == pytest.approx(-1.3, abs=0.06)
+    unrefined, normals = first_structure_estimate(False)
+    assert not any(normals)
+    assert abs(unrefined + 1.3) > 0.1

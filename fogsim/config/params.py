@@ -69,8 +69,10 @@ class PipelineParams:
         heading_rebuild_frames: When the heading's first estimate comes, the maps are rebuilt
             from the frames mapped before it (issue 11: they carried the neck's 2–3° yaw error,
             8–17 cm at 2 m), if there are at most this many (each is kept until then: 88×72
-            points, ~0.2 MB). 300: the first estimate came at frame ~115 of the stage, ~186 of
-            stage_down, ~259 of room (seed 1). 0: no rebuild.
+            points, ~0.2 MB: at most 80 MB). 400: the first estimate came at frame ~115 of the
+            stage, ~186 of stage_down; `room`'s structure estimates, which
+            `heading_rebuild_on_structure` rebuilds with, at frames 211–330 (300 until session
+            41). 0: no rebuild.
         heading_rebuild_change_deg: After that rebuild, the maps are rebuilt again (from every
             frame mapped so far, while there are at most `heading_rebuild_frames`) when a later
             estimate moves more than this [deg] from the one they were rebuilt with: an early
@@ -103,7 +105,12 @@ class PipelineParams:
             with `heading_rebuild_change_deg` 1: that seed's sill row is better with the worse
             heading). With `HeadingParams.voxel_estimate` as well, `room` is within 1° on every
             seed (depth 0.51 (0.84)°, stereo 0.49 (0.83)°; unsafe cells 1.5 (5) → 1.4 (8) and
-            9.0 (16) → 8.9 (21)), at that option's costs elsewhere. So False.
+            9.0 (16) → 8.9 (21)), at that option's costs elsewhere. So False until session
+            41: with the structure score's first estimate refined point to plane after an
+            edge stand-in (`HeadingParams.plane_after_edges`, whose docstring has the replays)
+            `room` depth goes 0.72 (1.84) → 0.49 (0.77)°, `talos_course` stereo 45.9 → 41.1
+            unsafe cells, `room` stereo 7.0 (13) → 8.5 (19) cells. So True, with
+            `heading_rebuild_frames` 400.
     """
 
     use_z_match: bool = True
@@ -115,9 +122,9 @@ class PipelineParams:
     tilt_noise_deg: float = 0.3
     tilt_bias_deg: float = 4.0
     tilt_tail_dof: float = math.inf
-    heading_rebuild_frames: int = 300
+    heading_rebuild_frames: int = 400
     heading_rebuild_change_deg: float = 0.0
-    heading_rebuild_on_structure: bool = False
+    heading_rebuild_on_structure: bool = True
 
     def __post_init__(self) -> None:
         if not self.event_tolerance_m > 0.0:
