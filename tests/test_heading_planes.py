@@ -103,3 +103,31 @@ def test_a_refinement_that_would_move_beyond_the_bound_is_refused():
         *data, 0.5 * DEG, 0.08, 0.02, 0.15, 8, math.radians(0.005), math.radians(0.5)
     )
     assert correction == 0.5 * DEG and information == 0.0 and rms_m == 0.0
+
+
+def test_the_tiered_search_finds_the_same_nearest_points_as_the_whole_radius():
+    # Dense clusters (a surface seen by many keyframes) and sparse points: for every point the
+    # NEAREST nearest within MATCH_M (ties by index) from the widening search are those of a
+    # brute-force search over the whole radius, whichever tier stopped it.
+    from mapper.heading_planes import MATCH_M, MATCH_TIERS, NEAREST, _match_candidates, _voxel_order
+
+    rng = np.random.default_rng(11)
+    dense = rng.normal(0.0, 0.02, size=(600, 3)) + np.array([1.0, 1.0, 0.2])
+    sparse = rng.uniform(0.0, 0.5, size=(200, 3))
+    grid = np.round(rng.uniform(0.0, 0.3, size=(100, 3)) / 0.02) * 0.02  # exact ties
+    points = np.vstack([dense, sparse, grid])
+    x, y, z = (np.ascontiguousarray(points[:, k]) for k in range(3))
+    order, keys, cells = _voxel_order(x, y, z, MATCH_M / MATCH_TIERS[-1])
+    found_j = np.empty(len(points), dtype=np.int64)
+    found_d2 = np.empty(len(points))
+    r2 = MATCH_M * MATCH_M
+    stopped_early = 0
+    for i in range(len(points)):
+        count = _match_candidates(i, x, y, z, order, keys, cells, r2, found_j, found_d2)
+        got = sorted(zip(found_d2[:count], found_j[:count], strict=True))[:NEAREST]
+        d2 = ((points - points[i]) ** 2).sum(axis=1)
+        inside = np.flatnonzero(d2 <= r2)
+        want = sorted(zip(d2[inside], inside, strict=True))[:NEAREST]
+        assert [j for _, j in got] == [j for _, j in want], i
+        stopped_early += count < len(inside)
+    assert stopped_early > 500  # the dense cluster's points stop at a smaller sphere
