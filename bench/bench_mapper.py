@@ -382,10 +382,12 @@ def measure(args: argparse.Namespace, codegen: str) -> list[Row]:
 
 def run_child(args: argparse.Namespace, codegen: str, cache_dir: Path) -> list[Row]:
     """``measure`` in a child process compiled for ``codegen`` (host or generic)."""
-    env = dict(os.environ, OMP_NUM_THREADS="1")
+    # Each codegen compiles into a cache of its own, the kernels' shipped build left out: the
+    # build is generic code, which numba would load for the host too from a shared cache.
+    env = dict(os.environ, OMP_NUM_THREADS="1", FOGSIM_KERNEL_BUNDLE="0")
+    env["NUMBA_CACHE_DIR"] = str(cache_dir / f"numba-{codegen}")
     if codegen == "generic":
         env["NUMBA_CPU_NAME"] = "generic"
-        env["NUMBA_CACHE_DIR"] = str(cache_dir / "numba-generic")
     else:
         env.pop("NUMBA_CPU_NAME", None)
     command = [sys.executable, __file__, "--child", codegen, "--frames", str(args.frames)]
