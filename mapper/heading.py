@@ -1330,7 +1330,7 @@ class HeadingEstimator:
             self.correction_rad = witnessed
         elif self._planes_counted() < p.plane_refine_estimates and not edges:
             # Every keyframe has its normals: each was added while the count was below.
-            self.correction_rad = _plane_refined(keyframes, data[3], data[4], self.correction_rad)
+            self.correction_rad = _plane_fit(keyframes, data[3], data[4], self.correction_rad)[0]
         if not edges and p.smooth_estimates > 1:
             self._recent_rad = [*self._recent_rad[1 - p.smooth_estimates :], self.correction_rad]
             self.correction_rad = float(np.median(self._recent_rad))
@@ -1367,7 +1367,7 @@ class HeadingEstimator:
         if (
             p.plane_witness_deg <= 0.0
             or self.estimates > 0
-            or self._planes_counted() >= p.plane_refine_estimates
+            or p.plane_refine_estimates == 0  # no keyframe has normals
             or best <= 0.0
             or above_median < p.flat_contrast * best
         ):
@@ -1412,16 +1412,6 @@ class HeadingEstimator:
         )  # fmt: skip
         top = float(scores.max())
         return top > 0.0 and top - float(np.median(scores)) >= p.surface_contrast * top
-
-
-def _plane_refined(
-    keyframes: list[_Keyframe],
-    cameras_xy: NDArray[np.float64],
-    yaw_rad: NDArray[np.float64],
-    start_rad: float,
-) -> float:
-    """`start_rad` refined by `mapper.heading_planes.refined_heading` over the keyframes."""
-    return _plane_fit(keyframes, cameras_xy, yaw_rad, start_rad)[0]
 
 
 def _plane_fit(

@@ -24,7 +24,7 @@ import mapper.occupancy
 import mapper.scanline.fused
 import mapper.zmatch
 from fogsim.config import RunParams
-from fogsim.data.recording import save_recording
+from fogsim.data.recording import load_recording, save_recording
 from fogsim.errors import KernelBundleError
 from fogsim.robot import self_filter
 from fogsim.run import kernel_bundle, warmup
@@ -207,18 +207,12 @@ def test_a_first_run_on_the_build_compiles_nothing_and_maps_as_this_process(tmp_
     assert warmup.MESSAGE not in first.stderr  # nothing left to compile
     # This process's kernels (compiled for this CPU, unless a run installed the build into
     # the cache beside the sources first) map the same frames to the same bytes.
-    run_scenario(None, tmp_path / "here", replay=_load(recording), pictures=False)
+    run_scenario(None, tmp_path / "here", replay=load_recording(recording), pictures=False)
     ours = np.load(tmp_path / "here" / "maps.npz")
     theirs = np.load(tmp_path / "first" / "maps.npz")
     assert sorted(ours.files) == sorted(theirs.files) and len(ours.files) > 10
     for name in ours.files:
         assert ours[name].tobytes() == theirs[name].tobytes(), name
-
-
-def _load(path: Path):
-    from fogsim.data.recording import load_recording
-
-    return load_recording(path)
 
 
 def test_a_corrupt_build_is_an_error_naming_the_file(tmp_path):

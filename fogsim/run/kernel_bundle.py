@@ -54,7 +54,7 @@ import tarfile
 import tempfile
 import time
 from collections.abc import Iterable, Mapping
-from dataclasses import asdict, dataclass
+from dataclasses import asdict, dataclass, replace
 from pathlib import Path
 from typing import Any
 
@@ -128,13 +128,11 @@ class Installed:
 
     Attributes:
         bundle: The bundle file.
-        indexes: Index files written (one per cached function).
-        files: Files written, index and code files.
+        indexes: Index files written (one per cached function), each with its code files.
     """
 
     bundle: Path
     indexes: int
-    files: int
 
 
 def enabled() -> bool:
@@ -226,12 +224,12 @@ def _fresh(index_path: Path, stamp: Any) -> bool:
     return version == numba.__version__ and found == stamp and bool(overloads)
 
 
-def _manifest(tar: tarfile.TarFile) -> dict:
-    """The bundle's manifest."""
-    member = tar.extractfile(MANIFEST)
-    if member is None:
-        raise FogsimError(f"kernel bundle {tar.name} has no {MANIFEST}")
-    return json.loads(member.read())
+def _read_bytes(tar: tarfile.TarFile, name: str) -> bytes:
+    """A member's bytes (KeyError: no such member)."""
+    handle = tar.extractfile(name)
+    if handle is None:
+        raise KernelBundleError(f"kernel bundle {tar.name}: {name} is not a file")
+    return handle.read()
 
 
 def install(kernels: Iterable[Dispatcher], bundle: Path | None = None) -> Installed | None:
@@ -277,14 +275,14 @@ def _install(kernels: Iterable[Dispatcher], path: Path) -> Installed | None:
     here = BundleTarget.here()
     folders = cache_folders(kernels)
     magic = cpu_target.target_context.codegen().magic_tuple()
-    indexes = files = 0
+    indexes = 0
     with tarfile.open(path, "r:xz") as tar:
-        manifest = _manifest(tar)
+        manifest = json.loads(_read_bytes(tar, MANIFEST))
         if BundleTarget(**manifest["target"]) != here:
             return None
         # Read once, in the archive's order: an xz stream cannot seek back without
         # decompressing again from its start.
-        members = {member.name: _read_bytes(tar, member) for member in tar if member.isfile()}
+        members = {member.name: _read_bytes(tar, member.name) for member in tar if member.isfile()}
         for folder, stamp in manifest["stamps"].items():
             if folder not in folders or _jsonable(folders[folder][1]) != stamp:
                 continue
@@ -308,16 +306,7 @@ def _install(kernels: Iterable[Dispatcher], path: Path) -> Installed | None:
                 rekeyed = rekeyed_index(index, magic)
                 write_atomic(cache_path / base, lambda handle, data=rekeyed: handle.write(data))
                 indexes += 1
-                files += 1 + len(code_names)
-    return Installed(path, indexes, files) if indexes else None
-
-
-def _read_bytes(tar: tarfile.TarFile, member: tarfile.TarInfo) -> bytes:
-    """A member's bytes."""
-    handle = tar.extractfile(member)
-    if handle is None:
-        raise FogsimError(f"kernel bundle {tar.name}: {member.name} is not a file")
-    return handle.read()
+    return Installed(path, indexes) if indexes else None
 
 
 def _compile_into(manifest_path: Path) -> None:
@@ -362,13 +351,11 @@ def build_params() -> list:
     A replay calls the same kernels but the self-filter's; other scenarios, robots and
     parameter values call them with the same types.
     """
-    import dataclasses
-
     from fogsim.config import load_scenario, resolve_params
     from fogsim.run.runner import sensor_fields
 
     stage = load_scenario("stage")
-    stereo = dataclasses.replace(stage, camera=dataclasses.replace(stage.camera, mode="stereo"))
+    stereo = replace(stage, camera=replace(stage.camera, mode="stereo"))
     return [resolve_params(s, None, sensor_fields(s)) for s in (stage, stereo)]
 
 
