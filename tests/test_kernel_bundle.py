@@ -61,6 +61,14 @@ def _manifest(path: Path) -> dict:
         return json.load(tar.extractfile(MANIFEST))
 
 
+def _skip_unless_the_build_applies() -> None:
+    bundle = kernel_bundle.bundle_path()
+    if not bundle.is_file():
+        pytest.skip(f"no shipped build for {BundleTarget.here()}")
+    if not kernel_bundle.runs_here(_manifest(bundle)["cpu"]):
+        pytest.skip("this CPU cannot run the shipped build's code")
+
+
 def test_the_shipped_build_is_of_these_sources():
     # One bundle, compiled from the kernel modules as they are: after an edit of a kernel
     # module (any .py of mapper/ or fogsim/robot/ mentioning numba) the bundle no longer
@@ -74,7 +82,12 @@ def test_the_shipped_build_is_of_these_sources():
     assert set(stamps) == {"mapper", "mapper/scanline", "fogsim/robot"}
     manifest = _manifest(bundles[0])
     assert manifest["stamps"] == stamps, "stale: run python -m fogsim.run.kernel_bundle"
-    assert manifest["magic_tuple"][1:] == ["generic", ""]  # code every x86-64 CPU runs
+    # code for LLVM's x86-64-v2, no feature added; the features it uses listed for the check
+    assert manifest["magic_tuple"][1:] == [kernel_bundle.BUILD_CPU, ""]
+    assert manifest["cpu"] == {
+        "name": "x86-64-v2",
+        "features": ["cx16", "popcnt", "sahf", "sse3", "sse4.1", "sse4.2", "ssse3"],
+    }
     assert bundles[0].name == BundleTarget(**manifest["target"]).file_name
     with tarfile.open(bundles[0], "r:xz") as tar:
         names = set(tar.getnames())
@@ -122,7 +135,8 @@ def _fake_manifest(**target) -> dict:
     }
     return {
         "target": {"triple": here.triple, "python": here.python, "numba": here.numba, **target},
-        "magic_tuple": [here.triple, "generic", ""],
+        "magic_tuple": [here.triple, "x86-64-v2", ""],
+        "cpu": {"name": "x86-64-v2", "features": ["sse4.1", "popcnt"]},
         "stamps": stamps,
     }
 
@@ -141,6 +155,43 @@ def test_a_build_for_another_machine_or_other_sources_installs_nothing(tmp_path,
     bundle = _bundle(tmp_path / "b.tar.xz", manifest, {f"{folder}/{index}": b"not an index"})
     # returns before writing a byte (it would fail on the file above if it tried)
     assert kernel_bundle.install(KERNELS, bundle) is None
+
+
+@pytest.mark.parametrize(
+    ("host", "config"),
+    [
+        ({"popcnt", "sse2", "sse3"}, {}),  # a CPU without SSE4.1 would die on roundsd
+        (set(), {}),  # LLVM cannot tell this CPU's features
+        ({"popcnt", "sse4.1", "avx2"}, {"CPU_NAME": "generic"}),  # the user chose the CPU
+        ({"popcnt", "sse4.1", "avx2"}, {"CPU_FEATURES": "+sse2"}),
+    ],
+)
+def test_a_build_this_cpu_cannot_run_or_was_not_asked_for_installs_nothing(
+    tmp_path, monkeypatch, host, config
+):
+    kernel = warmup.MATCHING.kernels[0]
+    folder = kernel_bundle._folder_key(kernel.py_func.__code__.co_filename)
+    index = Path(kernel._cache._cache_file._index_path).name
+    bundle = _bundle(tmp_path / "b.tar.xz", _fake_manifest(), {f"{folder}/{index}": b"no index"})
+    monkeypatch.setattr(kernel_bundle, "host_cpu_features", lambda: frozenset(host))
+    for name, value in config.items():
+        monkeypatch.setattr(kernel_bundle.numba.config, name, value)
+    # returns before writing a byte (it would fail on the file above if it tried)
+    assert kernel_bundle.install(KERNELS, bundle) is None
+
+
+def test_this_cpu_runs_a_build_of_the_features_it_has(monkeypatch):
+    cpu = {"name": "x86-64-v2", "features": ["sse4.1", "popcnt"]}
+    monkeypatch.setattr(kernel_bundle, "host_cpu_features", lambda: frozenset({"popcnt", "sse4.1"}))
+    assert kernel_bundle.runs_here(cpu)
+    monkeypatch.setattr(kernel_bundle, "host_cpu_features", lambda: frozenset({"popcnt"}))
+    assert not kernel_bundle.runs_here(cpu)
+
+
+def test_the_machines_cpu_features_are_llvms_names():
+    features = kernel_bundle.host_cpu_features()
+    if features:  # x86-64 always has SSE2; another architecture has its own names
+        assert "sse2" in features or BundleTarget.here().triple.split("-")[0] != "x86_64"
 
 
 def test_no_build_for_this_machine_or_left_out_installs_nothing(tmp_path, monkeypatch):
@@ -171,9 +222,8 @@ INSTALL = (
 
 
 def test_the_build_installs_into_an_empty_cache_once(tmp_path):
+    _skip_unless_the_build_applies()
     bundle = kernel_bundle.bundle_path()
-    if not bundle.is_file():
-        pytest.skip(f"no shipped build for {BundleTarget.here()}")
     with tarfile.open(bundle, "r:xz") as tar:
         indexes = sum(name.endswith(".nbi") for name in tar.getnames())
     lines = _python(INSTALL, tmp_path).stdout.split("\n")
@@ -189,8 +239,7 @@ def test_the_build_installs_into_an_empty_cache_once(tmp_path):
 
 @pytest.mark.slow
 def test_a_first_run_on_the_build_compiles_nothing_and_maps_as_this_process(tmp_path):
-    if not kernel_bundle.bundle_path().is_file():
-        pytest.skip(f"no shipped build for {BundleTarget.here()}")
+    _skip_unless_the_build_applies()
     frames = make_frames(6, box_until_frame=3, noise=0.005, seed=3)
     truths = [provider_removed_at(0.2)(f.time_s) for f in frames]
     recording = tmp_path / "rec.npz"
@@ -248,8 +297,7 @@ def test_what_maps_without_a_warm_up_installs_the_build_once_a_process(tmp_path)
     # A replay's report (fogsim tune's trials) and fogsim compare map without a warm-up: on a
     # cold cache they install the build (said once), then never look again in that process;
     # a process on a warm cache installs nothing.
-    if not kernel_bundle.bundle_path().is_file():
-        pytest.skip(f"no shipped build for {BundleTarget.here()}")
+    _skip_unless_the_build_applies()
     lines = _python(ONCE, tmp_path).stdout.split("\n")
     assert lines[:2] == ["True False", "0 1"]
     lines = _python(ONCE, tmp_path).stdout.split("\n")

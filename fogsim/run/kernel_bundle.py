@@ -6,10 +6,10 @@ front end (with ``NUMBA_OPT=0`` the compile still took 28 of 35 s CPU), so no tr
 compile reaches issue #14's 12 s. The kernels are compiled ahead of time instead:
 
 - :func:`build` (``python -m fogsim.run.kernel_bundle``) warms a run's kernels up in a child
-  process that compiles for a generic x86-64 CPU (``NUMBA_CPU_NAME=generic``, no CPU features:
-  baseline SSE2 code, which every x86-64 machine runs) into an empty numba cache, and packs
-  that cache into one file, ``assets/kernels/<platform>-<python>-numba<version>.tar.xz``
-  (1.7 MB), with a manifest of what it was compiled for and from (:data:`MANIFEST`);
+  process that compiles for LLVM's ``x86-64-v2`` CPU (:data:`BUILD_CPU`: the x86-64 of 2009
+  on, SSE4.2 and POPCNT, no AVX) into an empty numba cache, and packs that cache into one
+  file, ``assets/kernels/<platform>-<python>-numba<version>.tar.xz`` (1.7 MB), with a
+  manifest of what it was compiled for and from (:data:`MANIFEST`);
 - a warm-up that finds a kernel cold (:class:`fogsim.run.warmup.KernelWarmUp`) first installs
   the bundle into numba's cache (:func:`install`), then compiles only what is still missing;
   what maps without a warm-up (a replay's report, ``fogsim tune``'s trials, ``fogsim
@@ -19,25 +19,37 @@ compile reaches issue #14's 12 s. The kernels are compiled ahead of time instead
 numba keys a cached kernel by its signature, the bytecode's hash and the code generator's
 *magic tuple* (target triple, CPU name, CPU features), and looks an entry up under the tuple
 of the machine it runs on. :func:`install` writes the bundle's index files with their keys'
-tuple made this machine's (:func:`rekeyed_index`): numba then loads the generic code as its
+tuple made this machine's (:func:`rekeyed_index`): numba then loads the build's code as its
 own. Nothing else of numba's flow changes: a signature the bundle lacks is compiled and added
 to the same index as before.
 
 The bundle applies when the machine's target triple (architecture and OS), CPython version
 (the cache files' names and the bytecode hashes), numba version (numba ignores an index of
 another version) and the kernel modules' stamps (`mapper.kernel_cache.package_stamp`: one
-hash of every kernel module of a package) are the manifest's; otherwise nothing is installed
-and the first run compiles as before. `tests/test_kernel_bundle.py` fails when the shipped
-bundle's stamps are not the sources': after an edit of a kernel module, rebuild it
-(``python -m fogsim.run.kernel_bundle``, about 30 s on 2 cores).
+hash of every kernel module of a package) are the manifest's, the CPU has every feature the
+build's code uses (:data:`BUILD_CPU_FEATURES`), and numba is not told which CPU to compile
+for (``NUMBA_CPU_NAME``, ``NUMBA_CPU_FEATURES``: that CPU's code is what the user asked for);
+otherwise nothing is installed and the first run compiles as before.
+`tests/test_kernel_bundle.py` fails when the shipped bundle's stamps are not the sources':
+after an edit of a kernel module, rebuild it (``python -m fogsim.run.kernel_bundle``, about
+30-40 s on 2 cores).
 
 Measured (AMD EPYC, 2 cores, session 41): the stage's first run on an empty numba and fogsim
 cache 31.7 s → 7.0 s wall (the scene's compile and the kernels' load included); its maps are
 bit for bit those of code compiled for the host (every array of ``maps.npz``): the kernels
 use no fast-math, so LLVM may not fuse or reorder floating-point operations for either CPU.
-The generic code is slower than code compiled for the host: the mapper update about 10 %
-(`bench/bench_mapper.py`'s ``generic`` column), the warm stage run within the machine's
-spread. ``FOGSIM_KERNEL_BUNDLE=0`` leaves the bundle out: the first run compiles for this CPU.
+``FOGSIM_KERNEL_BUNDLE=0`` leaves the bundle out: the first run compiles for this CPU.
+
+Why ``x86-64-v2`` and not LLVM's ``generic`` x86-64 (session 41's build): generic code has
+only SSE2, which has no rounding instruction, so every ``floor`` (a cell index, a layer) is a
+call into the C library; SSE4.1's ``roundsd`` computes the same value inline. The stage's
+mapper update, 300 frames of seed 1 (``bench/bench_mapper.py --stages`` children, AMD EPYC,
+load about 1, session 42): 0.870 ms generic, 0.794 ms ``x86-64-v2``, 0.778-0.794 ms compiled
+for the host (Zen 4, AVX-512); ``x86-64-v3`` (AVX2, FMA) 0.791 ms, which would shut out the
+machines without AVX2 for no measurable gain. Warm, as a user runs them
+(``bench/bench_run.py stage --repeats 5 --replay REC --tree OLD --tree NEW``, interleaved,
+load 2.0-2.5): the stage walk 4.75 → 4.40 s wall (the main thread's CPU 2.90 → 2.60 s), the
+replay of its recording 3.45 → 3.20 s; the same maps, byte for byte (stage run and replay).
 """
 
 from __future__ import annotations
@@ -59,6 +71,7 @@ from pathlib import Path
 from typing import Any
 
 import numba
+from llvmlite import binding as llvm
 from numba.core.dispatcher import Dispatcher
 from numba.core.registry import cpu_target
 
@@ -67,6 +80,8 @@ from fogsim.errors import FogsimError, KernelBundleError, OutputError
 from fogsim.paths import ASSETS_DIR
 
 __all__ = [
+    "BUILD_CPU",
+    "BUILD_CPU_FEATURES",
     "BUNDLE_DIR",
     "ENV_SWITCH",
     "MANIFEST",
@@ -75,8 +90,10 @@ __all__ = [
     "build",
     "bundle_path",
     "enabled",
+    "host_cpu_features",
     "install",
     "rekeyed_index",
+    "runs_here",
     "shipped_name",
 ]
 
@@ -89,8 +106,13 @@ MANIFEST = "manifest.json"
 ENV_SWITCH = "FOGSIM_KERNEL_BUNDLE"
 """Environment variable: ``0`` leaves the bundle out (the first run compiles for this CPU)."""
 
-GENERIC_CPU = {"NUMBA_CPU_NAME": "generic", "NUMBA_CPU_FEATURES": ""}
-"""The build's code generator: LLVM's generic CPU of the triple, no optional features."""
+BUILD_CPU = "x86-64-v2"
+"""The CPU the build's code is compiled for (LLVM's name; its features, none added)."""
+
+BUILD_CPU_FEATURES = ("cx16", "popcnt", "sahf", "sse3", "sse4.1", "sse4.2", "ssse3")
+"""What :data:`BUILD_CPU` has beyond the x86-64 baseline (LLVM's feature names): a machine
+whose CPU lacks one of them would stop at an illegal instruction, so :func:`install` installs
+nothing there."""
 
 
 @dataclass(frozen=True)
@@ -129,15 +151,37 @@ class Installed:
     Attributes:
         bundle: The bundle file.
         indexes: Index files written (one per cached function), each with its code files.
+        cpu: The CPU the code was compiled for (LLVM's name, e.g. ``x86-64-v2``).
     """
 
     bundle: Path
     indexes: int
+    cpu: str
 
 
 def enabled() -> bool:
     """Whether warm-ups install the bundle (``FOGSIM_KERNEL_BUNDLE`` is not ``0``)."""
     return os.environ.get(ENV_SWITCH, "1").strip() != "0"
+
+
+def host_cpu_features() -> frozenset[str]:
+    """The features of this machine's CPU, by LLVM's names (empty when LLVM cannot tell)."""
+    try:
+        features = llvm.get_host_cpu_features()
+    except RuntimeError:  # LLVM has no feature list for this host
+        return frozenset()
+    return frozenset(name for name, present in features.items() if present)
+
+
+def runs_here(cpu: Mapping[str, Any]) -> bool:
+    """Whether a build for ``cpu`` (the manifest's ``cpu``: name, features) is this machine's.
+
+    It is when this CPU has every feature the build's code uses and numba is not told which
+    CPU to compile for (``NUMBA_CPU_NAME``, ``NUMBA_CPU_FEATURES``).
+    """
+    if numba.config.CPU_NAME is not None or numba.config.CPU_FEATURES is not None:
+        return False
+    return set(cpu["features"]) <= host_cpu_features()
 
 
 def bundle_path(target: BundleTarget | None = None) -> Path:
@@ -278,7 +322,7 @@ def _install(kernels: Iterable[Dispatcher], path: Path) -> Installed | None:
     indexes = 0
     with tarfile.open(path, "r:xz") as tar:
         manifest = json.loads(_read_bytes(tar, MANIFEST))
-        if BundleTarget(**manifest["target"]) != here:
+        if BundleTarget(**manifest["target"]) != here or not runs_here(manifest["cpu"]):
             return None
         # Read once, in the archive's order: an xz stream cannot seek back without
         # decompressing again from its start.
@@ -306,13 +350,13 @@ def _install(kernels: Iterable[Dispatcher], path: Path) -> Installed | None:
                 rekeyed = rekeyed_index(index, magic)
                 write_atomic(cache_path / base, lambda handle, data=rekeyed: handle.write(data))
                 indexes += 1
-    return Installed(path, indexes) if indexes else None
+    return Installed(path, indexes, manifest["cpu"]["name"]) if indexes else None
 
 
 def _compile_into(manifest_path: Path) -> None:
     """The build's child: warm up every :func:`build_params` run, write the cache's manifest.
 
-    Runs with the generic CPU and an empty ``NUMBA_CACHE_DIR`` (:func:`build`). The manifest
+    Runs with :data:`BUILD_CPU` and an empty ``NUMBA_CACHE_DIR`` (:func:`build`). The manifest
     names, per source folder of the warm-up's kernels, numba's cache folder and its stamp.
     """
     from fogsim.run import warmup  # the warm-up imports this module
@@ -325,6 +369,7 @@ def _compile_into(manifest_path: Path) -> None:
     manifest = {
         "target": asdict(BundleTarget.here()),
         "magic_tuple": list(cpu_target.target_context.codegen().magic_tuple()),
+        "cpu": {"name": BUILD_CPU, "features": list(BUILD_CPU_FEATURES)},
         "stamps": {key: _jsonable(stamp) for key, (_, stamp) in sorted(folders.items())},
         "caches": {key: str(cache) for key, (cache, _) in sorted(folders.items())},
     }
@@ -372,7 +417,7 @@ def _tar_bytes(manifest: Mapping[str, Any], caches: Mapping[str, Path]) -> bytes
             info.size, info.mode, info.mtime = len(data), 0o644, 0
             tar.addfile(info, io.BytesIO(data))
 
-        public = {key: manifest[key] for key in ("target", "magic_tuple", "stamps")}
+        public = {key: manifest[key] for key in ("target", "magic_tuple", "cpu", "stamps")}
         add(MANIFEST, json.dumps(public, indent=1, sort_keys=True).encode())
         for folder, cache in sorted(caches.items()):
             for file in sorted(cache.iterdir()):
@@ -382,11 +427,11 @@ def _tar_bytes(manifest: Mapping[str, Any], caches: Mapping[str, Path]) -> bytes
 
 
 def build(out_dir: Path = BUNDLE_DIR) -> Path:
-    """Compile a run's kernels for the generic CPU and pack them into ``out_dir``.
+    """Compile a run's kernels for :data:`BUILD_CPU` and pack them into ``out_dir``.
 
-    The compile runs in a child process (``NUMBA_CPU_NAME=generic``, ``NUMBA_CPU_FEATURES``
-    empty, an empty ``NUMBA_CACHE_DIR``, the bundle left out); bundles of other numba or
-    CPython versions in ``out_dir`` are removed (one bundle is shipped).
+    The compile runs in a child process (``NUMBA_CPU_NAME`` :data:`BUILD_CPU`,
+    ``NUMBA_CPU_FEATURES`` empty, an empty ``NUMBA_CACHE_DIR``, the bundle left out); bundles
+    of other numba or CPython versions in ``out_dir`` are removed (one bundle is shipped).
 
     Returns:
         The bundle written.
@@ -398,7 +443,8 @@ def build(out_dir: Path = BUNDLE_DIR) -> Path:
         manifest_path = Path(scratch) / MANIFEST
         env = {
             **os.environ,
-            **GENERIC_CPU,
+            "NUMBA_CPU_NAME": BUILD_CPU,
+            "NUMBA_CPU_FEATURES": "",
             "NUMBA_CACHE_DIR": str(Path(scratch) / "numba"),
             ENV_SWITCH: "0",
         }

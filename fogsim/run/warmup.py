@@ -49,7 +49,7 @@ the zero-divisor checks: a division by zero gives inf or NaN instead of raising;
 divisors are parameters validated positive or guarded counts.
 
 Kernels compiled ahead of time: before compiling anything, a warm-up that finds a group cold
-installs the kernels' shipped build (`fogsim.run.kernel_bundle`: generic x86-64 code of this
+installs the kernels' shipped build (`fogsim.run.kernel_bundle`: ``x86-64-v2`` code of this
 package's sources for this numba and CPython) into numba's cache, and compiles only what that
 leaves cold (nothing, where the build applies: the stage's first run 31.7 → 7.0 s).
 
@@ -536,7 +536,7 @@ def _install_shipped(stream: TextIO | None) -> bool:
     if installed is not None:
         say(
             f"fogsim: {installed.indexes} kernels installed from the shipped build "
-            f"{installed.bundle.name} (first run only; generic x86-64 code: "
+            f"{installed.bundle.name} (first run only; {installed.cpu} code: "
             f"{kernel_bundle.ENV_SWITCH}=0 compiles them for this CPU instead)"
         )
     return installed is not None
