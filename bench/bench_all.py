@@ -80,9 +80,20 @@ class Step:
 STEPS = (
     Step(
         "mapper",
-        "mapper update on the stage's frames (88×72, 176×144) and synthetic scenes, host and "
-        "generic codegen, OctoMap alongside",
-        ("bench_mapper.py", "--frames", "200", "--sets", "stage", "edge", "centre", "--stages"),
+        "mapper update on the stage's frames (88×72, 176×144) and synthetic scenes, host, "
+        "x86-64-v2 (the shipped build's) and generic codegen, OctoMap alongside",
+        (
+            "bench_mapper.py",
+            "--frames",
+            "200",
+            "--sets",
+            "stage",
+            "edge",
+            "centre",
+            "--stages",
+            "--codegen",
+            "all",
+        ),
         ("bench_mapper.py", "--frames", "20", "--sets", "centre", "--codegen", "host"),
     ),
     Step(

@@ -33,9 +33,12 @@ Frame sets:
 
 Peers run interleaved in blocks of ``--block`` frames (each runs frames i … i+9, then the
 next one does), so load from other processes hits them alike; the figure is the median per
-frame. Code generation: numba compiles for the host CPU unless ``NUMBA_CPU_NAME=generic``; the
-bench runs itself once per codegen in a child process (generic with its own numba cache) and
-prints both, with ``os.getloadavg()`` before and after each frame set.
+frame. Code generation: numba compiles for the host CPU unless ``NUMBA_CPU_NAME`` names
+another; the bench runs itself once per codegen in a child process with a numba cache of its
+own, the kernels' shipped build left out, and prints them all, with ``os.getloadavg()`` before
+and after each frame set: ``host``, ``x86-64-v2`` (the shipped build's CPU,
+`fogsim.run.kernel_bundle.BUILD_CPU`: the code a fresh machine runs) and LLVM's ``generic``
+x86-64 (``--codegen all``; ``both``, the default, is host and generic).
 
 Per-stage breakdown (``--stages``): after the interleaved peers, ``FloorObstacleMapper.update``
 once more over the same frames with each stage it calls timed on its own (the frame checks, the
@@ -47,7 +50,7 @@ apart by where it comes from. The peer ``FloorObstacleMapper + fog() a frame`` i
 with the FOG read after every frame (what it cost when ``update`` computed it).
 
 Run: ``.venv/bin/python bench/bench_mapper.py [--frames 200] [--sets stage edge centre]
-[--codegen both|host|generic] [--stage-files REC.npz ...] [--stages]``.
+[--codegen all|both|host|x86-64-v2|generic] [--stage-files REC.npz ...] [--stages]``.
 """
 
 from __future__ import annotations
@@ -75,6 +78,7 @@ import mapper.mapper as mapper_module
 from fogsim.config.params import resolve_params
 from fogsim.data.recording import FORMAT_VERSION, load_recording
 from fogsim.mapping.pipeline import Pipeline
+from fogsim.run.kernel_bundle import BUILD_CPU
 from fogsim.run.runner import sensor_fields
 from mapper import AveragingMap, FloorObstacleMapper, MapperParams, PinholeIntrinsics
 from mapper.synthetic import Box, camera_rays_world, cast_frame
@@ -380,16 +384,22 @@ def measure(args: argparse.Namespace, codegen: str) -> list[Row]:
     return rows
 
 
+CODEGENS = ("host", BUILD_CPU, "generic")
+"""The code generators a child can compile for: the host CPU, the kernels' shipped build's
+(`fogsim.run.kernel_bundle.BUILD_CPU`, what a fresh machine runs), LLVM's generic x86-64."""
+
+
 def run_child(args: argparse.Namespace, codegen: str, cache_dir: Path) -> list[Row]:
-    """``measure`` in a child process compiled for ``codegen`` (host or generic)."""
+    """``measure`` in a child process compiled for ``codegen`` (one of :data:`CODEGENS`)."""
     # Each codegen compiles into a cache of its own, the kernels' shipped build left out: the
     # build is generic code, which numba would load for the host too from a shared cache.
     env = dict(os.environ, OMP_NUM_THREADS="1", FOGSIM_KERNEL_BUNDLE="0")
     env["NUMBA_CACHE_DIR"] = str(cache_dir / f"numba-{codegen}")
-    if codegen == "generic":
-        env["NUMBA_CPU_NAME"] = "generic"
-    else:
-        env.pop("NUMBA_CPU_NAME", None)
+    env.pop("NUMBA_CPU_NAME", None)
+    env.pop("NUMBA_CPU_FEATURES", None)
+    if codegen != "host":  # LLVM's CPU of that name, no feature added
+        env["NUMBA_CPU_NAME"] = codegen
+        env["NUMBA_CPU_FEATURES"] = ""
     command = [sys.executable, __file__, "--child", codegen, "--frames", str(args.frames)]
     command += ["--block", str(args.block), "--recordings", args.recordings, "--sets", *args.sets]
     if args.stage_files:
@@ -414,14 +424,14 @@ def machine() -> str:
 def print_table(rows: list[Row]) -> None:
     """The rows, then per frame set and codegen the speed-ups that matter."""
     print(
-        f"{'set':7s} {'frame':>8s} {'codegen':8s} {'peer':33s} {'points':>7s} "
+        f"{'set':7s} {'frame':>8s} {'codegen':9s} {'peer':33s} {'points':>7s} "
         f"{'CPU ms med':>10s} {'p90':>8s}  load (1, 5, 15 min) before / after"
     )
     for r in rows:
         load = f"{'/'.join(f'{v:.1f}' for v in r.load_before)} / "
         load += "/".join(f"{v:.1f}" for v in r.load_after)
         print(
-            f"{r.frame_set:7s} {r.resolution:>8s} {r.codegen:8s} {r.peer:33s} {r.points:7d} "
+            f"{r.frame_set:7s} {r.resolution:>8s} {r.codegen:9s} {r.peer:33s} {r.points:7d} "
             f"{r.median_ms:10.3f} {r.p90_ms:8.3f}  {load}"
         )
     by = {(r.frame_set, r.resolution, r.codegen, r.peer): r.median_ms for r in rows}
@@ -442,7 +452,7 @@ def main() -> None:
     parser.add_argument("--frames", type=int, default=200, help="frames per set")
     parser.add_argument("--sets", nargs="+", choices=["stage", *SCENES], default=["stage", "edge"])
     parser.add_argument("--block", type=int, default=10, help="frames per interleaved block")
-    parser.add_argument("--codegen", choices=["both", "host", "generic"], default="both")
+    parser.add_argument("--codegen", choices=["all", "both", *CODEGENS], default="both")
     parser.add_argument(
         "--recordings",
         default=str(Path(tempfile.gettempdir()) / "fogsim-bench"),
@@ -459,13 +469,13 @@ def main() -> None:
         action="store_true",
         help="also time each stage of FloorObstacleMapper.update (module docstring)",
     )
-    parser.add_argument("--child", choices=["host", "generic"], help=argparse.SUPPRESS)
+    parser.add_argument("--child", choices=CODEGENS, help=argparse.SUPPRESS)
     args = parser.parse_args()
     if args.child:
         for row in measure(args, args.child):
             print(json.dumps(row.__dict__))
         return
-    codegens = ["host", "generic"] if args.codegen == "both" else [args.codegen]
+    codegens = {"all": CODEGENS, "both": ("host", "generic")}.get(args.codegen, (args.codegen,))
     with tempfile.TemporaryDirectory() as cache_dir:
         rows = [row for c in codegens for row in run_child(args, c, Path(cache_dir))]
     print(f"{machine()}; {args.frames} frames per set, blocks of {args.block}")
