@@ -96,7 +96,48 @@ from numpy.typing import NDArray
 
 from mapper.validation import check_field
 
-__all__ = ["HeightReference", "HeightReferenceParams", "arrival_drift_m", "start_surface_m"]
+__all__ = [
+    "MAX_NECK_OFFSET_M",
+    "NECK_FIELDS",
+    "HeightReference",
+    "HeightReferenceParams",
+    "arrival_drift_m",
+    "neck_prior_m",
+    "start_surface_m",
+]
+
+
+NECK_FIELDS = ("neck_in_camera_x_m", "neck_in_camera_y_m", "neck_in_camera_z_m")
+"""Where the neck turns the head, in the camera frame: one field per axis."""
+
+MAX_NECK_OFFSET_M = 1.0
+"""How far the neck may lie from the camera [m]: centimetres on a humanoid; a metre bounds a
+typo (a neck metres away would predict metres of height error)."""
+
+
+def neck_prior_m(
+    rotation: NDArray[np.float64],
+    transform_camera_to_robot: NDArray[np.float64],
+    neck_in_camera_m: NDArray[np.float64],
+) -> float:
+    """The ground measurement a frame's tilt correction predicts [m] (`HeightReference.update`).
+
+    The tilt correction turns the believed data by ``rotation`` about the camera centre. If the
+    tilt came from the neck's encoders, the truth is that turn about the neck, which also moves
+    the camera by ``(I − R)·(n − c)`` (``n − c`` the neck from the camera, robot frame): the
+    ground then lies that much lower in the corrected data than the kinematics say, and a
+    frame measures it as a shift of ``((I − R)·(n − c))_z``.
+
+    Args:
+        rotation: (3, 3) the applied tilt correction.
+        transform_camera_to_robot: (4, 4) the corrected camera pose (``rotation`` applied).
+        neck_in_camera_m: (3,) the neck in the camera's optical frame [m].
+
+    Returns:
+        The predicted shift [m]; 0 for no rotation or a neck at the camera centre.
+    """
+    lever = rotation.T @ (transform_camera_to_robot[:3, :3] @ neck_in_camera_m)
+    return float((lever - rotation @ lever)[2])
 
 
 @dataclass(frozen=True)
@@ -152,6 +193,19 @@ class HeightReferenceParams:
             (stage_down, seeds 1-8), so the median of `min_frames` = 8 was 0.5-3 mm off the
             camera's true height error (every row of a seed off by as much), and about 130
             measurements reach 0.5 mm; depth scatters by about a millimetre, and 8 suffice.
+        neck_in_camera_x_m: where the neck turns the head, in the camera's optical frame (x
+            right, y down, z forward) [m]: x. With the tilt correction it gives the prior
+            (`neck_prior_m`): a neck encoder's error turns the camera about the neck, so the
+            tilt it causes comes with a height error of the camera, which the tilt correction
+            (a rotation about the camera centre, the paper's) leaves to this reference.
+        neck_in_camera_y_m: its y [m].
+        neck_in_camera_z_m: its z [m]. (0, 0, 0) (default): the prior is 0, the kinematics'
+            height. fogsim sets the robot's (`pivot_in_camera_m` of its description's
+            ``[neck]``; iCub: 10 cm below the eyes, 9 cm behind). stage_down, depth,
+            ``encoders.head_bias_deg = 7`` (camera errors 7-12°, session 42), 0 → iCub's
+            neck: seed 2 every row −20.7 → +0.4 mm (the ground, 21 mm off the kinematics, was
+            never inside the gate: no estimate, the kinematics' height trusted), seed 7 −4.1
+            → +0.1 mm.
     """
 
     gate_m: float = 0.02
@@ -164,6 +218,14 @@ class HeightReferenceParams:
     start_level_m: float = 0.01
     surface_gate_m: float = 0.01
     known_error_m: float = 0.0005
+    neck_in_camera_x_m: float = 0.0
+    neck_in_camera_y_m: float = 0.0
+    neck_in_camera_z_m: float = 0.0
+
+    @property
+    def neck_in_camera_m(self) -> NDArray[np.float64]:
+        """(3,) the neck in the camera's optical frame [m]."""
+        return np.array([self.neck_in_camera_x_m, self.neck_in_camera_y_m, self.neck_in_camera_z_m])
 
     def __post_init__(self) -> None:
         for name in (
@@ -183,6 +245,15 @@ class HeightReferenceParams:
                 float,
                 "a finite float > 0",
                 lambda v: math.isfinite(v) and v > 0,
+            )
+        for name in NECK_FIELDS:
+            check_field(
+                "HeightReferenceParams",
+                name,
+                getattr(self, name),
+                float,
+                f"a finite float within ±{MAX_NECK_OFFSET_M:g} [m] of the camera",
+                lambda v: math.isfinite(v) and abs(v) <= MAX_NECK_OFFSET_M,
             )
         check_field(
             "HeightReferenceParams",
@@ -301,6 +372,7 @@ class HeightReference:
         areas_m2: NDArray[np.float64],
         is_floor: NDArray[np.bool_],
         rise_m: float,
+        prior_m: float = 0.0,
     ) -> float | None:
         """Take one frame's floor regions; return its measured shift [m] (None: no ground).
 
@@ -309,10 +381,12 @@ class HeightReference:
             areas_m2: (F,) their footprints [m²].
             is_floor: (F,) the region is a floor.
             rise_m: odometry's z minus the start pose's [m] (the robot's change of level).
+            prior_m: the shift the frame's pose predicts [m], where the gates centre until the
+                estimate has converged (`neck_prior_m`; 0: the kinematics' height).
         """
         self.frames += 1
         params = self.params
-        expected = self.shift_m if self.converged else 0.0
+        expected = self.shift_m if self.converged else prior_m
         offset = np.abs(-heights_m - expected)
         candidate = is_floor & (areas_m2 >= params.min_area_m2) & (offset <= params.gate_m)
         if not self.converged and abs(rise_m) <= params.start_level_m:

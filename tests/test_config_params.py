@@ -15,6 +15,7 @@ from fogsim.config import (
     scenario_from_dict,
 )
 from fogsim.errors import FogsimError, ParameterError
+from fogsim.run.runner import sensor_fields
 from mapper import ElevationFilterParams, MapperParams
 from mapper.segmentation import SegmentationParams
 
@@ -117,6 +118,28 @@ def test_errors_name_key_value_and_what_is_allowed(params, changes, where, messa
         replace_params(params, changes, where)
     assert str(info.value) == message
     assert isinstance(info.value, ValueError) and isinstance(info.value, FogsimError)
+
+
+def test_the_head_s_parameters_go_below_the_scenario_into_their_groups():
+    # sensor_fields: the camera's noise model (segmentation fields by name) and the neck
+    # (the height reference's, "ref." like an override); the scenario and overrides win.
+    scenario = scenario_from_dict({"name": "t", "segmentation": {"min_noise_m": 0.002}})
+    sensor = {"min_noise_m": 0.004, "disparity_noise_px": 0.1, "stereo_baseline_m": 0.068}
+    sensor |= {"ref.neck_in_camera_y_m": 0.10, "ref.neck_in_camera_z_m": -0.09}
+    params = resolve_params(scenario, {"ref.neck_in_camera_z_m": -0.05}, sensor)
+    assert params.segmentation.min_noise_m == 0.002
+    assert params.segmentation.disparity_noise_px == 0.1
+    assert params.reference.neck_in_camera_y_m == 0.10
+    assert params.reference.neck_in_camera_z_m == -0.05
+
+
+def test_a_scenario_s_robot_sets_its_neck_for_the_height_reference():
+    icub = scenario_from_dict({"name": "t"})
+    talos = scenario_from_dict({"name": "t", "robot": {"model": "talos"}})
+    neck = resolve_params(icub, sensor=sensor_fields(icub)).reference.neck_in_camera_m
+    assert neck.tolist() == [0.0, 0.10, -0.09]
+    neck = resolve_params(talos, sensor=sensor_fields(talos)).reference.neck_in_camera_m
+    assert neck.tolist() == [0.0, 0.198, -0.116]
 
 
 def test_resolve_params_layers_defaults_scenario_and_overrides():

@@ -9,6 +9,7 @@ from synthetic_depth import Box, look_down_camera, render_boxes
 
 from mapper.intrinsics import PinholeIntrinsics
 from mapper.pose_correction import estimate_tilt, stepped_planes
+from mapper.reference import neck_prior_m
 from mapper.segmentation import SegmentationParams, segment_depth
 
 INTR = PinholeIntrinsics.from_fov(88, 72, 47.0, 39.0)
@@ -34,6 +35,49 @@ def test_a_15_degree_tilt_error_is_corrected_with_a_20_degree_limit(error_deg):
     # The former 12° limit leaves the frame uncorrected: no plane steers it.
     old = dataclasses.replace(SegmentationParams(), max_tilt_correction_deg=12.0)
     assert segment_depth(depth, INTR, believed, old).correction.tilt_planes == 0
+
+
+NECK_IN_CAMERA = np.array([0.0, 0.10, -0.09])
+"""iCub's neck in its camera's optical frame [m]: 10 cm below the eyes, 9 cm behind them."""
+
+
+def _turned_about(transform, pivot, pitch_deg):
+    """``transform`` with the head turned by ``pitch_deg`` about world y through ``pivot``."""
+    a = math.radians(pitch_deg)
+    turn = np.eye(4)
+    turn[:3, :3] = [
+        [math.cos(a), 0.0, math.sin(a)],
+        [0.0, 1.0, 0.0],
+        [-math.sin(a), 0.0, math.cos(a)],
+    ]
+    turn[:3, 3] = pivot - turn[:3, :3] @ pivot
+    return turn @ transform
+
+
+@pytest.mark.parametrize("error_deg", [7.0, -7.0])
+def test_a_neck_error_s_height_error_is_what_the_neck_prior_predicts(error_deg):
+    # A neck encoder's error turns the head, camera and all, about the neck. The tilt
+    # correction turns the data back about the camera centre (the paper's rotation): they keep
+    # the camera's height error, which `neck_prior_m` predicts from the correction alone.
+    depth = render_boxes(INTR, CAMERA_TRUE, [Box((1.6, 0.0), (0.3, 0.6, 0.06))])
+    neck = CAMERA_TRUE[:3, :3] @ NECK_IN_CAMERA + CAMERA_TRUE[:3, 3]
+    believed = _turned_about(CAMERA_TRUE, neck, error_deg)
+    height_error = believed[2, 3] - CAMERA_TRUE[2, 3]
+    # by hand: looking 35° down, the camera lies 0.09·cos 35° + 0.10·sin 35° = 13.1 cm ahead of
+    # the neck, so 7° (0.122 rad) about the neck lift or lower it by 16.0 mm
+    assert abs(height_error) == pytest.approx(0.0160, abs=0.0003)
+    params = dataclasses.replace(SegmentationParams(), correct_ground_shift=False)
+    result = segment_depth(depth, INTR, believed, params)
+    assert result.correction.rotation_deg == pytest.approx(abs(error_deg), abs=0.05)
+    floor = np.sort(result.planes.heights_m[result.planes.is_floor])
+    np.testing.assert_allclose(floor, np.array([0.0, 0.06]) + height_error, atol=0.001)
+    correction, transform = result.correction.rotation, result.transform_camera_to_robot
+    # the shift a frame measures is minus the ground's height
+    assert neck_prior_m(correction, transform, NECK_IN_CAMERA) == pytest.approx(
+        -height_error, abs=0.0005
+    )
+    assert neck_prior_m(correction, transform, np.zeros(3)) == 0.0  # neck at the camera
+    assert neck_prior_m(np.eye(3), transform, NECK_IN_CAMERA) == 0.0  # no tilt error
 
 
 def _tilted(deg, azimuth_deg=0.0):

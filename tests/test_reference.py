@@ -15,14 +15,14 @@ GROUND_AREA_M2 = 5.0  # the ground seen from the stage's camera covers 3-6 m²
 TREAD_AREA_M2 = 0.2  # a stage tread: 0.2 m × 1 m
 
 
-def feed(reference, heights, areas, floors=None, rise_m=0.0):
+def feed(reference, heights, areas, floors=None, rise_m=0.0, prior_m=0.0):
     """One frame's floor regions (heights in the tilt-corrected robot frame, unshifted).
 
     ``rise_m``: odometry's z minus the start's (0: the robot stands at its start level).
     """
     heights = np.asarray(heights, dtype=np.float64)
     floors = np.ones(heights.shape, dtype=bool) if floors is None else np.asarray(floors)
-    return reference.update(heights, np.asarray(areas, dtype=np.float64), floors, rise_m)
+    return reference.update(heights, np.asarray(areas, dtype=np.float64), floors, rise_m, prior_m)
 
 
 def test_exact_data_give_exactly_zero_shift():
@@ -166,6 +166,21 @@ def test_a_7_degree_neck_error_takes_the_ground_not_a_patch_of_the_first_step():
     assert feed(reference, [0.007, -0.025], [0.31, 4.0], rise_m=0.2) == pytest.approx(0.025)
 
 
+def test_walking_down_a_neck_error_beyond_the_gate_is_measured_around_the_neck_prior():
+    # stage_down with a 7° neck bias (seed 2): the camera 21 mm too low, the ground at -21 mm
+    # on the way down, beyond the 20 mm gate around the kinematics' 0; the tilt correction's
+    # neck prior predicts a shift of +18 mm (`neck_prior_m`).
+    kinematics = HeightReference()
+    neck = HeightReference()
+    for _ in range(kinematics.params.min_frames):
+        assert feed(kinematics, [-0.021], [4.0], rise_m=-0.122) is None
+        assert feed(neck, [-0.021], [4.0], rise_m=-0.122, prior_m=0.018) == pytest.approx(0.021)
+    assert neck.converged and neck.shift_m == pytest.approx(0.021)
+    assert not kinematics.converged
+    # The ground 31 mm below a tread (at -21 - 31 mm) is outside the gate around the prior.
+    assert feed(HeightReference(), [-0.052], [4.0], rise_m=-0.031, prior_m=0.018) is None
+
+
 def test_the_wide_start_gate_ends_at_the_first_step_down():
     # Walking down: on the first tread (31 mm above the ground, odometry 31 mm below the start)
     # the ground appears 31 mm below the feet, +7 mm with a camera error of +7 mm: not the
@@ -216,6 +231,8 @@ def test_non_floor_regions_are_never_measured():
         ("surface_gate_m", float("nan")),
         ("known_error_m", 0.0),
         ("known_error_m", float("inf")),
+        ("neck_in_camera_y_m", 1.5),
+        ("neck_in_camera_z_m", float("nan")),
     ],
 )
 def test_bad_parameters_are_refused_naming_the_field(field, value):

@@ -165,6 +165,27 @@ def test_every_robot_loads_with_cameras(name):
     assert model.nq == robot.nq
 
 
+@pytest.mark.parametrize("name", ROBOT_NAMES)
+def test_the_neck_pivot_is_where_the_neck_joints_turn_the_camera(name):
+    # The description's pivot (the tilt correction turns the data about it) is the origin of
+    # the camera's parent joint, in the camera's optical frame, and every neck joint turns
+    # the head about a point within 1 cm of it.
+    robot = load_robot(name)
+    model, data = robot.pin_model, robot.pin_model.createData()
+    camera = model.frames[robot.frame_id("head_camera")]
+    assert model.names[camera.parentJoint] == robot.description.camera.parent_joint
+    pivot = np.array(robot.description.neck.pivot_in_camera_m)
+    np.testing.assert_allclose(pivot, camera.placement.inverse().translation, atol=0.001)
+    pin.forwardKinematics(model, data, robot.neutral())
+    pin.updateFramePlacements(model, data)
+    for joint in robot.description.neck.joints:
+        origin = data.oMf[robot.frame_id("head_camera")].actInv(
+            data.oMi[model.getJointId(joint)].translation
+        )
+        assert np.linalg.norm(origin - pivot) < 0.01, joint
+    assert pivot[1] > 0.05 and pivot[2] < -0.05  # below and behind the eyes
+
+
 def test_model_is_built_into_the_cache_dir_given_by_fogsim_cache(tmp_path, monkeypatch):
     monkeypatch.setenv("FOGSIM_CACHE", str(tmp_path))
     robot = load_robot.__wrapped__("icub")  # bypass the per-process cache

@@ -294,8 +294,9 @@ def resolve_params(
 
     Args:
         scenario: A Scenario (its ``mapper`` and ``segmentation`` tables) or None.
-        sensor: ``SegmentationParams`` fields of the camera's noise model
-            (:func:`fogsim.run.runner.sensor_fields`), below the scenario's table.
+        sensor: The head's parameters (:func:`fogsim.run.runner.sensor_fields`), below the
+            scenario's tables: ``SegmentationParams`` fields (the camera's noise model) by
+            name, other groups' with their override prefix (``"ref.<field>"``).
         overrides: Keys ``"<mapper field>"`` (e.g. ``"p_occ"``, or ``"mapper.p_occ"``),
             ``"seg.<field>"``, ``"elev.<field>"``, ``"pipe.<field>"``, ``"head.<field>"``
             and ``"ref.<field>"``.
@@ -303,15 +304,21 @@ def resolve_params(
     Raises:
         ParameterError: An unknown key (the message lists the allowed ones) or a bad value.
     """
+    head: dict[str, dict[str, object]] = {}
+    for key, value in (sensor or {}).items():
+        group, name = split_override_key(key) if "." in key else ("segmentation", key)
+        head.setdefault(group, {})[name] = value
     changes: dict[str, dict[str, object]] = {
         "mapper": dict(scenario.mapper) if scenario is not None else {},
-        "segmentation": dict(sensor or {})
+        "segmentation": head.pop("segmentation", {})
         | (dict(scenario.segmentation) if scenario is not None else {}),
         "elevation": {},
         "pipeline": {},
         "heading": {},
         "reference": {},
     }
+    for group, values in head.items():
+        changes[group] |= values
     for key, value in (overrides or {}).items():
         group, name = split_override_key(key)
         changes[group][name] = value

@@ -96,7 +96,7 @@ from mapper import (
     frame_decision,
 )
 from mapper.limits import MAX_COORDINATE_M
-from mapper.reference import HeightReference, arrival_drift_m, start_surface_m
+from mapper.reference import HeightReference, arrival_drift_m, neck_prior_m, start_surface_m
 from mapper.segmentation import SegmentationResult, segment_depth
 from mapper.transforms import apply_transform, planar_pose_to_matrix
 
@@ -597,8 +597,13 @@ class Pipeline:
         if not self._use_reference:
             return None
         floors = seg.floors
+        prior_m = neck_prior_m(
+            seg.correction.rotation,
+            seg.transform_camera_to_robot,
+            self.run_params.reference.neck_in_camera_m,
+        )
         return self.reference.update(
-            floors.heights_m, floors.areas_m2, floors.is_floor, self._rise_m
+            floors.heights_m, floors.areas_m2, floors.is_floor, self._rise_m, prior_m
         )
 
     def _ground_sized_m(self, seg: SegmentationResult) -> NDArray[np.float64]:

@@ -78,12 +78,20 @@ class NeckDescription:
         yaw_joint: Joint that turns the head left (+) / right.
         pitch_joint: Joint that tilts the head.
         pitch_sign: +1 if a positive ``pitch_joint`` angle looks up, -1 if it looks down.
+        pivot_in_camera_m: Where the neck turns the head, in the depth camera's optical frame
+            (x right, y down, z forward) [m]: the origin of the camera's parent joint (the
+            neck's joints meet within about a centimetre; ``tests/test_robot.py`` checks it
+            against the URDF). A neck encoder's error turns the head about it, which moves
+            the camera too: the height reference expects the ground where the tilt
+            correction about this point puts it (`mapper.reference.neck_prior_m`,
+            ``ref.neck_in_camera_*_m``).
     """
 
     joints: tuple[str, ...]
     yaw_joint: str
     pitch_joint: str
     pitch_sign: float
+    pivot_in_camera_m: tuple[LengthM, LengthM, LengthM]
 
 
 @dataclass(frozen=True)

@@ -46,6 +46,7 @@ from fogsim.viz.forked import ForkedCall
 from fogsim.world.truth import TruthParams
 from mapper import MapperParams
 from mapper.grid import GridGeometry
+from mapper.reference import NECK_FIELDS
 from mapper.segmentation import SegmentationParams, segment_depth
 
 if TYPE_CHECKING:
@@ -357,15 +358,20 @@ class _GridArchiver:
 
 
 def sensor_fields(scenario: Scenario | None) -> dict[str, float | int]:
-    """The segmentation's noise model of the scenario's camera (none without a scenario).
+    """The parameters the scenario's head sets (none without a scenario).
 
-    Passed to :func:`~fogsim.config.resolve_params` as ``sensor``: the scenario's
-    ``[segmentation]`` table and overrides still take precedence.
+    The segmentation's noise model of its camera, and for the height reference (``ref.``)
+    where the robot's neck turns the head
+    (`fogsim.robot.description.NeckDescription.pivot_in_camera_m`). Passed to
+    :func:`~fogsim.config.resolve_params` as ``sensor``: the scenario's tables and overrides
+    still take precedence.
     """
     if scenario is None:
         return {}
-    baseline_m = load_description(scenario.robot.model).camera.stereo_baseline_m
-    return segmentation_noise_fields(scenario.camera, baseline_m)
+    description = load_description(scenario.robot.model)
+    noise = segmentation_noise_fields(scenario.camera, description.camera.stereo_baseline_m)
+    neck = description.neck.pivot_in_camera_m
+    return noise | {f"ref.{name}": value for name, value in zip(NECK_FIELDS, neck, strict=True)}
 
 
 def replay_report(
