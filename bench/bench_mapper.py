@@ -43,8 +43,9 @@ x86-64 (``--codegen all``; ``both``, the default, is host and generic).
 Per-stage breakdown (``--stages``): after the interleaved peers, ``FloorObstacleMapper.update``
 once more over the same frames with each stage it calls timed on its own (the frame checks, the
 insert, the columns above the grid's top (`mapper.above_top`, missing from the rows until
-session 42: 0.053 ms of the stage's 0.81 ms, ``x86-64-v2``), eq. 8's floor check, the floor votes, eq. 9, the floor cover, and the FOG, which
-``update`` leaves to the next read of the map and the pass reads after every update; thread CPU
+session 42: 0.053 ms of the stage's 0.81 ms, ``x86-64-v2``), eq. 8's floor check, the floor
+votes, eq. 9, the floor cover, and the FOG, which ``update`` leaves to the next read of the map
+and the pass reads after every update; thread CPU
 time around each call, the wrapping adding a few microseconds a call): rows ``update: STAGE``
 and ``update (stages summed)``, medians per frame, so that a speed-up of the update can be told
 apart by where it comes from. The peer ``FloorObstacleMapper + fog() a frame`` is the update
