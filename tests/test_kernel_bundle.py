@@ -302,3 +302,27 @@ def test_what_maps_without_a_warm_up_installs_the_build_once_a_process(tmp_path)
     assert lines[:2] == ["True False", "0 1"]
     lines = _python(ONCE, tmp_path).stdout.split("\n")
     assert lines[:2] == ["False False", "0 0"]
+
+
+RECORD = (
+    "from fogsim.config import load_scenario\n"
+    "from fogsim.run.record import record_scenario\n"
+    "import sys\n"
+    "record_scenario(load_scenario('flat_floor'), sys.argv[1], max_frames=2)\n"
+)
+
+
+def test_a_first_recording_installs_the_self_filter_s_kernel_from_the_build(tmp_path):
+    # `fogsim record` simulates only: its one kernel (the self-filter's) comes from the build
+    # on a fresh machine, not compiled in its first frame.
+    _skip_unless_the_build_applies()
+    subprocess.run(
+        [sys.executable, "-c", RECORD, str(tmp_path / "rec.npz")],
+        env={**os.environ, "NUMBA_CACHE_DIR": str(tmp_path / "numba"), "PYTHONPATH": str(ROOT)},
+        capture_output=True,
+        text=True,
+        check=True,
+    )
+    folder = kernel_bundle._folder_key(self_filter._mask_kernel.py_func.__code__.co_filename)
+    code = [p.name for p in (tmp_path / "numba").rglob("*.nbc") if folder.split("/")[-1] in str(p)]
+    assert code and all(name.endswith(".shipped.nbc") for name in code), code
