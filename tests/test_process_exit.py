@@ -51,3 +51,32 @@ def test_exit_joins_threads_runs_atexit_flushes_and_skips_the_teardown(tmp_path)
     assert (tmp_path / "atexit.txt").read_text() == "thread done"
     # Objects still alive were not torn down one by one: that is the time saved.
     assert not (tmp_path / "teardown.txt").exists()
+
+
+ENTRY = textwrap.dedent(
+    """
+    import gc
+    from fogsim import cli
+
+    def main(argv=None):
+        print(gc.get_freeze_count(), flush=True)
+        return 0
+
+    cli.main = main
+    cli.entry()
+    """
+)
+
+
+def test_the_command_runs_with_its_imports_frozen_out_of_the_collector():
+    # Collections during a run no longer walk the import-time objects (numba's, numpy's):
+    # the stage walk 4.91 -> 4.79 s, its replay 3.29 -> 3.14 s (session 42, interleaved).
+    done = subprocess.run(
+        [sys.executable, "-c", ENTRY],
+        env={**os.environ, "PYTHONPATH": str(ROOT)},
+        capture_output=True,
+        text=True,
+        timeout=120,
+        check=True,
+    )
+    assert int(done.stdout) > 10_000  # numba alone makes more than that
