@@ -394,8 +394,8 @@ CODEGENS = ("host", BUILD_CPU, "generic")
 
 def run_child(args: argparse.Namespace, codegen: str, cache_dir: Path) -> list[Row]:
     """``measure`` in a child process compiled for ``codegen`` (one of :data:`CODEGENS`)."""
-    # Each codegen compiles into a cache of its own, the kernels' shipped build left out: the
-    # build is generic code, which numba would load for the host too from a shared cache.
+    # Each codegen compiles into a cache of its own, the kernels' shipped build left out: numba
+    # would load the build's x86-64-v2 code for any codegen from a shared cache.
     env = dict(os.environ, OMP_NUM_THREADS="1", FOGSIM_KERNEL_BUNDLE="0")
     env["NUMBA_CACHE_DIR"] = str(cache_dir / f"numba-{codegen}")
     env.pop("NUMBA_CPU_NAME", None)

@@ -185,7 +185,11 @@ def write_atomic(path: str | os.PathLike[str], writer: Callable[[IO[bytes]], Non
     return target
 
 
+def write_bytes_atomic(path: str | os.PathLike[str], data: bytes) -> Path:
+    """Write ``data`` atomically (see :func:`write_atomic`)."""
+    return write_atomic(path, lambda handle: handle.write(data))
+
+
 def write_text_atomic(path: str | os.PathLike[str], text: str) -> Path:
     """Write UTF-8 text atomically (see :func:`write_atomic`)."""
-    data = text.encode("utf-8")
-    return write_atomic(path, lambda handle: handle.write(data))
+    return write_bytes_atomic(path, text.encode("utf-8"))

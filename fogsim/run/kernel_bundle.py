@@ -75,7 +75,7 @@ from llvmlite import binding as llvm
 from numba.core.dispatcher import Dispatcher
 from numba.core.registry import cpu_target
 
-from fogsim.atomic import write_atomic
+from fogsim.atomic import write_bytes_atomic
 from fogsim.errors import FogsimError, KernelBundleError, OutputError
 from fogsim.paths import ASSETS_DIR
 
@@ -342,13 +342,8 @@ def _install(kernels: Iterable[Dispatcher], path: Path) -> Installed | None:
                 if any(f"{folder}/{code}" not in members for code in code_names):
                     continue  # an incomplete bundle: this function compiles as before
                 for code in code_names:
-                    data = members[f"{folder}/{code}"]
-                    write_atomic(
-                        cache_path / shipped_name(code),
-                        lambda handle, data=data: handle.write(data),
-                    )
-                rekeyed = rekeyed_index(index, magic)
-                write_atomic(cache_path / base, lambda handle, data=rekeyed: handle.write(data))
+                    write_bytes_atomic(cache_path / shipped_name(code), members[f"{folder}/{code}"])
+                write_bytes_atomic(cache_path / base, rekeyed_index(index, magic))
                 indexes += 1
     return Installed(path, indexes, manifest["cpu"]["name"]) if indexes else None
 
@@ -460,7 +455,7 @@ def build(out_dir: Path = BUNDLE_DIR) -> Path:
         caches = {key: Path(path) for key, path in manifest["caches"].items()}
         data = _tar_bytes(manifest, caches)
     target = out_dir / BundleTarget(**manifest["target"]).file_name
-    write_atomic(target, lambda handle: handle.write(data))
+    write_bytes_atomic(target, data)
     for old in out_dir.glob("*.tar.xz"):
         if old != target:
             old.unlink()

@@ -34,7 +34,7 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Literal
 
-from fogsim.atomic import OutputError, write_atomic, write_text_atomic
+from fogsim.atomic import OutputError, write_bytes_atomic, write_text_atomic
 from fogsim.config import Scenario, resolve_params
 from fogsim.errors import FogsimError
 from fogsim.eval.report.io import write_json
@@ -178,7 +178,7 @@ def run_jobs(
             outcomes = cluster.map(run_seed_elsewhere, [(job,) for job in jobs])
         for job, (_, files) in zip(jobs, outcomes, strict=True):
             for relative, data in files.items():
-                write_atomic(job.out_dir / relative, lambda handle, data=data: handle.write(data))
+                write_bytes_atomic(job.out_dir / relative, data)
         return [run for run, _ in outcomes]
     if workers == 1:
         return [run_seed(job) for job in jobs]

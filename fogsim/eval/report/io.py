@@ -16,7 +16,7 @@ from typing import TypeVar
 
 import msgspec
 
-from fogsim.atomic import write_atomic
+from fogsim.atomic import write_bytes_atomic
 from fogsim.config.decode import unknown_key
 from fogsim.errors import ReportError
 from fogsim.eval.report.schema import Report
@@ -37,7 +37,7 @@ def write_json(path: str | os.PathLike[str], value: object, *, sort_keys: bool =
     """
     encoded = msgspec.json.encode(value, order="sorted" if sort_keys else None)
     data = msgspec.json.format(encoded, indent=_INDENT) + b"\n"
-    return write_atomic(path, lambda handle: handle.write(data))
+    return write_bytes_atomic(path, data)
 
 
 def load_json(path: str | os.PathLike[str], schema: type[T], what: str) -> T:
