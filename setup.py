@@ -14,5 +14,8 @@ setup(
         "fogsim.assets",
     ],
     package_dir={"fogsim.scenarios": "scenarios", "fogsim.assets": "assets"},
-    package_data={"fogsim.scenarios": ["*.toml", "*.json"], "fogsim.assets": ["**/*"]},
+    package_data={
+        "fogsim.scenarios": ["*.toml", "*.json", "holdout/*.toml"],
+        "fogsim.assets": ["**/*"],
+    },
 )

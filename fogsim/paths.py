@@ -18,6 +18,10 @@ def _data_dir(name: str) -> Path:
 
 SCENARIOS_DIR = _data_dir("scenarios")
 """Folder of the shipped scenario files (``*.toml``) and ``baseline.json``."""
+HOLDOUT_DIR = SCENARIOS_DIR / "holdout"
+"""Folder of the held-out scenarios (``*.toml``): scenes no default was ever tuned on, kept out of
+the default suite (``fogsim suite`` reads ``SCENARIOS_DIR``'s own files, not its subfolders) and
+run on their own (``fogsim suite scenarios/holdout``) to check that the figures generalise."""
 ASSETS_DIR = _data_dir("assets")
 """Folder of the shipped data: MJCF pieces (``mjcf/``) and robot descriptions (``robots/``)."""
 ROBOTS_DIR = ASSETS_DIR / "robots"

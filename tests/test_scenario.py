@@ -30,7 +30,7 @@ from fogsim.config.limits import (
     SCENARIO_NAME_PATTERN,
 )
 from fogsim.errors import ScenarioError
-from fogsim.paths import SCENARIOS_DIR
+from fogsim.paths import HOLDOUT_DIR, SCENARIOS_DIR
 from fogsim.robot import load_robot
 from fogsim.sim.camera import HeadCamera
 from fogsim.sim.camera.stereo import stereo_render_px
@@ -61,6 +61,40 @@ def test_registry_every_shipped_scenario_validates_and_round_trips():
         assert scenario.source_path == path
         again = scenario_from_dict(tomllib.loads(scenario.to_toml()))
         assert again == scenario
+
+
+HOLDOUT_FILES = sorted(HOLDOUT_DIR.glob("*.toml"))
+
+
+def test_holdout_scenarios_validate_and_stay_out_of_the_default_suite():
+    # Scenes no default was tuned on: named by their files, unlike any shipped scenario, said to
+    # be held out, each with a Table I row or obstacles to score; never in the default suite.
+    assert [p.stem for p in HOLDOUT_FILES] == ["down_low_steps", "rock_field", "stairs_45_70_95"]
+    shipped = {p.stem for p in find_scenario_files()}
+    assert find_scenario_files(HOLDOUT_DIR) == HOLDOUT_FILES
+    assert not shipped & {p.stem for p in HOLDOUT_FILES}
+    assert not set(find_scenario_files()) & set(HOLDOUT_FILES)
+    for path in HOLDOUT_FILES:
+        scenario = load_scenario(path)
+        assert scenario.name == path.stem
+        assert scenario.description.startswith("Held out (never tuned on)")
+        assert scenario.mapper == {} and scenario.segmentation == {}  # the defaults, untouched
+        assert scenario.objects and scenario.route
+        assert scenario_from_dict(tomllib.loads(scenario.to_toml())) == scenario
+
+
+def test_holdout_edges_do_not_all_lie_on_cell_boundaries():
+    # The shipped staircases put every tread edge on a 4 cm cell boundary; a held-out one must
+    # not, or the scenes would hide cells that straddle a riser (the truth's obstacles).
+    cell_m = 0.04
+    off = 0
+    for path in HOLDOUT_FILES:
+        for obj in load_scenario(path).objects:
+            for axis in (0, 1):
+                for sign in (-1.0, 1.0):
+                    edge = obj.center[axis] + sign * obj.size[axis] / 2.0
+                    off += abs(edge / cell_m - round(edge / cell_m)) > 1e-6
+    assert off >= 10
 
 
 def test_stage_matches_the_paper_course():

@@ -11,6 +11,7 @@ import pytest
 from fogsim.config import find_scenario_files, load_scenario
 from fogsim.data.frame import Frame
 from fogsim.geometry import PoseError, pose_error
+from fogsim.paths import HOLDOUT_DIR
 from fogsim.sim.simulation import Simulation
 from mapper.transforms import apply_transform, planar_pose_to_matrix
 
@@ -42,7 +43,9 @@ def flat_ideal():
         yield simulation
 
 
-@pytest.mark.parametrize("path", find_scenario_files(), ids=lambda p: p.stem)
+@pytest.mark.parametrize(
+    "path", [*find_scenario_files(), *find_scenario_files(HOLDOUT_DIR)], ids=lambda p: p.stem
+)
 def test_registry_every_scenario_simulates_deterministically(path):
     scenario = load_scenario(path)
     with Simulation(scenario) as simulation:
