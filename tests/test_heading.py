@@ -323,6 +323,9 @@ def test_overlap_scores_divide_the_root_pairs_by_those_of_the_wide_voxels():
         ("smooth_estimates", 0),
         ("surface_grids", 0),
         ("surface_grids", 17),
+        ("structure_stall_keyframes", -1),
+        ("structure_stall_keyframes", 1001),
+        ("structure_stall_keyframes", 2.0),
     ],
 )
 def test_bad_parameters_are_refused_by_name(field, value):
@@ -460,6 +463,46 @@ def test_a_staircase_walked_straight_at_shows_its_yaw_error_by_its_side_edges(ya
     assert structure_only.keyframes == structure_only.estimates == 0
     assert estimator.estimates == estimator.edge_estimates >= 1
     assert math.degrees(estimator.correction_rad) == pytest.approx(-yaw_error_deg, abs=1.0)
+
+
+@pytest.mark.parametrize("yaw_error_deg", [4.0, -3.5])
+def test_the_edge_score_stands_in_once_the_structure_evidence_stalls(yaw_error_deg):
+    # The held-out staircase's case (`HeadingParams.structure_stall_keyframes`): a structure
+    # try early in the walk that neither was flat nor stood out (the state set here: one
+    # structure keyframe held, its latest score not flat), then no structure keyframe while
+    # the treads' side edges keep coming. Without the stall rule the edge score stays out for
+    # good and the whole yaw error is kept; with it the edge score's estimate is taken once 4
+    # edge keyframes came after the last structure one, and it is as good as where the
+    # structure score was flat from the start.
+    points, heights = stair_points_world(np.random.default_rng(7), risers=False)
+
+    def walk(stall: int, structure_tried: bool) -> HeadingEstimator:
+        estimator = HeadingEstimator(HeadingParams(structure_stall_keyframes=stall))
+        if structure_tried:
+            estimator._keyframes.append(
+                _Keyframe((99, 99, 0), np.zeros((1, 2)), np.zeros(1), np.zeros(2), 0.0)
+            )
+            estimator._structure_flat = False
+        for pose in STAIR_WALK:
+            estimator.observe(*stair_frame(points, heights, pose, yaw_error_deg))
+        return estimator
+
+    stuck = walk(0, structure_tried=True)
+    assert stuck.estimates == 0 and stuck.correction_rad == 0.0
+    stalled = walk(4, structure_tried=True)
+    assert stalled.estimates == stalled.edge_estimates >= 1
+    assert math.degrees(stalled.correction_rad) == pytest.approx(-yaw_error_deg, abs=1.0)
+    never_tried = walk(4, structure_tried=False)
+    assert never_tried.edge_estimates >= stalled.edge_estimates
+    half_degree = math.radians(0.5)
+    assert never_tried.correction_rad == pytest.approx(stalled.correction_rad, abs=half_degree)
+    # The tries held out are not lost: once the structure score gives way (here: its next
+    # score flat), the edge score's try is made with the next frame, though that frame adds no
+    # keyframe (the walk's last pose again).
+    stuck._structure_flat = True
+    stuck.observe(*stair_frame(points, heights, STAIR_WALK[-1], yaw_error_deg))
+    assert stuck.estimates == stuck.edge_estimates == 1
+    assert math.degrees(stuck.correction_rad) == pytest.approx(-yaw_error_deg, abs=1.0)
 
 
 def test_a_staircase_wider_than_the_view_is_unobservable():
