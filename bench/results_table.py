@@ -17,9 +17,11 @@ Usage::
 from __future__ import annotations
 
 import argparse
+import sys
 from collections.abc import Mapping
 from pathlib import Path
 
+from fogsim.errors import ReportError
 from fogsim.eval.report.io import load_json
 from fogsim.run.seeds import FigureStats
 from fogsim.run.suite import SuiteSummary
@@ -79,7 +81,11 @@ def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("summary", type=Path, help="a suite's summary.json")
     args = parser.parse_args()
-    summary = load_json(args.summary, SuiteSummary, "summary")
+    try:
+        summary = load_json(args.summary, SuiteSummary, "summary")
+    except ReportError as error:  # bad input: the message and exit code 2, no traceback
+        print(f"results_table: {error}", file=sys.stderr)
+        raise SystemExit(2) from None
     rows = {name: row(name, scenario.figures) for name, scenario in summary.scenarios.items()}
     print(HEADER)
     for name in sorted(rows, key=lambda name: (rows[name][0], name)):

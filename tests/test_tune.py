@@ -21,6 +21,7 @@ from pathlib import Path
 import pytest
 from hypothesis import assume, given, settings
 from hypothesis import strategies as st
+from processes import kill_driver, process_alive, process_children
 from report_factory import class_scores, event, make_report, row, safety_with
 
 from fogsim.errors import FogsimError
@@ -695,47 +696,20 @@ def test_cli_tune_from_a_recording_file_and_resume(tmp_path, capsys):
 # ----------------------------------------------------------------------------- hardening
 
 
-def process_children(pid: int) -> list[int]:
-    """Pids whose parent is ``pid`` (Linux /proc)."""
-    children = []
-    for stat in Path("/proc").glob("[0-9]*/stat"):
-        try:
-            text = stat.read_text()
-        except OSError:
-            continue
-        if int(text[text.rindex(")") + 2 :].split()[1]) == pid:
-            children.append(int(stat.parent.name))
-    return children
-
-
-def process_alive(pid: int) -> bool:
-    """The process exists and is not a zombie (Linux /proc)."""
-    try:
-        text = Path(f"/proc/{pid}/stat").read_text()
-    except OSError:
-        return False
-    return text[text.rindex(")") + 2] != "Z"
-
-
 @pytest.mark.skipif(not Path("/proc/self/stat").exists(), reason="needs Linux /proc")
 def test_killing_the_driver_ends_its_pool_workers(tmp_path):
-    from fogsim.tune.executors import PARENT_POLL_S
+    from fogsim.run.orphans import PARENT_POLL_S
 
     out = tmp_path / "run"
     proc = start_kill_script(out, workers=2, delay_s=0.3)
+    workers: list[int] = []
     try:
         wait_for_completed_trials(proc, out / "tune.db", 2)
         workers = process_children(proc.pid)
         assert len(workers) == 2 and all(process_alive(w) for w in workers)
-        proc.send_signal(signal.SIGKILL)
-        proc.wait(timeout=10)
     finally:
-        if proc.poll() is None:
-            proc.kill()
-    deadline = time.monotonic() + PARENT_POLL_S + 5.0
-    while any(process_alive(w) for w in workers) and time.monotonic() < deadline:
-        time.sleep(0.1)
-    assert not [w for w in workers if process_alive(w)], "orphaned tune workers still run"
+        left = kill_driver(proc, workers, PARENT_POLL_S + 5.0)
+    assert not left, "orphaned tune workers still run"
 
 
 def test_a_run_restarted_within_the_grace_period_fails_the_killed_runs_trials(tmp_path):

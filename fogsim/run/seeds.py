@@ -39,6 +39,7 @@ from fogsim.config import Scenario, resolve_params
 from fogsim.errors import FogsimError
 from fogsim.eval.report.io import write_json
 from fogsim.run.baseline import NEVER_FRAMES, poor_reasons, report_metrics, rule_for
+from fogsim.run.orphans import watch_driver
 from fogsim.run.ray_cluster import RayCluster, check_ray_address
 from fogsim.run.run_folder import RunFolder
 from fogsim.run.runner import run_scenario, sensor_fields
@@ -169,7 +170,8 @@ def run_jobs(
             before); None = local processes.
 
     Raises:
-        FogsimError: ``workers`` is out of range (:func:`check_workers`), or Ray cannot join.
+        FogsimError: ``workers`` is out of range (:func:`check_workers`), Ray cannot join, or
+            a worker process ended abruptly (killed from outside, out of memory).
         OutputError: A run cannot write its results; the jobs not yet started are cancelled.
     """
     check_workers(workers)
@@ -183,10 +185,20 @@ def run_jobs(
     if workers == 1:
         return [run_seed(job) for job in jobs]
     context = multiprocessing.get_context("spawn")  # MuJoCo/EGL state must not be forked
-    with concurrent.futures.ProcessPoolExecutor(workers, mp_context=context) as pool:
+    # A killed driver's workers end themselves (`fogsim.run.orphans`): else they finish their
+    # runs into a folder the next run removes as stale.
+    with concurrent.futures.ProcessPoolExecutor(
+        workers, mp_context=context, initializer=watch_driver, initargs=(os.getpid(),)
+    ) as pool:
         futures = [pool.submit(run_seed, job) for job in jobs]
         try:
             return [future.result() for future in futures]
+        except concurrent.futures.process.BrokenProcessPool as exc:
+            pool.shutdown(cancel_futures=True)
+            raise FogsimError(
+                "a run's worker process ended abruptly (killed, or out of memory); "
+                "the runs not finished are lost: run the command again"
+            ) from exc
         except BaseException:
             pool.shutdown(cancel_futures=True)
             raise

@@ -9,13 +9,12 @@ from __future__ import annotations
 import concurrent.futures
 import multiprocessing
 import os
-import threading
-import time
 from collections.abc import Iterator, Mapping, Sequence
 from dataclasses import dataclass
 from typing import Protocol
 
 from fogsim.errors import TuneError
+from fogsim.run.orphans import watch_driver
 from fogsim.run.ray_cluster import (
     RAY_CONNECT_TIMEOUT_S,
     TASK_RETRIES,
@@ -104,37 +103,18 @@ class InlineExecutor:
 _WORKER_STATE: tuple[Sequence[SuiteEntry], ObjectiveWeights, ReportFunction] | None = None
 """A pool worker's suite, weights and report function, set once by :func:`_pool_init`."""
 
-PARENT_POLL_S = 1.0
-"""Seconds between a pool worker's checks that the driver that started it still lives. One
-wake-up a second costs nothing beside a trial's seconds of replay, and a killed driver's
-workers are gone within a second."""
-
 
 def _pool_init(
     driver_pid: int, suite: Sequence[SuiteEntry], weights: ObjectiveWeights, report: ReportFunction
 ) -> None:
     """Set up a pool worker: its state, and a thread ending it when the driver dies.
 
-    A worker never notices on its own that the driver was killed: it blocks on the call queue,
-    whose pipe it holds both ends of (so no end-of-file comes), or finishes a trial nobody will
-    read. The thread polls ``os.getppid()`` (POSIX and Windows alike) against the driver's pid,
-    which the driver passes in, so a driver that died before the worker started is noticed at
-    once. Linux's ``prctl(PR_SET_PDEATHSIG)`` would act at once but is Linux-only, needs ctypes,
-    and fires when the *thread* that forked the worker ends, not the driver process.
+    :func:`fogsim.run.orphans.watch_driver`: a killed driver's workers end within
+    :data:`~fogsim.run.orphans.PARENT_POLL_S` instead of finishing trials nobody will read.
     """
     global _WORKER_STATE
     _WORKER_STATE = (suite, weights, report)
-    watch = threading.Thread(
-        target=_exit_when_orphaned, args=(driver_pid,), name="tune-driver-watch", daemon=True
-    )
-    watch.start()
-
-
-def _exit_when_orphaned(driver_pid: int) -> None:
-    """End this process as soon as its parent is no longer ``driver_pid``."""
-    while os.getppid() == driver_pid:
-        time.sleep(PARENT_POLL_S)
-    os._exit(1)  # at once: no cleanup of a half-scored trial, nobody waits for it
+    watch_driver(driver_pid)
 
 
 def _pool_score(overrides: Mapping[str, float]) -> TrialScore:
@@ -147,8 +127,8 @@ def _pool_score(overrides: Mapping[str, float]) -> TrialScore:
 class PoolExecutor:
     """A local process pool; each worker receives the recordings once, at start.
 
-    Workers end themselves within :data:`PARENT_POLL_S` when the driver is killed (see
-    :func:`_pool_init`), so a killed tune leaves no process behind.
+    Workers end themselves within :data:`~fogsim.run.orphans.PARENT_POLL_S` when the driver
+    is killed (see :func:`_pool_init`), so a killed tune leaves no process behind.
     """
 
     def __init__(
