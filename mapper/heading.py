@@ -69,6 +69,7 @@ world is (x, y, z, yaw); camera centre = translation of the corrected camera-to-
 from __future__ import annotations
 
 import math
+from collections.abc import Callable
 from dataclasses import dataclass
 
 import numba
@@ -208,6 +209,22 @@ class HeadingParams:
             second held-out staircase (`stairs_35_65_100`, written after the stall rule)
             seeds 1 and 7 scored their structure flat at frames 109 and 170 and added too few
             edge keyframes after it for another try.
+        interior_peak: A try is accepted only when its best candidate is a maximum inside the
+            grid (`_peak_inside`): its scores fall on both sides of it, each somewhere by a
+            quarter of the best's height above the median (half refused a broad true hump:
+            `down_low_steps` depth seed 6, best at +4.5…+6° where +4.4° was needed, 0.93 of the
+            best at +12° against a median of 0.86), on the side of the grid's end within
+            `PEAK_EXTENSION_DEG` beyond it, where no candidate may pass the best (without that
+            look beyond, the TALOS course's −10.9° at 7° of neck bias, seed 4, peaking at −11°,
+            went unestimated: 696 unsafe cells). A ramp that rises into ±`max_correction_deg`
+            has no maximum within the range, and its top says nothing. Found on a held-out
+            scene (session 43, `scenarios/holdout/down_low_steps`, stereo): walking back
+            toward the steps, the structure score of seeds 1, 3, 4 and 7
+            stood out (contrast 0.10–0.14) at +11…+12°, where −3.6…+0.9° was needed, and every
+            frame after was mapped 11–15° off; seed 1's scores, in units of the best, rose from
+            0.86 at 0° to 1.00 at +11° and 0.99 at +12°. Seeds 3 and 4 are refused now; seeds 1
+            and 7 still pass (their scores do fall beyond +12°: a maximum at +11° the rule
+            cannot tell from a true one). False: accepted wherever it stands out, as before.
         voxel_estimate: The structure score's estimate (not whether it stands out: its
             contrast stays that of the point counts, which `min_contrast` and `flat_contrast`
             were set on) is taken from the keyframes' *voxel centroids* (`voxel_centroids`:
@@ -522,6 +539,7 @@ class HeadingParams:
     min_edge_evidence: float = 200.0
     flat_contrast: float = 0.05
     structure_stall_keyframes: int = 4
+    interior_peak: bool = True
     voxel_estimate: bool = False
     overlap_cells: int = 0
     noise_band: float = 0.0
@@ -542,6 +560,7 @@ class HeadingParams:
 
         check("correct_heading", bool, "a bool")
         check("edge_score", bool, "a bool")
+        check("interior_peak", bool, "a bool")
         check("plane_after_edges", bool, "a bool")
         check("voxel_estimate", bool, "a bool")
         check(
@@ -1319,6 +1338,13 @@ class HeadingEstimator:
                 return
         if edges and above_median < p.min_edge_evidence:
             return
+        if p.interior_peak and not _peak_inside(
+            lambda angles_deg: score(*data, np.radians(angles_deg), p.cell_m, p.layer_m),
+            coarse,
+            scores,
+            0.25 * above_median,
+        ):
+            return  # a ramp into the grid's end: no maximum within ±max_correction_deg
         self.drift_rad_per_m = 0.0
         if p.drift_deg_per_m > 0.0 and not edges:
             # The slope whose keyframe yaws, turned by it, make the points agree best.
@@ -1633,6 +1659,70 @@ def score_noise(scores: NDArray[np.float64]) -> float:
     return mad / 0.6745 / math.sqrt(6.0)
 
 
+def _peak_run(scores: NDArray[np.float64], drop: float) -> tuple[int, int]:
+    """First and last index of the run of candidates around the best within ``drop`` of it.
+
+    ``drop`` 0 gives the best candidate alone.
+    """
+    top = int(np.argmax(scores))
+    outside = np.flatnonzero(scores < scores[top] - drop)
+    below, above = outside[outside < top], outside[outside > top]
+    first = int(below[-1]) + 1 if below.size else 0
+    last = int(above[0]) - 1 if above.size else scores.size - 1
+    return first, last
+
+
+PEAK_EXTENSION_DEG = 4.0
+"""How far beyond the candidate grid's end `_peak_inside` looks for the fall of a peak near it
+[deg]: a true yaw error of 10.9° (TALOS course, 7° neck bias, seed 4) peaks at −11° and its
+scores fall within 2° beyond −12°."""
+
+
+def _falls_on_both_sides(scores: NDArray[np.float64], fall: float) -> bool:
+    """Whether the scores fall by at least ``fall`` below the best on both sides of it.
+
+    A best candidate at either end of the grid has no side there: False.
+    """
+    top = int(np.argmax(scores))
+    if top == 0 or top == scores.size - 1:
+        return False
+    bar = scores[top] - fall
+    return bool(scores[:top].min() <= bar and scores[top + 1 :].min() <= bar)
+
+
+def _peak_inside(
+    score: Callable[[NDArray[np.float64]], NDArray[np.float64]],
+    angles_deg: NDArray[np.float64],
+    scores: NDArray[np.float64],
+    fall: float,
+) -> bool:
+    """Whether the best of ``scores`` is a maximum inside the grid (`HeadingParams.interior_peak`).
+
+    True when the scores fall by ``fall`` below the best on both sides of it within the grid;
+    when they do on one side only, the candidates up to `PEAK_EXTENSION_DEG` beyond the grid's
+    end on the other side are scored too, and the best is a maximum when none of them passes
+    it and one falls by ``fall``.
+
+    Args:
+        score: The scores of candidate corrections given in degrees.
+        angles_deg: (A,) the grid's candidates, evenly spaced and increasing [deg].
+        scores: (A,) their scores.
+        fall: How far below the best the scores must fall on each side.
+    """
+    if _falls_on_both_sides(scores, fall):
+        return True
+    top = int(np.argmax(scores))
+    bar = scores[top] - fall
+    left = top > 0 and scores[:top].min() <= bar
+    right = top < scores.size - 1 and scores[top + 1 :].min() <= bar
+    if not (left or right):
+        return False
+    step = float(angles_deg[1] - angles_deg[0])
+    reach = np.arange(1, round(PEAK_EXTENSION_DEG / step) + 1) * step
+    beyond = score(angles_deg[-1] + reach if left else angles_deg[0] - reach)
+    return bool(beyond.max() <= scores[top] and beyond.min() <= bar)
+
+
 def _band_centre_deg(
     angles_deg: NDArray[np.float64], scores: NDArray[np.float64], drop: float
 ) -> float:
@@ -1645,9 +1735,5 @@ def _band_centre_deg(
         scores: (A,) their scores.
         drop: How far below the best score a candidate may lie and still belong to the run.
     """
-    top = int(np.argmax(scores))
-    outside = np.flatnonzero(scores < scores[top] - drop)
-    below, above = outside[outside < top], outside[outside > top]
-    first = int(below[-1]) + 1 if below.size else 0
-    last = int(above[0]) - 1 if above.size else scores.size - 1
+    first, last = _peak_run(scores, drop)
     return 0.5 * float(angles_deg[first] + angles_deg[last])

@@ -843,6 +843,17 @@ def _walk_columns(miss_cols, range_masks, c, z_entry, axis_x, axis_y, z_line, z_
     at 176 × 144), but only 26 % of the rays add none at all (65 % at 176 × 144): most rays
     add a few cells near their ends, so skipping whole rays, even with a free test, would
     save at most a quarter of the walk at 88 × 72.
+
+    Walking each ray backward, from its stop toward the sensor, and leaving it after ``K``
+    columns in a row whose run adds no bit to the frame's marks (hits counted, all hits set
+    first; rays from one point converge toward the sensor, so a ray covered there is likely
+    covered beyond): session 43, stage depth seed 1, 300 frames, each frame from the exact
+    insertion's grid (AMD EPYC, host): the exact forward walk 0.564 ms; backward without a
+    stop 0.849 ms (the same marks: the coverage test and the second pass over the points);
+    ``K`` = 1 / 2 / 3 / 4 / 6: 0.337 / 0.430 / 0.505 / 0.562 / 0.633 ms, with 483 / 108 /
+    30 / 9.1 / 2.7 cells a frame at another level than the exact insertion (84 / 39 / 15 / 8
+    / 0 occupied states over the 300 frames). Neighbouring rays differ by a layer in many
+    columns near the sensor, so no ``K`` is both faster and close to exact.
     """
     rem_x, tmx, tdx, dcol_x = axis_x
     rem_y, tmy, tdy, dcol_y = axis_y

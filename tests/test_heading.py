@@ -10,7 +10,9 @@ import mapper.heading as heading_module
 from mapper import HeadingEstimator, HeadingParams, InvalidParameterError
 from mapper.heading import (
     _band_centre_deg,
+    _falls_on_both_sides,
     _Keyframe,
+    _peak_inside,
     _surface_weights,
     edge_gradients,
     heading_scores,
@@ -326,6 +328,7 @@ def test_overlap_scores_divide_the_root_pairs_by_those_of_the_wide_voxels():
         ("structure_stall_keyframes", -1),
         ("structure_stall_keyframes", 1001),
         ("structure_stall_keyframes", 2.0),
+        ("interior_peak", 1),
     ],
 )
 def test_bad_parameters_are_refused_by_name(field, value):
@@ -378,6 +381,76 @@ def test_the_noise_band_centres_a_noisy_flat_top_better_than_the_peak_band():
 def test_the_overlap_estimate_and_the_voxel_estimate_are_not_both_asked_for():
     with pytest.raises(InvalidParameterError, match=r"HeadingParams\.overlap_cells"):
         HeadingParams(overlap_cells=5, voxel_estimate=True)
+
+
+def test_a_peak_must_fall_on_both_sides_and_a_ramp_into_the_range_end_is_no_peak():
+    # Hand-made scores over 25 candidates (-12..+12 deg): a peak inside falls on both sides; the
+    # held-out stereo ramp (seed 1 of `down_low_steps`: 0.86 at 0 deg rising to 1.00 at +11,
+    # 0.99 at +12) does not on its right; a best at either end has no side there.
+    angles = np.arange(-12.0, 13.0)
+    peak = 0.85 + 0.15 * np.exp(-0.5 * ((angles - 3.0) / 1.5) ** 2)
+    fall = 0.25 * (peak.max() - np.median(peak))
+    assert _falls_on_both_sides(peak, fall)
+    ramp = np.where(angles < 2.0, 0.86, 0.86 + (angles - 2.0) * (0.14 / 9.0))
+    ramp[angles == 12.0] = 0.99
+    assert int(np.argmax(ramp)) == 23  # +11 deg
+    assert not _falls_on_both_sides(ramp, 0.25 * (ramp.max() - np.median(ramp)))
+    assert not _falls_on_both_sides(peak[::-1][:10], 0.0)  # rising to the last candidate
+    assert not _falls_on_both_sides(np.r_[1.0, peak[1:] * 0.9], 0.0)  # best at the first
+
+
+def _ramp(angles_deg):
+    """The held-out stereo ramp as a function: 0.86 up to +2 deg, rising to 1.00 at +11 deg,
+    0.99 from +11.5 deg on (no fall beyond the range's end)."""
+    angles = np.asarray(angles_deg, dtype=np.float64)
+    rising = np.where(angles < 2.0, 0.86, 0.86 + (np.minimum(angles, 11.0) - 2.0) * (0.14 / 9.0))
+    return np.where(angles >= 11.5, 0.99, rising)
+
+
+def _peak_at(centre_deg):
+    """A true peak: 0.85 far away, 1.00 at ``centre_deg``, 1.5 deg wide (scores of any angle)."""
+    return lambda angles_deg: (
+        0.85
+        + 0.15 * np.exp(-0.5 * ((np.asarray(angles_deg, dtype=np.float64) - centre_deg) / 1.5) ** 2)
+    )
+
+
+def test_a_peak_near_the_range_end_is_checked_beyond_it():
+    # A true 10.9 deg error (the TALOS course at 7 deg of neck bias) peaks at -11 deg inside
+    # the +-12 deg grid; its scores fall within the grid on one side only, so the candidates
+    # beyond -12 deg are scored: they fall, the peak is a maximum. The ramp does not fall
+    # beyond +12 deg: no maximum. A peak beyond the grid (at -14 deg) passes its best.
+    grid = np.arange(-24, 25) * 0.5
+    for score, inside in ((_peak_at(-11.0), True), (_ramp, False), (_peak_at(-14.0), False)):
+        scores = score(grid)
+        fall = 0.25 * (scores.max() - np.median(scores))
+        assert _peak_inside(score, grid, scores, fall) is inside
+    assert _peak_inside(_peak_at(3.0), grid, _peak_at(3.0)(grid), 0.03)  # inside: no look beyond
+
+
+def test_an_estimate_whose_scores_ramp_into_the_range_end_is_not_accepted(monkeypatch):
+    # The ramp as the structure score of a real walk: with `interior_peak` (the default) the
+    # try gives no estimate, without it the ramp's top, +11 deg, is taken; a true peak near the
+    # range's end (-11 deg) is taken either way.
+    rng = np.random.default_rng(11)
+    boxes = box_points_world(rng)
+
+    def walked(score, **params):
+        monkeypatch.setattr(
+            heading_module, "heading_scores", lambda *args: 1000.0 * score(np.degrees(args[5]))
+        )
+        estimator = HeadingEstimator(HeadingParams(estimate_every=1, **params))
+        for x, y, yaw in WALK:
+            estimator.observe(*frame(boxes, floor_points_world(x), (x, y, yaw), 3.0))
+        return estimator
+
+    assert walked(_ramp).estimates == 0
+    taken = walked(_ramp, interior_peak=False)
+    assert taken.estimates >= 1
+    assert math.degrees(taken.correction_rad) == pytest.approx(11.25, abs=0.3)
+    near_end = walked(_peak_at(-11.0))
+    assert near_end.estimates >= 1
+    assert math.degrees(near_end.correction_rad) == pytest.approx(-11.0, abs=0.3)
 
 
 def test_the_estimate_is_the_centre_of_the_band_around_the_best_score():
