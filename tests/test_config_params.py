@@ -4,17 +4,19 @@ from __future__ import annotations
 
 import dataclasses
 import math
+import tomllib
 
 import pytest
 
 from fogsim.config import (
     PipelineParams,
     RunParams,
+    load_scenario,
     replace_params,
     resolve_params,
     scenario_from_dict,
 )
-from fogsim.errors import FogsimError, ParameterError
+from fogsim.errors import FogsimError, ParameterError, ScenarioError
 from fogsim.run.runner import sensor_fields
 from mapper import ElevationFilterParams, MapperParams
 from mapper.segmentation import SegmentationParams
@@ -140,6 +142,43 @@ def test_a_scenario_s_robot_sets_its_neck_for_the_height_reference():
     assert neck.tolist() == [0.0, 0.10, -0.09]
     neck = resolve_params(talos, sensor=sensor_fields(talos)).reference.neck_in_camera_m
     assert neck.tolist() == [0.0, 0.198, -0.116]
+
+
+def test_a_scenario_s_heading_pipeline_reference_and_elevation_tables_reach_the_run():
+    # Each parameter table of a scenario file sets its RunParams group; the robot's neck pivot
+    # (sensor) lies below the [reference] table, and an override key above every table.
+    scenario = scenario_from_dict(
+        {
+            "name": "t",
+            "heading": {"structure_stall_keyframes": 0, "interior_peak": False},
+            "pipeline": {"heading_rebuild_frames": 800},
+            "reference": {"gate_m": 0.03, "neck_in_camera_z_m": -0.05},
+            "elevation": {"gain": 0.5},
+        }
+    )
+    params = resolve_params(scenario, {"head.interior_peak": 1}, sensor_fields(scenario))
+    assert params.heading.structure_stall_keyframes == 0
+    assert params.heading.interior_peak is True  # the override wins
+    assert params.pipeline.heading_rebuild_frames == 800
+    assert params.reference.gate_m == 0.03
+    assert params.reference.neck_in_camera_m.tolist() == [0.0, 0.10, -0.05]  # table over sensor
+    assert params.elevation.gain == 0.5
+    again = scenario_from_dict(tomllib.loads(scenario.to_toml()))
+    assert again == scenario and again.heading == {
+        "structure_stall_keyframes": 0,
+        "interior_peak": False,
+    }
+    # `--set heading.<field>=...` goes into the table like `mapper.<field>`.
+    stage = load_scenario("stage").with_overrides(["heading.interior_peak=false"])
+    assert resolve_params(stage).heading.interior_peak is False
+    with pytest.raises(
+        ScenarioError, match=r"heading\.nope: unknown heading parameter.*interior_peak"
+    ):
+        scenario_from_dict({"name": "t", "heading": {"nope": 1}})
+    with pytest.raises(ScenarioError, match=r"pipeline\.heading_rebuild_frames"):
+        scenario_from_dict({"name": "t", "pipeline": {"heading_rebuild_frames": -1}})
+    with pytest.raises(ScenarioError, match=r"tables: .*heading, pipeline, reference, elevation"):
+        load_scenario("stage").with_overrides(["head.interior_peak=false"])
 
 
 def test_resolve_params_layers_defaults_scenario_and_overrides():

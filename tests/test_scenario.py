@@ -454,6 +454,10 @@ EVERYTHING = {
     ],
     "mapper": {"p_occ": 0.7, "nx": 120, "clear_outside": False, "max_range_m": float("inf")},
     "segmentation": {"min_plane_pixels": 30},
+    "heading": {"interior_peak": False, "structure_stall_keyframes": 8, "min_contrast": 0.2},
+    "pipeline": {"heading_rebuild_frames": 800},
+    "reference": {"gate_m": 0.03},
+    "elevation": {"gain": 0.5},
 }
 
 

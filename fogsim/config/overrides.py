@@ -1,8 +1,9 @@
 """``--set KEY=VALUE`` overrides: parse them and assign them in a scenario's plain tables.
 
 Keys are dotted: ``seed=3``, ``camera.mode=ideal``, ``mapper.p_occ=0.7``,
-``encoders.bias_deg=0``, ``objects.<name>.<field>=...``. Values are TOML values (``[1, 2]``,
-``true``, ``0.5``); a bare word that is no TOML value is taken as a string (``camera.mode=ideal``).
+``heading.interior_peak=false``, ``encoders.bias_deg=0``, ``objects.<name>.<field>=...``.
+Values are TOML values (``[1, 2]``, ``true``, ``0.5``); a bare word that is no TOML value is
+taken as a string (``camera.mode=ideal``).
 The scenario decodes the edited tables again, so a bad key or value fails as in a file.
 """
 
@@ -14,7 +15,10 @@ from collections.abc import Sequence
 
 from fogsim.errors import ScenarioError
 
-TABLES = "robot, camera, encoders, mapper, segmentation, objects.<name>"
+TABLES = (
+    "robot, camera, encoders, mapper, segmentation, heading, pipeline, reference, elevation, "
+    "objects.<name>"
+)
 """The tables an override key may go into (in messages)."""
 
 

@@ -290,10 +290,11 @@ def resolve_params(
     overrides: Mapping[str, float] | None = None,
     sensor: Mapping[str, float | int] | None = None,
 ) -> RunParams:
-    """Parameters: defaults ← sensor ← scenario ``[mapper]`` / ``[segmentation]`` ← overrides.
+    """Parameters: defaults ← sensor ← the scenario's parameter tables ← overrides.
 
     Args:
-        scenario: A Scenario (its ``mapper`` and ``segmentation`` tables) or None.
+        scenario: A Scenario (its ``[mapper]``, ``[segmentation]``, ``[heading]``,
+            ``[pipeline]``, ``[reference]`` and ``[elevation]`` tables) or None.
         sensor: The head's parameters (:func:`fogsim.run.runner.sensor_fields`), below the
             scenario's tables: ``SegmentationParams`` fields (the camera's noise model) by
             name, other groups' with their override prefix (``"ref.<field>"``).
@@ -309,16 +310,9 @@ def resolve_params(
         group, name = split_override_key(key) if "." in key else ("segmentation", key)
         head.setdefault(group, {})[name] = value
     changes: dict[str, dict[str, object]] = {
-        "mapper": dict(scenario.mapper) if scenario is not None else {},
-        "segmentation": head.pop("segmentation", {})
-        | (dict(scenario.segmentation) if scenario is not None else {}),
-        "elevation": {},
-        "pipeline": {},
-        "heading": {},
-        "reference": {},
+        group: head.pop(group, {}) | (dict(getattr(scenario, group)) if scenario else {})
+        for group in OVERRIDE_PREFIXES
     }
-    for group, values in head.items():
-        changes[group] |= values
     for key, value in (overrides or {}).items():
         group, name = split_override_key(key)
         changes[group][name] = value

@@ -17,6 +17,9 @@ Our extensions to DESIGN.md's table (all optional, with defaults):
     ``[[objects]]``: ``roughness_m`` — bump height of a rough top; ``heightfield``,
         ``cell_m``, ``max_height_m`` — a terrain whose top is an 8-bit elevation image.
     ``[segmentation]``: parameter overrides of the plane segmentation.
+    ``[heading]``, ``[pipeline]``, ``[reference]``, ``[elevation]``: parameter overrides of the
+        heading correction, the pipeline's switches, the height reference and the robot
+        elevation filter (the groups of `fogsim.config.params.RunParams`).
 """
 
 from __future__ import annotations
@@ -46,12 +49,10 @@ from fogsim.config.limits import (
     WORLD_BOUND_M,
 )
 from fogsim.config.overrides import assign_overrides
-from fogsim.config.params import replace_params
+from fogsim.config.params import RunParams, replace_params
 from fogsim.config.write import TomlValue, to_table, toml_text
 from fogsim.errors import ParameterError, ScenarioError
 from fogsim.paths import ASSETS_DIR, ROBOT_NAMES
-from mapper import MapperParams
-from mapper.segmentation import SegmentationParams
 
 # The robots are the description files in assets/robots/ (one list for config and robot).
 RobotModel = Literal[ROBOT_NAMES]  # type: ignore[valid-type]
@@ -426,6 +427,11 @@ class Scenario:
         events: The ``[[events]]``; each names an object.
         mapper: ``[mapper]``: MapperParams fields → values (checked at load).
         segmentation: ``[segmentation]``: SegmentationParams fields → values (checked at load).
+        heading: ``[heading]``: HeadingParams fields → values (checked at load).
+        pipeline: ``[pipeline]``: PipelineParams fields → values (checked at load).
+        reference: ``[reference]``: HeightReferenceParams fields → values (checked at load;
+            above the robot description's neck pivot, `fogsim.run.runner.sensor_fields`).
+        elevation: ``[elevation]``: ElevationFilterParams fields → values (checked at load).
         source_path: The file it was read from (not part of the file; ignored by ``==``).
     """
 
@@ -447,6 +453,10 @@ class Scenario:
     ] = ()
     mapper: ParameterTable = field(default_factory=dict)
     segmentation: ParameterTable = field(default_factory=dict)
+    heading: ParameterTable = field(default_factory=dict)
+    pipeline: ParameterTable = field(default_factory=dict)
+    reference: ParameterTable = field(default_factory=dict)
+    elevation: ParameterTable = field(default_factory=dict)
     source_path: Path | None = field(default=None, compare=False, metadata=NOT_IN_FILE)
 
     def __post_init__(self) -> None:
@@ -508,15 +518,21 @@ class Scenario:
         return scenario_from_dict(tables, source=self.source_path, where=origin)
 
 
+PARAMETER_TABLES = ("mapper", "segmentation", "heading", "pipeline", "reference", "elevation")
+"""The scenario tables of parameter overrides, each a :class:`~fogsim.config.params.RunParams`
+group of the same name."""
+
+
 def scenario_from_dict(
     data: Mapping[str, object], source: Path | None = None, where: str | None = None
 ) -> Scenario:
     """Validate a parsed TOML document and build the :class:`Scenario`.
 
     Besides the declared types, ranges and rules: ``[encoders]`` head keys default to the body
-    keys a file gives (see :class:`EncoderConfig`), and ``[mapper]`` / ``[segmentation]`` must
-    be valid ``MapperParams`` / ``SegmentationParams`` changes (names, types and the classes'
-    own ranges).
+    keys a file gives (see :class:`EncoderConfig`), and the parameter tables (``[mapper]``,
+    ``[segmentation]``, ``[heading]``, ``[pipeline]``, ``[reference]``, ``[elevation]``) must be
+    valid changes of their :class:`~fogsim.config.params.RunParams` group (names, types and the
+    classes' own ranges).
 
     Args:
         data: The parsed TOML document.
@@ -528,11 +544,12 @@ def scenario_from_dict(
             dotted key, the value and what is allowed.
     """
     origin = where or (str(source) if source else "scenario")
-    for table, defaults in (("mapper", MapperParams()), ("segmentation", SegmentationParams())):
+    defaults = RunParams()
+    for table in PARAMETER_TABLES:
         values = data.get(table, {})
         if isinstance(values, Mapping):  # else decode says it must be a table
             try:
-                replace_params(defaults, values, table)
+                replace_params(getattr(defaults, table), values, table)
             except ParameterError as exc:
                 raise ScenarioError(f"{origin}: {exc}") from exc
     scenario = decode(_with_head_defaults(data), Scenario, origin)
