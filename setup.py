@@ -15,7 +15,7 @@ setup(
     ],
     package_dir={"fogsim.scenarios": "scenarios", "fogsim.assets": "assets"},
     package_data={
-        "fogsim.scenarios": ["*.toml", "*.json", "holdout/*.toml"],
+        "fogsim.scenarios": ["*.toml", "*.json", "holdout/*.toml", "holdout/*.json"],
         "fogsim.assets": ["**/*"],
     },
 )

@@ -11,7 +11,7 @@ from fogsim.cli import main
 from fogsim.errors import FogsimError, ReportError
 from fogsim.eval.report.io import load_json, load_report, write_json
 from fogsim.eval.report.schema import MedianMax, PoseErrorStats
-from fogsim.paths import SCENARIOS_DIR
+from fogsim.paths import HOLDOUT_DIR, SCENARIOS_DIR
 from fogsim.run.baseline import (
     NEVER_FRAMES,
     Baseline,
@@ -440,6 +440,20 @@ def test_committed_baseline_holds_the_stage_over_seeds_and_the_quick_subset(tmp_
     assert {f"table1.{s}.abs_error_mm" for s in ("step_1", "step_2", "step_3", "platform")} <= set(
         stairs
     )
+    path = write_baseline(tmp_path / "baseline.json", baseline)
+    assert path.read_bytes() == committed.read_bytes()
+
+
+def test_committed_holdout_baseline_holds_every_held_out_scene_in_both_modes(tmp_path):
+    # A regression guard for the scenes no default is tuned on (`scenarios/holdout/`): its own
+    # baseline file, both seeds-1-8 sets, every held-out scene in each.
+    committed = HOLDOUT_DIR / "baseline.json"
+    baseline = load_baseline(committed)
+    stereo = "full seeds=1-8 set=camera.mode=stereo"
+    assert set(baseline.sets) == {"full seeds=1-8", stereo}
+    scenes = {path.stem for path in HOLDOUT_DIR.glob("*.toml")}
+    assert set(baseline.sets["full seeds=1-8"]) == set(baseline.sets[stereo]) == scenes
+    assert "safety.unsafe_cells" in baseline.sets["full seeds=1-8"]["down_low_steps"].figures
     path = write_baseline(tmp_path / "baseline.json", baseline)
     assert path.read_bytes() == committed.read_bytes()
 
