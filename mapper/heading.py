@@ -1296,9 +1296,9 @@ class HeadingEstimator:
         """
         p = self.params
         keyframes = self._edge_keyframes if edges else self._keyframes
-        if edges and self.estimates > self.edge_estimates:
-            return
         if edges:
+            if self.estimates > self.edge_estimates:
+                return
             # Waiting for the structure score to give way, or tried now.
             self._edge_try_waiting = not self._structure_gives_way()
             if self._edge_try_waiting:
@@ -1659,35 +1659,27 @@ def score_noise(scores: NDArray[np.float64]) -> float:
     return mad / 0.6745 / math.sqrt(6.0)
 
 
-def _peak_run(scores: NDArray[np.float64], drop: float) -> tuple[int, int]:
-    """First and last index of the run of candidates around the best within ``drop`` of it.
-
-    ``drop`` 0 gives the best candidate alone.
-    """
-    top = int(np.argmax(scores))
-    outside = np.flatnonzero(scores < scores[top] - drop)
-    below, above = outside[outside < top], outside[outside > top]
-    first = int(below[-1]) + 1 if below.size else 0
-    last = int(above[0]) - 1 if above.size else scores.size - 1
-    return first, last
-
-
 PEAK_EXTENSION_DEG = 4.0
 """How far beyond the candidate grid's end `_peak_inside` looks for the fall of a peak near it
 [deg]: a true yaw error of 10.9° (TALOS course, 7° neck bias, seed 4) peaks at −11° and its
 scores fall within 2° beyond −12°."""
 
 
-def _falls_on_both_sides(scores: NDArray[np.float64], fall: float) -> bool:
-    """Whether the scores fall by at least ``fall`` below the best on both sides of it.
+def _falls_beside(scores: NDArray[np.float64], fall: float) -> tuple[bool, bool]:
+    """Whether the scores fall by at least ``fall`` below the best (before it, after it).
 
-    A best candidate at either end of the grid has no side there: False.
+    A best candidate at an end of the grid has no side there: False for that side.
     """
     top = int(np.argmax(scores))
-    if top == 0 or top == scores.size - 1:
-        return False
     bar = scores[top] - fall
-    return bool(scores[:top].min() <= bar and scores[top + 1 :].min() <= bar)
+    before = top > 0 and scores[:top].min() <= bar
+    after = top < scores.size - 1 and scores[top + 1 :].min() <= bar
+    return bool(before), bool(after)
+
+
+def _falls_on_both_sides(scores: NDArray[np.float64], fall: float) -> bool:
+    """Whether the scores fall by at least ``fall`` below the best on both sides of it."""
+    return all(_falls_beside(scores, fall))
 
 
 def _peak_inside(
@@ -1709,18 +1701,14 @@ def _peak_inside(
         scores: (A,) their scores.
         fall: How far below the best the scores must fall on each side.
     """
-    if _falls_on_both_sides(scores, fall):
-        return True
-    top = int(np.argmax(scores))
-    bar = scores[top] - fall
-    left = top > 0 and scores[:top].min() <= bar
-    right = top < scores.size - 1 and scores[top + 1 :].min() <= bar
-    if not (left or right):
-        return False
+    left, right = _falls_beside(scores, fall)
+    if left == right:  # both sides fall, or neither does
+        return left
     step = float(angles_deg[1] - angles_deg[0])
     reach = np.arange(1, round(PEAK_EXTENSION_DEG / step) + 1) * step
     beyond = score(angles_deg[-1] + reach if left else angles_deg[0] - reach)
-    return bool(beyond.max() <= scores[top] and beyond.min() <= bar)
+    best = scores.max()
+    return bool(beyond.max() <= best and beyond.min() <= best - fall)
 
 
 def _band_centre_deg(
@@ -1735,5 +1723,9 @@ def _band_centre_deg(
         scores: (A,) their scores.
         drop: How far below the best score a candidate may lie and still belong to the run.
     """
-    first, last = _peak_run(scores, drop)
+    top = int(np.argmax(scores))
+    outside = np.flatnonzero(scores < scores[top] - drop)
+    below, above = outside[outside < top], outside[outside > top]
+    first = int(below[-1]) + 1 if below.size else 0
+    last = int(above[0]) - 1 if above.size else scores.size - 1
     return 0.5 * float(angles_deg[first] + angles_deg[last])

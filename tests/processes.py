@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import signal
+import subprocess
 import time
 from pathlib import Path
 
@@ -29,7 +30,7 @@ def process_alive(pid: int) -> bool:
     return text[text.rindex(")") + 2] != "Z"
 
 
-def kill_driver(driver, workers: list[int], grace_s: float) -> list[int]:
+def kill_driver(driver: subprocess.Popen, workers: list[int], grace_s: float) -> list[int]:
     """SIGKILL ``driver`` (a ``subprocess.Popen``); which of its ``workers`` outlive ``grace_s``.
 
     Waits until every worker has ended or ``grace_s`` seconds have passed.

@@ -13,12 +13,10 @@ import copy
 import tomllib
 from collections.abc import Sequence
 
+from fogsim.config.params import OVERRIDE_PREFIXES
 from fogsim.errors import ScenarioError
 
-TABLES = (
-    "robot, camera, encoders, mapper, segmentation, heading, pipeline, reference, elevation, "
-    "objects.<name>"
-)
+TABLES = ", ".join(("robot", "camera", "encoders", *OVERRIDE_PREFIXES, "objects.<name>"))
 """The tables an override key may go into (in messages)."""
 
 

@@ -258,12 +258,13 @@ class RunParams:
 OVERRIDE_PREFIXES: dict[str, str] = {
     "mapper": "",
     "segmentation": "seg.",
-    "elevation": "elev.",
-    "pipeline": "pipe.",
     "heading": "head.",
+    "pipeline": "pipe.",
     "reference": "ref.",
+    "elevation": "elev.",
 }
-"""Prefix of each :class:`RunParams` group in override keys (``mapper.`` is also accepted)."""
+"""Prefix of each :class:`RunParams` group in override keys (``mapper.`` is also accepted); its
+keys, in this order, are also a scenario's parameter tables (`fogsim.config.schema`)."""
 
 
 def override_key(group: str, name: str) -> str:

@@ -49,7 +49,7 @@ from fogsim.config.limits import (
     WORLD_BOUND_M,
 )
 from fogsim.config.overrides import assign_overrides
-from fogsim.config.params import RunParams, replace_params
+from fogsim.config.params import OVERRIDE_PREFIXES, RunParams, replace_params
 from fogsim.config.write import TomlValue, to_table, toml_text
 from fogsim.errors import ParameterError, ScenarioError
 from fogsim.paths import ASSETS_DIR, ROBOT_NAMES
@@ -518,7 +518,7 @@ class Scenario:
         return scenario_from_dict(tables, source=self.source_path, where=origin)
 
 
-PARAMETER_TABLES = ("mapper", "segmentation", "heading", "pipeline", "reference", "elevation")
+PARAMETER_TABLES = tuple(OVERRIDE_PREFIXES)
 """The scenario tables of parameter overrides, each a :class:`~fogsim.config.params.RunParams`
 group of the same name."""
 
