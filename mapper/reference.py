@@ -193,6 +193,25 @@ class HeightReferenceParams:
             (stage_down, seeds 1-8), so the median of `min_frames` = 8 was 0.5-3 mm off the
             camera's true height error (every row of a seed off by as much), and about 130
             measurements reach 0.5 mm; depth scatters by about a millimetre, and 8 suffice.
+        tread_min_area_m2: walking down before the estimate is known, a frame whose feet
+            stand on a *tread* may not take a large region farther than `tread_gate_m` from
+            its prior for the ground under them [m²]: a tread is a floor region the waiting
+            frames saw at least this large but smaller than the ground around the robot
+            (`start_min_area_m2`), at a level (odometry's rise + its height + the frame's
+            prior, `neck_prior_m`: the camera's height error moves every region a frame sees)
+            within `surface_gate_m` of the feet's (the rise). The large region is then likely
+            the surface one rise below the tread. 0.05: a tread seen in part covers 0.1-0.3 m²
+            (stereo's fattened edges: a 0.25 m² tread measured 0.31 m², above `min_area_m2`),
+            depth noise's patches a few hundredths. Found on a held-out scene (session 44,
+            `scenarios/holdout/down_slant_turn`, a 20 mm lowest step): the frames on it
+            measured the ground 20 mm below, 19.5 mm from their prior (inside `gate_m`),
+            converged there, and every row went 14-20 mm off (depth seeds 7 and 8: 477 and
+            6681 unsafe cells; stereo seed 7: 6873). 0 = off.
+        tread_gate_m: how far from its prior [m] a frame on a tread (`tread_min_area_m2`) may
+            measure the ground. 0.01: on the ground a frame's measurement lies within about
+            2 mm of its prior in depth and 6 mm in stereo (`down_slant_turn` seed 7, frames
+            145-184, one stereo outlier at 19 mm), so a patch of the ground taken for a tread
+            still measures; the ground one 20 mm rise below lies 19.5 mm from it.
         neck_in_camera_x_m: where the neck turns the head, in the camera's optical frame (x
             right, y down, z forward) [m]: x. With the tilt correction it gives the prior
             (`neck_prior_m`): a neck encoder's error turns the camera about the neck, so the
@@ -220,6 +239,8 @@ class HeightReferenceParams:
     start_level_m: float = 0.01
     surface_gate_m: float = 0.01
     known_error_m: float = 0.0005
+    tread_min_area_m2: float = 0.05
+    tread_gate_m: float = 0.01
     neck_in_camera_x_m: float = 0.0
     neck_in_camera_y_m: float = 0.0
     neck_in_camera_z_m: float = 0.0
@@ -239,6 +260,7 @@ class HeightReferenceParams:
             "start_level_m",
             "surface_gate_m",
             "known_error_m",
+            "tread_gate_m",
         ):
             check_field(
                 "HeightReferenceParams",
@@ -257,6 +279,14 @@ class HeightReferenceParams:
                 f"a finite float within ±{MAX_NECK_OFFSET_M:g} [m] of the camera",
                 lambda v: math.isfinite(v) and abs(v) <= MAX_NECK_OFFSET_M,
             )
+        check_field(
+            "HeightReferenceParams",
+            "tread_min_area_m2",
+            self.tread_min_area_m2,
+            float,
+            f"0 (off) or a finite float in (0, start_min_area_m2 ({self.start_min_area_m2})) [m²]",
+            lambda v: math.isfinite(v) and 0.0 <= v < self.start_min_area_m2,
+        )
         check_field(
             "HeightReferenceParams",
             "min_frames",
@@ -298,6 +328,9 @@ class HeightReference:
         self._shift_m = 0.0
         self._zero_at_lowest = False
         self._settled = False  # converged once, and precise unless at the start level
+        # Levels (odometry's rise + the prior + the region's height) [m] of the treads the
+        # frames saw until the estimate was known (`_on_tread`).
+        self._tread_levels_m: list[float] = []
 
     @property
     def converged(self) -> bool:
@@ -388,6 +421,10 @@ class HeightReference:
         """
         self.frames += 1
         params = self.params
+        on_tread = False
+        if params.tread_min_area_m2 > 0.0 and not self.known and math.isfinite(rise_m):
+            on_tread = self._on_tread(rise_m)
+            self._add_treads(heights_m, areas_m2, is_floor, rise_m + prior_m)
         expected = self.shift_m if self.converged else prior_m
         offset = np.abs(-heights_m - expected)
         candidate = is_floor & (areas_m2 >= params.min_area_m2) & (offset <= params.gate_m)
@@ -399,6 +436,8 @@ class HeightReference:
             return None
         largest = int(np.argmax(np.where(candidate, areas_m2, -np.inf)))
         measured = -float(heights_m[largest])
+        if on_tread and abs(measured - prior_m) > params.tread_gate_m:
+            return None  # the surface one rise below the tread (`tread_min_area_m2`)
         self.measurements_m.append(measured)
         self.rises_m.append(rise_m)
         # The median of the measurements at the lowest level (odometry's rise within
@@ -424,6 +463,29 @@ class HeightReference:
         self._shift_m = float(np.median(lowest))
         self._settle()
         return measured
+
+    def _add_treads(self, heights_m, areas_m2, is_floor, base_m: float) -> None:
+        """Keep the levels of the frame's treads (`tread_min_area_m2`).
+
+        ``base_m``: the frame's rise plus its prior (the camera height error its pose
+        predicts, which moves every region it sees).
+        """
+        p = self.params
+        levels = base_m + np.asarray(heights_m, dtype=np.float64)
+        areas = np.asarray(areas_m2, dtype=np.float64)
+        tread = (areas >= p.tread_min_area_m2) & (areas < p.start_min_area_m2)
+        tread &= np.asarray(is_floor, dtype=bool) & np.isfinite(levels)
+        self._tread_levels_m.extend(levels[tread].tolist())
+
+    def _on_tread(self, rise_m: float) -> bool:
+        """Below the start level, the feet stand on a tread the frames saw.
+
+        One within `surface_gate_m` of the feet's level ``rise_m`` (`tread_min_area_m2`).
+        """
+        if abs(rise_m) <= self.params.start_level_m or not self._tread_levels_m:
+            return False
+        treads = np.asarray(self._tread_levels_m)
+        return bool(np.any(np.abs(treads - rise_m) <= self.params.surface_gate_m))
 
     def _settle(self) -> None:
         """The estimate's standard error; settled once converged and precise or at the start.

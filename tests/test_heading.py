@@ -181,6 +181,79 @@ def test_smoothing_takes_the_median_of_the_last_accepted_estimates(monkeypatch):
         assert corrections == pytest.approx(expected)
 
 
+def _corrections_from_frame_5(estimator, boxes, frames, before_frame=lambda i: None):
+    """The correction [deg] after each of frames 5 … ``frames - 1`` of a walk of 0.1 m steps
+    (3 deg of yaw error; the cameras span 0.5 m from frame 5 on: one try a frame).
+    ``before_frame(i)`` runs before frame ``i``."""
+    corrections = []
+    for i in range(frames):
+        before_frame(i)
+        x = 0.1 * i
+        correct(estimator, *frame(boxes, floor_points_world(x), (x, 0.5, 0.0), 3.0))
+        if i >= 5:
+            corrections.append(math.degrees(estimator.correction_rad))
+    return corrections
+
+
+@pytest.mark.parametrize(
+    ("scripted", "beyond_deg", "expected"),
+    [
+        # A jump beyond 8 deg is held; the next try's estimate 2 deg is applied (a small move),
+        # and the held +11 deg is dropped.
+        ([11.0, 2.0, 2.2], 8.0, [0.0, 2.0, 2.2]),
+        # Held, then confirmed within 1 deg: the confirming estimate is applied.
+        ([-10.0, -10.6, -10.2], 8.0, [0.0, -10.6, -10.2]),
+        # A second large jump elsewhere is held in its place, and confirmed by the third.
+        ([11.0, -9.0, -9.5], 8.0, [0.0, 0.0, -9.5]),
+        # Off: every estimate at once.
+        ([11.0, 2.0, 2.2], 0.0, [11.0, 2.0, 2.2]),
+    ],
+)
+def test_a_jump_beyond_the_confirmation_bound_waits_for_the_next_try(
+    monkeypatch, scripted, beyond_deg, expected
+):
+    # Scripted estimates (none refined), one per try of a walk of 0.1 m steps (the cameras
+    # span 0.5 m from the sixth frame on: tries at frames 5, 6, 7); the correction after each
+    # try, applied or not.
+    estimates = iter(scripted)
+    monkeypatch.setattr(heading_module, "_band_centre_deg", lambda *_: next(estimates))
+    boxes = box_points_world(np.random.default_rng(11))
+    estimator = HeadingEstimator(
+        HeadingParams(estimate_every=1, plane_refine_estimates=0, confirm_beyond_deg=beyond_deg)
+    )
+    corrections = _corrections_from_frame_5(estimator, boxes, 8)
+    assert corrections == pytest.approx(expected)
+    assert estimator.estimates == sum(
+        1 for before, after in zip([0.0, *expected], expected, strict=False) if after != before
+    )
+
+
+def test_a_held_jump_is_dropped_by_a_next_try_that_gives_no_estimate(monkeypatch):
+    # Tries at frames 5 to 8: the first stands out at +11 deg (held), the second is flat (no
+    # estimate), the third stands out at +11 deg again: held anew, not confirmed by the
+    # first; the fourth confirms it. No edge score: it would stand in for the flat one.
+    flat = [False]
+
+    def scores(*args):
+        angles_deg = np.degrees(args[5])
+        if flat[0]:
+            return np.full(angles_deg.shape, 1000.0)
+        return 1000.0 * (0.85 + 0.15 * np.exp(-0.5 * ((angles_deg - 11.0) / 1.5) ** 2))
+
+    monkeypatch.setattr(heading_module, "heading_scores", scores)
+    boxes = box_points_world(np.random.default_rng(11))
+    estimator = HeadingEstimator(
+        HeadingParams(estimate_every=1, plane_refine_estimates=0, edge_score=False)
+    )
+
+    def flat_at_frame_6(i):
+        flat[0] = i == 6
+
+    corrections = _corrections_from_frame_5(estimator, boxes, 9, flat_at_frame_6)
+    assert corrections == pytest.approx([0.0, 0.0, 0.0, 11.0], abs=0.3)
+    assert estimator.estimates == 1
+
+
 def test_two_robot_positions_suffice():
     rng = np.random.default_rng(3)
     boxes = box_points_world(rng)

