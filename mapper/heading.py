@@ -1374,8 +1374,12 @@ class HeadingEstimator:
         above_median = best - float(np.median(scores))
         if not edges:
             self._structure_flat = best <= 0.0 or above_median < p.flat_contrast * best
+
+        def scores_at(angles_deg, score=score, data=data):  # bound now: both are rebound below
+            return score(*data, np.radians(angles_deg), p.cell_m, p.layer_m)
+
         if held_rad is not None and self._weakly_confirmed(
-            held_rad, score, data, coarse, scores, above_median, edges
+            held_rad, scores_at, coarse, scores, above_median, edges
         ):
             return
         witnessed = None
@@ -1389,12 +1393,7 @@ class HeadingEstimator:
                 return
         if edges and above_median < p.min_edge_evidence:
             return
-        if p.interior_peak and not _peak_inside(
-            lambda angles_deg: score(*data, np.radians(angles_deg), p.cell_m, p.layer_m),
-            coarse,
-            scores,
-            0.25 * above_median,
-        ):
+        if not self._peak_allowed(scores_at, coarse, scores, above_median):
             return  # a ramp into the grid's end: no maximum within ±max_correction_deg
         self.drift_rad_per_m = 0.0
         if p.drift_deg_per_m > 0.0 and not edges:
@@ -1459,21 +1458,49 @@ class HeadingEstimator:
         elif self._planes_counted() < p.plane_refine_estimates and not edges:
             # Every keyframe has its normals: each was added while the count was below.
             self.correction_rad = _plane_fit(keyframes, data[3], data[4], self.correction_rad)[0]
-        if not edges and p.smooth_estimates > 1:
-            self._recent_rad = [*self._recent_rad[1 - p.smooth_estimates :], self.correction_rad]
-            self.correction_rad = float(np.median(self._recent_rad))
+        self.correction_rad = self._smoothed(self.correction_rad, edges)
         if self._held_for_confirmation(before[0], held_rad, edges):
             self.correction_rad, self.drift_rad_per_m, self._recent_rad = before
             return
+        self._count_estimate(edges)
+
+    def _smoothed(self, estimate_rad: float, edges: bool) -> float:
+        """The correction an accepted estimate gives [rad].
+
+        Itself, or with `smooth_estimates` (structure estimates only) the median of the latest
+        ones (kept in `_recent_rad`).
+        """
+        p = self.params
+        if edges or p.smooth_estimates <= 1:
+            return estimate_rad
+        self._recent_rad = [*self._recent_rad[1 - p.smooth_estimates :], estimate_rad]
+        return float(np.median(self._recent_rad))
+
+    def _count_estimate(self, edges: bool) -> None:
+        """Count an applied estimate of the structure score or (``edges``) the edge score."""
         self.estimates += 1
         self.edge_estimates += edges
         self.from_edges = edges
 
+    def _peak_allowed(
+        self,
+        scores_at: Callable[[NDArray[np.float64]], NDArray[np.float64]],
+        coarse_deg: NDArray[np.float64],
+        scores: NDArray[np.float64],
+        above_median: float,
+    ) -> bool:
+        """Whether a try's best may be taken: a maximum inside the range (`interior_peak`).
+
+        ``scores_at``: the try's scores of candidates given in degrees (`_peak_inside`).
+        """
+        if not self.params.interior_peak:
+            return True
+        return _peak_inside(scores_at, coarse_deg, scores, 0.25 * above_median)
+
     def _weakly_confirmed(
         self,
         held_rad: float,
-        score: Callable[..., NDArray[np.float64]],
-        data: tuple,
+        scores_at: Callable[[NDArray[np.float64]], NDArray[np.float64]],
         coarse_deg: NDArray[np.float64],
         scores: NDArray[np.float64],
         above_median: float,
@@ -1496,21 +1523,11 @@ class HeadingEstimator:
         top_deg = float(coarse_deg[int(np.argmax(scores))])
         if abs(math.radians(top_deg) - held_rad) > math.radians(p.confirm_within_deg):
             return False
-        if p.interior_peak and not _peak_inside(
-            lambda angles_deg: score(*data, np.radians(angles_deg), p.cell_m, p.layer_m),
-            coarse_deg,
-            scores,
-            0.25 * above_median,
-        ):
+        if not self._peak_allowed(scores_at, coarse_deg, scores, above_median):
             return False
         self.drift_rad_per_m = 0.0
-        self.correction_rad = held_rad
-        if not edges and p.smooth_estimates > 1:
-            self._recent_rad = [*self._recent_rad[1 - p.smooth_estimates :], held_rad]
-            self.correction_rad = float(np.median(self._recent_rad))
-        self.estimates += 1
-        self.edge_estimates += edges
-        self.from_edges = edges
+        self.correction_rad = self._smoothed(held_rad, edges)
+        self._count_estimate(edges)
         return True
 
     def _held_for_confirmation(
