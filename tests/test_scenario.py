@@ -91,6 +91,23 @@ def test_holdout_scenarios_validate_and_stay_out_of_the_default_suite():
         assert scenario_from_dict(tomllib.loads(scenario.to_toml())) == scenario
 
 
+def test_every_look_of_every_scenario_is_within_its_robots_neck_reach():
+    # A look beyond the neck used to be clamped silently: two held-out scenes asked for 55° down
+    # and iCub looked 40° down, so their descending starts never saw the top step. The
+    # planner refuses such a look now (tests/test_walking.py); no scene may ask for one.
+    robots = {}
+    looks = 0
+    for path in find_scenario_files() + HOLDOUT_FILES:
+        scenario = load_scenario(path)
+        model = scenario.robot.model
+        reach = robots.setdefault(model, load_robot(model)).look_range
+        for step in scenario.route:
+            if step.look is not None:
+                assert reach.refusal(*step.look) is None, f"{path.name}: look {step.look}"
+                looks += 1
+    assert set(robots) == {"icub", "talos"} and looks > 40
+
+
 def test_holdout_edges_do_not_all_lie_on_cell_boundaries():
     # The shipped staircases put every tread edge on a 4 cm cell boundary; a held-out one must
     # not, or the scenes would hide cells that straddle a riser (the truth's obstacles).

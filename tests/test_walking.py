@@ -165,6 +165,45 @@ def test_bad_route_steps_are_rejected(icub, route, message):
     assert str(info.value).startswith("x.toml: route[")
 
 
+def test_the_look_range_is_the_neck_joints_limits_in_the_look_convention(icub, talos):
+    """iCub's URDF: neck_pitch [-40, 30]° (+ up), neck_yaw ±55°; TALOS: head_1 [-15, 45]° with
+    + looking down (so look pitch [-45, 15]°), head_2 ±75°."""
+    assert icub.look_range.pitch_deg == (-40.0, 30.0)
+    assert icub.look_range.yaw_deg == (-55.0, 55.0)
+    assert talos.look_range.pitch_deg == (-45.0, 15.0)
+    assert talos.look_range.yaw_deg == (-75.0, 75.0)
+
+
+@pytest.mark.parametrize(
+    ("look", "message"),
+    [
+        (
+            (0.0, -55.0),
+            r"pitch -55° beyond the neck's reach: yaw within \[-55, 55\]° \(\+ turns"
+            r" left\), pitch within \[-40, 30\]° \(\+ looks up\)$",
+        ),
+        ((60.0, -30.0), r": yaw 60° beyond the neck's reach"),
+        ((-70.0, 31.0), r": yaw -70° and pitch 31° beyond the neck's reach"),
+    ],
+)
+def test_a_look_beyond_the_neck_is_refused_before_planning(icub, look, message):
+    """The head used to stop at its limit silently and see less than the route asked."""
+    route = [{"wait": 0.5}, {"look": look}]
+    with pytest.raises(RouteError, match=message) as info:
+        plan_route(icub, (0.0, 0.0, 0.0), route, flat_support, 12.5, origin="x.toml")
+    assert str(info.value).startswith("x.toml: route[1] (look ")
+    assert "icub's head cannot look there" in str(info.value)
+
+
+def test_a_look_at_the_neck_limit_is_reached(icub):
+    """look = (0, -40), iCub's limit: the camera ends pitched 40° down (the default 30° + 10°)."""
+    route = [{"look": (0.0, -40.0)}, {"wait": 0.5}]
+    walk = plan_route(icub, (0.0, 0.0, 0.0), route, flat_support, 12.5)
+    assert walk.head_look_deg[-1].tolist() == [0.0, -40.0]
+    camera = icub.transform_camera_to_world(walk.q[-1])
+    assert math.degrees(math.asin(-camera[2, 2])) == pytest.approx(40.0, abs=0.1)
+
+
 def _tall_block(xy):
     """A 1.3 m high block one can stand on, x in [1.0, 2.0] m: no leg reaches its top."""
     x = np.asarray(xy, dtype=float)[:, 0]

@@ -29,6 +29,37 @@ from fogsim.robot.description import RobotDescription
 from fogsim.robot.planar import mean_angle, yaw_of
 
 
+@dataclass(frozen=True)
+class LookRange:
+    """The head's reach as a route's ``look`` gives it: (yaw, pitch) relative to the body [deg].
+
+    Attributes:
+        yaw_deg: (lowest, highest) yaw; + turns the head left.
+        pitch_deg: (lowest, highest) pitch; + looks up.
+    """
+
+    yaw_deg: tuple[float, float]
+    pitch_deg: tuple[float, float]
+
+    def refusal(self, yaw_deg: float, pitch_deg: float) -> str | None:
+        """Why the head cannot look at (yaw, pitch) [deg], naming the reach; None if it can."""
+        wrong = [
+            f"{name} {value:g}°"
+            for name, value, (lo, hi) in (
+                ("yaw", yaw_deg, self.yaw_deg),
+                ("pitch", pitch_deg, self.pitch_deg),
+            )
+            if not lo <= value <= hi
+        ]
+        if not wrong:
+            return None
+        return (
+            f"{' and '.join(wrong)} beyond the neck's reach: yaw within [{self.yaw_deg[0]:g}, "
+            f"{self.yaw_deg[1]:g}]° (+ turns left), pitch within [{self.pitch_deg[0]:g}, "
+            f"{self.pitch_deg[1]:g}]° (+ looks up)"
+        )
+
+
 class Stance(enum.IntEnum):
     """Which foot carries the robot (the odometry's and robot frame's reference)."""
 
@@ -84,6 +115,29 @@ class Robot:
     def n_joints(self) -> int:
         """Number of actuated joints."""
         return len(self.joint_names)
+
+    def joint_limits_rad(self, name: str) -> tuple[float, float]:
+        """(lower, upper) position limit of an actuated joint [rad], as the URDF gives it."""
+        index = 7 + self.joint_index(name)
+        return (
+            float(self.pin_model.lowerPositionLimit[index]),
+            float(self.pin_model.upperPositionLimit[index]),
+        )
+
+    @property
+    def look_range(self) -> LookRange:
+        """The head's reach in the route's ``look`` convention, from the neck joints' limits.
+
+        Rounded to 0.01° (the URDFs store the limits as radians: iCub's -40° is
+        -40.0000171°): a look of exactly the limit is within reach.
+        """
+        neck = self.description.neck
+        yaw = tuple(round(math.degrees(v), 2) for v in self.joint_limits_rad(neck.yaw_joint))
+        pitch = sorted(
+            round(math.degrees(v) / neck.pitch_sign, 2)
+            for v in self.joint_limits_rad(neck.pitch_joint)
+        )
+        return LookRange((yaw[0], yaw[1]), (pitch[0], pitch[1]))
 
     def joint_index(self, name: str) -> int:
         """Index of an actuated joint in ``q[7:]`` (and in encoder readings)."""

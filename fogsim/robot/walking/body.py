@@ -47,10 +47,12 @@ class BodyKinematics:
         self.legs = {foot: LegIK(robot, foot, params) for foot in (Stance.LEFT, Stance.RIGHT)}
         self.neck_yaw = 7 + robot.joint_index(description.neck.yaw_joint)
         self.neck_pitch = 7 + robot.joint_index(description.neck.pitch_joint)
-        model = robot.pin_model
+        # A route's looks are within reach (`plan_route` refuses others): the clamp only
+        # keeps the rounding of a look at exactly the limit inside it.
+        neck = description.neck
         self.neck_limits = {
-            i: (model.lowerPositionLimit[i], model.upperPositionLimit[i])
-            for i in (self.neck_yaw, self.neck_pitch)
+            self.neck_yaw: robot.joint_limits_rad(neck.yaw_joint),
+            self.neck_pitch: robot.joint_limits_rad(neck.pitch_joint),
         }
 
     def configuration(

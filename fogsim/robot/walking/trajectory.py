@@ -99,7 +99,8 @@ def plan_route(
         The trajectory; deterministic for the same inputs.
 
     Raises:
-        RouteError: A malformed route step, no flat footstep where the route goes, a walk of
+        RouteError: A malformed route step, a ``look`` beyond the neck's joint limits
+            (`Robot.look_range`), no flat footstep where the route goes, a walk of
             more than ``MAX_TRAJECTORY_FRAMES`` frames, or a footstep the legs cannot reach;
             the message names ``origin``, the route step and the footstep.
     """
@@ -110,6 +111,13 @@ def plan_route(
     if start.size != 3 or not np.all(np.isfinite(start)):
         raise RouteError(f"{origin}: start pose must be (x, y, yaw_deg), got {start_pose_xy_yaw!r}")
     commands = route_commands(route_steps, origin)
+    reach = robot.look_range
+    for command in commands:
+        refusal = reach.refusal(*command.values) if command.kind == "look" else None
+        if refusal is not None:  # the head would stop at its limit and see less than asked
+            raise RouteError(
+                f"{origin}: {command}: {robot.name}'s head cannot look there: {refusal}"
+            )
     budget = FrameBudget(frame_rate_hz, MAX_TRAJECTORY_FRAMES, params.look_transition_s)
     planner = FootstepPlanner(robot, params, support_height_m)
     try:
