@@ -194,25 +194,29 @@ class HeightReferenceParams:
             camera's true height error (every row of a seed off by as much), and about 130
             measurements reach 0.5 mm; depth scatters by about a millimetre, and 8 suffice.
         start_known_error_m: at the start level the converged estimate is the start
-            surface's (the feet stand on it) once its standard error (as for `known_error_m`)
-            is at most this [m] or `start_known_frames` frames measured it; until then the
-            frames wait as they do below it. Found on `scenarios/holdout/down_shallow_steps` in
-            stereo (session 45): on an 85 mm landing whose ground is out of view, the first
-            frames took the far ground, misread 57-114 mm too high (stereo at 3-4 m), for the
-            ground under the feet — 8 measurements from -29 to +28 mm on seed 5 — settled on
-            +15.5 mm, and every step was mapped 60-75 mm high (seeds 4, 5, 7 and 8: 809-1039
-            unsafe cells). Their standard errors after 8 were 4.1-7.3 mm; a stereo start on the
-            ground scatters as much (the stage, seeds 1-8: 2.2-5.8 mm; `stairs` 1.0-6.0 mm), so
-            this alone cannot tell them apart. 0.003: depth (about 0.3 mm) and the quieter
-            stereo starts settle after 8 as before. inf: off (8 measurements suffice).
+            surface's (the feet stand on it) once its standard error is at most this [m] or
+            `start_known_frames` frames measured it; until then the frames wait as they do
+            below it, and the ground candidates keep the start's gates around the prior (a
+            narrow gate around an unsettled median would keep only the cluster it lies in).
+            The standard error is `HeightReference.start_error_m`'s, σ from the interquartile
+            range: a MAD is one cluster's spread when the views come in two. Found on
+            `scenarios/holdout/down_shallow_steps` in stereo (session 45): on an 85 mm landing
+            whose ground is out of view, the first frames took the far ground, misread 57-114
+            mm too high (stereo at 3-4 m), for the ground under the feet — 8 measurements from
+            -29 to +28 mm on seed 5 — settled on +15.5 mm, and every step was mapped 60-75 mm
+            high (seeds 4, 5, 7 and 8: 809-1039 unsafe cells). Their standard errors after 8
+            were 3.7-8.7 mm; a stereo start on the ground scatters about as much (the stage,
+            seeds 1-8: 1.6-5.4 mm), so this alone cannot tell them apart. 0.003: depth (below
+            1 mm) and the quieter stereo starts settle after 8 as before. inf: off (8
+            measurements suffice, and the estimate gates from then on).
         start_known_frames: at the start level, this many measurements settle the estimate
             whatever its standard error: the ground under the feet is measured in nearly every
-            frame (the stage and `stairs` in stereo: one a frame from the first), misreads of a
-            farther surface come and go (the landing's seeds 4, 5, 7, 8: 10-13 in the whole
-            start, at frames 0-12 and then a few up to frame 93). 16: twice `min_frames`, so
-            a noisy stereo start waits 8 frames more, not the 20-30 its standard error needs
-            (waiting longer put the stereo `stairs` and `talos_course` rows 0.1-0.5 mm further
-            off: the waiting frames are mapped without z-matching).
+            frame (the stage in stereo: 8 in its first 8-10 frames, `stairs` in its first
+            15-21), misreads of a farther surface come and go (the landing's seeds 4, 5, 7, 8:
+            10-13 in the whole start, at frames 0-12 and then a few up to frame 93). 16: twice
+            `min_frames`, so a noisy stereo start waits 8 frames more, not the 20-30 its
+            standard error needs: the waiting frames are mapped without z-matching, and the
+            stereo rows move by tenths of a millimetre either way (README, "Held-out scenes").
         tread_min_area_m2: walking down before the estimate is known, a frame whose feet
             stand on a *tread* may not take a large region farther than `tread_gate_m` from
             its prior for the ground under them [m²]: a tread is a floor region the waiting
@@ -397,6 +401,21 @@ class HeightReference:
         return self._median_error_m()
 
     @property
+    def start_error_m(self) -> float:
+        """The start level's standard error of the estimate [m] (inf before `min_frames`).
+
+        As `error_m` with σ from the interquartile range (``IQR / 1.349``) instead of the
+        MAD: measurements in two clusters (a stereo start's views at +15 and -15 mm, 5 and 4
+        of them) have a MAD of one cluster's spread, 3 mm, which would settle the estimate on
+        that cluster; their IQR spans both.
+        """
+        values = self._lowest_sorted_m
+        if len(values) < self.params.min_frames:
+            return math.inf
+        q25, q75 = np.percentile(np.asarray(values), [25.0, 75.0])
+        return 1.2533 * float(q75 - q25) / 1.349 / math.sqrt(len(values))
+
+    @property
     def shift_m(self) -> float:
         """The z shift to add to every frame's data [m]: median at the lowest level, 0 without."""
         return self._shift_m
@@ -463,10 +482,14 @@ class HeightReference:
         if params.tread_min_area_m2 > 0.0 and not self.known and math.isfinite(rise_m):
             on_tread = self._on_tread(rise_m)
             self._add_treads(heights_m, areas_m2, is_floor, rise_m + prior_m)
-        expected = self.shift_m if self.converged else prior_m
+        # At the start level an estimate gates only once settled: a narrow gate around an
+        # unsettled median keeps the cluster it lies in and drops the other (a stereo start's
+        # views two clusters at +-15 mm: settled on +13 mm instead of 0).
+        trusted = self.converged and (self._settled or not self._at_start_level())
+        expected = self.shift_m if trusted else prior_m
         offset = np.abs(-heights_m - expected)
         candidate = is_floor & (areas_m2 >= params.min_area_m2) & (offset <= params.gate_m)
-        if not self.converged and abs(rise_m) <= params.start_level_m:
+        if not trusted and abs(rise_m) <= params.start_level_m:
             candidate |= (
                 is_floor & (areas_m2 >= params.start_min_area_m2) & (offset <= params.start_gate_m)
             )
@@ -536,14 +559,17 @@ class HeightReference:
         """
         if self._settled or not self.converged:  # latched; the median's error costs O(n)
             return
-        at_start = abs(self._lowest_rise_m) <= self.params.start_level_m  # NaN: not
-        if at_start:
+        if self._at_start_level():
             self._settled = (
                 len(self._lowest_sorted_m) >= self.params.start_known_frames
-                or self._median_error_m() <= self.params.start_known_error_m
+                or self.start_error_m <= self.params.start_known_error_m
             )
         else:
             self._settled = self._median_error_m() <= self.params.known_error_m
+
+    def _at_start_level(self) -> bool:
+        """The lowest level measured at is the start's (within `start_level_m`; NaN: not)."""
+        return abs(self._lowest_rise_m) <= self.params.start_level_m
 
     def _median_error_m(self) -> float:
         """Standard error of the median at the lowest level [m] (inf below `min_frames`).

@@ -212,19 +212,38 @@ START_MISREAD_MM = [28.1, 25.1, 12.5, 19.2, 14.5, -14.8, -29.2, 16.5]
 def test_at_the_start_level_frames_that_see_no_one_surface_wait():
     # Stereo on an 85 mm landing (down_shallow_steps seed 5): the first frames took the far
     # ground, misread 57-114 mm too high, for the ground under the feet. Median 15.5 mm;
-    # deviations 12.6, 9.6, 3.0, 3.7, 1.0, 30.3, 44.7, 1.0: MAD 6.65 mm, standard error
-    # 1.2533 · 1.4826 · 6.65 mm / √8 = 4.37 mm > `start_known_error_m` (3 mm): converged, not
-    # known (the frames wait, as below the start level).
+    # quartiles (numpy's, linear) 5.675 and 20.675 mm: σ = 15 / 1.349 mm, standard error
+    # 1.2533 · σ / √8 = 4.93 mm > `start_known_error_m` (3 mm): converged, not known (the
+    # frames wait, as below the start level).
     reference = HeightReference()
     for value_mm in START_MISREAD_MM:
         feed(reference, [-value_mm / 1000.0], [GROUND_AREA_M2])
     assert reference.converged and reference.shift_m == pytest.approx(0.0155)
-    assert reference.error_m == pytest.approx(1.2533 * 1.4826 * 0.00665 / np.sqrt(8))
+    assert reference.start_error_m == pytest.approx(1.2533 * 0.015 / 1.349 / np.sqrt(8))
     assert not reference.known
     off = HeightReference(HeightReferenceParams(start_known_error_m=float("inf")))
     for value_mm in START_MISREAD_MM:
         feed(off, [-value_mm / 1000.0], [GROUND_AREA_M2])
     assert off.known  # before session 45: 8 measurements at the start, whatever their scatter
+
+
+def test_at_the_start_level_two_clusters_wait_with_the_wide_gate_and_settle_between_them():
+    # A stereo start's views in two clusters, +-13 to 16 mm (tests/test_pipeline.py has the
+    # frames). After 9 (5 at +13 … +16, 4 at -16 … -13) the MAD is one cluster's spread (a
+    # standard error of 1.9 mm: it would settle on +13 mm); the interquartile range spans both
+    # (29 mm: 9.6 mm), and the gate stays the start gate around the prior, so the other
+    # cluster keeps being measured and the 16th measurement settles the median, 0.
+    reference = HeightReference()
+    values_mm = [15.0, -15.0, 14.0, -14.0, 16.0, -16.0, 13.0, -13.0] * 2
+    for count, value_mm in enumerate(values_mm, start=1):
+        assert feed(reference, [-value_mm / 1000.0], [GROUND_AREA_M2]) == pytest.approx(
+            value_mm / 1000.0
+        )
+        assert reference.known == (count >= 16)
+        if count == 9:
+            assert reference.error_m < reference.params.start_known_error_m
+            assert reference.start_error_m > reference.params.start_known_error_m
+    assert reference.shift_m == pytest.approx(0.0, abs=1e-12)
 
 
 def test_at_the_start_level_a_surface_measured_in_16_frames_settles_whatever_the_scatter():
@@ -239,10 +258,11 @@ def test_at_the_start_level_a_surface_measured_in_16_frames_settles_whatever_the
         feed(reference, [-value_mm / 1000.0], [GROUND_AREA_M2])
         assert reference.known == (count >= 16)
         if count == 8:
-            assert reference.error_m > reference.params.start_known_error_m
-    # Median (1 + 3) / 2 mm; MAD 7.9 mm: standard error 1.2533 · 1.4826 · 7.9 / √16 = 3.67 mm.
+            assert reference.start_error_m > reference.params.start_known_error_m
+    # Median (1 + 3) / 2 mm; quartiles -5.175 and 10.275 mm: standard error
+    # 1.2533 · 15.45 / 1.349 / √16 = 3.59 mm, above `start_known_error_m`: the count settled it.
     assert reference.shift_m == pytest.approx(0.002)
-    assert reference.error_m == pytest.approx(1.2533 * 1.4826 * 0.0079 / 4.0)
+    assert reference.start_error_m == pytest.approx(1.2533 * 0.01545 / 1.349 / 4.0)
 
 
 def test_known_error_of_exact_measurements_is_zero():
