@@ -215,8 +215,9 @@ class HeightReferenceParams:
             15-21), misreads of a farther surface come and go (the landing's seeds 4, 5, 7, 8:
             10-13 in the whole start, at frames 0-12 and then a few up to frame 93). 16: twice
             `min_frames`, so a noisy stereo start waits 8 frames more, not the 20-30 its
-            standard error needs: the waiting frames are mapped without z-matching, and the
-            stereo rows move by tenths of a millimetre either way (README, "Held-out scenes").
+            standard error needs. The waiting frames are mapped without z-matching: in stereo,
+            where the robot starts on the ground, step rows came out up to about a millimetre
+            further off (`stairs` step_1 2.08 → 3.19 mm; README, "Held-out scenes").
         tread_min_area_m2: walking down before the estimate is known, a frame whose feet
             stand on a *tread* may not take a large region farther than `tread_gate_m` from
             its prior for the ground under them [m²]: a tread is a floor region the waiting
