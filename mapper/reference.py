@@ -384,11 +384,12 @@ class HeightReference:
     def known(self) -> bool:
         """A frame's data may be mapped: converged, or waited `max_wait_frames` in vain.
 
-        The first time only, and only below the start level (the robot walked down before
-        its ground came into view), converged also means precise: the standard error within
-        `known_error_m`. Later, one more frame's scatter can put the standard error above it
-        again, and waiting for one frame anew would anchor the frames after it to that frame's
-        view of the ground alone (stereo, stage_down seed 6: every row −7 mm).
+        The first time only, converged also means precise: below the start level (the robot
+        walked down before its ground came into view) the standard error within
+        `known_error_m`, at it `start_known_error_m` or `start_known_frames`. Later, one more
+        frame's scatter can put the standard error above it again, and waiting for one frame
+        anew would anchor the frames after it to that frame's view of the ground alone
+        (stereo, stage_down seed 6: every row −7 mm).
         """
         wait = self.params.max_wait_frames
         return (self.converged and self._settled) or (wait > 0 and self.frames >= wait)
@@ -410,11 +411,7 @@ class HeightReference:
         of them) have a MAD of one cluster's spread, 3 mm, which would settle the estimate on
         that cluster; their IQR spans both.
         """
-        values = self._lowest_sorted_m
-        if len(values) < self.params.min_frames:
-            return math.inf
-        q25, q75 = np.percentile(np.asarray(values), [25.0, 75.0])
-        return 1.2533 * float(q75 - q25) / 1.349 / math.sqrt(len(values))
+        return self._median_error_m(interquartile=True)
 
     @property
     def shift_m(self) -> float:
@@ -550,13 +547,15 @@ class HeightReference:
         return bool(np.any(np.abs(treads - rise_m) <= self.params.surface_gate_m))
 
     def _settle(self) -> None:
-        """The estimate's standard error; settled once converged and precise or at the start.
+        """The estimate's standard error; settled once converged and precise enough.
 
         At the start level the ground under the feet is the start surface, at the start pose's
-        z by the kinematics, and the map is anchored there (`start_surface_m`): 8 measurements
-        suffice, and waiting longer put stereo's map on the stage 0.5 mm further off (ground
-        0.35 → 0.82 mm mean). Below it, the map is anchored to the waiting frames' view of the
-        ground, shifted by this estimate: its error is the map's offset.
+        z by the kinematics, and the map is anchored there (`start_surface_m`): a standard
+        error within `start_known_error_m` (`start_error_m`) or `start_known_frames`
+        measurements suffice (waiting for more put stereo's map on the stage 0.5 mm further
+        off, ground 0.35 → 0.82 mm mean). Below it, the map is anchored to the waiting frames'
+        view of the ground, shifted by this estimate: its error is the map's offset, which
+        `known_error_m` bounds.
         """
         if self._settled or not self.converged:  # latched; the median's error costs O(n)
             return
@@ -572,17 +571,21 @@ class HeightReference:
         """The lowest level measured at is the start's (within `start_level_m`; NaN: not)."""
         return abs(self._lowest_rise_m) <= self.params.start_level_m
 
-    def _median_error_m(self) -> float:
+    def _median_error_m(self, interquartile: bool = False) -> float:
         """Standard error of the median at the lowest level [m] (inf below `min_frames`).
 
-        1.2533 · σ / √n, σ = 1.4826 · MAD: robust to the frames that took a wrong surface.
+        1.2533 · σ / √n, σ = 1.4826 · MAD: robust to the frames that took a wrong surface;
+        with ``interquartile``, σ = IQR / 1.349 (`start_error_m`).
         """
-        values = self._lowest_sorted_m
-        if len(values) < self.params.min_frames:
+        values = np.asarray(self._lowest_sorted_m)
+        if values.size < self.params.min_frames:
             return math.inf
-        deviations = np.abs(np.asarray(values) - self._shift_m)
-        sigma_m = 1.4826 * float(np.median(deviations))
-        return 1.2533 * sigma_m / math.sqrt(len(values))
+        if interquartile:
+            q25, q75 = np.percentile(values, [25.0, 75.0])
+            sigma_m = float(q75 - q25) / 1.349
+        else:
+            sigma_m = 1.4826 * float(np.median(np.abs(values - self._shift_m)))
+        return 1.2533 * sigma_m / math.sqrt(values.size)
 
 
 def _sorted_median(values: list[float]) -> float:
