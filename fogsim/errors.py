@@ -57,7 +57,7 @@ class ArchiveExtentError(FogsimError, ValueError):
 
 
 class ReportError(FogsimError, ValueError):
-    """A ``report.json`` or summary file is missing, corrupt or of an unsupported version."""
+    """A ``report.json``, ``frames.csv`` or summary file is missing, corrupt or unsupported."""
 
 
 class TuneError(FogsimError, ValueError):

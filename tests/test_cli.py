@@ -13,6 +13,7 @@ from test_pipeline import make_frames, provider_removed_at
 from fogsim.cli import main
 from fogsim.config import find_scenario_files, load_scenario
 from fogsim.data.recording import load_recording, save_recording
+from fogsim.eval.frame_log import read_frame_log
 from fogsim.paths import SCENARIOS_DIR
 
 
@@ -126,6 +127,19 @@ def test_replay_is_deterministic(removal_recording, tmp_path):
         )
     a, b = (json.loads((tmp_path / n / "report.json").read_text()) for n in ("a", "b"))
     assert a["table1"] == b["table1"] and a["cells"] == b["cells"] and a["events"] == b["events"]
+    # Every frame's row, the same bytes (no timing in it), one per frame, as the report counts.
+    a_log, b_log = (tmp_path / n / "frames.csv" for n in ("a", "b"))
+    assert a_log.read_bytes() == b_log.read_bytes()
+    log = read_frame_log(tmp_path / "a" / "frames.csv")
+    assert log.frame.tolist() == list(range(60))
+    timing = a["timing"]
+    assert len(log) == timing["frames"]
+    assert int(log.withdrawn.sum()) == timing["withdrawn_frames"]
+    assert int(log.z_matched.sum()) == timing["z_matched_frames"]
+    magnitudes = np.abs(log.pose.residual_heading_deg)
+    assert a["pose_error"]["residual_heading_deg"]["median"] == round(
+        float(np.median(magnitudes[np.isfinite(magnitudes)])), 4
+    )
 
 
 def test_bad_input_exits_2_with_a_clear_message(removal_recording, tmp_path, capsys):

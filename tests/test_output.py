@@ -218,7 +218,12 @@ def test_a_result_without_manifest_is_an_earlier_result(tmp_path, fake_simulatio
         (out / name).write_text("old")
     assert foreign_file(out) is None
     assert run(out, "--no-pictures") == 0
-    assert sorted(p.name for p in out.iterdir()) == [MANIFEST_NAME, "maps.npz", "report.json"]
+    assert sorted(p.name for p in out.iterdir()) == [
+        "frames.csv",
+        MANIFEST_NAME,
+        "maps.npz",
+        "report.json",
+    ]
 
 
 def test_a_result_with_a_file_beside_its_manifest_is_refused(tmp_path, fake_simulation, capsys):
@@ -244,7 +249,8 @@ def test_a_run_writes_its_folder_whole_with_a_manifest_last(tmp_path, fake_simul
     assert (manifest.scenario, manifest.seed, manifest.seeds) == ("flat_floor", 7, None)
     assert len(manifest.run_id) == 32 and int(manifest.run_id, 16) >= 0
     names = [entry.path for entry in manifest.files]
-    assert names == sorted(["maps.npz", "report.json", *load_report(out / "report.json").pictures])
+    pictures = load_report(out / "report.json").pictures
+    assert names == sorted(["frames.csv", "maps.npz", "report.json", *pictures])
     assert_complete(out)
     assert temporaries(tmp_path) == []
     # The manifest is the folder's last file.
@@ -260,7 +266,12 @@ def test_an_older_result_is_replaced_whole_never_mixed(tmp_path, fake_simulation
     assert run(out, "--no-pictures") == 0
     second = assert_complete(out)
     assert second != first
-    assert sorted(p.name for p in out.iterdir()) == [MANIFEST_NAME, "maps.npz", "report.json"]
+    assert sorted(p.name for p in out.iterdir()) == [
+        "frames.csv",
+        MANIFEST_NAME,
+        "maps.npz",
+        "report.json",
+    ]
     assert temporaries(tmp_path) == []
 
 

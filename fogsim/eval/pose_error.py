@@ -21,6 +21,7 @@ from __future__ import annotations
 
 import dataclasses
 import math
+from dataclasses import dataclass
 
 import numpy as np
 from numpy.typing import NDArray
@@ -49,6 +50,44 @@ def heading_error_deg(rotation: NDArray[np.float64], rotation_true: NDArray[np.f
     """
     error = np.asarray(rotation, dtype=np.float64) @ np.asarray(rotation_true, dtype=np.float64).T
     return math.degrees(math.atan2(error[1, 0] - error[0, 1], error[0, 0] + error[1, 1]))
+
+
+@dataclass(frozen=True)
+class FramePoseErrors:
+    """Each frame's camera pose errors, in the order the frames were added (NaN = not known).
+
+    A frame without a finite true pose has NaN everywhere; one added without a corrected pose
+    has NaN in the residual columns. Angles [deg], offsets [mm].
+
+    Attributes:
+        camera_rotation_deg: (N,) rotation between the believed and the true camera pose in the
+            robot frame (what the encoders cause).
+        camera_translation_mm: (N,) the same poses' offset.
+        world_rotation_deg: (N,) rotation between the believed and the true camera pose in the
+            world (encoders and odometry).
+        world_translation_mm: (N,) the same poses' offset.
+        residual_tilt_deg: (N,) angle between the vertical of the camera pose the frame was last
+            mapped with (the pipeline's tilt and heading corrections applied) and the true
+            vertical, robot frame: the tilt the corrections left.
+        residual_heading_deg: (N,) signed yaw [deg] of the corrected camera pose against the
+            true one as the frame was processed, robot frame (+ = turned left); the report's
+            ``residual_heading_deg`` is the median and max of its magnitude. NaN for a frame
+            deferred by the height reference (it had no corrected pose when processed).
+        map_heading_deg: (N,) the same for the pose the frame was last mapped with; a deferred
+            frame has it (the report's ``map_heading_deg`` leaves deferred frames out, as its
+            ``residual_heading_deg`` does).
+        world_heading_deg: (N,) signed yaw of that pose brought into the world by the believed
+            robot pose against the true camera pose in the world.
+    """
+
+    camera_rotation_deg: NDArray[np.float64]
+    camera_translation_mm: NDArray[np.float64]
+    world_rotation_deg: NDArray[np.float64]
+    world_translation_mm: NDArray[np.float64]
+    residual_tilt_deg: NDArray[np.float64]
+    residual_heading_deg: NDArray[np.float64]
+    map_heading_deg: NDArray[np.float64]
+    world_heading_deg: NDArray[np.float64]
 
 
 class PoseErrorAccumulator:
@@ -118,6 +157,45 @@ class PoseErrorAccumulator:
                 "frames added (0 ... frames - 1)"
             )
         self._remapped[position] = np.array(transform_camera_to_robot_corrected, dtype=np.float64)
+
+    def per_frame(self) -> FramePoseErrors:
+        """Every frame's errors (:class:`FramePoseErrors`), aligned with the frames added.
+
+        The same arithmetic as :meth:`stats`, the yaws signed: the report's medians are those
+        of these columns' magnitudes over the frames with a corrected pose as processed.
+        """
+        n = len(self._world_true)
+        columns = np.full((8, n), np.nan)
+        if n:
+            world_true = np.stack(self._world_true)
+            robot_true = np.stack(self._robot_true)
+            known = np.isfinite(world_true).all(axis=(1, 2)) & np.isfinite(robot_true).all(axis=1)
+            positions = np.flatnonzero(known)
+            if positions.size:
+                camera_true = np.linalg.inv(_planar_matrices(robot_true[known])) @ world_true[known]
+                camera_believed = np.stack(self._camera_believed)[known]
+                robot_believed = _planar_matrices(np.stack(self._robot_believed)[known])
+                errors = (
+                    *_errors(camera_believed, camera_true),
+                    *_errors(robot_believed @ camera_believed, world_true[known]),
+                )
+                for row, values in enumerate(errors):
+                    columns[row, positions] = values
+                for k, i in enumerate(positions.tolist()):
+                    first = self._corrected[i]
+                    last = self._remapped.get(i, first)
+                    if last is None:
+                        continue
+                    true_rotation = camera_true[k, :3, :3]
+                    error = last[:3, :3] @ true_rotation.T
+                    columns[4, i] = math.degrees(math.acos(min(1.0, max(-1.0, error[2, 2]))))
+                    if first is not None:
+                        columns[5, i] = heading_error_deg(first[:3, :3], true_rotation)
+                    columns[6, i] = heading_error_deg(last[:3, :3], true_rotation)
+                    columns[7, i] = heading_error_deg(
+                        (robot_believed[k] @ last)[:3, :3], world_true[i, :3, :3]
+                    )
+        return FramePoseErrors(*columns)
 
     def stats(self) -> PoseErrorStats:
         """Median and max of the errors; only ``frames=0`` when no frame had a true pose.

@@ -9,6 +9,7 @@ from numpy.typing import NDArray
 
 from fogsim.config import RunParams
 from fogsim.eval.archive import WorldArchive
+from fogsim.eval.frame_log import FrameLog
 from fogsim.eval.report.schema import ArchiveScores, EventResult, PoseErrorStats
 from fogsim.world.truth import GroundTruthGrid
 from mapper import AveragingMap, FloorObstacleMapper
@@ -65,6 +66,7 @@ class RunResult:
         final_truth: Ground truth of the final world on the archive's cells (what the scores
             and ``maps.npz`` compare against), or None.
         last_depth_m: Depth image of the last frame [m].
+        frame_log: Every frame's decisions and pose errors (``frames.csv``), or None.
     """
 
     frames: int
@@ -85,3 +87,4 @@ class RunResult:
     snapshots: tuple[Snapshot, ...] = ()
     final_truth: GroundTruthGrid | None = None
     last_depth_m: NDArray[np.float32] | None = None
+    frame_log: FrameLog | None = None

@@ -55,6 +55,7 @@ RESULT_FILE_NAMES = frozenset(
     {
         "report.json",
         "maps.npz",
+        "frames.csv",
         "fog_map.png",
         "fig3_panels.png",
         "difference.png",

@@ -1,9 +1,9 @@
 """Run frames through the pipeline and score them: what ``fogsim run`` and ``--replay`` do.
 
 :func:`run_scenario` does one run end to end: frames from a simulation or a recording →
-:func:`run_frames` (pipeline and scoring) → the typed report → ``maps.npz`` → pictures →
-``report.json`` → ``manifest.json``, all into a temporary folder that is renamed into place at
-the end (:class:`~fogsim.run.run_folder.RunFolder`).
+:func:`run_frames` (pipeline and scoring) → the typed report → ``maps.npz``, ``frames.csv`` →
+pictures → ``report.json`` → ``manifest.json``, all into a temporary folder that is renamed
+into place at the end (:class:`~fogsim.run.run_folder.RunFolder`).
 """
 
 from __future__ import annotations
@@ -27,6 +27,7 @@ from fogsim.data.recording import Recording
 from fogsim.errors import FogsimError
 from fogsim.eval.archive import InView, WorldArchive, cells_in_view, view_points_world
 from fogsim.eval.events import EventTracker, TruthProvider
+from fogsim.eval.frame_log import FrameLog, write_frame_log
 from fogsim.eval.maps import write_maps
 from fogsim.eval.metrics import score_archive
 from fogsim.eval.pose_error import PoseErrorAccumulator
@@ -217,6 +218,8 @@ def _run_pipeline(
     archiver = _GridArchiver(archive)
     pose_errors = PoseErrorAccumulator()
     timings: list[FrameTiming] = []
+    indices: list[int] = []
+    times_s: list[float] = []
     last: Frame | None = None
     for frame in frames:
         if not pipeline.keeps_grid(frame):
@@ -225,6 +228,8 @@ def _run_pipeline(
         if ahead is not None:  # the segmentation's own time, not the wait for it
             timing = dataclasses.replace(timing, segmentation_ms=ahead.segmentation_ms)
         timings.append(timing)
+        indices.append(frame.index)
+        times_s.append(frame.time_s)
         pose_errors.add(frame, pipeline.heading.transform_camera_to_robot)
         geometry = pipeline.mapper.geometry
         made = ahead.also(frame) if ahead is not None else None  # on the segmentation thread
@@ -288,6 +293,14 @@ def _run_pipeline(
         snapshots=fig5.snapshots() if fig5 is not None else (),
         final_truth=final_truth,
         last_depth_m=last.depth_m,
+        frame_log=FrameLog(
+            frame=np.array(indices, dtype=np.int64),
+            time_s=np.array(times_s, dtype=np.float64),
+            withdrawn=np.array([t.withdrawn for t in timings], dtype=bool),
+            z_matched=np.array([t.z_matched for t in timings], dtype=bool),
+            ground_plane_found=np.array([t.ground_plane_found for t in timings], dtype=bool),
+            pose=pose_errors.per_frame(),
+        ),
     )
 
 
@@ -593,6 +606,8 @@ def _run_and_write(
         if out is None:
             return report
         write_maps(out / "maps.npz", result, result.final_truth)
+        if result.frame_log is not None:
+            write_frame_log(out / "frames.csv", result.frame_log)
         if painter is not None:
             names = tuple(path.name for path in painter.result())
             timing = dataclasses.replace(
