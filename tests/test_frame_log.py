@@ -94,6 +94,9 @@ def test_each_frame_gets_the_errors_its_poses_were_given():
     assert stats.residual_heading_deg.median == pytest.approx(0.5, abs=1e-4)
     assert stats.map_heading_deg.max == pytest.approx(0.5, abs=1e-4)
     assert stats.map_heading_deg.median == pytest.approx((0.5 + 0.25) / 2, abs=1e-3)
+    # The tilt left, over every frame mapped with a corrected pose (0 as last mapped too).
+    tilt = stats.residual_tilt_deg
+    assert (tilt.median, tilt.p95, tilt.max) == pytest.approx((0.3, 0.3, 0.3), abs=1e-3)
 
 
 def small_log() -> FrameLog:

@@ -24,10 +24,11 @@ import math
 from dataclasses import dataclass
 
 import numpy as np
+from msgspec import UNSET
 from numpy.typing import NDArray
 
 from fogsim.data.frame import Frame
-from fogsim.eval.report.schema import MedianMax, PoseErrorPair, PoseErrorStats
+from fogsim.eval.report.schema import MedianMax, MedianP95Max, PoseErrorPair, PoseErrorStats
 from fogsim.eval.rounding import rounded
 
 _DIGITS = 4
@@ -37,6 +38,14 @@ _DIGITS = 4
 def _median_max(values: NDArray[np.float64]) -> MedianMax:
     return MedianMax(
         median=rounded(float(np.median(values)), _DIGITS),
+        max=rounded(float(np.max(values)), _DIGITS),
+    )
+
+
+def _median_p95_max(values: NDArray[np.float64]) -> MedianP95Max:
+    return MedianP95Max(
+        median=rounded(float(np.median(values)), _DIGITS),
+        p95=rounded(float(np.percentile(values, 95)), _DIGITS),
         max=rounded(float(np.max(values)), _DIGITS),
     )
 
@@ -208,7 +217,8 @@ class PoseErrorAccumulator:
         was added with its corrected camera pose, and ``map_heading_deg`` with it (the same
         with the pose of each frame's last mapping, :meth:`remapped`), and ``world_heading_deg``
         with them (of |yaw| between that pose brought into the world by the believed robot pose
-        and the true camera pose in the world).
+        and the true camera pose in the world), and ``residual_tilt_deg`` (median, 95th
+        percentile, max of :meth:`per_frame`'s column: the frames mapped with a corrected pose).
         """
         rows, residual, residual_mapped, world_mapped = self._errors_per_frame()
         if rows.shape[0] == 0:
@@ -220,11 +230,14 @@ class PoseErrorAccumulator:
         )
         if residual.size == 0:
             return stats
+        tilt = self.per_frame().residual_tilt_deg
+        tilt = tilt[np.isfinite(tilt)]
         return dataclasses.replace(
             stats,
             residual_heading_deg=_median_max(residual),
             map_heading_deg=_median_max(residual_mapped),
             world_heading_deg=_median_max(world_mapped),
+            residual_tilt_deg=_median_p95_max(tilt) if tilt.size else UNSET,
         )
 
     def _errors_per_frame(

@@ -36,6 +36,9 @@ figure                                        direction  tolerance    meaning
                                                                       were last mapped
 ``pose_error.world_heading_deg.median``       lower      0.25°        the same in the world
                                                                       (with odometry's yaw)
+``pose_error.residual_tilt_deg.median``      lower      0.05°        median tilt left by the
+                                                                      corrections (as mapped)
+``pose_error.residual_tilt_deg.p95``         lower      0.1°         its 95th percentile
 ``timing.frame_ms_median``                    lower      not checked  pipeline time per frame
 ============================================  =========  ===========  =========================
 
@@ -61,6 +64,11 @@ point) may move a figure before the check calls it a regression.
   floor again counts as :data:`NEVER_FRAMES`.
 * The residual heading is a median over hundreds of frames: a harmless change moves it by
   hundredths of a degree; 0.25° (4 mm sideways at 1 m) flags a heading estimate that changed.
+* The residual tilt moves every point's height by its range times the angle: 0.05° is 1.7 mm
+  at 2 m, the Table I tolerance at the far end of the view, against the hundredths of a degree
+  a harmless change moves a median over hundreds of frames by; its 95th percentile stands on
+  a few tens of frames, so 0.1°: a run of wrongly tilted frames (what it is there to show)
+  moves it by half a degree and more.
 * Frame times are wall-clock: reported in the summary, never checked (a loaded machine would
   fail the check; speed is measured in ``bench/``).
 
@@ -152,6 +160,10 @@ def rule_for(metric: str) -> MetricRule:
         "pose_error.world_heading_deg.median",
     ):
         return MetricRule("lower", 0.25)
+    if metric == "pose_error.residual_tilt_deg.median":
+        return MetricRule("lower", 0.05)
+    if metric == "pose_error.residual_tilt_deg.p95":
+        return MetricRule("lower", 0.1)
     if metric.startswith("timing."):
         return MetricRule("lower", 5.0, 1.0, checked=False)
     raise FogsimError(f"no tolerance rule for figure {metric!r}")
@@ -202,6 +214,12 @@ def report_metrics(report: Report) -> dict[str, float]:
         residual = getattr(report.pose_error, key)
         if not isinstance(residual, UnsetType) and residual.median is not None:
             metrics[f"pose_error.{key}.median"] = float(residual.median)
+    tilt = report.pose_error.residual_tilt_deg
+    if not isinstance(tilt, UnsetType):
+        if tilt.median is not None:
+            metrics["pose_error.residual_tilt_deg.median"] = float(tilt.median)
+        if tilt.p95 is not None:
+            metrics["pose_error.residual_tilt_deg.p95"] = float(tilt.p95)
     median = report.timing.frame_ms.median
     if median is not None:
         metrics["timing.frame_ms_median"] = float(median)

@@ -497,6 +497,15 @@ class MedianMax:
 
 
 @dataclass(frozen=True)
+class MedianP95Max:
+    """Median, 95th percentile and maximum of a per-frame error."""
+
+    median: float | None
+    p95: float | None
+    max: float | None
+
+
+@dataclass(frozen=True)
 class PoseErrorPair:
     """Rotation [deg] and translation [mm] errors of a believed pose."""
 
@@ -526,6 +535,12 @@ class PoseErrorStats:
             camera orientation in the world: ``map_heading_deg`` plus odometry's yaw error at
             the frame, the heading error of the maps (built in odometry's world, scored in the
             true one); present with ``residual_heading_deg``.
+        residual_tilt_deg: Angle [deg] between the vertical of the camera pose each frame was
+            last mapped with (the pipeline's tilt and heading corrections applied) and the true
+            vertical, robot frame: the tilt the corrections left, over the frames mapped with a
+            corrected pose (deferred frames included). Its 95th percentile shows a run of frames
+            whose tilt went wrong (stereo: planes joining a tread and the ground beside it),
+            which the median hides. Absent when no frame was mapped with a corrected pose.
     """
 
     frames: int
@@ -534,6 +549,7 @@ class PoseErrorStats:
     residual_heading_deg: MedianMax | UnsetType = UNSET
     map_heading_deg: MedianMax | UnsetType = UNSET
     world_heading_deg: MedianMax | UnsetType = UNSET
+    residual_tilt_deg: MedianP95Max | UnsetType = UNSET
 
 
 @dataclass(frozen=True)
