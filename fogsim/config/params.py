@@ -66,6 +66,14 @@ class PipelineParams:
         tilt_tail_dof: The filter's `TiltFilterParams.tail_dof`: degrees of freedom of a
             Student-t measurement noise, inf (the default) Gaussian; its docstring has the
             measured trade-off of 2.
+        tilt_turn_frames: The camera's turn the filter's process noise scales with is taken
+            over this many frames, as the angle between the believed camera orientation now and
+            that many frames ago, divided by the frames (1: since the previous frame). The
+            believed turn per frame is mostly the neck encoders' reading noise (its median
+            0.65° on a walk with the head held still, three joints' 0.3° noise, which moves no
+            bias), and it let the bias drift after a run of wrongly tilted frames (stereo
+            `down_landing_turn` seed 4: frames 651-692, the roll 1.5° off); over several frames
+            the noise averages out of the turn while a real head motion keeps its rate.
         heading_rebuild_frames: When the heading's first estimate comes, the maps are rebuilt
             from the frames mapped before it (issue 11: they carried the neck's 2–3° yaw error,
             8–17 cm at 2 m), if there are at most this many (each is kept until then: 88×72
@@ -122,6 +130,7 @@ class PipelineParams:
     tilt_noise_deg: float = 0.3
     tilt_bias_deg: float = 4.0
     tilt_tail_dof: float = math.inf
+    tilt_turn_frames: int = 1
     heading_rebuild_frames: int = 400
     heading_rebuild_change_deg: float = 0.0
     heading_rebuild_on_structure: bool = True
@@ -146,6 +155,13 @@ class PipelineParams:
             raise ParameterError(
                 f"PipelineParams.tilt_tail_dof must be a float > 0 (inf: Gaussian), "
                 f"got {self.tilt_tail_dof!r}"
+            )
+        if isinstance(self.tilt_turn_frames, bool) or not (
+            isinstance(self.tilt_turn_frames, int) and 1 <= self.tilt_turn_frames <= 100
+        ):
+            raise ParameterError(
+                f"PipelineParams.tilt_turn_frames must be an integer in [1, 100], "
+                f"got {self.tilt_turn_frames!r}"
             )
         if isinstance(self.heading_rebuild_frames, bool) or not (
             isinstance(self.heading_rebuild_frames, int)

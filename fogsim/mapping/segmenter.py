@@ -10,6 +10,7 @@ with the same results bit for bit: the filter is fed the same frames in the same
 from __future__ import annotations
 
 import math
+from collections import deque
 from collections.abc import Callable
 from dataclasses import replace
 
@@ -72,7 +73,9 @@ class FrameSegmenter:
             if pipe.use_tilt_filter and self.segmentation_params.correct_tilt
             else None
         )
-        self._last_camera_rotation: NDArray[np.float64] | None = None
+        # The believed camera rotations of the last `pipe.tilt_turn_frames` frames.
+        self._turn_frames = pipe.tilt_turn_frames
+        self._camera_rotations: deque[NDArray[np.float64]] = deque(maxlen=self._turn_frames)
 
     def __call__(self, frame: Frame) -> SegmentationResult:
         """The frame's segmentation, rotated by the tilt filtered up to this frame."""
@@ -90,13 +93,17 @@ class FrameSegmenter:
         """``seg`` rotated by the tilt filtered over frames (`mapper.tilt_filter`).
 
         The filter's process noise scales with the believed camera's turn in the robot frame
-        since the previous frame (the neck bias's effect turns with the neck).
+        per frame (the neck bias's effect turns with the neck), taken over the last
+        ``pipe.tilt_turn_frames`` frames (fewer at the start).
         """
         assert self.tilt is not None
         rotation = np.asarray(frame.transform_camera_to_robot_believed, dtype=np.float64)[:3, :3]
-        previous, self._last_camera_rotation = self._last_camera_rotation, rotation
+        rotations = self._camera_rotations
         turn_rad = (
-            0.0 if previous is None else math.radians(rotation_angle_deg(previous.T @ rotation))
+            math.radians(rotation_angle_deg(rotations[0].T @ rotation)) / len(rotations)
+            if rotations
+            else 0.0
         )
+        rotations.append(rotation)
         measured, sigma_rad = measured_tilt(seg, self.segmentation_params)
         return apply_tilt(seg, self.tilt.update(measured, sigma_rad, turn_rad).tilt_rad)
