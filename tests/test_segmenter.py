@@ -1,4 +1,4 @@
-"""`FrameSegmenter`'s camera turn, which scales the tilt filter's process noise (``pipe.tilt_turn_frames``)."""
+"""`FrameSegmenter`'s camera turn: what scales the tilt filter's process noise."""
 
 from __future__ import annotations
 
