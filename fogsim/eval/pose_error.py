@@ -190,19 +190,30 @@ class PoseErrorAccumulator:
                 )
                 for row, values in enumerate(errors):
                     columns[row, positions] = values
-                for k, i in enumerate(positions.tolist()):
-                    first = self._corrected[i]
-                    last = self._remapped.get(i, first)
-                    if last is None:
-                        continue
-                    true_rotation = camera_true[k, :3, :3]
-                    error = last[:3, :3] @ true_rotation.T
-                    columns[4, i] = math.degrees(math.acos(min(1.0, max(-1.0, error[2, 2]))))
-                    if first is not None:
-                        columns[5, i] = heading_error_deg(first[:3, :3], true_rotation)
-                    columns[6, i] = heading_error_deg(last[:3, :3], true_rotation)
-                    columns[7, i] = heading_error_deg(
-                        (robot_believed[k] @ last)[:3, :3], world_true[i, :3, :3]
+                # The pose each frame was last mapped with (None: never mapped with one).
+                lasts = [self._remapped.get(i, self._corrected[i]) for i in positions.tolist()]
+                mapped = np.array([last is not None for last in lasts], dtype=bool)
+                if mapped.any():
+                    rows = positions[mapped]
+                    last = np.stack([m for m in lasts if m is not None])
+                    true_rotation = camera_true[mapped, :3, :3]
+                    error = last[:, :3, :3] @ true_rotation.transpose(0, 2, 1)
+                    columns[4, rows] = np.degrees(np.arccos(np.clip(error[:, 2, 2], -1.0, 1.0)))
+                    columns[6, rows] = _yaw_deg(error)
+                    in_world = robot_believed[mapped] @ last
+                    columns[7, rows] = _yaw_deg(
+                        in_world[:, :3, :3] @ world_true[rows, :3, :3].transpose(0, 2, 1)
+                    )
+                processed = [
+                    (k, i)
+                    for k, i in enumerate(positions.tolist())
+                    if self._corrected[i] is not None
+                ]
+                if processed:
+                    ks, rows = (np.array(v) for v in zip(*processed, strict=True))
+                    first = np.stack([self._corrected[i] for i in rows.tolist()])
+                    columns[5, rows] = _yaw_deg(
+                        first[:, :3, :3] @ camera_true[ks, :3, :3].transpose(0, 2, 1)
                     )
         return FramePoseErrors(*columns)
 
@@ -301,6 +312,16 @@ def _abs_yaw_deg(
         [
             abs(math.degrees(math.atan2(e10 - e01, e00 + e11)))
             for (e00, e01, _), (e10, e11, _), _ in error.tolist()
+        ]
+    )
+
+
+def _yaw_deg(error: NDArray[np.float64]) -> NDArray[np.float64]:
+    """(M,) signed yaw [deg] of M 3×3 error rotations, as :func:`heading_error_deg` takes it."""
+    return np.array(
+        [
+            math.degrees(math.atan2(e10 - e01, e00 + e11))
+            for (e00, e01, _), (e10, e11, _), _ in error[:, :3, :3].tolist()
         ]
     )
 
