@@ -139,6 +139,7 @@ def make_report(
     unseen_objects: Sequence[str] = (),
     ceiling: CeilingScores | None = None,
     quality: Quality = GOOD,
+    pose_error: PoseErrorStats | None = None,
 ) -> Report:
     """A complete report with the given scores; everything else empty or None.
 
@@ -188,7 +189,7 @@ def make_report(
             wall_s=1.0,
             realtime_factor=None,
         ),
-        pose_error=PoseErrorStats(frames=0),
+        pose_error=PoseErrorStats(frames=0) if pose_error is None else pose_error,
         params=param_tables(RunParams()),
         versions={"python": "3.11.7"},
     )

@@ -19,7 +19,7 @@ from fogsim.eval.report import (
     load_report,
     write_report,
 )
-from fogsim.eval.report.schema import CeilingScores
+from fogsim.eval.report.schema import CeilingScores, MedianMax, MedianP95Max, PoseErrorStats
 from fogsim.run.runner import run_frames
 
 RESULTS_KEYS = [
@@ -278,6 +278,13 @@ def test_format_table1_shows_the_new_figures_compactly():
         ],
         unseen_objects=["box_left_2", "box_right_2"],
         ceiling=CeilingScores(12, 20.0, 60.0),
+        pose_error=PoseErrorStats(
+            frames=5,
+            residual_heading_deg=MedianMax(1.5, 3.0),
+            map_heading_deg=MedianMax(1.25, 2.5),
+            world_heading_deg=MedianMax(1.3, 2.6),
+            residual_tilt_deg=MedianP95Max(0.13, 1.17, 3.16),
+        ),
     )
     assert format_table1(report).splitlines()[2:] == [
         "cells labelled right: 90.0 % of 400 seen",
@@ -288,6 +295,8 @@ def test_format_table1_shows_the_new_figures_compactly():
         " [nearest edge the map allows, undecided band] mm:",
         "  sill: x_min -80.0 / 120.0 [0.0, 160.0]  x_max 4.0 / 40.0",
         "  step_1: x_min - / - [-, -]",
+        "camera left by the corrections (as mapped; every frame in frames.csv): "
+        "tilt median 0.13 / p95 1.17 / max 3.16°, heading median 1.25 / max 2.50°",
         "never seen: box_left_2, box_right_2",
         "ceiling: 12 cells, |error| median 20.0 / max 60.0 mm",
     ]

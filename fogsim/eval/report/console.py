@@ -6,7 +6,7 @@ from itertools import groupby
 
 from msgspec import UnsetType
 
-from fogsim.eval.report.schema import Report, Safety, StepEdge
+from fogsim.eval.report.schema import PoseErrorStats, Report, Safety, StepEdge
 
 NO_TRUTH = "Table I: no ground truth (nothing to score)."
 
@@ -27,6 +27,22 @@ def _safety_line(safety: Safety) -> str:
         f"floor height error p50 {_num(errors.p50)} / p95 {_num(errors.p95)} / "
         f"max {_num(errors.max)} mm"
     )
+
+
+def _pose_line(pose: PoseErrorStats) -> str | None:
+    """The tilt and heading the corrections left, or None when the report has neither."""
+    tilt, heading = pose.residual_tilt_deg, pose.map_heading_deg
+    if isinstance(tilt, UnsetType) or isinstance(heading, UnsetType):
+        return None
+    return (
+        f"camera left by the corrections (as mapped; every frame in frames.csv): "
+        f"tilt median {_deg(tilt.median)} / p95 {_deg(tilt.p95)} / max {_deg(tilt.max)}°, "
+        f"heading median {_deg(heading.median)} / max {_deg(heading.max)}°"
+    )
+
+
+def _deg(value: float | None) -> str:
+    return "-" if value is None else f"{value:.2f}"
 
 
 def _step_edge_lines(edges: tuple[StepEdge, ...]) -> list[str]:
@@ -63,9 +79,9 @@ def format_table1(report: Report) -> str:
     """The run's figures as text, one compact line each.
 
     Table I (FOG and averaging side by side), cell accuracy, per-class recall and precision,
-    unsafe cells, step edges, objects never seen, the ceiling, the events (``cleared`` and
-    ``floor again``), and a WARNING line per reason the run is poor (also without ground
-    truth).
+    unsafe cells, step edges, the tilt and heading the corrections left, objects never seen,
+    the ceiling, the events (``cleared`` and ``floor again``), and a WARNING line per reason
+    the run is poor (also without ground truth).
     """
     if report.table1 is None or not report.table1.fog:
         return "\n".join([NO_TRUTH, *format_warnings(report)])
@@ -94,6 +110,9 @@ def format_table1(report: Report) -> str:
         lines.append(_safety_line(report.safety))
     if report.step_edges:
         lines.extend(_step_edge_lines(report.step_edges))
+    pose_line = _pose_line(report.pose_error)
+    if pose_line is not None:
+        lines.append(pose_line)
     if report.unseen_objects:
         lines.append(f"never seen: {', '.join(report.unseen_objects)}")
     if report.ceiling is not None:
