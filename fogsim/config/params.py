@@ -79,11 +79,12 @@ class PipelineParams:
             (17.4) → 8.3 (14.8) mm, `down_slant_turn`'s step_1 7.0 (16.0) → 1.7 (4.2) mm and
             platform 4.8 (14.3) → 1.8 (4.6) mm, `stairs_35_65_100` 38 (124) → 28 (77) unsafe
             cells, the share of frames whose applied tilt is more than 1° off over 43 stereo
-            recordings (`eth_stairs` among them) 2.98 → 2.46 %; but `down_shallow_steps` 58 (116) → 235 (831) unsafe
-            cells (seeds 5 and 7 fail at the start again: one more frame taken 2.2° tilted,
-            the far ground misread, session 45's start rule no longer enough), `down_low_steps`
-            122 (217) → 140 (262), the zig-zag stage's sill 0.83 (1.39) → 4.86 (33.9) mm, the
-            stage 1.75 (4) → 2.75 (8) and `talos_course`'s worst seed 75 → 90 unsafe cells.
+            recordings (`eth_stairs` among them) 2.98 → 2.46 %; but `down_shallow_steps` 58
+            (116) → 235 (831) unsafe cells (seeds 5 and 7 fail at the start again: one more
+            frame taken 2.2° tilted, the far ground misread, session 45's start rule no longer
+            enough), `down_low_steps` 122 (217) → 140 (262), the zig-zag stage's sill 0.83
+            (1.39) → 4.86 (33.9) mm, the stage 1.75 (4) → 2.75 (8) and `talos_course`'s worst
+            seed 75 → 90 unsafe cells.
             The start's tilt is what fails there: the first frames' planes join small steps
             into ramps, which any process noise lets through.
         heading_rebuild_frames: When the heading's first estimate comes, the maps are rebuilt
