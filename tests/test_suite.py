@@ -10,7 +10,7 @@ from test_seeds import StepEdge, contract_report, event, fake_runs, seed_run
 from fogsim.cli import main
 from fogsim.errors import FogsimError, ReportError
 from fogsim.eval.report.io import load_json, load_report, write_json
-from fogsim.eval.report.schema import MedianMax, PoseErrorStats
+from fogsim.eval.report.schema import MedianMax, MedianP95Max, PoseErrorStats
 from fogsim.paths import HOLDOUT_DIR, SCENARIOS_DIR
 from fogsim.run.baseline import (
     NEVER_FRAMES,
@@ -93,6 +93,43 @@ def test_report_metrics_take_the_residual_heading_median_when_the_run_has_one():
     for name in ("residual_heading_deg", "map_heading_deg", "world_heading_deg"):
         heading = rule_for(f"pose_error.{name}.median")
         assert heading.worse_by(0.64, 0.4) < 0 and heading.worse_by(0.66, 0.4) > 0
+
+
+def test_report_metrics_take_the_tilt_left_when_the_run_has_it_and_check_it_by_its_rule(
+    tmp_path,
+):
+    pose = PoseErrorStats(
+        frames=5,
+        residual_heading_deg=MedianMax(median=0.4, max=2.5),
+        map_heading_deg=MedianMax(median=0.3, max=2.5),
+        world_heading_deg=MedianMax(median=0.6, max=3.0),
+    )
+    without = dataclasses.replace(REPORT, pose_error=pose)
+    with_tilt = dataclasses.replace(
+        REPORT,
+        pose_error=dataclasses.replace(
+            pose, residual_tilt_deg=MedianP95Max(median=0.13, p95=1.17, max=3.16)
+        ),
+    )
+    metrics = report_metrics(with_tilt)
+    assert metrics.keys() - report_metrics(without).keys() == {
+        "pose_error.residual_tilt_deg.median",
+        "pose_error.residual_tilt_deg.p95",
+    }
+    assert metrics["pose_error.residual_tilt_deg.median"] == 0.13
+    assert metrics["pose_error.residual_tilt_deg.p95"] == 1.17
+    # A report written before the field existed loads without it (and gives no tilt figure).
+    write_json(tmp_path / "old.json", without)
+    assert report_metrics(load_report(tmp_path / "old.json")) == report_metrics(without)
+    write_json(tmp_path / "new.json", with_tilt)
+    assert load_report(tmp_path / "new.json").pose_error == with_tilt.pose_error
+    # 0.05° on the median (1.7 mm at 2 m), 0.1° on the 95th percentile.
+    median, p95 = (
+        rule_for("pose_error.residual_tilt_deg.median"),
+        rule_for("pose_error.residual_tilt_deg.p95"),
+    )
+    assert median.worse_by(0.17, 0.13) < 0 and median.worse_by(0.19, 0.13) > 0
+    assert p95.worse_by(1.26, 1.17) < 0 and p95.worse_by(1.28, 1.17) > 0
 
 
 def test_report_metrics_take_an_edges_band_figures_when_the_report_has_them():
