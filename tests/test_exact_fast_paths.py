@@ -327,7 +327,20 @@ def test_pose_error_accumulator_gives_the_per_frame_errors_bit_for_bit(count: in
                         )
                     )
                 )
-    got_rows, got_residuals, got_mapped, got_world = accumulator._errors_per_frame()
+    errors = accumulator.per_frame()
+    known = np.isfinite(errors.camera_rotation_deg)
+    got_rows = np.column_stack(
+        [
+            errors.camera_rotation_deg[known],
+            errors.camera_translation_mm[known],
+            errors.world_rotation_deg[known],
+            errors.world_translation_mm[known],
+        ]
+    )
+    processed = np.isfinite(errors.residual_heading_deg)
+    got_residuals = np.abs(errors.residual_heading_deg[processed])
+    got_mapped = np.abs(errors.map_heading_deg[processed])
+    got_world = np.abs(errors.world_heading_deg[processed])
     np.testing.assert_allclose(got_world, np.array(world).reshape(-1), rtol=0, atol=1e-12)
     expected_rows = np.array(rows).reshape(-1, 4)
     assert got_rows.tobytes() == expected_rows.tobytes()

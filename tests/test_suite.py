@@ -69,16 +69,17 @@ def test_report_metrics_flatten_the_report():
     assert poor_reasons(contract_report(poor=["map is empty"])) == ("map is empty",)
 
 
+# The heading left after the corrections, as a run with a heading estimate reports it.
+HEADINGS = PoseErrorStats(
+    frames=5,
+    residual_heading_deg=MedianMax(median=0.4, max=2.5),
+    map_heading_deg=MedianMax(median=0.3, max=2.5),
+    world_heading_deg=MedianMax(median=0.6, max=3.0),
+)
+
+
 def test_report_metrics_take_the_residual_heading_median_when_the_run_has_one():
-    with_heading = dataclasses.replace(
-        REPORT,
-        pose_error=PoseErrorStats(
-            frames=5,
-            residual_heading_deg=MedianMax(median=0.4, max=2.5),
-            map_heading_deg=MedianMax(median=0.3, max=2.5),
-            world_heading_deg=MedianMax(median=0.6, max=3.0),
-        ),
-    )
+    with_heading = dataclasses.replace(REPORT, pose_error=HEADINGS)
     metrics = report_metrics(with_heading)
     assert metrics["pose_error.residual_heading_deg.median"] == 0.4
     assert metrics["pose_error.map_heading_deg.median"] == 0.3
@@ -98,17 +99,11 @@ def test_report_metrics_take_the_residual_heading_median_when_the_run_has_one():
 def test_report_metrics_take_the_tilt_left_when_the_run_has_it_and_check_it_by_its_rule(
     tmp_path,
 ):
-    pose = PoseErrorStats(
-        frames=5,
-        residual_heading_deg=MedianMax(median=0.4, max=2.5),
-        map_heading_deg=MedianMax(median=0.3, max=2.5),
-        world_heading_deg=MedianMax(median=0.6, max=3.0),
-    )
-    without = dataclasses.replace(REPORT, pose_error=pose)
+    without = dataclasses.replace(REPORT, pose_error=HEADINGS)
     with_tilt = dataclasses.replace(
         REPORT,
         pose_error=dataclasses.replace(
-            pose, residual_tilt_deg=MedianP95Max(median=0.13, p95=1.17, max=3.16)
+            HEADINGS, residual_tilt_deg=MedianP95Max(median=0.13, p95=1.17, max=3.16)
         ),
     )
     metrics = report_metrics(with_tilt)

@@ -24,7 +24,6 @@ import math
 from dataclasses import dataclass
 
 import numpy as np
-from msgspec import UNSET
 from numpy.typing import NDArray
 
 from fogsim.data.frame import Frame
@@ -170,139 +169,101 @@ class PoseErrorAccumulator:
     def per_frame(self) -> FramePoseErrors:
         """Every frame's errors (:class:`FramePoseErrors`), aligned with the frames added.
 
-        The same arithmetic as :meth:`stats`, the yaws signed: the report's medians are those
-        of these columns' magnitudes over the frames with a corrected pose as processed.
+        The matrix products for all frames at once, each yaw by :mod:`math` per frame, as
+        :func:`heading_error_deg` takes it: the same numbers bit for bit as that function on
+        each frame (``tests/test_exact_fast_paths.py``).
         """
         n = len(self._world_true)
         columns = np.full((8, n), np.nan)
-        if n:
-            world_true = np.stack(self._world_true)
-            robot_true = np.stack(self._robot_true)
-            known = np.isfinite(world_true).all(axis=(1, 2)) & np.isfinite(robot_true).all(axis=1)
-            positions = np.flatnonzero(known)
-            if positions.size:
-                camera_true = np.linalg.inv(_planar_matrices(robot_true[known])) @ world_true[known]
-                camera_believed = np.stack(self._camera_believed)[known]
-                robot_believed = _planar_matrices(np.stack(self._robot_believed)[known])
-                errors = (
-                    *_errors(camera_believed, camera_true),
-                    *_errors(robot_believed @ camera_believed, world_true[known]),
-                )
-                for row, values in enumerate(errors):
-                    columns[row, positions] = values
-                # The pose each frame was last mapped with (None: never mapped with one).
-                lasts = [self._remapped.get(i, self._corrected[i]) for i in positions.tolist()]
-                mapped = np.array([last is not None for last in lasts], dtype=bool)
-                if mapped.any():
-                    rows = positions[mapped]
-                    last = np.stack([m for m in lasts if m is not None])
-                    true_rotation = camera_true[mapped, :3, :3]
-                    error = last[:, :3, :3] @ true_rotation.transpose(0, 2, 1)
-                    columns[4, rows] = np.degrees(np.arccos(np.clip(error[:, 2, 2], -1.0, 1.0)))
-                    columns[6, rows] = _yaw_deg(error)
-                    in_world = robot_believed[mapped] @ last
-                    columns[7, rows] = _yaw_deg(
-                        in_world[:, :3, :3] @ world_true[rows, :3, :3].transpose(0, 2, 1)
-                    )
-                processed = [
-                    (k, i)
-                    for k, i in enumerate(positions.tolist())
-                    if self._corrected[i] is not None
-                ]
-                if processed:
-                    ks, rows = (np.array(v) for v in zip(*processed, strict=True))
-                    first = np.stack([self._corrected[i] for i in rows.tolist()])
-                    columns[5, rows] = _yaw_deg(
-                        first[:, :3, :3] @ camera_true[ks, :3, :3].transpose(0, 2, 1)
-                    )
-        return FramePoseErrors(*columns)
-
-    def stats(self) -> PoseErrorStats:
-        """Median and max of the errors; only ``frames=0`` when no frame had a true pose.
-
-        Per frame with a finite true pose: the rotation [deg] and translation [mm] between
-        the believed and the true camera pose in the robot frame (the true one is the true
-        camera pose brought into the true robot frame) and in the world (the believed one
-        through the believed robot pose). ``residual_heading_deg`` (of |yaw|, the yaw between
-        the corrected and the true camera pose in the robot frame) is set when some such frame
-        was added with its corrected camera pose, and ``map_heading_deg`` with it (the same
-        with the pose of each frame's last mapping, :meth:`remapped`), and ``world_heading_deg``
-        with them (of |yaw| between that pose brought into the world by the believed robot pose
-        and the true camera pose in the world), and ``residual_tilt_deg`` (median, 95th
-        percentile, max of :meth:`per_frame`'s column: the frames mapped with a corrected pose).
-        """
-        rows, residual, residual_mapped, world_mapped = self._errors_per_frame()
-        if rows.shape[0] == 0:
-            return PoseErrorStats(frames=0)
-        stats = PoseErrorStats(
-            frames=int(rows.shape[0]),
-            camera_in_robot=PoseErrorPair(_median_max(rows[:, 0]), _median_max(rows[:, 1])),
-            camera_in_world=PoseErrorPair(_median_max(rows[:, 2]), _median_max(rows[:, 3])),
-        )
-        if residual.size == 0:
-            return stats
-        tilt = self.per_frame().residual_tilt_deg
-        tilt = tilt[np.isfinite(tilt)]
-        return dataclasses.replace(
-            stats,
-            residual_heading_deg=_median_max(residual),
-            map_heading_deg=_median_max(residual_mapped),
-            world_heading_deg=_median_max(world_mapped),
-            residual_tilt_deg=_median_p95_max(tilt) if tilt.size else UNSET,
-        )
-
-    def _errors_per_frame(
-        self,
-    ) -> tuple[NDArray[np.float64], ...]:
-        """The errors of the frames with a finite true pose, in the order added.
-
-        Returns:
-            (N, 4) rotation [deg] and translation [mm] in the robot frame, then in the world;
-            (M,) |residual heading| [deg] of those of them added with a corrected pose, as
-            added and as last mapped (:meth:`remapped`), in the robot frame; (M,) the last
-            in the world.
-        """
-        empty = (np.empty((0, 4)), np.empty(0), np.empty(0), np.empty(0))
-        if not self._world_true:
-            return empty
+        if not n:
+            return FramePoseErrors(*columns)
         world_true = np.stack(self._world_true)
         robot_true = np.stack(self._robot_true)
         known = np.isfinite(world_true).all(axis=(1, 2)) & np.isfinite(robot_true).all(axis=1)
-        if not known.any():
-            return empty
+        positions = np.flatnonzero(known)
+        if not positions.size:
+            return FramePoseErrors(*columns)
         world_true = world_true[known]
         camera_true = np.linalg.inv(_planar_matrices(robot_true[known])) @ world_true
         camera_believed = np.stack(self._camera_believed)[known]
         robot_believed = _planar_matrices(np.stack(self._robot_believed)[known])
-        world_believed = robot_believed @ camera_believed
-        rows = np.column_stack(
-            [*_errors(camera_believed, camera_true), *_errors(world_believed, world_true)]
+        errors = (
+            *_errors(camera_believed, camera_true),
+            *_errors(robot_believed @ camera_believed, world_true),
         )
-        positions = np.flatnonzero(known).tolist()
-        corrected = [self._corrected[i] for i in positions]
-        with_corrected = np.array([c is not None for c in corrected], dtype=bool)
-        if not with_corrected.any():
-            return rows, np.empty(0), np.empty(0), np.empty(0)
-        true_rotations = camera_true[with_corrected, :3, :3]
-        first = [c for c in corrected if c is not None]
-        last = [
-            self._remapped.get(i, c)
-            for i, c in zip(positions, corrected, strict=True)
-            if c is not None
-        ]
-        last_in_world = list(robot_believed[with_corrected] @ np.stack(last))
-        return (
-            rows,
-            _abs_yaw_deg(first, true_rotations),
-            _abs_yaw_deg(last, true_rotations),
-            _abs_yaw_deg(last_in_world, world_true[with_corrected, :3, :3]),
-        )
+        for row, values in enumerate(errors):
+            columns[row, positions] = values
+        firsts = [self._corrected[i] for i in positions.tolist()]
+        processed = np.array([first is not None for first in firsts], dtype=bool)
+        if processed.any():
+            columns[5, positions[processed]] = _yaw_deg(
+                [first for first in firsts if first is not None], camera_true[processed, :3, :3]
+            )
+        # The pose each frame was last mapped with (None: never mapped with one).
+        lasts = [self._remapped.get(i, first) for i, first in zip(positions, firsts, strict=True)]
+        mapped = np.array([last is not None for last in lasts], dtype=bool)
+        if mapped.any():
+            last = np.stack([m for m in lasts if m is not None])
+            rotation = np.stack([m[:3, :3] for m in last])
+            tilt_cos = (rotation @ camera_true[mapped, :3, :3].transpose(0, 2, 1))[:, 2, 2]
+            columns[4, positions[mapped]] = np.degrees(np.arccos(np.clip(tilt_cos, -1.0, 1.0)))
+            columns[6, positions[mapped]] = _yaw_deg(list(last), camera_true[mapped, :3, :3])
+            columns[7, positions[mapped]] = _yaw_deg(
+                list(robot_believed[mapped] @ last), world_true[mapped, :3, :3]
+            )
+        return FramePoseErrors(*columns)
+
+    def stats(self) -> PoseErrorStats:
+        """:func:`pose_error_stats` of :meth:`per_frame`."""
+        return pose_error_stats(self.per_frame())
 
 
-def _abs_yaw_deg(
+def pose_error_stats(errors: FramePoseErrors) -> PoseErrorStats:
+    """Median and max of the errors; only ``frames=0`` when no frame had a true pose.
+
+    Over the columns of ``errors`` (:meth:`PoseErrorAccumulator.per_frame`). Per frame with a
+    finite true pose: the rotation [deg] and translation [mm] between the believed and the
+    true camera pose in the robot frame (the true one is the true camera pose brought into
+    the true robot frame) and in the world (the believed one through the believed robot
+    pose). ``residual_heading_deg`` (of |yaw|, the yaw between the corrected and the true
+    camera pose in the robot frame) is set when some such frame was added with its corrected
+    camera pose, and ``map_heading_deg`` with it (the same with the pose of each frame's last
+    mapping, :meth:`PoseErrorAccumulator.remapped`), and ``world_heading_deg`` with them (of
+    |yaw| between that pose brought into the world by the believed robot pose and the true
+    camera pose in the world), all three over those frames; ``residual_tilt_deg`` (median,
+    95th percentile, max) over every frame mapped with a corrected pose (deferred frames too).
+    """
+    known = np.isfinite(errors.camera_rotation_deg)
+    if not known.any():
+        return PoseErrorStats(frames=0)
+    stats = PoseErrorStats(
+        frames=int(np.count_nonzero(known)),
+        camera_in_robot=PoseErrorPair(
+            _median_max(errors.camera_rotation_deg[known]),
+            _median_max(errors.camera_translation_mm[known]),
+        ),
+        camera_in_world=PoseErrorPair(
+            _median_max(errors.world_rotation_deg[known]),
+            _median_max(errors.world_translation_mm[known]),
+        ),
+    )
+    processed = np.isfinite(errors.residual_heading_deg)
+    if not processed.any():
+        return stats
+    tilt = errors.residual_tilt_deg[np.isfinite(errors.residual_tilt_deg)]
+    return dataclasses.replace(
+        stats,
+        residual_heading_deg=_median_max(np.abs(errors.residual_heading_deg[processed])),
+        map_heading_deg=_median_max(np.abs(errors.map_heading_deg[processed])),
+        world_heading_deg=_median_max(np.abs(errors.world_heading_deg[processed])),
+        residual_tilt_deg=_median_p95_max(tilt),
+    )
+
+
+def _yaw_deg(
     corrected: list[NDArray[np.float64]], true_rotations: NDArray[np.float64]
 ) -> NDArray[np.float64]:
-    """(M,) |yaw| [deg] between M 4×4 corrected camera poses and M 3×3 true rotations.
+    """(M,) signed yaw [deg] between M 4×4 corrected camera poses and M 3×3 true rotations.
 
     :func:`heading_error_deg` of each pair, with its one matrix product done for the stack.
     """
@@ -310,18 +271,8 @@ def _abs_yaw_deg(
     error = rotation @ true_rotations.transpose(0, 2, 1)
     return np.array(
         [
-            abs(math.degrees(math.atan2(e10 - e01, e00 + e11)))
-            for (e00, e01, _), (e10, e11, _), _ in error.tolist()
-        ]
-    )
-
-
-def _yaw_deg(error: NDArray[np.float64]) -> NDArray[np.float64]:
-    """(M,) signed yaw [deg] of M 3×3 error rotations, as :func:`heading_error_deg` takes it."""
-    return np.array(
-        [
             math.degrees(math.atan2(e10 - e01, e00 + e11))
-            for (e00, e01, _), (e10, e11, _), _ in error[:, :3, :3].tolist()
+            for (e00, e01, _), (e10, e11, _), _ in error.tolist()
         ]
     )
 

@@ -74,8 +74,7 @@ class FrameSegmenter:
             else None
         )
         # The believed camera rotations of the last `pipe.tilt_turn_frames` frames.
-        self._turn_frames = pipe.tilt_turn_frames
-        self._camera_rotations: deque[NDArray[np.float64]] = deque(maxlen=self._turn_frames)
+        self._camera_rotations: deque[NDArray[np.float64]] = deque(maxlen=pipe.tilt_turn_frames)
 
     def __call__(self, frame: Frame) -> SegmentationResult:
         """The frame's segmentation, rotated by the tilt filtered up to this frame."""

@@ -30,7 +30,7 @@ from fogsim.eval.events import EventTracker, TruthProvider
 from fogsim.eval.frame_log import FrameLog, write_frame_log
 from fogsim.eval.maps import write_maps
 from fogsim.eval.metrics import score_archive
-from fogsim.eval.pose_error import PoseErrorAccumulator
+from fogsim.eval.pose_error import PoseErrorAccumulator, pose_error_stats
 from fogsim.eval.report import Report, build_report, write_report
 from fogsim.eval.report.schema import Source
 from fogsim.eval.result import RunResult, Snapshot
@@ -274,6 +274,7 @@ def _run_pipeline(
         rules = truth_params(scenario, pipeline.mapper_params)
         final_truth = truth.rasterize(archive.cell_centers_xy(), cell_m, params=rules)
         scores = score_archive(archive, truth, final_truth, pipeline.mapper_params.layer_m)
+    frame_errors = pose_errors.per_frame()
     return RunResult(
         frames=len(timings),
         withdrawn=sum(t.withdrawn for t in timings),
@@ -288,7 +289,7 @@ def _run_pipeline(
         archive=archive,
         scores=scores,
         events=tracker.results() if tracker is not None else (),
-        pose_error=pose_errors.stats(),
+        pose_error=pose_error_stats(frame_errors),
         params=run_params,
         snapshots=fig5.snapshots() if fig5 is not None else (),
         final_truth=final_truth,
@@ -299,7 +300,7 @@ def _run_pipeline(
             withdrawn=np.array([t.withdrawn for t in timings], dtype=bool),
             z_matched=np.array([t.z_matched for t in timings], dtype=bool),
             ground_plane_found=np.array([t.ground_plane_found for t in timings], dtype=bool),
-            pose=pose_errors.per_frame(),
+            pose=frame_errors,
         ),
     )
 
