@@ -17,6 +17,7 @@ from numpy.typing import ArrayLike, NDArray
 from mapper.above_top import MIN_HIT_POINTS, update_above_top
 from mapper.errors import InvalidParameterError
 from mapper.floor_cover import accumulate_cover, frame_floor_heights
+from mapper.floor_edges import count_split_frames, split_edge_mask
 from mapper.floor_map import frame_verdicts, update_floor, verify_floor
 from mapper.fog import ceiling_map, mark_raised_rims, mark_unconfirmed_floors, update_fog_area
 from mapper.grid import (
@@ -101,6 +102,16 @@ class FloorObstacleMapper:
         self._floor_weights = np.zeros((p.nx, p.ny))
         self._floor_votes = np.zeros((p.nx, p.ny), dtype=np.int32)
         self._floor_frame_votes = np.zeros((p.nx, p.ny), dtype=np.int32)
+        # Frames that split each column between two planes, of those with two floor points
+        # or more, and the scratch that counts them (`mapper.floor_edges`).
+        self._split_frames = np.zeros((p.nx, p.ny), dtype=np.int32)
+        self._lower_split_frames = np.zeros((p.nx, p.ny), dtype=np.int32)
+        self._multi_frames = np.zeros((p.nx, p.ny), dtype=np.int32)
+        self._split_scratch = (
+            np.full(p.nx * p.ny, np.inf),
+            np.full(p.nx * p.ny, -np.inf),
+            np.zeros(p.nx * p.ny, dtype=np.int32),
+        )
         self._cover_ref = np.full((p.nx, p.ny), np.nan)
         self._cover_ends = np.zeros((p.nx, p.ny), dtype=np.int32)
         self._cover_passes = np.zeros((p.nx, p.ny), dtype=np.int32)
@@ -276,6 +287,17 @@ class FloorObstacleMapper:
             p.floor_range_power,
             p.delta_m,
         )
+        # Kept whether or not the FOG reads them, as the votes are (`mapper.floor_edges`).
+        count_split_frames(
+            self._split_frames.reshape(-1),
+            self._lower_split_frames.reshape(-1),
+            self._multi_frames.reshape(-1),
+            *self._split_scratch,
+            self._floor.reshape(-1),
+            point_cell,
+            heights,
+            p.edge_split_gap_m,
+        )
         if p.floor_pass_fraction > 0.0:
             accumulate_cover(
                 self._floor,
@@ -394,6 +416,20 @@ class FloorObstacleMapper:
                 iy0 - ring,
                 iy1 + ring,
             )
+        if p.edge_split_share > 0.0:  # `mapper.floor_edges`, output only
+            window = (
+                slice(max(ix0 - ring, 0), min(ix1 + ring, p.nx)),
+                slice(max(iy0 - ring, 0), min(iy1 + ring, p.ny)),
+            )
+            multi = self._multi_frames[window]
+            edges = split_edge_mask(self._split_frames[window], multi, p.edge_split_share)
+            if p.edge_split_lower_share > 0.0:
+                edges |= split_edge_mask(
+                    self._lower_split_frames[window], multi, p.edge_split_lower_share
+                )
+            edges &= self._fog_types[window] == CellType.FLOOR
+            self._fog_types[window][edges] = CellType.UNKNOWN
+            self._fog_heights[window][edges] = np.nan
         if p.above_top_reach_m > p.delta_m:  # `mapper.above_top`, over every other rule
             # The window the rules above rewrote (the stale area and its ring): a column whose
             # level changed lies in the stale area; the others already carry it.
@@ -486,6 +522,9 @@ class FloorObstacleMapper:
         scroll_xy(self._floor_weights, sx, sy, 0.0)
         scroll_xy(self._floor_votes, sx, sy, 0)
         scroll_xy(self._floor_frame_votes, sx, sy, 0)
+        scroll_xy(self._split_frames, sx, sy, 0)
+        scroll_xy(self._lower_split_frames, sx, sy, 0)
+        scroll_xy(self._multi_frames, sx, sy, 0)
         scroll_xy(self._cover_ref, sx, sy, np.nan)
         scroll_xy(self._cover_ends, sx, sy, 0)
         scroll_xy(self._cover_passes, sx, sy, 0)

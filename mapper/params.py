@@ -464,6 +464,13 @@ class MapperParams:
             cells 5.1 (13) as before; `simulated_world` and `table` stereo floor recall −0.07
             and −0.09 points, obstacle precision −0.7 and −0.3 points; every other figure
             of both suites the same. 0 or at most ``delta_m``: off, the paper's grid.
+        edge_split_share: Beyond the paper: a floor is unknown when at least this share of
+            the frames that gave its column two floor points or more gave it points of planes
+            more than ``edge_split_gap_m`` apart (and at least 2 such frames): a step's edge
+            runs through the cell (`mapper.floor_edges`), which the truth calls an obstacle
+            and the floor map would give one tread's height. Output only. 0 = off.
+        edge_split_gap_m: With ``edge_split_share``: the spread of plane heights [m] within
+            one column of one frame that makes it split (`mapper.floor_edges`).
     """
 
     nx: int = 100
@@ -506,6 +513,9 @@ class MapperParams:
     floor_memory: float = 8.0
     floor_range_power: float = 4.0
     above_top_reach_m: float = 0.6
+    edge_split_share: float = 0.0
+    edge_split_gap_m: float = 0.015
+    edge_split_lower_share: float = 0.0
 
     def __post_init__(self) -> None:
         def check(name: str, kind: type, allowed: str, ok=lambda _: True) -> None:
@@ -544,6 +554,8 @@ class MapperParams:
         check("p_max", float, "in (0.5, 1)", lambda v: 0.5 < v < 1.0)
         check("nu", float, "in [0, 1]", lambda v: 0.0 <= v <= 1.0)
         check("floor_pass_fraction", float, "in [0, 1) (0: off)", lambda v: 0.0 <= v < 1.0)
+        for name in ("edge_split_share", "edge_split_lower_share"):
+            check(name, float, "in [0, 1] (0: off)", lambda v: 0.0 <= v <= 1.0)
         check(
             "floor_memory",
             float,
@@ -564,6 +576,7 @@ class MapperParams:
             "narrow_rise_m",
             "shadow_reach_m",
             "above_top_reach_m",
+            "edge_split_gap_m",
         ):
             check(name, float, "a finite float >= 0 [m]", lambda v: math.isfinite(v) and v >= 0)
         check("max_range_m", float, "a float > 0 [m] (inf: no limit)", lambda v: v > 0)

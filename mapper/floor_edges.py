@@ -1,0 +1,126 @@
+"""Columns a step's edge may run through: two floor heights in one frame (beyond the paper).
+
+A 4 cm cell over a riser holds part of each tread. The floor map keeps one height per cell
+(eq. 9 with votes: the surface most of its points come from), so the FOG calls such a cell a
+floor at one tread's height, and a foot put on it stands partly on the other tread. The truth
+(DESIGN.md "Ground truth") calls it an obstacle: a riser's face lies in it. On the shipped
+stage every edge lies on a cell boundary and no cell holds one; on `stage_offgrid` (the same
+stage 20 mm and 13 mm off the lattice) the FOG labels such cells floor in depth mode too.
+
+A frame that sees both treads in such a column gives it floor points of two planes whose
+heights differ by the riser. This module counts, per column, the frames that gave it two
+floor points or more (``multi``) and those whose floor points' plane heights spread more than
+a gap (``split``), apart by where the stored floor lies: above the split's lower plane (the
+column holds the higher surface and the lower one shows in it: ``split_frames``) or at it
+(``lower_split_frames``). The FOG may leave a floor unknown where a share of the multi frames
+is split (`split_edge_mask`, `MapperParams.edge_split_share`, `edge_split_lower_share`).
+
+What the counts cannot tell: a riser on the column's boundary from one 1 cm inside it. Pose
+error and the segmentation carry a plane's points 1–2 cm across an edge, so the column on
+either side of a riser that lies on a boundary is split too: on the shipped stage (depth,
+seed 1) the lower treads' last columns in 31–49 % of their multi frames, the room's sill's
+first column in about 30 %, against 26–70 % for the columns a riser runs through on
+`stage_offgrid`. So the rule is off by default (the README's "Known limitations" has the
+trade measured).
+
+Both counts are halved when ``multi`` reaches `SPLIT_FRAME_CAP`, so they are bounded and a
+scene that changed (a box taken away) is followed within some tens of frames.
+"""
+
+from __future__ import annotations
+
+import numba
+import numpy as np
+from numpy.typing import NDArray
+
+#: ``multi`` at which both counts of a column are halved: 64 frames, 5 s at 12.5 frames/s,
+#: so an edge that went away (a box removed) loses its share within a few seconds of being
+#: seen, while a riser the robot watches while walking up to it keeps a share measured over
+#: many frames.
+SPLIT_FRAME_CAP = 64
+#: Fewest split frames a column needs before its share counts: one frame's stray point of
+#: another plane (a tread's points a centimetre past its edge) never makes an edge.
+SPLIT_MIN_FRAMES = 2
+
+
+@numba.njit(cache=True, no_cfunc_wrapper=True, nogil=True, boundscheck=False, error_model="numpy")
+def count_split_frames(
+    split_frames: NDArray[np.int32],
+    lower_split_frames: NDArray[np.int32],
+    multi_frames: NDArray[np.int32],
+    low: NDArray[np.float64],
+    high: NDArray[np.float64],
+    count: NDArray[np.int32],
+    floor: NDArray[np.float64],
+    point_cell: NDArray[np.int64],
+    floor_heights: NDArray[np.float64],
+    gap: float,
+) -> int:
+    """Count one frame in the split and multi frames of every column it sees (module doc).
+
+    Args:
+        split_frames: (nx*ny,) frames whose floor points in the column spread over more than
+            ``gap`` in plane height under a stored floor more than ``gap`` above their lowest
+            plane; updated in place.
+        lower_split_frames: (nx*ny,) the other split frames: the stored floor at (or within
+            ``gap`` of) the lowest plane, or none; updated in place.
+        multi_frames: (nx*ny,) frames that gave the column two floor points or more; updated
+            in place.
+        low: (nx*ny,) scratch, all ``inf`` on entry and on return.
+        high: (nx*ny,) scratch, all ``-inf`` on entry and on return.
+        count: (nx*ny,) scratch, all zero on entry and on return.
+        floor: (nx*ny,) stored floor heights [m] (NaN = none): a split counts only under a
+            floor stored above its lower plane.
+        point_cell: (N,) column index ``ix*ny + iy`` of each point, negative if dropped.
+        floor_heights: (N,) height of each point's plane [m]; non-finite = not floor.
+        gap: Spread of plane heights [m] above which a column is split in this frame.
+
+    Returns:
+        How many columns were split in this frame.
+    """
+    for i in range(point_cell.shape[0]):
+        col = point_cell[i]
+        h = floor_heights[i]
+        if col < 0 or not np.isfinite(h):
+            continue
+        count[col] += 1
+        low[col] = min(low[col], h)
+        high[col] = max(high[col], h)
+    split = 0
+    # Once per column the frame gave floor points (``count`` zeroed once counted).
+    for i in range(point_cell.shape[0]):
+        col = point_cell[i]
+        if col < 0 or count[col] == 0:
+            continue
+        if count[col] >= 2:
+            multi_frames[col] += 1
+            if high[col] - low[col] > gap:
+                if floor[col] - low[col] > gap:
+                    split_frames[col] += 1
+                else:
+                    lower_split_frames[col] += 1
+                split += 1
+            if multi_frames[col] >= SPLIT_FRAME_CAP:
+                multi_frames[col] //= 2
+                split_frames[col] //= 2
+                lower_split_frames[col] //= 2
+        count[col] = 0
+        low[col] = np.inf
+        high[col] = -np.inf
+    return split
+
+
+def split_edge_mask(
+    split_frames: NDArray[np.int32], multi_frames: NDArray[np.int32], share: float
+) -> NDArray[np.bool_]:
+    """Columns a step's edge runs through: split in at least ``share`` of their multi frames.
+
+    Args:
+        split_frames: (...) split frames of the columns (`count_split_frames`).
+        multi_frames: (...) multi frames of the same columns.
+        share: Least share of split frames (`MapperParams.edge_split_share`), in (0, 1].
+
+    Returns:
+        (...) True where ``split >= SPLIT_MIN_FRAMES`` and ``split >= share * multi``.
+    """
+    return (split_frames >= SPLIT_MIN_FRAMES) & (split_frames >= share * multi_frames)

@@ -1,0 +1,140 @@
+"""Split columns (`mapper.floor_edges`, `MapperParams.edge_split_share`, `edge_split_lower_share`).
+
+A frame splits a column when its floor points there belong to planes more than the gap apart;
+the count goes to ``split_frames`` when the stored floor lies above the lowest plane (the
+column holds the higher surface), else to ``lower_split_frames``. By hand on a few columns,
+then through the mapper: a step whose front edge runs 2 cm inside a cell, seen exactly.
+"""
+
+import numpy as np
+import pytest
+
+from mapper import CellType, FloorObstacleMapper, InvalidParameterError, MapperParams
+from mapper.floor_edges import (
+    SPLIT_FRAME_CAP,
+    SPLIT_MIN_FRAMES,
+    count_split_frames,
+    split_edge_mask,
+)
+from mapper.intrinsics import PinholeIntrinsics
+from mapper.synthetic import Box, camera_rays_world, cast_frame
+
+GAP_M = 0.015
+N = np.nan
+
+
+def count(floor, point_cell, heights, split=None, lower=None, multi=None):
+    """One frame counted over ``len(floor)`` columns; returns the three counts and the result."""
+    n = len(floor)
+    split = np.zeros(n, np.int32) if split is None else np.array(split, np.int32)
+    lower = np.zeros(n, np.int32) if lower is None else np.array(lower, np.int32)
+    multi = np.zeros(n, np.int32) if multi is None else np.array(multi, np.int32)
+    low, high, seen = np.full(n, np.inf), np.full(n, -np.inf), np.zeros(n, np.int32)
+    result = count_split_frames(
+        split,
+        lower,
+        multi,
+        low,
+        high,
+        seen,
+        np.array(floor, dtype=float),
+        np.array(point_cell, dtype=np.int64),
+        np.array(heights, dtype=float),
+        GAP_M,
+    )
+    # The scratch is handed back as it came.
+    assert np.all(low == np.inf) and np.all(high == -np.inf) and not seen.any()
+    return split.tolist(), lower.tolist(), multi.tolist(), result
+
+
+def test_a_frame_splits_the_columns_whose_planes_lie_more_than_the_gap_apart():
+    # Column 0: a tread at 0 and one at 31 mm, the stored floor the higher: split.
+    # Column 1: the same planes, the stored floor the lower: a lower split.
+    # Column 2: two planes 5 mm apart (one surface's noise): multi only.
+    # Column 3: one floor point (and a point that is not floor): nothing.
+    # Column 4: no stored floor, two planes: a lower split (nothing stored above them).
+    cells = [0, 0, 1, 1, 2, 2, 3, 3, 4, 4, -1]
+    heights = [0.0, 0.031, 0.031, 0.0, 0.0, 0.005, 0.2, N, 0.0, 0.031, 0.0]
+    split, lower, multi, result = count([0.031, 0.0, 0.0, 0.2, N], cells, heights)
+    assert split == [1, 0, 0, 0, 0]
+    assert lower == [0, 1, 0, 0, 1]
+    assert multi == [1, 1, 1, 0, 1]
+    assert result == 3
+
+
+def test_a_spread_of_exactly_the_gap_is_no_split():
+    split, lower, multi, _ = count([0.015], [0, 0], [0.0, GAP_M])
+    assert (split, lower, multi) == ([0], [0], [1])
+
+
+def test_the_counts_are_halved_at_the_cap():
+    # The 64th multi frame, split: 63 → 64 multi, 40 → 41 split, then all halved.
+    split, lower, multi, _ = count(
+        [0.031], [0, 0], [0.0, 0.031], split=[40], lower=[10], multi=[SPLIT_FRAME_CAP - 1]
+    )
+    assert (split, lower, multi) == ([20], [5], [SPLIT_FRAME_CAP // 2])
+
+
+def test_the_mask_needs_the_share_and_two_frames():
+    split = np.array([1, 2, 2, 3, 0])
+    multi = np.array([1, 10, 6, 10, 0])
+    assert SPLIT_MIN_FRAMES == 2
+    assert split_edge_mask(split, multi, 0.3).tolist() == [False, False, True, True, False]
+    assert split_edge_mask(split, multi, 0.2).tolist() == [False, True, True, True, False]
+
+
+@pytest.mark.parametrize("name", ["edge_split_share", "edge_split_lower_share"])
+def test_shares_outside_0_1_are_refused(name):
+    with pytest.raises(InvalidParameterError, match=name):
+        MapperParams(**{name: 1.5})
+    with pytest.raises(InvalidParameterError, match=name):
+        MapperParams(**{name: -0.1})
+
+
+def test_a_negative_gap_is_refused():
+    with pytest.raises(InvalidParameterError, match="edge_split_gap_m"):
+        MapperParams(edge_split_gap_m=-0.01)
+
+
+# Through the mapper: a 31 mm step seen exactly from 0.9 m up, each frame shifted along x by a
+# believed pose 5–15 mm off, as pose error moves an edge from frame to frame.
+RAYS = camera_rays_world(PinholeIntrinsics.from_fov(88, 72, 47.0, 39.0), 0.0, 30.0)
+CAMERA = np.array([0.0, 0.0, 0.9])
+SHIFTS_M = (-0.015, 0.005, -0.005, 0.015)
+
+
+def labels(edge_x_m, **params):
+    """FOG labels and heights [mm] at y = 0.02 m: the column at x = 1.02 m and two either side."""
+    step = Box(center_xy=(edge_x_m + 0.5, 0.0), size_xyz=(1.0, 1.6, 0.031))
+    fog = FloorObstacleMapper(MapperParams(**params), center_xy_m=(1.0, 0.0))
+    points, heights = cast_frame(CAMERA, RAYS, (step,))
+    for k in range(8):
+        shift = np.array([SHIFTS_M[k % 4], 0.0, 0.0])
+        fog.update(points + shift, heights, CAMERA + shift)
+    types, fog_heights = fog.fog()
+    ix, iy = fog.cell_of(np.array([[1.02, 0.02, 0.0]]))[0][0][:2]
+    # The lattice: the cell of 1.02 m spans 1.00–1.04 m.
+    assert abs(float(fog.cell_center(ix, iy)[0]) - 1.02) < 1e-9
+    columns = range(ix - 2, ix + 3)
+    return [int(types[i, iy]) for i in columns], [fog_heights[i, iy] * 1000 for i in columns]
+
+
+F, OB, U = int(CellType.FLOOR), int(CellType.OBSTACLE), int(CellType.UNKNOWN)
+ON = {"edge_split_share": 0.3, "edge_split_lower_share": 0.3}
+
+
+def test_the_column_a_step_edge_runs_through_is_unknown_with_the_rule():
+    # The edge 1 cm inside the cell (3 cm of it the step): off, the cell is a floor at the
+    # step's height, which the truth calls an obstacle; on, unknown. The rest as before.
+    off_types, off_heights = labels(1.01)
+    on_types, on_heights = labels(1.01, **ON)
+    assert off_types == [F, OB, F, F, F]
+    assert off_heights[2] == pytest.approx(31.0, abs=0.1)
+    assert on_types == [F, OB, U, F, F]
+    assert np.isnan(on_heights[2])
+
+
+def test_an_edge_on_a_cell_boundary_keeps_its_floors_here():
+    # The edge at 1.00 m, the cell's side: the split frames of the pose's shifts stay below
+    # the share, and every label is what it is without the rule.
+    assert labels(1.00, **ON) == labels(1.00)
