@@ -103,14 +103,20 @@ CAMERA = np.array([0.0, 0.0, 0.9])
 SHIFTS_M = (-0.015, 0.005, -0.005, 0.015)
 
 
-def labels(edge_x_m, **params):
-    """FOG labels and heights [mm] at y = 0.02 m: the column at x = 1.02 m and two either side."""
+def labels(edge_x_m, recenter_x_m=1.0, **params):
+    """FOG labels and heights [mm] at y = 0.02 m: the column at x = 1.02 m and two either side.
+
+    The grid is centred on x = 1 m for 8 frames, then on ``recenter_x_m`` for a ninth (its FOG
+    computed afresh there from the scrolled counts).
+    """
     step = Box(center_xy=(edge_x_m + 0.5, 0.0), size_xyz=(1.0, 1.6, 0.031))
     fog = FloorObstacleMapper(MapperParams(**params), center_xy_m=(1.0, 0.0))
     points, heights = cast_frame(CAMERA, RAYS, (step,))
     for k in range(8):
         shift = np.array([SHIFTS_M[k % 4], 0.0, 0.0])
         fog.update(points + shift, heights, CAMERA + shift)
+    fog.recenter(recenter_x_m, 0.0)
+    fog.update(points, heights, CAMERA)
     types, fog_heights = fog.fog()
     ix, iy = fog.cell_of(np.array([[1.02, 0.02, 0.0]]))[0][0][:2]
     # The lattice: the cell of 1.02 m spans 1.00–1.04 m.
@@ -138,3 +144,8 @@ def test_an_edge_on_a_cell_boundary_keeps_its_floors_here():
     # The edge at 1.00 m, the cell's side: the split frames of the pose's shifts stay below
     # the share, and every label is what it is without the rule.
     assert labels(1.00, **ON) == labels(1.00)
+
+
+def test_the_counts_scroll_with_the_grid():
+    # Recentred 0.4 m (10 cells) on: the unknown cell stays at its place in the world.
+    assert labels(1.01, recenter_x_m=1.4, **ON)[0] == [F, OB, U, F, F]
