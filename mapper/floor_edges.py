@@ -12,21 +12,23 @@ heights differ by the riser. This module counts, per column, the frames that gav
 floor points or more (``multi``) and those whose floor points' plane heights spread more than
 a gap (``split``), apart by where the stored floor lies: above the split's lower plane (the
 column holds the higher surface and the lower one shows in it: ``split_frames``) or at it
-(``lower_split_frames``). The FOG may leave a floor unknown where a share of the multi frames
-is split (`split_edge_mask`, `MapperParams.edge_split_share`, `edge_split_lower_share`).
+(``lower_split_frames``). The FOG leaves a floor unknown where a share of the multi frames is
+split (`split_edge_mask`, `MapperParams.edge_split_share`, `edge_split_lower_share`) and the
+column stands out across the edge (`MapperParams.edge_split_contrast`).
 
-What the counts cannot tell: a riser on the column's boundary from one 1 cm inside it. Pose
-error and the segmentation carry a plane's points 1–2 cm across an edge, so the column on
-either side of a riser that lies on a boundary is split too: on the shipped stage (depth,
-seed 1) the lower treads' last columns in 31–49 % of their multi frames, the room's sill's
-first column in about 30 %, against 26–70 % for the columns a riser runs through on
-`stage_offgrid`. So the rule is off by default (the README's "Known limitations" has the
-trade measured).
+A share alone cannot tell a riser on the column's boundary from one inside it. Pose error and
+the segmentation carry a plane's points 1–2 cm across an edge, so the column on either side of a
+riser that lies on a boundary is split too: on the shipped stage (depth, seed 1) the lower
+treads' last columns in 31–49 % of their multi frames, the room's sill's first column in about
+30 %, against 26–70 % for the columns a riser runs through on `stage_offgrid`. What tells them
+apart is the neighbours (`across_edge_mask`): a riser on a boundary splits the columns on both
+its sides about as often (86 and 110 frames beside the stage's step_3 riser, seed 1), a riser
+inside a column splits it far more often than either neighbour across the edge (160 against 13
+and 32 on `stage_offgrid`), as each frame's pose error moves the edge by a centimetre or two.
 
 Both counts are halved when ``multi`` reaches `SPLIT_FRAME_CAP`, so they are bounded and a
-scene that changed (a box taken away) is followed within some tens of frames. The mapper counts
-only when the rule is on: 0.018 ms of the stage's 0.81 ms update (depth seed 1, 200 frames,
-median, AMD EPYC, load 4.9).
+scene that changed (a box taken away) is followed within some tens of frames. Counting costs
+0.018 ms of the stage's 0.81 ms update (depth seed 1, 200 frames, median, AMD EPYC, load 4.9).
 """
 
 from __future__ import annotations
@@ -126,3 +128,26 @@ def split_edge_mask(
         (...) True where ``split >= SPLIT_MIN_FRAMES`` and ``split >= share * multi``.
     """
     return (split_frames >= SPLIT_MIN_FRAMES) & (split_frames >= share * multi_frames)
+
+
+def across_edge_mask(split_frames: NDArray[np.int32], contrast: float) -> NDArray[np.bool_]:
+    """Columns split at least ``contrast`` times as often as both neighbours along some axis.
+
+    The axes are x, y and the two diagonals. Columns beyond the array count as never split.
+
+    Args:
+        split_frames: (nx, ny) split frames of a window of columns (both kinds summed).
+        contrast: Least ratio to both neighbours along one axis (> 0).
+
+    Returns:
+        (nx, ny) True where the column stands out across some axis.
+    """
+    padded = np.pad(split_frames.astype(np.float64), 1)
+    nx, ny = split_frames.shape
+    scaled = split_frames / contrast
+    out = np.zeros((nx, ny), dtype=bool)
+    for dx, dy in ((1, 0), (0, 1), (1, 1), (1, -1)):
+        ahead = padded[1 + dx : 1 + dx + nx, 1 + dy : 1 + dy + ny]
+        behind = padded[1 - dx : 1 - dx + nx, 1 - dy : 1 - dy + ny]
+        out |= (ahead <= scaled) & (behind <= scaled)
+    return out

@@ -6,6 +6,8 @@ column holds the higher surface), else to ``lower_split_frames``. By hand on a f
 then through the mapper: a step whose front edge runs 2 cm inside a cell, seen exactly.
 """
 
+import math
+
 import numpy as np
 import pytest
 
@@ -13,6 +15,7 @@ from mapper import CellType, FloorObstacleMapper, InvalidParameterError, MapperP
 from mapper.floor_edges import (
     SPLIT_FRAME_CAP,
     SPLIT_MIN_FRAMES,
+    across_edge_mask,
     count_split_frames,
     split_edge_mask,
 )
@@ -83,10 +86,37 @@ def test_the_mask_needs_the_share_and_two_frames():
     assert split_edge_mask(split, multi, 0.2).tolist() == [False, True, True, True, False]
 
 
-@pytest.mark.parametrize("name", ["edge_split_share", "edge_split_lower_share"])
+def test_a_column_stands_out_across_an_edge_not_along_it():
+    # A riser along y through column x = 1 (split 30 times), its neighbours across split 8 and
+    # 10 times: it stands out 3 times across x (30 >= 3 * 10), whatever its neighbours along y.
+    split = np.array([[8, 8, 8], [30, 30, 30], [10, 10, 10]])
+    assert across_edge_mask(split, 3.0)[1].tolist() == [True, True, True]
+    # A riser on the boundary between rows 1 and 2 splits both about as often: neither does
+    # (the middle column; at the array's sides a diagonal leaves it, and beyond counts as 0).
+    split = np.array([[2, 2, 2], [30, 30, 30], [25, 25, 25]])
+    assert not across_edge_mask(split, 3.0)[1:, 1].any()
+    # 11 across, 3 × 11 > 30: not with contrast 3, with 2.5.
+    split = np.array([[0, 0, 0], [30, 30, 30], [11, 11, 11]])
+    assert not across_edge_mask(split, 3.0)[1, 1]
+    assert across_edge_mask(split, 2.5)[1, 1]
+
+
+def test_a_diagonal_edge_stands_out_across_a_diagonal():
+    # Split along the diagonal (0, 0)-(2, 2), its off-diagonal neighbours never: the centre
+    # stands out across the other diagonal and across x and y.
+    split = np.eye(3, dtype=np.int32) * 20
+    assert across_edge_mask(split, 3.0)[1, 1]
+    # Beyond the array counts as never split: a corner column with no neighbour split.
+    assert across_edge_mask(np.array([[5, 0], [0, 0]]), 3.0)[0, 0]
+
+
+@pytest.mark.parametrize(
+    "name", ["edge_split_share", "edge_split_lower_share", "edge_split_contrast"]
+)
 def test_shares_outside_0_1_are_refused(name):
+    too_big = 1.5 if name != "edge_split_contrast" else math.inf
     with pytest.raises(InvalidParameterError, match=name):
-        MapperParams(**{name: 1.5})
+        MapperParams(**{name: too_big})
     with pytest.raises(InvalidParameterError, match=name):
         MapperParams(**{name: -0.1})
 
@@ -126,13 +156,14 @@ def labels(edge_x_m, recenter_x_m=1.0, **params):
 
 
 F, OB, U = int(CellType.FLOOR), int(CellType.OBSTACLE), int(CellType.UNKNOWN)
-ON = {"edge_split_share": 0.3, "edge_split_lower_share": 0.3}
+OFF = {"edge_split_share": 0.0, "edge_split_lower_share": 0.0}
+ON: dict[str, float] = {}  # the defaults
 
 
 def test_the_column_a_step_edge_runs_through_is_unknown_with_the_rule():
     # The edge 1 cm inside the cell (3 cm of it the step): off, the cell is a floor at the
     # step's height, which the truth calls an obstacle; on, unknown. The rest as before.
-    off_types, off_heights = labels(1.01)
+    off_types, off_heights = labels(1.01, **OFF)
     on_types, on_heights = labels(1.01, **ON)
     assert off_types == [F, OB, F, F, F]
     assert off_heights[2] == pytest.approx(31.0, abs=0.1)
@@ -143,7 +174,7 @@ def test_the_column_a_step_edge_runs_through_is_unknown_with_the_rule():
 def test_an_edge_on_a_cell_boundary_keeps_its_floors_here():
     # The edge at 1.00 m, the cell's side: the split frames of the pose's shifts stay below
     # the share, and every label is what it is without the rule.
-    assert labels(1.00, **ON) == labels(1.00)
+    assert labels(1.00, **ON) == labels(1.00, **OFF)
 
 
 def test_the_counts_scroll_with_the_grid():

@@ -14,8 +14,7 @@ compile reaches issue #14's 12 s. The kernels are compiled ahead of time instead
   the bundle into numba's cache (:func:`install`), then compiles only what is still missing;
   what maps without a warm-up (a replay's report, ``fogsim tune``'s trials, ``fogsim
   compare``) installs it once a process (`fogsim.run.warmup.install_shipped_kernels`). The
-  build also holds the elevation map's kernels (``fogsim compare``) and the split columns' kernel
-  (`mapper.floor_edges`, off by default).
+  build also holds the elevation map's kernels (``fogsim compare``).
 
 numba keys a cached kernel by its signature, the bytecode's hash and the code generator's
 *magic tuple* (target triple, CPU name, CPU features), and looks an entry up under the tuple
@@ -360,7 +359,6 @@ def _compile_into(manifest_path: Path) -> None:
     for params in build_params():
         warmup.warm_up_kernels(params, stream=None)
     _elevation_map()
-    _edge_split()
     kernels = [kernel for group in warmup.GROUPS for kernel in group.kernels]
     folders = cache_folders(kernels)
     manifest = {
@@ -385,22 +383,6 @@ def _elevation_map() -> None:
 
     points = np.column_stack([np.linspace(0.5, 1.5, 50), np.zeros(50), np.zeros(50)])
     ElevationMap().update(points, np.full(50, np.nan), np.array([0.0, 0.0, 0.9]))
-
-
-def _edge_split() -> None:
-    """Compile the split columns' kernel (`mapper.floor_edges`) through a mapper that counts them.
-
-    Off by default (`MapperParams.edge_split_share`), so no warm-up group has it; a run that
-    turns it on loads it from the bundle like any other kernel.
-    """
-    import numpy as np
-
-    from mapper import FloorObstacleMapper, MapperParams
-
-    points = np.column_stack([np.linspace(0.5, 1.5, 50), np.zeros(50), np.zeros(50)])
-    fog = FloorObstacleMapper(MapperParams(edge_split_share=0.2))
-    fog.update(points, np.zeros(50), np.array([0.0, 0.0, 0.9]))
-    fog.fog()
 
 
 def build_params() -> list:

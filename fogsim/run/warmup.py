@@ -81,6 +81,7 @@ from numpy.typing import NDArray
 import mapper.above_top
 import mapper.averaging
 import mapper.floor_cover
+import mapper.floor_edges
 import mapper.floor_map
 import mapper.floor_sides
 import mapper.fog
@@ -223,12 +224,13 @@ MAPPER = KernelGroup(
         mapper.occupancy,
         mapper.floor_map,
         mapper.floor_cover,
+        mapper.floor_edges,
         mapper.fog,
         mapper.above_top,
     ),
 )
-"""The FOG map's update kernels: frame checks, occupancy, floor map, floor cover, FOG types,
-the columns above the grid's top."""
+"""The FOG map's update kernels: frame checks, occupancy, floor map, floor cover, split
+columns, FOG types, the columns above the grid's top."""
 
 MATCHING = KernelGroup("z-match, baseline", _kernels(mapper.zmatch, mapper.averaging))
 """z-matching and the averaging baseline map (no FOG map update)."""
