@@ -17,7 +17,7 @@ from numpy.typing import ArrayLike, NDArray
 from mapper.above_top import MIN_HIT_POINTS, update_above_top
 from mapper.errors import InvalidParameterError
 from mapper.floor_cover import accumulate_cover, frame_floor_heights
-from mapper.floor_edges import across_edge_mask, count_split_frames, split_edge_mask
+from mapper.floor_edges import count_split_frames, mark_split_edges
 from mapper.floor_map import frame_verdicts, update_floor, verify_floor
 from mapper.fog import ceiling_map, mark_raised_rims, mark_unconfirmed_floors, update_fog_area
 from mapper.grid import (
@@ -420,32 +420,20 @@ class FloorObstacleMapper:
                 iy1 + ring,
             )
         if self._splits_edges:  # `mapper.floor_edges`, output only
-            window = (
-                slice(max(ix0 - ring, 0), min(ix1 + ring, p.nx)),
-                slice(max(iy0 - ring, 0), min(iy1 + ring, p.ny)),
+            mark_split_edges(
+                self._fog_types,
+                self._fog_heights,
+                self._split_frames,
+                self._lower_split_frames,
+                self._multi_frames,
+                p.edge_split_share,
+                p.edge_split_lower_share,
+                p.edge_split_contrast,
+                ix0 - ring,
+                ix1 + ring,
+                iy0 - ring,
+                iy1 + ring,
             )
-            multi = self._multi_frames[window]
-            edges = np.zeros(multi.shape, dtype=bool)
-            for split, share in (
-                (self._split_frames, p.edge_split_share),
-                (self._lower_split_frames, p.edge_split_lower_share),
-            ):
-                if share > 0.0:
-                    edges |= split_edge_mask(split[window], multi, share)
-            if p.edge_split_contrast > 0.0:
-                # The window and a border of one column: the neighbours' counts.
-                bx0, by0 = max(window[0].start - 1, 0), max(window[1].start - 1, 0)
-                bordered = (
-                    slice(bx0, min(window[0].stop + 1, p.nx)),
-                    slice(by0, min(window[1].stop + 1, p.ny)),
-                )
-                total = self._split_frames[bordered] + self._lower_split_frames[bordered]
-                stands_out = across_edge_mask(total, p.edge_split_contrast)
-                ox, oy = window[0].start - bx0, window[1].start - by0
-                edges &= stands_out[ox : ox + multi.shape[0], oy : oy + multi.shape[1]]
-            edges &= self._fog_types[window] == CellType.FLOOR
-            self._fog_types[window][edges] = CellType.UNKNOWN
-            self._fog_heights[window][edges] = np.nan
         if p.above_top_reach_m > p.delta_m:  # `mapper.above_top`, over every other rule
             # The window the rules above rewrote (the stale area and its ring): a column whose
             # level changed lies in the stale area; the others already carry it.

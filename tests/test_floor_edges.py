@@ -15,9 +15,8 @@ from mapper import CellType, FloorObstacleMapper, InvalidParameterError, MapperP
 from mapper.floor_edges import (
     SPLIT_FRAME_CAP,
     SPLIT_MIN_FRAMES,
-    across_edge_mask,
     count_split_frames,
-    split_edge_mask,
+    mark_split_edges,
 )
 from mapper.intrinsics import PinholeIntrinsics
 from mapper.synthetic import Box, camera_rays_world, cast_frame
@@ -78,36 +77,70 @@ def test_the_counts_are_halved_at_the_cap():
     assert (split, lower, multi) == ([20], [5], [SPLIT_FRAME_CAP // 2])
 
 
-def test_the_mask_needs_the_share_and_two_frames():
-    split = np.array([1, 2, 2, 3, 0])
-    multi = np.array([1, 10, 6, 10, 0])
+def edges(split, multi=None, lower=None, share=1e-9, lower_share=0.0, contrast=0.0):
+    """Which columns of an all-floor grid `mark_split_edges` makes unknown (the whole grid)."""
+    split = np.array(split, dtype=np.int32, ndmin=2)
+    lower = np.zeros_like(split) if lower is None else np.array(lower, np.int32, ndmin=2)
+    multi = np.zeros_like(split) if multi is None else np.array(multi, np.int32, ndmin=2)
+    types = np.full(split.shape, np.int8(CellType.FLOOR))
+    heights = np.zeros(split.shape)
+    nx, ny = split.shape
+    changed = mark_split_edges(
+        types, heights, split, lower, multi, share, lower_share, contrast, 0, nx, 0, ny
+    )
+    unknown = types == CellType.UNKNOWN
+    assert changed == unknown.sum() and np.isnan(heights[unknown]).all()
+    assert (heights[~unknown] == 0).all()
+    return unknown
+
+
+def test_the_share_needs_two_frames_of_its_kind():
+    split, multi = [1, 2, 2, 3, 0], [1, 10, 6, 10, 0]
     assert SPLIT_MIN_FRAMES == 2
-    assert split_edge_mask(split, multi, 0.3).tolist() == [False, False, True, True, False]
-    assert split_edge_mask(split, multi, 0.2).tolist() == [False, True, True, True, False]
+    assert edges(split, multi, share=0.3)[0].tolist() == [False, False, True, True, False]
+    assert edges(split, multi, share=0.2)[0].tolist() == [False, True, True, True, False]
+    # The lower kind by its own share; a share of 0 leaves its kind out.
+    lower_only = edges([0] * 5, multi, lower=split, share=0.2, lower_share=0.3)
+    assert lower_only[0].tolist() == [False, False, True, True, False]
+    assert not edges(split, multi, share=0.0, lower_share=0.2).any()
+
+
+def test_only_floors_are_judged():
+    types = np.array([[CellType.OBSTACLE, CellType.UNKNOWN, CellType.FLOOR]], dtype=np.int8)
+    heights = np.array([[0.3, np.nan, 0.1]])
+    split = np.full((1, 3), 5, dtype=np.int32)
+    zeros = np.zeros((1, 3), dtype=np.int32)
+    assert mark_split_edges(types, heights, split, zeros, zeros, 0.2, 0.0, 0.0, 0, 1, 0, 3) == 1
+    assert types.tolist() == [[CellType.OBSTACLE, CellType.UNKNOWN, CellType.UNKNOWN]]
+    assert heights[0, 0] == 0.3
+    # Only the window is judged.
+    types[0, 2] = CellType.FLOOR
+    assert mark_split_edges(types, heights, split, zeros, zeros, 0.2, 0.0, 0.0, 0, 1, 0, 2) == 0
 
 
 def test_a_column_stands_out_across_an_edge_not_along_it():
     # A riser along y through column x = 1 (split 30 times), its neighbours across split 8 and
     # 10 times: it stands out 3 times across x (30 >= 3 * 10), whatever its neighbours along y.
-    split = np.array([[8, 8, 8], [30, 30, 30], [10, 10, 10]])
-    assert across_edge_mask(split, 3.0)[1].tolist() == [True, True, True]
+    split = [[8, 8, 8], [30, 30, 30], [10, 10, 10]]
+    assert edges(split, contrast=3.0)[1].tolist() == [True, True, True]
     # A riser on the boundary between rows 1 and 2 splits both about as often: neither does
     # (the middle column; at the array's sides a diagonal leaves it, and beyond counts as 0).
-    split = np.array([[2, 2, 2], [30, 30, 30], [25, 25, 25]])
-    assert not across_edge_mask(split, 3.0)[1:, 1].any()
+    split = [[2, 2, 2], [30, 30, 30], [25, 25, 25]]
+    assert not edges(split, contrast=3.0)[1:, 1].any()
     # 11 across, 3 × 11 > 30: not with contrast 3, with 2.5.
-    split = np.array([[0, 0, 0], [30, 30, 30], [11, 11, 11]])
-    assert not across_edge_mask(split, 3.0)[1, 1]
-    assert across_edge_mask(split, 2.5)[1, 1]
+    split = [[0, 0, 0], [30, 30, 30], [11, 11, 11]]
+    assert not edges(split, contrast=3.0)[1, 1]
+    assert edges(split, contrast=2.5)[1, 1]
+    # Both kinds of split frames count, the column's and its neighbours'.
+    assert not edges(split, lower=[[0, 0, 0], [0, 0, 0], [5, 5, 5]], contrast=2.5)[1, 1]
 
 
 def test_a_diagonal_edge_stands_out_across_a_diagonal():
     # Split along the diagonal (0, 0)-(2, 2), its off-diagonal neighbours never: the centre
     # stands out across the other diagonal and across x and y.
-    split = np.eye(3, dtype=np.int32) * 20
-    assert across_edge_mask(split, 3.0)[1, 1]
-    # Beyond the array counts as never split: a corner column with no neighbour split.
-    assert across_edge_mask(np.array([[5, 0], [0, 0]]), 3.0)[0, 0]
+    assert edges(np.eye(3, dtype=np.int32) * 20, contrast=3.0)[1, 1]
+    # Beyond the grid counts as never split: a corner column with no neighbour split.
+    assert edges([[5, 0], [0, 0]], contrast=3.0)[0, 0]
 
 
 @pytest.mark.parametrize(
