@@ -213,3 +213,24 @@ def test_an_edge_on_a_cell_boundary_keeps_its_floors_here():
 def test_the_counts_scroll_with_the_grid():
     # Recentred 0.4 m (10 cells) on: the unknown cell stays at its place in the world.
     assert labels(1.01, recenter_x_m=1.4, **ON)[0] == [F, OB, U, F, F]
+
+
+def test_the_contrast_keeps_the_columns_beside_a_riser_on_a_boundary():
+    # The riser at 1.00 m, the believed pose 20 mm behind or ahead in turn: the edge falls in
+    # the column before it or the one after it, each split in about half the frames. The share
+    # alone makes the lower tread's last column (0.96–1.00 m) unknown; with the contrast (3)
+    # neither column stands out and it stays a floor, as with the rule off.
+    step = Box(center_xy=(1.5, 0.0), size_xyz=(1.0, 1.6, 0.031))
+    points, heights = cast_frame(CAMERA, RAYS, (step,))
+
+    def last_lower_column(**params):
+        fog = FloorObstacleMapper(MapperParams(**params), center_xy_m=(1.0, 0.0))
+        for k in range(12):
+            shift = np.array([0.02 if k % 2 else -0.02, 0.0, 0.0])
+            fog.update(points + shift, heights, CAMERA + shift)
+        ix, iy = fog.cell_of(np.array([[0.98, 0.02, 0.0]]))[0][0][:2]
+        return int(fog.fog()[0][ix, iy])
+
+    assert last_lower_column(**OFF) == F
+    assert last_lower_column(edge_split_contrast=0.0) == U
+    assert last_lower_column() == F
