@@ -184,7 +184,7 @@ def mark_split_edges(
                 lower_share > 0.0 and lower >= SPLIT_MIN_FRAMES and lower >= lower_share * multi
             )
             if edge and contrast > 0.0:
-                level = _split_total(split_frames, lower_split_frames, ix, iy) / contrast
+                level = float(split + lower) / contrast
                 stands_out = False
                 for dx, dy in ((1, 0), (0, 1), (1, 1), (1, -1)):
                     ahead = _split_total(split_frames, lower_split_frames, ix + dx, iy + dy)

@@ -484,7 +484,7 @@ class MapperParams:
             one surface's planes, below the scenes' lowest riser (25 mm).
         edge_split_contrast: With the shares: a column counts only where it was split at
             least this many times as often as both its neighbours along x, y or a diagonal
-            (`mapper.floor_edges.across_edge_mask`). A riser on a cell boundary splits the
+            (`mapper.floor_edges.mark_split_edges`). A riser on a cell boundary splits the
             columns on both its sides about as often (the pose's 1–2 cm error carries each
             plane's points across; stage depth seed 1: 86 and 110 split frames), a riser inside
             a column splits that column far more often than its neighbours (`stage_offgrid`:
@@ -596,9 +596,14 @@ class MapperParams:
             "shadow_reach_m",
             "above_top_reach_m",
             "edge_split_gap_m",
-            "edge_split_contrast",
         ):
             check(name, float, "a finite float >= 0 [m]", lambda v: math.isfinite(v) and v >= 0)
+        check(
+            "edge_split_contrast",
+            float,
+            "a finite float >= 0 (0: the shares alone)",
+            lambda v: math.isfinite(v) and v >= 0,
+        )
         check("max_range_m", float, "a float > 0 [m] (inf: no limit)", lambda v: v > 0)
         for name in (
             "clear_outside",
