@@ -1,4 +1,4 @@
-"""Columns a step's edge may run through: two floor heights in one frame (beyond the paper).
+"""Cells a step's edge may run through: a split column, a weak foot (beyond the paper).
 
 A 4 cm cell over a riser holds part of each tread. The floor map keeps one height per cell
 (eq. 9 with votes: the surface most of its points come from), so the FOG calls such a cell a
@@ -31,6 +31,19 @@ scene that changed (a box taken away) is followed within some tens of frames. Th
 0.02–0.03 ms of the stage's 0.8 ms update, 0.04 ms with the FOG read after every frame (depth
 seed 1, 400 frames, on and off interleaved, medians, AMD EPYC, load 1.5–4; the FOG's part
 computed with numpy instead took 0.17 ms).
+
+A side edge splits no column: the ground beside a raised surface's side lies behind that side
+from every place on or in front of the surface, so no frame sees both. There the cell the
+edge runs through takes either surface, and the camera pose's error (odometry drifts 2–3 cm
+sideways over the stage, which no correction takes out) puts the raised surface's points a
+cell either way. On `stage_offgrid` (depth, seed 1) the platform's cells at y = 0 … 0.04 m
+(2.7 cm of platform, 1.3 cm of ground) held the ground's height, from 1–4 frames that saw the
+ground there from afar, against 40 for every cell around them: the rim rule
+(`MapperParams.edge_band_m`) left them floors, as the lower side of a raised floor, and made
+the platform's next column unknown. `mark_weak_feet` makes a floor unknown when fewer than
+`MapperParams.edge_foot_min_frames` frames confirmed it and a neighbour holds a floor more
+than the band above: the lower side of an edge is kept only where the frames saw it
+(a tread before a riser the robot walks up to is confirmed by tens of frames).
 """
 
 from __future__ import annotations
@@ -192,6 +205,60 @@ def mark_split_edges(
                     stands_out = stands_out or (ahead <= level and behind <= level)
                 edge = stands_out
             if edge:
+                fog_types[ix, iy] = _UNKNOWN
+                fog_heights[ix, iy] = np.nan
+                changed += 1
+    return changed
+
+
+@numba.njit(cache=True, no_cfunc_wrapper=True, nogil=True, boundscheck=False, error_model="numpy")
+def mark_weak_feet(
+    fog_types: NDArray[np.int8],
+    fog_heights: NDArray[np.float64],
+    floor: NDArray[np.float64],
+    frame_votes: NDArray[np.int32],
+    min_frames: int,
+    band: float,
+    ix0: int,
+    ix1: int,
+    iy0: int,
+    iy1: int,
+) -> int:
+    """Make unknown the floors in ``[ix0, ix1) × [iy0, iy1)`` at a raised floor's weak foot.
+
+    A floor is such a foot when fewer than ``min_frames`` frames confirmed it (its frame votes,
+    `mapper.floor_map.frame_verdicts`) and one of its 8 neighbours holds a stored floor more
+    than ``band`` above it (`MapperParams.edge_foot_min_frames`, module note). The rule reads
+    the stored floors and the votes, not the labels, so the result does not depend on the
+    order of the cells.
+
+    Args:
+        fog_types: (nx, ny) FOG labels; floors that are weak feet become unknown in place.
+        fog_heights: (nx, ny) FOG heights [m]; NaN where a floor became unknown.
+        floor: (nx, ny) stored floor heights [m] (eq. 9), NaN = none.
+        frame_votes: (nx, ny) the stored floors' frame votes.
+        min_frames: `MapperParams.edge_foot_min_frames`.
+        band: The rise [m] that makes a neighbour a raised floor: `MapperParams.edge_band_m`.
+        ix0: First column along x of the window.
+        ix1: One past the last, clipped to the grid.
+        iy0: First column along y.
+        iy1: One past the last, clipped to the grid.
+
+    Returns:
+        How many floors became unknown.
+    """
+    nx, ny = fog_types.shape
+    changed = 0
+    for ix in range(max(ix0, 0), min(ix1, nx)):
+        for iy in range(max(iy0, 0), min(iy1, ny)):
+            if fog_types[ix, iy] != _FLOOR or frame_votes[ix, iy] >= min_frames:
+                continue
+            raised_above = fog_heights[ix, iy] + band
+            raised = False
+            for jx in range(max(ix - 1, 0), min(ix + 2, nx)):
+                for jy in range(max(iy - 1, 0), min(iy + 2, ny)):
+                    raised = raised or floor[jx, jy] > raised_above  # NaN: never
+            if raised:
                 fog_types[ix, iy] = _UNKNOWN
                 fog_heights[ix, iy] = np.nan
                 changed += 1

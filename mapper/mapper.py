@@ -17,7 +17,7 @@ from numpy.typing import ArrayLike, NDArray
 from mapper.above_top import MIN_HIT_POINTS, update_above_top
 from mapper.errors import InvalidParameterError
 from mapper.floor_cover import accumulate_cover, frame_floor_heights
-from mapper.floor_edges import count_split_frames, mark_split_edges
+from mapper.floor_edges import count_split_frames, mark_split_edges, mark_weak_feet
 from mapper.floor_map import frame_verdicts, update_floor, verify_floor
 from mapper.fog import ceiling_map, mark_raised_rims, mark_unconfirmed_floors, update_fog_area
 from mapper.grid import (
@@ -429,6 +429,19 @@ class FloorObstacleMapper:
                 p.edge_split_share,
                 p.edge_split_lower_share,
                 p.edge_split_contrast,
+                ix0 - ring,
+                ix1 + ring,
+                iy0 - ring,
+                iy1 + ring,
+            )
+        if p.edge_foot_min_frames > 0 and p.floor_frame_cap > 0:  # `mapper.floor_edges`
+            mark_weak_feet(
+                self._fog_types,
+                self._fog_heights,
+                self._floor,
+                self._floor_frame_votes,
+                p.edge_foot_min_frames,
+                p.edge_band_m if p.edge_band_m > 0.0 else p.eps_m,
                 ix0 - ring,
                 ix1 + ring,
                 iy0 - ring,

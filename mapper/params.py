@@ -31,6 +31,7 @@ _CAP_FIELDS = (
     "obstacle_margin_cells",
     "min_floor_neighbours",
     "min_floor_frames",
+    "edge_foot_min_frames",
 )
 
 
@@ -489,6 +490,16 @@ class MapperParams:
             plane's points across; stage depth seed 1: 86 and 110 split frames), a riser inside
             a column splits that column far more often than its neighbours (`stage_offgrid`:
             160 against 13 and 32). 0 = the shares alone.
+        edge_foot_min_frames: Beyond the paper, with ``floor_frame_cap`` > 0: a floor that
+            fewer than this many frames confirmed (its frame votes) is unknown when one of its
+            8 neighbours holds a floor more than ``edge_band_m`` (``eps_m`` with the band off)
+            above it (`mapper.floor_edges.mark_weak_feet`; output only, after the split rule): the
+            lower side of a side edge, whose cell may hold the raised surface and whose
+            ground the frames saw only from afar (`stage_offgrid`, depth seed 1: 1–4 frames
+            against 40 around it). 8, chosen on the 17 replays of the split rule's tuning set
+            (never the held-out scenes): unsafe cells 322 → 275 for 177 right floor cells
+            left unknown (4: 293 for 121, 16: 268 for 260). The suites' figures: README
+            "Cells that straddle an edge". 0 = off.
     """
 
     nx: int = 100
@@ -535,6 +546,7 @@ class MapperParams:
     edge_split_gap_m: float = 0.015
     edge_split_lower_share: float = 0.3
     edge_split_contrast: float = 3.0
+    edge_foot_min_frames: int = 8
 
     def __post_init__(self) -> None:
         def check(name: str, kind: type, allowed: str, ok=lambda _: True) -> None:
@@ -622,6 +634,12 @@ class MapperParams:
             self.floor_frame_cap == 0 or self.min_floor_frames <= self.floor_frame_cap,
             "min_floor_frames",
             self.min_floor_frames,
+            f"at most floor_frame_cap ({self.floor_frame_cap}): a floor holds no more votes",
+        )
+        _require(
+            self.floor_frame_cap == 0 or self.edge_foot_min_frames <= self.floor_frame_cap,
+            "edge_foot_min_frames",
+            self.edge_foot_min_frames,
             f"at most floor_frame_cap ({self.floor_frame_cap}): a floor holds no more votes",
         )
         check(

@@ -17,6 +17,7 @@ from mapper.floor_edges import (
     SPLIT_MIN_FRAMES,
     count_split_frames,
     mark_split_edges,
+    mark_weak_feet,
 )
 from mapper.intrinsics import PinholeIntrinsics
 from mapper.synthetic import Box, camera_rays_world, cast_frame
@@ -228,3 +229,89 @@ def test_the_contrast_keeps_the_columns_beside_a_riser_on_a_boundary():
     assert last_lower_column(**OFF) == F
     assert last_lower_column(edge_split_contrast=0.0) == U
     assert last_lower_column() == F
+
+
+# A raised floor's weak foot (`mark_weak_feet`, `MapperParams.edge_foot_min_frames`).
+BAND_M = 0.02
+
+
+def feet(floor_mm, votes, fog_types=None, min_frames=8, window=(0, 99, 0, 99)):
+    """The FOG labels after the rule, on a grid whose floors are all labelled floor."""
+    floor = np.array(floor_mm, float) / 1000
+    types = (
+        np.where(np.isnan(floor), U, F).astype(np.int8)
+        if fog_types is None
+        else np.array(fog_types, np.int8)
+    )
+    heights = np.where(types == F, floor, np.nan)
+    changed = mark_weak_feet(
+        types, heights, floor, np.array(votes, np.int32), min_frames, BAND_M, *window
+    )
+    assert changed == int(np.sum(np.isnan(heights) & (types == U) & ~np.isnan(floor)))
+    return types.tolist()
+
+
+def test_a_floor_few_frames_confirmed_beside_a_raised_floor_is_unknown():
+    # Column 1 (ground, 3 votes) beside column 2 (platform 122 mm, 40): unknown. Column 0 has
+    # 3 votes too, but no raised neighbour; column 2 is the higher one.
+    assert feet([[0.0, 0.0, 122.0]], [[3, 3, 40]]) == [[F, U, F]]
+
+
+def test_a_floor_confirmed_by_the_minimum_stays():
+    assert feet([[0.0, 0.0, 122.0]], [[3, 8, 40]]) == [[F, F, F]]
+    assert feet([[0.0, 0.0, 122.0]], [[3, 8, 40]], min_frames=9) == [[F, U, F]]
+
+
+def test_the_rise_must_exceed_the_band():
+    # 20 mm above: no raised floor (the band); 21 mm: one. A NaN neighbour never is.
+    assert feet([[0.0, 20.0]], [[1, 40]]) == [[F, F]]
+    assert feet([[0.0, 21.0]], [[1, 40]]) == [[U, F]]
+    assert feet([[0.0, N]], [[1, 0]]) == [[F, U]]
+
+
+def test_a_diagonal_raised_neighbour_counts():
+    assert feet([[0.0, 0.0], [0.0, 122.0]], [[2, 40], [40, 40]]) == [[U, F], [F, F]]
+
+
+def test_only_floors_in_the_window_are_judged():
+    # An obstacle with few votes stays one; the window [1, 2) x [0, 1) leaves column 0 alone.
+    assert feet([[0.0, 122.0]], [[1, 40]], fog_types=[[OB, F]]) == [[OB, F]]
+    assert feet([[0.0, 0.0, 122.0]], [[1, 1, 40]], window=(0, 1, 0, 3)) == [[F, U, F]]
+    assert feet([[0.0], [0.0], [122.0]], [[1], [1], [40]], window=(1, 2, 0, 1)) == [
+        [F],
+        [U],
+        [F],
+    ]
+
+
+def test_a_minimum_above_the_frame_cap_is_refused():
+    with pytest.raises(InvalidParameterError, match=r"edge_foot_min_frames.*floor_frame_cap"):
+        MapperParams(edge_foot_min_frames=41, floor_frame_cap=40)
+    with pytest.raises(InvalidParameterError, match="edge_foot_min_frames"):
+        MapperParams(edge_foot_min_frames=-1)
+
+
+def side_ground_labels(full_frames, **params):
+    """FOG labels of the ground column before a 122 mm box and of the box's second column.
+
+    The box spans x = 1.00 … 2.00 m. ``full_frames`` frames see everything, then 12 see only
+    the box's top and the ground away from it (the ground beside the box hidden, as behind a
+    side edge): the ground column 0.96–1.00 m is confirmed by ``full_frames`` frames.
+    """
+    box = Box(center_xy=(1.5, 0.0), size_xyz=(1.0, 1.6, 0.122))
+    fog = FloorObstacleMapper(MapperParams(**params), center_xy_m=(1.0, 0.0))
+    points, heights = cast_frame(CAMERA, RAYS, (box,))
+    beside = (points[:, 0] > 0.9) & (points[:, 0] < 1.0)
+    for k in range(full_frames + 12):
+        keep = slice(None) if k < full_frames else ~beside
+        fog.update(points[keep], heights[keep], CAMERA)
+    types, _ = fog.fog()
+    ground, top = fog.cell_of(np.array([[0.98, 0.02, 0.0], [1.06, 0.02, 0.0]]))[0]
+    return int(types[ground[0], ground[1]]), int(types[top[0], top[1]])
+
+
+def test_through_the_mapper_a_ground_column_seen_twice_before_a_box_is_unknown():
+    # Seen by 2 frames: unknown with the rule, a floor without it; seen by 10: a floor.
+    assert side_ground_labels(2, edge_foot_min_frames=0) == (F, F)
+    assert side_ground_labels(2) == (U, F)
+    assert side_ground_labels(10) == (F, F)
