@@ -13,9 +13,14 @@ For each recording, up to four replays (``--modes``, default all):
 * ``true position``: the camera's position made the true one in the believed robot frame, its
   believed rotation kept;
 * ``true pose``: the whole transform replaced by the true camera pose in the believed robot
-  frame (the camera lands where it truly was: every encoder and odometry error taken out).
+  frame (the camera lands where it truly was: every encoder and odometry error taken out);
+* ``true xy``: the robot's believed (x, y) replaced by the true one, its yaw, z and the
+  camera's encoders as believed, the heading estimator on: what taking out odometry's
+  horizontal drift alone would give (its yaw error, integrated over the walk, drifts the robot
+  2–3 cm sideways by the stage's platform: session 48).
 
-The heading estimator is off (``head.correct_heading`` False) in every mode but ``pipeline``;
+The heading estimator is off (``head.correct_heading`` False) in every mode but ``pipeline``
+and ``true xy``;
 everything else (tilt, height reference, z-match, the maps) runs as usual. The gap between
 ``pipeline`` and ``true yaw`` is the most any heading work can gain on those frames; between
 ``true yaw`` and ``true pose``, what the camera's position and tilt errors still cost; a
@@ -104,14 +109,24 @@ def true_position_frame(frame: Frame) -> Frame:
     return dataclasses.replace(frame, transform_camera_to_robot_believed=believed)
 
 
+def true_xy_frame(frame: Frame) -> Frame:
+    """The frame with the robot's believed (x, y) replaced by the true one, the rest kept."""
+    pose = np.array(frame.robot_pose_believed, dtype=np.float64)
+    pose[:2] = np.asarray(frame.robot_pose_true, dtype=np.float64)[:2]
+    return dataclasses.replace(frame, robot_pose_believed=pose)
+
+
 MODES = {
     "pipeline": None,
     "true yaw": true_yaw_frame,
     "true neck yaw": true_neck_yaw_frame,
     "true position": true_position_frame,
     "true pose": true_pose_frame,
+    "true xy": true_xy_frame,
 }
 """Replay modes: how each frame's believed camera pose is changed (None: as recorded)."""
+HEADING_MODES = ("pipeline", "true xy")
+"""The modes that keep the heading estimator on (the others give it the true yaw or pose)."""
 
 
 def figures(report: Report) -> Figures:
@@ -143,7 +158,7 @@ def replay(path: Path, mode: str) -> Figures:
         raise ValueError(f"unknown mode {mode!r}; modes: {', '.join(MODES)}")
     change = MODES[mode]
     recording = load_recording(path)
-    overrides = {"head.correct_heading": 0.0} if change is not None else {}
+    overrides = {} if mode in HEADING_MODES else {"head.correct_heading": 0.0}
     params = resolve_params(recording.scenario, overrides, sensor_fields(recording.scenario))
     frames = [change(f) for f in recording.frames] if change is not None else recording.frames
     result = run_frames(

@@ -14,7 +14,7 @@ a gap (``split``), apart by where the stored floor lies: above the split's lower
 column holds the higher surface and the lower one shows in it: ``split_frames``) or at it
 (``lower_split_frames``). The FOG leaves a floor unknown where a share of the multi frames is
 split (`MapperParams.edge_split_share`, `edge_split_lower_share`) and the column stands out
-across the edge (`MapperParams.edge_split_contrast`): `mark_split_edges`.
+across the edge (`MapperParams.edge_split_contrast`): `mark_floor_edges`.
 
 A share alone cannot tell a riser on the column's boundary from one inside it. Pose error and
 the segmentation carry a plane's points 1–2 cm across an edge, so the column on either side of a
@@ -40,10 +40,20 @@ cell either way. On `stage_offgrid` (depth, seed 1) the platform's cells at y = 
 (2.7 cm of platform, 1.3 cm of ground) held the ground's height, from 1–4 frames that saw the
 ground there from afar, against 40 for every cell around them: the rim rule
 (`MapperParams.edge_band_m`) left them floors, as the lower side of a raised floor, and made
-the platform's next column unknown. `mark_weak_feet` makes a floor unknown when fewer than
+the platform's next column unknown. `mark_floor_edges` makes a floor unknown when fewer than
 `MapperParams.edge_foot_min_frames` frames confirmed it and a neighbour holds a floor more
 than the band above: the lower side of an edge is kept only where the frames saw it
 (a tread before a riser the robot walks up to is confirmed by tens of frames).
+
+The same drift carries a raised surface's map a cell past its side edge. Where the rays reach
+that cell at the surface's height and go on below it (the cover check, `mapper.floor_cover`:
+the cell is then unknown), the edge lies in it or, drift taken into account, in the floor
+beside it: `mark_floor_edges` makes that floor unknown too, when the uncovered cell is the
+surface's last, no frame split it (a riser seen with both its treads is judged by the split
+rule) and the surface goes on behind the floor (a narrow rise's rims are the narrow-rise
+rule's). On `stage_offgrid` (depth, seed 3) the platform's map reached 4 cm past its side at
+y = 0.013 m; the cell holding the edge (2.7 cm of platform) was a floor at the platform's
+height, with 600 rays ending on it and 1 passing, the cell beyond 55 % passed.
 """
 
 from __future__ import annotations
@@ -143,39 +153,148 @@ def _split_total(split_frames, lower_split_frames, ix: int, iy: int) -> float:
     return float(split_frames[ix, iy] + lower_split_frames[ix, iy])
 
 
+@numba.njit(cache=True, inline="always")
+def _split_edge(
+    split_frames, lower_split_frames, multi_frames, ix: int, iy: int, share, lower_share, contrast
+) -> bool:
+    """The split rule at column ``(ix, iy)`` (`mark_floor_edges`)."""
+    multi = float(multi_frames[ix, iy])
+    split = split_frames[ix, iy]
+    lower = lower_split_frames[ix, iy]
+    edge = (share > 0.0 and split >= SPLIT_MIN_FRAMES and split >= share * multi) or (
+        lower_share > 0.0 and lower >= SPLIT_MIN_FRAMES and lower >= lower_share * multi
+    )
+    if not edge or contrast <= 0.0:
+        return edge
+    level = float(split + lower) / contrast
+    for dx, dy in ((1, 0), (0, 1), (1, 1), (1, -1)):
+        ahead = _split_total(split_frames, lower_split_frames, ix + dx, iy + dy)
+        behind = _split_total(split_frames, lower_split_frames, ix - dx, iy - dy)
+        if ahead <= level and behind <= level:
+            return True
+    return False
+
+
+@numba.njit(cache=True, inline="always")
+def _weak_foot(floor, frame_votes, ix: int, iy: int, h: float, min_frames, band) -> bool:
+    """The weak-foot rule for the floor ``h`` at column ``(ix, iy)`` (`mark_floor_edges`)."""
+    if frame_votes[ix, iy] >= min_frames:
+        return False
+    nx, ny = floor.shape
+    for jx in range(max(ix - 1, 0), min(ix + 2, nx)):
+        for jy in range(max(iy - 1, 0), min(iy + 2, ny)):
+            if floor[jx, jy] > h + band:  # NaN: never
+                return True
+    return False
+
+
+@numba.njit(cache=True, inline="always")
+def _same_floor(floor, ix: int, iy: int, h: float, eps: float) -> bool:
+    """Whether column ``(ix, iy)`` lies in the grid and stores a floor within ``eps`` of ``h``."""
+    nx, ny = floor.shape
+    if ix < 0 or iy < 0 or ix >= nx or iy >= ny:
+        return False
+    return abs(floor[ix, iy] - h) <= eps  # NaN: never
+
+
+@numba.njit(cache=True, inline="always")
+def _uncovered_rim(
+    floor,
+    cover_ends,
+    cover_passes,
+    split_frames,
+    lower_split_frames,
+    ix: int,
+    iy: int,
+    h: float,
+    min_rays,
+    pass_fraction,
+    eps,
+    inward,
+) -> bool:
+    """The uncovered-rim rule for the floor ``h`` at column ``(ix, iy)`` (`mark_floor_edges`)."""
+    for dx, dy in ((1, 0), (-1, 0), (0, 1), (0, -1)):
+        jx, jy = ix + dx, iy + dy
+        if not _same_floor(floor, jx, jy, h, eps):
+            continue
+        reached = cover_ends[jx, jy] + cover_passes[jx, jy]
+        uncovered = reached >= min_rays and cover_passes[jx, jy] > pass_fraction * reached
+        unsplit = split_frames[jx, jy] + lower_split_frames[jx, jy] < SPLIT_MIN_FRAMES
+        if not uncovered or not unsplit or _same_floor(floor, jx + dx, jy + dy, h, eps):
+            continue
+        goes_on = True
+        for k in range(1, inward + 1):
+            goes_on = goes_on and _same_floor(floor, ix - k * dx, iy - k * dy, h, eps)
+        if goes_on:
+            return True
+    return False
+
+
 @numba.njit(cache=True, no_cfunc_wrapper=True, nogil=True, boundscheck=False, error_model="numpy")
-def mark_split_edges(
+def mark_floor_edges(
     fog_types: NDArray[np.int8],
     fog_heights: NDArray[np.float64],
+    floor: NDArray[np.float64],
+    frame_votes: NDArray[np.int32],
     split_frames: NDArray[np.int32],
     lower_split_frames: NDArray[np.int32],
     multi_frames: NDArray[np.int32],
+    cover_ends: NDArray[np.int32],
+    cover_passes: NDArray[np.int32],
     share: float,
     lower_share: float,
     contrast: float,
+    min_frames: int,
+    band: float,
+    rims: bool,
+    min_rays: int,
+    pass_fraction: float,
+    eps: float,
+    inward: int,
     ix0: int,
     ix1: int,
     iy0: int,
     iy1: int,
 ) -> int:
-    """Make unknown the floors in ``[ix0, ix1) × [iy0, iy1)`` a step's edge runs through.
+    """Make unknown the floors in ``[ix0, ix1) × [iy0, iy1)`` an edge may run through.
 
-    A floor's column is an edge when it was split in at least ``share`` of its multi frames
-    under a stored floor above the lower plane, or ``lower_share`` at it (each at least
-    `SPLIT_MIN_FRAMES` times; a share of 0 leaves its kind out), and, with ``contrast > 0``,
-    when its split frames of both kinds are at least ``contrast`` times those of both its
-    neighbours along x, y or a diagonal (beyond the grid: never split). The rule reads the
-    counts, not the labels, so the result does not depend on the order of the cells.
+    Three rules (module note), a floor unknown where one holds; each reads the stored maps and
+    counts, not the labels, so the result does not depend on the order of the cells:
+
+    - split: its column was split in at least ``share`` of its multi frames under a stored
+      floor above the lower plane, or ``lower_share`` at it (each at least `SPLIT_MIN_FRAMES`
+      times; a share of 0 leaves its kind out), and, with ``contrast > 0``, its split frames
+      of both kinds are at least ``contrast`` times those of both its neighbours along x, y or
+      a diagonal (beyond the grid: never split);
+    - weak foot (``min_frames`` > 0): fewer than ``min_frames`` frames confirmed it and one of
+      its 8 neighbours stores a floor more than ``band`` above it;
+    - uncovered rim (``rims``): along x or y its neighbour stores its surface's last floor
+      (within ``eps`` of it, the cell beyond not), which the cover check finds uncovered (at
+      least ``min_rays`` rays reached it, more than ``pass_fraction`` passed:
+      `mapper.floor_cover`), in a column split fewer than `SPLIT_MIN_FRAMES` times, and the
+      surface goes on for ``inward`` cells the other way.
 
     Args:
-        fog_types: (nx, ny) FOG labels; floors that are edges become unknown in place.
+        fog_types: (nx, ny) FOG labels; floors an edge may run through become unknown in place.
         fog_heights: (nx, ny) FOG heights [m]; NaN where a floor became unknown.
+        floor: (nx, ny) stored floor heights [m] (eq. 9), NaN = none.
+        frame_votes: (nx, ny) the stored floors' frame votes (`mapper.floor_map`).
         split_frames: (nx, ny) split frames under a floor above the lower plane.
         lower_split_frames: (nx, ny) the other split frames.
         multi_frames: (nx, ny) frames with two floor points or more.
+        cover_ends: (nx, ny) rays that ended on each stored floor (`mapper.floor_cover`).
+        cover_passes: (nx, ny) rays that passed through it.
         share: `MapperParams.edge_split_share`.
         lower_share: `MapperParams.edge_split_lower_share`.
         contrast: `MapperParams.edge_split_contrast`; 0 = the shares alone.
+        min_frames: `MapperParams.edge_foot_min_frames`; 0 = off.
+        band: The rise [m] that makes a neighbour a raised floor: `MapperParams.edge_band_m`.
+        rims: `MapperParams.uncovered_rims`.
+        min_rays: `MapperParams.floor_pass_min_rays`.
+        pass_fraction: `MapperParams.floor_pass_fraction`.
+        eps: `MapperParams.eps_m`: the same surface [m].
+        inward: Cells the surface must go on beyond a rim, away from its uncovered neighbour:
+            `MapperParams.narrow_rise_cells`.
         ix0: First column along x of the window.
         ix1: One past the last, clipped to the grid.
         iy0: First column along y.
@@ -185,80 +304,46 @@ def mark_split_edges(
         How many floors became unknown.
     """
     nx, ny = fog_types.shape
+    splits = share > 0.0 or lower_share > 0.0
     changed = 0
     for ix in range(max(ix0, 0), min(ix1, nx)):
         for iy in range(max(iy0, 0), min(iy1, ny)):
             if fog_types[ix, iy] != _FLOOR:
                 continue
-            multi = float(multi_frames[ix, iy])
-            split = split_frames[ix, iy]
-            lower = lower_split_frames[ix, iy]
-            edge = (share > 0.0 and split >= SPLIT_MIN_FRAMES and split >= share * multi) or (
-                lower_share > 0.0 and lower >= SPLIT_MIN_FRAMES and lower >= lower_share * multi
-            )
-            if edge and contrast > 0.0:
-                level = float(split + lower) / contrast
-                stands_out = False
-                for dx, dy in ((1, 0), (0, 1), (1, 1), (1, -1)):
-                    ahead = _split_total(split_frames, lower_split_frames, ix + dx, iy + dy)
-                    behind = _split_total(split_frames, lower_split_frames, ix - dx, iy - dy)
-                    stands_out = stands_out or (ahead <= level and behind <= level)
-                edge = stands_out
-            if edge:
-                fog_types[ix, iy] = _UNKNOWN
-                fog_heights[ix, iy] = np.nan
-                changed += 1
-    return changed
-
-
-@numba.njit(cache=True, no_cfunc_wrapper=True, nogil=True, boundscheck=False, error_model="numpy")
-def mark_weak_feet(
-    fog_types: NDArray[np.int8],
-    fog_heights: NDArray[np.float64],
-    floor: NDArray[np.float64],
-    frame_votes: NDArray[np.int32],
-    min_frames: int,
-    band: float,
-    ix0: int,
-    ix1: int,
-    iy0: int,
-    iy1: int,
-) -> int:
-    """Make unknown the floors in ``[ix0, ix1) × [iy0, iy1)`` at a raised floor's weak foot.
-
-    A floor is such a foot when fewer than ``min_frames`` frames confirmed it (its frame votes,
-    `mapper.floor_map.frame_verdicts`) and one of its 8 neighbours holds a stored floor more
-    than ``band`` above it (`MapperParams.edge_foot_min_frames`, module note). The rule reads
-    the stored floors and the votes, not the labels, so the result does not depend on the
-    order of the cells.
-
-    Args:
-        fog_types: (nx, ny) FOG labels; floors that are weak feet become unknown in place.
-        fog_heights: (nx, ny) FOG heights [m]; NaN where a floor became unknown.
-        floor: (nx, ny) stored floor heights [m] (eq. 9), NaN = none.
-        frame_votes: (nx, ny) the stored floors' frame votes.
-        min_frames: `MapperParams.edge_foot_min_frames`.
-        band: The rise [m] that makes a neighbour a raised floor: `MapperParams.edge_band_m`.
-        ix0: First column along x of the window.
-        ix1: One past the last, clipped to the grid.
-        iy0: First column along y.
-        iy1: One past the last, clipped to the grid.
-
-    Returns:
-        How many floors became unknown.
-    """
-    nx, ny = fog_types.shape
-    changed = 0
-    for ix in range(max(ix0, 0), min(ix1, nx)):
-        for iy in range(max(iy0, 0), min(iy1, ny)):
-            if fog_types[ix, iy] != _FLOOR or frame_votes[ix, iy] >= min_frames:
-                continue
-            raised_above = fog_heights[ix, iy] + band
-            raised = False
-            for jx in range(max(ix - 1, 0), min(ix + 2, nx)):
-                for jy in range(max(iy - 1, 0), min(iy + 2, ny)):
-                    raised = raised or floor[jx, jy] > raised_above  # NaN: never
-            if raised:
+            h = fog_heights[ix, iy]
+            if (
+                (
+                    splits
+                    and _split_edge(
+                        split_frames,
+                        lower_split_frames,
+                        multi_frames,
+                        ix,
+                        iy,
+                        share,
+                        lower_share,
+                        contrast,
+                    )
+                )
+                or (min_frames > 0 and _weak_foot(floor, frame_votes, ix, iy, h, min_frames, band))
+                or (
+                    rims
+                    and _uncovered_rim(
+                        floor,
+                        cover_ends,
+                        cover_passes,
+                        split_frames,
+                        lower_split_frames,
+                        ix,
+                        iy,
+                        h,
+                        min_rays,
+                        pass_fraction,
+                        eps,
+                        inward,
+                    )
+                )
+            ):
                 fog_types[ix, iy] = _UNKNOWN
                 fog_heights[ix, iy] = np.nan
                 changed += 1

@@ -17,7 +17,7 @@ from numpy.typing import ArrayLike, NDArray
 from mapper.above_top import MIN_HIT_POINTS, update_above_top
 from mapper.errors import InvalidParameterError
 from mapper.floor_cover import accumulate_cover, frame_floor_heights
-from mapper.floor_edges import count_split_frames, mark_split_edges, mark_weak_feet
+from mapper.floor_edges import count_split_frames, mark_floor_edges
 from mapper.floor_map import frame_verdicts, update_floor, verify_floor
 from mapper.fog import ceiling_map, mark_raised_rims, mark_unconfirmed_floors, update_fog_area
 from mapper.grid import (
@@ -49,7 +49,9 @@ def _rewritten_ring(p: MapperParams) -> int:
 
     The margin, the band's 2, the narrow rise's n + 1, the shadow's reach + 1 and one more for
     `MapperParams.min_floor_neighbours`; the rules after it (`mapper.fog.mark_raised_rims`,
-    `mapper.fog.mark_unconfirmed_floors`) judge exactly that window.
+    `mapper.fog.mark_unconfirmed_floors`, `mapper.floor_edges`) judge exactly that window, so
+    it reaches as far as they read: a neighbour for the split and weak-foot rules, the cell
+    beyond it and `MapperParams.narrow_rise_cells` the other way for the uncovered rims.
     """
     banded = p.edge_band_m > 0.0 or p.unknown_beside_obstacles
     ring = p.obstacle_margin_cells + (2 if banded else 0)
@@ -59,6 +61,10 @@ def _rewritten_ring(p: MapperParams) -> int:
         ring = max(ring, p.shadow_reach_cells + 1)
     if p.edge_band_m > 0.0 and p.min_floor_neighbours > 0:
         ring += 1
+    if p.edge_split_share > 0.0 or p.edge_split_lower_share > 0.0 or p.edge_foot_min_frames > 0:
+        ring = max(ring, 1)
+    if p.uncovered_rims and p.floor_pass_fraction > 0.0:
+        ring = max(ring, 2, p.narrow_rise_cells)
     return ring
 
 
@@ -96,6 +102,12 @@ class FloorObstacleMapper:
         # The split columns are counted only for `MapperParams.edge_split_share` (0.02 ms of
         # the stage's 0.81 ms update): 0 and 0 = the paper's FOG without this rule.
         self._splits_edges = p.edge_split_share > 0.0 or p.edge_split_lower_share > 0.0
+        # `mapper.floor_edges.mark_floor_edges`: the split, weak-foot and uncovered-rim rules.
+        self._marks_edges = (
+            self._splits_edges
+            or (p.edge_foot_min_frames > 0 and p.floor_frame_cap > 0)
+            or (p.uncovered_rims and p.floor_pass_fraction > 0.0)
+        )
         self._fog_ring = _rewritten_ring(p)
         self._geometry = GridGeometry.from_params(p, center_xy_m)
         self._hit_table, self._miss_table = lookup_tables(p)
@@ -419,29 +431,27 @@ class FloorObstacleMapper:
                 iy0 - ring,
                 iy1 + ring,
             )
-        if self._splits_edges:  # `mapper.floor_edges`, output only
-            mark_split_edges(
-                self._fog_types,
-                self._fog_heights,
-                self._split_frames,
-                self._lower_split_frames,
-                self._multi_frames,
-                p.edge_split_share,
-                p.edge_split_lower_share,
-                p.edge_split_contrast,
-                ix0 - ring,
-                ix1 + ring,
-                iy0 - ring,
-                iy1 + ring,
-            )
-        if p.edge_foot_min_frames > 0 and p.floor_frame_cap > 0:  # `mapper.floor_edges`
-            mark_weak_feet(
+        if self._marks_edges:  # `mapper.floor_edges`, output only, after every rule above
+            mark_floor_edges(
                 self._fog_types,
                 self._fog_heights,
                 self._floor,
                 self._floor_frame_votes,
-                p.edge_foot_min_frames,
+                self._split_frames,
+                self._lower_split_frames,
+                self._multi_frames,
+                self._cover_ends,
+                self._cover_passes,
+                p.edge_split_share,
+                p.edge_split_lower_share,
+                p.edge_split_contrast,
+                p.edge_foot_min_frames if p.floor_frame_cap > 0 else 0,
                 p.edge_band_m if p.edge_band_m > 0.0 else p.eps_m,
+                p.uncovered_rims and p.floor_pass_fraction > 0.0,
+                p.floor_pass_min_rays,
+                p.floor_pass_fraction,
+                p.eps_m,
+                p.narrow_rise_cells,
                 ix0 - ring,
                 ix1 + ring,
                 iy0 - ring,

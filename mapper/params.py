@@ -485,7 +485,7 @@ class MapperParams:
             one surface's planes, below the scenes' lowest riser (25 mm).
         edge_split_contrast: With the shares: a column counts only where it was split at
             least this many times as often as both its neighbours along x, y or a diagonal
-            (`mapper.floor_edges.mark_split_edges`). A riser on a cell boundary splits the
+            (`mapper.floor_edges.mark_floor_edges`). A riser on a cell boundary splits the
             columns on both its sides about as often (the pose's 1–2 cm error carries each
             plane's points across; stage depth seed 1: 86 and 110 split frames), a riser inside
             a column splits that column far more often than its neighbours (`stage_offgrid`:
@@ -493,13 +493,28 @@ class MapperParams:
         edge_foot_min_frames: Beyond the paper, with ``floor_frame_cap`` > 0: a floor that
             fewer than this many frames confirmed (its frame votes) is unknown when one of its
             8 neighbours holds a floor more than ``edge_band_m`` (``eps_m`` with the band off)
-            above it (`mapper.floor_edges.mark_weak_feet`; output only, after the split rule): the
+            above it (`mapper.floor_edges.mark_floor_edges`; output only, after the split rule): the
             lower side of a side edge, whose cell may hold the raised surface and whose
             ground the frames saw only from afar (`stage_offgrid`, depth seed 1: 1–4 frames
             against 40 around it). 8, chosen on the 17 replays of the split rule's tuning set
             (never the held-out scenes): unsafe cells 322 → 275 for 177 right floor cells
             left unknown (4: 293 for 121, 16: 268 for 260). The suites' figures: README
             "Cells that straddle an edge". 0 = off.
+        uncovered_rims: Beyond the paper, with ``floor_pass_fraction`` > 0: a floor is unknown
+            when its neighbour along x or y holds its surface's last stored floor (the cell
+            beyond holds no floor of that height), which the cover check finds does not cover
+            its cell, in a column no frame split, and the surface goes on for
+            `narrow_rise_cells` cells the other way (`mapper.floor_edges.mark_floor_edges`;
+            output only, after the weak-foot rule): the raised surface's points reach past its
+            side edge, so the edge lies about there — in the uncovered cell or, with the
+            odometry's sideways drift (2–3 cm by the stage's platform), in the floor beside it
+            (`stage_offgrid` depth seed 3: the platform's map a cell wide of its side, the
+            cell holding the edge a floor at the platform's height). On the 17 replays of the
+            tuning set (never the held-out scenes; after the weak-foot rule): unsafe cells
+            275 → 163 for 529 right floor cells left unknown; every neighbour's spill counted
+            took 275 → 116 for 1673 (the stage's sill coverage 80 → 28 %), the columns a frame
+            split left out 151 for 1195, and a surface going on 4 cells 159 for 917. The
+            suites' figures: README "Cells that straddle an edge". False = off.
     """
 
     nx: int = 100
@@ -547,6 +562,7 @@ class MapperParams:
     edge_split_lower_share: float = 0.3
     edge_split_contrast: float = 3.0
     edge_foot_min_frames: int = 8
+    uncovered_rims: bool = True
 
     def __post_init__(self) -> None:
         def check(name: str, kind: type, allowed: str, ok=lambda _: True) -> None:
@@ -626,6 +642,7 @@ class MapperParams:
             "rim_over_seen_drop",
             "ground_noise_unknown",
             "zmatch_nearest_level",
+            "uncovered_rims",
         ):
             check(name, bool, "a bool")
         for name in _CAP_FIELDS:

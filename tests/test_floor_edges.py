@@ -16,8 +16,7 @@ from mapper.floor_edges import (
     SPLIT_FRAME_CAP,
     SPLIT_MIN_FRAMES,
     count_split_frames,
-    mark_split_edges,
-    mark_weak_feet,
+    mark_floor_edges,
 )
 from mapper.intrinsics import PinholeIntrinsics
 from mapper.synthetic import Box, camera_rays_world, cast_frame
@@ -78,16 +77,75 @@ def test_the_counts_are_halved_at_the_cap():
     assert (split, lower, multi) == ([20], [5], [SPLIT_FRAME_CAP // 2])
 
 
+def mark(
+    types,
+    heights,
+    window=None,
+    *,
+    floor=None,
+    frame_votes=None,
+    split=None,
+    lower=None,
+    multi=None,
+    cover_ends=None,
+    cover_passes=None,
+    share=0.0,
+    lower_share=0.0,
+    contrast=0.0,
+    min_frames=0,
+    band=0.02,
+    rims=False,
+    min_rays=20,
+    pass_fraction=0.2,
+    eps=0.01,
+    inward=0,
+):
+    """`mark_floor_edges` with every rule off but those given, counts 0 where not given."""
+    shape = types.shape
+
+    def counts(values):
+        return np.zeros(shape, np.int32) if values is None else np.array(values, np.int32)
+
+    return mark_floor_edges(
+        types,
+        heights,
+        np.full(shape, np.nan) if floor is None else floor,
+        counts(frame_votes),
+        counts(split),
+        counts(lower),
+        counts(multi),
+        counts(cover_ends),
+        counts(cover_passes),
+        share,
+        lower_share,
+        contrast,
+        min_frames,
+        band,
+        rims,
+        min_rays,
+        pass_fraction,
+        eps,
+        inward,
+        *((0, shape[0], 0, shape[1]) if window is None else window),
+    )
+
+
 def edges(split, multi=None, lower=None, share=1e-9, lower_share=0.0, contrast=0.0):
-    """Which columns of an all-floor grid `mark_split_edges` makes unknown (the whole grid)."""
+    """Which columns of an all-floor grid the split rule makes unknown (the whole grid)."""
     split = np.array(split, dtype=np.int32, ndmin=2)
     lower = np.zeros_like(split) if lower is None else np.array(lower, np.int32, ndmin=2)
     multi = np.zeros_like(split) if multi is None else np.array(multi, np.int32, ndmin=2)
     types = np.full(split.shape, np.int8(CellType.FLOOR))
     heights = np.zeros(split.shape)
-    nx, ny = split.shape
-    changed = mark_split_edges(
-        types, heights, split, lower, multi, share, lower_share, contrast, 0, nx, 0, ny
+    changed = mark(
+        types,
+        heights,
+        split=split,
+        lower=lower,
+        multi=multi,
+        share=share,
+        lower_share=lower_share,
+        contrast=contrast,
     )
     unknown = types == CellType.UNKNOWN
     assert changed == unknown.sum() and np.isnan(heights[unknown]).all()
@@ -110,13 +168,12 @@ def test_only_floors_are_judged():
     types = np.array([[CellType.OBSTACLE, CellType.UNKNOWN, CellType.FLOOR]], dtype=np.int8)
     heights = np.array([[0.3, np.nan, 0.1]])
     split = np.full((1, 3), 5, dtype=np.int32)
-    zeros = np.zeros((1, 3), dtype=np.int32)
-    assert mark_split_edges(types, heights, split, zeros, zeros, 0.2, 0.0, 0.0, 0, 1, 0, 3) == 1
+    assert mark(types, heights, split=split, share=0.2) == 1
     assert types.tolist() == [[CellType.OBSTACLE, CellType.UNKNOWN, CellType.UNKNOWN]]
     assert heights[0, 0] == 0.3
     # Only the window is judged.
     types[0, 2] = CellType.FLOOR
-    assert mark_split_edges(types, heights, split, zeros, zeros, 0.2, 0.0, 0.0, 0, 1, 0, 2) == 0
+    assert mark(types, heights, (0, 1, 0, 2), split=split, share=0.2) == 0
 
 
 def test_a_column_stands_out_across_an_edge_not_along_it():
@@ -231,11 +288,11 @@ def test_the_contrast_keeps_the_columns_beside_a_riser_on_a_boundary():
     assert last_lower_column() == F
 
 
-# A raised floor's weak foot (`mark_weak_feet`, `MapperParams.edge_foot_min_frames`).
+# A raised floor's weak foot (`MapperParams.edge_foot_min_frames`).
 BAND_M = 0.02
 
 
-def feet(floor_mm, votes, fog_types=None, min_frames=8, window=(0, 99, 0, 99)):
+def feet(floor_mm, votes, fog_types=None, min_frames=8, window=None):
     """The FOG labels after the rule, on a grid whose floors are all labelled floor."""
     floor = np.array(floor_mm, float) / 1000
     types = (
@@ -244,8 +301,14 @@ def feet(floor_mm, votes, fog_types=None, min_frames=8, window=(0, 99, 0, 99)):
         else np.array(fog_types, np.int8)
     )
     heights = np.where(types == F, floor, np.nan)
-    changed = mark_weak_feet(
-        types, heights, floor, np.array(votes, np.int32), min_frames, BAND_M, *window
+    changed = mark(
+        types,
+        heights,
+        window,
+        floor=floor,
+        frame_votes=votes,
+        min_frames=min_frames,
+        band=BAND_M,
     )
     assert changed == int(np.sum(np.isnan(heights) & (types == U) & ~np.isnan(floor)))
     return types.tolist()
@@ -273,7 +336,7 @@ def test_a_diagonal_raised_neighbour_counts():
     assert feet([[0.0, 0.0], [0.0, 122.0]], [[2, 40], [40, 40]]) == [[U, F], [F, F]]
 
 
-def test_only_floors_in_the_window_are_judged():
+def test_weak_feet_are_floors_in_the_window():
     # An obstacle with few votes stays one; the window [1, 2) x [0, 1) leaves column 0 alone.
     assert feet([[0.0, 122.0]], [[1, 40]], fog_types=[[OB, F]]) == [[OB, F]]
     assert feet([[0.0, 0.0, 122.0]], [[1, 1, 40]], window=(0, 1, 0, 3)) == [[F, U, F]]
@@ -315,3 +378,136 @@ def test_through_the_mapper_a_ground_column_seen_twice_before_a_box_is_unknown()
     assert side_ground_labels(2, edge_foot_min_frames=0) == (F, F)
     assert side_ground_labels(2) == (U, F)
     assert side_ground_labels(10) == (F, F)
+
+
+# A raised floor's rim beside its uncovered spill (`MapperParams.uncovered_rims`). One row
+# along y: ground, then the platform from column 1, whose last stored column (7) is spill the
+# rays pass through, then ground again.
+PLATFORM_ROW_MM = [0.0, 122.0, 122.0, 122.0, 122.0, 122.0, 122.0, 122.0, 0.0]
+SPILL = 7  # the platform's last column: 30 rays ended on it, 40 passed through it
+RIM = 6
+
+
+def rims(
+    floor_mm=PLATFORM_ROW_MM,
+    ends=30,
+    passes=40,
+    split=0,
+    inward=4,
+    min_rays=20,
+    fog_types=None,
+    window=None,
+):
+    """The row's FOG labels after the rule (floors everywhere a floor is stored)."""
+    floor = np.array([floor_mm], float) / 1000
+    n = floor.shape[1]
+    cover_ends = np.full((1, n), 100, np.int32)
+    cover_passes = np.zeros((1, n), np.int32)
+    cover_ends[0, SPILL], cover_passes[0, SPILL] = ends, passes
+    splits = np.zeros((1, n), np.int32)
+    splits[0, SPILL] = split
+    types = (
+        np.where(np.isnan(floor), U, F).astype(np.int8)
+        if fog_types is None
+        else np.array([fog_types], np.int8)
+    )
+    heights = np.where(types == F, floor, np.nan)
+    mark(
+        types,
+        heights,
+        window,
+        floor=floor,
+        split=splits,
+        cover_ends=cover_ends,
+        cover_passes=cover_passes,
+        rims=True,
+        min_rays=min_rays,
+        inward=inward,
+    )
+    return types[0].tolist()
+
+
+def test_the_floor_beside_its_surface_s_uncovered_last_column_is_unknown():
+    # 40 of the 70 rays reaching the spill passed through it: the platform's edge lies about
+    # there, and the rim beside it (column 6) is unknown; the spill itself is the cover check's.
+    expected = [F] * 9
+    expected[RIM] = U
+    assert rims() == expected
+
+
+def test_a_covered_last_column_leaves_the_rim():
+    # 14 of 70 passed (0.2): covered. 19 rays in all: not judged.
+    assert rims(ends=56, passes=14) == [F] * 9
+    assert rims(ends=4, passes=15) == [F] * 9
+    assert rims(ends=4, passes=15, min_rays=19)[RIM] == U
+
+
+def test_a_split_last_column_is_the_split_rule_s():
+    # Two frames saw both surfaces in the spill's column: a riser seen from the front.
+    assert rims(split=2) == [F] * 9
+    assert rims(split=1)[RIM] == U
+
+
+def test_only_the_surface_s_last_column_counts():
+    # The platform goes on beyond the uncovered column: a hole in the surface, no edge.
+    row = list(PLATFORM_ROW_MM)
+    row[8] = 122.0
+    assert rims(floor_mm=row) == [F] * 9
+    # Another surface's column (more than eps from the rim's height) never counts.
+    row = list(PLATFORM_ROW_MM)
+    row[SPILL] = 100.0
+    assert rims(floor_mm=row) == [F] * 9
+    # Beyond the grid the surface has ended.
+    assert rims(floor_mm=PLATFORM_ROW_MM[:8])[RIM] == U
+
+
+def test_a_narrow_rise_keeps_its_rims():
+    # The platform must go on for `inward` cells behind the rim (columns 2-5 with 4): with a
+    # stored ground at column 3 it does not (a sill, a low box: the narrow-rise rule's).
+    row = list(PLATFORM_ROW_MM)
+    row[3] = 0.0
+    assert rims(floor_mm=row) == [F] * 9
+    assert rims(floor_mm=row, inward=2)[RIM] == U
+    assert rims(inward=5)[RIM] == U
+    assert rims(inward=6) == [F] * 9
+
+
+def test_uncovered_rims_are_floors_in_the_window():
+    labels = [F] * 9
+    labels[RIM] = OB
+    assert rims(fog_types=labels) == labels
+    assert rims(window=(0, 1, 0, RIM)) == [F] * 9
+    assert rims(window=(0, 1, RIM, RIM + 1))[RIM] == U
+
+
+def side_labels(edge_y_m, **params):
+    """FOG labels at x = 1.42 m of the cells y = -0.18 ... 0.10 m across a platform's side.
+
+    The 122 mm platform spans x = 1 ... 2 m and y up to ``edge_y_m``; the camera 0.9 m up at
+    y = 0.3 m, looking along x, sees its top and the ground beside it, 12 frames, exactly.
+    """
+    box = Box(center_xy=(1.5, edge_y_m - 0.5), size_xyz=(1.0, 1.0, 0.122))
+    fog = FloorObstacleMapper(MapperParams(**params), center_xy_m=(1.0, 0.0))
+    camera = CAMERA + np.array([0.0, 0.3, 0.0])
+    points, heights = cast_frame(camera, RAYS, (box,))
+    for _ in range(12):
+        fog.update(points, heights, camera)
+    types, _ = fog.fog()
+    ys = np.arange(-0.18, 0.12, 0.04)
+    cells = [fog.cell_of(np.array([[1.42, y, 0.0]]))[0][0][:2] for y in ys]
+    return [int(types[ix, iy]) for ix, iy in cells]
+
+
+def test_through_the_mapper_a_side_edge_on_a_cell_boundary_keeps_its_rim():
+    # Edge at y = 0: the platform's cells are floors up to y = 0, the side face's cell an
+    # obstacle; nothing passes through a floor, so the rule changes nothing.
+    assert side_labels(0.0) == side_labels(0.0, uncovered_rims=False)
+    assert side_labels(0.0) == [F, F, F, F, F, OB, F, F]
+
+
+def test_through_the_mapper_the_rim_beside_a_spill_is_given_up():
+    # Edge at y = 0.03: the cell 0.00-0.04 m holds 3 cm of platform, whose floor the rays to
+    # the ground beyond pass through (the cover check's unknown). The cell before it, all
+    # platform, is what the rule gives up: with drift the edge may lie in it (module note).
+    assert side_labels(0.03, uncovered_rims=False) == [F, F, F, F, F, U, F, F]
+    assert side_labels(0.03) == [F, F, F, F, U, U, F, F]

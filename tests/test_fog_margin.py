@@ -616,10 +616,12 @@ def test_narrow_rise_defaults_and_validation():
 
 def test_the_mapper_passes_narrow_rise_to_the_fog():
     # A sill 2 cells deep, seen straight down, flat: the ground cells at its feet are unknown
-    # with the default, floor with narrow_rise_m = 0.
+    # with the default, floor with narrow_rise_m = 0. (Seen by 3 frames only, the feet are
+    # weak feet too: `edge_foot_min_frames` off, to see this rule alone.)
     labels = []
     for rise_m in (0.16, 0.0):
-        m = FloorObstacleMapper(MapperParams(narrow_rise_m=rise_m), center_xy_m=(0.0, 0.0))
+        params = MapperParams(narrow_rise_m=rise_m, edge_foot_min_frames=0)
+        m = FloorObstacleMapper(params, center_xy_m=(0.0, 0.0))
         xs = np.arange(-0.4, 0.4, 0.01) + 0.005
         gx, gy = np.meshgrid(xs, xs, indexing="ij")
         gz = np.where((gx > 0.0) & (gx < 0.08), 0.037, 0.0)

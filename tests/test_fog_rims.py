@@ -11,6 +11,7 @@ import numpy as np
 import pytest
 
 from mapper import CellType, FloorObstacleMapper, InvalidParameterError, MapperParams
+from mapper.floor_edges import mark_floor_edges
 from mapper.fog import mark_raised_rims, update_fog_area
 
 P = MapperParams()
@@ -140,7 +141,7 @@ def test_incremental_rims_match_a_whole_grid_recompute():
     # With every FOG rule on (band, shadow, narrow rise: `update_fog_area` rewrites n + 1 = 5
     # cells around the area) a frame that touches only ground a few cells from the box must
     # leave the rims as a recompute of the whole grid gives them: the rim pass covers the
-    # whole window the FOG pass rewrote, not the band's 2 cells only.
+    # whole window the FOG pass rewrote, not the band's 2 cells only; so do the rules after it.
     params = MapperParams(raised_rim_obstacle=True)
     mapper = FloorObstacleMapper(params)
     points, heights = _box_points(0.0)
@@ -168,6 +169,15 @@ def test_incremental_rims_match_a_whole_grid_recompute():
         params.edge_band_m, params.unknown_beside_obstacles, params.narrow_rise_cells,
     )  # fmt: skip
     mark_raised_rims(mapper._floor, obstacle, whole_types, whole_heights, DELTA, 0, nx, 0, ny)
+    # The rules after it that fire here: a box's rim beside its uncovered spill.
+    assert mark_floor_edges(
+        whole_types, whole_heights, mapper._floor, mapper._floor_frame_votes,
+        mapper._split_frames, mapper._lower_split_frames, mapper._multi_frames,
+        mapper._cover_ends, mapper._cover_passes, params.edge_split_share,
+        params.edge_split_lower_share, params.edge_split_contrast, params.edge_foot_min_frames,
+        params.edge_band_m, params.uncovered_rims, params.floor_pass_min_rays,
+        params.floor_pass_fraction, params.eps_m, params.narrow_rise_cells, 0, nx, 0, ny,
+    ) > 0  # fmt: skip
     assert (whole_types == OB).sum() > 0
     assert np.array_equal(types, whole_types)
     known = whole_types != U
