@@ -1,4 +1,4 @@
-"""Cells a step's edge may run through: a split column, a weak foot (beyond the paper).
+"""Cells an edge may run through: split columns, weak feet, uncovered rims (beyond the paper).
 
 A 4 cm cell over a riser holds part of each tread. The floor map keeps one height per cell
 (eq. 9 with votes: the surface most of its points come from), so the FOG calls such a cell a
@@ -27,10 +27,12 @@ inside a column splits it far more often than either neighbour across the edge (
 and 32 on `stage_offgrid`), as each frame's pose error moves the edge by a centimetre or two.
 
 Both counts are halved when ``multi`` reaches `SPLIT_FRAME_CAP`, so they are bounded and a
-scene that changed (a box taken away) is followed within some tens of frames. The rule costs
-0.02–0.03 ms of the stage's 0.8 ms update, 0.04 ms with the FOG read after every frame (depth
-seed 1, 400 frames, on and off interleaved, medians, AMD EPYC, load 1.5–4; the FOG's part
-computed with numpy instead took 0.17 ms).
+scene that changed (a box taken away) is followed within some tens of frames. The counting
+costs 0.02–0.03 ms of the stage's 0.8 ms update, the split rule's FOG part 0.04 ms with the FOG
+read after every frame (depth seed 1, 400 frames, on and off interleaved, medians, AMD EPYC,
+load 1.5–4; computed with numpy instead it took 0.17 ms), the two rules below 0.06 ms more
+(`stage_offgrid` depth seed 1, the same way, load 1–5); all three are one pass,
+`mark_floor_edges`.
 
 A side edge splits no column: the ground beside a raised surface's side lies behind that side
 from every place on or in front of the surface, so no frame sees both. There the cell the
