@@ -511,10 +511,13 @@ class MapperParams:
             (`stage_offgrid` depth seed 3: the platform's map a cell wide of its side, the
             cell holding the edge a floor at the platform's height). On the 17 replays of the
             tuning set (never the held-out scenes; after the weak-foot rule): unsafe cells
-            275 → 163 for 529 right floor cells left unknown; every neighbour's spill counted
-            took 275 → 116 for 1673 (the stage's sill coverage 80 → 28 %), the columns a frame
-            split left out 151 for 1195, and a surface going on 4 cells 159 for 917. The
-            suites' figures: README "Cells that straddle an edge". False = off.
+            275 → 163 for 529 right floor cells left unknown. Built up: every uncovered
+            neighbour of the same height took 275 → 116 for 1673 (the stage's sill coverage
+            80 → 28 %), leaving out the split columns 151 for 1195, then asking the surface to
+            go on 4 cells 159 for 917, then the neighbour to be its last column 163 for 529.
+            The suites' figures: README "Cells that straddle an edge". The split frames are
+            counted only with ``edge_split_share`` or ``edge_split_lower_share`` > 0; without
+            them every column counts as unsplit. False = off.
     """
 
     nx: int = 100
