@@ -61,9 +61,9 @@ def _rewritten_ring(p: MapperParams) -> int:
         ring = max(ring, p.shadow_reach_cells + 1)
     if p.edge_band_m > 0.0 and p.min_floor_neighbours > 0:
         ring += 1
-    if p.edge_split_share > 0.0 or p.edge_split_lower_share > 0.0 or p.edge_foot_min_frames > 0:
+    if p.splits_edges or p.weak_foot_frames > 0:
         ring = max(ring, 1)
-    if p.uncovered_rims and p.floor_pass_fraction > 0.0:
+    if p.judges_uncovered_rims:
         ring = max(ring, 2, p.narrow_rise_cells)
     return ring
 
@@ -99,15 +99,10 @@ class FloorObstacleMapper:
         p = self.params
         # `MapperParams.min_floor_frames` needs the frame votes (`floor_frame_cap` > 0).
         self._confirms_floors = p.min_floor_frames > 1 and p.floor_frame_cap > 0
-        # The split columns are counted only for `MapperParams.edge_split_share` (0.02 ms of
-        # the stage's 0.81 ms update): 0 and 0 = the paper's FOG without this rule.
-        self._splits_edges = p.edge_split_share > 0.0 or p.edge_split_lower_share > 0.0
-        # `mapper.floor_edges.mark_floor_edges`: the split, weak-foot and uncovered-rim rules.
-        self._marks_edges = (
-            self._splits_edges
-            or (p.edge_foot_min_frames > 0 and p.floor_frame_cap > 0)
-            or (p.uncovered_rims and p.floor_pass_fraction > 0.0)
-        )
+        # `mapper.floor_edges.mark_floor_edges`: the split, weak-foot and uncovered-rim rules
+        # (the split frames are counted only with `MapperParams.splits_edges`: 0.02 ms of the
+        # stage's 0.81 ms update).
+        self._marks_edges = p.splits_edges or p.weak_foot_frames > 0 or p.judges_uncovered_rims
         self._fog_ring = _rewritten_ring(p)
         self._geometry = GridGeometry.from_params(p, center_xy_m)
         self._hit_table, self._miss_table = lookup_tables(p)
@@ -302,7 +297,7 @@ class FloorObstacleMapper:
             p.floor_range_power,
             p.delta_m,
         )
-        if self._splits_edges:  # `mapper.floor_edges`
+        if p.splits_edges:  # `mapper.floor_edges`
             count_split_frames(
                 self._split_frames.reshape(-1),
                 self._lower_split_frames.reshape(-1),
@@ -445,9 +440,9 @@ class FloorObstacleMapper:
                 p.edge_split_share,
                 p.edge_split_lower_share,
                 p.edge_split_contrast,
-                p.edge_foot_min_frames if p.floor_frame_cap > 0 else 0,
+                p.weak_foot_frames,
                 p.edge_band_m if p.edge_band_m > 0.0 else p.eps_m,
-                p.uncovered_rims and p.floor_pass_fraction > 0.0,
+                p.judges_uncovered_rims,
                 p.floor_pass_min_rays,
                 p.floor_pass_fraction,
                 p.eps_m,

@@ -709,6 +709,21 @@ class MapperParams:
         return self.z_min_m + self.nz * self.layer_m
 
     @property
+    def splits_edges(self) -> bool:
+        """Whether the split rule is on (either share > 0): the split frames are counted."""
+        return self.edge_split_share > 0.0 or self.edge_split_lower_share > 0.0
+
+    @property
+    def weak_foot_frames(self) -> int:
+        """`edge_foot_min_frames` as the FOG reads it: 0 (off) without frame votes."""
+        return self.edge_foot_min_frames if self.floor_frame_cap > 0 else 0
+
+    @property
+    def judges_uncovered_rims(self) -> bool:
+        """Whether `uncovered_rims` applies: it needs the cover check (`floor_pass_fraction`)."""
+        return self.uncovered_rims and self.floor_pass_fraction > 0.0
+
+    @property
     def narrow_rise_cells(self) -> int:
         """`narrow_rise_m` in whole cells (floored; 0 = off), as the FOG reads it."""
         return math.floor(self.narrow_rise_m / self.cell_m + 1e-9)
