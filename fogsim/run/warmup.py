@@ -15,7 +15,8 @@ not help; a second process halves the wait on two cores. The run begins the warm
 forked, and forking a process whose threads hold locks is unsafe) and finishes it once the
 simulation's thread is setting the scene up. Forked, the helper has this process's modules and
 numba's registries (loaded once, before the fork: numba imports its numpy, linear-algebra and
-typed-container implementations, and scipy's BLAS with them, on a process's first compile);
+typed-container implementations, and SciPy's BLAS modules with them, on a process's first
+compile);
 started as ``python -m`` it spent 2.4 s of CPU time on its interpreter, imports and registries
 before its first compile (Intel Xeon, 3 repeats, load 12; 0.05 s of it the bare interpreter),
 on the path of a cold run that both processes' groups bound. Each
@@ -108,6 +109,7 @@ from fogsim.mapping.pipeline import Pipeline
 from fogsim.mapping.segmenter import pipeline_segmentation_params
 from fogsim.robot import self_filter
 from fogsim.run import kernel_bundle
+from fogsim.run.scipy_blas import blas_modules_alone
 from mapper import AveragingMap, FloorObstacleMapper, SegmentationParams
 from mapper.heading import heading_scores, weighted_heading_scores
 from mapper.intrinsics import PinholeIntrinsics
@@ -354,28 +356,31 @@ class KernelWarmUp:
 
         The time counts from the warm-up's beginning (the helper's compile included).
         """
-        steps = _steps(self._params)
-        helper = self._helper
-        away = helper.groups if helper is not None else []
-        for group in self._groups:
-            if group in away:
-                continue
-            if group in self._cold:
-                self._say(f"  {group.name} kernels ...", end="", flush=True)
-            group_start = time.perf_counter()
-            steps[group]()
-            if group in self._cold:
-                self._say(f" {time.perf_counter() - group_start:.1f} s", flush=True)
-        if helper is not None:
-            names = ", ".join(group.name for group in away)
-            self._say(f"  {names} kernels ...", end="", flush=True)
-            failure = helper.wait()
-            for group in away:
-                steps[group]()  # loaded from the cache the helper filled (compiled if it failed)
-            self._say(f" {helper.seconds():.1f} s (second process)", flush=True)
-            if failure:
-                self._say(f"  (the second process failed, compiled here: {failure})")
-        _pipeline(_floor_frames(), self._params)
+        # SciPy's BLAS and LAPACK modules without their package while every kernel is loaded and
+        # called once (`fogsim.run.scipy_blas`): numba keeps the routines' addresses.
+        with blas_modules_alone():
+            steps = _steps(self._params)
+            helper = self._helper
+            away = helper.groups if helper is not None else []
+            for group in self._groups:
+                if group in away:
+                    continue
+                if group in self._cold:
+                    self._say(f"  {group.name} kernels ...", end="", flush=True)
+                group_start = time.perf_counter()
+                steps[group]()
+                if group in self._cold:
+                    self._say(f" {time.perf_counter() - group_start:.1f} s", flush=True)
+            if helper is not None:
+                names = ", ".join(group.name for group in away)
+                self._say(f"  {names} kernels ...", end="", flush=True)
+                failure = helper.wait()
+                for group in away:
+                    steps[group]()  # from the cache the helper filled (compiled if it failed)
+                self._say(f" {helper.seconds():.1f} s (second process)", flush=True)
+                if failure:
+                    self._say(f"  (the second process failed, compiled here: {failure})")
+            _pipeline(_floor_frames(), self._params)
         elapsed_s = time.perf_counter() - self._start
         if self._cold:
             self._say(f"  compiled in {elapsed_s:.1f} s", flush=True)
