@@ -16,7 +16,14 @@ from fogsim.data.recording import Recording
 from fogsim.errors import FogsimError
 from fogsim.run.runner import run_scenario
 from fogsim.sim import simulation
-from fogsim.sim.background import AHEAD_FRAMES, BackgroundSimulation
+from fogsim.sim.background import (
+    AHEAD_BYTES,
+    AHEAD_BYTES_PER_PIXEL,
+    AHEAD_FRAMES,
+    MAX_AHEAD_FRAMES,
+    BackgroundSimulation,
+    frames_ahead,
+)
 from fogsim.sim.simulation import Simulation
 
 FRAMES = 12
@@ -72,6 +79,39 @@ def test_runs_at_most_ahead_frames_ahead_and_stops_when_closed(scenario):
     source.close()
     assert not simulation_threads()
     source.close()  # idempotent
+
+
+def test_runs_as_many_frames_ahead_as_it_is_given(scenario):
+    ahead = 7
+    with BackgroundSimulation(
+        lambda: Simulation(scenario), max_frames=FRAMES, ahead=ahead
+    ) as source:
+        deadline = time.monotonic() + 60.0
+        while source._handoff.qsize() < ahead and time.monotonic() < deadline:
+            time.sleep(0.05)
+        time.sleep(0.3)
+        assert source._handoff.qsize() == ahead
+
+
+def test_ahead_below_one_frame_is_refused(scenario):
+    with pytest.raises(FogsimError, match="ahead must be >= 1 frame, got 0"):
+        BackgroundSimulation(lambda: Simulation(scenario), ahead=0)
+    assert not simulation_threads()
+
+
+@pytest.mark.parametrize(
+    ("pixels", "frames"),
+    [
+        (88 * 72, 32),  # 24 MiB / (88 B * 6336) = 45: capped at 32
+        (176 * 144, 11),  # 25165824 // 2230272 = 11
+        (640 * 480, 4),  # 0 fit: the floor of 4
+        (AHEAD_BYTES // (AHEAD_BYTES_PER_PIXEL * 20), 20),
+        (0, MAX_AHEAD_FRAMES),
+    ],
+)
+def test_frames_ahead_fill_the_memory_budget_between_the_bounds(pixels, frames):
+    assert frames_ahead(pixels) == frames
+    assert AHEAD_FRAMES <= frames_ahead(pixels) <= MAX_AHEAD_FRAMES
 
 
 def test_an_error_in_a_frame_is_raised_with_its_message(scenario, monkeypatch):

@@ -10,13 +10,13 @@ the result the segmenter returned for that frame, so the maps are the same bit f
 runs in parallel is what releases Python's GIL: the segmentation kernels are compiled with
 ``nogil`` (:mod:`mapper.scanline`), numpy's array work releases it too.
 
-Bounded: at most :data:`AHEAD_FRAMES` segmented frames wait for the pipeline, whatever the
-input's length. Errors: the segmentation's exception for frame k is raised when the pipeline
-asks for frame k's segmentation (after its own checks of frame k, as in line); an exception of
-the frames' iterator (a simulation's) is raised by the iteration where it happened. Stopping:
-:meth:`SegmentAhead.close` (``with``, also on an exception or Ctrl-C in the consumer) tells the
-thread to stop and waits for it; it stops once its current frame is segmented or its source
-hands it the next one.
+Bounded: at most ``ahead`` segmented frames wait for the pipeline (a run's:
+`fogsim.sim.background.frames_ahead`), whatever the input's length. Errors: the segmentation's
+exception for frame k is raised when the pipeline asks for frame k's segmentation (after its own
+checks of frame k, as in line); an exception of the frames' iterator (a simulation's) is raised
+by the iteration where it happened. Stopping: :meth:`SegmentAhead.close` (``with``, also on an
+exception or Ctrl-C in the consumer) tells the thread to stop and waits for it; it stops once
+its current frame is segmented or its source hands it the next one.
 """
 
 from __future__ import annotations
@@ -33,9 +33,11 @@ from fogsim.sim.background import HandOff
 from mapper.segmentation import SegmentationResult
 
 AHEAD_FRAMES = 4
-"""Segmented frames that may wait for the pipeline: enough to carry either side over a slow
-frame (a first z-match, a frame with many planes: 3-5 times the median), few enough to bound
-the memory (a stage frame's result is ~0.36 MB) and the work thrown away when a run stops."""
+"""Segmented frames that may wait for the pipeline by default: enough to carry either side over
+a slow frame (a first z-match, a frame with many planes: 3-5 times the median), few enough to
+bound the memory (a stage frame's result is ~0.36 MB) and the work thrown away when a run
+stops. A run passes `fogsim.sim.background.frames_ahead` of its images (32 at 88 × 72: the
+mapping's stops of tens of milliseconds are then carried over too)."""
 
 
 @dataclass(frozen=True)

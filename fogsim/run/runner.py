@@ -41,7 +41,7 @@ from fogsim.mapping.segmenter import FrameSegmenter, SegmentFunction
 from fogsim.robot.description import load_description
 from fogsim.run.run_folder import RunFolder
 from fogsim.run.warmup import KernelWarmUp, install_shipped_kernels
-from fogsim.sim.background import BackgroundSimulation
+from fogsim.sim.background import AHEAD_FRAMES, BackgroundSimulation, frames_ahead
 from fogsim.sim.camera.noise_model import segmentation_noise_fields
 from fogsim.viz.forked import ForkedCall
 from fogsim.world.truth import TruthParams
@@ -170,7 +170,10 @@ def run_frames(
         )
     segmenter = FrameSegmenter(run_params, segment)
     if segment_process and isinstance(frames, Sequence) and can_segment_in_process():
-        with SegmentInProcess(frames, segmenter, also=view_points_world) as forked:
+        pixels = int(np.asarray(frames[0].depth_m).size) if len(frames) else 1
+        with SegmentInProcess(
+            frames, segmenter, ahead=frames_ahead(pixels), also=view_points_world
+        ) as forked:
             forked.start()
             pipeline = Pipeline(run_params, segmented=forked.segmented)
             return _run_pipeline(
@@ -185,7 +188,9 @@ def run_frames(
                 in_view,
             )
     # The frames' world points for the cells in view are made on the thread too.
-    with SegmentAhead(frames, segmenter, also=view_points_world) as ahead:
+    pixels = scenario.camera.width * scenario.camera.height if scenario is not None else 0
+    ahead_frames = frames_ahead(pixels) if pixels else AHEAD_FRAMES
+    with SegmentAhead(frames, segmenter, ahead=ahead_frames, also=view_points_world) as ahead:
         pipeline = Pipeline(run_params, segmented=ahead.segmented)
         ahead.start()
         return _run_pipeline(
@@ -475,7 +480,10 @@ def _frame_source(
         simulation = Simulation(scenario, depth_backend=depth_backend)
         return FilmedSimulation(simulation) if video else simulation
 
-    background = cleanup.enter_context(BackgroundSimulation(make_simulation, max_frames=max_frames))
+    pixels = scenario.camera.width * scenario.camera.height
+    background = cleanup.enter_context(
+        BackgroundSimulation(make_simulation, max_frames=max_frames, ahead=frames_ahead(pixels))
+    )
     take_picture = None
     if video:
 

@@ -1,11 +1,12 @@
 """A simulation stepped on a second thread, a few frames ahead of the code that maps them.
 
 ``fogsim run`` spends about as long simulating a frame (posing the robot, rendering depth, the
-stereo error model, the encoders and the self-filter) as mapping it. :class:`BackgroundSimulation`
-builds and steps the :class:`~fogsim.sim.simulation.Simulation` on its own thread and hands
-frames over through a queue of at most :data:`AHEAD_FRAMES`, so frame k + 1 is simulated while
-frame k is mapped. What runs in parallel is what releases Python's GIL: MuJoCo's rendering and
-kinematics and numpy's array work; numba kernels compiled without ``nogil`` take turns.
+stereo error model, the encoders and the self-filter) as mapping it.
+:class:`BackgroundSimulation` builds and steps the :class:`~fogsim.sim.simulation.Simulation` on
+its own thread and hands frames over through a queue of at most ``ahead`` frames
+(:func:`frames_ahead`), so frame k + 1 is simulated while frame k is mapped. What runs in
+parallel is what releases Python's GIL: MuJoCo's rendering and kinematics and numpy's array
+work; numba kernels compiled without ``nogil`` take turns.
 
 Everything of the simulation stays on its thread: an OpenGL (EGL) context is current in one
 thread only, so the renderer is created, used and freed there, and the MuJoCo state is never
@@ -30,12 +31,43 @@ from dataclasses import dataclass
 from typing import Protocol
 
 from fogsim.data.frame import Frame
+from fogsim.errors import FogsimError
 from fogsim.world import SceneTruth
 
 AHEAD_FRAMES = 4
-"""Frames the simulation may run ahead of the consumer: enough to carry it over a slow frame
-on either side (a first z-match, a frame with many planes: 3-5 times the median), few enough
-to bound the memory (a stage frame is ~30 KB) and the work thrown away when a run stops."""
+"""Fewest frames a stage of a run (this simulation, the segmentation ahead of the mapping) may
+work ahead of the next: enough to carry it over a slow frame on either side (a first z-match,
+a frame with many planes: 3-5 times the median), and what frames too big for
+:data:`AHEAD_BYTES` get (:func:`frames_ahead`)."""
+
+MAX_AHEAD_FRAMES = 32
+"""Most frames a stage may work ahead (:func:`frames_ahead`): the mapping stops for tens of
+milliseconds now and then (the heading's refinement: 3 frames of about 65 ms in a stage run,
+its estimates: 12 of about 10 ms), while the other stages make a frame in 1-2 ms; with 4 frames
+of room they stood still through those stops. Stage, interleaved, 3-4 repeats each, in-process
+wall of the run (AMD EPYC, load about 1.5): ``fogsim run stage`` 3.87 -> 3.72 s with 32 frames
+ahead for the simulation and the segmentation (3.72 / 3.76 s with either alone), the replay's
+(segmentation process) 2.69 -> 2.52 s."""
+
+AHEAD_BYTES = 24 * 2**20
+"""Memory the frames a stage works ahead may take [bytes] (:func:`frames_ahead`)."""
+
+AHEAD_BYTES_PER_PIXEL = 88
+"""A frame's size per depth pixel as :func:`frames_ahead` counts it [bytes]: the largest of the
+stages' (the segmentation process's slot, `fogsim.mapping.segment_process`; a segmented frame
+on the thread takes about 57, a simulated frame about 5)."""
+
+
+def frames_ahead(pixels: int) -> int:
+    """Frames a stage of a run may work ahead of the next, for frames of ``pixels`` pixels.
+
+    As many as :data:`AHEAD_BYTES` hold at :data:`AHEAD_BYTES_PER_PIXEL`, between
+    :data:`AHEAD_FRAMES` and :data:`MAX_AHEAD_FRAMES`: 32 at 88 × 72, 11 at 176 × 144, 4 at
+    640 × 480.
+    """
+    fits = AHEAD_BYTES // (AHEAD_BYTES_PER_PIXEL * max(int(pixels), 1))
+    return max(AHEAD_FRAMES, min(MAX_AHEAD_FRAMES, fits))
+
 
 _POLL_S = 0.05
 """How often a simulation thread blocked on a full queue checks whether it should stop [s]."""
@@ -148,15 +180,26 @@ class BackgroundSimulation:
         make_simulation: Builds the simulation (called on the simulation thread), e.g.
             ``lambda: Simulation(scenario)``.
         max_frames: Stop after this many frames; None = all of them.
+        ahead: Frames the simulation may run ahead of the consumer, >= 1
+            (:func:`frames_ahead` of the camera's image).
+
+    Raises:
+        FogsimError: ``ahead`` < 1.
     """
 
     def __init__(
-        self, make_simulation: Callable[[], FrameSimulation], *, max_frames: int | None = None
+        self,
+        make_simulation: Callable[[], FrameSimulation],
+        *,
+        max_frames: int | None = None,
+        ahead: int = AHEAD_FRAMES,
     ) -> None:
+        if ahead < 1:
+            raise FogsimError(f"BackgroundSimulation: ahead must be >= 1 frame, got {ahead!r}")
         self._make_simulation = make_simulation
         self._max_frames = max_frames
         self._simulation: Future[FrameSimulation] = Future()
-        self._handoff = HandOff(AHEAD_FRAMES)
+        self._handoff = HandOff(ahead)
         self._thread = threading.Thread(target=self._run, name="fogsim-simulation", daemon=True)
         self._thread.start()
 
