@@ -44,7 +44,9 @@ along the viewing ray, where a depth camera has them. Then
    lies farther from its floor than noise explains loses its label. Before that (with
    `floor_side_strip_px`, the stereo head's) a band of a floor region's sides that lies at the
    level of another floor it touches moves to that floor (`mapper.floor_sides`): rows that
-   did not split at a tread's side edge carry the tread's region over the edge.
+   did not split at a tread's side edge carry the tread's region over the edge; and (with
+   `floor_occluding_border_px`, off by default) a floor's pixels on the near side of an
+   occluding edge leave it (`mapper.floor_borders`): a matcher spreads them past the edge.
 
 Every floor point is labelled with its region's height (weighted mean corrected z of the
 grown segments' points); all other points are obstacle (``NaN``).
@@ -63,7 +65,7 @@ from dataclasses import dataclass, fields
 import numpy as np
 from numpy.typing import NDArray
 
-from mapper import floor_sides, scanline, tilt_kernels
+from mapper import floor_borders, floor_sides, scanline, tilt_kernels
 from mapper.errors import InvalidInputError, InvalidParameterError
 from mapper.intrinsics import PinholeIntrinsics
 from mapper.limits import (
@@ -136,6 +138,7 @@ _INTEGER_RANGES: dict[str, tuple[int, int | None]] = {
     "floor_height_margin_px": (0, MAX_WINDOW_PX),
     "plane_normal_margin_px": (0, MAX_WINDOW_PX),
     "floor_side_strip_px": (0, MAX_WINDOW_PX),
+    "floor_occluding_border_px": (0, MAX_WINDOW_PX),
 }
 """Integer `SegmentationParams` fields: (lowest, highest or None) allowed. The windows' widths
 and the passes' counts are bounded (`mapper.limits`); the pixel counts only filter."""
@@ -384,6 +387,27 @@ class SegmentationParams:
             coverage 82.5 → 77.7 %. 8 and 16 gave the same within 0.5 cells a run (8: stage
             2.0 (5), zig-zag 31.5 (68); 16: 2.25 (5), 31.5 (68)). Time: 0.92 → 0.97 ms CPU a
             frame (median, stage stereo seed 1, every 4th frame, 3 repeats interleaved).
+        floor_occluding_border_px: a floor region's pixels within this many pixels (along the
+            row or column) of a pixel of another label that is farther by more than
+            `OCCLUDING_JUMP_SIGMA` of the stereo model's inverse-depth noise are no floor
+            points (`mapper.floor_borders`): a stereo matcher's window spreads the nearer
+            surface's disparity over the farther one's first pixels at an occluding edge, which
+            puts a raised surface's floor a cell past its side and far edges, over ground no ray
+            can refute. Needs the stereo model (``stereo_baseline_m``, ``disparity_noise_px``).
+            0 (default): off — also for fogsim's stereo head, because it did not carry over to
+            the scenes it was not tried on. 1 on the stereo head (session 49, seeds 1–8, unsafe
+            cells mean (worst)): the shipped suite 167.75 → 125.1 in all (`stairs` 37.4 (79) →
+            15.6 (46), `talos_course` 33.4 (57) → 26.9 (36), the zig-zag 24.0 (53) → 19.5 (44),
+            `untextured` 7.9 → 3.9, `moving_box` 11.9 → 10.1 with obstacle recall 22 → 45 %;
+            worse: the stage 1.25 (3) → 1.62 (6), `room` 6.88 → 7.25, `table` 1.25 → 1.50),
+            floor recall 0.2–1.9 points lower, the stage's sill coverage 86 → 62 %, the
+            zig-zag's sill 19 → 12 % with its one cell left on seed 8 16.3 mm off; the held-out
+            scenes 451.4 → 434.6 only — `stairs_35_65_100` 31.25 (103) → 54.6 (151),
+            `down_low_steps`' worst seed 198 → 229, `rock_field`'s sill coverage 71 → 12 % —
+            against `down_slant_turn` 96.75 → 85.75 and `stairs_40_75_110` 75.0 → 61.1. Every
+            label change taken as a border (not only an occluding one): shipped 167.75 →
+            319.6, `talos_course` seed 7 a whole-map failure (1553 cells), floor recall up to 5
+            points lower. Try it with ``--set segmentation.floor_occluding_border_px=1``.
         tilt_max_step_t: a tilt candidate (near-horizontal plane) that fits better as itself
             with a step across its downhill direction, the step's t-statistic above this, the
             step turning its normal by more than `tilt_consensus_deg` and at least half its
@@ -452,6 +476,7 @@ class SegmentationParams:
     plane_refit_sigma: float = 0.0
     plane_normal_margin_px: int = 1
     floor_side_strip_px: int = 0
+    floor_occluding_border_px: int = 0
     tilt_max_step_t: float = 0.0
     tilt_pitch_sigma_factor: float = 1.0
 
@@ -473,6 +498,15 @@ class SegmentationParams:
                     f"an integer in [{lowest}, {highest}] (mapper.limits)",
                     lambda v, lo=lowest, hi=highest: lo <= v <= hi,
                 )
+        if self.floor_occluding_border_px > 0 and not (
+            self.stereo_baseline_m > 0.0 and self.disparity_noise_px > 0.0
+        ):
+            raise InvalidParameterError(
+                "SegmentationParams.floor_occluding_border_px "
+                f"({self.floor_occluding_border_px}) needs the stereo noise model: "
+                "stereo_baseline_m and disparity_noise_px > 0 (its edges are judged in that "
+                "model's inverse-depth noise); 0 turns it off"
+            )
         if self.min_depth_m >= self.max_depth_m:
             raise InvalidParameterError(
                 f"SegmentationParams.min_depth_m ({self.min_depth_m}) must be < max_depth_m "
@@ -592,7 +626,8 @@ class SegmentationResult:
         points: (N, 3) corrected robot-frame points [m] of all valid pixels, row-major order.
         floor_heights: (N,) height of the floor plane of each point [m], NaN = not floor.
         plane_ids: (N,) plane index of each point, -1 for none.
-        floor_ids: (N,) floor region of each point, -1 for none.
+        floor_ids: (N,) floor region of each point, negative for none (-1; -3 for a floor
+            region's occluding border pixel, `mapper.floor_borders`).
         pixel_index: (N,) index of each point into the flattened (height·width) image.
         correction: the tilt rotation and z shift applied.
         planes: per-plane table (free planes: they steer the tilt correction).
@@ -636,6 +671,12 @@ class SegmentationResult:
             )
         return image.reshape(self.image_shape)
 
+
+OCCLUDING_JUMP_SIGMA = 1.0
+"""How much farther (in the stereo model's inverse-depth σ) a neighbour must be to make a floor
+pixel an occluding border pixel (`SegmentationParams.floor_occluding_border_px`): a 31 mm
+step's edge against the ground seen past it jumps by about 1.5 σ at 1.5 m (iCub's head 0.9 m
+up, baseline 68 mm: σ = 0.016 m⁻¹), a taller surface's by more."""
 
 _DEFAULT_PARAMS = SegmentationParams()
 
@@ -856,6 +897,15 @@ def segment_depth(
         is_floor=floors.is_floor,
     )
     origin[2] += correction.z_shift_m
+    if params.floor_occluding_border_px > 0 and len(floors) > 0:
+        # The near side of occluding edges leaves the floors (`mapper.floor_borders`).
+        point_labels = floor_borders.occluding_border(
+            point_labels,
+            inv_depth,
+            floor_level_m,
+            params.floor_occluding_border_px,
+            OCCLUDING_JUMP_SIGMA * model_inv_sigma,
+        )
     corrected, floor_heights, floor_ids = scanline.floor_points(
         pixel_index,
         point_labels,

@@ -69,12 +69,13 @@ def floor_points(
 ):
     """Corrected points and floor heights of the valid pixels (see `segment_depth`).
 
-    A pixel in no level region (not even one that failed the floor tests: it has a height of
-    its own) whose depth lies within ``relabel_factor`` sigma (``typical``) of where its ray
-    meets the ground height ``ground_m`` becomes a ground point (ground_m NaN or factor 0:
-    none). A floor point whose ray meets its height going down within
-    ``snap_factor`` sigma of its depth is moved there along the ray; one that does not loses
-    its floor label (factor 0: points stay, labels too).
+    A pixel in no level region (label -1; not even one that failed the floor tests: it has a
+    height of its own) whose depth lies within ``relabel_factor`` sigma (``typical``) of where
+    its ray meets the ground height ``ground_m`` becomes a ground point (ground_m NaN or factor
+    0: none). A floor point whose ray meets its height going down within ``snap_factor`` sigma
+    of its depth is moved there along the ray; one that does not loses its floor label (factor
+    0: points stay, labels too). A pixel labelled -3 (a floor region's occluding border,
+    `mapper.floor_borders.BORDER_LABEL`) is no floor and no ground point.
 
     ``pixel_index`` (N,) are the valid pixels' indices into the flattened image in ascending
     order (``np.flatnonzero``).

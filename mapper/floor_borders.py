@@ -1,0 +1,70 @@
+"""Floor pixels on the near side of an occluding edge: not floor (beyond Gutmann et al.).
+
+A stereo matcher's window blends the pixels on either side of an edge; where a nearer surface
+occludes a farther one (a raised surface's side or far edge against the ground behind it), the
+nearer surface's disparity spreads over the farther one's first pixels ("foreground
+fattening", about one output pixel for fogsim's stereo head: its 5 render px window is 2.5
+output pixels). Those pixels join the nearer surface's floor region at its height, a pixel past
+its true edge — 1.4 cm at 1.5 m, 2.3 cm at 2.5 m — and put its floor a cell past its side edges,
+where no ray refutes it (the ground there is hidden or out of view). On the shipped stereo
+suite (seeds 1–8) that was most of `stairs`' and `talos_course`'s unsafe cells: the row of
+ground beside the staircase's side edge at the treads' and the platform's heights, with 40
+frame votes, 100–650 rays ending there and 0–10 passing (`stairs` seed 1), carried there by
+the fattening and by the heading's error (which this does not touch).
+
+:func:`occluding_border` takes those pixels out of their floor: a pixel of a floor region with a
+pixel of another label (another region, or none) within ``px`` pixels along its row or column
+that is farther by more than ``jump`` in inverse depth. They keep their points (the occupancy
+grid still gets their hits) but lose the floor label, and, unlike a pixel in no region, are
+never made ground points: :data:`BORDER_LABEL`. A riser seen from below (a crease: the surfaces
+meet) and the near edge of a surface (the ground before it is nearer) keep their pixels.
+`mapper.segmentation.segment_depth` applies it with
+``SegmentationParams.floor_occluding_border_px`` (off by default; the measurements are there).
+"""
+
+from __future__ import annotations
+
+import numpy as np
+from numpy.typing import NDArray
+
+BORDER_LABEL = -3
+"""The label of a floor region's occluding border pixel (`occluding_border`): no region, and
+never made a ground point (`mapper.scanline.points.floor_points`; ``-1`` is "no region",
+``-2`` "no measurement" in `SegmentationResult.labels_image`)."""
+
+
+def occluding_border(
+    labels: NDArray[np.integer],
+    inv_depth: NDArray[np.floating],
+    floor_level_m: NDArray[np.floating],
+    px: int,
+    jump: float,
+) -> NDArray[np.integer]:
+    """``labels`` with the floor regions' occluding border pixels set to :data:`BORDER_LABEL`.
+
+    Args:
+        labels: (H, W) pixel labels: a region's index, negative for none.
+        inv_depth: (H, W) inverse depth [1/m], NaN where there is no measurement.
+        floor_level_m: (R,) each region's floor height [m], NaN for a region that is no floor.
+        px: How far a farther pixel of another label may lie [px], along the row or column.
+        jump: How much farther it must be, in inverse depth [1/m].
+
+    Returns:
+        (H, W) labels (a new array; ``labels`` unchanged).
+    """
+    labels = np.asarray(labels)
+    floor = np.zeros(labels.shape, dtype=bool)
+    inside = labels >= 0
+    floor[inside] = np.isfinite(np.asarray(floor_level_m)[labels[inside]])
+    border = np.zeros(labels.shape, dtype=bool)
+    with np.errstate(invalid="ignore"):  # NaN (no measurement) compares false: no edge
+        for step in range(1, px + 1):
+            for axis in (0, 1):
+                near = [slice(None), slice(None)]
+                far = [slice(None), slice(None)]
+                for side in (1, -1):
+                    near[axis] = slice(None, -step) if side == 1 else slice(step, None)
+                    far[axis] = slice(step, None) if side == 1 else slice(None, -step)
+                    a, b = tuple(near), tuple(far)
+                    border[a] |= (labels[a] != labels[b]) & (inv_depth[a] - inv_depth[b] > jump)
+    return np.where(floor & border, BORDER_LABEL, labels).astype(labels.dtype)

@@ -1,0 +1,146 @@
+"""mapper.floor_borders: a floor's pixels on the near side of an occluding edge leave it."""
+
+from dataclasses import replace
+
+import numpy as np
+import pytest
+from synthetic_depth import GROUND, Box, look_down_camera, render_scene
+
+from mapper.errors import InvalidParameterError
+from mapper.floor_borders import BORDER_LABEL, occluding_border
+from mapper.intrinsics import PinholeIntrinsics
+from mapper.scanline.points import floor_points
+from mapper.segmentation import OCCLUDING_JUMP_SIGMA, SegmentationParams, segment_depth
+
+NAN = np.nan
+LEVELS = np.array([0.12, 0.0, NAN])  # region 0 a raised floor, 1 the ground, 2 no floor
+
+
+def test_only_floor_pixels_beside_a_farther_pixel_of_another_label_leave():
+    # Inverse depth [1/m], jump 0.1, one pixel: a raised floor (region 0, inverse depth 1)
+    # before farther ground (region 1 at 0.5) and beside nearer or barely farther ground (0.95,
+    # 1.05), a pixel in no region (-1) far behind (0.2), a pixel with no measurement (NaN), and
+    # a region that is no floor (2) before the ground.
+    labels = np.array(
+        [
+            [0, 0, 0, 1, 1],
+            [1, 0, 0, 0, 1],
+            [0, 0, -1, 0, 0],
+            [0, 0, 1, 1, 1],
+            [2, 2, 1, 1, 1],
+        ]
+    )
+    inv = np.array(
+        [
+            [1.0, 1.0, 1.0, 0.5, 0.5],
+            [0.95, 1.0, 1.0, 1.0, 1.05],
+            [1.0, 1.0, 0.2, 1.0, 1.0],
+            [1.0, 1.0, NAN, 0.5, 0.5],
+            [1.0, 1.0, 0.5, 0.5, 0.5],
+        ]
+    )
+    b = BORDER_LABEL
+    # By hand: region 0's pixels with a 4-neighbour of another label more than 0.1 farther
+    # (the ground at 0.5, the unlabelled pixel at 0.2); the ground at 0.95 / 1.05 beside region
+    # 0 is no edge (nearer / 0.05 farther), the NaN pixel none; region 2 is never a border.
+    want = [
+        [0, 0, b, 1, 1],
+        [1, 0, b, b, 1],
+        [0, b, -1, b, b],
+        [0, 0, 1, 1, 1],
+        [2, 2, 1, 1, 1],
+    ]
+    out = occluding_border(labels, inv, LEVELS, 1, 0.1)
+    assert out.tolist() == want
+    assert labels[0, 2] == 0  # the input is left as it was
+
+
+def test_the_band_reaches_px_pixels_and_the_jump_is_strict():
+    labels = np.array([[0, 0, 0, 0, 1, 1]])
+    inv = np.array([[1.0, 1.0, 1.0, 1.0, 0.5, 0.5]])
+    b = BORDER_LABEL
+    assert occluding_border(labels, inv, LEVELS, 1, 0.1).tolist() == [[0, 0, 0, b, 1, 1]]
+    assert occluding_border(labels, inv, LEVELS, 3, 0.1).tolist() == [[0, b, b, b, 1, 1]]
+    assert occluding_border(labels, inv, LEVELS, 1, 0.5).tolist() == [[0, 0, 0, 0, 1, 1]]
+    assert occluding_border(labels, inv, LEVELS, 1, 0.49).tolist() == [[0, 0, 0, b, 1, 1]]
+
+
+def test_a_border_pixel_is_neither_floor_nor_made_a_ground_point():
+    # One row of two pixels looking down at the ground (z = 0) from 1 m: the first in no
+    # region (ground-relabelled), the second a border pixel (stays off the floor).
+    rays = np.array([[[0.0, 0.6, -0.8], [0.0, 0.6, -0.8]]])
+    depth = np.array([[1.25, 1.25]])  # both meet z = 0
+    labels = np.array([[-1, BORDER_LABEL]])
+    _, heights, regions = floor_points(
+        np.array([0, 1]),
+        labels,
+        np.array([0.0]),
+        0.0,
+        rays,
+        depth,
+        np.full((1, 2), 0.01),
+        np.array([0.0, 0.0, 1.0]),
+        3.0,
+        3.0,
+    )
+    assert heights[0] == 0.0 and np.isnan(heights[1])
+    assert regions.tolist() == [-1, BORDER_LABEL]
+
+
+INTRINSICS = PinholeIntrinsics.from_fov(88, 72, 47.0, 39.0)
+CAMERA = look_down_camera((0.0, 0.0, 0.93), pitch_down_deg=30.0)
+BOX = Box((1.4, 0.0), (0.3, 0.3, 0.12))
+STEREO = SegmentationParams(
+    disparity_noise_px=0.109,
+    stereo_baseline_m=0.068,
+    noise_correlation_factor=3.0,
+    floor_edge_margin_px=1,
+    max_depth_m=4.0,
+)
+
+
+def test_a_box_top_loses_the_pixels_before_the_ground_it_hides_and_nothing_else():
+    # Exact depth of a 120 mm box 1.4 m ahead: its top's pixels whose row or column neighbour
+    # is ground (farther: the box hides the ground behind its far and side edges) leave the
+    # floor; every other pixel keeps its floor height, bit for bit.
+    scene = render_scene(INTRINSICS, CAMERA, [BOX])
+    off = segment_depth(scene.depth_m, INTRINSICS, CAMERA, STEREO).labels_image("floor")
+    on = segment_depth(
+        scene.depth_m, INTRINSICS, CAMERA, replace(STEREO, floor_occluding_border_px=1)
+    ).labels_image("floor")
+    top = (scene.box_index == 0) & scene.on_top
+    ground = scene.box_index == GROUND
+    beside_ground = np.zeros_like(top)
+    beside_ground[:, :-1] |= ground[:, 1:]
+    beside_ground[:, 1:] |= ground[:, :-1]
+    beside_ground[:-1, :] |= ground[1:, :]
+    beside_ground[1:, :] |= ground[:-1, :]
+    inverse = 1.0 / scene.depth_m
+    jump = (
+        OCCLUDING_JUMP_SIGMA
+        * STEREO.disparity_noise_px
+        / (INTRINSICS.fx * STEREO.stereo_baseline_m)
+    )
+    farther = np.zeros_like(top)  # a ground neighbour farther than the pixel
+    for shifted, mask in (
+        ((slice(None), slice(1, None)), (slice(None), slice(None, -1))),
+        ((slice(None), slice(None, -1)), (slice(None), slice(1, None))),
+        ((slice(1, None), slice(None)), (slice(None, -1), slice(None))),
+        ((slice(None, -1), slice(None)), (slice(1, None), slice(None))),
+    ):
+        farther[mask] |= ground[shifted] & (inverse[mask] - inverse[shifted] > jump)
+    box_floor = (scene.box_index == 0) & (np.abs(off - 0.12) < 0.005)  # its top's region
+    assert np.sum(box_floor & top) > 100  # the top is a floor without the rule
+    lost = np.isfinite(off) & np.isnan(on)
+    assert lost.sum() > 20
+    assert np.array_equal(lost, box_floor & farther)  # exactly the occluding border
+    assert np.array_equal(on[~lost], off[~lost], equal_nan=True)  # every other pixel the same
+    assert not np.any(lost & ~beside_ground)
+
+
+def test_the_rule_needs_the_stereo_model_and_a_window_in_range():
+    with pytest.raises(InvalidParameterError, match="needs the stereo noise model"):
+        SegmentationParams(floor_occluding_border_px=1)
+    with pytest.raises(InvalidParameterError, match="floor_occluding_border_px"):
+        replace(STEREO, floor_occluding_border_px=-1)
+    assert replace(STEREO, floor_occluding_border_px=0).floor_occluding_border_px == 0
