@@ -387,27 +387,28 @@ class SegmentationParams:
             coverage 82.5 → 77.7 %. 8 and 16 gave the same within 0.5 cells a run (8: stage
             2.0 (5), zig-zag 31.5 (68); 16: 2.25 (5), 31.5 (68)). Time: 0.92 → 0.97 ms CPU a
             frame (median, stage stereo seed 1, every 4th frame, 3 repeats interleaved).
-        floor_occluding_border_px: a floor region's pixels within this many pixels (along the
-            row or column) of a pixel of another label that is farther by more than
-            `OCCLUDING_JUMP_SIGMA` of the stereo model's inverse-depth noise are no floor
-            points (`mapper.floor_borders`): a stereo matcher's window spreads the nearer
-            surface's disparity over the farther one's first pixels at an occluding edge, which
-            puts a raised surface's floor a cell past its side and far edges, over ground no ray
-            can refute. Needs the stereo model (``stereo_baseline_m``, ``disparity_noise_px``).
-            0 (default): off — also for fogsim's stereo head, because it did not carry over to
-            the scenes it was not tried on. 1 on the stereo head (session 49, seeds 1–8, unsafe
-            cells mean (worst)): the shipped suite 167.75 → 125.1 in all (`stairs` 37.4 (79) →
-            15.6 (46), `talos_course` 33.4 (57) → 26.9 (36), the zig-zag 24.0 (53) → 19.5 (44),
-            `untextured` 7.9 → 3.9, `moving_box` 11.9 → 10.1 with obstacle recall 22 → 45 %;
-            worse: the stage 1.25 (3) → 1.62 (6), `room` 6.88 → 7.25, `table` 1.25 → 1.50),
-            floor recall 0.2–1.9 points lower, the stage's sill coverage 86 → 62 %, the
-            zig-zag's sill 19 → 12 % with its one cell left on seed 8 16.3 mm off; the held-out
-            scenes 451.4 → 434.6 only — `stairs_35_65_100` 31.25 (103) → 54.6 (151),
-            `down_low_steps`' worst seed 198 → 229, `rock_field`'s sill coverage 71 → 12 % —
-            against `down_slant_turn` 96.75 → 85.75 and `stairs_40_75_110` 75.0 → 61.1. Every
-            label change taken as a border (not only an occluding one): shipped 167.75 →
-            319.6, `talos_course` seed 7 a whole-map failure (1553 cells), floor recall up to 5
-            points lower. Try it with ``--set segmentation.floor_occluding_border_px=1``.
+        floor_occluding_border_px: a floor region's pixels within this many pixels (along the row or
+            column) of a pixel of another label that is farther by more than `OCCLUDING_JUMP_SIGMA`
+            of the stereo model's inverse-depth noise are no floor points (`mapper.floor_borders`):
+            a stereo matcher's window spreads the nearer surface's disparity over the farther one's
+            first pixels at an occluding edge, which puts a raised surface's floor a cell past its
+            side and far edges, over ground no ray can refute. Judged in the stereo model's noise
+            (``stereo_baseline_m``, ``disparity_noise_px``): without that model (a depth camera) it
+            does nothing (the scenario tables and overrides are checked before the head's model is
+            merged in, so this cannot be refused there). 0 (default): off — also for fogsim's stereo
+            head, because it did not carry over to the scenes it was not tried on. 1 on the stereo
+            head (session 49, seeds 1–8, unsafe cells mean (worst)): the shipped suite 167.75 →
+            125.1 in all (`stairs` 37.4 (79) → 15.6 (46), `talos_course` 33.4 (57) → 26.9 (36), the
+            zig-zag 24.0 (53) → 19.5 (44), `untextured` 7.9 → 3.9, `moving_box` 11.9 → 10.1 with
+            obstacle recall 22 → 45 %; worse: the stage 1.25 (3) → 1.62 (6), `room` 6.88 → 7.25,
+            `table` 1.25 → 1.50), floor recall 0.2–1.9 points lower, the stage's sill coverage 86 →
+            62 %, the zig-zag's sill 19 → 12 % with its one cell left on seed 8 16.3 mm off; the
+            held-out scenes 451.4 → 434.6 only — `stairs_35_65_100` 31.25 (103) → 54.6 (151),
+            `down_low_steps`' worst seed 198 → 229, `rock_field`'s sill coverage 71 → 12 % — against
+            `down_slant_turn` 96.75 → 85.75 and `stairs_40_75_110` 75.0 → 61.1. Every label change
+            taken as a border (not only an occluding one): shipped 167.75 → 319.6, `talos_course`
+            seed 7 a whole-map failure (1553 cells), floor recall up to 5 points lower. Try it with
+            ``--set segmentation.floor_occluding_border_px=1``.
         tilt_max_step_t: a tilt candidate (near-horizontal plane) that fits better as itself
             with a step across its downhill direction, the step's t-statistic above this, the
             step turning its normal by more than `tilt_consensus_deg` and at least half its
@@ -498,15 +499,6 @@ class SegmentationParams:
                     f"an integer in [{lowest}, {highest}] (mapper.limits)",
                     lambda v, lo=lowest, hi=highest: lo <= v <= hi,
                 )
-        if self.floor_occluding_border_px > 0 and not (
-            self.stereo_baseline_m > 0.0 and self.disparity_noise_px > 0.0
-        ):
-            raise InvalidParameterError(
-                "SegmentationParams.floor_occluding_border_px "
-                f"({self.floor_occluding_border_px}) needs the stereo noise model: "
-                "stereo_baseline_m and disparity_noise_px > 0 (its edges are judged in that "
-                "model's inverse-depth noise); 0 turns it off"
-            )
         if self.min_depth_m >= self.max_depth_m:
             raise InvalidParameterError(
                 f"SegmentationParams.min_depth_m ({self.min_depth_m}) must be < max_depth_m "
@@ -897,7 +889,7 @@ def segment_depth(
         is_floor=floors.is_floor,
     )
     origin[2] += correction.z_shift_m
-    if params.floor_occluding_border_px > 0 and len(floors) > 0:
+    if params.floor_occluding_border_px > 0 and model_inv_sigma > 0.0 and len(floors) > 0:
         # The near side of occluding edges leaves the floors (`mapper.floor_borders`).
         point_labels = floor_borders.occluding_border(
             point_labels,

@@ -138,9 +138,14 @@ def test_a_box_top_loses_the_pixels_before_the_ground_it_hides_and_nothing_else(
     assert not np.any(lost & ~beside_ground)
 
 
-def test_the_rule_needs_the_stereo_model_and_a_window_in_range():
-    with pytest.raises(InvalidParameterError, match="needs the stereo noise model"):
-        SegmentationParams(floor_occluding_border_px=1)
+def test_without_the_stereo_model_the_rule_does_nothing_and_its_window_is_checked():
+    scene = render_scene(INTRINSICS, CAMERA, [BOX])
+    depth_camera = SegmentationParams(max_depth_m=4.0)
+    plain = segment_depth(scene.depth_m, INTRINSICS, CAMERA, depth_camera)
+    asked = segment_depth(
+        scene.depth_m, INTRINSICS, CAMERA, replace(depth_camera, floor_occluding_border_px=1)
+    )
+    assert np.array_equal(plain.floor_heights, asked.floor_heights, equal_nan=True)
+    assert np.array_equal(plain.floor_ids, asked.floor_ids)
     with pytest.raises(InvalidParameterError, match="floor_occluding_border_px"):
         replace(STEREO, floor_occluding_border_px=-1)
-    assert replace(STEREO, floor_occluding_border_px=0).floor_occluding_border_px == 0
