@@ -27,10 +27,8 @@ from pathlib import Path
 
 import numpy as np
 
+from fogsim.eval.metrics import HEIGHT_TOLERANCE_M
 from mapper.grid import CellType
-
-HEIGHT_TOLERANCE_M = 0.02
-"""A floor more than this off its true height is unsafe (the report's tolerance) [m]."""
 
 TOP_TOLERANCE_M = 0.015
 """A floor within this of an obstacle's top holds the higher surface (``hi``) [m]."""

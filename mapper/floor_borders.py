@@ -59,12 +59,12 @@ def occluding_border(
     border = np.zeros(labels.shape, dtype=bool)
     with np.errstate(invalid="ignore"):  # NaN (no measurement) compares false: no edge
         for step in range(1, px + 1):
-            for axis in (0, 1):
-                near = [slice(None), slice(None)]
-                far = [slice(None), slice(None)]
-                for side in (1, -1):
-                    near[axis] = slice(None, -step) if side == 1 else slice(step, None)
-                    far[axis] = slice(step, None) if side == 1 else slice(None, -step)
-                    a, b = tuple(near), tuple(far)
-                    border[a] |= (labels[a] != labels[b]) & (inv_depth[a] - inv_depth[b] > jump)
+            # (pixel, its neighbour `step` away): to the right, left, below and above.
+            for a, b in (
+                (np.s_[:, :-step], np.s_[:, step:]),
+                (np.s_[:, step:], np.s_[:, :-step]),
+                (np.s_[:-step, :], np.s_[step:, :]),
+                (np.s_[step:, :], np.s_[:-step, :]),
+            ):
+                border[a] |= (labels[a] != labels[b]) & (inv_depth[a] - inv_depth[b] > jump)
     return np.where(floor & border, BORDER_LABEL, labels).astype(labels.dtype)

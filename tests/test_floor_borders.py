@@ -4,11 +4,12 @@ from dataclasses import replace
 
 import numpy as np
 import pytest
-from synthetic_depth import GROUND, Box, look_down_camera, render_scene
+from synthetic_depth import GROUND, Box, render_scene
+from test_floor_sides import CAMERA, STEREO
+from test_floor_sides import SMALL as INTRINSICS
 
 from mapper.errors import InvalidParameterError
 from mapper.floor_borders import BORDER_LABEL, occluding_border
-from mapper.intrinsics import PinholeIntrinsics
 from mapper.scanline.points import floor_points
 from mapper.segmentation import OCCLUDING_JUMP_SIGMA, SegmentationParams, segment_depth
 
@@ -87,16 +88,7 @@ def test_a_border_pixel_is_neither_floor_nor_made_a_ground_point():
     assert regions.tolist() == [-1, BORDER_LABEL]
 
 
-INTRINSICS = PinholeIntrinsics.from_fov(88, 72, 47.0, 39.0)
-CAMERA = look_down_camera((0.0, 0.0, 0.93), pitch_down_deg=30.0)
 BOX = Box((1.4, 0.0), (0.3, 0.3, 0.12))
-STEREO = SegmentationParams(
-    disparity_noise_px=0.109,
-    stereo_baseline_m=0.068,
-    noise_correlation_factor=3.0,
-    floor_edge_margin_px=1,
-    max_depth_m=4.0,
-)
 
 
 def test_a_box_top_loses_the_pixels_before_the_ground_it_hides_and_nothing_else():

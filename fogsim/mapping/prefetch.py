@@ -29,15 +29,8 @@ from dataclasses import dataclass
 from fogsim.data.frame import Frame
 from fogsim.errors import FogsimError
 from fogsim.mapping.segmenter import Segmented
-from fogsim.sim.background import HandOff
+from fogsim.sim.background import AHEAD_FRAMES, HandOff
 from mapper.segmentation import SegmentationResult
-
-AHEAD_FRAMES = 4
-"""Segmented frames that may wait for the pipeline by default: enough to carry either side over
-a slow frame (a first z-match, a frame with many planes: 3-5 times the median), few enough to
-bound the memory (a stage frame's result is ~0.36 MB) and the work thrown away when a run
-stops. A run passes `fogsim.sim.background.frames_ahead` of its images (32 at 88 × 72: the
-mapping's stops of tens of milliseconds are then carried over too)."""
 
 
 @dataclass(frozen=True)

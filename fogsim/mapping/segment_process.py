@@ -44,8 +44,8 @@ from numpy.typing import NDArray
 from fogsim.data.frame import Frame
 from fogsim.data.frames import RecordedFrames
 from fogsim.errors import FogsimError
-from fogsim.mapping.prefetch import AHEAD_FRAMES
 from fogsim.mapping.segmenter import Segmented
+from fogsim.sim.background import AHEAD_FRAMES
 from mapper.segmentation import SegmentationResult
 
 _POLL_S = 0.5

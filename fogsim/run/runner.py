@@ -170,9 +170,8 @@ def run_frames(
         )
     segmenter = FrameSegmenter(run_params, segment)
     if segment_process and isinstance(frames, Sequence) and can_segment_in_process():
-        pixels = int(np.asarray(frames[0].depth_m).size) if len(frames) else 1
         with SegmentInProcess(
-            frames, segmenter, ahead=frames_ahead(pixels), also=view_points_world
+            frames, segmenter, ahead=_frames_ahead(frames, scenario), also=view_points_world
         ) as forked:
             forked.start()
             pipeline = Pipeline(run_params, segmented=forked.segmented)
@@ -188,14 +187,26 @@ def run_frames(
                 in_view,
             )
     # The frames' world points for the cells in view are made on the thread too.
-    pixels = scenario.camera.width * scenario.camera.height if scenario is not None else 0
-    ahead_frames = frames_ahead(pixels) if pixels else AHEAD_FRAMES
+    ahead_frames = _frames_ahead(frames, scenario)
     with SegmentAhead(frames, segmenter, ahead=ahead_frames, also=view_points_world) as ahead:
         pipeline = Pipeline(run_params, segmented=ahead.segmented)
         ahead.start()
         return _run_pipeline(
             ahead, ahead, pipeline, truth_provider, scenario, run_params, on_frame, start, in_view
         )
+
+
+def _frames_ahead(frames: Iterable[Frame], scenario: Scenario | None) -> int:
+    """Frames a run's stages may work ahead (`fogsim.sim.background.frames_ahead`).
+
+    Sized by the first frame's depth image when the frames are a sequence (a recording), else
+    by the scenario's camera (a simulation), else the fewest (real data streamed in).
+    """
+    if isinstance(frames, Sequence) and len(frames):
+        return frames_ahead(int(np.asarray(frames[0].depth_m).size))
+    if scenario is not None:
+        return frames_ahead(scenario.camera.width * scenario.camera.height)
+    return AHEAD_FRAMES
 
 
 def _run_pipeline(
@@ -480,9 +491,10 @@ def _frame_source(
         simulation = Simulation(scenario, depth_backend=depth_backend)
         return FilmedSimulation(simulation) if video else simulation
 
-    pixels = scenario.camera.width * scenario.camera.height
     background = cleanup.enter_context(
-        BackgroundSimulation(make_simulation, max_frames=max_frames, ahead=frames_ahead(pixels))
+        BackgroundSimulation(
+            make_simulation, max_frames=max_frames, ahead=_frames_ahead((), scenario)
+        )
     )
     take_picture = None
     if video:
