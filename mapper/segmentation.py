@@ -139,6 +139,7 @@ _INTEGER_RANGES: dict[str, tuple[int, int | None]] = {
     "plane_normal_margin_px": (0, MAX_WINDOW_PX),
     "floor_side_strip_px": (0, MAX_WINDOW_PX),
     "floor_occluding_border_px": (0, MAX_WINDOW_PX),
+    "structure_border_px": (0, MAX_WINDOW_PX),
 }
 """Integer `SegmentationParams` fields: (lowest, highest or None) allowed. The windows' widths
 and the passes' counts are bounded (`mapper.limits`); the pixel counts only filter."""
@@ -409,6 +410,14 @@ class SegmentationParams:
             taken as a border (not only an occluding one): shipped 167.75 → 319.6, `talos_course`
             seed 7 a whole-map failure (1553 cells), floor recall up to 5 points lower. Try it with
             ``--set segmentation.floor_occluding_border_px=1``.
+        structure_border_px: the pixels `floor_occluding_border_px` would take out of their
+            floors (with this reach) stay floor points and are marked in
+            `SegmentationResult.structure_border` instead: the pipeline gives them to the heading
+            estimator as structure points (`mapper.heading`), not to the maps. A floor's border
+            against farther ground — a staircase's side edge, a platform's far edge — is the
+            lateral end that shows a yaw error walking straight at the staircase, where its
+            risers slide along themselves; the maps keep the floor's points. Same stereo model
+            as `floor_occluding_border_px` (nothing without it). 0 (default): off.
         tilt_max_step_t: a tilt candidate (near-horizontal plane) that fits better as itself
             with a step across its downhill direction, the step's t-statistic above this, the
             step turning its normal by more than `tilt_consensus_deg` and at least half its
@@ -478,6 +487,7 @@ class SegmentationParams:
     plane_normal_margin_px: int = 1
     floor_side_strip_px: int = 0
     floor_occluding_border_px: int = 0
+    structure_border_px: int = 0
     tilt_max_step_t: float = 0.0
     tilt_pitch_sigma_factor: float = 1.0
 
@@ -626,6 +636,9 @@ class SegmentationResult:
         floors: per-floor-region table (level regions: they give the floor heights).
         image_shape: (height, width) of the depth image.
         transform_camera_to_robot: 4×4 corrected camera pose in the robot frame.
+        structure_border: (N,) True where a floor point lies on its floor's occluding border
+            (`SegmentationParams.structure_border_px`, `mapper.floor_borders`): structure for
+            the heading estimator; None when that is off.
     """
 
     points: NDArray[np.float64]
@@ -638,6 +651,7 @@ class SegmentationResult:
     floors: FloorTable
     image_shape: tuple[int, int]
     transform_camera_to_robot: NDArray[np.float64]
+    structure_border: NDArray[np.bool_] | None = None
 
     def labels_image(self, kind: str = "plane") -> NDArray:
         """An (H, W) picture of the result.
@@ -898,6 +912,16 @@ def segment_depth(
             params.floor_occluding_border_px,
             OCCLUDING_JUMP_SIGMA * model_inv_sigma,
         )
+    structure_border = None
+    if params.structure_border_px > 0 and model_inv_sigma > 0.0 and len(floors) > 0:
+        border_labels = floor_borders.occluding_border(
+            point_labels,
+            inv_depth,
+            floor_level_m,
+            params.structure_border_px,
+            OCCLUDING_JUMP_SIGMA * model_inv_sigma,
+        )
+        structure_border = np.take(border_labels, pixel_index) == floor_borders.BORDER_LABEL
     corrected, floor_heights, floor_ids = scanline.floor_points(
         pixel_index,
         point_labels,
@@ -931,6 +955,7 @@ def segment_depth(
         floors=floors,
         image_shape=(height, width),
         transform_camera_to_robot=correction.transform @ transform,
+        structure_border=structure_border,
     )
 
 

@@ -427,4 +427,5 @@ def apply_tilt(result: SegmentationResult, tilt_rad: NDArray[np.float64]) -> Seg
         ),
         image_shape=result.image_shape,
         transform_camera_to_robot=step @ result.transform_camera_to_robot,
+        structure_border=result.structure_border,
     )

@@ -141,3 +141,34 @@ def test_without_the_stereo_model_the_rule_does_nothing_and_its_window_is_checke
     assert np.array_equal(plain.floor_ids, asked.floor_ids)
     with pytest.raises(InvalidParameterError, match="floor_occluding_border_px"):
         replace(STEREO, floor_occluding_border_px=-1)
+
+
+def test_the_structure_border_marks_the_same_pixels_and_changes_nothing_else():
+    # `structure_border_px`: the pixels `floor_occluding_border_px` would take out of the floor
+    # are marked for the heading estimator instead; points, floor heights and regions are
+    # those of the segmentation without either rule, bit for bit.
+    scene = render_scene(INTRINSICS, CAMERA, [BOX])
+    plain = segment_depth(scene.depth_m, INTRINSICS, CAMERA, STEREO)
+    marked = segment_depth(
+        scene.depth_m, INTRINSICS, CAMERA, replace(STEREO, structure_border_px=1)
+    )
+    taken = segment_depth(
+        scene.depth_m, INTRINSICS, CAMERA, replace(STEREO, floor_occluding_border_px=1)
+    )
+    assert plain.structure_border is None
+    assert np.array_equal(marked.points, plain.points)
+    assert np.array_equal(marked.floor_heights, plain.floor_heights, equal_nan=True)
+    assert np.array_equal(marked.floor_ids, plain.floor_ids)
+    border = marked.structure_border
+    assert border is not None and border.shape == plain.floor_ids.shape
+    assert border.sum() > 20
+    assert np.array_equal(border, taken.floor_ids == BORDER_LABEL)
+    assert np.all(np.isfinite(plain.floor_heights[border]))  # floor points, all of them
+
+
+def test_the_structure_border_needs_the_stereo_model_and_its_window_is_checked():
+    scene = render_scene(INTRINSICS, CAMERA, [BOX])
+    depth_camera = SegmentationParams(max_depth_m=4.0, structure_border_px=1)
+    assert segment_depth(scene.depth_m, INTRINSICS, CAMERA, depth_camera).structure_border is None
+    with pytest.raises(InvalidParameterError, match="structure_border_px"):
+        replace(STEREO, structure_border_px=-1)

@@ -552,3 +552,38 @@ def test_a_frame_whose_measurement_disagrees_is_z_matched_as_any_other():
     ground = np.isfinite(labelled.floor_heights_m) & (labelled.floor_heights_m < 0.025)
     assert ground.sum() > 100
     np.testing.assert_allclose(labelled.floor_heights_m[ground], 0.0, atol=2e-4)
+
+
+def test_the_structure_border_reaches_the_heading_as_structure_and_the_maps_as_floor():
+    # `segmentation.structure_border_px`: the box top's occluding border points come to the
+    # heading estimator with no floor height (structure points), to the maps with their floor's.
+    stereo = {"disparity_noise_px": 0.1, "stereo_baseline_m": 0.068, "max_depth_m": 4.0}
+    seen = []
+
+    def run(border_px):
+        segmentation = dataclasses.replace(
+            RunParams().segmentation, structure_border_px=border_px, **stereo
+        )
+        pipeline = Pipeline(
+            RunParams(
+                pipeline=PipelineParams(use_height_reference=False), segmentation=segmentation
+            )
+        )
+        observe = pipeline.heading.observe
+
+        def spy(points_robot, floor_heights_m, *args, **kwargs):
+            seen.append(np.array(floor_heights_m))
+            return observe(points_robot, floor_heights_m, *args, **kwargs)
+
+        pipeline.heading.observe = spy
+        pipeline.process(make_frames(1)[0])
+        return pipeline.last_points.floor_heights_m
+
+    mapped_plain, mapped_marked = run(0), run(1)
+    heading_plain, heading_marked = seen
+    assert np.array_equal(mapped_marked, mapped_plain, equal_nan=True)
+    assert np.array_equal(heading_plain, mapped_plain, equal_nan=True)
+    structure = np.isfinite(heading_plain) & np.isnan(heading_marked)
+    assert structure.sum() > 10  # the border, taken from floor points only
+    assert np.array_equal(np.isnan(heading_marked), np.isnan(heading_plain) | structure)
+    np.testing.assert_allclose(heading_plain[structure], 0.05, atol=1e-3)  # the box top's rim
