@@ -903,25 +903,20 @@ def segment_depth(
         is_floor=floors.is_floor,
     )
     origin[2] += correction.z_shift_m
-    if params.floor_occluding_border_px > 0 and model_inv_sigma > 0.0 and len(floors) > 0:
-        # The near side of occluding edges leaves the floors (`mapper.floor_borders`).
+    # The near side of occluding edges (`mapper.floor_borders`): out of the floors, or marked
+    # as the heading's structure (`structure_border_px`).
+    borders = model_inv_sigma > 0.0 and len(floors) > 0
+    jump = OCCLUDING_JUMP_SIGMA * model_inv_sigma
+    if borders and params.floor_occluding_border_px > 0:
         point_labels = floor_borders.occluding_border(
-            point_labels,
-            inv_depth,
-            floor_level_m,
-            params.floor_occluding_border_px,
-            OCCLUDING_JUMP_SIGMA * model_inv_sigma,
+            point_labels, inv_depth, floor_level_m, params.floor_occluding_border_px, jump
         )
     structure_border = None
-    if params.structure_border_px > 0 and model_inv_sigma > 0.0 and len(floors) > 0:
-        border_labels = floor_borders.occluding_border(
-            point_labels,
-            inv_depth,
-            floor_level_m,
-            params.structure_border_px,
-            OCCLUDING_JUMP_SIGMA * model_inv_sigma,
+    if borders and params.structure_border_px > 0:
+        marked = floor_borders.occluding_border(
+            point_labels, inv_depth, floor_level_m, params.structure_border_px, jump
         )
-        structure_border = np.take(border_labels, pixel_index) == floor_borders.BORDER_LABEL
+        structure_border = np.take(marked, pixel_index) == floor_borders.BORDER_LABEL
     corrected, floor_heights, floor_ids = scanline.floor_points(
         pixel_index,
         point_labels,
