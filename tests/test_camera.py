@@ -22,12 +22,16 @@ from fogsim.sim.camera import (
 from fogsim.sim.camera.noise_model import (
     MATCHER_DISPARITY_NOISE_PX,
     MATCHER_EDGE_MARGIN_PX,
+    MATCHER_FLAT_CONTRAST,
     MATCHER_MEAN_VARIANCE_FACTOR,
     MATCHER_SIDE_STRIP_PX,
     MATCHER_STEP_T,
+    MATCHER_STRUCTURE_BORDER_PX,
+    heading_noise_fields,
     segmentation_noise_fields,
 )
 from fogsim.sim.scene import Scene
+from mapper.heading import HeadingParams
 from mapper.intrinsics import PinholeIntrinsics
 from mapper.segmentation import SegmentationParams
 from mapper.transforms import apply_transform
@@ -337,6 +341,7 @@ def test_segmentation_noise_fields_per_mode():
         "floor_edge_margin_px": MATCHER_EDGE_MARGIN_PX,
         "floor_side_strip_px": MATCHER_SIDE_STRIP_PX,
         "tilt_max_step_t": MATCHER_STEP_T,
+        "structure_border_px": MATCHER_STRUCTURE_BORDER_PX,
         "max_depth_m": camera.range_m[1],
     }
     depth = segmentation_noise_fields(dataclasses.replace(camera, mode="depth"), 0.068)
@@ -348,3 +353,15 @@ def test_segmentation_noise_fields_per_mode():
     assert segmentation_noise_fields(dataclasses.replace(camera, mode="ideal"), 0.068) == {}
     SegmentationParams(**stereo)
     SegmentationParams(**depth)
+    assert "structure_border_px" not in depth  # it harms the depth head (its docstring)
+
+
+def test_heading_noise_fields_per_mode():
+    """stereo: the edge score stands in wherever the structure score has not stood out; the
+    other modes keep the heading's defaults."""
+    camera = CameraConfig()
+    stereo = heading_noise_fields(dataclasses.replace(camera, mode="stereo"))
+    assert stereo == {"head.flat_contrast": MATCHER_FLAT_CONTRAST}
+    assert MATCHER_FLAT_CONTRAST == HeadingParams().min_contrast != HeadingParams().flat_contrast
+    for mode in ("depth", "ideal"):
+        assert heading_noise_fields(dataclasses.replace(camera, mode=mode)) == {}

@@ -135,6 +135,21 @@ def test_the_head_s_parameters_go_below_the_scenario_into_their_groups():
     assert params.reference.neck_in_camera_z_m == -0.05
 
 
+def test_the_stereo_head_sets_its_heading_and_border_fields_below_the_scenario():
+    stereo = scenario_from_dict({"name": "t", "camera": {"mode": "stereo"}})
+    params = resolve_params(stereo, sensor=sensor_fields(stereo))
+    assert params.heading.flat_contrast == params.heading.min_contrast == 0.1
+    assert params.segmentation.structure_border_px == 1
+    depth = scenario_from_dict({"name": "t", "camera": {"mode": "depth"}})
+    params = resolve_params(depth, sensor=sensor_fields(depth))
+    assert params.heading.flat_contrast == 0.05
+    assert params.segmentation.structure_border_px == 0
+    table = scenario_from_dict(
+        {"name": "t", "camera": {"mode": "stereo"}, "heading": {"flat_contrast": 0.02}}
+    )
+    assert resolve_params(table, sensor=sensor_fields(table)).heading.flat_contrast == 0.02
+
+
 def test_a_scenario_s_robot_sets_its_neck_for_the_height_reference():
     icub = scenario_from_dict({"name": "t"})
     talos = scenario_from_dict({"name": "t", "robot": {"model": "talos"}})

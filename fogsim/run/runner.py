@@ -42,7 +42,7 @@ from fogsim.robot.description import load_description
 from fogsim.run.run_folder import RunFolder
 from fogsim.run.warmup import KernelWarmUp, install_shipped_kernels
 from fogsim.sim.background import AHEAD_FRAMES, BackgroundSimulation, frames_ahead
-from fogsim.sim.camera.noise_model import segmentation_noise_fields
+from fogsim.sim.camera.noise_model import heading_noise_fields, segmentation_noise_fields
 from fogsim.viz.forked import ForkedCall
 from fogsim.world.truth import TruthParams
 from mapper import MapperParams
@@ -390,9 +390,9 @@ class _GridArchiver:
 def sensor_fields(scenario: Scenario | None) -> dict[str, float | int]:
     """The parameters the scenario's head sets (none without a scenario).
 
-    The segmentation's noise model of its camera, and for the height reference (``ref.``)
-    where the robot's neck turns the head
-    (`fogsim.robot.description.NeckDescription.pivot_in_camera_m`). Passed to
+    The segmentation's noise model of its camera, the heading's (``head.``,
+    `heading_noise_fields`), and for the height reference (``ref.``) where the robot's neck
+    turns the head (`fogsim.robot.description.NeckDescription.pivot_in_camera_m`). Passed to
     :func:`~fogsim.config.resolve_params` as ``sensor``: the scenario's tables and overrides
     still take precedence.
     """
@@ -400,6 +400,7 @@ def sensor_fields(scenario: Scenario | None) -> dict[str, float | int]:
         return {}
     description = load_description(scenario.robot.model)
     noise = segmentation_noise_fields(scenario.camera, description.camera.stereo_baseline_m)
+    noise |= heading_noise_fields(scenario.camera)
     neck = description.neck.pivot_in_camera_m
     return noise | {f"ref.{name}": value for name, value in zip(NECK_FIELDS, neck, strict=True)}
 

@@ -9,7 +9,9 @@ noise from the image, which reads a matcher's correlated errors at about 0.6× t
   16th frame): :data:`MATCHER_DISPARITY_NOISE_PX`, :data:`MATCHER_MEAN_VARIANCE_FACTOR`, the
   robot's baseline, :data:`MATCHER_EDGE_MARGIN_PX` (the matching window's reach) and
   :data:`MATCHER_SIDE_STRIP_PX` (the side bands tested for another floor's level) and
-  :data:`MATCHER_STEP_T` (planes bridging a hidden step kept out of the tilt);
+  :data:`MATCHER_STEP_T` (planes bridging a hidden step kept out of the tilt), and
+  :data:`MATCHER_STRUCTURE_BORDER_PX` (the floors' occluding borders given to the heading as
+  structure); for the heading (`heading_noise_fields`) :data:`MATCHER_FLAT_CONTRAST`;
 - ``depth``: the error model's own figures (:meth:`StereoErrorModel.equivalent_noise_px`,
   :meth:`StereoErrorModel.mean_variance_factor`);
 - ``ideal``: none.
@@ -66,6 +68,48 @@ MATCHER_MEAN_VARIANCE_FACTOR = 3.0
 segmentation's row segments span 10–40 pixels)."""
 
 
+MATCHER_STRUCTURE_BORDER_PX = 1
+"""Reach of a floor's occluding border that the segmentation marks as the heading's structure
+(``structure_border_px``, `mapper.floor_borders`): the matcher's fattening, one output pixel.
+Walking straight at a staircase, its risers slide along themselves under a yaw error and only its
+side edges show it; in stereo they are floor (treads) and the structure score saw no side edge.
+Session 50, with :data:`MATCHER_FLAT_CONTRAST`, seeds 1–8, stereo suites, unsafe cells mean
+(worst) and heading as last mapped [deg]: shipped 167.75 → 151.0 in all, `stairs` 37.4 (79) →
+13.5 (41) and 2.58 (4.75) → 0.56 (0.99)°, `table` 1.25 (5) → 0.12 (1), but `talos_course` 33.4
+(57) → 39.5 (88) (seeds 1 and 3: the structure score's contrast falls just short of
+``min_contrast`` at their last tries, 0.118 → 0.099 and 0.101 → 0.083); held out 451.4 → 440.9
+(`stairs_40_75_110` 75.0 → 67.75, `rock_field` 8.6 → 7.6, `down_shallow_steps` 52.6 → 54.4). In
+depth mode it does harm (the stage 0 → 0.12 (1), `stairs` 1.5 (3) → 9.25 (63), held out 200.75 →
+276.25): the depth head leaves it off. Alone, without :data:`MATCHER_FLAT_CONTRAST`, the border's
+structure lifts a slanting approach's structure contrast into 0.05–0.09 (`stairs_35_65_100`
+stereo seeds 1 and 8), neither flat nor standing out, which kept the edge score out: held out
+451.4 → 463.6, that scene 31.25 (103) → 59.4 (165)."""
+MATCHER_FLAT_CONTRAST = 0.1
+"""The heading's ``flat_contrast`` with the stereo head: its edge score stands in wherever the
+structure score has not stood out (``min_contrast``, 0.1), not only where it was flat (0.05, the
+depth head's). The matcher's structure scores sit between the two where depth's are flat:
+`stairs` stereo seed 1's 0.087 and 0.067 (depth 0.022–0.045), so the edge score, the one that
+sees a staircase's side edges, never had its try. Found on `stairs_35_65_100` (held out) with
+:data:`MATCHER_STRUCTURE_BORDER_PX`; alone (session 50, seeds 1–8): shipped stereo 167.75 →
+148.25 unsafe cells (`stairs` 37.4 → 21.25, `table` 1.25 → 0.12, no scene worse by more than
+0.12), held out 451.4 → 452.25; in depth mode (with the border) the stage 0 → 0.12 (1), held out
+276.25 → 207.0 against 200.75 without either: the depth head keeps 0.05."""
+
+
+def heading_noise_fields(config: CameraConfig) -> dict[str, float]:
+    """The heading's parameters (``"head.<field>"``) of a camera table's mode.
+
+    Args:
+        config: The scenario's camera table.
+
+    Returns:
+        ``head.flat_contrast`` for ``stereo`` (:data:`MATCHER_FLAT_CONTRAST`), else empty.
+    """
+    if config.mode == "stereo":
+        return {"head.flat_contrast": MATCHER_FLAT_CONTRAST}
+    return {}
+
+
 def segmentation_noise_fields(
     config: CameraConfig, stereo_baseline_m: float
 ) -> dict[str, float | int]:
@@ -79,9 +123,10 @@ def segmentation_noise_fields(
         ``disparity_noise_px``, ``stereo_baseline_m``, ``noise_correlation_factor`` and
         ``max_depth_m`` (the camera's ``range_m`` cut: near it only the pixels measured too
         near are left, which the segmentation's tilt leaves out) for ``stereo`` and ``depth``,
-        and ``floor_edge_margin_px``, ``floor_side_strip_px`` and ``tilt_max_step_t`` for
-        ``stereo`` (the error model of ``depth`` has no matching window, and its step test
-        resolves the stage's steps); empty for ``ideal`` (the image's own noise estimate).
+        and ``floor_edge_margin_px``, ``floor_side_strip_px``, ``tilt_max_step_t`` and
+        ``structure_border_px`` for ``stereo`` (the error model of ``depth`` has no matching
+        window, and its step test resolves the stage's steps); empty for ``ideal`` (the image's
+        own noise estimate).
     """
     if config.mode == "stereo":
         return {
@@ -91,6 +136,7 @@ def segmentation_noise_fields(
             "floor_edge_margin_px": MATCHER_EDGE_MARGIN_PX,
             "floor_side_strip_px": MATCHER_SIDE_STRIP_PX,
             "tilt_max_step_t": MATCHER_STEP_T,
+            "structure_border_px": MATCHER_STRUCTURE_BORDER_PX,
             "max_depth_m": config.range_m[1],
         }
     if config.mode == "depth":
