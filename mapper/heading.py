@@ -191,6 +191,9 @@ class HeadingParams:
             `stairs` 0.022–0.045 (never estimates), stage, zig-zag stage and talos course
             0.066–0.091 (then ≥ 0.1: building up, and the better estimate; the edge score
             standing in there cost the stage seed 3 6 unsafe cells). Half `min_contrast`.
+            fogsim's stereo head sets `min_contrast` (session 50: its structure scores sit
+            between the two where depth's are flat, `stairs` stereo 0.067–0.087;
+            `fogsim.sim.camera.noise_model.MATCHER_FLAT_CONTRAST` has the figures).
         structure_stall_keyframes: The edge score also stands in (the structure score never
             having stood out) once this many edge keyframes have been added since the last
             structure keyframe: the structure evidence stopped growing, so a contrast between

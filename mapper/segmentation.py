@@ -408,8 +408,13 @@ class SegmentationParams:
             `down_low_steps`' worst seed 198 → 229, `rock_field`'s sill coverage 71 → 12 % — against
             `down_slant_turn` 96.75 → 85.75 and `stairs_40_75_110` 75.0 → 61.1. Every label change
             taken as a border (not only an occluding one): shipped 167.75 → 319.6, `talos_course`
-            seed 7 a whole-map failure (1553 cells), floor recall up to 5 points lower. Try it with
-            ``--set segmentation.floor_occluding_border_px=1``.
+            seed 7 a whole-map failure (1553 cells), floor recall up to 5 points lower. On top of
+            session 50's stereo head (`structure_border_px`, the heading's `flat_contrast`):
+            shipped 151.0 → 127.4 (`talos_course` 39.5 (88) → 28.75 (49), `stairs` 13.5 → 16.25
+            worse), held out 440.9 → 421.75 (`down_slant_turn` 96.1 (151) → 103.9 (241)), but
+            the zig-zag's sill row on seed 8 left with one cell 33.9 mm off (its coverage 18 → 12
+            %), `rock_field`'s sill coverage 75 → 18 %, the stage's 79 → 64 %: still off. Try it
+            with ``--set segmentation.floor_occluding_border_px=1``.
         structure_border_px: the pixels `floor_occluding_border_px` would take out of their
             floors (with this reach) stay floor points and are marked in
             `SegmentationResult.structure_border` instead: the pipeline gives them to the heading
@@ -417,7 +422,9 @@ class SegmentationParams:
             against farther ground — a staircase's side edge, a platform's far edge — is the
             lateral end that shows a yaw error walking straight at the staircase, where its
             risers slide along themselves; the maps keep the floor's points. Same stereo model
-            as `floor_occluding_border_px` (nothing without it). 0 (default): off.
+            as `floor_occluding_border_px` (nothing without it). 0 (default): off; fogsim's
+            stereo head sets 1 (`fogsim.sim.camera.noise_model.MATCHER_STRUCTURE_BORDER_PX`,
+            with the figures: it harms a depth camera's heading, whose structure score works).
         tilt_max_step_t: a tilt candidate (near-horizontal plane) that fits better as itself
             with a step across its downhill direction, the step's t-statistic above this, the
             step turning its normal by more than `tilt_consensus_deg` and at least half its
