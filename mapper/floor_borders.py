@@ -19,11 +19,14 @@ grid still gets their hits) but lose the floor label, and, unlike a pixel in no 
 never made ground points: :data:`BORDER_LABEL`. A riser seen from below (a crease: the surfaces
 meet) and the near edge of a surface (the ground before it is nearer) keep their pixels.
 `mapper.segmentation.segment_depth` applies it with
-``SegmentationParams.floor_occluding_border_px`` (off by default; the measurements are there).
+``SegmentationParams.floor_occluding_border_px`` (off by default; the measurements are there)
+and marks the same pixels as the heading's structure with ``structure_border_px`` (the stereo
+head's default). A numba kernel (the stereo head's warm-up group, `fogsim.run.warmup`).
 """
 
 from __future__ import annotations
 
+import numba
 import numpy as np
 from numpy.typing import NDArray
 
@@ -53,18 +56,46 @@ def occluding_border(
         (H, W) labels (a new array; ``labels`` unchanged).
     """
     labels = np.asarray(labels)
-    floor = np.zeros(labels.shape, dtype=bool)
-    inside = labels >= 0
-    floor[inside] = np.isfinite(np.asarray(floor_level_m)[labels[inside]])
-    border = np.zeros(labels.shape, dtype=bool)
-    with np.errstate(invalid="ignore"):  # NaN (no measurement) compares false: no edge
-        for step in range(1, px + 1):
-            # (pixel, its neighbour `step` away): to the right, left, below and above.
-            for a, b in (
-                (np.s_[:, :-step], np.s_[:, step:]),
-                (np.s_[:, step:], np.s_[:, :-step]),
-                (np.s_[:-step, :], np.s_[step:, :]),
-                (np.s_[step:, :], np.s_[:-step, :]),
-            ):
-                border[a] |= (labels[a] != labels[b]) & (inv_depth[a] - inv_depth[b] > jump)
-    return np.where(floor & border, BORDER_LABEL, labels).astype(labels.dtype)
+    marked = _marked_borders(
+        np.ascontiguousarray(labels, dtype=np.int64),
+        np.ascontiguousarray(inv_depth, dtype=np.float64),
+        np.isfinite(np.asarray(floor_level_m, dtype=np.float64)),
+        px,
+        jump,
+    )
+    return marked.astype(labels.dtype, copy=False)
+
+
+@numba.njit(cache=True, no_cfunc_wrapper=True, nogil=True, error_model="numpy")
+def _marked_borders(labels, inv_depth, floor_region, px, jump):
+    """A copy of ``labels`` with :data:`BORDER_LABEL` on the floors' occluding border pixels.
+
+    Marked: a pixel of a region whose ``floor_region`` is set with a pixel of another label up to
+    ``px`` pixels along its row or column whose inverse depth is lower by more than ``jump``
+    (NaN on either side: no edge). One pass over the pixels, the same comparisons as the numpy
+    form it replaced (four shifted array compares a step): `occluding_border` 73 → 29 µs a frame
+    on `stairs` stereo seed 1's (every 4th, the wall median of 3 passes over the 56 calls).
+    """
+    height, width = labels.shape
+    marked = labels.copy()
+    for r in range(height):
+        for c in range(width):
+            label = labels[r, c]
+            if label < 0 or not floor_region[label]:
+                continue
+            here = inv_depth[r, c]
+            found = False
+            for step in range(1, px + 1):
+                for rr, cc in ((r, c + step), (r, c - step), (r + step, c), (r - step, c)):
+                    # The compare is false when either is NaN (no measurement): no edge.
+                    if (
+                        0 <= rr < height
+                        and 0 <= cc < width
+                        and labels[rr, cc] != label
+                        and here - inv_depth[rr, cc] > jump
+                    ):
+                        found = True
+                if found:
+                    marked[r, c] = BORDER_LABEL
+                    break
+    return marked

@@ -17,6 +17,7 @@ import numpy as np
 import pytest
 from test_pipeline import INTR, make_frames, provider_removed_at
 
+import mapper.floor_borders
 import mapper.floor_sides
 import mapper.scanline
 import mapper.tilt_kernels
@@ -49,7 +50,11 @@ WARM_UP = (
 """A warm-up that prints the kernels this process compiled (numba's events); its argument, if
 any, the run's parameter overrides as JSON."""
 
-STEREO_HEAD_OVERRIDES = {"seg.floor_side_strip_px": 3, "seg.tilt_max_step_t": 3.0}
+STEREO_HEAD_OVERRIDES = {
+    "seg.floor_side_strip_px": 3,
+    "seg.tilt_max_step_t": 3.0,
+    "seg.structure_border_px": 1,
+}
 """The stereo head's segmentation stages on (`warmup.uses_stereo_head`)."""
 
 FLOOR_STAGE = {
@@ -280,20 +285,23 @@ def test_a_run_warms_up_the_stereo_head_s_kernels_only_when_its_parameters_call_
     depth = RunParams()
     stereo = resolve_params(None, STEREO_HEAD_OVERRIDES)
     assert not warmup.uses_stereo_head(depth) and warmup.uses_stereo_head(stereo)
+    for key, value in (*STEREO_HEAD_OVERRIDES.items(), ("seg.floor_occluding_border_px", 1)):
+        assert warmup.uses_stereo_head(resolve_params(None, {key: value})), key
     assert warmup.run_groups(stereo) == GROUPS
     assert warmup.run_groups(depth) == tuple(g for g in GROUPS if g is not warmup.STEREO_HEAD)
     assert warmup.run_groups(depth, simulated=False) == tuple(
         g for g in GROUPS if g not in (warmup.STEREO_HEAD, warmup.SELF_FILTER)
     )
-    for one in ({"seg.floor_side_strip_px": 3}, {"seg.tilt_max_step_t": 3.0}):
-        assert warmup.uses_stereo_head(resolve_params(None, one))
     # No tilt correction, no step test: only the side bands would call the group.
     no_tilt = {"seg.tilt_max_step_t": 3.0, "seg.correct_tilt": False}
     assert not warmup.uses_stereo_head(resolve_params(None, no_tilt))
-    # The group is the whole side-band module and the step test, and no other group has them.
+    # The group is the whole side-band and border modules and the step test, and no other
+    # group has them.
     floor_sides = warmup._kernels(mapper.floor_sides)
+    borders = warmup._kernels(mapper.floor_borders)
+    assert len(borders) == 1
     steps = {mapper.tilt_kernels.stepped_plane_flags, mapper.tilt_kernels._quantile_sorted}
-    assert set(warmup.STEREO_HEAD.kernels) == {*floor_sides, *steps}
+    assert set(warmup.STEREO_HEAD.kernels) == {*floor_sides, *borders, *steps}
     others = [k for g in GROUPS if g is not warmup.STEREO_HEAD for k in g.kernels]
     assert not set(warmup.STEREO_HEAD.kernels) & set(others)
 

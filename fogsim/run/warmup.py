@@ -81,6 +81,7 @@ from numpy.typing import NDArray
 
 import mapper.above_top
 import mapper.averaging
+import mapper.floor_borders
 import mapper.floor_cover
 import mapper.floor_edges
 import mapper.floor_map
@@ -195,6 +196,7 @@ points (the scan-line kernels it shares with the planes stage are the helper's).
 
 _STEREO_HEAD_KERNELS = (
     *_kernels(mapper.floor_sides),
+    *_kernels(mapper.floor_borders),
     mapper.tilt_kernels.stepped_plane_flags,
     mapper.tilt_kernels._quantile_sorted,  # called by stepped_plane_flags only
 )
@@ -213,7 +215,9 @@ the tilt correction's (the planes' normals, the tilt filter's measurement and tu
 
 STEREO_HEAD = KernelGroup("stereo head", _STEREO_HEAD_KERNELS)
 """What only the stereo head's segmentation calls: the floors' side bands (`mapper.floor_sides`,
-``floor_side_strip_px``) and the stepped tilt candidates' test (``tilt_max_step_t``). A run
+``floor_side_strip_px``), their occluding borders (`mapper.floor_borders`,
+``structure_border_px``, ``floor_occluding_border_px``) and the stepped tilt candidates' test
+(``tilt_max_step_t``). A run
 whose parameters call neither leaves them out (:func:`run_groups`): until session 40 every run
 compiled them, the stage's depth-mode first run too (4.7 s of its 48 s of compile CPU, AMD
 EPYC, `bench/bench_cold.py kernels`: `side_strips` 2.3 s, `stepped_plane_flags` 2.1 s,
@@ -270,12 +274,15 @@ yet and that thread compiled it a second time, in this process, beside its group
 def uses_stereo_head(params: RunParams) -> bool:
     """Whether a run of ``params`` calls the :data:`STEREO_HEAD` kernels.
 
-    It does when its segmentation tests floor side bands or stepped tilt candidates (the
-    stereo head's parameters).
+    It does when its segmentation tests floor side bands, marks or drops the floors'
+    occluding borders, or tests stepped tilt candidates (the stereo head's parameters).
     """
     segmentation = pipeline_segmentation_params(params)
-    return segmentation.floor_side_strip_px > 0 or (
-        segmentation.tilt_max_step_t > 0.0 and segmentation.correct_tilt
+    return (
+        segmentation.floor_side_strip_px > 0
+        or segmentation.structure_border_px > 0
+        or segmentation.floor_occluding_border_px > 0
+        or (segmentation.tilt_max_step_t > 0.0 and segmentation.correct_tilt)
     )
 
 
@@ -627,6 +634,7 @@ def _stereo_head() -> None:
     labels = np.zeros((2, 5), dtype=np.int64)
     z = np.zeros((2, 5))
     mapper.floor_sides.peel_side_strips(labels, z, z + 0.01, np.zeros(1), 1, 3.0, 1.0, 0.0, 1.0)
+    mapper.floor_borders.occluding_border(labels, z + 1.0, np.zeros(1), 1, 0.01)
     stepped_planes(
         np.zeros((8, 3)),
         np.zeros(8, dtype=np.int64),
