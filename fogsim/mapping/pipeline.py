@@ -156,9 +156,6 @@ class _FrameData:
         ground_sized_m: Heights of its floor regions large enough to be the ground around the
             robot, tilt-corrected robot frame, no shift [m] (empty without the reference).
         position: The frame's place in the run (0 = the first frame processed).
-        heading_floor_heights_m: (N,) the floor heights the heading estimator gets [m]:
-            ``floor_heights_m`` with the floors' occluding borders NaN (structure points,
-            `SegmentationResult.structure_border`), else the same array.
     """
 
     frame: Frame
@@ -169,7 +166,6 @@ class _FrameData:
     measured_shift_m: float | None
     ground_sized_m: NDArray[np.float64]
     position: int
-    heading_floor_heights_m: NDArray[np.float64]
 
 
 @dataclass(frozen=True)
@@ -364,22 +360,18 @@ class Pipeline:
         self._rise_m = float(self._last_pose_believed[2]) - self._start_z_m
         seg = self._segmented(frame)
         t1 = time.perf_counter()
-        floor_heights_m = np.asarray(seg.floor_heights, dtype=np.float64)
         data = _FrameData(
             frame,
             np.asarray(seg.points, dtype=np.float64),
-            floor_heights_m,
+            np.asarray(seg.floor_heights, dtype=np.float64),
             np.asarray(seg.transform_camera_to_robot, dtype=np.float64),
             bool(seg.correction.ground_plane_found),
             self._measure_reference(seg),
             self._ground_sized_m(seg),
             self._processed,
-            floor_heights_m
-            if seg.structure_border is None
-            else np.where(seg.structure_border, np.nan, floor_heights_m),
         )
         self._processed += 1
-        self._observe_heading(data)
+        self._observe_heading(data, seg.structure_border)
         if self._use_reference and not self.reference.known:
             self._deferred.append(data)
         else:
@@ -478,11 +470,20 @@ class Pipeline:
         if self.on_restart is not None:
             self.on_restart(self.mapper)
 
-    def _observe_heading(self, data: _FrameData) -> None:
-        """Give the segmented frame to the heading estimator (the reference's shift so far)."""
+    def _observe_heading(
+        self, data: _FrameData, structure_border: NDArray[np.bool_] | None
+    ) -> None:
+        """Give the segmented frame to the heading estimator (the reference's shift so far).
+
+        Its floors' occluding borders (`SegmentationResult.structure_border`, None: none) go to
+        the estimator as structure points, with no floor height; the maps keep them as floor.
+        """
+        floor_heights_m = data.floor_heights_m
+        if structure_border is not None:
+            floor_heights_m = np.where(structure_border, np.nan, floor_heights_m)
         self.heading.observe(
             data.points_robot,
-            data.heading_floor_heights_m,
+            floor_heights_m,
             data.transform_camera_to_robot,
             self.robot_pose(data.frame),
             z_shift_m=self._shift_m(data),
