@@ -146,6 +146,12 @@ def _parser() -> argparse.ArgumentParser:
     suite.add_argument(
         "--check", type=Path, metavar="BASELINE.json", help="compare the figures with a baseline"
     )
+    suite.add_argument(
+        "--targets",
+        type=Path,
+        metavar="TARGETS.toml",
+        help="check the figures against accuracy targets (scenarios/targets.toml: issue 11's)",
+    )
     suite.add_argument("--quick", action="store_true", help="quick subset (short runs)")
     suite.add_argument(
         "--seeds", metavar="SPEC", help=f"run every scenario over these seeds: {SEEDS_ALLOWED}"
@@ -165,6 +171,11 @@ def _parser() -> argparse.ArgumentParser:
         help="override a value in every scenario (e.g. camera.mode=stereo); the baseline keeps "
         "such a run's figures in a set of their own",
     )
+    targets = sub.add_parser(
+        "targets", help="check a finished suite's summary.json against accuracy targets"
+    )
+    targets.add_argument("suite_dir", type=Path, help="a `fogsim suite --out` folder")
+    targets.add_argument("--targets", type=Path, required=True, metavar="TARGETS.toml")
     bag = sub.add_parser(
         "import-bag", help="turn a ROS 1 / ROS 2 bag into a recording that run --replay maps"
     )
@@ -462,7 +473,13 @@ def _cmd_scene(args: argparse.Namespace) -> int:
 
 def _cmd_suite(args: argparse.Namespace) -> int:
     from fogsim.run.baseline import REGENERATE, baseline_to_update, load_baseline, write_baseline
-    from fogsim.run.suite import check_against_baseline, run_suite, update_baseline
+    from fogsim.run.suite import (
+        check_against_baseline,
+        check_suite_targets,
+        run_suite,
+        update_baseline,
+    )
+    from fogsim.run.targets import load_targets
 
     seeds = parse_seeds(args.seeds) if args.seeds is not None else None
     workers = _workers(args)
@@ -477,6 +494,7 @@ def _cmd_suite(args: argparse.Namespace) -> int:
                 f"`{REGENERATE.format(path=args.check)}`"
             )
         baseline = load_baseline(args.check)
+    targets = load_targets(args.targets) if args.targets is not None else None  # before the runs
     # Read the baseline to extend now: a broken file fails before the runs, not after them.
     existing = None
     if args.write_baseline is not None:
@@ -490,6 +508,7 @@ def _cmd_suite(args: argparse.Namespace) -> int:
         overrides=args.assignments,
         baseline=baseline,
         ray_address=args.ray,
+        targets=targets,
     )
     failures = summary.failures()
     for name, reasons in failures.items():
@@ -500,6 +519,11 @@ def _cmd_suite(args: argparse.Namespace) -> int:
         comparison = check_against_baseline(summary, baseline)  # as summary.md shows it
         for line in comparison:
             print(f"WORSE {line}", file=sys.stderr)
+    missed = []
+    if targets is not None:
+        missed = [r for r in check_suite_targets(summary, targets) if not r.met]
+        for result in missed:
+            print(f"MISSED {result.line()}", file=sys.stderr)
     if args.write_baseline is not None:
         write_baseline(args.write_baseline, update_baseline(existing, summary))
     compared = (
@@ -508,11 +532,30 @@ def _cmd_suite(args: argparse.Namespace) -> int:
         else f"{len(comparison)} figures worse than the baseline"
     )
     over = f" over seeds {summary.seeds}" if summary.seeds is not None else ""
+    aimed = f"; {len(missed)} targets missed" if targets is not None else ""
     print(
         f"{len(summary.scenarios)} scenarios{over} in {summary.wall_s} s; "
-        f"{len(failures)} failed; {compared} -> {args.out / 'summary.md'}"
+        f"{len(failures)} failed; {compared}{aimed} -> {args.out / 'summary.md'}"
     )
-    return 1 if failures or comparison else 0
+    return 1 if failures or comparison or missed else 0
+
+
+def _cmd_targets(args: argparse.Namespace) -> int:
+    """``fogsim targets SUITE_DIR --targets FILE``: exit 1 when a target is missed."""
+    from fogsim.run.suite import check_suite_targets, load_suite_summary
+    from fogsim.run.targets import load_targets
+
+    targets = load_targets(args.targets)
+    summary = load_suite_summary(args.suite_dir / "summary.json")
+    results = check_suite_targets(summary, targets)
+    missed = [result for result in results if not result.met]
+    for result in missed:
+        print(f"MISSED {result.line()}")
+    print(
+        f"{len(results) - len(missed)} of {len(results)} checks met, {len(missed)} missed "
+        f"({args.targets} on {args.suite_dir})"
+    )
+    return 1 if missed else 0
 
 
 def _cmd_import_bag(args: argparse.Namespace) -> int:
@@ -566,6 +609,8 @@ def main(argv: Sequence[str] | None = None) -> int:
             return _cmd_import_bag(args)
         if args.command == "scene":
             return _cmd_scene(args)
+        if args.command == "targets":
+            return _cmd_targets(args)
         if args.command == "compare":
             from fogsim.compare.command import compare_main  # only for this command
 

@@ -60,6 +60,10 @@ class ReportError(FogsimError, ValueError):
     """A ``report.json``, ``frames.csv`` or summary file is missing, corrupt or unsupported."""
 
 
+class TargetsError(FogsimError, ValueError):
+    """A targets file (``fogsim suite --targets``) is missing, not TOML or breaks its schema."""
+
+
 class TuneError(FogsimError, ValueError):
     """A tuning study cannot run: bad ranges, weights, suite or a study that does not match."""
 

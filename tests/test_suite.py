@@ -366,16 +366,6 @@ def test_a_suite_on_ray_says_so_instead_of_its_unused_workers(tmp_path):
 # --- fogsim suite through the command line (runs replaced by hand-made reports)
 
 
-@pytest.fixture
-def two_scenarios(tmp_path):
-    folder = tmp_path / "scenarios"
-    folder.mkdir()
-    text = (SCENARIOS_DIR / "flat_floor.toml").read_text()
-    for name in ("alpha", "beta"):
-        (folder / f"{name}.toml").write_text(text.replace('"flat_floor"', f'"{name}"'))
-    return folder
-
-
 def test_suite_over_seeds_writes_mean_and_worst_and_checks_a_baseline(
     two_scenarios, tmp_path, monkeypatch, capsys
 ):

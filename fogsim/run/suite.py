@@ -27,7 +27,7 @@ from typing import Literal
 from fogsim.atomic import write_text_atomic
 from fogsim.config import Scenario, find_scenario_files, load_scenario
 from fogsim.errors import FogsimError
-from fogsim.eval.report.io import write_json
+from fogsim.eval.report.io import load_json, write_json
 from fogsim.paths import SCENARIOS_DIR
 from fogsim.run.baseline import (
     Baseline,
@@ -52,6 +52,7 @@ from fogsim.run.seeds import (
     seed_jobs,
     where_run,
 )
+from fogsim.run.targets import TargetResult, Targets, check_targets, targets_markdown
 
 QUICK_SCENARIOS = ("flat_floor", "box_removal", "stairs")
 """The quick subset: an empty floor, an event (Fig. 5) and a staircase (Table I)."""
@@ -147,6 +148,7 @@ def run_suite(
     overrides: Sequence[str] = (),
     baseline: Baseline | None = None,
     ray_address: str | None = None,
+    targets: Targets | None = None,
 ) -> SuiteSummary:
     """Run every scenario of a folder in parallel processes; write summary.json / summary.md.
 
@@ -165,6 +167,8 @@ def run_suite(
             shows; None: "no baseline given".
         ray_address: Run the scenarios' jobs as tasks on this Ray cluster
             (:func:`fogsim.run.seeds.run_jobs`); None = local processes.
+        targets: Accuracy targets whose check (:func:`check_suite_targets`) summary.md shows;
+            None: no Targets section.
 
     Raises:
         FogsimError: No scenario file, ``workers`` out of range, two files with one scenario
@@ -214,8 +218,11 @@ def run_suite(
             overrides=tuple(overrides),
         )
         comparison = check_against_baseline(summary, baseline) if baseline is not None else None
+        checked = check_suite_targets(summary, targets) if targets is not None else None
         write_json(folder.path / "summary.json", summary)
-        write_text_atomic(folder.path / "summary.md", summary_markdown(summary, comparison))
+        write_text_atomic(
+            folder.path / "summary.md", summary_markdown(summary, comparison, checked)
+        )
         folder.commit("suite", seeds=summary.seeds)
     return summary
 
@@ -257,6 +264,32 @@ def check_against_baseline(summary: SuiteSummary, baseline: Baseline) -> list[st
     return problems
 
 
+def load_suite_summary(path: str | os.PathLike[str]) -> SuiteSummary:
+    """Read a suite's ``summary.json``.
+
+    Raises:
+        ReportError: The file is missing or does not match the summary's schema (the message
+            names the key).
+    """
+    return load_json(path, SuiteSummary, "suite summary")
+
+
+def check_suite_targets(summary: SuiteSummary, targets: Targets) -> list[TargetResult]:
+    """The summary's figures against accuracy targets (:func:`fogsim.run.targets.check_targets`).
+
+    A scenario that could not be loaded or one of whose runs raised is not checked (its
+    figures would stand on fewer seeds): each target that applies to it is missed. A poor
+    run's figures are checked (the suite fails it anyway).
+    """
+    failed = {
+        name: [scenario.error] if scenario.error is not None else ["a run raised"]
+        for name, scenario in summary.scenarios.items()
+        if scenario.error is not None or any(run.error for run in scenario.runs)
+    }
+    figures = {name: scenario.figures for name, scenario in summary.scenarios.items()}
+    return check_targets(figures, failed, targets)
+
+
 def update_baseline(baseline: Baseline | None, summary: SuiteSummary) -> Baseline:
     """The baseline with the summary's figures as the set of its kind of run.
 
@@ -275,13 +308,19 @@ def update_baseline(baseline: Baseline | None, summary: SuiteSummary) -> Baselin
     return Baseline(sets=sets)
 
 
-def summary_markdown(summary: SuiteSummary, comparison: Sequence[str] | None = None) -> str:
-    """The suite's Markdown summary: the scenarios' status, then each one's figures.
+def summary_markdown(
+    summary: SuiteSummary,
+    comparison: Sequence[str] | None = None,
+    targets: Sequence[TargetResult] | None = None,
+) -> str:
+    """The suite's Markdown summary: the scenarios' status, each one's figures, the checks.
 
     Args:
         summary: The suite's summary.
         comparison: The baseline check's lines (empty: nothing got worse); None when no
             baseline was given.
+        targets: The targets check's results (:func:`check_suite_targets`); None: no Targets
+            section.
     """
     seeds = f"seeds {summary.seeds}" if summary.seeds is not None else "each at its own seed"
     settings = f"; every scenario with {', '.join(summary.overrides)}" if summary.overrides else ""
@@ -316,4 +355,6 @@ def summary_markdown(summary: SuiteSummary, comparison: Sequence[str] | None = N
         lines.append("Nothing got worse than the baseline.")
     else:
         lines += [f"- {line}" for line in comparison]
+    if targets is not None:
+        lines += ["", "## Targets", "", *targets_markdown(targets)]
     return "\n".join(lines) + "\n"
