@@ -156,6 +156,8 @@ def test_scenario_patterns_failed_scenarios_and_targets_that_match_nothing():
     )
     met = check_targets(figures, {}, _targets(Target("table1.*", worst=5.0)))
     assert len(met) == 3 and all(r.met for r in met)
+    # A target for a scenario the suite does not have (the stage's, in the held-out suite).
+    assert check_targets(figures, {}, _targets(Target("cells.*", worst=0, scenarios=("x",)))) == []
 
 
 # --- The command line

@@ -28,9 +28,10 @@ loaded machine would miss it).
 
 What counts as missed: a bound the figure's statistic does not meet; a scenario a target
 applies to that failed (no figures to check); a target that matches no figure of any scenario
-it applies to that ran (a misspelt pattern passes nothing). A figure some seeds lack (a Table I row
-without cells on a seed) is checked over the seeds that have it, and the result says which
-seeds lack it.
+it applies to that ran (a misspelt pattern passes nothing). A target that applies to no
+scenario of the suite (the stage's, in the held-out suite) is not checked. A figure some seeds
+lack (a Table I row without cells on a seed) is checked over the seeds that have it, and the
+result says which seeds lack it.
 """
 
 from __future__ import annotations
@@ -210,15 +211,16 @@ def check_targets(
 
     Returns:
         One result per (scenario, matching figure, bounded statistic), plus one missed result
-        per target that matched no figure; missed first, then in the suite's and the file's
-        order.
+        per target that applies to a scenario but matched no figure; none for a target that
+        applies to no scenario; missed first, then in the suite's and the file's order.
     """
     results: list[TargetResult] = []
     for target in targets.target:
-        matched = False
+        matched = applied = False
         for scenario, figures in figures_by_scenario.items():
             if not target.applies_to(scenario):
                 continue
+            applied = True
             if scenario in failed:  # no figures: missed, but it matches nothing either
                 reason = "; ".join(failed[scenario])
                 for statistic, bound in target.bounds():
@@ -246,7 +248,7 @@ def check_targets(
                             why=target.why,
                         )
                     )
-        if not matched:
+        if applied and not matched:
             for statistic, bound in target.bounds():
                 results.append(
                     _unchecked(
