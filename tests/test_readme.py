@@ -25,9 +25,11 @@ from pathlib import Path
 
 import mujoco
 import numpy as np
+import tomli_w
 
 from fogsim.cli import main
 from fogsim.eval.maps import load_maps
+from fogsim.run.targets import load_targets
 from mapper import MapperParams, SegmentationParams
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -190,8 +192,13 @@ def test_every_readme_block_runs_in_order(tmp_path, monkeypatch, capsys):
     mine = load_maps(tmp_path / "runs/mine/maps.npz")
     floor = mine.fog_types == 1
     assert floor.sum() >= 20 and np.allclose(mine.fog_heights_m[floor], 0.0, atol=0.002)
-    # the TOML sample is the tune's best_params.toml: same tables and keys, valid values
-    (sample,) = toml_blocks
+    # the targets sample is a valid targets file (`fogsim suite --targets`)
+    targets = [block for block in toml_blocks if block.get("format") == "fogsim-targets"]
+    assert len(targets) == 1
+    (tmp_path / "targets.toml").write_text(tomli_w.dumps(targets[0]))
+    assert load_targets(tmp_path / "targets.toml").target[0].worst == 1.5
+    # the other TOML sample is the tune's best_params.toml: same tables and keys, valid values
+    (sample,) = [block for block in toml_blocks if block.get("format") != "fogsim-targets"]
     written = tomllib.loads((tmp_path / "runs/tune/best_params.toml").read_text())
     assert {k: sorted(v) for k, v in sample.items()} == {k: sorted(v) for k, v in written.items()}
     MapperParams(**sample["mapper"])
