@@ -118,6 +118,12 @@ def _parser() -> argparse.ArgumentParser:
         "--strict", action="store_true", help="exit 3 when a run's map is poor (quality.poor)"
     )
     run.add_argument(
+        "--targets",
+        type=Path,
+        metavar="TARGETS.toml",
+        help="with --seeds: check the figures against accuracy targets (exit 1 when missed)",
+    )
+    run.add_argument(
         "--mcap",
         type=Path,
         metavar="BAG",
@@ -172,9 +178,11 @@ def _parser() -> argparse.ArgumentParser:
         "such a run's figures in a set of their own",
     )
     targets = sub.add_parser(
-        "targets", help="check a finished suite's summary.json against accuracy targets"
+        "targets", help="check a finished suite's (or seeds run's) summary against targets"
     )
-    targets.add_argument("suite_dir", type=Path, help="a `fogsim suite --out` folder")
+    targets.add_argument(
+        "suite_dir", type=Path, help="a `fogsim suite --out` or `fogsim run --seeds` folder"
+    )
     targets.add_argument("--targets", type=Path, required=True, metavar="TARGETS.toml")
     bag = sub.add_parser(
         "import-bag", help="turn a ROS 1 / ROS 2 bag into a recording that run --replay maps"
@@ -313,6 +321,11 @@ def _cmd_run(args: argparse.Namespace) -> int:
         raise FogsimError("--workers sets the processes of --seeds; give --seeds SPEC too")
     if args.ray is not None:
         raise FogsimError("--ray runs the seeds of --seeds on a cluster; give --seeds SPEC too")
+    if args.targets is not None:
+        raise FogsimError(
+            "--targets bounds figures over seeds (the worst seed, the mean): give --seeds SPEC "
+            "too, or check a suite (`fogsim suite --targets`)"
+        )
     if args.out is not None:
         check_run_folder(args.out, "--out")
     if args.mcap is not None:
@@ -393,6 +406,7 @@ def _workers(args: argparse.Namespace) -> int:
 def _cmd_run_seeds(args: argparse.Namespace) -> int:
     """``fogsim run SCENARIO --seeds SPEC``: the seeds in parallel, then their summary."""
     from fogsim.run.seeds import run_seeds, worst_lines  # only for --seeds
+    from fogsim.run.targets import check_seeds_targets, load_targets
 
     if args.replay is not None:
         raise FogsimError(
@@ -407,6 +421,7 @@ def _cmd_run_seeds(args: argparse.Namespace) -> int:
         raise FogsimError("--rerun logs one run: give --seed N instead of --seeds SPEC")
     if args.scenario is None:
         raise FogsimError("run --seeds needs a SCENARIO (see `fogsim list`)")
+    targets = load_targets(args.targets) if args.targets is not None else None  # before runs
     seeds = parse_seeds(args.seeds)
     workers = _workers(args)
     if args.out is not None:
@@ -434,7 +449,14 @@ def _cmd_run_seeds(args: argparse.Namespace) -> int:
     failed = [run for run in summary.runs if run.error is not None]
     for run in failed:
         print(f"FAILED seed {run.seed}: {run.error}", file=sys.stderr)
-    if failed:
+    missed = []
+    if targets is not None:
+        results = check_seeds_targets(summary, targets)
+        missed = [result for result in results if not result.met]
+        for result in missed:
+            print(f"MISSED {result.line()}", file=sys.stderr)
+        print(f"targets: {len(results) - len(missed)} of {len(results)} checks met")
+    if failed or missed:
         return 1
     return _strict_exit({f"seed {r.seed}": r.poor for r in summary.runs}) if args.strict else 0
 
@@ -541,13 +563,28 @@ def _cmd_suite(args: argparse.Namespace) -> int:
 
 
 def _cmd_targets(args: argparse.Namespace) -> int:
-    """``fogsim targets SUITE_DIR --targets FILE``: exit 1 when a target is missed."""
+    """``fogsim targets DIR --targets FILE``: exit 1 when a target is missed.
+
+    ``DIR`` is a suite's folder or one of ``fogsim run SCENARIO --seeds`` (its summary's
+    ``format`` says which; anything else is read as a suite's, whose loader names the problem).
+    """
+    import json
+
+    from fogsim.eval.report.io import load_json
+    from fogsim.run.seeds import SeedsSummary
     from fogsim.run.suite import check_suite_targets, load_suite_summary
-    from fogsim.run.targets import load_targets
+    from fogsim.run.targets import check_seeds_targets, load_targets
 
     targets = load_targets(args.targets)
-    summary = load_suite_summary(args.suite_dir / "summary.json")
-    results = check_suite_targets(summary, targets)
+    path = args.suite_dir / "summary.json"
+    try:
+        kind = json.loads(path.read_bytes()).get("format")
+    except (OSError, ValueError, AttributeError):
+        kind = None  # the suite loader below says what is wrong
+    if kind == "fogsim-seeds":
+        results = check_seeds_targets(load_json(path, SeedsSummary, "seeds summary"), targets)
+    else:
+        results = check_suite_targets(load_suite_summary(path), targets)
     missed = [result for result in results if not result.met]
     for result in missed:
         print(f"MISSED {result.line()}")

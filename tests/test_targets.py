@@ -207,3 +207,22 @@ def test_the_shipped_targets_name_figures_the_depth_suite_has():
         assert target.why
     stage_only = [t for t in targets.target if t.figure == "safety.unsafe_cells"]
     assert [t.scenarios for t in stage_only] == [("stage",)]
+
+
+def test_run_over_seeds_checks_targets_and_targets_reads_its_summary(tmp_path, monkeypatch, capsys):
+    fake_runs(monkeypatch)  # seed n: a sill error of n mm
+    strict = _file(tmp_path, '[[target]]\nfigure = "table1.*.abs_error_mm"\nworst = 2.5\n')
+    out = tmp_path / "seeds"
+    run = ["run", "flat_floor", "--seeds", "1-3", "--workers", "1", "--out", str(out)]
+    assert main([*run, "--targets", str(strict)]) == 1
+    captured = capsys.readouterr()
+    assert "MISSED flat_floor: table1.sill.abs_error_mm worst 3 (seed 3) > 2.5" in captured.err
+    assert "targets: 0 of 1 checks met" in captured.out
+    mean = _file(tmp_path, '[[target]]\nfigure = "table1.*.abs_error_mm"\nmean = 2\n', "m.toml")
+    assert main(["targets", str(out), "--targets", str(mean)]) == 0  # (1 + 2 + 3) / 3 <= 2
+    assert "1 of 1 checks met, 0 missed" in capsys.readouterr().out
+    # One run has no seeds to bound: refused before it runs.
+    one = tmp_path / "one"
+    assert main(["run", "flat_floor", "--out", str(one), "--targets", str(strict)]) == 2
+    assert "--targets bounds figures over seeds" in capsys.readouterr().err
+    assert not one.exists()

@@ -52,7 +52,13 @@ from fogsim.run.seeds import (
     seed_jobs,
     where_run,
 )
-from fogsim.run.targets import TargetResult, Targets, check_targets, targets_markdown
+from fogsim.run.targets import (
+    TargetResult,
+    Targets,
+    check_targets,
+    run_failures,
+    targets_markdown,
+)
 
 QUICK_SCENARIOS = ("flat_floor", "box_removal", "stairs")
 """The quick subset: an empty floor, an event (Fig. 5) and a staircase (Table I)."""
@@ -277,15 +283,14 @@ def load_suite_summary(path: str | os.PathLike[str]) -> SuiteSummary:
 def check_suite_targets(summary: SuiteSummary, targets: Targets) -> list[TargetResult]:
     """The summary's figures against accuracy targets (:func:`fogsim.run.targets.check_targets`).
 
-    A scenario that could not be loaded or one of whose runs raised is not checked (its
-    figures would stand on fewer seeds): each target that applies to it is missed. A poor
-    run's figures are checked (the suite fails it anyway).
+    A scenario that could not be loaded or one of whose runs raised is not checked
+    (:func:`fogsim.run.targets.run_failures`): each target that applies to it is missed.
     """
-    failed = {
-        name: [scenario.error] if scenario.error is not None else ["a run raised"]
-        for name, scenario in summary.scenarios.items()
-        if scenario.error is not None or any(run.error for run in scenario.runs)
-    }
+    failed = {}
+    for name, scenario in summary.scenarios.items():
+        reasons = run_failures(scenario.error, scenario.runs)
+        if reasons:
+            failed[name] = reasons
     figures = {name: scenario.figures for name, scenario in summary.scenarios.items()}
     return check_targets(figures, failed, targets)
 

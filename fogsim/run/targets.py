@@ -47,7 +47,7 @@ from typing import Literal
 
 from fogsim.config.decode import decode
 from fogsim.errors import ScenarioError, TargetsError
-from fogsim.run.seeds import GROUP_ORDER, FigureStats, format_value
+from fogsim.run.seeds import GROUP_ORDER, FigureStats, SeedRun, SeedsSummary, format_value
 
 TARGETS_VERSION = 1
 
@@ -260,6 +260,30 @@ def check_targets(
                     )
                 )
     return sorted(results, key=lambda result: result.met)  # stable: the order within kept
+
+
+def run_failures(error: str | None, runs: Sequence[SeedRun]) -> list[str]:
+    """Why a scenario's figures are not checked: it was not loaded or a run raised (else empty).
+
+    A scenario one of whose runs raised has figures over fewer seeds: not checked, each target
+    that applies to it missed. A poor run's figures are checked (the suite fails it anyway).
+    """
+    if error is not None:
+        return [error]
+    return [f"seed {run.seed}: failed: {run.error}" for run in runs if run.error is not None]
+
+
+def check_seeds_targets(summary: SeedsSummary, targets: Targets) -> list[TargetResult]:
+    """The figures of ``fogsim run SCENARIO --seeds`` against the targets (:func:`check_targets`).
+
+    The run is checked as a suite of one scenario; a seed that raised leaves it unchecked.
+    """
+    failed = run_failures(None, summary.runs)
+    return check_targets(
+        {summary.scenario: summary.figures},
+        {summary.scenario: failed} if failed else {},
+        targets,
+    )
 
 
 def targets_markdown(results: Sequence[TargetResult]) -> list[str]:
