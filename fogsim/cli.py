@@ -501,7 +501,7 @@ def _cmd_suite(args: argparse.Namespace) -> int:
         run_suite,
         update_baseline,
     )
-    from fogsim.run.targets import load_targets
+    from fogsim.run.targets import load_targets, missed_summary
 
     seeds = parse_seeds(args.seeds) if args.seeds is not None else None
     workers = _workers(args)
@@ -543,9 +543,12 @@ def _cmd_suite(args: argparse.Namespace) -> int:
             print(f"WORSE {line}", file=sys.stderr)
     missed = []
     if targets is not None:
-        missed = [r for r in check_suite_targets(summary, targets) if not r.met]
+        results = check_suite_targets(summary, targets)
+        missed = [r for r in results if not r.met]
         for result in missed:
             print(f"MISSED {result.line()}", file=sys.stderr)
+        if missed:
+            print(f"MISSED per scenario: {missed_summary(results)}", file=sys.stderr)
     if args.write_baseline is not None:
         write_baseline(args.write_baseline, update_baseline(existing, summary))
     compared = (
@@ -573,7 +576,7 @@ def _cmd_targets(args: argparse.Namespace) -> int:
     from fogsim.eval.report.io import load_json
     from fogsim.run.seeds import SeedsSummary
     from fogsim.run.suite import check_suite_targets, load_suite_summary
-    from fogsim.run.targets import check_seeds_targets, load_targets
+    from fogsim.run.targets import check_seeds_targets, load_targets, missed_summary
 
     targets = load_targets(args.targets)
     path = args.suite_dir / "summary.json"
@@ -588,6 +591,7 @@ def _cmd_targets(args: argparse.Namespace) -> int:
     missed = [result for result in results if not result.met]
     for result in missed:
         print(f"MISSED {result.line()}")
+    print(f"per scenario: {missed_summary(results)}")
     print(
         f"{len(results) - len(missed)} of {len(results)} checks met, {len(missed)} missed "
         f"({args.targets} on {args.suite_dir})"

@@ -11,7 +11,14 @@ from fogsim.errors import TargetsError
 from fogsim.paths import SCENARIOS_DIR
 from fogsim.run.baseline import load_baseline
 from fogsim.run.seeds import figure_stats
-from fogsim.run.targets import Target, Targets, check_targets, load_targets
+from fogsim.run.targets import (
+    Target,
+    Targets,
+    check_targets,
+    load_targets,
+    missed_summary,
+    scenario_counts,
+)
 
 SHIPPED = SCENARIOS_DIR / "targets" / "issue11_depth.toml"
 
@@ -173,16 +180,19 @@ def test_suite_targets_print_what_is_missed_and_fail_the_suite(
     out = capsys.readouterr()
     for name in ("alpha", "beta"):
         assert f"MISSED {name}: table1.sill.abs_error_mm worst 3 (seed 3) > 2.5" in out.err
+    assert "MISSED per scenario: alpha 1 of 1 missed; beta 1 of 1 missed" in out.err
     assert "0 failed; no baseline given: nothing compared; 2 targets missed" in out.out
     text = (tmp_path / "a" / "summary.md").read_text()
     assert "## Targets\n\n0 of 2 checks met, 2 missed." in text
+    assert "| alpha | 0 of 1 | 1 |\n| beta | 0 of 1 | 1 |" in text
     assert "| alpha | table1.sill.abs_error_mm | worst | 3 (seed 3) | ≤ 2.5 | **no** |" in text
     # The same runs checked again afterwards, against a bound they meet and one they miss.
     lenient = _file(
         tmp_path, '[[target]]\nfigure = "table1.*.abs_error_mm"\nworst = 3\n', "lenient.toml"
     )
     assert main(["targets", str(tmp_path / "a"), "--targets", str(lenient)]) == 0
-    assert "2 of 2 checks met, 0 missed" in capsys.readouterr().out
+    printed = capsys.readouterr().out
+    assert "per scenario: every check met\n2 of 2 checks met, 0 missed" in printed
     assert main(["targets", str(tmp_path / "a"), "--targets", str(strict)]) == 1
     assert "MISSED beta: table1.sill.abs_error_mm worst 3" in capsys.readouterr().out
 
@@ -226,3 +236,16 @@ def test_run_over_seeds_checks_targets_and_targets_reads_its_summary(tmp_path, m
     assert main(["run", "flat_floor", "--out", str(one), "--targets", str(strict)]) == 2
     assert "--targets bounds figures over seeds" in capsys.readouterr().err
     assert not one.exists()
+
+
+def test_scenario_counts_put_the_most_missed_first():
+    results = check_targets(
+        _figures(),
+        {},
+        _targets(
+            Target("table1.sill.abs_error_mm", worst=1.0, mean=1.0), Target("cells.*", worst=0.5)
+        ),
+    )
+    # stage: worst 4 and mean 2.33 miss, recall 0.3 misses; stage_down and room: 0.5 <= 1 met
+    assert scenario_counts(results) == [("stage", 0, 3), ("stage_down", 2, 2), ("room", 2, 2)]
+    assert missed_summary(results) == "stage 3 of 3 missed"

@@ -286,13 +286,40 @@ def check_seeds_targets(summary: SeedsSummary, targets: Targets) -> list[TargetR
     )
 
 
+def scenario_counts(results: Sequence[TargetResult]) -> list[tuple[str, int, int]]:
+    """Per scenario ``(name, checks met, checks)``, the most missed first (ties: first seen)."""
+    counts: dict[str, list[int]] = {}
+    for result in results:
+        met_total = counts.setdefault(result.scenario, [0, 0])
+        met_total[0] += result.met
+        met_total[1] += 1
+    order = sorted(counts.items(), key=lambda item: item[1][0] - item[1][1])  # stable
+    return [(name, met, total) for name, (met, total) in order]
+
+
+def missed_summary(results: Sequence[TargetResult]) -> str:
+    """One line: the scenarios with missed checks, most first (``stairs 2 of 25 missed; ...``)."""
+    missing = [
+        f"{name} {total - met} of {total} missed"
+        for name, met, total in scenario_counts(results)
+        if met < total
+    ]
+    return "; ".join(missing) if missing else "every check met"
+
+
 def targets_markdown(results: Sequence[TargetResult]) -> list[str]:
-    """The Targets section's lines: a count, then a table, missed first."""
+    """The Targets section's lines: a count, each scenario's count, every check (missed first)."""
     missed = sum(not result.met for result in results)
     lines = [f"{len(results) - missed} of {len(results)} checks met, {missed} missed.", ""]
     if not results:
         return lines
+    lines += ["| scenario | checks met | missed |", "|---|---:|---:|"]
     lines += [
+        f"| {name} | {met} of {total} | {total - met} |"
+        for name, met, total in scenario_counts(results)
+    ]
+    lines += [
+        "",
         "| scenario | figure | statistic | value | target | met | why |",
         "|---|---|---|---:|---:|---|---|",
     ]
