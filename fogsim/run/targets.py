@@ -49,11 +49,6 @@ from fogsim.config.decode import decode
 from fogsim.errors import ScenarioError, TargetsError
 from fogsim.run.seeds import GROUP_ORDER, FigureStats, SeedRun, SeedsSummary, format_value
 
-TARGETS_VERSION = 1
-
-STATISTICS = ("worst", "mean")
-"""The statistics a target may bound, as the suite's figures hold them."""
-
 _CHECKABLE_GROUPS = tuple(group for group in (*GROUP_ORDER, "pose_error") if group != "timing")
 """First segments of the figure names a target may name (every group but ``timing``)."""
 
