@@ -26,7 +26,7 @@ import time
 from collections.abc import Sequence
 from dataclasses import replace
 from pathlib import Path
-from typing import NoReturn
+from typing import TYPE_CHECKING, NoReturn, TextIO
 
 from fogsim.bags.topics import (
     DEFAULT_BASE_FRAME,
@@ -50,6 +50,9 @@ from fogsim.run.seed_spec import SEEDS_ALLOWED, parse_seeds
 from fogsim.sim.camera.backends import DEPTH_BACKENDS
 from fogsim.tune.cli import add_tune_arguments
 from mapper.errors import MapperError
+
+if TYPE_CHECKING:
+    from fogsim.run.targets import TargetResult
 
 
 class _Parser(argparse.ArgumentParser):
@@ -305,6 +308,14 @@ def _cmd_list() -> int:
     return 0
 
 
+def _print_missed(results: Sequence[TargetResult], stream: TextIO) -> list[TargetResult]:
+    """Print a ``MISSED`` line for each missed target check on ``stream``; the missed ones."""
+    missed = [result for result in results if not result.met]
+    for result in missed:
+        print(f"MISSED {result.line()}", file=stream)
+    return missed
+
+
 def _strict_exit(reasons_by_run: dict[str, tuple[str, ...]]) -> int:
     """Exit code of ``--strict``: 3 (reasons printed) when a run's map is poor, else 0."""
     poor = {run: reasons for run, reasons in reasons_by_run.items() if reasons}
@@ -452,9 +463,7 @@ def _cmd_run_seeds(args: argparse.Namespace) -> int:
     missed = []
     if targets is not None:
         results = check_seeds_targets(summary, targets)
-        missed = [result for result in results if not result.met]
-        for result in missed:
-            print(f"MISSED {result.line()}", file=sys.stderr)
+        missed = _print_missed(results, sys.stderr)
         print(f"targets: {len(results) - len(missed)} of {len(results)} checks met")
     if failed or missed:
         return 1
@@ -544,9 +553,7 @@ def _cmd_suite(args: argparse.Namespace) -> int:
     missed = []
     if targets is not None:
         results = check_suite_targets(summary, targets)
-        missed = [r for r in results if not r.met]
-        for result in missed:
-            print(f"MISSED {result.line()}", file=sys.stderr)
+        missed = _print_missed(results, sys.stderr)
         if missed:
             print(f"MISSED per scenario: {missed_summary(results)}", file=sys.stderr)
     if args.write_baseline is not None:
@@ -588,9 +595,7 @@ def _cmd_targets(args: argparse.Namespace) -> int:
         results = check_seeds_targets(load_json(path, SeedsSummary, "seeds summary"), targets)
     else:
         results = check_suite_targets(load_suite_summary(path), targets)
-    missed = [result for result in results if not result.met]
-    for result in missed:
-        print(f"MISSED {result.line()}")
+    missed = _print_missed(results, sys.stdout)
     print(f"per scenario: {missed_summary(results)}")
     print(
         f"{len(results) - len(missed)} of {len(results)} checks met, {len(missed)} missed "
