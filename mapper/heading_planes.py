@@ -123,10 +123,18 @@ TOLERANCE_RAD = math.radians(0.005)
 """The steps stop once one is smaller than this [rad]."""
 
 MAX_SHIFT_RAD = math.radians(2.0)
-"""A refinement ending farther than this from the agreement score's estimate is refused [rad]:
-the score's estimates were within 1.7° of the truth wherever it stood out (its bias on `table`
-at most), while a point-to-plane fit that slid off (session 40: `stairs` stereo seed 6, a
-staircase faced head-on, 2.85 → 9.16° off) goes much farther."""
+"""A fit ending farther than this from its start is refused [rad] unless the caller bounds it
+otherwise (`refined_heading`'s ``max_shift_rad``): the bound of the plane witness's two fits
+(`mapper.heading.HeadingParams.plane_witness_deg`), whose agreement means something only
+within the fit's reach. Session 40 bounded every refinement so, as the score's estimates were
+within 1.7° of the truth wherever it stood out on the shipped scenes and a fit that slid off
+(`stairs` stereo seed 6, a staircase faced head-on, 2.85 → 9.16° off) went much farther.
+Since session 52 the refinement of an accepted estimate is bounded by the candidates' range
+instead (`mapper.heading`, ``max_correction_deg``): on the held-out descending starts the first
+estimate lay up to 3.8° off (`down_slant_turn` depth seed 3: +4.75° where +0.94° was needed;
+its fit, moving 2.3° towards the need, was refused and the rebuild kept +4.75°), while
+`stairs` stereo seed 6 replayed unbounded no longer slides (its first estimate 0.58° off either
+way)."""
 
 MATCH_TIERS = (1, 2, 4)
 """The correspondence search's spheres, in quarters of `MATCH_M` (`_match_candidates`): the same
@@ -405,11 +413,14 @@ def refined_heading(
     camera_xy: NDArray[np.float64],
     yaw_rad: NDArray[np.float64],
     start_rad: float,
+    max_shift_rad: float = MAX_SHIFT_RAD,
 ) -> tuple[float, float, float]:
     """`refine_heading` with this module's constants: the correction [rad] and the fit's figures.
 
     Returns the correction, the fit's information Σ w·a² [m²/rad²] (0: refused, the correction
-    ``start_rad``) and its residuals' weighted RMS [m].
+    ``start_rad``) and its residuals' weighted RMS [m]. ``max_shift_rad``: a fit ending farther
+    than this from ``start_rad`` is refused (`MAX_SHIFT_RAD` unless the caller bounds it
+    otherwise; ``math.inf``: never).
 
     The arrays as `refine_heading` takes them; ``camera_xy`` and ``yaw_rad`` are made
     contiguous float64 here, so every caller (the estimator, the warm-up) compiles the one
@@ -429,6 +440,6 @@ def refined_heading(
         MIN_BASELINE_M,
         ITERATIONS,
         TOLERANCE_RAD,
-        MAX_SHIFT_RAD,
+        float(max_shift_rad),
     )
     return float(refined), float(information), float(rms_m)

@@ -7,7 +7,7 @@ import numpy as np
 import pytest
 
 import mapper.heading as heading_module
-from mapper import HeadingEstimator, HeadingParams, InvalidParameterError
+from mapper import HeadingEstimator, HeadingParams, InvalidParameterError, heading_planes
 from mapper.heading import (
     _band_centre_deg,
     _falls_on_both_sides,
@@ -535,15 +535,19 @@ def test_a_peak_near_the_range_end_is_checked_beyond_it():
 def test_an_estimate_whose_scores_ramp_into_the_range_end_is_not_accepted(monkeypatch):
     # The ramp as the structure score of a real walk: with `interior_peak` (the default) the
     # try gives no estimate, without it the ramp's top, +11 deg, is taken; a true peak near the
-    # range's end (-11 deg) is taken either way.
+    # range's end (-11 deg) is taken either way. The score's estimate itself (not refined
+    # point to plane); refined, the first estimate leaves the fake score's +11° for the
+    # boxes' own answer, the -3° the 3° error needs.
     rng = np.random.default_rng(11)
     boxes = box_points_world(rng)
 
-    def walked(score, **params):
+    def walked(score, plane_refine_estimates=0, **params):
         monkeypatch.setattr(
             heading_module, "heading_scores", lambda *args: 1000.0 * score(np.degrees(args[5]))
         )
-        estimator = HeadingEstimator(HeadingParams(estimate_every=1, **params))
+        estimator = HeadingEstimator(
+            HeadingParams(estimate_every=1, plane_refine_estimates=plane_refine_estimates, **params)
+        )
         for x, y, yaw in WALK:
             estimator.observe(*frame(boxes, floor_points_world(x), (x, y, yaw), 3.0))
         return estimator
@@ -555,6 +559,9 @@ def test_an_estimate_whose_scores_ramp_into_the_range_end_is_not_accepted(monkey
     near_end = walked(_peak_at(-11.0))
     assert near_end.estimates >= 1
     assert math.degrees(near_end.correction_rad) == pytest.approx(-11.0, abs=0.3)
+    refined = walked(_ramp, plane_refine_estimates=1, interior_peak=False)
+    assert refined.estimates == 1  # the later tries' +11.25° is held (a jump beyond 8°)
+    assert math.degrees(refined.correction_rad) == pytest.approx(-3.0, abs=0.1)
 
 
 def test_the_estimate_is_the_centre_of_the_band_around_the_best_score():
@@ -986,6 +993,22 @@ def test_the_plane_witness_accepts_a_shallow_peak_both_fits_agree_on():
     assert walked(1.3, plane_witness_deg=0.25, flat_contrast=0.9).estimates == 0
 
 
+def _first_accepted(estimator, yaw_error_deg):
+    """Walk ``estimator`` at the L-shaped wall (above): its first accepted estimate [deg]."""
+    first = []
+    estimate = estimator._estimate
+
+    def noted(edges):
+        before = estimator.estimates
+        estimate(edges)
+        if estimator.estimates > before and not first:
+            first.append(math.degrees(estimator.correction_rad))
+
+    estimator._estimate = noted
+    _walk_at_l_shaped_wall(estimator, yaw_error_deg)
+    return first[0]
+
+
 def test_after_an_edge_score_stand_in_the_first_structure_estimate_is_refined():
     # An edge-score estimate came first (set by hand here); the L-shaped wall (above) then
     # gives the structure score's first estimate. Counting the structure score's estimates
@@ -997,19 +1020,9 @@ def test_after_an_edge_score_stand_in_the_first_structure_estimate_is_refined():
             HeadingParams(estimate_every=1, edge_score=False, plane_after_edges=plane_after_edges)
         )
         estimator.estimates = estimator.edge_estimates = 1
-        first = []
-        estimate = estimator._estimate
-
-        def noted(edges):
-            before = estimator.estimates
-            estimate(edges)
-            if estimator.estimates > before and not first:
-                first.append(math.degrees(estimator.correction_rad))
-
-        estimator._estimate = noted
-        _walk_at_l_shaped_wall(estimator, 1.3)
+        first = _first_accepted(estimator, 1.3)
         normals = [k.normals_xy is not None for k in estimator._keyframes]
-        return first[0], normals
+        return first, normals
 
     refined, normals = first_structure_estimate(True)
     assert normals[0] and any(normals)  # those before it (none after: only the first is refined)
@@ -1017,3 +1030,56 @@ def test_after_an_edge_score_stand_in_the_first_structure_estimate_is_refined():
     unrefined, normals = first_structure_estimate(False)
     assert not any(normals)
     assert abs(unrefined + 1.3) > 0.1
+
+
+def _first_estimate_from(monkeypatch, yaw_error_deg, score_estimate_deg, **params):
+    """The first accepted estimate [deg] on the L-shaped wall, the score's set by hand.
+
+    The score's estimate (the centre of its peak band) is replaced by hand: the wall's own
+    score lies within 0.2° of the error, and the held-out scenes' first estimates lay up to
+    3.8° off (`down_slant_turn` depth seed 3).
+    """
+    monkeypatch.setattr(heading_module, "_band_centre_deg", lambda *_: score_estimate_deg)
+    estimator = HeadingEstimator(HeadingParams(estimate_every=1, edge_score=False, **params))
+    return _first_accepted(estimator, yaw_error_deg)
+
+
+@pytest.mark.parametrize("yaw_error_deg", [1.3, -1.3])
+def test_the_first_estimate_is_refined_beyond_the_witness_reach(monkeypatch, yaw_error_deg):
+    # The score's estimate 3° off the truth: the fit moves 3°, beyond the 2° within which the
+    # witness's fits are trusted (`MAX_SHIFT_RAD`), and the refinement of an accepted estimate
+    # takes it (within 0.1° of the error); bounded by `MAX_SHIFT_RAD` the same fit is refused.
+    off_deg = -yaw_error_deg + math.copysign(3.0, yaw_error_deg)
+    refined = _first_estimate_from(monkeypatch, yaw_error_deg, off_deg)
+    assert refined == pytest.approx(-yaw_error_deg, abs=0.1)
+    assert abs(off_deg + yaw_error_deg) == pytest.approx(3.0)
+    bounded = heading_module._plane_fit
+    monkeypatch.setattr(
+        heading_module,
+        "_plane_fit",
+        lambda *args, **_: bounded(*args, max_shift_rad=heading_planes.MAX_SHIFT_RAD),
+    )
+    assert _first_estimate_from(monkeypatch, yaw_error_deg, off_deg) == pytest.approx(off_deg)
+
+
+def test_a_refined_first_estimate_outside_the_candidates_range_keeps_the_score_estimate(
+    monkeypatch,
+):
+    # The fit stood in by hand: one ending at -13°, outside the ±12° the estimator may correct
+    # (`max_correction_deg`), is dropped and the score's estimate (the refinement's start)
+    # stands; one ending at -11.5° is taken.
+    def first_with_fit(fit_deg):
+        starts = []
+
+        def fit(keyframes, cameras_xy, yaw_rad, start_rad, max_shift_rad=0.0):
+            starts.append(math.degrees(start_rad))
+            return math.radians(fit_deg), 1.0, 0.001
+
+        monkeypatch.setattr(heading_module, "_plane_fit", fit)
+        first = _first_estimate_from(monkeypatch, 1.3, -1.5)
+        return first, starts[-1]
+
+    kept, start = first_with_fit(-13.0)
+    assert start == pytest.approx(-1.5) and kept == pytest.approx(-1.5)
+    taken, _ = first_with_fit(-11.5)
+    assert taken == pytest.approx(-11.5)
