@@ -23,9 +23,15 @@ the zig-zag stage's stereo recordings, 0.00° on the stage depth: the estimator'
 the poses' errors (`HeadingParams.voxel_estimate` has the figures with one point per voxel,
 against the odometry then).
 
+With ``--summary``, one more line over all the recordings (`summarize`): the first accepted
+estimate's error, every accepted estimate's and the final correction's, mean |error| and the
+worst recording, and the recordings that accepted none. Session 52, the 32 held-out depth
+recordings of seeds 1–4 and 5–8 (`fogsim record scenarios/holdout/X.toml --seed N`): see
+README "The first heading estimate of a descending start".
+
 Usage::
 
-    python bench/heading_trace.py [--true-pose] [--set KEY=VALUE ...] /work/rec/room_depth_s3.npz
+    python bench/heading_trace.py [--true-pose] [--summary] [--set KEY=VALUE ...] REC.npz ...
 """
 
 from __future__ import annotations
@@ -34,6 +40,7 @@ import argparse
 import json
 import math
 import sys
+from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
@@ -60,13 +67,53 @@ def needed_deg(frame: Frame) -> float:
     return -heading_error_deg(believed[:3, :3], true_in_robot[:3, :3])
 
 
-def trace(path: Path, overrides: dict[str, object], true_pose: bool) -> list[str]:
-    """The lines of one recording's replay (module docstring)."""
+@dataclass(frozen=True)
+class EstimateErrors:
+    """One replay's heading estimates against the correction the run needed [deg].
+
+    Attributes:
+        recording: The recording's file name.
+        accepted_deg: Each accepted estimate's correction minus the need, in order.
+        final_deg: The correction after the last frame minus the need.
+    """
+
+    recording: str
+    accepted_deg: tuple[float, ...]
+    final_deg: float
+
+
+def summarize(results: list[EstimateErrors]) -> str:
+    """One line over the replays: mean |error| (worst, its recording) of the first accepted
+    estimates, of every accepted estimate, of the final corrections; the replays with none."""
+
+    def mean_worst(pairs: list[tuple[float, str]]) -> str:
+        if not pairs:
+            return "none"
+        worst = max(pairs, key=lambda pair: abs(pair[0]))
+        mean = sum(abs(error) for error, _ in pairs) / len(pairs)
+        return f"{mean:.3f}° (worst {abs(worst[0]):.2f}°, {worst[1]})"
+
+    first = [(r.accepted_deg[0], r.recording) for r in results if r.accepted_deg]
+    every = [(error, r.recording) for r in results for error in r.accepted_deg]
+    final = [(r.final_deg, r.recording) for r in results]
+    none = [r.recording for r in results if not r.accepted_deg]
+    return (
+        f"{len(results)} replays: first accepted estimate |error| {mean_worst(first)}; every "
+        f"accepted estimate {mean_worst(every)} over {len(every)}; final correction "
+        f"{mean_worst(final)}; no estimate: {', '.join(none) or 'none'}"
+    )
+
+
+def trace(
+    path: Path, overrides: dict[str, object], true_pose: bool
+) -> tuple[list[str], EstimateErrors]:
+    """The lines of one recording's replay (module docstring) and its estimates' errors."""
     recording = load_recording(path)
     params = resolve_params(recording.scenario, overrides, sensor_fields(recording.scenario))
     frames = [true_pose_frame(f) for f in recording.frames] if true_pose else recording.frames
     tries: list[tuple[int, bool, int, float, float, bool, float]] = []
     position = [0]
+    final = [0.0]
     scores: list[np.ndarray] = []
     estimate = heading_module.HeadingEstimator._estimate
     plain, weighted = heading_module.heading_scores, heading_module.weighted_heading_scores
@@ -101,6 +148,7 @@ def trace(path: Path, overrides: dict[str, object], true_pose: bool) -> list[str
 
         def count(frame, pipeline) -> None:
             position[0] += 1
+            final[0] = math.degrees(pipeline.heading.correction_rad)
 
         odometry = float(np.median([needed_deg(f) for f in frames]))
         needed = 0.0 if true_pose else odometry
@@ -118,7 +166,8 @@ def trace(path: Path, overrides: dict[str, object], true_pose: bool) -> list[str
             f"{span:4.2f} m contrast {contrast:5.3f} {'accepted' if accepted else '        '} "
             f"correction {correction:+6.2f}° error {correction - needed:+6.2f}°"
         )
-    return lines
+    accepted = tuple(t[6] - needed for t in tries if t[5])
+    return lines, EstimateErrors(path.name, accepted, final[0] - needed)
 
 
 def add_overrides_argument(parser: argparse.ArgumentParser) -> None:
@@ -148,11 +197,17 @@ def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("recordings", nargs="+", type=Path)
     parser.add_argument("--true-pose", action="store_true", help="replay with the true pose")
+    parser.add_argument("--summary", action="store_true", help="a line over all recordings")
     add_overrides_argument(parser)
     args = parser.parse_args()
     overrides = overrides_of(args.set)
+    results = []
     for path in args.recordings:
-        print("\n".join(trace(path, overrides, args.true_pose)), flush=True)
+        lines, errors = trace(path, overrides, args.true_pose)
+        results.append(errors)
+        print("\n".join(lines), flush=True)
+    if args.summary:
+        print(summarize(results))
 
 
 if __name__ == "__main__":
