@@ -166,8 +166,8 @@ def trace(
             f"{span:4.2f} m contrast {contrast:5.3f} {'accepted' if accepted else '        '} "
             f"correction {correction:+6.2f}° error {correction - needed:+6.2f}°"
         )
-    accepted = tuple(t[6] - needed for t in tries if t[5])
-    return lines, EstimateErrors(path.name, accepted, final[0] - needed)
+    errors = tuple(correction - needed for *_, accepted, correction in tries if accepted)
+    return lines, EstimateErrors(path.name, errors, final[0] - needed)
 
 
 def add_overrides_argument(parser: argparse.ArgumentParser) -> None:

@@ -225,24 +225,7 @@ def check_targets(
                 continue
             for name in sorted(n for n in figures if fnmatch.fnmatchcase(n, target.figure)):
                 matched = True
-                stats = figures[name]
-                for statistic, bound in target.bounds():
-                    value = stats.worst if statistic == "worst" else stats.mean
-                    met = value <= bound if stats.direction == "lower" else value >= bound
-                    results.append(
-                        TargetResult(
-                            scenario=scenario,
-                            figure=name,
-                            statistic=statistic,
-                            value=value,
-                            bound=bound,
-                            direction=stats.direction,
-                            met=bool(met),
-                            worst_seed=stats.worst_seed,
-                            missing_seeds=stats.missing,
-                            why=target.why,
-                        )
-                    )
+                results += _figure_results(target, scenario, name, figures[name])
         if applied and not matched:
             for statistic, bound in target.bounds():
                 results.append(
@@ -255,6 +238,31 @@ def check_targets(
                     )
                 )
     return sorted(results, key=lambda result: result.met)  # stable: the order within kept
+
+
+def _figure_results(
+    target: Target, scenario: str, name: str, stats: FigureStats
+) -> list[TargetResult]:
+    """One figure's bounded statistics against the target's bounds."""
+    results = []
+    for statistic, bound in target.bounds():
+        value = stats.worst if statistic == "worst" else stats.mean
+        met = value <= bound if stats.direction == "lower" else value >= bound
+        results.append(
+            TargetResult(
+                scenario=scenario,
+                figure=name,
+                statistic=statistic,
+                value=value,
+                bound=bound,
+                direction=stats.direction,
+                met=bool(met),
+                worst_seed=stats.worst_seed,
+                missing_seeds=stats.missing,
+                why=target.why,
+            )
+        )
+    return results
 
 
 def run_failures(error: str | None, runs: Sequence[SeedRun]) -> list[str]:
