@@ -1,6 +1,6 @@
 """What a true heading or camera pose would give: replays with it beside the pipeline's.
 
-For each recording, up to four replays (``--modes``, default all):
+For each recording, one replay per mode (``--modes``, default all):
 
 * ``pipeline``: as ``fogsim run --replay``;
 * ``true yaw``: every frame's believed camera-to-robot transform turned about the vertical
@@ -17,10 +17,16 @@ For each recording, up to four replays (``--modes``, default all):
 * ``true xy``: the robot's believed (x, y) replaced by the true one, its yaw, z and the
   camera's encoders as believed, the heading estimator on: what taking out odometry's
   horizontal drift alone would give (its yaw error, integrated over the walk, drifts the robot
-  2–3 cm sideways by the stage's platform: session 48).
+  2–3 cm sideways by the stage's platform: session 48);
+* ``true tilt``: the frames as recorded, but each frame's segmentation turned by the camera's
+  true tilt in the believed robot frame instead of the tilt filter's estimate
+  (`fogsim.mapping.segmenter.FrameSegmenter`; the heading estimator on): what the tilt
+  filter's error costs. Unlike ``true pose`` (whose frames still go through the tilt filter,
+  which then estimates the tilt left over from the scene, with its own error) it takes out the
+  applied tilt's whole error and nothing else.
 
-The heading estimator is off (``head.correct_heading`` False) in every mode but ``pipeline``
-and ``true xy``;
+The heading estimator is off (``head.correct_heading`` False) in every mode but ``pipeline``,
+``true xy`` and ``true tilt``;
 everything else (tilt, height reference, z-match, the maps) runs as usual. The gap between
 ``pipeline`` and ``true yaw`` is the most any heading work can gain on those frames; between
 ``true yaw`` and ``true pose``, what the camera's position and tilt errors still cost; a
@@ -30,7 +36,11 @@ ground, so its camera's x, y and yaw cannot be estimated from the scene: README 
 limitations").
 
 Prints one line per recording and mode, then mean (worst) per mode: obstacle recall, floor
-precision [%], unsafe cells, the worst Table I row [mm] and the residual heading [deg].
+precision [%], unsafe cells, the worst Table I row [mm], the mean |error| of the Table I rows
+[mm] and the residual heading [deg].
+
+Session 53, held-out stereo (``fogsim record scenarios/holdout/SCENE.toml --seed N
+--camera-mode stereo``, seeds 1–8): README "Known limitations", "Stereo's tilt".
 
 Usage::
 
@@ -48,7 +58,9 @@ from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
+from zlock_trace import true_tilt_rad
 
+import fogsim.mapping.segmenter as segmenter
 from fogsim.config import resolve_params
 from fogsim.data.frame import Frame
 from fogsim.data.recording import load_recording
@@ -57,6 +69,7 @@ from fogsim.eval.report import build_report
 from fogsim.eval.report.schema import Report
 from fogsim.run.runner import run_frames, sensor_fields
 from mapper.heading import yaw_about_pivot
+from mapper.tilt_filter import apply_tilt
 from mapper.transforms import planar_pose_to_matrix
 
 
@@ -68,6 +81,7 @@ class Figures:
     floor_precision_pct: float
     unsafe_cells: int
     worst_row_mm: float
+    mean_row_mm: float
     residual_heading_deg: float
 
 
@@ -125,8 +139,13 @@ MODES = {
     "true xy": true_xy_frame,
 }
 """Replay modes: how each frame's believed camera pose is changed (None: as recorded)."""
+TILT_MODES = ("true tilt",)
+"""Modes that change the segmenter instead of the frames: the true tilt applied."""
+ALL_MODES = (*MODES, *TILT_MODES)
+"""Every mode ``--modes`` takes."""
 HEADING_MODES = ("pipeline", "true xy")
-"""The modes that keep the heading estimator on (the others give it the true yaw or pose)."""
+"""The frame modes that keep the heading estimator on (the others give it the true yaw or
+pose); the tilt modes keep it on too."""
 
 
 def figures(report: Report) -> Figures:
@@ -139,6 +158,7 @@ def figures(report: Report) -> Figures:
         floor_precision_pct=_percent(classes.floor.precision),
         unsafe_cells=report.safety.unsafe_cells,
         worst_row_mm=max(errors, default=math.nan),
+        mean_row_mm=statistics.mean(errors) if errors else math.nan,
         residual_heading_deg=getattr(heading, "median", math.nan),
     )
 
@@ -154,17 +174,29 @@ def replay(path: Path, mode: str) -> Figures:
     Raises:
         ValueError: An unknown mode (the known ones are named).
     """
-    if mode not in MODES:
-        raise ValueError(f"unknown mode {mode!r}; modes: {', '.join(MODES)}")
-    change = MODES[mode]
+    if mode not in ALL_MODES:
+        raise ValueError(f"unknown mode {mode!r}; modes: {', '.join(ALL_MODES)}")
+    change = MODES.get(mode)
     recording = load_recording(path)
-    overrides = {} if mode in HEADING_MODES else {"head.correct_heading": 0.0}
+    heading_on = mode in HEADING_MODES or mode in TILT_MODES
+    overrides = {} if heading_on else {"head.correct_heading": 0.0}
     params = resolve_params(recording.scenario, overrides, sensor_fields(recording.scenario))
     frames = [change(f) for f in recording.frames] if change is not None else recording.frames
-    result = run_frames(
-        frames, recording.truth_at, recording.scenario, params=params, segment_ahead=False
-    )
+    filtered_tilt = segmenter.FrameSegmenter._filtered_tilt
+    if mode == "true tilt":  # segmented in line (segment_ahead False): this process's class
+        segmenter.FrameSegmenter._filtered_tilt = _true_tilt
+    try:
+        result = run_frames(
+            frames, recording.truth_at, recording.scenario, params=params, segment_ahead=False
+        )
+    finally:
+        segmenter.FrameSegmenter._filtered_tilt = filtered_tilt
     return figures(build_report(result, recording.scenario, source="replay"))
+
+
+def _true_tilt(_segmenter, seg, frame: Frame):
+    """`FrameSegmenter._filtered_tilt` with the camera's true tilt instead of the filter's."""
+    return apply_tilt(seg, true_tilt_rad(frame))
 
 
 def main() -> None:
@@ -172,14 +204,14 @@ def main() -> None:
     parser.add_argument("recordings", nargs="+", type=Path)
     parser.add_argument(
         "--modes",
-        default=",".join(MODES),
-        help=f"comma-separated replay modes, of: {', '.join(MODES)} (default: all)",
+        default=",".join(ALL_MODES),
+        help=f"comma-separated replay modes, of: {', '.join(ALL_MODES)} (default: all)",
     )
     args = parser.parse_args()
     modes = [m.strip() for m in args.modes.split(",") if m.strip()]
-    unknown = [m for m in modes if m not in MODES]
+    unknown = [m for m in modes if m not in ALL_MODES]
     if unknown or not modes:
-        parser.error(f"--modes: unknown {unknown or 'empty'}; modes: {', '.join(MODES)}")
+        parser.error(f"--modes: unknown {unknown or 'empty'}; modes: {', '.join(ALL_MODES)}")
     rows: dict[str, list[Figures]] = {mode: [] for mode in modes}
     for path in args.recordings:
         for mode, rows_of_mode in rows.items():
@@ -187,7 +219,8 @@ def main() -> None:
             rows_of_mode.append(f)
             print(f"{path.name:28s} {mode:13s} {f}", flush=True)
     print(
-        "mean (worst): obstacle recall %, floor precision %, unsafe cells, worst row mm, heading"
+        "mean (worst): obstacle recall %, floor precision %, unsafe cells, worst row mm,"
+        " mean |row| mm, heading"
         " (a figure a run has none of, as recall with no obstacle cell labelled, is left out and"
         " counted)"
     )
@@ -197,6 +230,7 @@ def main() -> None:
             f"{_mean_worst([f.floor_precision_pct for f in found], min, 2)}  "
             f"{_mean_worst([float(f.unsafe_cells) for f in found], max, 1)}  "
             f"{_mean_worst([f.worst_row_mm for f in found], max, 2)}  "
+            f"{_mean_worst([f.mean_row_mm for f in found], max, 2)}  "
             f"{_mean_worst([f.residual_heading_deg for f in found], max, 2)}"
         )
 

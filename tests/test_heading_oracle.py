@@ -47,3 +47,41 @@ def test_only_the_pipeline_and_true_xy_keep_the_heading_estimator():
     assert set(heading_oracle.HEADING_MODES) == {"pipeline", "true xy"}
     assert set(heading_oracle.HEADING_MODES) <= set(heading_oracle.MODES)
     assert heading_oracle.MODES["true xy"] is heading_oracle.true_xy_frame
+
+
+def test_true_tilt_replaces_the_filter_during_its_replay_only(monkeypatch):
+    import types
+
+    import fogsim.mapping.segmenter as segmenter
+
+    filtered_tilt = segmenter.FrameSegmenter._filtered_tilt
+    recording = types.SimpleNamespace(scenario="scene", frames=["frame"], truth_at=None)
+    seen = {}
+
+    def run_frames(frames, truth_at, scenario, *, params, segment_ahead):
+        # In line (the patch is this process's), heading on, the frames as recorded.
+        seen["tilt"] = segmenter.FrameSegmenter._filtered_tilt
+        seen["args"] = (frames, params, segment_ahead)
+        raise RuntimeError("stop here")
+
+    monkeypatch.setattr(heading_oracle, "load_recording", lambda path: recording)
+    monkeypatch.setattr(heading_oracle, "sensor_fields", lambda scenario: ())
+    monkeypatch.setattr(
+        heading_oracle, "resolve_params", lambda scenario, overrides, fields: overrides
+    )
+    monkeypatch.setattr(heading_oracle, "run_frames", run_frames)
+    with pytest.raises(RuntimeError, match="stop here"):
+        heading_oracle.replay(Path("rec.npz"), "true tilt")
+    assert seen["tilt"] is heading_oracle._true_tilt
+    assert seen["args"] == (["frame"], {}, False)
+    # Restored although the replay failed; the pipeline's replay keeps the filter.
+    assert segmenter.FrameSegmenter._filtered_tilt is filtered_tilt
+    with pytest.raises(RuntimeError, match="stop here"):
+        heading_oracle.replay(Path("rec.npz"), "pipeline")
+    assert seen["tilt"] is filtered_tilt
+
+
+def test_an_unknown_mode_is_refused_naming_every_mode():
+    with pytest.raises(ValueError, match="true tilt") as refused:
+        heading_oracle.replay(Path("rec.npz"), "true roll")
+    assert all(mode in str(refused.value) for mode in heading_oracle.MODES)
