@@ -109,6 +109,13 @@ class PipelineParams:
             stereo (replays) the zig-zag stage's later estimates are the worse ones (its
             `map_heading_deg` 0.49 (1.01) → 0.67 (1.42)°) and `room`'s sill row on seed 2 went
             from 0.3 to 3.65 mm: the latest estimate is not always the better one, so it is off.
+            Again at session 53 (1.0, `fogsim suite`, depth, seeds 1–8, unsafe cells mean
+            (worst)): the held-out scenes 197.12 → 198.62 in all — `down_slant_turn` seed 8's
+            flat box row 49.38 mm → within 1.51 (its first estimate 2.1° off, the later ones
+            0.8°), `stairs_40_75_110` seed 1 57 → 28 cells, but `rock_field` 2.88 (15) → 9.62
+            (23) (worse on six seeds: its rough rocks pull the later estimates), its map
+            heading 0.74 → 1.12°; the shipped suite 37.38 → 38.88 (`stage_offgrid` 6.62 (16) →
+            8.0 (23)); issue 11's depth targets held-out 172 → 171 of 210, shipped 229 of 262.
         heading_rebuild_on_structure: When the maps were rebuilt with an estimate of the
             heading's edge score (its stand-in while the structure score has never stood out:
             `HeadingParams.flat_contrast`), rebuild them once more (while at most
