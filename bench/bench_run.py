@@ -292,6 +292,8 @@ def main() -> None:
         if args.replay is None:
             raise SystemExit("--ahead measures the frame loop of --replay FILE: give it")
         ahead(args.replay, args.ahead)
+    if args.parts:
+        parts(args.scenario, args.repeats, {**os.environ, "PYTHONPATH": str(ROOT)})
     if args.no_commands:
         return
     if args.no_run and args.replay is None:
@@ -322,8 +324,6 @@ def main() -> None:
                 ("wall", "cpu", "teardown"),
                 trees,
             )
-    if args.parts:
-        parts(args.scenario, args.repeats, {**os.environ, "PYTHONPATH": str(ROOT)})
 
 
 def cold(scenario: str, out: str, env: dict[str, str], tree: Path = ROOT) -> tuple[float, ...]:
