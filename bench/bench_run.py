@@ -193,7 +193,9 @@ def overlap(scenario_name: str, n: int) -> None:
     for _ in range(n):
         with Simulation(scenario) as simulation:
             start = time.perf_counter()
-            run_frames(simulation.frames(), simulation.truth_at, scenario)
+            # In line: the frames made on this thread (`segment_ahead` would pull them on a
+            # second thread, where the renderer's OpenGL context is not current).
+            run_frames(simulation.frames(), simulation.truth_at, scenario, segment_ahead=False)
             rows["frames in line"].append(time.perf_counter() - start)
         with BackgroundSimulation(lambda: Simulation(scenario)) as background:
             background.frame_count  # noqa: B018 (waits for the set-up: not timed)
