@@ -8,6 +8,17 @@ its own thread and hands frames over through a queue of at most ``ahead`` frames
 parallel is what releases Python's GIL: MuJoCo's rendering and kinematics and numpy's array
 work; numba kernels compiled without ``nogil`` take turns.
 
+The simulation in a forked process instead (session 53, a ``SimulationProcess`` with this
+class's interface: the child built and stepped the simulation and sent each pickled frame
+through a pipe, the truth answered here from the scenario; the same maps bit for bit) was
+measured and not kept: ``fogsim run stage``, `bench/bench_run.py --tree A --tree B`, 5
+interleaved repeats, AMD EPYC 2 cores, load 1.0-1.6, 4.96 -> 4.80 s wall median (min 4.57 ->
+4.47), the main thread's CPU 3.02 -> 2.74 s. On two cores the run is bound by its CPU time in
+all (the simulation 1.6-1.8 s beside the mapping's 2.7-3.0 and the segmentation's 1.5-1.6),
+not by the GIL, so a process takes off little; and a child that makes an OpenGL context after
+a fork is safe only where this process made none before (not so in a test process that has
+rendered).
+
 Everything of the simulation stays on its thread: an OpenGL (EGL) context is current in one
 thread only, so the renderer is created, used and freed there, and the MuJoCo state is never
 read from outside. The frames are the ones :meth:`Simulation.frames` yields, in the same order,
