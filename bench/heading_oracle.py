@@ -69,6 +69,7 @@ from fogsim.eval.report import build_report
 from fogsim.eval.report.schema import Report
 from fogsim.run.runner import run_frames, sensor_fields
 from mapper.heading import yaw_about_pivot
+from mapper.segmentation import SegmentationResult
 from mapper.tilt_filter import apply_tilt
 from mapper.transforms import planar_pose_to_matrix
 
@@ -194,7 +195,9 @@ def replay(path: Path, mode: str) -> Figures:
     return figures(build_report(result, recording.scenario, source="replay"))
 
 
-def _true_tilt(_segmenter, seg, frame: Frame):
+def _true_tilt(
+    _segmenter: segmenter.FrameSegmenter, seg: SegmentationResult, frame: Frame
+) -> SegmentationResult:
     """`FrameSegmenter._filtered_tilt` with the camera's true tilt instead of the filter's."""
     return apply_tilt(seg, true_tilt_rad(frame))
 
