@@ -184,7 +184,7 @@ def replay(path: Path, mode: str) -> Figures:
     params = resolve_params(recording.scenario, overrides, sensor_fields(recording.scenario))
     frames = [change(f) for f in recording.frames] if change is not None else recording.frames
     filtered_tilt = segmenter.FrameSegmenter._filtered_tilt
-    if mode == "true tilt":  # segmented in line (segment_ahead False): this process's class
+    if mode in TILT_MODES:  # segmented in line (segment_ahead False): this process's class
         segmenter.FrameSegmenter._filtered_tilt = _true_tilt
     try:
         result = run_frames(
