@@ -9,6 +9,7 @@ import numpy as np
 import pytest
 from synthetic_depth import Box, look_down_camera, render_boxes
 
+import fogsim.mapping.pipeline as pipeline_module
 from fogsim.config import RunParams
 from fogsim.config.params import PipelineParams
 from fogsim.data.frame import Frame
@@ -171,6 +172,26 @@ def test_no_rebuild_beyond_heading_rebuild_frames(rebuilt):
     assert_same_maps(run(rebuild_frames=FIRST_ESTIMATE), rebuilt)
     bounded = run(rebuild_frames=FIRST_ESTIMATE - 1)
     assert [late.position for late in bounded.mapped_late] == list(range(7))
+    assert_same_maps(bounded, run(rebuild_frames=0))
+
+
+def test_no_rebuild_beyond_the_bytes_kept_for_it(rebuilt, monkeypatch):
+    # The frames kept for the rebuild hold their depth image, points and floor heights: a
+    # budget of exactly the 17 frames' bytes keeps them all (the same maps as the rebuild), one
+    # byte less drops them (the maps of a run without a rebuild).
+    probe = Pipeline(RunParams())
+    kept = []
+    for frame in FRAMES[:FIRST_ESTIMATE]:
+        probe.process(frame)
+        kept.append(probe.rebuild_bytes)
+    assert kept[-1] > kept[-2] > 0  # one 88 x 72 frame: more than its 25 KB depth image
+    assert kept[-1] - kept[-2] > 88 * 72 * 4
+    monkeypatch.setattr(pipeline_module, "MAX_REBUILD_BYTES", kept[-1])
+    assert_same_maps(run(), rebuilt)
+    monkeypatch.setattr(pipeline_module, "MAX_REBUILD_BYTES", kept[-1] - 1)
+    bounded = run()
+    assert [late.position for late in bounded.mapped_late] == list(range(7))
+    assert bounded.rebuild_bytes == 0
     assert_same_maps(bounded, run(rebuild_frames=0))
 
 

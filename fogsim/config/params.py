@@ -89,11 +89,21 @@ class PipelineParams:
             into ramps, which any process noise lets through.
         heading_rebuild_frames: When the heading's first estimate comes, the maps are rebuilt
             from the frames mapped before it (issue 11: they carried the neck's 2–3° yaw error,
-            8–17 cm at 2 m), if there are at most this many (each is kept until then: 88×72
-            points, ~0.2 MB: at most 80 MB). 400: the first estimate came at frame ~115 of the
+            8–17 cm at 2 m), if there are at most this many and their data fit
+            `fogsim.mapping.pipeline.MAX_REBUILD_BYTES` (256 MiB; each frame is kept until
+            then: 226 KB at 88 × 72, so at most 226 MB). 1000: more than the longest shipped
+            walk (stage_down, 941 frames), so a walk's first estimate rebuilds its maps however
+            late it comes. 400 until session 54 (the first estimate came at frame ~115 of the
             stage, ~186 of stage_down; `room`'s structure estimates, which
-            `heading_rebuild_on_structure` rebuilds with, at frames 211–330 (300 until session
-            41). 0: no rebuild.
+            `heading_rebuild_on_structure` rebuilds with, at frames 211–330), which left the
+            held-out `down_low_steps` unrebuilt: its estimates come late (seed 7 at frame 548,
+            3.6° where the frames before it carried −3.6°). 400 → 1000, `fogsim suite`, seeds
+            1–8, mean (worst): `down_low_steps` depth unsafe cells 41.62 (83) → 36.38 (83)
+            (seed 7 50 → 8, its maps' heading 3.59 → 0.23°, obstacle recall 49 → 89 %), stereo
+            99.62 (198) → 90.75 (198); held-out unsafe cells in all depth 197.12 → 191.88,
+            stereo 440.50 → 431.00 (`down_slant_turn` 96.12 → 95.50, its flat box's worst
+            row 54.40 → 54.93 mm); every other scene the same in every figure, shipped suites
+            in both modes unchanged. 0: no rebuild.
         heading_rebuild_change_deg: After that rebuild, the maps are rebuilt again (from every
             frame mapped so far, while there are at most `heading_rebuild_frames`) when a later
             estimate moves more than this [deg] from the one they were rebuilt with: an early
@@ -151,7 +161,7 @@ class PipelineParams:
     tilt_bias_deg: float = 4.0
     tilt_tail_dof: float = math.inf
     tilt_turn_frames: int = 1
-    heading_rebuild_frames: int = 400
+    heading_rebuild_frames: int = 1000
     heading_rebuild_change_deg: float = 0.0
     heading_rebuild_on_structure: bool = True
 

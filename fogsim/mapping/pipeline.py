@@ -104,6 +104,13 @@ from mapper.transforms import apply_transform, planar_pose_to_matrix
 FrameCallback = Callable[[Frame, "Pipeline"], None]
 """Called after every frame with the frame and the pipeline (progress bars, video)."""
 
+MAX_REBUILD_BYTES = 256 << 20
+"""Most bytes of frame data kept for the heading's rebuilds (``pipe.heading_rebuild_frames``):
+256 MiB. A kept frame holds its depth image, robot-frame points and floor heights, 226 KB at
+88 × 72 (`Pipeline.rebuild_bytes`): the frame bound (1000) binds first there, while at 176 ×
+144 (about 0.9 MB a frame) this one does, after about 290 frames. Beyond either bound nothing
+more is kept and there is no more rebuild."""
+
 
 @dataclass(frozen=True)
 class FrameTiming:
@@ -214,6 +221,12 @@ class _MapJob:
     elevation_offset_m: float | None
 
 
+def _job_bytes(job: _MapJob) -> int:
+    """Bytes of a queued frame's arrays: its depth image, points and floor heights."""
+    data = job.data
+    return data.frame.depth_m.nbytes + data.points_robot.nbytes + data.floor_heights_m.nbytes
+
+
 class Pipeline:
     """Stateful per-frame processing: the two maps, the heading estimate, the elevation filter.
 
@@ -263,12 +276,14 @@ class Pipeline:
         self._deferred: list[_FrameData] = []  # waiting for the height reference
         self._queue: list[_MapJob] = []  # to map at this frame
         # Every frame mapped so far, for the rebuilds with the heading's estimates (None: no
-        # more rebuilds: off, or more than `heading_rebuild_frames` frames mapped).
+        # more rebuilds: off, or more than `heading_rebuild_frames` frames or
+        # `MAX_REBUILD_BYTES` of them mapped).
         self._mapped: list[_MapJob] | None = (
             []
             if self.heading.params.correct_heading and self.params.heading_rebuild_frames > 0
             else None
         )
+        self._mapped_bytes = 0  # the bytes of `_mapped`'s frame data (`rebuild_bytes`)
         self._rebuilt_rad: float | None = None  # the estimate the maps were rebuilt with
         self._rebuilt_from_edges = False  # ... and whether it was the edge score's
         self._processed = 0
@@ -417,7 +432,8 @@ class Pipeline:
         When the heading's first estimate has come, or a later one has moved more than
         ``pipe.heading_rebuild_change_deg`` from the one the maps were rebuilt with, and frames
         were mapped before it, the maps start anew (`_restart_maps`) and those frames come
-        first. Beyond ``pipe.heading_rebuild_frames`` frames mapped there is no rebuild.
+        first. Beyond ``pipe.heading_rebuild_frames`` frames mapped, or
+        :data:`MAX_REBUILD_BYTES` of their data, there is no rebuild.
         """
         jobs, self._queue = self._queue, []
         if self._mapped is None:
@@ -433,11 +449,26 @@ class Pipeline:
                 self.params.heading_rebuild_on_structure and self._rebuilt_from_edges
             )
             self._mapped = [] if again else None
+            self._mapped_bytes = 0
         if self._mapped is not None:
             self._mapped.extend(jobs)
-            if len(self._mapped) > self.params.heading_rebuild_frames:
+            self._mapped_bytes += sum(_job_bytes(job) for job in jobs)
+            if (
+                len(self._mapped) > self.params.heading_rebuild_frames
+                or self._mapped_bytes > MAX_REBUILD_BYTES
+            ):
                 self._mapped = None
+                self._mapped_bytes = 0
         return jobs
+
+    @property
+    def rebuild_bytes(self) -> int:
+        """Bytes of frame data kept for a heading rebuild (0 when nothing is kept).
+
+        The depth images, robot-frame points and floor heights of the frames mapped since the
+        last rebuild (or the start), bounded by :data:`MAX_REBUILD_BYTES`.
+        """
+        return self._mapped_bytes
 
     def _rebuild_due(self) -> bool:
         """Whether the maps are to be rebuilt with the heading's current estimate.
