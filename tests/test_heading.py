@@ -1011,13 +1011,20 @@ def _first_accepted(estimator, yaw_error_deg):
 
 def test_after_an_edge_score_stand_in_the_first_structure_estimate_is_refined():
     # An edge-score estimate came first (set by hand here); the L-shaped wall (above) then
-    # gives the structure score's first estimate. Counting the structure score's estimates
-    # only (`plane_after_edges`, the default), the keyframes keep their normals and that
-    # estimate is refined point to plane (within 0.06° of the 1.3° error); counting every
-    # estimate, it is the score's own, on its 0.5° candidates (0.2° off).
+    # gives the structure score's first estimate. With one estimate to refine
+    # (`plane_refine_estimates` 1) and counting the structure score's estimates only
+    # (`plane_after_edges`, the default), the keyframes keep their normals and that estimate
+    # is refined point to plane (within 0.06° of the 1.3° error); counting every estimate,
+    # the edge score's took the one refinement and it is the score's own, on its 0.5°
+    # candidates (0.2° off).
     def first_structure_estimate(plane_after_edges):
         estimator = HeadingEstimator(
-            HeadingParams(estimate_every=1, edge_score=False, plane_after_edges=plane_after_edges)
+            HeadingParams(
+                estimate_every=1,
+                edge_score=False,
+                plane_after_edges=plane_after_edges,
+                plane_refine_estimates=1,
+            )
         )
         estimator.estimates = estimator.edge_estimates = 1
         first = _first_accepted(estimator, 1.3)
@@ -1030,6 +1037,24 @@ def test_after_an_edge_score_stand_in_the_first_structure_estimate_is_refined():
     unrefined, normals = first_structure_estimate(False)
     assert not any(normals)
     assert abs(unrefined + 1.3) > 0.1
+
+
+def test_by_default_the_runs_second_accepted_estimate_is_refined_too():
+    # `plane_refine_estimates` 2 (the default): counting every estimate (not only the
+    # structure score's), an edge-score estimate took the first refinement, and the structure
+    # score's first estimate, the run's second, is refined point to plane all the same
+    # (within 0.06° of the 1.3° error); with 1 it is the score's own (0.2° off).
+    assert HeadingParams().plane_refine_estimates == 2
+
+    def second_estimate(**params):
+        estimator = HeadingEstimator(
+            HeadingParams(estimate_every=1, edge_score=False, plane_after_edges=False, **params)
+        )
+        estimator.estimates = estimator.edge_estimates = 1
+        return _first_accepted(estimator, 1.3)
+
+    assert second_estimate() == pytest.approx(-1.3, abs=0.06)
+    assert abs(second_estimate(plane_refine_estimates=1) + 1.3) > 0.1
 
 
 def _first_estimate_from(monkeypatch, yaw_error_deg, score_estimate_deg, **params):
