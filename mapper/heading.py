@@ -1122,6 +1122,9 @@ class HeadingEstimator:
         estimates: How many times the correction was (re-)estimated.
         edge_estimates: How many of them were the edge score's (`edge_score`).
         from_edges: Whether the current correction is the edge score's estimate.
+        refined: Whether the current correction is an estimate refined point to plane
+            (`plane_refine_estimates`, or witnessed: `plane_witness_deg`); False before the
+            first estimate.
         transform_camera_to_robot: 4×4 camera pose in the robot frame of the last frame
             corrected, after the correction (None before the first frame).
     """
@@ -1132,6 +1135,7 @@ class HeadingEstimator:
         self.estimates = 0
         self.edge_estimates = 0
         self.from_edges = False  # the current correction is the edge score's estimate
+        self.refined = False  # ... and whether it was refined point to plane
         self.transform_camera_to_robot: NDArray[np.float64] | None = None
         self._keyframes: list[_Keyframe] = []  # structure points
         self._edge_keyframes: list[_Keyframe] = []  # edge points (`edge_score`)
@@ -1495,6 +1499,7 @@ class HeadingEstimator:
             fine = coarse[int(np.argmax(scores))] + np.arange(-steps, steps + 1) * p.fine_step_deg
             fine_scores = score(*data, np.radians(fine), p.cell_m, p.layer_m)
             self.correction_rad = math.radians(float(fine[int(np.argmax(fine_scores))]))
+        refined_now = witnessed is not None
         if witnessed is not None:
             self.correction_rad = witnessed
         elif self._planes_counted() < p.plane_refine_estimates and not edges:
@@ -1505,10 +1510,12 @@ class HeadingEstimator:
             )[0]
             if abs(refined) <= math.radians(p.max_correction_deg):
                 self.correction_rad = refined
+                refined_now = True
         self.correction_rad = self._smoothed(self.correction_rad, edges)
         if self._held_for_confirmation(before[0], held_rad, edges):
             self.correction_rad, self.drift_rad_per_m, self._recent_rad = before
             return
+        self.refined = refined_now
         self._count_estimate(edges)
 
     def _smoothed(self, estimate_rad: float, edges: bool) -> float:

@@ -1051,10 +1051,23 @@ def test_by_default_the_runs_second_accepted_estimate_is_refined_too():
             HeadingParams(estimate_every=1, edge_score=False, plane_after_edges=False, **params)
         )
         estimator.estimates = estimator.edge_estimates = 1
-        return _first_accepted(estimator, 1.3)
+        refined = []
+        estimate = estimator._estimate
 
-    assert second_estimate() == pytest.approx(-1.3, abs=0.06)
-    assert abs(second_estimate(plane_refine_estimates=1) + 1.3) > 0.1
+        def noted(edges):
+            before = estimator.estimates
+            estimate(edges)
+            if estimator.estimates > before and not refined:
+                refined.append(estimator.refined)  # `HeadingEstimator.refined` at that estimate
+
+        estimator._estimate = noted
+        return _first_accepted(estimator, 1.3), refined[0]
+
+    assert HeadingEstimator().refined is False  # no estimate yet
+    value, refined = second_estimate()
+    assert value == pytest.approx(-1.3, abs=0.06) and refined is True
+    value, refined = second_estimate(plane_refine_estimates=1)
+    assert abs(value + 1.3) > 0.1 and refined is False
 
 
 def _first_estimate_from(monkeypatch, yaw_error_deg, score_estimate_deg, **params):

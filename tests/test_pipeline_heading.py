@@ -66,7 +66,8 @@ FRAMES = walk(FIRST_ESTIMATE + 3)
 
 class ScriptedHeading(HeadingEstimator):
     """A heading estimator whose estimates come as scripted: frame index → correction [deg],
-    or (correction [deg], whether it is the edge score's)."""
+    or (correction [deg], whether it is the edge score's[, whether it was refined point to
+    plane: True unless given])."""
 
     def __init__(self, script):
         super().__init__(HeadingParams())
@@ -76,21 +77,30 @@ class ScriptedHeading(HeadingEstimator):
     def observe(self, *args, **kwargs):
         if self._seen in self._script:
             step = self._script[self._seen]
-            degrees, edges = step if isinstance(step, tuple) else (step, False)
+            degrees, edges, *refined = step if isinstance(step, tuple) else (step, False)
             self.correction_rad = math.radians(degrees)
+            self.refined = refined[0] if refined else True
             self.estimates += 1
             self.edge_estimates += edges
             self.from_edges = edges
         self._seen += 1
 
 
-def run(rebuild_frames=300, heading=None, script=None, change_deg=1.0, on_structure=False):
+def run(
+    rebuild_frames=300,
+    heading=None,
+    script=None,
+    change_deg=1.0,
+    on_structure=False,
+    refined_only=True,
+):
     pipeline = Pipeline(
         RunParams(
             pipeline=PipelineParams(
                 heading_rebuild_frames=rebuild_frames,
                 heading_rebuild_change_deg=change_deg,
                 heading_rebuild_on_structure=on_structure,
+                heading_rebuild_refined_only=refined_only,
             ),
             heading=heading if heading is not None else HeadingParams(),
         )
@@ -227,6 +237,22 @@ def test_an_estimate_that_moves_more_than_the_change_rebuilds_again():
     bounded = run(script=script, rebuild_frames=12)
     positions = [late.position for late in bounded.mapped_late]
     assert positions[positions.index(0, 1) :] == list(range(10))
+
+
+def test_only_a_refined_estimate_rebuilds_again_unless_told_otherwise():
+    # The same moves as above, but the estimate at frame 14 is the score's own (not refined
+    # point to plane): with `heading_rebuild_refined_only` (the default) only frames 0-9 are
+    # mapped again (at frame 10); without it, frames 0-13 once more at frame 14.
+    script = {10: -1.0, 14: (1.25, False, False)}
+    assert rebuilt_positions(run(script=script)) == list(range(10))
+    assert rebuilt_positions(run(script=script, refined_only=False)) == [*range(10), *range(14)]
+    # A refined estimate at 14 rebuilds either way.
+    refined = {10: -1.0, 14: (1.25, False, True)}
+    for refined_only in (True, False):
+        assert rebuilt_positions(run(script=refined, refined_only=refined_only)) == [
+            *range(10),
+            *range(14),
+        ]
 
 
 def rebuilt_positions(pipeline):

@@ -149,6 +149,14 @@ class PipelineParams:
             `room` depth goes 0.72 (1.84) → 0.49 (0.77)°, `talos_course` stereo 45.9 → 41.1
             unsafe cells, `room` stereo 7.0 (13) → 8.5 (19) cells. So True, with
             `heading_rebuild_frames` 400.
+        heading_rebuild_refined_only: With `heading_rebuild_change_deg`, only an estimate the
+            heading refined point to plane (`mapper.HeadingEstimator.refined`: the run's first
+            `head.plane_refine_estimates`, or a witnessed one) rebuilds the maps again; the
+            score's own later estimates steer only the frames after them. The refined fit
+            counts every keyframe's surface normals, where the score alone slides along a
+            surface and is pulled by a rough top's views (`rock_field`, session 53: later
+            estimates of the score 1.7° off rebuilt the maps with). True: see
+            `heading_rebuild_change_deg` for the measured figures. False: any estimate.
     """
 
     use_z_match: bool = True
@@ -164,6 +172,7 @@ class PipelineParams:
     heading_rebuild_frames: int = 1000
     heading_rebuild_change_deg: float = 0.0
     heading_rebuild_on_structure: bool = True
+    heading_rebuild_refined_only: bool = True
 
     def __post_init__(self) -> None:
         if not self.event_tolerance_m > 0.0:

@@ -490,6 +490,8 @@ class Pipeline:
             return True
         if self.params.heading_rebuild_change_deg <= 0.0:  # 0: off
             return False
+        if self.params.heading_rebuild_refined_only and not self.heading.refined:
+            return False
         change_deg = math.degrees(abs(self.heading.correction_rad - self._rebuilt_rad))
         return change_deg > self.params.heading_rebuild_change_deg
 
