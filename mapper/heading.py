@@ -1606,6 +1606,16 @@ class HeadingEstimator:
         self._held_rad[edges] = self.correction_rad
         return True
 
+    @property
+    def refines_more(self) -> bool:
+        """Whether a later accepted estimate may still be refined point to plane.
+
+        While fewer than `plane_refine_estimates` estimates were counted (`_planes_counted`);
+        a witnessed estimate (`plane_witness_deg`) comes only before the first, so after it
+        only this count says whether `refined` can be True again.
+        """
+        return self._planes_counted() < self.params.plane_refine_estimates
+
     def _planes_counted(self) -> int:
         """The estimates `plane_refine_estimates` and `plane_witness_deg` count.
 

@@ -255,6 +255,17 @@ def test_only_a_refined_estimate_rebuilds_again_unless_told_otherwise():
         ]
 
 
+def test_frames_are_kept_only_while_a_later_estimate_may_rebuild():
+    # After the first estimate (frame 10) one more may be refined (`plane_refine_estimates`
+    # 2): the frames are kept for it. Once the second has come (frame 14), no later estimate
+    # can be refined, so with `heading_rebuild_refined_only` nothing is kept any more; without
+    # it any later estimate may still rebuild, and the frames stay.
+    assert run(script={10: -1.0}).rebuild_bytes > 0
+    assert run(script={10: -1.0, 14: 1.25}).rebuild_bytes == 0
+    assert run(script={10: -1.0, 14: 1.25}, refined_only=False).rebuild_bytes > 0
+    assert run(script={10: -1.0}, change_deg=0.0).rebuild_bytes == 0  # no rebuild on change
+
+
 def rebuilt_positions(pipeline):
     """Positions of the frames mapped again with the heading (after the reference's wait)."""
     positions = [late.position for late in pipeline.mapped_late]

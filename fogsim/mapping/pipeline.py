@@ -445,10 +445,10 @@ class Pipeline:
             self._rebuilt_rad = self.heading.correction_rad
             self._rebuilt_from_edges = self.heading.from_edges
             # Kept for another rebuild only when a later estimate may ask for one.
-            again = self.params.heading_rebuild_change_deg > 0.0 or (
-                self.params.heading_rebuild_on_structure and self._rebuilt_from_edges
-            )
-            self._mapped = [] if again else None
+            self._mapped = [] if self._may_rebuild_again() else None
+            self._mapped_bytes = 0
+        elif self._rebuilt_rad is not None and not self._may_rebuild_again():
+            self._mapped = None  # no later estimate can ask for a rebuild: nothing kept
             self._mapped_bytes = 0
         if self._mapped is not None:
             self._mapped.extend(jobs)
@@ -469,6 +469,20 @@ class Pipeline:
         last rebuild (or the start), bounded by :data:`MAX_REBUILD_BYTES`.
         """
         return self._mapped_bytes
+
+    def _may_rebuild_again(self) -> bool:
+        """Whether, after a rebuild, a later estimate may still ask for another one.
+
+        With ``pipe.heading_rebuild_change_deg`` while an estimate may still count (with
+        ``pipe.heading_rebuild_refined_only``: may still be refined,
+        `mapper.HeadingEstimator.refines_more`), or with ``pipe.heading_rebuild_on_structure``
+        while the maps hold the edge score's estimate. Otherwise no frame is kept any more.
+        """
+        p = self.params
+        by_change = p.heading_rebuild_change_deg > 0.0 and (
+            not p.heading_rebuild_refined_only or self.heading.refines_more
+        )
+        return by_change or (p.heading_rebuild_on_structure and self._rebuilt_from_edges)
 
     def _rebuild_due(self) -> bool:
         """Whether the maps are to be rebuilt with the heading's current estimate.
