@@ -138,7 +138,7 @@ class PipelineParams:
             (every held-out depth row within 1.51 mm on every seed), issue 11's targets 174 →
             177 of 210; shipped depth identical in every figure; held-out stereo 428.62 →
             420.75 (`down_shallow_steps` 55.25 (111) → 47.50 (63)), targets 65 met (of 209:
-            one check fewer has a value); shipped stereo SHIPPED_STEREO.
+            one check fewer has a value); shipped stereo identical in every figure.
         heading_rebuild_on_structure: When the maps were rebuilt with an estimate of the
             heading's edge score (its stand-in while the structure score has never stood out:
             `HeadingParams.flat_contrast`), rebuild them once more (while at most
