@@ -993,8 +993,9 @@ def test_the_plane_witness_accepts_a_shallow_peak_both_fits_agree_on():
     assert walked(1.3, plane_witness_deg=0.25, flat_contrast=0.9).estimates == 0
 
 
-def _first_accepted(estimator, yaw_error_deg):
-    """Walk ``estimator`` at the L-shaped wall (above): its first accepted estimate [deg]."""
+def _first_accepted_and_refined(estimator, yaw_error_deg):
+    """Walk ``estimator`` at the L-shaped wall (above): its first accepted estimate [deg] and
+    whether it was refined point to plane (`HeadingEstimator.refined` at that estimate)."""
     first = []
     estimate = estimator._estimate
 
@@ -1002,11 +1003,16 @@ def _first_accepted(estimator, yaw_error_deg):
         before = estimator.estimates
         estimate(edges)
         if estimator.estimates > before and not first:
-            first.append(math.degrees(estimator.correction_rad))
+            first.append((math.degrees(estimator.correction_rad), estimator.refined))
 
     estimator._estimate = noted
     _walk_at_l_shaped_wall(estimator, yaw_error_deg)
     return first[0]
+
+
+def _first_accepted(estimator, yaw_error_deg):
+    """Walk ``estimator`` at the L-shaped wall (above): its first accepted estimate [deg]."""
+    return _first_accepted_and_refined(estimator, yaw_error_deg)[0]
 
 
 def test_after_an_edge_score_stand_in_the_first_structure_estimate_is_refined():
@@ -1051,17 +1057,7 @@ def test_by_default_the_runs_second_accepted_estimate_is_refined_too():
             HeadingParams(estimate_every=1, edge_score=False, plane_after_edges=False, **params)
         )
         estimator.estimates = estimator.edge_estimates = 1
-        refined = []
-        estimate = estimator._estimate
-
-        def noted(edges):
-            before = estimator.estimates
-            estimate(edges)
-            if estimator.estimates > before and not refined:
-                refined.append(estimator.refined)  # `HeadingEstimator.refined` at that estimate
-
-        estimator._estimate = noted
-        return _first_accepted(estimator, 1.3), refined[0]
+        return _first_accepted_and_refined(estimator, 1.3)
 
     assert HeadingEstimator().refined is False  # no estimate yet
     value, refined = second_estimate()
