@@ -444,21 +444,18 @@ class Pipeline:
                 self._restart_maps()
             self._rebuilt_rad = self.heading.correction_rad
             self._rebuilt_from_edges = self.heading.from_edges
-            # Kept for another rebuild only when a later estimate may ask for one.
-            self._mapped = [] if self._may_rebuild_again() else None
-            self._mapped_bytes = 0
-        elif self._rebuilt_rad is not None and not self._may_rebuild_again():
-            self._mapped = None  # no later estimate can ask for a rebuild: nothing kept
-            self._mapped_bytes = 0
-        if self._mapped is not None:
-            self._mapped.extend(jobs)
-            self._mapped_bytes += sum(_job_bytes(job) for job in jobs)
-            if (
-                len(self._mapped) > self.params.heading_rebuild_frames
-                or self._mapped_bytes > MAX_REBUILD_BYTES
-            ):
-                self._mapped = None
-                self._mapped_bytes = 0
+            self._mapped, self._mapped_bytes = [], 0
+        # Kept for another rebuild only while a later estimate may ask for one.
+        if self._rebuilt_rad is not None and not self._may_rebuild_again():
+            self._mapped, self._mapped_bytes = None, 0
+            return jobs
+        self._mapped.extend(jobs)
+        self._mapped_bytes += sum(_job_bytes(job) for job in jobs)
+        if (
+            len(self._mapped) > self.params.heading_rebuild_frames
+            or self._mapped_bytes > MAX_REBUILD_BYTES
+        ):
+            self._mapped, self._mapped_bytes = None, 0
         return jobs
 
     @property
