@@ -212,6 +212,17 @@ class HeadingParams:
             second held-out staircase (`stairs_35_65_100`, written after the stall rule)
             seeds 1 and 7 scored their structure flat at frames 109 and 170 and added too few
             edge keyframes after it for another try.
+        edge_on_agreement: While the structure score holds the edge score out (never stood
+            out, not stalled, its latest try neither flat nor standing out), an edge try is
+            still made and its estimate taken when it lies within `confirm_within_deg` of the
+            structure score's best candidate at that latest try: two scores of different evidence (the structure's
+            point counts, the lateral edges' weighted pairs) peak at the same correction.
+            Found at 7° of neck bias on both held-out staircases (session 55,
+            `stairs_40_75_110` and `stairs_35_65_100`, depth, seed 6): the structure score's
+            tries had contrasts 0.052–0.064, just above `flat_contrast` (0.044 at 4°), with
+            their best at +7.5…+8.5° where +7.75° was needed; the edge score, held out, would
+            have given +8.0° and +7.5° (contrasts 0.34–0.42); the whole walk went uncorrected
+            (383 and 212 unsafe cells). False: held out until the structure score gives way.
         interior_peak: A try is accepted only when its best candidate is a maximum inside the
             grid (`_peak_inside`): its scores fall on both sides of it, each somewhere by a
             quarter of the best's height above the median (half refused a broad true hump:
@@ -610,6 +621,7 @@ class HeadingParams:
     min_edge_evidence: float = 200.0
     flat_contrast: float = 0.05
     structure_stall_keyframes: int = 4
+    edge_on_agreement: bool = True
     interior_peak: bool = True
     confirm_beyond_deg: float = 8.0
     confirm_within_deg: float = 1.0
@@ -633,6 +645,7 @@ class HeadingParams:
 
         check("correct_heading", bool, "a bool")
         check("edge_score", bool, "a bool")
+        check("edge_on_agreement", bool, "a bool")
         check("interior_peak", bool, "a bool")
         check("plane_after_edges", bool, "a bool")
         check("voxel_estimate", bool, "a bool")
@@ -1144,6 +1157,7 @@ class HeadingEstimator:
         self._added = [0, 0]  # keyframes ever added to each
         self._keys: tuple[set, set] = (set(), set())  # the keys held by each
         self._structure_flat = False  # the structure points' latest score was flat
+        self._structure_top_rad: float | None = None  # its latest try's best candidate
         self._edges_since_structure = 0  # edge keyframes added since the last structure one
         # An edge try was due while the structure score held the edge score out: it is made
         # as soon as that gives way, not at the next `estimate_every`-th edge keyframe, which
@@ -1388,13 +1402,17 @@ class HeadingEstimator:
         """
         p = self.params
         keyframes = self._edge_keyframes if edges else self._keyframes
+        agreement_rad = None  # the structure score's best, which an edge estimate must meet
         if edges:
             if self.estimates > self.edge_estimates:
                 return
-            # Waiting for the structure score to give way, or tried now.
+            # Waiting for the structure score to give way, or tried now (held to the
+            # structure score's best while it holds the edge score out: `edge_on_agreement`).
             self._edge_try_waiting = not self._structure_gives_way()
             if self._edge_try_waiting:
-                return
+                if not p.edge_on_agreement or self._structure_top_rad is None:
+                    return
+                agreement_rad = self._structure_top_rad
         cameras = np.array([k.camera_xy for k in keyframes])
         if len(keyframes) < 2 or np.ptp(cameras, axis=0).max() < p.min_baseline_m:
             return
@@ -1422,6 +1440,12 @@ class HeadingEstimator:
         above_median = best - float(np.median(scores))
         if not edges:
             self._structure_flat = best <= 0.0 or above_median < p.flat_contrast * best
+            # Its best is what an edge try held out must agree with (`edge_on_agreement`), only
+            # while it neither is flat nor stands out (standing out, it goes its own way).
+            in_between = not self._structure_flat and above_median < p.min_contrast * best
+            self._structure_top_rad = (
+                math.radians(float(coarse[int(np.argmax(scores))])) if in_between else None
+            )
 
         def scores_at(angles_deg, score=score, data=data):  # bound now: both are rebound below
             return score(*data, np.radians(angles_deg), p.cell_m, p.layer_m)
@@ -1514,6 +1538,11 @@ class HeadingEstimator:
                 self.correction_rad = refined
                 refined_now = True
         self.correction_rad = self._smoothed(self.correction_rad, edges)
+        if agreement_rad is not None:
+            if abs(self.correction_rad - agreement_rad) > math.radians(p.confirm_within_deg):
+                self.correction_rad, self.drift_rad_per_m, self._recent_rad = before
+                return
+            self._edge_try_waiting = False
         if self._held_for_confirmation(before[0], held_rad, edges):
             self.correction_rad, self.drift_rad_per_m, self._recent_rad = before
             return
