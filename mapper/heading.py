@@ -215,14 +215,21 @@ class HeadingParams:
         edge_on_agreement: While the structure score holds the edge score out (never stood
             out, not stalled, its latest try neither flat nor standing out), an edge try is
             still made and its estimate taken when it lies within `confirm_within_deg` of the
-            structure score's best candidate at that latest try: two scores of different evidence (the structure's
-            point counts, the lateral edges' weighted pairs) peak at the same correction.
+            structure score's best candidate at that latest try: two scores of different
+            evidence (the structure's point counts, the lateral edges' weighted pairs) peak at
+            the same correction.
             Found at 7° of neck bias on both held-out staircases (session 55,
             `stairs_40_75_110` and `stairs_35_65_100`, depth, seed 6): the structure score's
             tries had contrasts 0.052–0.064, just above `flat_contrast` (0.044 at 4°), with
             their best at +7.5…+8.5° where +7.75° was needed; the edge score, held out, would
             have given +8.0° and +7.5° (contrasts 0.34–0.42); the whole walk went uncorrected
-            (383 and 212 unsafe cells). False: held out until the structure score gives way.
+            (383 and 212 unsafe cells). Suites, seeds 1–8, unsafe cells in all, off → on: at
+            7° held-out depth 285.25 → 214.38 (those two scenes 78.1 (383) → 33.8 (68) and
+            35.8 (212) → 9.3 (56)), shipped depth 194.50 → 190.88 (`table` 5.75 (21) → 2.12
+            (13)); at the default 4° held-out depth 185.12 → 184.62, shipped depth the same
+            maps but `table`'s (its map heading 0.45 (1.11) → 0.46 (1.18)°), both stereo
+            suites the same in every figure. False: held out until the structure score gives
+            way.
         interior_peak: A try is accepted only when its best candidate is a maximum inside the
             grid (`_peak_inside`): its scores fall on both sides of it, each somewhere by a
             quarter of the best's height above the median (half refused a broad true hump:

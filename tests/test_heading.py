@@ -433,6 +433,7 @@ def test_overlap_scores_divide_the_root_pairs_by_those_of_the_wide_voxels():
         ("structure_stall_keyframes", 1001),
         ("structure_stall_keyframes", 2.0),
         ("interior_peak", 1),
+        ("edge_on_agreement", 1),
     ],
 )
 def test_bad_parameters_are_refused_by_name(field, value):
@@ -687,6 +688,43 @@ def test_the_edge_score_stands_in_once_the_structure_evidence_stalls(yaw_error_d
     stuck.observe(*stair_frame(points, heights, STAIR_WALK[-1], yaw_error_deg))
     assert stuck.estimates == stuck.edge_estimates == 1
     assert math.degrees(stuck.correction_rad) == pytest.approx(-yaw_error_deg, abs=1.0)
+
+
+@pytest.mark.parametrize("yaw_error_deg", [4.0, -3.5])
+def test_an_edge_estimate_held_out_is_taken_where_the_structure_score_peaks_at_it(yaw_error_deg):
+    # The held-out staircases' case at 7° of neck bias (`HeadingParams.edge_on_agreement`):
+    # a structure try that neither was flat nor stood out holds the edge score out (the state
+    # set here, as in the stall test, with that try's best candidate; no stall rule). The
+    # edge score's estimate is taken when it lies within `confirm_within_deg` (1°) of the
+    # structure score's best, and it is the estimate the edge score gives where the structure
+    # score was flat from the start; 2° away from it, or with the rule off, the edge score
+    # stays out and the whole yaw error is kept.
+    points, heights = stair_points_world(np.random.default_rng(7), risers=False)
+
+    def walk(structure_best_deg: float | None, agreement: bool = True) -> HeadingEstimator:
+        estimator = HeadingEstimator(
+            HeadingParams(structure_stall_keyframes=0, edge_on_agreement=agreement)
+        )
+        if structure_best_deg is not None:
+            estimator._keyframes.append(
+                _Keyframe((99, 99, 0), np.zeros((1, 2)), np.zeros(1), np.zeros(2), 0.0)
+            )
+            estimator._structure_flat = False
+            estimator._structure_top_rad = math.radians(structure_best_deg)
+        for pose in STAIR_WALK:
+            estimator.observe(*stair_frame(points, heights, pose, yaw_error_deg))
+        return estimator
+
+    given_way = walk(None)  # no structure keyframe: the edge score estimates as it can
+    assert given_way.estimates == given_way.edge_estimates >= 1
+    edge_deg = math.degrees(given_way.correction_rad)
+    assert edge_deg == pytest.approx(-yaw_error_deg, abs=1.0)
+    for offset_deg in (-0.75, 0.75):
+        agreeing = walk(edge_deg + offset_deg)
+        assert agreeing.estimates == agreeing.edge_estimates >= 1
+        assert agreeing.correction_rad == given_way.correction_rad
+    for held_out in (walk(edge_deg - 2.0), walk(edge_deg + 2.0), walk(edge_deg, agreement=False)):
+        assert held_out.estimates == 0 and held_out.correction_rad == 0.0
 
 
 def test_a_staircase_wider_than_the_view_is_unobservable():
