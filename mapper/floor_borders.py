@@ -42,6 +42,7 @@ def occluding_border(
     floor_level_m: NDArray[np.floating],
     px: int,
     jump: float,
+    rows_only: bool = False,
 ) -> NDArray[np.integer]:
     """``labels`` with the floor regions' occluding border pixels set to :data:`BORDER_LABEL`.
 
@@ -51,6 +52,8 @@ def occluding_border(
         floor_level_m: (R,) each region's floor height [m], NaN for a region that is no floor.
         px: How far a farther pixel of another label may lie [px], along the row or column.
         jump: How much farther it must be, in inverse depth [1/m].
+        rows_only: Look along the row only: the borders beside a surface's side edges, not
+            those before its far edge (a column's farther pixel).
 
     Returns:
         (H, W) labels (a new array; ``labels`` unchanged).
@@ -62,19 +65,21 @@ def occluding_border(
         np.isfinite(np.asarray(floor_level_m, dtype=np.float64)),
         px,
         jump,
+        bool(rows_only),
     )
     return marked.astype(labels.dtype, copy=False)
 
 
 @numba.njit(cache=True, no_cfunc_wrapper=True, nogil=True, error_model="numpy")
-def _marked_borders(labels, inv_depth, floor_region, px, jump):
+def _marked_borders(labels, inv_depth, floor_region, px, jump, rows_only):
     """A copy of ``labels`` with :data:`BORDER_LABEL` on the floors' occluding border pixels.
 
     Marked: a pixel of a region whose ``floor_region`` is set with a pixel of another label up to
-    ``px`` pixels along its row or column whose inverse depth is lower by more than ``jump``
-    (NaN on either side: no edge). One pass over the pixels, the same comparisons as the numpy
-    form it replaced (four shifted array compares a step): `occluding_border` 73 → 29 µs a frame
-    on `stairs` stereo seed 1's (every 4th, the wall median of 3 passes over the 56 calls).
+    ``px`` pixels along its row or column (``rows_only``: its row) whose inverse depth is lower
+    by more than ``jump`` (NaN on either side: no edge). One pass over the pixels, the same
+    comparisons as the numpy form it replaced (four shifted array compares a step):
+    `occluding_border` 73 → 29 µs a frame on `stairs` stereo seed 1's (every 4th, the wall
+    median of 3 passes over the 56 calls).
     """
     height, width = labels.shape
     marked = labels.copy()
@@ -86,10 +91,13 @@ def _marked_borders(labels, inv_depth, floor_region, px, jump):
             here = inv_depth[r, c]
             found = False
             for step in range(1, px + 1):
-                for rr, cc in ((r, c + step), (r, c - step), (r + step, c), (r - step, c)):
+                for n, (rr, cc) in enumerate(
+                    ((r, c + step), (r, c - step), (r + step, c), (r - step, c))
+                ):
                     # The compare is false when either is NaN (no measurement): no edge.
                     if (
-                        0 <= rr < height
+                        (n < 2 or not rows_only)
+                        and 0 <= rr < height
                         and 0 <= cc < width
                         and labels[rr, cc] != label
                         and here - inv_depth[rr, cc] > jump

@@ -494,6 +494,7 @@ class SegmentationParams:
     plane_normal_margin_px: int = 1
     floor_side_strip_px: int = 0
     floor_occluding_border_px: int = 0
+    floor_occluding_border_rows_only: bool = False
     structure_border_px: int = 0
     tilt_max_step_t: float = 0.0
     tilt_pitch_sigma_factor: float = 1.0
@@ -541,7 +542,7 @@ class SegmentationParams:
                 f"stereo_baseline_m ({self.stereo_baseline_m}) must both be > 0 (a stereo noise "
                 "model) or both 0 (none)"
             )
-        for name in ("correct_tilt", "correct_ground_shift"):
+        for name in ("correct_tilt", "correct_ground_shift", "floor_occluding_border_rows_only"):
             check(name, bool, "a bool")
 
     @classmethod
@@ -916,7 +917,12 @@ def segment_depth(
     jump = OCCLUDING_JUMP_SIGMA * model_inv_sigma
     if borders and params.floor_occluding_border_px > 0:
         point_labels = floor_borders.occluding_border(
-            point_labels, inv_depth, floor_level_m, params.floor_occluding_border_px, jump
+            point_labels,
+            inv_depth,
+            floor_level_m,
+            params.floor_occluding_border_px,
+            jump,
+            params.floor_occluding_border_rows_only,
         )
     structure_border = None
     if borders and params.structure_border_px > 0:

@@ -54,6 +54,17 @@ def test_only_floor_pixels_beside_a_farther_pixel_of_another_label_leave():
     out = occluding_border(labels, inv, LEVELS, 1, 0.1)
     assert out.tolist() == want
     assert labels[0, 2] == 0  # the input is left as it was
+    # Along the rows only (`SegmentationParams.floor_occluding_border_rows_only`): the pixels
+    # whose farther pixel lies above or below them keep their region — (1, 2) over the
+    # unlabelled pixel, (1, 3) below the ground at 0.5, (2, 4) above it.
+    want_rows = [
+        [0, 0, b, 1, 1],
+        [1, 0, 0, 0, 1],
+        [0, b, -1, b, 0],
+        [0, 0, 1, 1, 1],
+        [2, 2, 1, 1, 1],
+    ]
+    assert occluding_border(labels, inv, LEVELS, 1, 0.1, rows_only=True).tolist() == want_rows
 
 
 def test_the_band_reaches_px_pixels_and_the_jump_is_strict():

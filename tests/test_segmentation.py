@@ -57,6 +57,7 @@ def _floor_heights_image(result: SegmentationResult) -> np.ndarray:
         ("floor_max_normal_angle_deg", 95.0),
         ("max_depth_m", math.nan),
         ("correct_tilt", 1),
+        ("floor_occluding_border_rows_only", 1),
         ("plane_refit_sigma", -1.0),
         ("floor_roughness_m", -0.001),
         ("floor_roughness_min_extent_m", -0.1),
