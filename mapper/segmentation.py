@@ -427,8 +427,8 @@ class SegmentationParams:
             default, 0–17 both directions); shipped 150.88 → 140.25 (`talos_course` 39.5 (88)
             → 35.8 (70), `untextured` 7.9 → 5.2; worse `stairs` 13.5 (41) → 16.4 (48),
             `stage_down` 2.0 (5) → 2.4 (10)), checks 160 → 161 of 262, but the zig-zag's sill
-            row on seed 8 0.32 mm (4 cells) → 16.32 mm (2 cells). Depth modes: no stereo
-            model, no effect.
+            row on seed 8 0.32 mm (4 cells) → 16.32 mm (2 cells). (fogsim's depth mode has
+            a stereo-equivalent noise model too, so set there both apply; not measured.)
         structure_border_px: the pixels `floor_occluding_border_px` would take out of their
             floors (with this reach) stay floor points and are marked in
             `SegmentationResult.structure_border` instead: the pipeline gives them to the heading
