@@ -122,6 +122,7 @@ _NON_NEGATIVE_FIELDS = (
     "plane_refit_sigma",
     "stereo_baseline_m",
     "tilt_max_step_t",
+    "floor_occluding_border_min_width_m",
 )
 """`SegmentationParams` fields that must be finite and >= 0."""
 _INTEGER_RANGES: dict[str, tuple[int, int | None]] = {
@@ -509,6 +510,7 @@ class SegmentationParams:
     floor_side_strip_px: int = 0
     floor_occluding_border_px: int = 0
     floor_occluding_border_rows_only: bool = False
+    floor_occluding_border_min_width_m: float = 0.0
     structure_border_px: int = 0
     tilt_max_step_t: float = 0.0
     tilt_pitch_sigma_factor: float = 1.0
@@ -930,10 +932,12 @@ def segment_depth(
     borders = model_inv_sigma > 0.0 and len(floors) > 0
     jump = OCCLUDING_JUMP_SIGMA * model_inv_sigma
     if borders and params.floor_occluding_border_px > 0:
+        # Floors narrower than `floor_occluding_border_min_width_m` (a sill's top) keep theirs.
+        wide = floors.extents_m[:, 0] >= params.floor_occluding_border_min_width_m
         point_labels = floor_borders.occluding_border(
             point_labels,
             inv_depth,
-            floor_level_m,
+            np.where(wide, floor_level_m, np.nan),
             params.floor_occluding_border_px,
             jump,
             params.floor_occluding_border_rows_only,
