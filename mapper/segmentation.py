@@ -430,6 +430,13 @@ class SegmentationParams:
             `stage_down` 2.0 (5) → 2.4 (10)), checks 160 → 161 of 262, but the zig-zag's sill
             row on seed 8 0.32 mm (4 cells) → 16.32 mm (2 cells). (fogsim's depth mode has
             a stereo-equivalent noise model too, so set there both apply; not measured.)
+            fogsim's stereo head sets it with `floor_occluding_border_min_width_m`
+            (`fogsim.sim.camera.noise_model.MATCHER_FLOOR_BORDER` has the figures).
+        floor_occluding_border_min_width_m: floors whose footprint's minor width
+            (`FloorTable.extents_m`) is below this keep their occluding border [m]: a sill's
+            top (0.06–0.10 m wide on the shipped scenes) seen at a slant has its far edge
+            across the rows too, and its few rows at range are most of it. 0 (default): every
+            floor; fogsim's stereo head 0.15 (treads are 0.2 m deep and more).
         structure_border_px: the pixels `floor_occluding_border_px` would take out of their
             floors (with this reach) stay floor points and are marked in
             `SegmentationResult.structure_border` instead: the pipeline gives them to the heading

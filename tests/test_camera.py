@@ -342,6 +342,9 @@ def test_segmentation_noise_fields_per_mode():
         "floor_side_strip_px": MATCHER_SIDE_STRIP_PX,
         "tilt_max_step_t": MATCHER_STEP_T,
         "structure_border_px": MATCHER_STRUCTURE_BORDER_PX,
+        "floor_occluding_border_px": 1,
+        "floor_occluding_border_rows_only": True,
+        "floor_occluding_border_min_width_m": 0.15,
         "max_depth_m": camera.range_m[1],
     }
     depth = segmentation_noise_fields(dataclasses.replace(camera, mode="depth"), 0.068)
@@ -354,6 +357,7 @@ def test_segmentation_noise_fields_per_mode():
     SegmentationParams(**stereo)
     SegmentationParams(**depth)
     assert "structure_border_px" not in depth  # it harms the depth head (its docstring)
+    assert "floor_occluding_border_px" not in depth  # no fattened edges to take out
 
 
 def test_heading_noise_fields_per_mode():

@@ -68,6 +68,27 @@ MATCHER_MEAN_VARIANCE_FACTOR = 3.0
 segmentation's row segments span 10–40 pixels)."""
 
 
+MATCHER_FLOOR_BORDER = {
+    "floor_occluding_border_px": 1,
+    "floor_occluding_border_rows_only": True,
+    "floor_occluding_border_min_width_m": 0.15,
+}
+"""The stereo head's occluding-border rule for floors (`mapper.floor_borders`): a floor's pixel
+beside a farther pixel of another label one pixel along its row leaves the floor (the matcher's
+fattening spreads a raised surface's disparity over the ground beside its side edges, a cell past
+them, where no ray refutes it), except on floors narrower than 0.15 m (a sill's top, 0.06–0.10 m
+on the shipped scenes, against treads of 0.2 m and more), whose far edge the rows also cross
+when seen at a slant. Session 55, seeds 1–8, both stereo suites, unsafe cells mean (worst) in
+all, off → on: held out 420.75 → 394.88 (`stairs_40_75_110` 67.2 (107) → 57.2 (75), `down_low_steps`
+89.4 → 81.9; worse `stairs_35_65_100` 32.0 (103) → 36.9 (159)), issue 11's checks 65 → 60 of
+209 (seven side edges' checks lost, two gained: a floor's side edge recedes a cell instead of
+spilling one); shipped 150.88 → 142.62, checks 160 → 163 of 262 (`talos_course` 39.5 (88) → 35.9
+(74), the zig-zag 23.9 → 21.6, `untextured` 7.9 → 5.2; worse `stairs` 13.5 (41) → 16.4 (48),
+`stage_down` 2.0 (5) → 2.6 (10)). Without the width exemption (rows only) the zig-zag's sill row
+on seed 8 kept 2 cells 16.3 mm off; in both directions (session 49's rule) `rock_field`'s sill
+kept 0–17 cells a seed instead of 23–27 (`SegmentationParams.floor_occluding_border_rows_only`).
+The depth head leaves it off (its error model does not fatten edges)."""
+
 MATCHER_STRUCTURE_BORDER_PX = 1
 """Reach of a floor's occluding border that the segmentation marks as the heading's structure
 (``structure_border_px``, `mapper.floor_borders`): the matcher's fattening, one output pixel.
@@ -123,10 +144,10 @@ def segmentation_noise_fields(
         ``disparity_noise_px``, ``stereo_baseline_m``, ``noise_correlation_factor`` and
         ``max_depth_m`` (the camera's ``range_m`` cut: near it only the pixels measured too
         near are left, which the segmentation's tilt leaves out) for ``stereo`` and ``depth``,
-        and ``floor_edge_margin_px``, ``floor_side_strip_px``, ``tilt_max_step_t`` and
-        ``structure_border_px`` for ``stereo`` (the error model of ``depth`` has no matching
-        window, and its step test resolves the stage's steps); empty for ``ideal`` (the image's
-        own noise estimate).
+        and ``floor_edge_margin_px``, ``floor_side_strip_px``, ``tilt_max_step_t``,
+        ``structure_border_px`` and :data:`MATCHER_FLOOR_BORDER` for ``stereo`` (the error
+        model of ``depth`` has no matching window, and its step test resolves the stage's
+        steps); empty for ``ideal`` (the image's own noise estimate).
     """
     if config.mode == "stereo":
         return {
@@ -137,6 +158,7 @@ def segmentation_noise_fields(
             "floor_side_strip_px": MATCHER_SIDE_STRIP_PX,
             "tilt_max_step_t": MATCHER_STEP_T,
             "structure_border_px": MATCHER_STRUCTURE_BORDER_PX,
+            **MATCHER_FLOOR_BORDER,
             "max_depth_m": config.range_m[1],
         }
     if config.mode == "depth":
