@@ -19,6 +19,8 @@ noise from the image, which reads a matcher's correlated errors at about 0.6× t
 
 from __future__ import annotations
 
+from types import MappingProxyType
+
 from fogsim.config import CameraConfig
 from fogsim.sim.camera.error_model import StereoErrorModel
 from fogsim.sim.camera.intrinsics import camera_intrinsics
@@ -68,11 +70,13 @@ MATCHER_MEAN_VARIANCE_FACTOR = 3.0
 segmentation's row segments span 10–40 pixels)."""
 
 
-MATCHER_FLOOR_BORDER = {
-    "floor_occluding_border_px": 1,
-    "floor_occluding_border_rows_only": True,
-    "floor_occluding_border_min_width_m": 0.15,
-}
+MATCHER_FLOOR_BORDER = MappingProxyType(
+    {
+        "floor_occluding_border_px": 1,
+        "floor_occluding_border_rows_only": True,
+        "floor_occluding_border_min_width_m": 0.15,
+    }
+)
 """The stereo head's occluding-border rule for floors (`mapper.floor_borders`): a floor's pixel
 beside a farther pixel of another label one pixel along its row leaves the floor (the matcher's
 fattening spreads a raised surface's disparity over the ground beside its side edges, a cell past
