@@ -80,18 +80,18 @@ MATCHER_FLOOR_BORDER = MappingProxyType(
 """The stereo head's occluding-border rule for floors (`mapper.floor_borders`): a floor's pixel
 beside a farther pixel of another label one pixel along its row leaves the floor (the matcher's
 fattening spreads a raised surface's disparity over the ground beside its side edges, a cell past
-them, where no ray refutes it), except on floors narrower than 0.15 m (a sill's top, 0.06–0.10 m
-on the shipped scenes, against treads of 0.2 m and more), whose far edge the rows also cross
-when seen at a slant. Session 55, seeds 1–8, both stereo suites, unsafe cells mean (worst) in
-all, off → on: held out 420.75 → 394.88 (`stairs_40_75_110` 67.2 (107) → 57.2 (75), `down_low_steps`
-89.4 → 81.9; worse `stairs_35_65_100` 32.0 (103) → 36.9 (159)), issue 11's checks 65 → 60 of
-209 (seven side edges' checks lost, two gained: a floor's side edge recedes a cell instead of
+them, where no ray refutes it), except on floors narrower than 0.15 m (a sill's top, 0.06–0.10 m on
+the shipped scenes, against treads of 0.2 m and more), whose far edge the rows also cross when seen
+at a slant. Session 55, seeds 1–8, both stereo suites, unsafe cells mean (worst) in all, off → on:
+held out 420.75 → 394.88 (`stairs_40_75_110` 67.2 (107) → 57.2 (75), `down_low_steps` 89.4 → 81.9;
+worse `stairs_35_65_100` 32.0 (103) → 36.9 (159)), issue 11's checks 65 → 60 of 209 (seven step
+edges' checks lost, four of them side edges, two gained: a floor's edge recedes a cell instead of
 spilling one); shipped 150.88 → 142.62, checks 160 → 163 of 262 (`talos_course` 39.5 (88) → 35.9
 (74), the zig-zag 23.9 → 21.6, `untextured` 7.9 → 5.2; worse `stairs` 13.5 (41) → 16.4 (48),
-`stage_down` 2.0 (5) → 2.6 (10)). Without the width exemption (rows only) the zig-zag's sill row
-on seed 8 kept 2 cells 16.3 mm off; in both directions (session 49's rule) `rock_field`'s sill
-kept 0–17 cells a seed instead of 23–27 (`SegmentationParams.floor_occluding_border_rows_only`).
-The depth head leaves it off (its error model does not fatten edges)."""
+`stage_down` 2.0 (5) → 2.6 (10)). Without the width exemption (rows only) the zig-zag's sill row on
+seed 8 kept 2 cells 16.3 mm off; in both directions (session 49's rule) `rock_field`'s sill kept
+0–17 cells a seed instead of 23–27 (`SegmentationParams.floor_occluding_border_rows_only`). The
+depth head leaves it off (its error model does not fatten edges)."""
 
 MATCHER_STRUCTURE_BORDER_PX = 1
 """Reach of a floor's occluding border that the segmentation marks as the heading's structure
