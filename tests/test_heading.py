@@ -650,6 +650,30 @@ def test_a_staircase_walked_straight_at_shows_its_yaw_error_by_its_side_edges(ya
     assert math.degrees(estimator.correction_rad) == pytest.approx(-yaw_error_deg, abs=1.0)
 
 
+def _stair_walk_after_structure_try(
+    params: HeadingParams,
+    yaw_error_deg: float,
+    structure_tried: bool = True,
+    structure_best_deg: float | None = None,
+) -> HeadingEstimator:
+    """The estimator after `STAIR_WALK` at the riserless staircase (seed 7), started in the
+    state a structure try leaves that neither was flat nor stood out (one structure keyframe
+    held, its latest score not flat; with ``structure_best_deg`` that try's best candidate,
+    `HeadingParams.edge_on_agreement`), or (``structure_tried`` False) with no structure try."""
+    points, heights = stair_points_world(np.random.default_rng(7), risers=False)
+    estimator = HeadingEstimator(params)
+    if structure_tried:
+        estimator._keyframes.append(
+            _Keyframe((99, 99, 0), np.zeros((1, 2)), np.zeros(1), np.zeros(2), 0.0)
+        )
+        estimator._structure_flat = False
+        if structure_best_deg is not None:
+            estimator._structure_top_rad = math.radians(structure_best_deg)
+    for pose in STAIR_WALK:
+        estimator.observe(*stair_frame(points, heights, pose, yaw_error_deg))
+    return estimator
+
+
 @pytest.mark.parametrize("yaw_error_deg", [4.0, -3.5])
 def test_the_edge_score_stands_in_once_the_structure_evidence_stalls(yaw_error_deg):
     # The held-out staircase's case (`HeadingParams.structure_stall_keyframes`): a structure
@@ -662,15 +686,8 @@ def test_the_edge_score_stands_in_once_the_structure_evidence_stalls(yaw_error_d
     points, heights = stair_points_world(np.random.default_rng(7), risers=False)
 
     def walk(stall: int, structure_tried: bool) -> HeadingEstimator:
-        estimator = HeadingEstimator(HeadingParams(structure_stall_keyframes=stall))
-        if structure_tried:
-            estimator._keyframes.append(
-                _Keyframe((99, 99, 0), np.zeros((1, 2)), np.zeros(1), np.zeros(2), 0.0)
-            )
-            estimator._structure_flat = False
-        for pose in STAIR_WALK:
-            estimator.observe(*stair_frame(points, heights, pose, yaw_error_deg))
-        return estimator
+        params = HeadingParams(structure_stall_keyframes=stall)
+        return _stair_walk_after_structure_try(params, yaw_error_deg, structure_tried)
 
     stuck = walk(0, structure_tried=True)
     assert stuck.estimates == 0 and stuck.correction_rad == 0.0
@@ -699,21 +716,11 @@ def test_an_edge_estimate_held_out_is_taken_where_the_structure_score_peaks_at_i
     # structure score's best, and it is the estimate the edge score gives where the structure
     # score was flat from the start; 2° away from it, or with the rule off, the edge score
     # stays out and the whole yaw error is kept.
-    points, heights = stair_points_world(np.random.default_rng(7), risers=False)
 
     def walk(structure_best_deg: float | None, agreement: bool = True) -> HeadingEstimator:
-        estimator = HeadingEstimator(
-            HeadingParams(structure_stall_keyframes=0, edge_on_agreement=agreement)
-        )
-        if structure_best_deg is not None:
-            estimator._keyframes.append(
-                _Keyframe((99, 99, 0), np.zeros((1, 2)), np.zeros(1), np.zeros(2), 0.0)
-            )
-            estimator._structure_flat = False
-            estimator._structure_top_rad = math.radians(structure_best_deg)
-        for pose in STAIR_WALK:
-            estimator.observe(*stair_frame(points, heights, pose, yaw_error_deg))
-        return estimator
+        params = HeadingParams(structure_stall_keyframes=0, edge_on_agreement=agreement)
+        tried = structure_best_deg is not None
+        return _stair_walk_after_structure_try(params, yaw_error_deg, tried, structure_best_deg)
 
     given_way = walk(None)  # no structure keyframe: the edge score estimates as it can
     assert given_way.estimates == given_way.edge_estimates >= 1
