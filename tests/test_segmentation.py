@@ -58,6 +58,7 @@ def _floor_heights_image(result: SegmentationResult) -> np.ndarray:
         ("max_depth_m", math.nan),
         ("correct_tilt", 1),
         ("floor_occluding_border_rows_only", 1),
+        ("floor_occluding_border_min_width_m", -0.01),
         ("plane_refit_sigma", -1.0),
         ("floor_roughness_m", -0.001),
         ("floor_roughness_min_extent_m", -0.1),
