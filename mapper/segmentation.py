@@ -123,6 +123,7 @@ _NON_NEGATIVE_FIELDS = (
     "stereo_baseline_m",
     "tilt_max_step_t",
     "floor_occluding_border_min_width_m",
+    "floor_step_split_t",
 )
 """`SegmentationParams` fields that must be finite and >= 0."""
 _INTEGER_RANGES: dict[str, tuple[int, int | None]] = {
@@ -437,6 +438,13 @@ class SegmentationParams:
             top (0.06–0.10 m wide on the shipped scenes) seen at a slant has its far edge
             across the rows too, and its few rows at range are most of it. 0 (default): every
             floor; fogsim's stereo head 0.15 (treads are 0.2 m deep and more).
+        floor_step_split_t: a level region that fits better as a plane with a step than as a
+            plane — the step's t-statistic (correlated noise: ``noise_correlation_factor``)
+            above this and its height at least `mapper.scanline.steps.MIN_STEP_M` — is split in two
+            along the step (`mapper.scanline.steps`): a low tread and the ground beside its
+            side edge, which the rows ran on over under stereo noise. 0 (default): off (a depth
+            camera's rows split at every step). fogsim's stereo head sets
+            `fogsim.sim.camera.noise_model.MATCHER_LEVEL_STEP_T` (with the figures).
         structure_border_px: the pixels `floor_occluding_border_px` would take out of their
             floors (with this reach) stay floor points and are marked in
             `SegmentationResult.structure_border` instead: the pipeline gives them to the heading
@@ -518,6 +526,7 @@ class SegmentationParams:
     floor_occluding_border_px: int = 0
     floor_occluding_border_rows_only: bool = False
     floor_occluding_border_min_width_m: float = 0.0
+    floor_step_split_t: float = 0.0
     structure_border_px: int = 0
     tilt_max_step_t: float = 0.0
     tilt_pitch_sigma_factor: float = 1.0
@@ -1059,6 +1068,7 @@ def floor_regions(origin, rays, points, sigma_z, depth, segments, intrinsics, pa
         params.floor_max_segment_chi2,
         params.floor_roughness_m,
         params.floor_roughness_min_extent_m,
+        params.floor_step_split_t,
     )
     floors = FloorTable(
         pixel_counts=counts,

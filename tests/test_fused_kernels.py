@@ -15,7 +15,14 @@ import math
 import numpy as np
 import pytest
 from scanline_inputs import row_segments
-from synthetic_depth import add_depth_noise, look_down_camera, render_scene, staircase
+from synthetic_depth import (
+    Box,
+    add_depth_noise,
+    add_stereo_noise,
+    look_down_camera,
+    render_scene,
+    staircase,
+)
 
 from mapper import scanline, tilt_kernels
 from mapper.errors import InvalidInputError
@@ -28,6 +35,7 @@ from mapper.pose_correction import (
     rotation_to_vertical,
     within_deg_of_vertical,
 )
+from mapper.scanline import steps
 from mapper.segmentation import SegmentationParams, segment_depth
 from mapper.validation import rigid_transform
 
@@ -46,7 +54,8 @@ def _same(a, b):
 
 
 def _numpy_floor_stage(z, sigma_z, points, rays, depth, segments, origin_z, params):
-    """`segmentation.floor_regions` at e15ff06 (without the table)."""
+    """`segmentation.floor_regions` at e15ff06 (without the table), with session 56's split of
+    stepped level regions (`mapper.scanline.steps`) after the pixel fill."""
     seg_rows, seg_starts, seg_stops = scanline.split_level(
         z,
         sigma_z,
@@ -92,6 +101,32 @@ def _numpy_floor_stage(z, sigma_z, points, rays, depth, segments, origin_z, para
             params.fill_passes,
             False,
         )
+    if n_floors > 0 and params.floor_step_split_t > 0.0:
+        if params.fill_passes == 0:
+            labels = grown.copy()
+        split_floors = steps.split_stepped_levels(
+            labels,
+            grown,
+            points,
+            sigma_z,
+            n_floors,
+            steps.SPLIT_QUANTILES,
+            steps.SPLIT_DIRECTIONS,
+            params.floor_step_split_t,
+            steps.MIN_STEP_M,
+            params.min_plane_pixels,
+            params.noise_correlation_factor,
+            steps.CONFIDENCE_SIGMAS,
+        )
+        if split_floors > n_floors:
+            n_floors = split_floors
+            seg_rows, seg_starts, seg_stops, floor_of_segment = steps.cut_segments(
+                grown, seg_rows, seg_starts, seg_stops, floor_of_segment
+            )
+            sums = scanline.horizontal_sums(
+                points, sigma_z, seg_rows, seg_starts, seg_stops, params.noise_correlation_factor
+            )
+            grown_heights = scanline.level_heights(floor_of_segment, sums, n_floors)
     interior = scanline.region_interior(labels, params.floor_edge_margin_px)
     height_depth = scanline.region_depth(labels, params.floor_height_margin_px)
     ring_inside = height_depth >= min(params.floor_height_margin_px, 1)
@@ -167,6 +202,7 @@ def _level_regions(z, sigma_z, points, rays, depth, segments, origin_z, params):
         params.floor_max_segment_chi2,
         params.floor_roughness_m,
         params.floor_roughness_min_extent_m,
+        params.floor_step_split_t,
     )
 
 
@@ -204,6 +240,7 @@ def _floor_inputs(noise, seed, pitch_deg=30.0):
         SegmentationParams(floor_height_margin_px=2),
         SegmentationParams(floor_snap_sigma_factor=0.0),
         SegmentationParams(floor_max_rms_ratio=0.0, floor_max_segment_chi2=0.0),
+        SegmentationParams(floor_step_split_t=1.0),  # tested, none split
     ],
 )
 @pytest.mark.parametrize("noise,seed", [(0.0, 0), (0.01, 1), (0.02, 2)])
@@ -214,6 +251,49 @@ def test_level_regions_is_the_floor_stage(params, noise, seed):
     assert len(got) == len(expected)
     for a, b in zip(expected, got, strict=True):
         assert _same(a, b)
+
+
+def _tread_inputs(seed):
+    """A stereo frame's floor-stage inputs: a 20 mm tread whose side edge runs along the view
+    (0.8-1.8 m ahead), the ground beside it, every row one segment (the rows run on over the
+    edge) — the joined levels `mapper.scanline.steps` splits."""
+    camera = look_down_camera((0.0, 0.0, 0.93), 35.0)
+    scene = render_scene(INTRINSICS, camera, [Box((1.3, -0.6), (1.0, 1.0, 0.02))])
+    rng = np.random.default_rng(seed)
+    depth = add_stereo_noise(scene.depth_m, INTRINSICS.fx * 0.07, 0.074, 0.6, rng)
+    height, width = depth.shape
+    origin = camera[:3, 3].copy()
+    typical = depth**2 * 0.109 / (INTRINSICS.fx * 0.07)  # the stereo head's model
+    rays, points, sigma_z = scanline.level_geometry(
+        depth,
+        INTRINSICS.ray_directions_camera().reshape(-1, 3),
+        camera[:3, :3].copy(),
+        origin,
+        typical,
+        PARAMS.min_noise_m,
+    )
+    segments = (
+        np.arange(height, dtype=np.int64),
+        np.zeros(height, dtype=np.int64),
+        np.full(height, width, dtype=np.int64),
+    )
+    return np.ascontiguousarray(points[..., 2]), sigma_z, points, rays, depth, segments, origin[2]
+
+
+@pytest.mark.parametrize("fill_passes", [0, 2])
+@pytest.mark.parametrize("seed", [0, 1, 2])
+def test_level_regions_splits_as_its_kernels(seed, fill_passes):
+    """With the split on, the fused stage is its kernels one by one, and it split a region."""
+    inputs = _tread_inputs(seed)
+    plain = SegmentationParams(noise_correlation_factor=3.0, fill_passes=fill_passes)
+    split = SegmentationParams(
+        noise_correlation_factor=3.0, fill_passes=fill_passes, floor_step_split_t=8.0
+    )
+    got = _level_regions(*inputs, split)
+    expected = _numpy_floor_stage(*inputs, split)
+    for a, b in zip(expected, got, strict=True):
+        assert _same(a, b)
+    assert len(got[1]) == len(_level_regions(*inputs, plain)[1]) + 1
 
 
 def test_level_regions_known_answer():

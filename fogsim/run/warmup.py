@@ -101,6 +101,7 @@ import mapper.scanline.planes
 import mapper.scanline.points
 import mapper.scanline.regions
 import mapper.scanline.rows
+import mapper.scanline.steps
 import mapper.tilt_kernels
 import mapper.zmatch
 from fogsim.config import RunParams
@@ -170,6 +171,7 @@ SCANLINE_MODULES = (
     mapper.scanline.levels,
     mapper.scanline.floors,
     mapper.scanline.points,
+    mapper.scanline.steps,
     mapper.scanline.fused,
 )
 """The modules of `mapper.scanline` (its kernels are defined there, not in the package)."""
@@ -187,6 +189,7 @@ _FLOOR_KERNELS = (
     mapper.scanline.level_heights,
     mapper.scanline.floor_verdict,
     mapper.scanline.floor_points,
+    *_kernels(mapper.scanline.steps),  # level_regions calls them (compiled whether used or not)
 )
 """The segmentation's last stage (level regions and the floor points) and what it calls."""
 

@@ -26,6 +26,14 @@ from mapper.scanline.regions import (
     segment_labels,
 )
 from mapper.scanline.rows import propagate_breaks, split_rows
+from mapper.scanline.steps import (
+    CONFIDENCE_SIGMAS,
+    MIN_STEP_M,
+    SPLIT_DIRECTIONS,
+    SPLIT_QUANTILES,
+    cut_segments,
+    split_stepped_levels,
+)
 
 
 @numba.njit(cache=True, no_cfunc_wrapper=True, nogil=True, error_model="numpy")
@@ -61,11 +69,13 @@ def level_regions(
     max_segment_chi2,
     roughness_m,
     roughness_min_extent_m,
+    step_split_t,
 ):
     """The floor stage of `mapper.segmentation.floor_regions` in one call (its kernels in turn).
 
     `split_level`, `horizontal_sums`, `grow_floors`, `segment_labels`, `level_heights`,
-    `fill_pixels` (grown heights, no pixel fill without regions or passes), `region_interior`
+    `fill_pixels` (grown heights, no pixel fill without regions or passes),
+    `split_stepped_levels` (with ``step_split_t`` > 0; the levels taken again), `region_interior`
     (edge margin), `region_depth` (height margin), `foreign_rim` (with ``snap_factor`` > 0),
     `floor_statistics`, `floor_segment_fit` and `floor_verdict`, with the same arguments: one
     dispatch and no intermediate arrays handed to Python (the same results bit for bit).
@@ -102,6 +112,7 @@ def level_regions(
         max_segment_chi2: ``floor_max_segment_chi2`` (0: no test).
         roughness_m: ``floor_roughness_m`` [m] (`floor_statistics`).
         roughness_min_extent_m: ``floor_roughness_min_extent_m`` [m].
+        step_split_t: ``floor_step_split_t`` (`split_stepped_levels`; 0: no split).
 
     Returns:
         (H, W) floor region of each pixel (-1 none, -2 no measurement); per region (F,)
@@ -151,6 +162,32 @@ def level_regions(
             fill_passes,
             _LEVEL_MODEL,
         )
+    if n_floors > 0 and step_split_t > 0.0:
+        if fill_passes == 0:
+            labels = grown.copy()  # not an alias: each is relabelled once
+        split_floors = split_stepped_levels(
+            labels,
+            grown,
+            points,
+            sigma_z,
+            n_floors,
+            SPLIT_QUANTILES,
+            SPLIT_DIRECTIONS,
+            step_split_t,
+            MIN_STEP_M,
+            min_plane_pixels,
+            correlation,
+            CONFIDENCE_SIGMAS,
+        )
+        if split_floors > n_floors:
+            n_floors = split_floors
+            level_rows, level_starts, level_stops, floor_of_segment = cut_segments(
+                grown, level_rows, level_starts, level_stops, floor_of_segment
+            )
+            sums = horizontal_sums(
+                points, sigma_z, level_rows, level_starts, level_stops, correlation
+            )
+            grown_heights = level_heights(floor_of_segment, sums, n_floors)
     interior = region_interior(labels, edge_margin_px)
     # The height comes from the pixels deepest inside, up to the margin; the rim a neighbouring
     # surface may have lent a region is its border ring (the margin's first pixel).

@@ -1,0 +1,502 @@
+"""Level regions split along a step their rows could not see (beyond Gutmann et al.).
+
+Level regions grow over row segments whose mean heights agree (`mapper.scanline.levels`); a
+row is split where its heights step by more than the step test's standard error. Under a
+stereo matcher's noise (σ_z about 11–15 mm a pixel at 1–1.5 m, errors correlated over its
+window) neither test sees a 15–20 mm step: the rows run on over a low tread's side edge, and
+one region takes the ground and the tread beside it (`down_landing_turn` stereo seed 1, frames
+648–692: the ground region holds 450–600 pixels of step_1, 20 mm high, 0.9–1.2 m away, whose
+raw stereo points lie at +13…+20 mm through the true camera pose; the region's one height then
+puts step_1 at the ground's in the map, and the tread's side of the region tilts its plane).
+
+What no row shows, the region's pixels together do: fitted by a plane with a step,
+``z = a + b·x + c·y + Δ·[s > s₀]`` (``s`` the pixel's position along a direction in the
+horizontal plane, ``s₀`` a split across it), the step's t-statistic
+``|Δ| / sqrt(τ·σ²·(BᵀB)⁻¹_ΔΔ)`` (σ² the residual variance of that model, τ the noise's
+correlation factor) is large where two levels were joined, and small on one level, whatever
+its tilt (a tilt error is the plane's ``b, c``, not ``Δ``). :func:`split_stepped_levels` tries
+`SPLIT_DIRECTIONS` directions and `SPLIT_QUANTILES` splits along each (every side keeps at
+least a tenth of the region's pixels) and splits a region in two along the best when its ``t``
+exceeds the threshold and its ``|Δ|`` `MIN_STEP_M`; each part is tested again. Measured with a prototype on raw stereo points
+(`fogsim.sim.camera.noise_model.MATCHER_LEVEL_STEP_T` has the figures): joined ground and
+step_1 score t 9–11 (``Δ`` 12–18 mm), every region of the
+`flat_floor` and `room` stereo recordings at most 6.4.
+
+The split line only finds the step: a tread's corner or a side edge between two test
+directions is no straight cut of the region. Its pixels are parted by the step's own model: a
+pixel whose window (`SMOOTHING_RADIUS_PX`) has a mean residual about the lower level's plane
+beyond half the step is on the other level; of those, the 4-connected parts of at least
+``min_pixels`` pixels take a new region id (a noise blob is no tread). Each row segment of the
+region is cut where its pixels' region changes (`cut_segments`: the segment fit of
+`floor_segment_fit` and the levels of `level_heights`); both parts are then measured and
+judged as every region is.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numba
+import numpy as np
+
+SPLIT_DIRECTIONS = 8
+"""Directions of the step tried, ``k·180°/8`` in the tilt-corrected frame's horizontal plane:
+an edge between two test directions is at most 11.25° off one of them, which blurs a split of
+a 0.5 m edge by 0.1 m at its ends."""
+
+MIN_STEP_M = 0.01
+"""The least height of a step that splits a region [m]: twice the growing's height tolerance
+(`SegmentationParams.floor_height_tolerance_m`, 5 mm). Over a large region a few millimetres of
+the matcher's range-dependent bias score a large t; the lowest steps of the scenes, 15–20 mm,
+measure 12–18 mm joined (their edges blended)."""
+
+SMOOTHING_RADIUS_PX = 2
+"""Half-width of the window whose mean residual puts a pixel on one level or the other [px]:
+5 × 5 pixels, whose mean under stereo noise (σ_z 11–15 mm, τ 3) has a std of about 5 mm, a
+quarter of a 20 mm step; the boundary blurs by about the radius."""
+
+CONFIDENCE_SIGMAS = 1.0
+"""How far beyond half the step a window's mean residual must lie to move its pixel, in the
+mean's standard errors (its pixels' ``σ_z``, widened by the correlation factor): a window the
+noise leaves undecided keeps its pixel where it was (far ground, σ_z 30–40 mm a pixel at 2.5 m,
+would otherwise join a tread in blobs as large as the tread)."""
+
+PARTING_ROUNDS = 3
+"""How often the two levels are fitted to the pixels' parting and the pixels parted again: the
+first parting comes from the split line's fit, whose planes a corner or a slanted edge bends."""
+
+SPLIT_QUANTILES = np.arange(0.1, 0.9001, 0.05)
+"""Where along a direction the split is tried: quantiles 0.1, 0.15, … 0.9 of the region's
+pixels (as `mapper.pose_correction.STEP_SPLITS`)."""
+
+
+@numba.njit(cache=True, no_cfunc_wrapper=True, nogil=True, error_model="numpy")
+def _quantile_sorted(values, q):
+    """The ``q`` quantile of ascending ``values`` as numpy's ``quantile`` (method ``linear``)."""
+    position = q * (values.size - 1)
+    below = math.floor(position)
+    above = min(below + 1, values.size - 1)
+    t = position - below
+    a, b = values[below], values[above]
+    difference = b - a
+    return b - difference * (1.0 - t) if t >= 0.5 else a + difference * t
+
+
+@numba.njit(cache=True, no_cfunc_wrapper=True, nogil=True, error_model="numpy")
+def best_step(x, y, z, quantiles, directions, correlation, min_step_m, min_side):
+    """The best split of one region's pixels by a plane with a step (module doc).
+
+    Args:
+        x: (n,) the pixels' x in the tilt-corrected frame [m].
+        y: (n,) their y [m].
+        z: (n,) their heights [m].
+        quantiles: (K,) split quantiles along each direction.
+        directions: how many directions over 180°.
+        correlation: the noise's correlation factor τ (≥ 1).
+        min_step_m: the least ``|Δ|`` a split may have [m].
+        min_side: the fewest pixels either side may keep.
+
+    Returns:
+        (t, Δ [m], the lower side's plane ``z = h + b·x + c·y`` as (h, b, c) with ``h`` at the
+        pixels' mean x, y); t = 0 when no split qualifies.
+    """
+    n = x.size
+    best_t = 0.0
+    best = (0.0, 0.0, 0.0, 0.0)
+    if n < max(2 * min_side, 8):
+        return best_t, best
+    mx = x.mean()
+    my = y.mean()
+    mz = z.mean()
+    xc = x - mx
+    yc = y - my
+    zc = z - mz
+    sx = xc.sum()
+    sy = yc.sum()
+    sz = zc.sum()
+    sxx = (xc * xc).sum()
+    sxy = (xc * yc).sum()
+    syy = (yc * yc).sum()
+    sxz = (xc * zc).sum()
+    syz = (yc * zc).sum()
+    szz = (zc * zc).sum()
+    # The inverse of A = [[n, sx, sy], [sx, sxx, sxy], [sy, sxy, syy]] by cofactors.
+    c00 = sxx * syy - sxy * sxy
+    c01 = sy * sxy - sx * syy
+    c02 = sx * sxy - sy * sxx
+    c11 = n * syy - sy * sy
+    c12 = sx * sy - n * sxy
+    c22 = n * sxx - sx * sx
+    det = n * c00 + sx * c01 + sy * c02
+    if not det > 0.0:
+        return best_t, best  # the pixels lie on a line
+    i00, i01, i02 = c00 / det, c01 / det, c02 / det
+    i11, i12, i22 = c11 / det, c12 / det, c22 / det
+    a0 = i00 * sz + i01 * sxz + i02 * syz
+    b0 = i01 * sz + i11 * sxz + i12 * syz
+    c0 = i02 * sz + i12 * sxz + i22 * syz
+    upper_x = np.zeros(n + 1)
+    upper_y = np.zeros(n + 1)
+    upper_z = np.zeros(n + 1)
+    for k in range(directions):
+        angle = math.pi * k / directions
+        s = xc * math.cos(angle) + yc * math.sin(angle)
+        rank = np.argsort(s)
+        s_sorted = s[rank]
+        for i in range(n - 1, -1, -1):  # suffix sums in that order
+            upper_x[i] = upper_x[i + 1] + xc[rank[i]]
+            upper_y[i] = upper_y[i + 1] + yc[rank[i]]
+            upper_z[i] = upper_z[i + 1] + zc[rank[i]]
+        for q in range(quantiles.size):
+            split = _quantile_sorted(s_sorted, quantiles[q])
+            j = np.searchsorted(s_sorted, split, side="right")
+            m = n - j
+            if m < min_side or j < min_side:
+                continue
+            u0, u1, u2 = float(m), upper_x[j], upper_y[j]
+            w0 = i00 * u0 + i01 * u1 + i02 * u2
+            w1 = i01 * u0 + i11 * u1 + i12 * u2
+            w2 = i02 * u0 + i12 * u1 + i22 * u2
+            schur = u0 - (u0 * w0 + u1 * w1 + u2 * w2)
+            if not schur > 0.0:
+                continue
+            delta = (upper_z[j] - (u0 * a0 + u1 * b0 + u2 * c0)) / schur
+            if abs(delta) < min_step_m:
+                continue
+            explained = (
+                (a0 - w0 * delta) * sz
+                + (b0 - w1 * delta) * sxz
+                + (c0 - w2 * delta) * syz
+                + delta * upper_z[j]
+            )
+            variance = max(szz - explained, 0.0) / (n - 4) * correlation / schur
+            if not variance > 0.0:
+                continue
+            t = abs(delta) / math.sqrt(variance)
+            if t > best_t:
+                best_t = t
+                best = (delta, mz + a0 - w0 * delta, b0 - w1 * delta, c0 - w2 * delta)
+    return best_t, best
+
+
+@numba.njit(cache=True, no_cfunc_wrapper=True, nogil=True, error_model="numpy")
+def _solve4(a, b):
+    """``a⁻¹·b`` of a symmetric positive (4, 4) ``a`` by Gaussian elimination (NaN: singular)."""
+    m = a.copy()
+    v = b.copy()
+    for k in range(4):
+        if not abs(m[k, k]) > 1e-12:
+            return np.full(4, np.nan)
+        for i in range(k + 1, 4):
+            factor = m[i, k] / m[k, k]
+            for j in range(k, 4):
+                m[i, j] -= factor * m[k, j]
+            v[i] -= factor * v[k]
+    out = np.zeros(4)
+    for i in range(3, -1, -1):
+        total = v[i]
+        for j in range(i + 1, 4):
+            total -= m[i, j] * out[j]
+        out[i] = total / m[i, i]
+    return out
+
+
+@numba.njit(cache=True, no_cfunc_wrapper=True, nogil=True, error_model="numpy")
+def _two_level_fit(labels, points, sigma_z, f, upper, mx, my):
+    """Least squares ``z = h + b·x + c·y + Δ·u`` over region ``f`` (``u``: ``upper``).
+
+    Each pixel is weighted by ``1/σ_z²``.
+    """
+    height, width = labels.shape
+    a = np.zeros((4, 4))
+    rhs = np.zeros(4)
+    row = np.zeros(4)
+    for r in range(height):
+        for cc in range(width):
+            if labels[r, cc] != f or points[r, cc, 2] != points[r, cc, 2]:
+                continue
+            row[0] = 1.0
+            row[1] = points[r, cc, 0] - mx
+            row[2] = points[r, cc, 1] - my
+            row[3] = 1.0 if upper[r, cc] else 0.0
+            weight = 1.0 / (sigma_z[r, cc] * sigma_z[r, cc])
+            for i in range(4):
+                rhs[i] += weight * row[i] * points[r, cc, 2]
+                for j in range(4):
+                    a[i, j] += weight * row[i] * row[j]
+    return _solve4(a, rhs)
+
+
+@numba.njit(cache=True, no_cfunc_wrapper=True, nogil=True, error_model="numpy")
+def _upper_part(
+    labels,
+    points,
+    sigma_z,
+    f,
+    plane,
+    delta,
+    mx,
+    my,
+    radius,
+    min_pixels,
+    rounds,
+    correlation,
+    confidence,
+):
+    """(H, W) bool: the pixels of region ``f`` that leave it for the step's smaller level.
+
+    A pixel lies on the other level when the mean residual of the region's pixels within
+    ``radius`` of it (about the plane ``plane`` = (h, b, c) at ``mx, my`` of one level) lies
+    beyond half the step ``delta``; the plane and the step are then fitted to that parting
+    (pixels weighted by ``1/σ_z²``) and the pixels parted again, ``rounds`` times. Of the
+    level with fewer pixels, those whose window's mean lies beyond the half step by
+    ``confidence`` of its standard errors, in 4-connected parts of at least ``min_pixels``.
+    """
+    height, width = labels.shape
+    h, b, c = plane
+    residual = np.full((height, width), np.nan)
+    member = np.zeros((height, width), dtype=np.bool_)
+    mean = np.full((height, width), np.nan)
+    spread = np.zeros((height, width))
+    half = 0.0
+    for round_ in range(rounds + 1):
+        if round_ > 0:
+            fit = _two_level_fit(labels, points, sigma_z, f, member, mx, my)
+            if fit[0] != fit[0] or abs(fit[3]) < 1e-9:
+                break
+            h, b, c, delta = fit[0], fit[1], fit[2], fit[3]
+        for r in range(height):
+            for cc in range(width):
+                if labels[r, cc] == f and points[r, cc, 2] == points[r, cc, 2]:
+                    x = points[r, cc, 0] - mx
+                    y = points[r, cc, 1] - my
+                    residual[r, cc] = points[r, cc, 2] - (h + b * x + c * y)
+        half = 0.5 * abs(delta)
+        sign = 1.0 if delta > 0.0 else -1.0
+        others = 0
+        pixels = 0
+        for r in range(height):
+            for cc in range(width):
+                member[r, cc] = False
+                mean[r, cc] = np.nan
+                if residual[r, cc] != residual[r, cc]:
+                    continue
+                total = 0.0
+                noise = 0.0
+                count = 0
+                for rr in range(max(r - radius, 0), min(r + radius + 1, height)):
+                    for c2 in range(max(cc - radius, 0), min(cc + radius + 1, width)):
+                        v = residual[rr, c2]
+                        if v == v:
+                            total += v
+                            noise += sigma_z[rr, c2] * sigma_z[rr, c2]
+                            count += 1
+                # Along the step, from the plane's level (0) toward the other level (|Δ|).
+                mean[r, cc] = sign * total / count
+                spread[r, cc] = math.sqrt(correlation * noise) / count
+                member[r, cc] = mean[r, cc] > half
+                others += member[r, cc]
+                pixels += 1
+    # The level with fewer pixels moves: its pixels whose window is sure of it.
+    minority_other = 2 * others <= pixels
+    candidate = np.zeros((height, width), dtype=np.bool_)
+    for r in range(height):
+        for cc in range(width):
+            m = mean[r, cc]
+            if m != m:
+                continue
+            if minority_other:
+                candidate[r, cc] = m > half + confidence * spread[r, cc]
+            else:
+                candidate[r, cc] = m < half - confidence * spread[r, cc]
+    # Its 4-connected parts of at least min_pixels pixels (breadth-first).
+    upper = np.zeros((height, width), dtype=np.bool_)
+    seen = np.zeros((height, width), dtype=np.bool_)
+    stack_r = np.empty(height * width, dtype=np.int64)
+    stack_c = np.empty(height * width, dtype=np.int64)
+    part_r = np.empty(height * width, dtype=np.int64)
+    part_c = np.empty(height * width, dtype=np.int64)
+    for r0 in range(height):
+        for c0 in range(width):
+            if not candidate[r0, c0] or seen[r0, c0]:
+                continue
+            seen[r0, c0] = True
+            stack_r[0] = r0
+            stack_c[0] = c0
+            top = 1
+            size = 0
+            while top > 0:
+                top -= 1
+                r = stack_r[top]
+                cc = stack_c[top]
+                part_r[size] = r
+                part_c[size] = cc
+                size += 1
+                for dr, dc in ((-1, 0), (1, 0), (0, -1), (0, 1)):
+                    rr = r + dr
+                    c2 = cc + dc
+                    inside = 0 <= rr < height and 0 <= c2 < width
+                    if inside and candidate[rr, c2] and not seen[rr, c2]:
+                        seen[rr, c2] = True
+                        stack_r[top] = rr
+                        stack_c[top] = c2
+                        top += 1
+            if size >= min_pixels:
+                for i in range(size):
+                    upper[part_r[i], part_c[i]] = True
+    return upper
+
+
+@numba.njit(cache=True, no_cfunc_wrapper=True, nogil=True, error_model="numpy")
+def split_stepped_levels(
+    labels,
+    grown,
+    points,
+    sigma_z,
+    n_floors,
+    quantiles,
+    directions,
+    min_t,
+    min_step_m,
+    min_pixels,
+    correlation,
+    confidence,
+):
+    """Split every level region that is two levels joined over a step (module doc); in place.
+
+    Args:
+        labels: (H, W) int64 level region of each pixel (-1 none, -2 no measurement); the
+            pixels on the step's other level take the new region's id.
+        grown: (H, W) int64 the regions' grown pixels (before the pixel fill), relabelled alike
+            (not ``labels`` itself).
+        points: (H, W, 3) the pixels' points in the tilt-corrected frame [m] (NaN: none).
+        sigma_z: (H, W) their noise along z [m].
+        n_floors: how many regions there are.
+        quantiles: (K,) split quantiles (`SPLIT_QUANTILES`).
+        directions: directions tried (`SPLIT_DIRECTIONS`).
+        min_t: the step's t-statistic a split needs (> 0).
+        min_step_m: the least ``|Δ|`` of a split [m].
+        min_pixels: regions with fewer than twice this many measured pixels are not tested,
+            and no part keeps fewer.
+        correlation: the noise's correlation factor τ (≥ 1).
+        confidence: `CONFIDENCE_SIGMAS`.
+
+    Returns:
+        The number of regions after the splits (at most twice ``n_floors``).
+    """
+    height, width = labels.shape
+    limit = 2 * n_floors
+    total = n_floors
+    queue = np.empty(3 * n_floors + 1, dtype=np.int64)
+    for f in range(n_floors):
+        queue[f] = f
+    head = 0
+    tail = n_floors
+    xs = np.empty(height * width)
+    ys = np.empty(height * width)
+    zs = np.empty(height * width)
+    while head < tail and total < limit:
+        f = queue[head]
+        head += 1
+        n = 0
+        for r in range(height):
+            for c in range(width):
+                if labels[r, c] == f and points[r, c, 2] == points[r, c, 2]:
+                    xs[n] = points[r, c, 0]
+                    ys[n] = points[r, c, 1]
+                    zs[n] = points[r, c, 2]
+                    n += 1
+        if n < 2 * min_pixels:
+            continue
+        t, fit = best_step(
+            xs[:n], ys[:n], zs[:n], quantiles, directions, correlation, min_step_m, min_pixels
+        )
+        if not t > min_t:
+            continue
+        delta, h, b, c = fit
+        upper = _upper_part(
+            labels,
+            points,
+            sigma_z,
+            f,
+            (h, b, c),
+            delta,
+            xs[:n].mean(),
+            ys[:n].mean(),
+            SMOOTHING_RADIUS_PX,
+            min_pixels,
+            PARTING_ROUNDS,
+            correlation,
+            confidence,
+        )
+        moved = 0
+        for r in range(height):
+            for cc in range(width):
+                moved += upper[r, cc]
+        if moved < min_pixels or n - moved < min_pixels:
+            continue
+        g = total
+        total += 1
+        for r in range(height):
+            for cc in range(width):
+                if upper[r, cc]:
+                    labels[r, cc] = g
+                    if grown[r, cc] == f:
+                        grown[r, cc] = g
+        queue[tail] = f  # each part is tested again
+        queue[tail + 1] = g
+        tail += 2
+    return total
+
+
+@numba.njit(cache=True, no_cfunc_wrapper=True, nogil=True, error_model="numpy")
+def _cut_at(grown, r, c):
+    """Whether a segment is cut before column ``c`` of row ``r``: two regions meet there."""
+    a = grown[r, c - 1]
+    b = grown[r, c]
+    return a >= 0 and b >= 0 and a != b
+
+
+@numba.njit(cache=True, no_cfunc_wrapper=True, nogil=True, error_model="numpy")
+def cut_segments(grown, seg_rows, seg_starts, seg_stops, floor_of_segment):
+    """The row segments cut where their grown pixels' region changes (after the splits).
+
+    A segment of a region keeps its pixels in order; where `split_stepped_levels` gave part of
+    them another region's id it is cut into runs of one id each, every run a segment of its
+    region. Segments of no region, and segments no split touched, stay as they are.
+
+    Returns:
+        (rows, starts, stops, floor_of_segment) of the segments after the cuts.
+    """
+    n_seg = seg_rows.shape[0]
+    count = n_seg
+    for i in range(n_seg):
+        if floor_of_segment[i] >= 0:
+            for c in range(seg_starts[i] + 1, seg_stops[i]):
+                count += _cut_at(grown, seg_rows[i], c)
+    rows = np.empty(count, dtype=seg_rows.dtype)
+    starts = np.empty(count, dtype=seg_starts.dtype)
+    stops = np.empty(count, dtype=seg_stops.dtype)
+    floors = np.empty(count, dtype=floor_of_segment.dtype)
+    k = 0
+    for i in range(n_seg):
+        r = seg_rows[i]
+        start = seg_starts[i]
+        floor = floor_of_segment[i]
+        if floor >= 0:
+            for c in range(seg_starts[i] + 1, seg_stops[i]):
+                if _cut_at(grown, r, c):
+                    rows[k] = r
+                    starts[k] = start
+                    stops[k] = c
+                    floors[k] = grown[r, c - 1]
+                    k += 1
+                    start = c
+            if grown[r, start] >= 0:
+                floor = grown[r, start]
+        rows[k] = r
+        starts[k] = start
+        stops[k] = seg_stops[i]
+        floors[k] = floor
+        k += 1
+    return rows, starts, stops, floors
