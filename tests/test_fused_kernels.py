@@ -255,10 +255,10 @@ def test_level_regions_is_the_floor_stage(params, noise, seed):
 
 def _tread_inputs(seed):
     """A stereo frame's floor-stage inputs: a 20 mm tread whose side edge runs along the view
-    (0.8-1.8 m ahead), the ground beside it, every row one segment (the rows run on over the
+    (0.6-1.4 m ahead), the ground beside it, every row one segment (the rows run on over the
     edge) — the joined levels `mapper.scanline.steps` splits."""
-    camera = look_down_camera((0.0, 0.0, 0.93), 35.0)
-    scene = render_scene(INTRINSICS, camera, [Box((1.3, -0.6), (1.0, 1.0, 0.02))])
+    camera = look_down_camera((0.0, 0.0, 0.93), 40.0)
+    scene = render_scene(INTRINSICS, camera, [Box((1.0, -0.6), (0.8, 1.0, 0.02))])
     rng = np.random.default_rng(seed)
     depth = add_stereo_noise(scene.depth_m, INTRINSICS.fx * 0.07, 0.074, 0.6, rng)
     height, width = depth.shape

@@ -142,7 +142,7 @@ def test_cut_segments_cuts_where_the_region_changes():
 
 
 SMALL = PinholeIntrinsics.from_fov(88, 72, 47.0, 39.0)
-CAMERA = look_down_camera((0.0, 0.0, 0.93), pitch_down_deg=35.0)
+CAMERA = look_down_camera((0.0, 0.0, 0.93), pitch_down_deg=40.0)
 STEREO = SegmentationParams(
     disparity_noise_px=0.109,
     stereo_baseline_m=0.07,
@@ -156,10 +156,11 @@ STEREO = SegmentationParams(
 
 
 def _tread_counts(split_t: float) -> tuple[int, int]:
-    """Over 10 seeded stereo frames of a 20 mm tread, 1 m deep and wide, 0.8-1.8 m ahead of a
-    camera 0.93 m up pitched 35° down, its side edge along the view at y = −0.1 m: the tread's
-    top pixels labelled with a floor within 6 mm of its height, the ground's within 6 mm of 0."""
-    scene = render_scene(SMALL, CAMERA, [Box((1.3, -0.6), (1.0, 1.0, 0.02))])
+    """Over 10 seeded stereo frames of a 20 mm tread, 0.8 m deep and 1 m wide, 0.6-1.4 m ahead
+    of a camera 0.93 m up pitched 40° down, its side edge along the view at y = −0.1 m: the
+    tread's top pixels labelled with a floor within 6 mm of its height, the ground's within 6 mm
+    of 0."""
+    scene = render_scene(SMALL, CAMERA, [Box((1.0, -0.6), (0.8, 1.0, 0.02))])
     top = (scene.box_index == 0) & scene.on_top
     ground = scene.box_index == GROUND
     params = replace(STEREO, floor_step_split_t=split_t)
@@ -175,13 +176,14 @@ def _tread_counts(split_t: float) -> tuple[int, int]:
 
 def test_segmentation_gives_a_low_tread_beside_the_ground_its_own_level():
     """Without the split the tread's rows run on into the ground's region and none of its
-    14 880 top pixels is at its height; with it 7952 are, and the ground keeps 97 % of its
-    right pixels (48 058 → 46 592)."""
+    15 160 top pixels is at its height; with it 3065 are (the nearer ones: farther, the pixels'
+    noise exceeds the step, `NOISE_PER_STEP`), and the ground keeps 98 % of its right pixels
+    (47 768 → 46 815)."""
     top_off, ground_off = _tread_counts(0.0)
     top_on, ground_on = _tread_counts(SPLIT_T)
     assert top_off == 0
-    assert top_on > 7000, top_on
-    assert ground_on >= 0.95 * ground_off, (ground_on, ground_off)
+    assert top_on > 2500, top_on
+    assert ground_on >= 0.97 * ground_off, (ground_on, ground_off)
 
 
 def test_a_negative_split_threshold_is_refused_by_name():

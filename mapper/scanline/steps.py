@@ -2,34 +2,38 @@
 
 Level regions grow over row segments whose mean heights agree (`mapper.scanline.levels`); a
 row is split where its heights step by more than the step test's standard error. Under a
-stereo matcher's noise (σ_z about 11–15 mm a pixel at 1–1.5 m, errors correlated over its
+stereo matcher's noise (σ_z about 10–20 mm a pixel at 1–1.5 m, errors correlated over its
 window) neither test sees a 15–20 mm step: the rows run on over a low tread's side edge, and
 one region takes the ground and the tread beside it (`down_landing_turn` stereo seed 1, frames
 648–692: the ground region holds 450–600 pixels of step_1, 20 mm high, 0.9–1.2 m away, whose
 raw stereo points lie at +13…+20 mm through the true camera pose; the region's one height then
-puts step_1 at the ground's in the map, and the tread's side of the region tilts its plane).
+puts step_1 at the ground's in the map).
 
 What no row shows, the region's pixels together do: fitted by a plane with a step,
 ``z = a + b·x + c·y + Δ·[s > s₀]`` (``s`` the pixel's position along a direction in the
 horizontal plane, ``s₀`` a split across it), the step's t-statistic
 ``|Δ| / sqrt(τ·σ²·(BᵀB)⁻¹_ΔΔ)`` (σ² the residual variance of that model, τ the noise's
 correlation factor) is large where two levels were joined, and small on one level, whatever
-its tilt (a tilt error is the plane's ``b, c``, not ``Δ``). :func:`split_stepped_levels` tries
+its tilt (a tilt error is the plane's ``b, c``, not ``Δ``). `best_step` tries
 `SPLIT_DIRECTIONS` directions and `SPLIT_QUANTILES` splits along each (every side keeps at
-least a tenth of the region's pixels) and splits a region in two along the best when its ``t``
-exceeds the threshold and its ``|Δ|`` `MIN_STEP_M`; each part is tested again. Measured with a prototype on raw stereo points
-(`fogsim.sim.camera.noise_model.MATCHER_LEVEL_STEP_T` has the figures): joined ground and
-step_1 score t 9–11 (``Δ`` 12–18 mm), every region of the
+least a tenth of the region's pixels); :func:`split_stepped_levels` splits a region whose best
+``t`` exceeds the threshold with ``|Δ|`` at least `MIN_STEP_M`, and tests each part again.
+Measured on raw stereo points (`fogsim.sim.camera.noise_model.MATCHER_LEVEL_STEP_T` has the
+figures): joined ground and step_1 score t 9–11 (``Δ`` 12–18 mm), every region of the
 `flat_floor` and `room` stereo recordings at most 6.4.
 
 The split line only finds the step: a tread's corner or a side edge between two test
-directions is no straight cut of the region. Its pixels are parted by the step's own model: a
-pixel whose window (`SMOOTHING_RADIUS_PX`) has a mean residual about the lower level's plane
-beyond half the step is on the other level; of those, the 4-connected parts of at least
-``min_pixels`` pixels take a new region id (a noise blob is no tread). Each row segment of the
-region is cut where its pixels' region changes (`cut_segments`: the segment fit of
-`floor_segment_fit` and the levels of `level_heights`); both parts are then measured and
-judged as every region is.
+directions is no straight cut of the region. Its pixels are parted by the step's own model
+(`_upper_part`): a pixel whose window (`SMOOTHING_RADIUS_PX`) has a mean residual about one
+level's plane beyond half the step is on the other level; the two levels are fitted to that
+parting and the pixels parted again (`PARTING_ROUNDS`). The level with fewer pixels leaves:
+its pixels whose window is sure of it (`CONFIDENCE_SIGMAS`), in 4-connected parts of at least
+``min_pixels`` pixels (a noise blob is no tread), take a new region id — unless their median
+``σ_z`` exceeds `NOISE_PER_STEP` times the step (far away, 3–4 m on `talos_course`'s stereo
+seed 6, a region of several levels blended by the noise was parted into pieces whose levels
+were no surface's, and the z-match followed them 20–60 mm off). The row segments are then cut
+where their pixels' region changes (`cut_segments`: the segment fit of `floor_segment_fit` and
+the levels of `level_heights`); both parts are measured and judged as every region is.
 """
 
 from __future__ import annotations
@@ -43,6 +47,16 @@ SPLIT_DIRECTIONS = 8
 """Directions of the step tried, ``k·180°/8`` in the tilt-corrected frame's horizontal plane:
 an edge between two test directions is at most 11.25° off one of them, which blurs a split of
 a 0.5 m edge by 0.1 m at its ends."""
+
+NOISE_PER_STEP = 1.0
+"""The most median ``σ_z`` of the pixels that would leave, per metre of the step: a level
+parted from pixels noisier than its step is no surface's. With 2 (a 5 × 5 window's mean has a
+std of about ``0.35·σ_z`` at τ 3, so half the step is still 0.7 of it) `talos_course`'s
+stereo seed 6 parted far regions at 3–4 m (σ_z about 50 mm, steps of 55–65 mm) into levels the
+z-match then followed 20–60 mm off: every Table I row 34–36 mm low, 2603 unsafe cells (28
+without the split); with 1: 58. Replays of the `down_landing_turn` and `down_shallow_steps`
+stereo recordings, seeds 1–8, unsafe cells in all: 945 without the split, 860 with 2, 835
+with 1."""
 
 MIN_STEP_M = 0.01
 """The least height of a step that splits a region [m]: twice the growing's height tolerance
@@ -250,7 +264,8 @@ def _upper_part(
     beyond half the step ``delta``; the plane and the step are then fitted to that parting
     (pixels weighted by ``1/σ_z²``) and the pixels parted again, ``rounds`` times. Of the
     level with fewer pixels, those whose window's mean lies beyond the half step by
-    ``confidence`` of its standard errors, in 4-connected parts of at least ``min_pixels``.
+    ``confidence`` of its standard errors, in 4-connected parts of at least ``min_pixels``;
+    and the last parting's step [m].
     """
     height, width = labels.shape
     h, b, c = plane
@@ -344,7 +359,7 @@ def _upper_part(
             if size >= min_pixels:
                 for i in range(size):
                     upper[part_r[i], part_c[i]] = True
-    return upper
+    return upper, delta
 
 
 @numba.njit(cache=True, no_cfunc_wrapper=True, nogil=True, error_model="numpy")
@@ -414,7 +429,7 @@ def split_stepped_levels(
         if not t > min_t:
             continue
         delta, h, b, c = fit
-        upper = _upper_part(
+        upper, step_m = _upper_part(
             labels,
             points,
             sigma_z,
@@ -430,11 +445,16 @@ def split_stepped_levels(
             confidence,
         )
         moved = 0
+        noise = np.empty(height * width)
         for r in range(height):
             for cc in range(width):
-                moved += upper[r, cc]
+                if upper[r, cc]:
+                    noise[moved] = sigma_z[r, cc]
+                    moved += 1
         if moved < min_pixels or n - moved < min_pixels:
             continue
+        if np.median(noise[:moved]) > NOISE_PER_STEP * abs(step_m):
+            continue  # the step is lost in its pixels' noise: their level is no tread's
         g = total
         total += 1
         for r in range(height):
