@@ -29,8 +29,8 @@ from mapper.scanline.rows import propagate_breaks, split_rows
 from mapper.scanline.steps import (
     CONFIDENCE_SIGMAS,
     MIN_STEP_M,
+    SPLIT_BINS,
     SPLIT_DIRECTIONS,
-    SPLIT_QUANTILES,
     cut_segments,
     split_stepped_levels,
 )
@@ -171,7 +171,7 @@ def level_regions(
             points,
             sigma_z,
             n_floors,
-            SPLIT_QUANTILES,
+            SPLIT_BINS,
             SPLIT_DIRECTIONS,
             step_split_t,
             MIN_STEP_M,
