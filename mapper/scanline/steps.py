@@ -226,17 +226,18 @@ def _solve4(a, b):
 
 
 @numba.njit(cache=True, no_cfunc_wrapper=True, nogil=True, error_model="numpy")
-def _two_level_fit(labels, points, sigma_z, f, upper, mx, my):
+def _two_level_fit(labels, points, sigma_z, f, upper, mx, my, box):
     """Least squares ``z = h + b·x + c·y + Δ·u`` over region ``f`` (``u``: ``upper``).
 
-    Each pixel is weighted by ``1/σ_z²``.
+    Each pixel is weighted by ``1/σ_z²``; the region lies within ``box`` (rows ``r0 … r1 − 1``,
+    columns ``c0 … c1 − 1``).
     """
-    height, width = labels.shape
+    r0, r1, c0, c1 = box
     a = np.zeros((4, 4))
     rhs = np.zeros(4)
     row = np.zeros(4)
-    for r in range(height):
-        for cc in range(width):
+    for r in range(r0, r1):
+        for cc in range(c0, c1):
             if labels[r, cc] != f or points[r, cc, 2] != points[r, cc, 2]:
                 continue
             row[0] = 1.0
@@ -266,6 +267,7 @@ def _upper_part(
     rounds,
     correlation,
     confidence,
+    box,
 ):
     """(H, W) bool: the pixels of region ``f`` that leave it for the step's smaller level.
 
@@ -275,9 +277,10 @@ def _upper_part(
     (pixels weighted by ``1/σ_z²``) and the pixels parted again, ``rounds`` times. Of the
     level with fewer pixels, those whose window's mean lies beyond the half step by
     ``confidence`` of its standard errors, in 4-connected parts of at least ``min_pixels``;
-    and the last parting's step [m].
+    and the last parting's step [m]. The region lies within ``box`` (`_two_level_fit`).
     """
     height, width = labels.shape
+    r0, r1, c0, c1 = box
     h, b, c = plane
     residual = np.full((height, width), np.nan)
     member = np.zeros((height, width), dtype=np.bool_)
@@ -286,12 +289,12 @@ def _upper_part(
     half = 0.0
     for round_ in range(rounds + 1):
         if round_ > 0:
-            fit = _two_level_fit(labels, points, sigma_z, f, member, mx, my)
+            fit = _two_level_fit(labels, points, sigma_z, f, member, mx, my, box)
             if fit[0] != fit[0] or abs(fit[3]) < 1e-9:
                 break
             h, b, c, delta = fit[0], fit[1], fit[2], fit[3]
-        for r in range(height):
-            for cc in range(width):
+        for r in range(r0, r1):
+            for cc in range(c0, c1):
                 if labels[r, cc] == f and points[r, cc, 2] == points[r, cc, 2]:
                     x = points[r, cc, 0] - mx
                     y = points[r, cc, 1] - my
@@ -300,8 +303,8 @@ def _upper_part(
         sign = 1.0 if delta > 0.0 else -1.0
         others = 0
         pixels = 0
-        for r in range(height):
-            for cc in range(width):
+        for r in range(r0, r1):
+            for cc in range(c0, c1):
                 member[r, cc] = False
                 mean[r, cc] = np.nan
                 if residual[r, cc] != residual[r, cc]:
@@ -309,8 +312,8 @@ def _upper_part(
                 total = 0.0
                 noise = 0.0
                 count = 0
-                for rr in range(max(r - radius, 0), min(r + radius + 1, height)):
-                    for c2 in range(max(cc - radius, 0), min(cc + radius + 1, width)):
+                for rr in range(max(r - radius, r0), min(r + radius + 1, r1)):
+                    for c2 in range(max(cc - radius, c0), min(cc + radius + 1, c1)):
                         v = residual[rr, c2]
                         if v == v:
                             total += v
@@ -325,8 +328,8 @@ def _upper_part(
     # The level with fewer pixels moves: its pixels whose window is sure of it.
     minority_other = 2 * others <= pixels
     candidate = np.zeros((height, width), dtype=np.bool_)
-    for r in range(height):
-        for cc in range(width):
+    for r in range(r0, r1):
+        for cc in range(c0, c1):
             m = mean[r, cc]
             if m != m:
                 continue
@@ -341,13 +344,13 @@ def _upper_part(
     stack_c = np.empty(height * width, dtype=np.int64)
     part_r = np.empty(height * width, dtype=np.int64)
     part_c = np.empty(height * width, dtype=np.int64)
-    for r0 in range(height):
-        for c0 in range(width):
-            if not candidate[r0, c0] or seen[r0, c0]:
+    for first_r in range(r0, r1):
+        for first_c in range(c0, c1):
+            if not candidate[first_r, first_c] or seen[first_r, first_c]:
                 continue
-            seen[r0, c0] = True
-            stack_r[0] = r0
-            stack_c[0] = c0
+            seen[first_r, first_c] = True
+            stack_r[0] = first_r
+            stack_c[0] = first_c
             top = 1
             size = 0
             while top > 0:
@@ -420,12 +423,29 @@ def split_stepped_levels(
     xs = np.empty(height * width)
     ys = np.empty(height * width)
     zs = np.empty(height * width)
+    noise = np.empty(height * width)
+    # Each region's bounding box (rows r0 … r1 − 1, columns c0 … c1 − 1); a part keeps its
+    # region's.
+    boxes = np.empty((limit, 4), dtype=np.int64)
+    boxes[:, 0] = height
+    boxes[:, 1] = 0
+    boxes[:, 2] = width
+    boxes[:, 3] = 0
+    for r in range(height):
+        for c in range(width):
+            f = labels[r, c]
+            if 0 <= f < n_floors:
+                boxes[f, 0] = min(boxes[f, 0], r)
+                boxes[f, 1] = max(boxes[f, 1], r + 1)
+                boxes[f, 2] = min(boxes[f, 2], c)
+                boxes[f, 3] = max(boxes[f, 3], c + 1)
     while head < tail and total < limit:
         f = queue[head]
         head += 1
+        r0, r1, c0, c1 = boxes[f, 0], boxes[f, 1], boxes[f, 2], boxes[f, 3]
         n = 0
-        for r in range(height):
-            for c in range(width):
+        for r in range(r0, r1):
+            for c in range(c0, c1):
                 if labels[r, c] == f and points[r, c, 2] == points[r, c, 2]:
                     xs[n] = points[r, c, 0]
                     ys[n] = points[r, c, 1]
@@ -453,11 +473,11 @@ def split_stepped_levels(
             PARTING_ROUNDS,
             correlation,
             confidence,
+            (r0, r1, c0, c1),
         )
         moved = 0
-        noise = np.empty(height * width)
-        for r in range(height):
-            for cc in range(width):
+        for r in range(r0, r1):
+            for cc in range(c0, c1):
                 if upper[r, cc]:
                     noise[moved] = sigma_z[r, cc]
                     moved += 1
@@ -467,8 +487,9 @@ def split_stepped_levels(
             continue  # the step is lost in its pixels' noise: their level is no tread's
         g = total
         total += 1
-        for r in range(height):
-            for cc in range(width):
+        boxes[g] = boxes[f]
+        for r in range(r0, r1):
+            for cc in range(c0, c1):
                 if upper[r, cc]:
                     labels[r, cc] = g
                     if grown[r, cc] == f:
