@@ -286,6 +286,11 @@ def _upper_part(
     member = np.zeros((height, width), dtype=np.bool_)
     mean = np.full((height, width), np.nan)
     spread = np.zeros((height, width))
+    rows = r1 - r0
+    cols = c1 - c0
+    sum_v = np.zeros((rows + 1, cols + 1))
+    sum_n = np.zeros((rows + 1, cols + 1))
+    sum_s = np.zeros((rows + 1, cols + 1))
     half = 0.0
     for round_ in range(rounds + 1):
         if round_ > 0:
@@ -301,6 +306,24 @@ def _upper_part(
                     residual[r, cc] = points[r, cc, 2] - (h + b * x + c * y)
         half = 0.5 * abs(delta)
         sign = 1.0 if delta > 0.0 else -1.0
+        # Window sums from summed-area tables over the box: the residuals' (this round's), and,
+        # the first round, the pixels' count and their σ_z² (the same every round).
+        for r in range(rows):
+            for cc in range(cols):
+                v = residual[r0 + r, c0 + cc]
+                finite = v == v
+                sum_v[r + 1, cc + 1] = (
+                    sum_v[r, cc + 1] + sum_v[r + 1, cc] - sum_v[r, cc] + (v if finite else 0.0)
+                )
+                if round_ == 0:
+                    s2 = sigma_z[r0 + r, c0 + cc] ** 2 if finite else 0.0
+                    sum_n[r + 1, cc + 1] = (
+                        sum_n[r, cc + 1]
+                        + sum_n[r + 1, cc]
+                        - sum_n[r, cc]
+                        + (1.0 if finite else 0.0)
+                    )
+                    sum_s[r + 1, cc + 1] = sum_s[r, cc + 1] + sum_s[r + 1, cc] - sum_s[r, cc] + s2
         others = 0
         pixels = 0
         for r in range(r0, r1):
@@ -309,19 +332,19 @@ def _upper_part(
                 mean[r, cc] = np.nan
                 if residual[r, cc] != residual[r, cc]:
                     continue
-                total = 0.0
-                noise = 0.0
-                count = 0
-                for rr in range(max(r - radius, r0), min(r + radius + 1, r1)):
-                    for c2 in range(max(cc - radius, c0), min(cc + radius + 1, c1)):
-                        v = residual[rr, c2]
-                        if v == v:
-                            total += v
-                            noise += sigma_z[rr, c2] * sigma_z[rr, c2]
-                            count += 1
+                top = max(r - radius, r0) - r0
+                bottom = min(r + radius + 1, r1) - r0
+                left = max(cc - radius, c0) - c0
+                right = min(cc + radius + 1, c1) - c0
+                total = sum_v[bottom, right] - sum_v[top, right] - sum_v[bottom, left]
+                total += sum_v[top, left]
+                count = sum_n[bottom, right] - sum_n[top, right] - sum_n[bottom, left]
+                count += sum_n[top, left]
+                noise = sum_s[bottom, right] - sum_s[top, right] - sum_s[bottom, left]
+                noise += sum_s[top, left]
                 # Along the step, from the plane's level (0) toward the other level (|Δ|).
                 mean[r, cc] = sign * total / count
-                spread[r, cc] = math.sqrt(correlation * noise) / count
+                spread[r, cc] = math.sqrt(correlation * max(noise, 0.0)) / count
                 member[r, cc] = mean[r, cc] > half
                 others += member[r, cc]
                 pixels += 1
