@@ -440,11 +440,27 @@ class SegmentationParams:
             floor; fogsim's stereo head 0.15 (treads are 0.2 m deep and more).
         floor_step_split_t: a level region that fits better as a plane with a step than as a
             plane — the step's t-statistic (correlated noise: ``noise_correlation_factor``)
-            above this and its height at least `mapper.scanline.steps.MIN_STEP_M` — is split in two
-            along the step (`mapper.scanline.steps`): a low tread and the ground beside its
-            side edge, which the rows ran on over under stereo noise. 0 (default): off (a depth
-            camera's rows split at every step). fogsim's stereo head sets
-            `fogsim.sim.camera.noise_model.MATCHER_LEVEL_STEP_T` (with the figures).
+            above this and its height at least `mapper.scanline.steps.MIN_STEP_M` — is split
+            along the step (`mapper.scanline.steps`): a low tread and the ground beside its side
+            edge, which the rows ran on over under stereo noise. 0 (default): off, for depth and
+            stereo alike. 8 is where it was measured (session 56: over every region of the
+            `flat_floor` and `room` stereo recordings the best split scores at most 6.4, joined
+            ground and step_1 9–11), on fogsim's stereo suites over seeds 1–8, unsafe cells in
+            all, off → on: shipped 142.62 → 125.25 (`talos_course` 35.9 (74) → 24.4 (42),
+            `stairs` 16.4 (48) → 11.0 (41)) and held-out 394.88 → 463.62: `down_landing_turn`'s
+            step_1 13.9 → 0.3 mm off on seed 3 and 13.9 → 1.6 on seed 7, `down_slant_turn`'s
+            step_1 and platform 12–16 → 2–4 mm on seeds 6 and 8, but `down_slant_turn` seed 7
+            141 → 873 unsafe cells (its last frames, seeing the steps from below at an angle,
+            z-matched 10–30 mm lower: the steps and platform 20 mm low), `stairs_35_65_100`
+            seeds 1–2 rows +2…+5 mm, Table I rows 0.5 mm or more better / worse: held out 47 /
+            43, shipped 14 / 22 (`talos_course` −1…−2 mm on five seeds); issue 11's checks
+            held out 60 → 64 of 210, shipped 163 → 163. An earlier version (quantile splits)
+            gave held out 372.25, shipped 131.75 — and before `NOISE_PER_STEP` shipped 448.38
+            (`talos_course` seed 6 2603 cells, every row 36 mm low). Each version flipped a
+            seed into a whole-map failure, so it is no default. On, it costs the stereo frames'
+            segmentation 1.70 → 2.43 ms a frame on `down_landing_turn` seed 1 and 1.81 → 2.12
+            on the stage's seed 1 (`bench/bench_segmentation.py --speed-only --recording REC
+            --tree A --tree B`, medians of 3 interleaved rounds, load 0.8–1.0).
         structure_border_px: the pixels `floor_occluding_border_px` would take out of their
             floors (with this reach) stay floor points and are marked in
             `SegmentationResult.structure_border` instead: the pipeline gives them to the heading

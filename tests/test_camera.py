@@ -23,7 +23,6 @@ from fogsim.sim.camera.noise_model import (
     MATCHER_DISPARITY_NOISE_PX,
     MATCHER_EDGE_MARGIN_PX,
     MATCHER_FLAT_CONTRAST,
-    MATCHER_LEVEL_STEP_T,
     MATCHER_MEAN_VARIANCE_FACTOR,
     MATCHER_SIDE_STRIP_PX,
     MATCHER_STEP_T,
@@ -342,7 +341,6 @@ def test_segmentation_noise_fields_per_mode():
         "floor_edge_margin_px": MATCHER_EDGE_MARGIN_PX,
         "floor_side_strip_px": MATCHER_SIDE_STRIP_PX,
         "tilt_max_step_t": MATCHER_STEP_T,
-        "floor_step_split_t": MATCHER_LEVEL_STEP_T,
         "structure_border_px": MATCHER_STRUCTURE_BORDER_PX,
         "floor_occluding_border_px": 1,
         "floor_occluding_border_rows_only": True,
@@ -360,7 +358,7 @@ def test_segmentation_noise_fields_per_mode():
     SegmentationParams(**depth)
     assert "structure_border_px" not in depth  # it harms the depth head (its docstring)
     assert "floor_occluding_border_px" not in depth  # no fattened edges to take out
-    assert "floor_step_split_t" not in depth  # its rows split at every step
+    assert "floor_step_split_t" not in stereo  # measured, no default (its docstring)
 
 
 def test_heading_noise_fields_per_mode():

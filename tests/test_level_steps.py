@@ -25,7 +25,7 @@ from mapper.scanline.steps import (
 )
 from mapper.segmentation import SegmentationParams, segment_depth
 
-SPLIT_T = 8.0  # fogsim's stereo head (`MATCHER_LEVEL_STEP_T`)
+SPLIT_T = 8.0  # where `SegmentationParams.floor_step_split_t` was measured (no default)
 SIGMA_M = 0.005
 
 
@@ -66,7 +66,7 @@ def _best(points):
 
 def test_a_step_scores_and_a_tilt_does_not():
     """20 mm across the columns under 5 mm of white noise, its edge between two bins: t far
-    above the stereo head's 8, the step's height to 1 mm; the same region without the step but
+    above 8, the step's height to 1 mm; the same region without the step but
     tilted by 1.5° (26 mm over its width, more than the step) scores nothing: a tilt is the
     plane's, not a step."""
     t, (delta, _, _, slope_y) = _best(_side_edge(0.02))

@@ -17,10 +17,10 @@ correlation factor) is large where two levels were joined, and small on one leve
 its tilt (a tilt error is the plane's ``b, c``, not ``Δ``). `best_step` tries
 `SPLIT_DIRECTIONS` directions and `SPLIT_BINS` − 1 splits along each;
 :func:`split_stepped_levels` splits a region whose best ``t`` exceeds the threshold with
-``|Δ|`` at least `MIN_STEP_M`, and tests each part again.
-Measured on raw stereo points (`fogsim.sim.camera.noise_model.MATCHER_LEVEL_STEP_T` has the
-figures): joined ground and step_1 score t 9–11 (``Δ`` 12–18 mm), every region of the
-`flat_floor` and `room` stereo recordings at most 6.4.
+``|Δ|`` at least `MIN_STEP_M`, and tests each part again. Measured on raw stereo points:
+joined ground and step_1 score t 9–11 (``Δ`` 12–18 mm), every region of the `flat_floor` and
+`room` stereo recordings at most 6.4 (`SegmentationParams.floor_step_split_t` has these and the
+stereo suites' figures with it: no default).
 
 The split line only finds the step: a tread's corner or a side edge between two test
 directions is no straight cut of the region. Its pixels are parted by the step's own model

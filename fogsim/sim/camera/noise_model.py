@@ -31,14 +31,6 @@ whose 99th percentile the matcher's errors have (0.109 px on stage seeds 1-3, ev
 their robust std is 0.074 px, but k-sigma tolerance tests meet the tail: with 0.077 px the stage's
 ground fails the floor tests in most frames, `bench/stereo_stats.py`). 0.126 px while the objects'
 texture streaked (``assets/mjcf/materials.xml``): the sill and treads were matched 2-3× worse."""
-MATCHER_LEVEL_STEP_T = 8.0
-"""The t-statistic of a step above which a level region is split along it
-(``floor_step_split_t``, `mapper.scanline.steps`). Chosen from the null distribution, before
-any suite was run: over every floor region of the shipped `flat_floor` (seed 1, every 5th
-frame) and `room` (seed 1) stereo recordings, which have no hidden steps, the best split scores
-t at most 5.7 and 6.4 (99th percentiles 5.6, 5.5); the ground and step_1 joined in
-`down_landing_turn` seed 1 (frames 648–692) score 9–11. Measured on the stereo suites: README,
-"Held-out scenes"."""
 MATCHER_EDGE_MARGIN_PX = 1
 """Pixels at a floor region's border that the segmentation leaves out of its height and
 smoothness (``floor_edge_margin_px``): the matcher's 5 render px window is 2.5 output pixels
@@ -169,7 +161,6 @@ def segmentation_noise_fields(
             "floor_edge_margin_px": MATCHER_EDGE_MARGIN_PX,
             "floor_side_strip_px": MATCHER_SIDE_STRIP_PX,
             "tilt_max_step_t": MATCHER_STEP_T,
-            "floor_step_split_t": MATCHER_LEVEL_STEP_T,
             "structure_border_px": MATCHER_STRUCTURE_BORDER_PX,
             **MATCHER_FLOOR_BORDER,
             "max_depth_m": config.range_m[1],
