@@ -14,6 +14,8 @@ module each (frames and units in each module's doc):
    measured and judged (`floor_statistics`, `floor_segment_fit`, `floor_verdict`, ...);
    `points`: the points in the tilt-corrected frame, and those on floors moved onto them
    (`level_geometry`, `floor_points`).
+   `steps`: a level region that is two levels joined over a step its rows could not see, split
+   (`split_stepped_levels`, `cut_segments`; ``floor_step_split_t``, off by default).
 5. `fused`: each stage's kernels in one call (`plane_labels`, `level_regions`).
 
 `regions` holds what the planes and the level regions share: which row segments touch, the
