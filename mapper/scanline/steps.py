@@ -102,8 +102,9 @@ def best_step(x, y, z, bins, directions, correlation, min_step_m, min_side):
         min_side: the fewest pixels either side may keep.
 
     Returns:
-        (t, Δ [m], the lower side's plane ``z = h + b·x + c·y`` as (h, b, c) with ``h`` at the
-        pixels' mean x, y); t = 0 when no split qualifies.
+        (t, (Δ [m], h, b, c)): the step of the pixels beyond the split over the plane
+        ``z = h + b·x + c·y`` of those before it (``h`` at the pixels' mean x, y); t = 0 when no
+        split qualifies.
     """
     n = x.size
     best_t = 0.0
