@@ -22,6 +22,7 @@ import numpy as np
 import pytest
 from test_pipeline import make_frames, provider_removed_at
 
+import fogsim.run.record  # noqa: F401 (bound to the real Simulation before any test patches it)
 from fogsim.atomic import TEMPORARY, OutputError, temporary_prefix
 from fogsim.cli import main
 from fogsim.config import load_scenario
