@@ -1,7 +1,8 @@
 """A level region that is two levels joined over a hidden step is split (`mapper.scanline.steps`).
 
-Stereo replays of `down_landing_turn` (seed 1, frames 648–692): the ground region held 450–600
-pixels of step_1 (20 mm high, 0.9–1.2 m away) beside its side edge, whose rows ran on over it.
+Stereo replays of `down_landing_turn` (seed 1, frames 604–692): the ground's level region took
+in step_1 (20 mm high, 0.9–1.2 m away) beside its side edge, whose rows ran on over it; the
+frames' largest plane held 450–600 of its pixels.
 """
 
 from __future__ import annotations

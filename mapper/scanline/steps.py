@@ -5,9 +5,10 @@ row is split where its heights step by more than the step test's standard error.
 stereo matcher's noise (σ_z about 10–20 mm a pixel at 1–1.5 m, errors correlated over its
 window) neither test sees a 15–20 mm step: the rows run on over a low tread's side edge, and
 one region takes the ground and the tread beside it (`down_landing_turn` stereo seed 1, frames
-648–692: the ground region holds 450–600 pixels of step_1, 20 mm high, 0.9–1.2 m away, whose
-raw stereo points lie at +13…+20 mm through the true camera pose; the region's one height then
-puts step_1 at the ground's in the map).
+648–692: the frames' largest plane holds 450–600 pixels of step_1, 20 mm high, 0.9–1.2 m away,
+whose raw stereo points lie at +13…+20 mm through the true camera pose, and the ground's level
+region takes them in too: its one height puts step_1 at the ground's in the map, whose step_1
+cell went 20.0 → 2.4 mm at frame 604).
 
 What no row shows, the region's pixels together do: fitted by a plane with a step,
 ``z = a + b·x + c·y + Δ·[s > s₀]`` (``s`` the pixel's position along a direction in the
