@@ -26,6 +26,7 @@ from numba.extending import intrinsic
 
 from mapper.pairwise import pairwise_sum
 from mapper.scanline import plane_moments, plane_refits, region_interior, renumber_planes
+from mapper.scanline.steps import plane_inverse, plane_step
 
 __all__ = [
     "clearly_rigid",
@@ -681,10 +682,8 @@ def stepped_plane_flags(
     """`mapper.pose_correction.stepped_planes`'s test of each plane (its docstring).
 
     The step model ``z = a + b·x + c·y + Δ·[s > s₀]`` is solved through the plane's 3 × 3
-    normal equations ``A`` (closed-form inverse) and the Schur complement of the step's
-    column: with ``u`` the step column's products with ``[1, x, y]`` and ``m`` its points,
-    ``w = A⁻¹u``, ``Δ = (Σ_{s>s₀} z − u·β₀) / (m − u·w)``, the other coefficients
-    ``β₀ − w·Δ``, and ``(BᵀB)⁻¹_ΔΔ = 1 / (m − u·w)`` — the 4 × 4 solution of every split from
+    normal equations (`mapper.scanline.steps.plane_inverse`) and the Schur complement of the
+    step's column (`mapper.scanline.steps.plane_step`) — the 4 × 4 solution of every split from
     one sort of the points along the downhill direction and their suffix sums.
 
     Args:
@@ -737,18 +736,10 @@ def stepped_plane_flags(
             sxz += xi * zi
             syz += yi * zi
             szz += zi * zi
-        # The inverse of A = [[n, sx, sy], [sx, sxx, sxy], [sy, sxy, syy]] by cofactors.
-        c00 = sxx * syy - sxy * sxy
-        c01 = sy * sxy - sx * syy
-        c02 = sx * sxy - sy * sxx
-        c11 = n * syy - sy * sy
-        c12 = sx * sy - n * sxy
-        c22 = n * sxx - sx * sx
-        det = n * c00 + sx * c01 + sy * c02
+        det, inverse = plane_inverse(n, sx, sy, sxx, sxy, syy)
         if not det > 0.0:
             continue  # the points lie on a line
-        i00, i01, i02 = c00 / det, c01 / det, c02 / det
-        i11, i12, i22 = c11 / det, c12 / det, c22 / det
+        i00, i01, i02, i11, i12, i22 = inverse
         a0 = i00 * sz + i01 * sxz + i02 * syz
         b0 = i01 * sz + i11 * sxz + i12 * syz
         c0 = i02 * sz + i12 * sxz + i22 * syz
@@ -775,22 +766,14 @@ def stepped_plane_flags(
             m = n - j
             if m <= 0 or m >= n:
                 continue
-            u0, u1, u2 = float(m), upper_x[j], upper_y[j]
-            w0 = i00 * u0 + i01 * u1 + i02 * u2
-            w1 = i01 * u0 + i11 * u1 + i12 * u2
-            w2 = i02 * u0 + i12 * u1 + i22 * u2
-            schur = u0 - (u0 * w0 + u1 * w1 + u2 * w2)
-            if not schur > 0.0:
-                continue
-            delta = (upper_z[j] - (u0 * a0 + u1 * b0 + u2 * c0)) / schur
-            explained = (
-                (a0 - w0 * delta) * sz
-                + (b0 - w1 * delta) * sxz
-                + (c0 - w2 * delta) * syz
-                + delta * upper_z[j]
+            delta, t, (_, w1, w2) = plane_step(
+                inverse,
+                (a0, b0, c0),
+                (sz, sxz, syz, szz),
+                (float(m), upper_x[j], upper_y[j], upper_z[j]),
+                n,
+                correlation,
             )
-            variance = max(szz - explained, 0.0) / (n - 4) * correlation / schur
-            t = abs(delta) / math.sqrt(variance)
             turn = abs(delta) * math.hypot(w1, w2)  # the slope's change [rad], small angles
             if t > max_step_t and turn > min_turn_rad and abs(delta) >= 0.5 * rise:
                 stepped[p] = True

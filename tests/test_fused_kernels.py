@@ -212,9 +212,14 @@ def _floor_inputs(noise, seed, pitch_deg=30.0):
     scene = render_scene(INTRINSICS, camera, staircase())
     depth = add_depth_noise(scene.depth_m, noise, np.random.default_rng(seed))
     depth = np.where((depth >= PARAMS.min_depth_m) & (depth <= PARAMS.max_depth_m), depth, np.nan)
+    return _row_segment_inputs(depth, camera, np.full(depth.shape, 0.002))
+
+
+def _row_segment_inputs(depth, camera, typical):
+    """The floor-stage inputs of a depth image seen from ``camera`` (the believed pose is the
+    true one), its typical depth noise ``typical`` [m], every row one segment."""
     height, width = depth.shape
     origin = camera[:3, 3].copy()
-    typical = np.full((height, width), 0.002)
     rays, points, sigma_z = scanline.level_geometry(
         depth,
         INTRINSICS.ray_directions_camera().reshape(-1, 3),
@@ -261,23 +266,8 @@ def _tread_inputs(seed):
     scene = render_scene(INTRINSICS, camera, [Box((1.0, -0.6), (0.8, 1.0, 0.02))])
     rng = np.random.default_rng(seed)
     depth = add_stereo_noise(scene.depth_m, INTRINSICS.fx * 0.07, 0.074, 0.6, rng)
-    height, width = depth.shape
-    origin = camera[:3, 3].copy()
     typical = depth**2 * 0.109 / (INTRINSICS.fx * 0.07)  # the stereo head's model
-    rays, points, sigma_z = scanline.level_geometry(
-        depth,
-        INTRINSICS.ray_directions_camera().reshape(-1, 3),
-        camera[:3, :3].copy(),
-        origin,
-        typical,
-        PARAMS.min_noise_m,
-    )
-    segments = (
-        np.arange(height, dtype=np.int64),
-        np.zeros(height, dtype=np.int64),
-        np.full(height, width, dtype=np.int64),
-    )
-    return np.ascontiguousarray(points[..., 2]), sigma_z, points, rays, depth, segments, origin[2]
+    return _row_segment_inputs(depth, camera, typical)
 
 
 @pytest.mark.parametrize("fill_passes", [0, 2])

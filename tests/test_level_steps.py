@@ -13,9 +13,10 @@ from dataclasses import replace
 import numpy as np
 import pytest
 from synthetic_depth import GROUND, Box, add_stereo_noise, look_down_camera, render_scene
+from test_floor_sides import SMALL
+from test_floor_sides import STEREO as SIDE_STEREO
 
 from mapper.errors import InvalidParameterError
-from mapper.intrinsics import PinholeIntrinsics
 from mapper.scanline.steps import (
     MIN_STEP_M,
     SPLIT_BINS,
@@ -142,17 +143,8 @@ def test_cut_segments_cuts_where_the_region_changes():
         np.testing.assert_array_equal(got, want)
 
 
-SMALL = PinholeIntrinsics.from_fov(88, 72, 47.0, 39.0)
 CAMERA = look_down_camera((0.0, 0.0, 0.93), pitch_down_deg=40.0)
-STEREO = SegmentationParams(
-    disparity_noise_px=0.109,
-    stereo_baseline_m=0.07,
-    noise_correlation_factor=3.0,
-    floor_edge_margin_px=1,
-    floor_side_strip_px=32,
-    tilt_max_step_t=12.0,
-    max_depth_m=4.0,
-)
+STEREO = replace(SIDE_STEREO, floor_side_strip_px=32, tilt_max_step_t=12.0)
 """The stereo head's segmentation noise model and its stereo rules (`fogsim.sim.camera`)."""
 
 

@@ -87,6 +87,59 @@ sort (sorting them for quantile splits took the stereo frames' segmentation from
 `bench/bench_segmentation.py`)."""
 
 
+@numba.njit(cache=True, inline="always")
+def plane_inverse(n, sx, sy, sxx, sxy, syy):
+    """The inverse of a plane fit's normal matrix by cofactors.
+
+    ``A = [[n, sx, sy], [sx, sxx, sxy], [sy, sxy, syy]]`` (sums over the points of 1, x, y and
+    their products). Returns ``(det, (i00, i01, i02, i11, i12, i22))``, the upper triangle of
+    ``A⁻¹``; ``det <= 0`` (the points lie on a line): no inverse (zeros).
+    """
+    c00 = sxx * syy - sxy * sxy
+    c01 = sy * sxy - sx * syy
+    c02 = sx * sxy - sy * sxx
+    c11 = n * syy - sy * sy
+    c12 = sx * sy - n * sxy
+    c22 = n * sxx - sx * sx
+    det = n * c00 + sx * c01 + sy * c02
+    if not det > 0.0:
+        return det, (0.0, 0.0, 0.0, 0.0, 0.0, 0.0)
+    return det, (c00 / det, c01 / det, c02 / det, c11 / det, c12 / det, c22 / det)
+
+
+@numba.njit(cache=True, inline="always")
+def plane_step(inverse, beta, moments, upper, n, correlation):
+    """The step ``Δ`` of the model ``z = a + b·x + c·y + Δ·[s > s₀]`` and its t-statistic.
+
+    Solved through the plane's normal equations (``inverse``: `plane_inverse`; ``beta`` =
+    (a0, b0, c0) the plane's fit) and the Schur complement of the step's column: with ``u`` its
+    products with ``[1, x, y]`` (``upper`` = (u0, u1, u2, Σ_{s>s₀} z)), ``w = A⁻¹u``,
+    ``Δ = (Σ_{s>s₀} z − u·β) / (u0 − u·w)``, ``(BᵀB)⁻¹_ΔΔ = 1 / (u0 − u·w)``; ``moments`` =
+    (Σz, Σxz, Σyz, Σz²) of the points (x, y, z about their means), ``n`` their count,
+    ``correlation`` τ (the variance's factor).
+
+    Returns:
+        (Δ, t, (w0, w1, w2)); Δ and t NaN when the complement is not positive (the split's
+        column depends on the plane's). The plane with the step is ``β − w·Δ``.
+    """
+    i00, i01, i02, i11, i12, i22 = inverse
+    a0, b0, c0 = beta
+    sz, sxz, syz, szz = moments
+    u0, u1, u2, upper_z = upper
+    w0 = i00 * u0 + i01 * u1 + i02 * u2
+    w1 = i01 * u0 + i11 * u1 + i12 * u2
+    w2 = i02 * u0 + i12 * u1 + i22 * u2
+    schur = u0 - (u0 * w0 + u1 * w1 + u2 * w2)
+    if not schur > 0.0:
+        return np.nan, np.nan, (w0, w1, w2)
+    delta = (upper_z - (u0 * a0 + u1 * b0 + u2 * c0)) / schur
+    explained = (
+        (a0 - w0 * delta) * sz + (b0 - w1 * delta) * sxz + (c0 - w2 * delta) * syz + delta * upper_z
+    )
+    variance = max(szz - explained, 0.0) / (n - 4) * correlation / schur
+    return delta, abs(delta) / math.sqrt(variance), (w0, w1, w2)
+
+
 @numba.njit(cache=True, no_cfunc_wrapper=True, nogil=True, error_model="numpy")
 def best_step(x, y, z, bins, directions, correlation, min_step_m, min_side):
     """The best split of one region's pixels by a plane with a step (module doc).
@@ -127,21 +180,16 @@ def best_step(x, y, z, bins, directions, correlation, min_step_m, min_side):
     sxz = (xc * zc).sum()
     syz = (yc * zc).sum()
     szz = (zc * zc).sum()
-    # The inverse of A = [[n, sx, sy], [sx, sxx, sxy], [sy, sxy, syy]] by cofactors.
-    c00 = sxx * syy - sxy * sxy
-    c01 = sy * sxy - sx * syy
-    c02 = sx * sxy - sy * sxx
-    c11 = n * syy - sy * sy
-    c12 = sx * sy - n * sxy
-    c22 = n * sxx - sx * sx
-    det = n * c00 + sx * c01 + sy * c02
+    det, inverse = plane_inverse(n, sx, sy, sxx, sxy, syy)
     if not det > 0.0:
         return best_t, best  # the pixels lie on a line
-    i00, i01, i02 = c00 / det, c01 / det, c02 / det
-    i11, i12, i22 = c11 / det, c12 / det, c22 / det
-    a0 = i00 * sz + i01 * sxz + i02 * syz
-    b0 = i01 * sz + i11 * sxz + i12 * syz
-    c0 = i02 * sz + i12 * sxz + i22 * syz
+    i00, i01, i02, i11, i12, i22 = inverse
+    beta = (
+        i00 * sz + i01 * sxz + i02 * syz,
+        i01 * sz + i11 * sxz + i12 * syz,
+        i02 * sz + i12 * sxz + i22 * syz,
+    )
+    moments = (sz, sxz, syz, szz)
     counts = np.zeros(bins)
     bin_x = np.zeros(bins)
     bin_y = np.zeros(bins)
@@ -179,28 +227,14 @@ def best_step(x, y, z, bins, directions, correlation, min_step_m, min_side):
             upper_z += bin_z[b]
             if m < min_side or n - m < min_side:
                 continue
-            u0 = m
-            w0 = i00 * u0 + i01 * u1 + i02 * u2
-            w1 = i01 * u0 + i11 * u1 + i12 * u2
-            w2 = i02 * u0 + i12 * u1 + i22 * u2
-            schur = u0 - (u0 * w0 + u1 * w1 + u2 * w2)
-            if not schur > 0.0:
-                continue
-            delta = (upper_z - (u0 * a0 + u1 * b0 + u2 * c0)) / schur
-            if abs(delta) < min_step_m:
-                continue
-            explained = (
-                (a0 - w0 * delta) * sz
-                + (b0 - w1 * delta) * sxz
-                + (c0 - w2 * delta) * syz
-                + delta * upper_z
+            delta, t, (w0, w1, w2) = plane_step(
+                inverse, beta, moments, (m, u1, u2, upper_z), n, correlation
             )
-            variance = max(szz - explained, 0.0) / (n - 4) * correlation / schur
-            if not variance > 0.0:
-                continue
-            t = abs(delta) / math.sqrt(variance)
+            if not math.isfinite(t) or abs(delta) < min_step_m:
+                continue  # no complement or no variance left; or too low a step
             if t > best_t:
                 best_t = t
+                a0, b0, c0 = beta
                 best = (delta, mz + a0 - w0 * delta, b0 - w1 * delta, c0 - w2 * delta)
     return best_t, best
 
