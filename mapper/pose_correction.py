@@ -30,6 +30,8 @@ __all__ = [
 STEP_SPLITS = 17
 """Split positions `stepped_planes` tries: quantiles 0.1, 0.15, ..., 0.9 of the points along the
 plane's downhill direction (each side keeps at least a tenth of the plane's points)."""
+STEP_QUANTILES = np.linspace(0.1, 0.9, STEP_SPLITS)
+"""The `STEP_SPLITS` quantiles (made once: ``np.linspace`` costs 30 µs a frame)."""
 
 
 @dataclass(frozen=True)
@@ -207,17 +209,11 @@ def stepped_planes(
     tested = (np.abs(normals[:, 2]) >= min_abs_z) & (counts >= max(min_pixels, 8))
     if not tested.any():
         return stepped
-    order = np.argsort(plane_ids, kind="stable")
-    sorted_ids = plane_ids[order]
-    starts = np.searchsorted(sorted_ids, np.arange(n_planes), side="left")
-    stops = np.searchsorted(sorted_ids, np.arange(n_planes), side="right")
     return tilt_kernels.stepped_plane_flags(
         np.ascontiguousarray(points, dtype=np.float64),
-        order,
-        starts,
-        stops,
+        np.ascontiguousarray(plane_ids, dtype=np.int64),
         tested,
-        np.linspace(0.1, 0.9, STEP_SPLITS),
+        STEP_QUANTILES,
         float(max_step_t),
         float(correlation),
         float(min_turn_rad),

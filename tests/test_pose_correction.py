@@ -7,6 +7,7 @@ import numpy as np
 import pytest
 from synthetic_depth import Box, look_down_camera, render_boxes
 
+from mapper import tilt_kernels
 from mapper.intrinsics import PinholeIntrinsics
 from mapper.pose_correction import estimate_tilt, stepped_planes
 from mapper.reference import neck_prior_m
@@ -204,3 +205,42 @@ def test_the_step_kernel_agrees_with_each_splits_least_squares():
             assert _stepped([patch], max_step_t=threshold)[0] == expected, (draw, threshold)
             decided.append(expected)
     assert 0 < sum(decided) < len(decided)  # both answers occur
+
+
+def _bucketed_quantiles(values, quantiles):
+    """`tilt_kernels`' quantiles of ``values`` through its value buckets (as the kernel)."""
+    buckets = max(len(values) // 4, 16)
+    out = np.empty(len(values))
+    offsets = np.empty(buckets + 1, dtype=np.int64)
+    done = np.empty(buckets, dtype=np.bool_)
+    tilt_kernels._bucket_values(values, out, offsets, done)
+    return [tilt_kernels._bucketed_quantile(out, offsets, done, q) for q in quantiles]
+
+
+@pytest.mark.parametrize(
+    "values",
+    [
+        np.random.default_rng(1).normal(size=997),  # about 4 values a bucket
+        np.round(np.random.default_rng(2).normal(size=600), 1),  # many equal values
+        np.random.default_rng(3).exponential(size=800) ** 4,  # most in one bucket: np.sort
+        np.full(50, 0.3),  # all equal: one bucket
+        np.array([2.0, -1.0, 0.5, 0.5, 7.0]),  # fewer values than buckets
+        np.array([-0.0, 0.0, 1e-300, -1e-300, 5.0]),
+    ],
+)
+def test_the_bucketed_quantiles_are_numpys_to_the_last_bit(values):
+    # The step test's splits are order statistics: taken from value buckets, only the buckets
+    # holding the ranks asked for are sorted, and each quantile is numpy's "linear" exactly.
+    quantiles = np.linspace(0.1, 0.9, 17)
+    got = _bucketed_quantiles(values, quantiles)
+    np.testing.assert_array_equal(got, np.quantile(values, quantiles))
+
+
+def test_points_are_grouped_by_plane_as_a_stable_argsort_groups_them():
+    # Ids -1 (no plane) and 3 (beyond the 3 planes) belong to none.
+    ids = np.array([2, -1, 0, 2, 1, 3, 0, 2, -1, 1], dtype=np.int64)
+    order, starts = tilt_kernels._points_by_plane(ids, 3)
+    np.testing.assert_array_equal(starts, [0, 2, 4, 7])
+    np.testing.assert_array_equal(order, [2, 6, 4, 9, 0, 3, 7])
+    stable = np.argsort(ids, kind="stable")
+    np.testing.assert_array_equal(order, stable[(ids[stable] >= 0) & (ids[stable] < 3)])

@@ -301,7 +301,13 @@ def test_a_run_warms_up_the_stereo_head_s_kernels_only_when_its_parameters_call_
     floor_sides = warmup._kernels(mapper.floor_sides)
     borders = warmup._kernels(mapper.floor_borders)
     assert len(borders) == 1
-    steps = {mapper.tilt_kernels.stepped_plane_flags, mapper.tilt_kernels._quantile_sorted}
+    steps = {
+        mapper.tilt_kernels.stepped_plane_flags,
+        mapper.tilt_kernels._points_by_plane,
+        mapper.tilt_kernels._bucket_values,
+        mapper.tilt_kernels._rank_value,
+        mapper.tilt_kernels._bucketed_quantile,
+    }
     assert set(warmup.STEREO_HEAD.kernels) == {*floor_sides, *borders, *steps}
     others = [k for g in GROUPS if g is not warmup.STEREO_HEAD for k in g.kernels]
     assert not set(warmup.STEREO_HEAD.kernels) & set(others)

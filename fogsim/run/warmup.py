@@ -201,7 +201,11 @@ _STEREO_HEAD_KERNELS = (
     *_kernels(mapper.floor_sides),
     *_kernels(mapper.floor_borders),
     mapper.tilt_kernels.stepped_plane_flags,
-    mapper.tilt_kernels._quantile_sorted,  # called by stepped_plane_flags only
+    # called by stepped_plane_flags only:
+    mapper.tilt_kernels._points_by_plane,
+    mapper.tilt_kernels._bucket_values,
+    mapper.tilt_kernels._rank_value,
+    mapper.tilt_kernels._bucketed_quantile,
 )
 """The kernels only the stereo head's segmentation parameters call (`uses_stereo_head`)."""
 
