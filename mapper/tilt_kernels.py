@@ -698,16 +698,29 @@ def _bucket_values(values, out, offsets, done):
         offsets[1:] = n
         done[:] = True
         return
-    scale = buckets / (highest - lowest)
+    scale = buckets / (highest - lowest)  # inf for a range below about 1e-307
     for i in range(n):
-        offsets[min(int((values[i] - lowest) * scale), buckets - 1) + 1] += 1
+        offsets[_bucket_of(values[i], lowest, scale, buckets) + 1] += 1
     for b in range(buckets):
         offsets[b + 1] += offsets[b]
     fill = offsets[:-1].copy()
     for i in range(n):
-        b = min(int((values[i] - lowest) * scale), buckets - 1)
+        b = _bucket_of(values[i], lowest, scale, buckets)
         out[fill[b]] = values[i]
         fill[b] += 1
+
+
+@numba.njit(cache=True, no_cfunc_wrapper=True, nogil=True, error_model="numpy")
+def _bucket_of(value, lowest, scale, buckets):
+    """The bucket of ``value`` >= ``lowest``: never decreasing in it, always in [0, buckets).
+
+    With ``scale`` finite, ``(value − lowest)·scale`` lies in [0, buckets] (the range times
+    ``scale`` is ``buckets``); with ``scale`` overflowed (a range below about 1e-307) the
+    lowest value is bucket 0 and every other the last (not ``int`` of ``0 · inf``, NaN).
+    """
+    if scale < math.inf:  # the same for every value of a call: the branch leaves the loop
+        return min(int((value - lowest) * scale), buckets - 1)
+    return 0 if not value > lowest else buckets - 1
 
 
 @numba.njit(cache=True, no_cfunc_wrapper=True, nogil=True, error_model="numpy")

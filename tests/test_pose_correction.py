@@ -226,6 +226,7 @@ def _bucketed_quantiles(values, quantiles):
         np.full(50, 0.3),  # all equal: one bucket
         np.array([2.0, -1.0, 0.5, 0.5, 7.0]),  # fewer values than buckets
         np.array([-0.0, 0.0, 1e-300, -1e-300, 5.0]),
+        np.array([3e-310, 0.0, 1e-310, 2e-310, 5e-310, 1e-310]),  # 16 / 5e-310 overflows
     ],
 )
 def test_the_bucketed_quantiles_are_numpys_to_the_last_bit(values):

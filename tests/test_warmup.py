@@ -305,6 +305,7 @@ def test_a_run_warms_up_the_stereo_head_s_kernels_only_when_its_parameters_call_
         mapper.tilt_kernels.stepped_plane_flags,
         mapper.tilt_kernels._points_by_plane,
         mapper.tilt_kernels._bucket_values,
+        mapper.tilt_kernels._bucket_of,
         mapper.tilt_kernels._rank_value,
         mapper.tilt_kernels._bucketed_quantile,
     }

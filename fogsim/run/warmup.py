@@ -204,6 +204,7 @@ _STEREO_HEAD_KERNELS = (
     # called by stepped_plane_flags only:
     mapper.tilt_kernels._points_by_plane,
     mapper.tilt_kernels._bucket_values,
+    mapper.tilt_kernels._bucket_of,
     mapper.tilt_kernels._rank_value,
     mapper.tilt_kernels._bucketed_quantile,
 )
