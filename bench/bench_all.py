@@ -14,7 +14,9 @@ day — on this project's machines the same code ran 10-25 % apart from one day 
 only figures of one run compare.
 
 A recording of the stage (``fogsim record stage --seed 1``) is made first into a temporary
-folder: the run/replay and segmentation benchmarks time its frames. ``--quick`` runs every
+folder: the run/replay and segmentation benchmarks time its frames; and, for the segmentation,
+the same walk through the stereo head (``--set camera.mode=stereo``), whose segmentation does
+more (side bands, borders, the tilt's step test). ``--quick`` runs every
 benchmark with few repeats (a smoke test of this script, not figures to quote).
 """
 
@@ -27,6 +29,7 @@ import subprocess
 import sys
 import tempfile
 import time
+from collections.abc import Mapping
 from dataclasses import dataclass
 from datetime import UTC, datetime
 from importlib.metadata import PackageNotFoundError, version
@@ -52,6 +55,15 @@ PACKAGES = (
 
 #: Placeholder in a step's arguments for the stage recording's path.
 RECORDING = "{recording}"
+#: Placeholder for the same walk recorded through the stereo head (``camera.mode=stereo``).
+STEREO_RECORDING = "{stereo_recording}"
+#: What ``fogsim record stage`` is given for each placeholder, besides ``--out``.
+RECORD_ARGUMENTS = {
+    RECORDING: ("--seed", "1"),
+    STEREO_RECORDING: ("--seed", "1", "--set", "camera.mode=stereo"),
+}
+#: How the printed commands name each recording.
+RECORDING_NAMES = {RECORDING: "REC", STEREO_RECORDING: "STEREO_REC"}
 
 
 @dataclass(frozen=True)
@@ -61,7 +73,8 @@ class Step:
     Attributes:
         name: Short name, unique.
         what: What it measures, as the README's row says.
-        argv: The script under ``bench/`` and its arguments (`RECORDING` replaced by the path).
+        argv: The script under ``bench/`` and its arguments (`RECORDING` and
+            `STEREO_RECORDING` replaced by the recordings' paths).
         quick_argv: The same with few repeats (``--quick``).
         one_core: Pinned to CPU 0 (``taskset -c 0``), as the README's row says.
     """
@@ -99,7 +112,7 @@ STEPS = (
     Step(
         "segmentation",
         "plane segmentation per frame: noisy staircase quality, 88×72 / 176×144 and the stage "
-        "recording's frames",
+        "recording's frames, depth and stereo",
         (
             "bench_segmentation.py",
             "--repeats",
@@ -108,6 +121,8 @@ STEPS = (
             "3",
             "--recording",
             RECORDING,
+            "--recording",
+            STEREO_RECORDING,
         ),
         ("bench_segmentation.py", "--repeats", "5", "--seeds", "1", "--speed-only"),
     ),
@@ -200,15 +215,20 @@ def commit() -> str:
     return head + ("+dirty" if git("status", "--porcelain", "--untracked-files=no") else "")
 
 
-def run_step(step: Step, recording: Path, quick: bool, env: dict[str, str]) -> StepResult:
-    """Run one benchmark in a child process; its output, wall time and the load around it."""
+def run_step(
+    step: Step, recordings: Mapping[str, Path], quick: bool, env: dict[str, str]
+) -> StepResult:
+    """Run one benchmark in a child process; its output, wall time and the load around it.
+
+    ``recordings`` maps each placeholder (`RECORDING`, `STEREO_RECORDING`) to its file.
+    """
     script, *rest = step.arguments(quick)
     prefix = ["taskset", "-c", "0"] if step.one_core else []
     command = [*prefix, sys.executable, str(ROOT / "bench" / script)]
     shown = [*prefix, "python", f"bench/{script}"]
     for a in rest:
-        command.append(str(recording) if a == RECORDING else a)
-        shown.append("REC" if a == RECORDING else a)
+        command.append(str(recordings[a]) if a in RECORDING_NAMES else a)
+        shown.append(RECORDING_NAMES.get(a, a))
     load_before = os.getloadavg()
     start = time.perf_counter()
     done = subprocess.run(command, cwd=ROOT, env=env, capture_output=True, text=True, check=False)
@@ -271,28 +291,31 @@ def main(argv: list[str] | None = None) -> int:
     header = [f"- Date: {started}; tree {commit()}", *machine_lines()]
     results: list[StepResult] = []
     with tempfile.TemporaryDirectory(prefix="fogsim-bench-") as folder:
-        recording = Path(folder) / "stage_s1.npz"
-        if any(RECORDING in s.arguments(args.quick) for s in steps):
-            subprocess.run(
-                [
-                    sys.executable,
-                    "-m",
-                    "fogsim",
-                    "record",
-                    "stage",
-                    "--seed",
-                    "1",
-                    "--out",
-                    str(recording),
-                ],
-                cwd=ROOT,
-                env=env,
-                check=True,
-                capture_output=True,
-            )
+        recordings = {
+            RECORDING: Path(folder) / "stage_s1.npz",
+            STEREO_RECORDING: Path(folder) / "stage_stereo_s1.npz",
+        }
+        for placeholder, path in recordings.items():
+            if any(placeholder in s.arguments(args.quick) for s in steps):
+                subprocess.run(
+                    [
+                        sys.executable,
+                        "-m",
+                        "fogsim",
+                        "record",
+                        "stage",
+                        *RECORD_ARGUMENTS[placeholder],
+                        "--out",
+                        str(path),
+                    ],
+                    cwd=ROOT,
+                    env=env,
+                    check=True,
+                    capture_output=True,
+                )
         for step in steps:
             print(f"{step.name} ...", flush=True)
-            results.append(run_step(step, recording, args.quick, env))
+            results.append(run_step(step, recordings, args.quick, env))
             print(
                 f"{step.name}: {results[-1].wall_s:.0f} s, exit {results[-1].returncode}",
                 flush=True,

@@ -31,12 +31,13 @@ def test_an_unknown_benchmark_name_exits_2_listing_the_valid_ones(capsys):
 def test_a_step_runs_in_a_child_and_a_failure_keeps_its_stderr(tmp_path):
     env = {"PATH": "/usr/bin:/bin", "PYTHONPATH": str(BENCH.parent)}
     ok = bench_all.Step("table", "help", ("seeds_table.py", "--help"), ("seeds_table.py", "--help"))
-    result = bench_all.run_step(ok, tmp_path / "rec.npz", quick=False, env=env)
+    recordings = {bench_all.RECORDING: tmp_path / "rec.npz"}
+    result = bench_all.run_step(ok, recordings, quick=False, env=env)
     assert result.returncode == 0
     assert result.command == "python bench/seeds_table.py --help"
     assert "usage" in result.output
     bad = bench_all.Step("bad", "x", ("seeds_table.py", "--no-such-flag"), ("seeds_table.py",))
-    result = bench_all.run_step(bad, tmp_path / "rec.npz", quick=False, env=env)
+    result = bench_all.run_step(bad, recordings, quick=False, env=env)
     assert result.returncode == 2
     assert "--- stderr (tail) ---" in result.output
     assert "seeds_table.py: error" in result.output
@@ -64,3 +65,22 @@ def test_the_file_gives_machine_command_wall_time_load_and_output():
     assert "## robot — **failed (exit 1)**" in text
     assert "smoke test" not in text
     assert "smoke test" in bench_all.render([result], [], quick=True)
+
+
+def test_the_recordings_are_named_in_the_commands_and_made_with_their_camera(tmp_path):
+    # The segmentation times the stage's frames through both heads; a command names each file
+    # by its placeholder's name, and the stereo one is recorded with the stereo camera.
+    segmentation = next(step for step in bench_all.STEPS if step.name == "segmentation")
+    assert bench_all.RECORDING in segmentation.argv
+    assert bench_all.STEREO_RECORDING in segmentation.argv
+    assert "camera.mode=stereo" in bench_all.RECORD_ARGUMENTS[bench_all.STEREO_RECORDING]
+    env = {"PATH": "/usr/bin:/bin", "PYTHONPATH": str(BENCH.parent)}
+    argv = ("seeds_table.py", "--help", bench_all.STEREO_RECORDING, bench_all.RECORDING)
+    step = bench_all.Step("table", "help", argv, argv)
+    recordings = {
+        bench_all.RECORDING: tmp_path / "rec.npz",
+        bench_all.STEREO_RECORDING: tmp_path / "stereo.npz",
+    }
+    result = bench_all.run_step(step, recordings, quick=False, env=env)
+    assert result.returncode == 0
+    assert result.command == "python bench/seeds_table.py --help STEREO_REC REC"
