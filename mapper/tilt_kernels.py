@@ -26,7 +26,7 @@ from numba.extending import intrinsic
 
 from mapper.pairwise import pairwise_sum
 from mapper.scanline import plane_moments, plane_refits, region_interior, renumber_planes
-from mapper.scanline.steps import plane_inverse, plane_step
+from mapper.scanline.steps import plane_inverse, plane_step, sums_beyond
 
 __all__ = [
     "clearly_rigid",
@@ -794,9 +794,9 @@ def stepped_plane_flags(
     step's column (`mapper.scanline.steps.plane_step`) — the 4 × 4 solution of every split from
     the sums of the points beyond it. The splits are the quantiles of the points' ``s`` along
     the downhill direction, taken from value buckets (`_bucket_values`: only the buckets
-    holding their ranks are sorted, not all points, 2.4 times faster on the stage's stereo
-    frames, the same values); each point's sums go to the run between two splits it lies in
-    and the runs are added from the top.
+    holding their ranks are sorted, not all points: the test 0.35 → 0.17 ms a frame on the
+    stage's stereo frames, the same values); each point's sums go to the run between two
+    splits it lies in and the runs are added from the top (`sums_beyond`).
 
     Args:
         points: (N, 3) points [m], z up.
@@ -815,9 +815,9 @@ def stepped_plane_flags(
     splits_n = quantiles.size
     splits = np.empty(splits_n)
     # Per run between splits (run k: splits[k-1] < s <= splits[k]; run K: beyond the last):
-    # points, Σx, Σy, Σz; per split, the same sums over the runs beyond it.
+    # points, Σx, Σy, Σz; split k's step column sums the runs beyond it (`sums_beyond`).
     runs = np.empty((splits_n + 1, 4))
-    beyond = np.empty((splits_n + 1, 4))
+    beyond = np.empty((splits_n + 2, 4))
     for p in range(tested.size):
         first = starts[p]
         n = starts[p + 1] - first
@@ -879,19 +879,16 @@ def stepped_plane_flags(
             runs[run, 1] += x[i]
             runs[run, 2] += y[i]
             runs[run, 3] += z[i]
-        beyond[splits_n] = 0.0
-        for k in range(splits_n - 1, -1, -1):
-            for c in range(4):
-                beyond[k, c] = beyond[k + 1, c] + runs[k + 1, c]
+        sums_beyond(runs, beyond)
         for k in range(splits_n):
-            m = int(beyond[k, 0])
+            m = int(beyond[k + 1, 0])  # the runs beyond split k
             if m <= 0 or m >= n:
                 continue
             delta, t, (_, w1, w2) = plane_step(
                 inverse,
                 (a0, b0, c0),
                 (sz, sxz, syz, szz),
-                (beyond[k, 0], beyond[k, 1], beyond[k, 2], beyond[k, 3]),
+                (beyond[k + 1, 0], beyond[k + 1, 1], beyond[k + 1, 2], beyond[k + 1, 3]),
                 n,
                 correlation,
             )

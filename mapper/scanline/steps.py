@@ -140,6 +140,22 @@ def plane_step(inverse, beta, moments, upper, n, correlation):
     return delta, abs(delta) / math.sqrt(variance), (w0, w1, w2)
 
 
+@numba.njit(cache=True, inline="always")
+def sums_beyond(runs, beyond):
+    """Each split's step-column sums from per-run sums: ``beyond[j]`` = Σ of ``runs[j:]``.
+
+    ``runs`` (R, 4): per run of points between two splits (in order along the split
+    direction) their count, Σx, Σy, Σz; ``beyond`` (R + 1, 4) is set to the sums over the runs
+    from ``j`` on, added from the top (``beyond[R]`` = 0): the ``upper`` of `plane_step` for a
+    split before run ``j``.
+    """
+    last = runs.shape[0]
+    beyond[last] = 0.0
+    for j in range(last - 1, -1, -1):
+        for c in range(4):
+            beyond[j, c] = beyond[j + 1, c] + runs[j, c]
+
+
 @numba.njit(cache=True, no_cfunc_wrapper=True, nogil=True, error_model="numpy")
 def best_step(x, y, z, bins, directions, correlation, min_step_m, min_side):
     """The best split of one region's pixels by a plane with a step (module doc).
@@ -190,10 +206,8 @@ def best_step(x, y, z, bins, directions, correlation, min_step_m, min_side):
         i02 * sz + i12 * sxz + i22 * syz,
     )
     moments = (sz, sxz, syz, szz)
-    counts = np.zeros(bins)
-    bin_x = np.zeros(bins)
-    bin_y = np.zeros(bins)
-    bin_z = np.zeros(bins)
+    runs = np.empty((bins, 4))  # per bin: pixels, Σx, Σy, Σz
+    beyond = np.empty((bins + 1, 4))
     for k in range(directions):
         angle = math.pi * k / directions
         cos_a = math.cos(angle)
@@ -206,30 +220,22 @@ def best_step(x, y, z, bins, directions, correlation, min_step_m, min_side):
             high = max(high, v)
         if not high > low:
             continue
-        counts[:] = 0.0
-        bin_x[:] = 0.0
-        bin_y[:] = 0.0
-        bin_z[:] = 0.0
+        runs[:] = 0.0
         scale = bins / (high - low)
         for i in range(n):
             b = min(int((xc[i] * cos_a + yc[i] * sin_a - low) * scale), bins - 1)
-            counts[b] += 1.0
-            bin_x[b] += xc[i]
-            bin_y[b] += yc[i]
-            bin_z[b] += zc[i]
-        # Splits between bins, from the top: the step column's sums are the bins' above.
-        m = 0.0
-        u1 = u2 = upper_z = 0.0
+            runs[b, 0] += 1.0
+            runs[b, 1] += xc[i]
+            runs[b, 2] += yc[i]
+            runs[b, 3] += zc[i]
+        # Splits between bins: the step column's sums are those of the bins beyond.
+        sums_beyond(runs, beyond)
         for b in range(bins - 1, 0, -1):
-            m += counts[b]
-            u1 += bin_x[b]
-            u2 += bin_y[b]
-            upper_z += bin_z[b]
+            m = beyond[b, 0]
             if m < min_side or n - m < min_side:
                 continue
-            delta, t, (w0, w1, w2) = plane_step(
-                inverse, beta, moments, (m, u1, u2, upper_z), n, correlation
-            )
+            upper = (m, beyond[b, 1], beyond[b, 2], beyond[b, 3])
+            delta, t, (w0, w1, w2) = plane_step(inverse, beta, moments, upper, n, correlation)
             if not math.isfinite(t) or abs(delta) < min_step_m:
                 continue  # no complement or no variance left; or too low a step
             if t > best_t:
