@@ -871,9 +871,11 @@ def segment_depth(
     tilt_counts = counts
     if params.tilt_max_step_t > 0.0 and params.correct_tilt and counts.size > 0:
         # Planes that are two levels joined over a hidden step do not steer the tilt.
-        believed = depth.reshape(-1)[pixel_index][:, None] * rays_camera[pixel_index]
+        believed = tilt_kernels.believed_points(
+            depth.reshape(-1), pixel_index, rays_camera, rotation, pivot
+        )
         stepped = stepped_planes(
-            believed @ rotation.T + pivot,
+            believed,
             plane_ids,
             tilt_normals,
             counts,

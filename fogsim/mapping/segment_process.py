@@ -243,9 +243,13 @@ class SegmentInProcess:
         else:
             offset = (position % self._slots) * self._slot_bytes
             buffers = []
-            for size in sizes:
-                buffers.append(bytearray(self._shared[offset : offset + size]))
-                offset += size
+            # Copied once, from a view of the slot (a slice of the mmap itself is a bytes copy,
+            # copied again by bytearray: 0.49 → 0.20 ms for a frame's 0.4 MB, one process).
+            # The view is released before the slot is given back and before `close`.
+            with memoryview(self._shared) as shared:
+                for size in sizes:
+                    buffers.append(bytearray(shared[offset : offset + size]))
+                    offset += size
             outcome = pickle.loads(data, buffers=buffers)
         self._free.release()  # its slot copied out: the child may write it again
         assert isinstance(outcome, _Outcome)

@@ -201,6 +201,7 @@ _STEREO_HEAD_KERNELS = (
     *_kernels(mapper.floor_sides),
     *_kernels(mapper.floor_borders),
     mapper.tilt_kernels.stepped_plane_flags,
+    mapper.tilt_kernels.believed_points,  # the step test's points, made for it alone
     # called by stepped_plane_flags only:
     mapper.tilt_kernels._points_by_plane,
     mapper.tilt_kernels._bucket_values,
