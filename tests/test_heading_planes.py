@@ -107,40 +107,43 @@ def test_a_refinement_that_would_move_beyond_the_bound_is_refused():
 
 
 def test_the_tiered_search_finds_the_same_nearest_points_as_the_whole_radius():
-    # Dense clusters (a surface seen by many keyframes) and sparse points: for every point the
-    # NEAREST nearest within MATCH_M (ties by index) from the widening search are those of a
-    # brute-force search over the whole radius, whichever tier stopped it.
-    from mapper.heading_planes import MATCH_M, MATCH_TIERS, NEAREST, _match_candidates, _voxel_order
+    # Dense clusters (a surface seen by many keyframes), sparse points and exact ties: for every
+    # point the NEAREST nearest within MATCH_M (ties by index, nearest first) from the widening
+    # search swept in key order are those of a brute-force search over the whole radius,
+    # whichever tier stopped it.
+    from mapper.heading_planes import MATCH_M, MATCH_TIERS, NEAREST, _nearest_matches, _voxel_order
 
     rng = np.random.default_rng(11)
     dense = rng.normal(0.0, 0.02, size=(600, 3)) + np.array([1.0, 1.0, 0.2])
     sparse = rng.uniform(0.0, 0.5, size=(200, 3))
     grid = np.round(rng.uniform(0.0, 0.3, size=(100, 3)) / 0.02) * 0.02  # exact ties
-    points = np.vstack([dense, sparse, grid])
+    far = rng.uniform(-3.0, -2.0, size=(20, 3))  # alone: no neighbour but itself
+    points = np.vstack([dense, sparse, grid, far])
     x, y, z = (np.ascontiguousarray(points[:, k]) for k in range(3))
     order, keys, cells = _voxel_order(x, y, z, MATCH_M / MATCH_TIERS[-1])
-    found_j = np.empty(len(points), dtype=np.int64)
-    found_d2 = np.empty(len(points))
+    matches = np.full((len(points), NEAREST), -1, dtype=np.int64)
+    n_matches = np.full(len(points), -1, dtype=np.int64)
     r2 = MATCH_M * MATCH_M
-    stopped_early = 0
+    _nearest_matches(x, y, z, order, keys, cells, r2, matches, n_matches)
+    fewer = 0
     for i in range(len(points)):
-        count = _match_candidates(i, x, y, z, order, keys, cells, r2, found_j, found_d2)
-        got = sorted(zip(found_d2[:count], found_j[:count], strict=True))[:NEAREST]
         d2 = ((points - points[i]) ** 2).sum(axis=1)
         inside = np.flatnonzero(d2 <= r2)
-        want = sorted(zip(d2[inside], inside, strict=True))[:NEAREST]
-        assert [j for _, j in got] == [j for _, j in want], i
-        stopped_early += count < len(inside)
-    assert stopped_early > 500  # the dense cluster's points stop at a smaller sphere
+        want = [j for _, j in sorted(zip(d2[inside], inside, strict=True))[:NEAREST]]
+        assert n_matches[i] == len(want), i
+        assert list(matches[i, : n_matches[i]]) == want, i
+        fewer += len(want) < NEAREST
+    assert fewer >= 20  # the far points (and some sparse ones) have fewer than NEAREST
 
 
 @pytest.mark.parametrize("reach", [1, 2, 4])
 def test_a_neighbour_search_lists_every_point_within_its_radius_in_voxel_order(reach):
     # A wall (points stacked over many layers, so the rows of columns it scans hold voxels
-    # outside the z window), a cluster, scattered and negative coordinates: the search lists
-    # exactly the points within the radius, in the order of the sorted voxel keys — the list a
-    # binary search per column gave (session 49 scans a row of columns after one search).
-    from mapper.heading_planes import _neighbours, _voxel_order
+    # outside the z window), a cluster, scattered and negative coordinates: the search, every
+    # point taken in key order (its rows' forward pointers), lists exactly the points within the
+    # radius, in the order of the sorted voxel keys — the list a binary search per column gave
+    # (session 49 scans a row of columns after one search, session 58 from forward pointers).
+    from mapper.heading_planes import _key_ordered, _swept_neighbours, _voxel_order
 
     rng = np.random.default_rng(5)
     wall = np.column_stack(
@@ -152,12 +155,20 @@ def test_a_neighbour_search_lists_every_point_within_its_radius_in_voxel_order(r
     x, y, z = (np.ascontiguousarray(points[:, k]) for k in range(3))
     radius = 0.06
     order, keys, cells = _voxel_order(x, y, z, radius / reach)
+    sorted_xyz, sorted_cells = _key_ordered(x, y, z, order, cells)
+    assert np.array_equal(sorted_xyz, points[order]) and np.array_equal(sorted_cells, cells[order])
     found_j = np.empty(len(points), dtype=np.int64)
     found_d2 = np.empty(len(points))
+    pointers = np.zeros(2 * reach + 1, dtype=np.int64)
     reach = np.int64(reach)
-    for i in range(0, len(points), 7):
-        count = _neighbours(i, x, y, z, order, keys, cells, radius**2, found_j, found_d2, reach)
+    for q in range(len(points)):
+        count = _swept_neighbours(
+            q, sorted_xyz, keys, sorted_cells, radius**2, found_j, found_d2, reach, pointers,
+            np.int64(0),
+        )  # fmt: skip
+        i = order[q]
         d2 = ((points - points[i]) ** 2).sum(axis=1)
         want = [int(j) for j in order if d2[j] <= radius**2]
-        assert found_j[:count].tolist() == want, i
+        assert order[found_j[:count]].tolist() == want, i
+        assert np.array_equal(found_d2[:count], d2[want])
         assert np.array_equal(found_d2[:count], d2[want])
