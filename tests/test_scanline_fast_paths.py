@@ -11,7 +11,7 @@ import numpy as np
 import pytest
 
 from mapper import scanline
-from mapper.scanline.noise import _box_counts, _box_mean
+from mapper.scanline.noise import _box_counts, _box_mean, _running_row_sums
 from mapper.scanline.planes import _solve_plane
 
 
@@ -59,6 +59,29 @@ def test_box_mean_is_the_clipped_mean_of_a_3_row_box():
                 assert out[r, c] == pytest.approx(present.mean(), rel=1e-12)
             else:
                 assert np.isnan(out[r, c])
+
+
+@pytest.mark.parametrize("height", [1, 3, 4, 5, 9])
+@pytest.mark.parametrize("half_cols", [0, 2, 20])
+def test_running_row_sums_are_each_rows_own_running_sum_bit_for_bit(height, half_cols):
+    # Four rows are summed side by side (and the rest one by one): each row's sum is still
+    # the one running sum of that row alone, the entering value added before the leaving one
+    # is subtracted, so the float sums are the same to the last bit.
+    rng = np.random.default_rng(height * 100 + half_cols)
+    values = rng.uniform(0.0, 1.0, size=(height, 13)) * 10.0 ** rng.integers(-3, 3, (height, 13))
+    out = np.empty_like(values)
+    _running_row_sums(values, half_cols, out)
+    width = values.shape[1]
+    for r in range(height):
+        s = 0.0
+        for add in range(min(half_cols, width)):
+            s += values[r, add]
+        for c in range(width):
+            if c + half_cols < width:
+                s += values[r, c + half_cols]
+            if c - half_cols - 1 >= 0:
+                s -= values[r, c - half_cols - 1]
+            assert out[r, c] == s, (r, c)
 
 
 def test_plane_moments_of_rays_and_depths_are_those_of_the_points():

@@ -31,18 +31,62 @@ def _box_counts(values, half_cols, counts, row_cnt):
     """
     height, width = values.shape
     for r in range(height):
-        k = 0.0
-        for add in range(min(half_cols, width)):
-            k += 1.0 if values[r, add] == values[r, add] else 0.0
+        for c in range(width):
+            counts[r, c] = 1.0 if values[r, c] == values[r, c] else 0.0
+    _running_row_sums(counts, half_cols, row_cnt)
+    _sum_3_rows(row_cnt, counts)
+
+
+@numba.njit(cache=True, no_cfunc_wrapper=True, nogil=True, error_model="numpy")
+def _running_row_sums(values, half_cols, out):
+    """``out[r, c] = Σ values[r, c − half_cols … c + half_cols]`` (the part in the image).
+
+    A running sum along each row: the first ``half_cols`` values, then per column the one
+    entering added and the one leaving subtracted, in that order. Each row's sum is a chain of
+    dependent additions; four rows are summed side by side, each in its own order (written out:
+    four scalars the compiler keeps in registers), so that the CPU runs their chains at once
+    (session 58: the same sums bit for bit, `tests/test_scanline_fast_paths.py`).
+    """
+    height, width = values.shape
+    lead = min(half_cols, width)
+    r = 0
+    while r + 4 <= height:
+        s0 = s1 = s2 = s3 = 0.0
+        for add in range(lead):
+            s0 += values[r, add]
+            s1 += values[r + 1, add]
+            s2 += values[r + 2, add]
+            s3 += values[r + 3, add]
         for c in range(width):
             add = c + half_cols
             if add < width:
-                k += 1.0 if values[r, add] == values[r, add] else 0.0
+                s0 += values[r, add]
+                s1 += values[r + 1, add]
+                s2 += values[r + 2, add]
+                s3 += values[r + 3, add]
             drop = c - half_cols - 1
             if drop >= 0:
-                k -= 1.0 if values[r, drop] == values[r, drop] else 0.0
-            row_cnt[r, c] = k
-    _sum_3_rows(row_cnt, counts)
+                s0 -= values[r, drop]
+                s1 -= values[r + 1, drop]
+                s2 -= values[r + 2, drop]
+                s3 -= values[r + 3, drop]
+            out[r, c] = s0
+            out[r + 1, c] = s1
+            out[r + 2, c] = s2
+            out[r + 3, c] = s3
+        r += 4
+    for rr in range(r, height):
+        s0 = 0.0
+        for add in range(lead):
+            s0 += values[rr, add]
+        for c in range(width):
+            add = c + half_cols
+            if add < width:
+                s0 += values[rr, add]
+            drop = c - half_cols - 1
+            if drop >= 0:
+                s0 -= values[rr, drop]
+            out[rr, c] = s0
 
 
 @numba.njit(cache=True, no_cfunc_wrapper=True, nogil=True, error_model="numpy")
@@ -80,19 +124,7 @@ def _box_mean(values, clip_factor, clip, half_cols, counts, work, row_sum, out):
                 work[r, c] = min(v, clip_factor * clip[r, c]) if clip_factor > 0.0 else v
             else:
                 work[r, c] = 0.0
-    for r in range(height):
-        # Running sums over columns [c - half_cols, c + half_cols].
-        s = 0.0
-        for add in range(min(half_cols, width)):
-            s += work[r, add]
-        for c in range(width):
-            add = c + half_cols
-            if add < width:
-                s += work[r, add]
-            drop = c - half_cols - 1
-            if drop >= 0:
-                s -= work[r, drop]
-            row_sum[r, c] = s
+    _running_row_sums(work, half_cols, row_sum)  # over columns [c - half_cols, c + half_cols]
     _sum_3_rows(row_sum, work)
     for r in range(height):
         for c in range(width):
