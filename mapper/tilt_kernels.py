@@ -501,7 +501,11 @@ def tilt_consensus(normals, weights, candidates, agree, support, min_abs_z):
     The reference is the candidate of the largest ``support`` (the first of equals, as
     ``np.argmax``); the candidates agreeing with it are summed in plane order weighted by
     ``weights`` (numpy's sum over the rows: a plain loop) and normalised by the norm as
-    ``np.linalg.norm`` takes it (OpenBLAS's ddot: ``fma(m2, m2, fma(m1, m1, m0·m0))``).
+    ``np.linalg.norm`` took it on the AVX-512 machine this was written on (OpenBLAS's ddot:
+    ``fma(m2, m2, fma(m1, m1, m0·m0))``), on every CPU: OpenBLAS's ddot on a Zen 3 EPYC sums
+    plainly (session 58: 2 144 of 20 000 random 3-vectors differ in the last bit), so numpy's
+    own norm would make the tilt depend on the CPU (`tests/test_fused_kernels.py` spells the
+    fused order out).
 
     Args:
         normals: (P, 3) unit normals in the robot frame.

@@ -11,6 +11,7 @@ mapper/pose_correction.py at e15ff06); the kernels must give the same bits.
 from __future__ import annotations
 
 import math
+from fractions import Fraction
 
 import numpy as np
 import pytest
@@ -445,6 +446,23 @@ def test_plane_geometry_known_answer():
 # ---- the pose correction ----------------------------------------------------------------------
 
 
+def _fma(a: float, b: float, c: float) -> float:
+    """``a·b + c`` rounded once: exact in fractions, then rounded to the nearest float."""
+    return float(Fraction(a) * Fraction(b) + Fraction(c))
+
+
+def _fused_norm(v: np.ndarray) -> float:
+    """``np.linalg.norm`` of a 3-vector as OpenBLAS's fused ddot takes it (the kernel's order).
+
+    e15ff06's ``np.linalg.norm(mean)`` is BLAS's ddot, whose order depends on the CPU's kernel:
+    fused multiply-adds ``fma(v2, v2, fma(v1, v1, v0·v0))`` on the AVX-512 machine the kernel was
+    written on, a plain sum on a Zen 3 EPYC (session 58: 2 144 of 20 000 random vectors differ in
+    the last bit, and this test failed there). The kernel keeps the fused order on every CPU, so
+    the reference spells it out instead of asking the host's BLAS.
+    """
+    return math.sqrt(_fma(v[2], v[2], _fma(v[1], v[1], v[0] * v[0])))
+
+
 def _numpy_estimate_tilt(normals, areas, eigen, counts, pivot, params):
     """`pose_correction.estimate_tilt` at e15ff06."""
     identity = PoseCorrection.identity(pivot)
@@ -464,7 +482,7 @@ def _numpy_estimate_tilt(normals, areas, eigen, counts, pivot, params):
     support = agree.astype(np.float64) @ areas
     candidates &= agree[int(np.argmax(np.where(candidates, support, -1.0)))]
     mean = (normals[candidates] * areas[candidates, None]).sum(axis=0)
-    mean /= np.linalg.norm(mean)
+    mean /= _fused_norm(mean)
     if not within_deg_of_vertical(mean[None], params.max_tilt_correction_deg)[0]:
         return identity
     return PoseCorrection(
