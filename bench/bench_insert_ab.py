@@ -21,9 +21,7 @@ Run: ``.venv/bin/python bench/bench_insert_ab.py --base e38a5f4 REC.npz [REC.npz
 from __future__ import annotations
 
 import argparse
-import importlib.util
 import os
-import subprocess
 import sys
 import tempfile
 import time
@@ -33,31 +31,11 @@ from types import ModuleType
 import numpy as np
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
+from base_module import module_at
 from bench_mapper import FrameSet, stage_frames
 
 from mapper import FloorObstacleMapper, occupancy
 from mapper.grid import scroll_xy
-
-ROOT = Path(__file__).resolve().parents[1]
-
-
-def module_at(commit: str, directory: Path) -> ModuleType:
-    """``mapper/occupancy.py`` as of ``commit``, imported as the module ``occupancy_base``."""
-    source = subprocess.run(
-        ["git", "show", f"{commit}:mapper/occupancy.py"],
-        cwd=ROOT,
-        check=True,
-        capture_output=True,
-        text=True,
-    ).stdout
-    path = directory / "occupancy_base.py"
-    path.write_text(source)
-    sys.path.insert(0, str(directory))  # numba's cache finds the module by name
-    spec = importlib.util.spec_from_file_location("occupancy_base", path)
-    module = importlib.util.module_from_spec(spec)
-    sys.modules["occupancy_base"] = module
-    spec.loader.exec_module(module)
-    return module
 
 
 class Kernel:
@@ -142,7 +120,7 @@ def main() -> None:
     args = parser.parse_args()
     codegen = os.environ.get("NUMBA_CPU_NAME", "host")
     with tempfile.TemporaryDirectory() as directory:
-        base = module_at(args.base, Path(directory))
+        base = module_at(args.base, "mapper/occupancy.py", Path(directory))
         frame_sets = [stage_frames(Path(path), args.frames) for path in args.recordings]
         for frame_set in frame_sets:  # compile or load both kernels before timing
             warm_up = FrameSet("warm-up", "", frame_set.params, frame_set.frames[:2])
