@@ -13,7 +13,8 @@ are left out.
 
 Run: ``.venv/bin/python bench/bench_refine_ab.py --base e51a260 REC.npz [REC.npz ...]``
 (session 58: base e51a260, the stage's depth and stereo recordings and `down_landing_turn`'s
-stereo one, seed 1: 5 637–9 094 points a fit, 74–153 → 55–108 ms on a Zen 3 EPYC).
+stereo one, seed 1, ``--repeats 5``: 7 fits of 5 637–9 094 points, 71.6–141.0 → 51.6–105.4 ms,
+1.29–1.39×, on a Zen 3 EPYC at load 1.3–1.8).
 """
 
 from __future__ import annotations

@@ -34,7 +34,7 @@ point, a row of (x, y) columns at a time, the points taken in key order (`_voxel
 voxels of a quarter) until one holds `NEAREST` points (`_nearest_matches`): the same matches,
 bit for bit, where a surface seen by a dozen keyframes puts hundreds of points within the
 radius (session 41: a fit 3.4–4.5× faster, 0.33 → 0.10 s on the stage's keyframes, 0.77 →
-0.17 s on `room`'s, on the main thread of a run; session 58's sweep 1.3–1.7× more).
+0.17 s on `room`'s, on the main thread of a run; session 58's sweep 1.29–1.39× more).
 
 Measured (session 40). The estimator's final correction against the one each run needed (the
 median over its frames of the believed camera's yaw error in the robot frame,
@@ -244,9 +244,10 @@ def _nearest_matches(x, y, z, order, keys, cells, r2, matches, n_matches):
     key order (``order, keys, cells``: `_voxel_order` with the voxel ``sqrt(r2) /
     MATCH_TIERS[-1]``), read in that order from a sorted copy, and each tier's rows are found by
     forward pointers (`_swept_neighbours`) instead of a binary search a row: session 58, the
-    refinement 1.3–1.7× faster on the captured fits of three stage and `down_landing_turn`
-    replays (5 637–9 094 points, 74–153 → 55–108 ms), the same corrections, information and RMS
-    to the last bit. The candidates' order does not matter: the `NEAREST` smallest ``(d²,
+    refinement 1.29–1.39× faster on the 7 fits of three replays (the stage in depth and stereo,
+    `down_landing_turn` in stereo; 5 637–9 094 points, 71.6–141.0 → 51.6–105.4 ms, Zen 3 EPYC,
+    `bench/bench_refine_ab.py --repeats 5`), the same corrections, information and RMS to the
+    last bit. The candidates' order does not matter: the `NEAREST` smallest ``(d²,
     index)`` pairs, in that order, are the same whatever order they come in.
 
     Args:
