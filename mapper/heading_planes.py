@@ -185,7 +185,9 @@ def _key_ordered(x, y, z, order, cells):
 
 
 @numba.njit(cache=True, no_cfunc_wrapper=True, nogil=True, error_model="numpy")
-def _swept_neighbours(q, sorted_xyz, keys, cells, r2, found_j, found_d2, reach, pointers, base):
+def _swept_neighbours(
+    q, sorted_xyz, keys, sorted_cells, r2, found_j, found_d2, reach, pointers, base
+):
     """The points within ``sqrt(r2)`` of the point at ``q`` in key order (itself too): how many.
 
     ``sorted_xyz, keys, sorted_cells``: the points, their keys and voxels in key order
@@ -204,7 +206,7 @@ def _swept_neighbours(q, sorted_xyz, keys, cells, r2, found_j, found_d2, reach, 
     """
     n = keys.shape[0]
     found = 0
-    cx, cy, cz = cells[q, 0], cells[q, 1], cells[q, 2]
+    cx, cy, cz = sorted_cells[q, 0], sorted_cells[q, 1], sorted_cells[q, 2]
     px, py, pz = sorted_xyz[q, 0], sorted_xyz[q, 1], sorted_xyz[q, 2]
     low_z = cz - reach
     high_z = cz + reach
