@@ -148,19 +148,26 @@ _KEY_RANGE = np.int64(1 << 20)
 
 @numba.njit(cache=True, no_cfunc_wrapper=True, nogil=True, error_model="numpy")
 def _voxel_order(x, y, z, size):
-    """Points sorted by voxel (``size`` cube): (order, sorted keys, voxel indices (N, 3))."""
+    """Points sorted by voxel (``size`` cube): (order, sorted keys, the points (N, 3) in order).
+
+    A key is ``(cx·R + cy)·R + cz`` (``R`` = `_KEY_RANGE`, each index offset into ``[0, R)``),
+    so a point's voxel is its key's three fields: `_swept_neighbours` reads it there. The
+    points are copied in key order, so that the searches read them one after the other.
+    """
     n = x.shape[0]
-    cells = np.empty((n, 3), dtype=np.int64)
     keys = np.empty(n, dtype=np.int64)
     half = _KEY_RANGE // 2
     for i in range(n):
         cx = np.int64(math.floor(x[i] / size)) + half
         cy = np.int64(math.floor(y[i] / size)) + half
         cz = np.int64(math.floor(z[i] / size)) + half
-        cells[i, 0], cells[i, 1], cells[i, 2] = cx, cy, cz
         keys[i] = (cx * _KEY_RANGE + cy) * _KEY_RANGE + cz
     order = np.argsort(keys, kind="mergesort")
-    return order, keys[order], cells
+    points = np.empty((n, 3))
+    for q in range(n):
+        i = order[q]
+        points[q, 0], points[q, 1], points[q, 2] = x[i], y[i], z[i]
+    return order, keys[order], points
 
 
 _SWEPT_ROWS = sum(2 * reach + 1 for reach in MATCH_TIERS)
@@ -168,30 +175,11 @@ _SWEPT_ROWS = sum(2 * reach + 1 for reach in MATCH_TIERS)
 
 
 @numba.njit(cache=True, no_cfunc_wrapper=True, nogil=True, error_model="numpy")
-def _key_ordered(x, y, z, order, cells):
-    """The points (M, 3) [m] and their voxels (M, 3) in key order (`_voxel_order`'s ``order``).
-
-    `_swept_neighbours` reads them one after the other instead of through ``order``.
-    """
-    n = order.shape[0]
-    points = np.empty((n, 3))
-    voxels = np.empty((n, 3), dtype=np.int64)
-    for q in range(n):
-        i = order[q]
-        points[q, 0], points[q, 1], points[q, 2] = x[i], y[i], z[i]
-        for a in range(3):
-            voxels[q, a] = cells[i, a]
-    return points, voxels
-
-
-@numba.njit(cache=True, no_cfunc_wrapper=True, nogil=True, error_model="numpy")
-def _swept_neighbours(
-    q, sorted_xyz, keys, sorted_cells, r2, found_j, found_d2, reach, pointers, base
-):
+def _swept_neighbours(q, sorted_xyz, keys, r2, found_j, found_d2, reach, pointers, base):
     """The points within ``sqrt(r2)`` of the point at ``q`` in key order (itself too): how many.
 
-    ``sorted_xyz, keys, sorted_cells``: the points, their keys and voxels in key order
-    (`_voxel_order`, `_key_ordered`) with a voxel size of at least ``sqrt(r2) / reach``, so
+    ``sorted_xyz, keys``: the points and their keys in key order (`_voxel_order`) with a voxel
+    size of at least ``sqrt(r2) / reach``, so
     the ``(2·reach + 1)³`` voxels around the point hold every one of them. The voxels of one row
     of columns, ``(cx + dx, cy − reach … cy + reach)``, are consecutive keys, its voxels outside
     the z window skipped; the row starts at the key ``key_q + dx·R² − reach·R − reach`` (``R`` =
@@ -206,15 +194,16 @@ def _swept_neighbours(
     """
     n = keys.shape[0]
     found = 0
-    cx, cy, cz = sorted_cells[q, 0], sorted_cells[q, 1], sorted_cells[q, 2]
+    key = keys[q]
     px, py, pz = sorted_xyz[q, 0], sorted_xyz[q, 1], sorted_xyz[q, 2]
-    low_z = cz - reach
-    high_z = cz + reach
     z_bits = _KEY_RANGE - 1
+    low_z = (key & z_bits) - reach
+    high_z = (key & z_bits) + reach
+    reach_span = reach * _KEY_RANGE + reach  # from (cy, cz) to (cy ± reach, cz ± reach)
     for dx in range(-reach, reach + 1):
-        row = (cx + dx) * _KEY_RANGE
-        first = (row + cy - reach) * _KEY_RANGE + low_z
-        last = (row + cy + reach) * _KEY_RANGE + high_z
+        row = key + dx * _KEY_RANGE * _KEY_RANGE  # the key of (cx + dx, cy, cz)
+        first = row - reach_span
+        last = row + reach_span
         slot = base + dx + reach
         at = pointers[slot]
         while at < n and keys[at] < first:
@@ -236,15 +225,15 @@ def _swept_neighbours(
 
 
 @numba.njit(cache=True, no_cfunc_wrapper=True, nogil=True, error_model="numpy")
-def _nearest_matches(x, y, z, order, keys, cells, r2, matches, n_matches):
+def _nearest_matches(order, keys, sorted_xyz, r2, matches, n_matches):
     """Every point's `NEAREST` nearest within ``sqrt(r2)`` (itself included), ties by index.
 
     The search widens over `MATCH_TIERS` (a quarter, half, the whole radius) until a sphere
     holds `NEAREST` points: then no point outside it is nearer than any inside, so the `NEAREST`
     nearest (ties by index) are the same as over the whole radius, where the matches lie among
     hundreds of points of a dozen keyframes seeing the same surface. The points are taken in
-    key order (``order, keys, cells``: `_voxel_order` with the voxel ``sqrt(r2) /
-    MATCH_TIERS[-1]``), read in that order from a sorted copy, and each tier's rows are found by
+    key order (``order, keys, sorted_xyz``: `_voxel_order` with the voxel ``sqrt(r2) /
+    MATCH_TIERS[-1]``), read in that order from its sorted copy, and each tier's rows are found by
     forward pointers (`_swept_neighbours`) instead of a binary search a row: session 58, the
     refinement 1.29–1.39× faster on the 7 fits of three replays (the stage in depth and stereo,
     `down_landing_turn` in stereo; 5 637–9 094 points, 71.6–141.0 → 51.6–105.4 ms, Zen 3 EPYC,
@@ -253,12 +242,9 @@ def _nearest_matches(x, y, z, order, keys, cells, r2, matches, n_matches):
     index)`` pairs, in that order, are the same whatever order they come in.
 
     Args:
-        x: (M,) the points' world x [m].
-        y: (M,) their world y [m].
-        z: (M,) their world z [m].
         order: `_voxel_order`'s.
         keys: `_voxel_order`'s.
-        cells: `_voxel_order`'s.
+        sorted_xyz: `_voxel_order`'s points (M, 3) [m] in key order.
         r2: The squared match radius [m²].
         matches: (M, `NEAREST`) int64, out: each point's nearest, nearest first.
         n_matches: (M,) int64, out: how many (at most `NEAREST`).
@@ -269,7 +255,6 @@ def _nearest_matches(x, y, z, order, keys, cells, r2, matches, n_matches):
     found_d2 = np.empty(n)
     best_d = np.empty(NEAREST)
     best_j = np.empty(NEAREST, dtype=np.int64)
-    sorted_xyz, sorted_cells = _key_ordered(x, y, z, order, cells)
     for q in range(n):
         i = order[q]
         count = 0
@@ -277,8 +262,8 @@ def _nearest_matches(x, y, z, order, keys, cells, r2, matches, n_matches):
         for reach in MATCH_TIERS:
             scale = reach / MATCH_TIERS[-1]
             count = _swept_neighbours(
-                q, sorted_xyz, keys, sorted_cells, r2 * scale * scale, found_j, found_d2, reach,
-                pointers, base,
+                q, sorted_xyz, keys, r2 * scale * scale, found_j, found_d2, reach, pointers,
+                base,
             )  # fmt: skip
             base += 2 * reach + 1
             if count >= NEAREST:
@@ -322,8 +307,7 @@ def keyframe_normals(offsets_xy, z, radius_m):
     weights = np.zeros(n)
     x = np.ascontiguousarray(offsets_xy[:, 0])
     y = np.ascontiguousarray(offsets_xy[:, 1])
-    order, keys, cells = _voxel_order(x, y, z, radius_m)
-    sorted_xyz, sorted_cells = _key_ordered(x, y, z, order, cells)
+    order, keys, sorted_xyz = _voxel_order(x, y, z, radius_m)
     r2 = radius_m * radius_m
     found_j = np.empty(n, dtype=np.int64)
     found_d2 = np.empty(n)
@@ -332,9 +316,7 @@ def keyframe_normals(offsets_xy, z, radius_m):
     pointers = np.zeros(2 * reach + 1, dtype=np.int64)
     for q in range(n):  # in key order: each point's neighbours, in key order, as before
         i = order[q]
-        count = _swept_neighbours(
-            q, sorted_xyz, keys, sorted_cells, r2, found_j, found_d2, reach, pointers, base
-        )
+        count = _swept_neighbours(q, sorted_xyz, keys, r2, found_j, found_d2, reach, pointers, base)
         sx = sy = sxx = sxy = syy = 0.0
         for t in range(count):
             j = order[found_j[t]]
@@ -434,12 +416,12 @@ def refine_heading(
             y[i] = camera_xy[k, 1] + s * offsets_xy[i, 0] + c * offsets_xy[i, 1]
             nx[i] = c * normals_xy[i, 0] - s * normals_xy[i, 1]
             ny[i] = s * normals_xy[i, 0] + c * normals_xy[i, 1]
-        order, keys, cells = _voxel_order(x, y, z_world, match_m / MATCH_TIERS[-1])
+        order, keys, sorted_xyz = _voxel_order(x, y, z_world, match_m / MATCH_TIERS[-1])
         numerator = 0.0
         information = 0.0
         weight_sum = 0.0
         square_sum = 0.0
-        _nearest_matches(x, y, z_world, order, keys, cells, r2, matches, n_matches)
+        _nearest_matches(order, keys, sorted_xyz, r2, matches, n_matches)
         for i in range(m):
             ki = keyframe_of[i]
             for t in range(n_matches[i]):

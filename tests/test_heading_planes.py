@@ -120,11 +120,11 @@ def test_the_tiered_search_finds_the_same_nearest_points_as_the_whole_radius():
     far = rng.uniform(-3.0, -2.0, size=(20, 3))  # alone: no neighbour but itself
     points = np.vstack([dense, sparse, grid, far])
     x, y, z = (np.ascontiguousarray(points[:, k]) for k in range(3))
-    order, keys, cells = _voxel_order(x, y, z, MATCH_M / MATCH_TIERS[-1])
+    order, keys, sorted_xyz = _voxel_order(x, y, z, MATCH_M / MATCH_TIERS[-1])
     matches = np.full((len(points), NEAREST), -1, dtype=np.int64)
     n_matches = np.full(len(points), -1, dtype=np.int64)
     r2 = MATCH_M * MATCH_M
-    _nearest_matches(x, y, z, order, keys, cells, r2, matches, n_matches)
+    _nearest_matches(order, keys, sorted_xyz, r2, matches, n_matches)
     fewer = 0
     for i in range(len(points)):
         d2 = ((points - points[i]) ** 2).sum(axis=1)
@@ -143,7 +143,7 @@ def test_a_neighbour_search_lists_every_point_within_its_radius_in_voxel_order(r
     # point taken in key order (its rows' forward pointers), lists exactly the points within the
     # radius, in the order of the sorted voxel keys — the list a binary search per column gave
     # (session 49 scans a row of columns after one search, session 58 from forward pointers).
-    from mapper.heading_planes import _key_ordered, _swept_neighbours, _voxel_order
+    from mapper.heading_planes import _KEY_RANGE, _swept_neighbours, _voxel_order
 
     rng = np.random.default_rng(5)
     wall = np.column_stack(
@@ -154,17 +154,19 @@ def test_a_neighbour_search_lists_every_point_within_its_radius_in_voxel_order(r
     points = np.vstack([wall, cluster, scattered])
     x, y, z = (np.ascontiguousarray(points[:, k]) for k in range(3))
     radius = 0.06
-    order, keys, cells = _voxel_order(x, y, z, radius / reach)
-    sorted_xyz, sorted_cells = _key_ordered(x, y, z, order, cells)
-    assert np.array_equal(sorted_xyz, points[order]) and np.array_equal(sorted_cells, cells[order])
+    order, keys, sorted_xyz = _voxel_order(x, y, z, radius / reach)
+    # The points in key order, and each key the point's voxel (the search reads it there).
+    cells = np.floor(points / (radius / reach)).astype(np.int64) + _KEY_RANGE // 2
+    field = _KEY_RANGE - 1
+    decoded = np.column_stack([keys >> 40, (keys >> 20) & field, keys & field])
+    assert np.array_equal(sorted_xyz, points[order]) and np.array_equal(decoded, cells[order])
     found_j = np.empty(len(points), dtype=np.int64)
     found_d2 = np.empty(len(points))
     pointers = np.zeros(2 * reach + 1, dtype=np.int64)
     reach = np.int64(reach)
     for q in range(len(points)):
         count = _swept_neighbours(
-            q, sorted_xyz, keys, sorted_cells, radius**2, found_j, found_d2, reach, pointers,
-            np.int64(0),
+            q, sorted_xyz, keys, radius**2, found_j, found_d2, reach, pointers, np.int64(0),
         )  # fmt: skip
         i = order[q]
         d2 = ((points - points[i]) ** 2).sum(axis=1)
