@@ -392,6 +392,28 @@ def test_suite_over_seeds_writes_mean_and_worst_and_checks_a_baseline(
     assert "WORSE" not in err
 
 
+def test_a_bad_set_is_refused_before_any_run(two_scenarios, tmp_path, monkeypatch, capsys):
+    # An override no scenario takes is a bad command line: exit 2 with one message naming
+    # the key and what is allowed, nothing run and no folder written, instead of every
+    # scenario failing on its own. A broken file still fails only its own scenario.
+    runs = []
+    monkeypatch.setattr("fogsim.run.seeds.run_scenario", lambda *a, **k: runs.append(a))
+    (two_scenarios / "gamma.toml").write_text('name = "gamma"\nseed = [\n')
+    out = tmp_path / "out"
+    suite = ["suite", str(two_scenarios), "--seeds", "1-2", "--workers", "1", "--out", str(out)]
+    assert main([*suite, "--set", "heading.min_contrast=5"]) == 2
+    err = capsys.readouterr().err
+    assert "--set heading.min_contrast=5: fails on every scenario of the suite (2)" in err
+    assert "HeadingParams.min_contrast must be in [0, 1), got 5" in err
+    assert main([*suite, "--set", "head.min_contrast=0.2"]) == 2
+    assert "'head' is not a table; tables: robot, camera" in capsys.readouterr().err
+    assert runs == [] and not out.exists()
+    fake_runs(monkeypatch)
+    assert main([*suite, "--set", "heading.min_contrast=0.2"]) == 1  # gamma fails alone
+    err = capsys.readouterr().err
+    assert "FAILED gamma:" in err and "FAILED alpha" not in err and "FAILED beta" not in err
+
+
 def test_suite_check_finds_worse_figures(two_scenarios, tmp_path, monkeypatch, capsys):
     def suite(seeds, out, *options):
         return main(["suite", str(two_scenarios), "--seeds", seeds, "--workers", "1",

@@ -144,6 +144,39 @@ def _jobs(
     return seed_jobs(scenario, seeds, folder, prefix=f"{name}/", max_frames=max_frames)
 
 
+def _load_with_overrides(
+    paths: Sequence[Path], overrides: Sequence[str]
+) -> list[Scenario | FogsimError]:
+    """Each scenario file loaded with the overrides applied, or why it could not be.
+
+    A broken file fails its own scenario, not the suite; but overrides that fail on every
+    scenario that loads are a bad command line (an unknown key, a value out of range), which
+    no run would survive: that is raised before any run, once, instead of failing each.
+
+    Raises:
+        FogsimError: The overrides fail on every scenario that loads without them.
+    """
+    loaded: list[Scenario | FogsimError] = []
+    override_errors: list[FogsimError] = []
+    for path in paths:
+        try:
+            scenario = load_scenario(path)
+        except FogsimError as exc:
+            loaded.append(exc)
+            continue
+        try:
+            loaded.append(scenario.with_overrides(list(overrides)) if overrides else scenario)
+        except FogsimError as exc:
+            loaded.append(exc)
+            override_errors.append(exc)
+    if override_errors and not any(isinstance(entry, Scenario) for entry in loaded):
+        raise FogsimError(
+            f"--set {' '.join(overrides)}: fails on every scenario of the suite "
+            f"({len(override_errors)}), e.g. {override_errors[0]}"
+        )
+    return loaded
+
+
 def run_suite(
     directory: str | os.PathLike[str] | None,
     out_dir: str | os.PathLike[str],
@@ -178,22 +211,23 @@ def run_suite(
 
     Raises:
         FogsimError: No scenario file, ``workers`` out of range, two files with one scenario
-            name, an invalid or unreachable ``ray_address`` (before any run).
+            name, an invalid or unreachable ``ray_address``, ``overrides`` that apply to none
+            of the scenarios that load (before any run).
         OutputError: ``out_dir`` cannot be written (found before the runs) or writing failed.
     """
     paths = scenario_paths(directory, quick)
     check_workers(workers)
     if ray_address is not None:
         check_ray_address(ray_address)
+    loaded = _load_with_overrides(paths, overrides)
     max_frames = QUICK_MAX_FRAMES if quick else None
     with RunFolder(out_dir) as folder:
         start = time.perf_counter()
         planned: dict[str, list[SeedJob] | str] = {}  # name → its jobs, or why it was not loaded
-        for path in paths:
+        for path, scenario in zip(paths, loaded, strict=True):
             try:
-                scenario = load_scenario(path)
-                if overrides:
-                    scenario = scenario.with_overrides(list(overrides))
+                if isinstance(scenario, FogsimError):
+                    raise scenario
                 scenario_dir = child_path(folder.path, scenario.name, f"{path}: scenario name")
             except FogsimError as exc:  # a broken file fails its scenario, not the suite
                 planned[path.stem] = f"{type(exc).__name__}: {exc}"
