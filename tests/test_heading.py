@@ -434,6 +434,8 @@ def test_overlap_scores_divide_the_root_pairs_by_those_of_the_wide_voxels():
         ("structure_stall_keyframes", 2.0),
         ("interior_peak", 1),
         ("edge_on_agreement", 1),
+        ("plane_witness_sigma_deg", -0.1),
+        ("plane_witness_sigma_deg", 3.0),
     ],
 )
 def test_bad_parameters_are_refused_by_name(field, value):
@@ -949,11 +951,13 @@ def _wall(x0, x1, y0, y1, height, step):
     return np.stack([x0 + (x1 - x0) * tt.ravel(), y0 + (y1 - y0) * tt.ravel(), zz.ravel()], 1)
 
 
-def _walk_at_l_shaped_wall(estimator, yaw_error_deg):
-    """Walk the estimator 0.7 m straight at a wall across the path with a side wall (below)."""
-    scene = np.concatenate(
-        [_wall(1.9, 1.9, -0.6, 0.9, 0.3, 0.005), _wall(1.9, 2.1, 0.9, 0.9, 0.3, 0.005)]
-    )
+def _walk_at_l_shaped_wall(estimator, yaw_error_deg, side_wall=True):
+    """Walk the estimator 0.7 m straight at a wall across the path with a side wall (below);
+    ``side_wall`` False: the wall across the path alone."""
+    walls = [_wall(1.9, 1.9, -0.6, 0.9, 0.3, 0.005)]
+    if side_wall:
+        walls.append(_wall(1.9, 2.1, 0.9, 0.9, 0.3, 0.005))
+    scene = np.concatenate(walls)
     rng = np.random.default_rng(5)
     for i in range(8):
         x = 0.1 * i
@@ -1036,6 +1040,36 @@ def test_the_plane_witness_accepts_a_shallow_peak_both_fits_agree_on():
     assert math.degrees(mirrored.correction_rad) == pytest.approx(1.3, abs=0.06)
     assert walked(3.0, plane_witness_deg=0.25).estimates == 0
     assert walked(1.3, plane_witness_deg=0.25, flat_contrast=0.9).estimates == 0
+
+
+def test_the_plane_witness_refuses_fits_looser_than_their_agreement():
+    # The wall across the path alone (`down_low_steps`' low risers), a yaw error of 1.3°: it
+    # slides the wall along itself, so the fits barely move from where they start. From the
+    # score's estimate (-1.5°) and from 0 both end near 0 (1.3° off the -1.3° needed), with a
+    # standard error (RMS / √information) of 0.17°: without `plane_witness_sigma_deg` that is
+    # witnessed as the first estimate. At the default 0.1° it is refused (no estimate); with
+    # the side wall (`test_the_plane_witness_accepts_a_shallow_peak_both_fits_agree_on`) the
+    # fits' standard error is 0.02° and the witness stands.
+    def first_estimates_deg(**params):
+        estimator = HeadingEstimator(
+            HeadingParams(estimate_every=1, edge_score=False, min_contrast=0.9, **params)
+        )
+        accepted = []
+        estimate = estimator._estimate
+
+        def noted(edges):
+            before = estimator.estimates
+            estimate(edges)
+            if estimator.estimates > before:
+                accepted.append(math.degrees(estimator.correction_rad))
+
+        estimator._estimate = noted
+        _walk_at_l_shaped_wall(estimator, 1.3, side_wall=False)
+        return accepted
+
+    loose = first_estimates_deg(plane_witness_sigma_deg=0.0)
+    assert loose[0] == pytest.approx(0.0, abs=0.1)  # -1.3° needed
+    assert first_estimates_deg() == []
 
 
 def _first_accepted_and_refined(estimator, yaw_error_deg):
