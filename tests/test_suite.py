@@ -8,6 +8,7 @@ from report_factory import row
 from test_seeds import StepEdge, contract_report, event, fake_runs, seed_run
 
 from fogsim.cli import main
+from fogsim.config import load_scenario
 from fogsim.errors import FogsimError, ReportError
 from fogsim.eval.report.io import load_json, load_report, write_json
 from fogsim.eval.report.schema import MedianMax, MedianP95Max, PoseErrorStats
@@ -486,6 +487,28 @@ def test_committed_baseline_holds_the_stage_over_seeds_and_the_quick_subset(tmp_
     )
     path = write_baseline(tmp_path / "baseline.json", baseline)
     assert path.read_bytes() == committed.read_bytes()
+
+
+@pytest.mark.parametrize("folder", [SCENARIOS_DIR, HOLDOUT_DIR])
+def test_a_stereo_scene_has_one_entry_in_both_sets_of_a_committed_baseline(folder):
+    # A scene whose file sets the stereo head runs the same with `--set camera.mode=stereo`:
+    # its depth-set entry must equal its stereo-set entry (timing aside: two suites' wall
+    # clocks). A change of the stereo head rewrites both (`untextured`'s depth entry was left
+    # stale by session 55's, caught in session 59).
+    baseline = load_baseline(folder / "baseline.json")
+    depth, stereo = (baseline.sets[f"full seeds=1-8{s}"] for s in ("", " set=camera.mode=stereo"))
+    scenes = [
+        path.stem
+        for path in sorted(folder.glob("*.toml"))
+        if load_scenario(path).camera.mode == "stereo" and path.stem in depth
+    ]
+    assert scenes == (["untextured"] if folder == SCENARIOS_DIR else [])
+    for name in scenes:
+        figures = [
+            {k: v for k, v in s[name].figures.items() if not k.startswith("timing.")}
+            for s in (depth, stereo)
+        ]
+        assert figures[0] == figures[1], name
 
 
 def test_committed_holdout_baseline_holds_every_held_out_scene_in_both_modes(tmp_path):
