@@ -232,6 +232,22 @@ def test_overrides_apply_and_validate():
         stage.with_overrides(["objects.ghost.base=1"])
 
 
+def test_a_parameter_table_may_be_named_by_its_short_prefix():
+    # The README, the tuner and the bench tools name parameters `head.`, `seg.`, `pipe.`,
+    # `ref.`, `elev.`: the same keys go into the scenario's tables; an unknown prefix is
+    # still refused with the tables listed, under the key as given.
+    stage = load_scenario("stage")
+    short = stage.with_overrides(["head.min_contrast=0.2", "pipe.heading_rebuild_frames=10"])
+    long = stage.with_overrides(["heading.min_contrast=0.2", "pipeline.heading_rebuild_frames=10"])
+    assert short == long
+    assert short.heading == {"min_contrast": 0.2}
+    assert short.pipeline == {"heading_rebuild_frames": 10}
+    with pytest.raises(ScenarioError, match=r"key 'hed\.min_contrast': 'hed' is not a table"):
+        stage.with_overrides(["hed.min_contrast=0.2"])
+    with pytest.raises(ScenarioError, match=r"heading\.nonsense: unknown heading parameter"):
+        stage.with_overrides(["head.nonsense=1"])
+
+
 def test_defaults_fill_missing_sections():
     scenario = scenario_from_dict({"name": "bare"})
     assert isinstance(scenario, Scenario)

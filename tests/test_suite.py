@@ -406,8 +406,8 @@ def test_a_bad_set_is_refused_before_any_run(two_scenarios, tmp_path, monkeypatc
     err = capsys.readouterr().err
     assert "--set heading.min_contrast=5: fails on every scenario of the suite (2)" in err
     assert "HeadingParams.min_contrast must be in [0, 1), got 5" in err
-    assert main([*suite, "--set", "head.min_contrast=0.2"]) == 2
-    assert "'head' is not a table; tables: robot, camera" in capsys.readouterr().err
+    assert main([*suite, "--set", "hed.min_contrast=0.2"]) == 2
+    assert "'hed' is not a table; tables: robot, camera" in capsys.readouterr().err
     assert runs == [] and not out.exists()
     fake_runs(monkeypatch)
     assert main([*suite, "--set", "heading.min_contrast=0.2"]) == 1  # gamma fails alone

@@ -2,6 +2,9 @@
 
 Keys are dotted: ``seed=3``, ``camera.mode=ideal``, ``mapper.p_occ=0.7``,
 ``heading.interior_peak=false``, ``encoders.bias_deg=0``, ``objects.<name>.<field>=...``.
+A parameter table may also be named by its short prefix, as the tuner, the bench tools and the
+README name parameters (``head.min_contrast`` = ``heading.min_contrast``; ``seg.``, ``pipe.``,
+``ref.``, ``elev.``: `fogsim.config.params.OVERRIDE_PREFIXES`).
 Values are TOML values (``[1, 2]``, ``true``, ``0.5``); a bare word that is no TOML value is
 taken as a string (``camera.mode=ideal``).
 The scenario decodes the edited tables again, so a bad key or value fails as in a file.
@@ -19,9 +22,15 @@ from fogsim.errors import ScenarioError
 TABLES = ", ".join(("robot", "camera", "encoders", *OVERRIDE_PREFIXES, "objects.<name>"))
 """The tables an override key may go into (in messages)."""
 
+_TABLE_OF_PREFIX = {prefix[:-1]: table for table, prefix in OVERRIDE_PREFIXES.items() if prefix}
+"""A parameter table's short prefix (``head``) → the table (``heading``)."""
+
 
 def parse_override(assignment: str, origin: str) -> tuple[list[str], object]:
     """``"camera.mode=ideal"`` → ``(["camera", "mode"], "ideal")``.
+
+    A short prefix names its table: ``"head.min_contrast=0.2"`` → ``(["heading",
+    "min_contrast"], 0.2)``.
 
     Raises:
         ScenarioError: The text is no ``key=value``.
@@ -34,7 +43,10 @@ def parse_override(assignment: str, origin: str) -> tuple[list[str], object]:
         value = tomllib.loads(f"v = {text.strip()}")["v"]
     except (ValueError, RecursionError):  # no TOML value (TOMLDecodeError is a ValueError)
         value = text.strip()  # a bare word: the documented string shorthand
-    return key.split("."), value
+    parts = key.split(".")
+    if len(parts) > 1:
+        parts[0] = _TABLE_OF_PREFIX.get(parts[0], parts[0])
+    return parts, value
 
 
 def assign_overrides(
@@ -54,7 +66,7 @@ def assign_overrides(
     edited = copy.deepcopy(tables)
     for assignment in assignments:
         parts, value = parse_override(assignment, origin)
-        key = ".".join(parts)
+        key = assignment.partition("=")[0].strip()  # as given, short prefix and all
         target: object = edited
         for i, part in enumerate(parts[:-1]):
             if isinstance(target, list):  # objects.<name>
