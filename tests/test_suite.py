@@ -258,6 +258,9 @@ def test_a_run_with_overrides_has_a_set_of_its_own():
     stereo = suite_of(stereo_runs, overrides=["camera.mode = stereo", "mapper.p_occ=0.7"])
     name = "full seeds=1-3 set=camera.mode=stereo,mapper.p_occ=0.7"
     assert set_name(False, "1-3", ["mapper.p_occ=0.7", "camera.mode=stereo"]) == name
+    assert set_name(False, "1-3", ["head.min_contrast = 0.2"]) == (
+        "full seeds=1-3 set=heading.min_contrast=0.2"
+    )
     # Never checked against, nor written over, the plain run's figures.
     assert check_against_baseline(stereo, depth) == [
         f"baseline has no set '{name}' to compare this run with (it has: 'full seeds=1-3')"

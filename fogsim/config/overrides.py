@@ -26,6 +26,12 @@ _TABLE_OF_PREFIX = {prefix[:-1]: table for table, prefix in OVERRIDE_PREFIXES.it
 """A parameter table's short prefix (``head``) → the table (``heading``)."""
 
 
+def canonical_key(key: str) -> str:
+    """An override key with a short prefix spelt as its table: ``"head.x"`` → ``"heading.x"``."""
+    table, dot, rest = key.strip().partition(".")
+    return _TABLE_OF_PREFIX.get(table, table) + dot + rest if dot else table
+
+
 def parse_override(assignment: str, origin: str) -> tuple[list[str], object]:
     """``"camera.mode=ideal"`` → ``(["camera", "mode"], "ideal")``.
 
@@ -43,10 +49,7 @@ def parse_override(assignment: str, origin: str) -> tuple[list[str], object]:
         value = tomllib.loads(f"v = {text.strip()}")["v"]
     except (ValueError, RecursionError):  # no TOML value (TOMLDecodeError is a ValueError)
         value = text.strip()  # a bare word: the documented string shorthand
-    parts = key.split(".")
-    if len(parts) > 1:
-        parts[0] = _TABLE_OF_PREFIX.get(parts[0], parts[0])
-    return parts, value
+    return canonical_key(key).split("."), value
 
 
 def assign_overrides(

@@ -102,6 +102,7 @@ from typing import Literal
 
 from msgspec import UnsetType
 
+from fogsim.config.overrides import canonical_key
 from fogsim.errors import FogsimError, ReportError
 from fogsim.eval.report import Report
 from fogsim.eval.report.io import load_json, write_json
@@ -296,11 +297,16 @@ def set_name(quick: bool, seeds: str | None, overrides: Sequence[str] = ()) -> s
         seeds: The seeds in canonical form (:func:`fogsim.run.seed_spec.format_seeds`, e.g.
             ``"1-8"``), or None when each scenario ran at its own seed (``seeds=scenario``).
         overrides: The ``key=value`` assignments applied to every scenario; named sorted, with
-            the blanks around ``=`` removed, so their order on the command line does not matter.
+            the blanks around ``=`` removed and a short prefix spelt as its table
+            (`fogsim.config.overrides.canonical_key`: ``head.x`` is ``heading.x``), so neither
+            their order nor their spelling on the command line matters.
     """
     name = f"{'quick' if quick else 'full'} seeds={seeds if seeds is not None else 'scenario'}"
     if overrides:
-        canonical = sorted("=".join(part.strip() for part in o.split("=", 1)) for o in overrides)
+        canonical = sorted(
+            canonical_key(key) + "=" + value.strip()
+            for key, _, value in (o.partition("=") for o in overrides)
+        )
         name += " set=" + ",".join(canonical)
     return name
 
