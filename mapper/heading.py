@@ -496,16 +496,19 @@ class HeadingParams:
             went 1 → 4 unsafe cells and `talos_course` stereo seed 2 59 → 69. The seeds-1–8
             suites have every figure (README "Results"). So 0.25.
         plane_witness_sigma_deg: 0: off. Else both witness fits' standard error, RMS /
-            √information (the yaw's scatter were the residuals independent; neighbouring points
-            of a plane are not, so it is a lower bound), must be at most this [deg]: two fits
-            agreeing within `plane_witness_deg` witness nothing where either alone is looser
-            than that. Found on a held-out scene (session 59, `scenarios/holdout/
+            √information (the yaw's scatter if the residuals were independent; neighbouring
+            points of a plane are not, so it is a lower bound), must be at most this [deg]: two
+            fits agreeing within `plane_witness_deg` witness nothing where either alone is
+            looser than that. Found on a held-out scene (session 59, `scenarios/holdout/
             down_low_steps`, depth): its low risers face the path and slide along themselves
             under a yaw error, and on seeds 1 and 2 the witness was taken with 0.18° and 0.27°
             (information 6.2 and 2.5 m²/rad²), 0.64° and 1.99° off the need, and kept for the
-            whole walk (no later try stood out). Every witness taken on the depth recordings of
-            the stage, `table`, `rock_field` and every other scene with structure, seeds 1–8,
-            had 0.036–0.055° (information 46–125 m²/rad²); so 0.1°, in the gap.
+            whole walk (no later try stood out). Every other witness taken on the depth
+            recordings of seeds 1–8 of the eight held-out scenes and of `table`, the stage,
+            `stage_offgrid`, `room`, `stage_zigzag`, `talos_course`, `eth_stairs`, `stairs` and
+            `stage_down` (12, on `table`, the stage, `stage_offgrid` and `rock_field`) had
+            0.036–0.055° (information 46–135 m²/rad²); so 0.1°, in the gap. In stereo the
+            witness never fits (the stereo head's `flat_contrast` is `min_contrast`).
         plane_after_edges: `plane_refine_estimates` counts the structure score's estimates
             only (the keyframes keep their normals, and the structure score's first estimate
             is refined, after an edge-score stand-in too); False: every estimate counts, so a
