@@ -508,7 +508,11 @@ class HeadingParams:
             `stage_offgrid`, `room`, `stage_zigzag`, `talos_course`, `eth_stairs`, `stairs` and
             `stage_down` (12, on `table`, the stage, `stage_offgrid` and `rock_field`) had
             0.036–0.055° (information 46–135 m²/rad²); so 0.1°, in the gap. In stereo the
-            witness never fits (the stereo head's `flat_contrast` is `min_contrast`).
+            witness never fits (the stereo head's `flat_contrast` is `min_contrast`). The bound
+            is no proof of a right witness: with it, seed 2 takes a later one (frame 165,
+            0.048°, its two fits both from 0) 1.40° off, and seed 1 a later estimate that
+            stands out; their map heading 1.98 → 1.39° and 0.62 → 0.20°, unsafe cells 53 → 23
+            and 19 → 0 (`bench/heading_witness.py` lists every call).
         plane_after_edges: `plane_refine_estimates` counts the structure score's estimates
             only (the keyframes keep their normals, and the structure score's first estimate
             is refined, after an edge-score stand-in too); False: every estimate counts, so a
