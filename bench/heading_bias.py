@@ -20,7 +20,6 @@ Usage::
 
 from __future__ import annotations
 
-import argparse
 import math
 import re
 import sys
@@ -31,7 +30,7 @@ import numpy as np
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 from heading_decompose import _world, accepted_tries
-from heading_trace import add_overrides_argument, overrides_of
+from heading_trace import overrides_of, recordings_parser
 
 from fogsim.config import resolve_params
 from fogsim.data.recording import load_recording
@@ -54,10 +53,7 @@ def accepted_errors(
 
 
 def main() -> None:
-    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("recordings", nargs="+", type=Path)
-    add_overrides_argument(parser)
-    args = parser.parse_args()
+    args = recordings_parser(__doc__).parse_args()
     overrides = overrides_of(args.set)
     errors: dict[str, list[float]] = defaultdict(list)
     for path in args.recordings:

@@ -181,6 +181,14 @@ def add_overrides_argument(parser: argparse.ArgumentParser) -> None:
     )
 
 
+def recordings_parser(doc: str) -> argparse.ArgumentParser:
+    """A bench tool's parser: its docstring's first line, ``REC.npz ...`` and ``--set``."""
+    parser = argparse.ArgumentParser(description=doc.splitlines()[0])
+    parser.add_argument("recordings", nargs="+", type=Path)
+    add_overrides_argument(parser)
+    return parser
+
+
 def overrides_of(items: list[str]) -> dict[str, object]:
     """The parameter overrides of ``--set`` items (a VALUE that is no JSON is a string)."""
     overrides: dict[str, object] = {}

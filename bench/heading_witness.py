@@ -25,7 +25,6 @@ Usage::
 
 from __future__ import annotations
 
-import argparse
 import contextlib
 import math
 import sys
@@ -36,7 +35,7 @@ from pathlib import Path
 import numpy as np
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
-from heading_trace import add_overrides_argument, needed_deg, overrides_of
+from heading_trace import needed_deg, overrides_of, recordings_parser
 
 import mapper.heading as heading_module
 from fogsim.config import resolve_params
@@ -169,10 +168,7 @@ def line(name: str, needed: float, call: WitnessCall) -> str:
 
 
 def main() -> None:
-    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("recordings", nargs="+", type=Path)
-    add_overrides_argument(parser)
-    args = parser.parse_args()
+    args = recordings_parser(__doc__).parse_args()
     overrides = overrides_of(args.set)
     for path in args.recordings:
         needed, calls = replay_witnesses(path, overrides)
