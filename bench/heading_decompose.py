@@ -32,7 +32,6 @@ Usage::
 
 from __future__ import annotations
 
-import argparse
 import math
 import sys
 from pathlib import Path
@@ -40,7 +39,7 @@ from pathlib import Path
 import numpy as np
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
-from heading_trace import add_overrides_argument, needed_deg, overrides_of
+from heading_trace import needed_deg, overrides_of, recordings_parser
 
 import fogsim.mapping.pipeline as pipeline_module
 import mapper.heading as heading_module
@@ -176,11 +175,9 @@ def decompose(path: Path, overrides: dict[str, object], args) -> list[str]:
 
 
 def main() -> None:
-    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("recordings", nargs="+", type=Path)
+    parser = recordings_parser(__doc__)
     parser.add_argument("--overlap-cells", type=int, default=5, help="wide voxels [cells]")
     parser.add_argument("--noise-band", type=float, default=4.0, help="overlap's noise band")
-    add_overrides_argument(parser)
     args = parser.parse_args()
     overrides = overrides_of(args.set)
     for path in args.recordings:

@@ -40,7 +40,6 @@ Usage::
 
 from __future__ import annotations
 
-import argparse
 import math
 import os
 import sys
@@ -51,7 +50,7 @@ from pathlib import Path
 import numpy as np
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
-from heading_trace import add_overrides_argument, overrides_of
+from heading_trace import overrides_of, recordings_parser
 
 from fogsim.config import resolve_params
 from fogsim.data.recording import load_recording
@@ -169,11 +168,9 @@ def odometry_only(paths: list[Path]) -> None:
 
 
 def main() -> None:
-    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("recordings", nargs="+", type=Path)
+    parser = recordings_parser(__doc__)
     parser.add_argument("--workers", type=int, default=2)
     parser.add_argument("--odometry", action="store_true", help="poses only, no replay")
-    add_overrides_argument(parser)
     args = parser.parse_args()
     if args.odometry:
         odometry_only(args.recordings)

@@ -170,8 +170,11 @@ def trace(
     return lines, EstimateErrors(path.name, errors, final[0] - needed)
 
 
-def add_overrides_argument(parser: argparse.ArgumentParser) -> None:
-    """Add ``--set KEY=VALUE`` (repeatable) to a bench tool's parser."""
+def recordings_parser(doc: str) -> argparse.ArgumentParser:
+    """A bench tool's parser: its docstring's first line, ``REC.npz ...`` and ``--set KEY=VALUE``
+    (repeatable; the tool adds its own options)."""
+    parser = argparse.ArgumentParser(description=doc.splitlines()[0])
+    parser.add_argument("recordings", nargs="+", type=Path)
     parser.add_argument(
         "--set",
         action="append",
@@ -179,13 +182,6 @@ def add_overrides_argument(parser: argparse.ArgumentParser) -> None:
         metavar="KEY=VALUE",
         help="a parameter override, e.g. head.voxel_estimate=true (VALUE as JSON, else a string)",
     )
-
-
-def recordings_parser(doc: str) -> argparse.ArgumentParser:
-    """A bench tool's parser: its docstring's first line, ``REC.npz ...`` and ``--set``."""
-    parser = argparse.ArgumentParser(description=doc.splitlines()[0])
-    parser.add_argument("recordings", nargs="+", type=Path)
-    add_overrides_argument(parser)
     return parser
 
 
@@ -202,11 +198,9 @@ def overrides_of(items: list[str]) -> dict[str, object]:
 
 
 def main() -> None:
-    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("recordings", nargs="+", type=Path)
+    parser = recordings_parser(__doc__)
     parser.add_argument("--true-pose", action="store_true", help="replay with the true pose")
     parser.add_argument("--summary", action="store_true", help="a line over all recordings")
-    add_overrides_argument(parser)
     args = parser.parse_args()
     overrides = overrides_of(args.set)
     results = []
